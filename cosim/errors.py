@@ -1,0 +1,43 @@
+"""The project's exception types.
+
+Everything a user can cause (a bad scenario, a bad flag, a missing network)
+raises `InputError`; the CLI prints it on one line and exits with status 2.
+Faults found while running (NaN in a plant, SUMO losing a vehicle) raise
+`SimulationError` with the simulation time, the state and the cause.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class CosimError(Exception):
+    """Base of every error cosim raises on purpose."""
+
+
+class InputError(CosimError):
+    """Bad user input: one line naming the file, the key, the value and what is allowed."""
+
+    def __init__(self, source: str, key: str, value: Any, allowed: str) -> None:
+        self.source = str(source)
+        self.key = key
+        self.value = value
+        self.allowed = allowed
+        shown = repr(value)
+        if len(shown) > 80:
+            shown = shown[:77] + "..."
+        message = f"{self.source}: {key} = {shown}: {allowed}"
+        super().__init__(" ".join(message.split()))
+
+
+class SimulationError(CosimError):
+    """A run stopped because something went wrong inside it (numerics, SUMO)."""
+
+    def __init__(self, time_s: float, cause: str, state: str = "") -> None:
+        self.time_s = time_s
+        self.cause = cause
+        self.state = state
+        text = f"at t = {time_s:.3f} s: {cause}"
+        if state:
+            text += f" (state: {state})"
+        super().__init__(" ".join(text.split()))

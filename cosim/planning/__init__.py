@@ -1,0 +1,1 @@
+"""The lane-change planner (paper Sections 2-3)."""

@@ -1,0 +1,182 @@
+"""Min-jerk lane-change trajectories (Section 2), vectorised over tau.
+
+Longitudinal: quartic x(t) (eq. 2), lateral: quintic y(t) (eq. 4). The paper
+starts from rest in y and from zero acceleration in x; the general form here
+takes any initial lateral position, speed and acceleration and any initial
+longitudinal acceleration, so a new plan can start mid-manoeuvre without a jump
+(beyond the paper). With y0' = y0'' = ax0 = 0 it is exactly eq. 2 / eq. 4.
+
+Shapes: `taus` (n_tau,) and `t` (n_t,) broadcast to (n_tau, n_t). Times are
+relative to the start of the manoeuvre; after tau the motion goes on straight at
+vxf in the target lane's centre, before 0 it is not defined (clipped to 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+Array = NDArray[np.float64]
+
+
+def _grid(taus: ArrayLike, t: ArrayLike) -> tuple[Array, Array]:
+    tau = np.asarray(taus, dtype=float)
+    tt = np.asarray(t, dtype=float)
+    if tau.ndim == 1 and tt.ndim == 1:
+        return tau[:, None], tt[None, :]
+    return np.broadcast_arrays(tau, tt)  # type: ignore[return-value]
+
+
+def longitudinal_coefficients(
+    vx0: ArrayLike, vxf: ArrayLike, tau: ArrayLike, ax0: ArrayLike = 0.0
+) -> tuple[Array, Array]:
+    """(c3, c4) of x(t) = vx0 t + ax0 t^2/2 + c3 t^3 + c4 t^4 with x'(tau) = vxf,
+    x''(tau) = 0 (eq. 2 when ax0 = 0: c3 = -(vx0 - vxf)/tau^2, c4 = (vx0 - vxf)/(2 tau^3))."""
+    tau = np.asarray(tau, dtype=float)
+    ax0 = np.asarray(ax0, dtype=float)
+    d = np.asarray(vxf, dtype=float) - np.asarray(vx0, dtype=float) - ax0 * tau
+    e = -ax0
+    # x' = vx0 + ax0 t + b2 t^2 + b3 t^3 with b2, b3 solving the two end conditions
+    b3 = (e * tau - 2.0 * d) / tau**3
+    b2 = (3.0 * d - e * tau) / tau**2
+    return b2 / 3.0, b3 / 4.0
+
+
+def lateral_coefficients(
+    width: ArrayLike, tau: ArrayLike, vy0: ArrayLike = 0.0, ay0: ArrayLike = 0.0
+) -> tuple[Array, Array, Array]:
+    """(c3, c4, c5) of y(t) - y0 = vy0 t + ay0 t^2/2 + c3 t^3 + c4 t^4 + c5 t^5 reaching
+    `width` with zero speed and acceleration at tau (eq. 4 when vy0 = ay0 = 0:
+    10 W/tau^3, -15 W/tau^4, 6 W/tau^5)."""
+    T = np.asarray(tau, dtype=float)
+    W = np.asarray(width, dtype=float)
+    v0 = np.asarray(vy0, dtype=float)
+    a0 = np.asarray(ay0, dtype=float)
+    c3 = (20.0 * W - 12.0 * v0 * T - 3.0 * a0 * T**2) / (2.0 * T**3)
+    c4 = (-30.0 * W + 16.0 * v0 * T + 3.0 * a0 * T**2) / (2.0 * T**4)
+    c5 = (12.0 * W - 6.0 * v0 * T - a0 * T**2) / (2.0 * T**5)
+    return c3, c4, c5
+
+
+def _poly_derivs(coeffs: list[Array], t: Array, order: int) -> Array:
+    """Evaluate d^order/dt^order of sum_k coeffs[k] t^k (Horner)."""
+    n = len(coeffs)
+    out = np.zeros(np.broadcast_shapes(t.shape, *(np.shape(c) for c in coeffs)))
+    for k in range(n - 1, order - 1, -1):
+        factor = float(np.prod(np.arange(k - order + 1, k + 1))) if order else 1.0
+        out = out * t + factor * coeffs[k]
+    return out
+
+
+def cluster(
+    vx0: float,
+    vxf: float,
+    width: float,
+    taus: ArrayLike,
+    t: ArrayLike,
+    *,
+    ax0: float = 0.0,
+    vy0: float = 0.0,
+    ay0: float = 0.0,
+    order: int = 0,
+) -> tuple[Array, Array]:
+    """Relative (x(t), y(t)) of every candidate, or their `order`-th derivatives,
+    shaped (n_tau, n_t) (eq. 2, 4). Past tau the candidate drives straight at vxf."""
+    tau, tt = _grid(taus, t)
+    c3x, c4x = longitudinal_coefficients(vx0, vxf, tau, ax0)
+    c3y, c4y, c5y = lateral_coefficients(width, tau, vy0, ay0)
+    zero = np.zeros_like(tau)
+    x_coeffs = [zero, zero + vx0, zero + ax0 / 2.0, c3x, c4x]
+    y_coeffs = [zero, zero + vy0, zero + ay0 / 2.0, c3y, c4y, c5y]
+    ts = np.clip(tt, 0.0, tau)
+    x = _poly_derivs(x_coeffs, ts, order)
+    y = _poly_derivs(y_coeffs, ts, order)
+    after = tt - ts  # time past the end of the manoeuvre
+    if order == 0:
+        x = x + vxf * after
+    elif order == 1:
+        x = np.where(after > 0, vxf, x)
+        y = np.where(after > 0, 0.0, y)
+    else:
+        x = np.where(after > 0, 0.0, x)
+        y = np.where(after > 0, 0.0, y)
+    return x, y
+
+
+def jerk_costs(
+    vx0: float, vxf: float, width: float, taus: ArrayLike
+) -> tuple[Array, Array]:
+    """Closed-form Jx = int jx^2/2 dt = 6 (vx0 - vxf)^2 / tau^3 and
+    Jy = int jy^2/2 dt = 360 W^2 / tau^5 (eq. 1, 3) for the paper's boundary conditions."""
+    tau = np.asarray(taus, dtype=float)
+    return 6.0 * (vx0 - vxf) ** 2 / tau**3, 360.0 * width**2 / tau**5
+
+
+@dataclass(frozen=True)
+class LaneChangeTrajectory:
+    """One planned lane change in global coordinates: a reference for the controller.
+
+    Holds the start time and state; evaluates position, heading, Vx* (eq. 14),
+    KL (eq. 15) at absolute simulation times (arrays allowed).
+    """
+
+    t0: float  # s, simulation time the manoeuvre starts
+    tau: float  # s, duration
+    x0: float  # m, global x of the CG at t0
+    y0: float  # m, global y of the CG at t0
+    vx0: float  # m/s, longitudinal speed at t0
+    vxf: float  # m/s, longitudinal speed at t0 + tau
+    width: float  # m, signed lateral displacement (+ to the left)
+    ax0: float = 0.0  # m/s^2, longitudinal acceleration at t0
+    vy0: float = 0.0  # m/s, lateral speed at t0
+    ay0: float = 0.0  # m/s^2, lateral acceleration at t0
+
+    @property
+    def t_end(self) -> float:
+        """s, simulation time the manoeuvre ends."""
+        return self.t0 + self.tau
+
+    @property
+    def y_final(self) -> float:
+        """m, global y at the end (target lane centre)."""
+        return self.y0 + self.width
+
+    def derivative(self, t: ArrayLike, order: int) -> tuple[Array, Array]:
+        """(x, y) or their derivatives of `order` at absolute times t (same shape as t)."""
+        tt = np.asarray(t, dtype=float)
+        x, y = cluster(
+            self.vx0, self.vxf, self.width, np.array([self.tau]), tt.ravel() - self.t0,
+            ax0=self.ax0, vy0=self.vy0, ay0=self.ay0, order=order,
+        )
+        x, y = x[0].reshape(tt.shape), y[0].reshape(tt.shape)
+        if order == 0:
+            return x + self.x0, y + self.y0
+        return x, y
+
+    def position(self, t: ArrayLike) -> tuple[Array, Array]:
+        """m, global (x, y) of the reference CG."""
+        return self.derivative(t, 0)
+
+    def heading(self, t: ArrayLike) -> Array:
+        """rad, path tangent angle atan2(y', x')."""
+        vx, vy = self.derivative(t, 1)
+        return np.arctan2(vy, vx)
+
+    def speed(self, t: ArrayLike) -> Array:
+        """m/s, Vx* = sqrt(x'^2 + y'^2) (eq. 14)."""
+        vx, vy = self.derivative(t, 1)
+        return np.hypot(vx, vy)
+
+    def acceleration(self, t: ArrayLike) -> Array:
+        """m/s^2, dVx*/dt = (x' x'' + y' y'') / Vx*."""
+        vx, vy = self.derivative(t, 1)
+        ax, ay = self.derivative(t, 2)
+        return (vx * ax + vy * ay) / np.hypot(vx, vy)
+
+    def curvature(self, t: ArrayLike) -> Array:
+        """1/m, KL = (x' y'' - y' x'') / (x'^2 + y'^2)^(3/2) (eq. 15)."""
+        vx, vy = self.derivative(t, 1)
+        ax, ay = self.derivative(t, 2)
+        return (vx * ay - vy * ax) / np.hypot(vx, vy) ** 3

@@ -1,0 +1,1 @@
+"""SUMO traffic: network, demand, the libsumo adapter, V2V."""
