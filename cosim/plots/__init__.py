@@ -1,0 +1,5 @@
+"""Matplotlib figures (Agg backend), one module per subject."""
+
+import matplotlib
+
+matplotlib.use("Agg")
