@@ -1,0 +1,171 @@
+"""Run metrics: one row per co-simulation run, from the trace's numpy columns.
+
+Pure numpy, no SUMO. The loop (cosim.sim) records per step the SV state, its
+reference, errors, inputs and, per traffic vehicle (TV) near it, the along-lane
+gap and time-to-collision (`gap_ttc`); this module reduces those columns:
+
+- IAE per Table 2 column of the paper (Vx, ye, phi_e, delta_f, Fx): the
+  integral over time of the absolute value (trapezoid rule). The paper labels
+  the columns with the signal's unit (m/s, m, deg, deg, kN); the integral's
+  unit carries an extra second, and the column names here say so.
+- minimum gap and time-to-collision along the lane between oriented rectangles,
+- max |lateral acceleration|, max jerk,
+- lane-change durations: from the start of a manoeuvre until the SV stays
+  within a tolerance of its target lane's centre.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+Array = NDArray[np.float64]
+
+
+def iae(t: ArrayLike, values: ArrayLike) -> float:
+    """Integral of |values| over t (trapezoid rule); unit: values' unit x s."""
+    tt = np.asarray(t, dtype=float)
+    v = np.abs(np.asarray(values, dtype=float))
+    if tt.size < 2:
+        return 0.0
+    return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(tt)))
+
+
+def half_extents(length: ArrayLike, width: ArrayLike, heading: ArrayLike) -> tuple[Array, Array]:
+    """m, half extents along global x and y of a rectangle turned by heading (rad).
+
+    The projection of an oriented rectangle (eq. 9) on the road axes: what the
+    along-lane gap and the lateral overlap are measured with.
+    """
+    c = np.abs(np.cos(heading))
+    s = np.abs(np.sin(heading))
+    hl = 0.5 * np.asarray(length, dtype=float)
+    hw = 0.5 * np.asarray(width, dtype=float)
+    return hl * c + hw * s, hl * s + hw * c
+
+
+def gap_ttc(
+    sv_x: float,
+    sv_y: float,
+    sv_vx: float,
+    sv_hx: float,
+    sv_hy: float,
+    tv_x: ArrayLike,
+    tv_y: ArrayLike,
+    tv_vx: ArrayLike,
+    tv_hx: ArrayLike,
+    tv_hy: ArrayLike,
+) -> tuple[Array, Array]:
+    """Along-lane gap (m) and time-to-collision (s) from the SV to every TV.
+
+    Only TVs whose lateral extent overlaps the SV's count (they share some of
+    its strip of road); others get gap = ttc = inf. The gap is the distance
+    between the rectangles' x extents (negative: the extents overlap); the
+    TTC is gap / closing speed when the two are closing, 0 when the gap is
+    already <= 0, inf otherwise. `*_vx` are global x velocities (m/s).
+    """
+    tx = np.asarray(tv_x, dtype=float)
+    dx = tx - sv_x
+    lateral = np.abs(np.asarray(tv_y, dtype=float) - sv_y) < (sv_hy + np.asarray(tv_hy))
+    gap = np.abs(dx) - (sv_hx + np.asarray(tv_hx, dtype=float))
+    # closing speed: the rear vehicle faster than the front one
+    closing = np.where(dx >= 0.0, sv_vx - np.asarray(tv_vx), np.asarray(tv_vx) - sv_vx)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ttc = np.where(closing > 0.0, gap / closing, np.inf)
+    ttc = np.where(gap <= 0.0, 0.0, ttc)
+    gap = np.where(lateral, gap, np.inf)
+    ttc = np.where(lateral, ttc, np.inf)
+    return gap, ttc
+
+
+def max_abs(values: ArrayLike) -> float:
+    """max |values| ignoring NaN; 0 for an empty array."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(np.max(np.abs(v))) if v.size else 0.0
+
+
+def jerk(t: ArrayLike, ax: ArrayLike, ay: ArrayLike) -> Array:
+    """m/s^3, magnitude of the time derivative of the acceleration vector (ax, ay),
+    by finite differences between samples (length n - 1)."""
+    tt = np.asarray(t, dtype=float)
+    if tt.size < 2:
+        return np.zeros(0)
+    dt = np.diff(tt)
+    jx = np.diff(np.asarray(ax, dtype=float)) / dt
+    jy = np.diff(np.asarray(ay, dtype=float)) / dt
+    return np.hypot(jx, jy)
+
+
+def settle_time(
+    t: ArrayLike, y: ArrayLike, start: float, y_target: float, end: float, tol: float = 0.1
+) -> float:
+    """s, first time in [start, end] after which |y - y_target| < tol holds up to `end`
+    (NaN if it never settles in that window)."""
+    tt = np.asarray(t, dtype=float)
+    yy = np.asarray(y, dtype=float)
+    window = (tt >= start) & (tt <= end)
+    if not np.any(window):
+        return math.nan
+    tw, yw = tt[window], yy[window]
+    outside = np.abs(yw - y_target) >= tol
+    if outside[-1]:
+        return math.nan
+    if not np.any(outside):
+        return float(tw[0])
+    last_out = int(np.flatnonzero(outside)[-1])
+    return float(tw[last_out + 1])
+
+
+def lane_change_durations(
+    t: ArrayLike,
+    y: ArrayLike,
+    starts: Sequence[float],
+    y_targets: Sequence[float],
+    ends: Sequence[float],
+    tol: float = 0.1,
+) -> Array:
+    """s, duration of each lane change: from its start until the SV settles within
+    `tol` of its target lane's centre (looked for up to `ends[i]`, the start of the
+    next manoeuvre or the end of the run). NaN: never settled."""
+    out = np.full(len(starts), np.nan)
+    for i, (s, yt, e) in enumerate(zip(starts, y_targets, ends, strict=True)):
+        out[i] = settle_time(t, y, s, yt, e, tol) - s
+    return out
+
+
+def count_onsets(flags: ArrayLike) -> int:
+    """Number of False -> True transitions (a collision that lasts counts once);
+    `flags` is (n_t,) or (n_t, n_pairs)."""
+    f = np.asarray(flags, dtype=bool)
+    if f.size == 0:
+        return 0
+    if f.ndim == 1:
+        f = f[:, None]
+    prev = np.vstack([np.zeros((1, f.shape[1]), dtype=bool), f[:-1]])
+    return int(np.sum(f & ~prev))
+
+
+IAE_COLUMNS = {
+    # metrics column: (trace column, scale to the paper's unit)
+    "iae_vx_mps_s": ("ex_mps", 1.0),
+    "iae_ye_m_s": ("ye_m", 1.0),
+    "iae_phie_deg_s": ("phie_deg", 1.0),
+    "iae_deltaf_deg_s": ("delta_f_deg", 1.0),
+    "iae_fx_kn_s": ("fx_total_n", 1e-3),
+}
+
+
+def iae_row(t: ArrayLike, trace: dict[str, Array], t0: float, t1: float) -> dict[str, float]:
+    """IAE per Table 2 column over [t0, t1] of the trace (see IAE_COLUMNS).
+
+    `fx_total_n` is the sum of the four wheels' longitudinal forces (N)."""
+    tt = np.asarray(t, dtype=float)
+    w = (tt >= t0) & (tt <= t1)
+    return {
+        name: iae(tt[w], np.asarray(trace[col], dtype=float)[w] * scale)
+        for name, (col, scale) in IAE_COLUMNS.items()
+    }
