@@ -1,0 +1,201 @@
+"""Declarative validation of user tables (scenario files, study files).
+
+Every key of a table is described by one `Field`: its TOML key (which carries
+the unit, e.g. `speed_kmh`), the type, the allowed range or choices, the
+default, and how to turn the value into SI (`si_divisor`: km/h -> m/s is 3.6).
+`validate_table` checks a whole table against its fields in one pass and
+raises `InputError` (file, key, value, what is allowed: one line) on the first
+problem; unknown keys are rejected with a "did you mean" suggestion.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from cosim.errors import InputError
+
+
+class _Missing:
+    """Sentinel for 'no default: the key is required' and 'the key was not given'."""
+
+    def __repr__(self) -> str:
+        return "<missing>"
+
+
+REQUIRED: Any = _Missing()
+MISSING: Any = REQUIRED  # the value shown in an error about a missing key
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}"
+
+
+@dataclass(frozen=True)
+class Field:
+    """One key of a user table.
+
+    `kind` is float, int, bool, str, list or dict. Numbers are range-checked in
+    the file's own units (so the message repeats what the user wrote), then
+    divided by `si_divisor`. `parse` replaces the built-in check for structured
+    values: it gets (source, dotted key, raw value) and returns the converted
+    value or raises InputError itself.
+    """
+
+    key: str  # TOML key, unit suffix included
+    kind: type
+    name: str = ""  # attribute it fills; default: the key itself
+    unit: str = ""  # unit shown in messages ("km/h", "s", "m")
+    lo: float | None = None  # lowest allowed value, in the file's unit
+    hi: float | None = None  # highest allowed value, in the file's unit
+    lo_open: bool = False  # lo itself not allowed
+    hi_open: bool = False  # hi itself not allowed
+    choices: tuple[str, ...] = ()  # allowed strings
+    pattern: str = ""  # regular expression a string must match in full
+    default: Any = REQUIRED  # REQUIRED, None (optional, absent -> None) or a value (SI)
+    si_divisor: float = 1.0  # SI value = file value / si_divisor
+    parse: Callable[[str, str, Any], Any] | None = None
+    describe: str = ""  # what is allowed, for custom `parse` fields
+
+    @property
+    def attr(self) -> str:
+        return self.name or self.key
+
+    def allowed(self) -> str:
+        """What is allowed, in words (the last part of an error message)."""
+        if self.describe:
+            text = self.describe
+        elif self.kind is bool:
+            text = "true or false"
+        elif self.kind is str:
+            if self.choices:
+                text = "one of " + ", ".join(repr(c) for c in self.choices)
+            elif self.pattern:
+                text = f"a string matching {self.pattern}"
+            else:
+                text = "a string"
+        elif self.kind in (int, float):
+            noun = "an integer" if self.kind is int else "a finite number"
+            if self.lo is not None and self.hi is not None:
+                left = "(" if self.lo_open else "["
+                right = ")" if self.hi_open else "]"
+                text = f"{noun} in {left}{_fmt(self.lo)}, {_fmt(self.hi)}{right}"
+            elif self.lo is not None:
+                text = f"{noun} {'>' if self.lo_open else '>='} {_fmt(self.lo)}"
+            elif self.hi is not None:
+                text = f"{noun} {'<' if self.hi_open else '<='} {_fmt(self.hi)}"
+            else:
+                text = noun
+            if self.unit:
+                text += f" {self.unit}"
+        else:
+            text = f"a {self.kind.__name__}"
+        if self.default is REQUIRED:
+            text = "required: " + text
+        return text
+
+    def convert(self, source: str, key: str, value: Any) -> Any:
+        """Check one given value and return it in SI; raise InputError if it is not allowed."""
+        if self.parse is not None:
+            return self.parse(source, key, value)
+        bad = InputError(source, key, value, self.allowed())
+        if self.kind is bool:
+            if not isinstance(value, bool):
+                raise bad
+            return value
+        if self.kind is str:
+            if not isinstance(value, str):
+                raise bad
+            if self.choices and value not in self.choices:
+                close = difflib.get_close_matches(value, self.choices, n=1, cutoff=0.5)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise InputError(source, key, value, self.allowed() + hint)
+            if self.pattern and not re.fullmatch(self.pattern, value):
+                raise bad
+            return value
+        if self.kind in (int, float):
+            # bool is an int in Python; `true` is never a number here.
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise bad
+            if self.kind is int and not isinstance(value, int):
+                raise bad
+            if isinstance(value, float) and not math.isfinite(value):
+                raise bad
+            # Compare before any float() so huge TOML integers cannot overflow.
+            if self.lo is not None and (value < self.lo or (self.lo_open and value == self.lo)):
+                raise bad
+            if self.hi is not None and (value > self.hi or (self.hi_open and value == self.hi)):
+                raise bad
+            if self.kind is int:
+                return value
+            return float(value) / self.si_divisor if self.si_divisor != 1.0 else float(value)
+        if not isinstance(value, self.kind):
+            raise bad
+        return value
+
+    def to_file_units(self, value: Any) -> Any:
+        """The inverse of `convert` for plain numbers (SI -> the file's unit)."""
+        if self.kind is float and value is not None and self.si_divisor != 1.0:
+            # Round away the ulp that m/s -> km/h adds (25.0 m/s -> 90.0, not 90.00000000000001).
+            return round(value * self.si_divisor, 9)
+        return value
+
+
+def suggest(key: str, known: Sequence[str]) -> str:
+    """' (did you mean 'x'?)' for a close known key, else ''."""
+    close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def check_table(source: str, table_name: str, raw: Any) -> Mapping[str, Any]:
+    """`raw` must be a table (a dict with string keys)."""
+    if not isinstance(raw, Mapping) or not all(isinstance(k, str) for k in raw):
+        raise InputError(source, table_name or "(document)", raw, "a table of key = value pairs")
+    return raw
+
+
+def validate_table(
+    source: str, table_name: str, raw: Any, specs: Sequence[Field]
+) -> dict[str, Any]:
+    """Validate one table: returns {field.attr: SI value} for every field (defaults filled in).
+
+    `table_name` prefixes keys in messages ("sv" -> "sv.speed_kmh", "" -> "speed_kmh").
+    Raises InputError on an unknown key (with a suggestion), a missing required
+    key, a wrong type or a value out of range.
+    """
+    table = check_table(source, table_name, raw)
+    prefix = f"{table_name}." if table_name else ""
+    by_key = {f.key: f for f in specs}
+    for key, value in table.items():
+        if key not in by_key:
+            raise InputError(
+                source,
+                prefix + key,
+                value,
+                f"unknown key{suggest(key, list(by_key))}; allowed: {', '.join(by_key)}",
+            )
+    out: dict[str, Any] = {}
+    for f in specs:
+        if f.key in table:
+            out[f.attr] = f.convert(source, prefix + f.key, table[f.key])
+        elif f.default is REQUIRED:
+            raise InputError(source, prefix + f.key, MISSING, f.allowed())
+        else:
+            out[f.attr] = f.default
+    return out
+
+
+def check_known_tables(source: str, doc: Mapping[str, Any], known: Sequence[str]) -> None:
+    """Reject top-level tables/keys that are not in `known`, with a suggestion."""
+    for key, value in doc.items():
+        if key not in known:
+            raise InputError(
+                source,
+                key,
+                value,
+                f"unknown table{suggest(key, known)}; allowed: {', '.join(known)}",
+            )
