@@ -1,0 +1,618 @@
+"""The SUMO adapter: the only module that imports libsumo / traci.
+
+`SumoSim` starts SUMO on the highway network, steps it, reads every traffic
+vehicle (TV) in one pass into a `TrafficSnapshot`, and lets the co-simulation
+drive vehicles it controls itself (the SV and scripted TVs) with
+`vehicle.moveToXY(..., keepRoute=2)`.
+
+Conventions at this boundary (SUMO_NOTES.md): SUMO positions are the centre of
+the front bumper and angles are navigational degrees (0 north, clockwise). cosim
+uses the centre of the body rectangle (= the CG, the body is centred on it) and
+math radians. So, with L the body length,
+
+    front = centre + L/2 (cos h, sin h),   angle = (90 - degrees(h)) mod 360.
+
+SUMO is started with `--collision.action warn --collision.mingap-factor 0` (the
+default teleport action silently ignores collisions of moved vehicles; a
+collision is then a real overlap, not a gap below minGap), `--time-to-teleport
+-1` (no jam teleports: every vehicle stays visible to the SV) and
+`--no-warnings` with an `--error-log` file: warnings are captured, readable
+through `SumoSim.warnings()`, and not printed.
+
+One libsumo simulation per process: a second start silently replaces the first.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType, TracebackType
+
+import numpy as np
+
+from cosim.errors import InputError, SimulationError
+from cosim.params import RoadParams
+from cosim.traffic.network import Highway, load_highway
+
+ROUTE_ID = "highway_route"
+TV_TYPE = "tv"
+INVALID = -1e9  # m, SUMO reports -1073741824 (INVALID_DOUBLE_VALUE) for vehicles off the network
+SIGNAL_BLINKER_RIGHT = 1  # SUMO signal bits
+SIGNAL_BLINKER_LEFT = 2
+CONTROLLED_MAX_SPEED = 70.0  # m/s, a controlled vehicle's type cap (SUMO warns above it)
+TV_LENGTH = 4.32  # m, traffic vehicles are the Table 1 car (assumption S3: all alike)
+TV_WIDTH = 1.8  # m
+TV_SIGMA = 0.2  # -, Krauss driver imperfection of traffic vehicles
+
+_active: SumoSim | None = None  # the one simulation of this process
+
+
+def sumo_angle(heading: float) -> float:
+    """SUMO navigational degrees (0 north, clockwise) of a math heading in radians."""
+    return (90.0 - math.degrees(heading)) % 360.0
+
+
+def heading_from_angle(angle: float) -> float:
+    """Math heading in radians, in (-pi, pi], of SUMO navigational degrees."""
+    h = math.radians(90.0 - angle)
+    return math.atan2(math.sin(h), math.cos(h))
+
+
+def front_from_centre(x: float, y: float, heading: float, length: float) -> tuple[float, float]:
+    """m, the front-bumper centre SUMO uses, of a body rectangle centred on (x, y)."""
+    half = 0.5 * length
+    return x + half * math.cos(heading), y + half * math.sin(heading)
+
+
+def centre_from_front(xf: float, yf: float, heading: float, length: float) -> tuple[float, float]:
+    """m, the body centre of a vehicle whose front-bumper centre SUMO reports."""
+    half = 0.5 * length
+    return xf - half * math.cos(heading), yf - half * math.sin(heading)
+
+
+@dataclass(frozen=True)
+class TrafficEvent:
+    """Something SUMO did that a run must record: a teleport, a vehicle lost."""
+
+    time: float  # s, simulation time
+    kind: str  # "teleport" | "lost" | "arrived"
+    vehicle_id: str
+    detail: str
+
+
+@dataclass(frozen=True)
+class TrafficSnapshot:
+    """Every vehicle's state at one time, read in one pass; arrays indexed alike.
+
+    x, y are the CENTRE of the body rectangle (global frame, m); heading in rad.
+    """
+
+    time: float  # s
+    ids: tuple[str, ...]
+    x: np.ndarray  # m, centre
+    y: np.ndarray  # m, centre
+    heading: np.ndarray  # rad, math convention
+    speed: np.ndarray  # m/s, along the lane
+    accel: np.ndarray  # m/s^2, longitudinal
+    lane: np.ndarray  # int, SUMO lane index (-1: off the network)
+    lateral_speed: np.ndarray  # m/s, + to the left (non-zero while changing lanes)
+    length: np.ndarray  # m
+    width: np.ndarray  # m
+    signals: np.ndarray  # int, SUMO signal bits (1 right blinker, 2 left blinker)
+
+    @property
+    def intention(self) -> np.ndarray:
+        """int, -1 wants/changes right, +1 left, 0 none (from the blinkers)."""
+        left = (self.signals & SIGNAL_BLINKER_LEFT) != 0
+        right = (self.signals & SIGNAL_BLINKER_RIGHT) != 0
+        return left.astype(int) - right.astype(int)
+
+    @property
+    def changing(self) -> np.ndarray:
+        """bool, the vehicle is moving sideways (a continuous lane change under way)."""
+        return np.abs(self.lateral_speed) > 1e-9
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def index(self, vehicle_id: str) -> int:
+        """Row of a vehicle (ValueError if absent)."""
+        return self.ids.index(vehicle_id)
+
+    def select(self, mask: np.ndarray) -> TrafficSnapshot:
+        """The rows where `mask` is true."""
+        mask = np.asarray(mask, dtype=bool)
+        return TrafficSnapshot(
+            time=self.time,
+            ids=tuple(i for i, keep in zip(self.ids, mask, strict=True) if keep),
+            x=self.x[mask],
+            y=self.y[mask],
+            heading=self.heading[mask],
+            speed=self.speed[mask],
+            accel=self.accel[mask],
+            lane=self.lane[mask],
+            lateral_speed=self.lateral_speed[mask],
+            length=self.length[mask],
+            width=self.width[mask],
+            signals=self.signals[mask],
+        )
+
+
+@dataclass
+class _Controlled:
+    length: float  # m
+    width: float  # m
+    last: tuple[float, float, float]  # m, m, rad: the last centre pose written
+    inserted: bool = False  # SUMO has it on the network (it inserts it in the next step)
+
+
+def _import_api(gui: bool) -> ModuleType:
+    if gui:
+        import traci  # sumo-gui needs the socket client; libsumo has no GUI
+
+        return traci
+    import libsumo
+
+    return libsumo
+
+
+class SumoSim:
+    """One SUMO simulation of the highway, as a context manager.
+
+    `lanechange_duration` (s) makes traffic lane changes continuous (constant
+    lateral speed for that long); `sublane` uses SUMO's sublane model instead
+    (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci.
+    `speed_bands` (m/s per lane) set each TV's desired speed in the lane it is in.
+    """
+
+    def __init__(
+        self,
+        network: Path,
+        step: float,
+        seed: int,
+        *,
+        lanechange_duration: float = 3.0,
+        sublane: bool = False,
+        gui: bool = False,
+        extra_args: Sequence[str] = (),
+        speed_bands: tuple[tuple[float, float], ...] | None = None,
+        lateral_resolution: float = 0.8,
+        strict: bool = True,
+    ) -> None:
+        if step <= 0:
+            raise InputError("SumoSim", "step", step, "a positive step length in s")
+        if lanechange_duration < 0:
+            raise InputError("SumoSim", "lanechange_duration", lanechange_duration, ">= 0 s")
+        self.highway: Highway = load_highway(Path(network))
+        self.step_length = float(step)
+        self.seed = int(seed)
+        self.lanechange_duration = float(lanechange_duration)
+        self.sublane = bool(sublane)
+        self.gui = bool(gui)
+        self.extra_args = tuple(extra_args)
+        self.lateral_resolution = float(lateral_resolution)
+        self.strict = bool(strict)
+        base = RoadParams()
+        self._road = self.highway.road(
+            RoadParams(speed_bands=speed_bands) if speed_bands is not None else base
+        )
+        if self._road.n_lanes != self.highway.n_lanes:
+            raise InputError(
+                str(network), "speed_bands", speed_bands, f"{self.highway.n_lanes} (min, max) pairs"
+            )
+        self.events: list[TrafficEvent] = []
+        self._api: ModuleType | None = None
+        self._tmp: tempfile.TemporaryDirectory[str] | None = None
+        self._log_text = ""
+        self._controlled: dict[str, _Controlled] = {}
+        self._band_quantile: dict[str, float] = {}  # TV id -> its place in a speed band
+        self._band_lane: dict[str, int] = {}  # TV id -> lane its desired speed was set for
+        self._dims: dict[str, tuple[float, float]] = {}  # vehicle id -> (length, width)
+        self._moved = False  # a moveToXY is pending (must be flushed before close)
+        self._hooks: list[Callable[[SumoSim], None]] = []
+        self._types: set[str] = set()
+        self._snapshot: TrafficSnapshot | None = None
+
+    # ------------------------------------------------------------------ lifecycle
+    def command(self) -> list[str]:
+        """The SUMO command line this simulation starts with."""
+        assert self._tmp is not None
+        binary = "sumo-gui" if self.gui else "sumo"
+        try:
+            import sumolib
+
+            binary = sumolib.checkBinary(binary)
+        except (ImportError, SystemExit):  # sumolib exits if the binary is missing
+            pass
+        cmd = [
+            binary,
+            "-n", str(self.highway.path),
+            "--step-length", repr(self.step_length),
+            "--seed", str(self.seed),
+            "--collision.action", "warn",
+            "--collision.mingap-factor", "0",
+            "--collision.check-junctions", "true",
+            "--time-to-teleport", "-1",
+            "--no-step-log", "true",
+            "--no-warnings", "true",
+            "--error-log", str(Path(self._tmp.name) / "sumo-warnings.log"),
+            "--duration-log.disable", "true",
+        ]  # fmt: skip
+        if self.sublane:
+            cmd += ["--lateral-resolution", repr(self.lateral_resolution)]
+        elif self.lanechange_duration > 0:
+            cmd += ["--lanechange.duration", repr(self.lanechange_duration)]
+        if self.gui:
+            cmd += ["--start", "true", "--quit-on-end", "true"]
+        return cmd + list(self.extra_args)
+
+    def start(self) -> SumoSim:
+        global _active
+        if _active is not None and _active is not self and _active._api is not None:
+            raise SimulationError(0.0, "another SUMO simulation is running in this process")
+        self._tmp = tempfile.TemporaryDirectory(prefix="cosim-sumo-")
+        self._api = _import_api(self.gui)
+        self._api.start(self.command())
+        _active = self
+        self._api.route.add(ROUTE_ID, [self.highway.edge_id])
+        self._ensure_type(TV_TYPE, TV_LENGTH, TV_WIDTH, traffic=True)
+        return self
+
+    def close(self) -> None:
+        """Close SUMO; flush a pending moveToXY first (it would leak into the next run)."""
+        global _active
+        api = self._api
+        if api is None:
+            return
+        try:
+            if self._moved:
+                api.simulationStep()
+                self._moved = False
+        finally:
+            try:
+                api.close()
+            finally:
+                self._api = None
+                _active = None
+                if self._tmp is not None:
+                    self._log_text = self._read_log()
+                    self._tmp.cleanup()
+                    self._tmp = None
+
+    def __enter__(self) -> SumoSim:
+        return self.start()
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    @property
+    def api(self) -> ModuleType:
+        if self._api is None:
+            raise SimulationError(0.0, "SUMO is not running (use SumoSim as a context manager)")
+        return self._api
+
+    # ------------------------------------------------------------------ stepping
+    @property
+    def time(self) -> float:
+        """s, simulation time."""
+        return float(self.api.simulation.getTime())
+
+    def road(self) -> RoadParams:
+        """Road geometry from the network (lane width, y_right) with the speed bands."""
+        return self._road
+
+    def add_hook(self, hook: Callable[[SumoSim], None]) -> None:
+        """Call `hook(sim)` after every step (e.g. the traffic inflow of demand.py)."""
+        self._hooks.append(hook)
+
+    def step(self) -> None:
+        """Advance one step; keep TV speed bands; record teleports; check controlled vehicles."""
+        api = self.api
+        api.simulationStep()
+        self._moved = False
+        self._snapshot = None
+        t = float(api.simulation.getTime())
+        for vid in api.simulation.getStartingTeleportIDList():
+            self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
+        self._keep_bands()
+        self._check_controlled(t)
+        for hook in self._hooks:
+            hook(self)
+
+    def _check_controlled(self, t: float) -> None:
+        """A moveToXY vehicle off the network is dropped silently by SUMO: catch it."""
+        if not self._controlled:
+            return
+        api = self.api
+        present = set(api.vehicle.getIDList())
+        for vid, ctl in list(self._controlled.items()):
+            lost = vid not in present or api.vehicle.getLaneID(vid) == ""
+            if not lost:
+                ctl.inserted = True
+                continue
+            x, y, h = ctl.last
+            detail = f"{vid} left the network at x = {x:.2f} m, y = {y:.2f} m"
+            self.events.append(TrafficEvent(t, "lost", vid, detail))
+            del self._controlled[vid]
+            if self.strict:
+                raise SimulationError(t, detail, f"heading {h:.4f} rad")
+
+    def _keep_bands(self) -> None:
+        """A TV whose lane changed gets its desired speed from its new lane's band."""
+        if not self._band_quantile:
+            return
+        vehicle = self.api.vehicle
+        bands = self._road.speed_bands
+        for vid in self.api.simulation.getArrivedIDList():
+            self._band_quantile.pop(vid, None)
+            self._band_lane.pop(vid, None)
+            self._dims.pop(vid, None)
+        for vid, lane_was in self._band_lane.items():
+            lane = vehicle.getLaneIndex(vid)
+            if lane != lane_was and 0 <= lane < len(bands):
+                lo, hi = bands[lane]
+                vehicle.setMaxSpeed(vid, lo + self._band_quantile[vid] * (hi - lo))
+                self._band_lane[vid] = lane
+
+    # ------------------------------------------------------------------ traffic
+    def _ensure_type(self, type_id: str, length: float, width: float, traffic: bool) -> None:
+        if type_id in self._types:
+            return
+        vt = self.api.vehicletype
+        vt.copy("DEFAULT_VEHTYPE", type_id)
+        vt.setLength(type_id, length)
+        vt.setWidth(type_id, width)
+        vt.setSpeedFactor(type_id, 1.0)  # desired speed = maxSpeed (set from the band)
+        vt.setSpeedDeviation(type_id, 0.0)
+        if traffic:
+            vt.setImperfection(type_id, TV_SIGMA)
+        else:
+            vt.setMaxSpeed(type_id, CONTROLLED_MAX_SPEED)
+        self._types.add(type_id)
+
+    def band_speed(self, lane: int, quantile: float) -> float:
+        """m/s, the desired speed at `quantile` in [0, 1] of a lane's speed band."""
+        lo, hi = self._road.speed_bands[lane]
+        return lo + quantile * (hi - lo)
+
+    def add_traffic(
+        self, vehicle_id: str, lane: int, x: float, quantile: float, speed: float | None = None
+    ) -> None:
+        """Insert a TV with its centre at global x in `lane`, desired speed from the band.
+
+        It is inserted in the next step at `speed` (default: its desired speed),
+        reduced by SUMO if that is unsafe behind its leader.
+        """
+        if not 0 <= lane < self.highway.n_lanes:
+            raise InputError("traffic", "lane", lane, f"0 .. {self.highway.n_lanes - 1}")
+        desired = self.band_speed(lane, quantile)
+        front = x - self.highway.x_start + 0.5 * TV_LENGTH
+        self.api.vehicle.add(
+            vehicle_id,
+            ROUTE_ID,
+            typeID=TV_TYPE,
+            departLane=str(lane),
+            departPos=repr(float(front)),
+            departSpeed="max" if speed is None else repr(float(min(speed, desired))),
+        )
+        self.api.vehicle.setMaxSpeed(vehicle_id, desired)
+        self._band_quantile[vehicle_id] = float(quantile)
+        self._band_lane[vehicle_id] = lane
+        self._dims[vehicle_id] = (TV_LENGTH, TV_WIDTH)
+
+    def lane_position(self, vehicle_id: str) -> float:
+        """m, distance of the vehicle's front bumper from the start of the road."""
+        return float(self.api.vehicle.getLanePosition(vehicle_id))
+
+    def vehicle_ids(self) -> tuple[str, ...]:
+        """Every vehicle on the network now."""
+        return tuple(self.api.vehicle.getIDList())
+
+    def pending(self) -> tuple[str, ...]:
+        """Vehicles added but not yet inserted (no room at their position yet)."""
+        return tuple(self.api.simulation.getPendingVehicles())
+
+    # ------------------------------------------------------------------ controlled vehicles
+    def add_controlled(
+        self,
+        vehicle_id: str,
+        x: float,
+        y: float,
+        heading: float,
+        speed: float,
+        length: float,
+        width: float,
+        lane: int,
+        vtype: str = "sv",
+    ) -> None:
+        """Add a vehicle SUMO does not drive (SV, scripted TV): centre pose, its own size.
+
+        Speed mode 0 and lane-change mode 0 take it out of SUMO's control; the
+        pose is written with moveToXY and holds from the next step on.
+        """
+        if length <= 0 or width <= 0:
+            raise InputError("vehicle", "length/width", (length, width), "positive sizes in m")
+        type_id = vtype
+        if type_id in self._types and self._dims.get(f"type:{type_id}") != (length, width):
+            type_id = f"{vtype}_{vehicle_id}"  # another size: a type of its own
+        if type_id not in self._types:
+            self._ensure_type(type_id, length, width, traffic=False)
+            self._dims[f"type:{type_id}"] = (length, width)
+        api = self.api
+        front = x - self.highway.x_start + 0.5 * length
+        api.vehicle.add(
+            vehicle_id,
+            ROUTE_ID,
+            typeID=type_id,
+            departLane=str(lane),
+            departPos=repr(float(min(max(front, length), self.highway.length))),
+            departSpeed=repr(float(max(speed, 0.0))),
+        )
+        api.vehicle.setSpeedMode(vehicle_id, 0)
+        api.vehicle.setLaneChangeMode(vehicle_id, 0)
+        self._controlled[vehicle_id] = _Controlled(length, width, (x, y, heading))
+        self._dims[vehicle_id] = (length, width)
+        self.move(vehicle_id, x, y, heading, speed)
+
+    def move(
+        self,
+        vehicle_id: str,
+        x: float,
+        y: float,
+        heading: float,
+        speed: float,
+        accel: float | None = None,
+    ) -> None:
+        """Write a controlled vehicle's centre pose (takes effect in the next step).
+
+        Also sets its speed (and acceleration), so the TVs that react to it in
+        the next step see the plant's speed, not last step's displacement.
+        """
+        ctl = self._controlled.get(vehicle_id)
+        if ctl is None:
+            raise SimulationError(self.time, f"{vehicle_id} is not a controlled vehicle")
+        xf, yf = front_from_centre(x, y, heading, ctl.length)
+        lane = self._road.lane_of(yf)
+        vehicle = self.api.vehicle
+        vehicle.moveToXY(
+            vehicle_id, self.highway.edge_id, lane, xf, yf, sumo_angle(heading), keepRoute=2
+        )
+        if ctl.inserted:
+            if accel is None:
+                vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0))
+            else:
+                vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0), float(accel))
+        ctl.last = (float(x), float(y), float(heading))
+        self._moved = True
+
+    # aliases for the scripted-TV code (same operation as for the SV)
+    add_vehicle = add_controlled
+    move_vehicle = move
+
+    def remove(self, vehicle_id: str) -> None:
+        """Take a vehicle off the network (controlled or not)."""
+        self.api.vehicle.remove(vehicle_id)
+        self._controlled.pop(vehicle_id, None)
+        self._band_quantile.pop(vehicle_id, None)
+        self._band_lane.pop(vehicle_id, None)
+
+    def pose(self, vehicle_id: str) -> tuple[float, float, float]:
+        """(x, y, heading) of a vehicle's centre as SUMO has it now (m, m, rad)."""
+        vehicle = self.api.vehicle
+        xf, yf = vehicle.getPosition(vehicle_id)
+        if xf < INVALID:
+            raise SimulationError(self.time, f"{vehicle_id} is not on the network")
+        h = heading_from_angle(vehicle.getAngle(vehicle_id))
+        length = self._length(vehicle_id)
+        x, y = centre_from_front(xf, yf, h, length)
+        return x, y, h
+
+    def speed(self, vehicle_id: str) -> float:
+        """m/s, SUMO's speed of a vehicle."""
+        return float(self.api.vehicle.getSpeed(vehicle_id))
+
+    def lane_index(self, vehicle_id: str) -> int:
+        """SUMO lane index of a vehicle (-1 off the network)."""
+        if self.api.vehicle.getLaneID(vehicle_id) == "":
+            return -1
+        return int(self.api.vehicle.getLaneIndex(vehicle_id))
+
+    def leader(self, vehicle_id: str, distance: float = 200.0) -> tuple[str, float] | None:
+        """(id, gap in m bumper to bumper) of the leader in the vehicle's lane, or None."""
+        found = self.api.vehicle.getLeader(vehicle_id, distance)
+        if not found or not found[0]:
+            return None
+        return str(found[0]), float(found[1])
+
+    def _length(self, vehicle_id: str) -> float:
+        dims = self._dims.get(vehicle_id)
+        if dims is None:
+            vehicle = self.api.vehicle
+            dims = (float(vehicle.getLength(vehicle_id)), float(vehicle.getWidth(vehicle_id)))
+            self._dims[vehicle_id] = dims
+        return dims[0]
+
+    # ------------------------------------------------------------------ reading
+    def snapshot(self, exclude: Iterable[str] = ()) -> TrafficSnapshot:
+        """Every vehicle now (except `exclude`), centre poses, in one pass."""
+        if self._snapshot is None:
+            self._snapshot = self._read_all()
+        snap = self._snapshot
+        skip = set(exclude)
+        if not skip:
+            return snap
+        return snap.select(np.array([vid not in skip for vid in snap.ids], dtype=bool))
+
+    def _read_all(self) -> TrafficSnapshot:
+        api = self.api
+        vehicle = api.vehicle
+        ids = tuple(vehicle.getIDList())
+        n = len(ids)
+        xf = np.empty(n)
+        yf = np.empty(n)
+        angle = np.empty(n)
+        speed = np.empty(n)
+        accel = np.empty(n)
+        lane = np.empty(n, dtype=int)
+        lat = np.empty(n)
+        length = np.empty(n)
+        width = np.empty(n)
+        signals = np.empty(n, dtype=int)
+        for i, vid in enumerate(ids):
+            xf[i], yf[i] = vehicle.getPosition(vid)
+            angle[i] = vehicle.getAngle(vid)
+            speed[i] = vehicle.getSpeed(vid)
+            accel[i] = vehicle.getAcceleration(vid)
+            lane[i] = vehicle.getLaneIndex(vid)
+            lat[i] = vehicle.getLateralSpeed(vid)
+            signals[i] = vehicle.getSignals(vid)
+            dims = self._dims.get(vid)
+            if dims is None:
+                dims = (float(vehicle.getLength(vid)), float(vehicle.getWidth(vid)))
+                self._dims[vid] = dims
+            length[i], width[i] = dims
+        off = xf < INVALID
+        lane[off] = -1
+        h = np.radians(90.0 - angle)
+        h = np.arctan2(np.sin(h), np.cos(h))
+        x = xf - 0.5 * length * np.cos(h)
+        y = yf - 0.5 * length * np.sin(h)
+        return TrafficSnapshot(
+            time=float(api.simulation.getTime()),
+            ids=ids,
+            x=x,
+            y=y,
+            heading=h,
+            speed=speed,
+            accel=accel,
+            lane=lane,
+            lateral_speed=lat,
+            length=length,
+            width=width,
+            signals=signals,
+        )
+
+    def collisions(self) -> list[tuple[str, str]]:
+        """(collider, victim) pairs SUMO detected in the last step (cross-check only)."""
+        return [(str(c.collider), str(c.victim)) for c in self.api.simulation.getCollisions()]
+
+    def _read_log(self) -> str:
+        if self._tmp is None:
+            return self._log_text
+        log = Path(self._tmp.name) / "sumo-warnings.log"
+        try:
+            return log.read_text(encoding="utf-8", errors="replace")
+        except FileNotFoundError:
+            return ""
+
+    def warnings(self) -> list[str]:
+        """SUMO's warnings and errors so far (captured in a log file, not printed)."""
+        return [line for line in self._read_log().splitlines() if line.strip()]
