@@ -1,0 +1,541 @@
+"""Batch studies: a grid of `cosim run`s over traffic density, seed, occupant
+type p, friction mu, driver (controller) and plant, on local processes or a
+Dask cluster; resumable; one CSV row per run and a summary per grid cell.
+
+Life of a study (`cosim batch`):
+
+1. `expand(study)` turns the study into `RunSpec`s. A run's id is a hash of
+   its parameters and of the base scenario file's bytes, so the same grid
+   always gives the same ids and a resumed study knows exactly what is done.
+2. Runs whose record `DIR/runs/<run_id>.json` exists are skipped.
+3. The rest go to `execute_run` -- one top-level function for both back ends
+   -- which runs `cosim.sim.run_scenario` and turns every exception into a
+   failed record. Local back end: a process pool with one fresh process per
+   run (libsumo holds one simulation per process). Dask back end: the same
+   function mapped over a `distributed.Client` whose workers have one thread.
+4. Each record is written atomically (temporary file + `os.replace`) by the
+   parent as soon as its run finishes.
+5. `assemble` reads the grid's records into `runs.csv` (sorted by the
+   parameters), `summarize` groups them into `summary.csv`, and the plots go
+   to `DIR/plots/`. Both CSVs depend only on the records, and the records
+   only on the parameters -- except the wall-time columns (`TIMING_COLUMNS`
+   and metric columns that are wall-clock measurements), which differ from
+   one execution to the next.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import hashlib
+import json
+import math
+import multiprocessing
+import os
+import random
+import tempfile
+import time
+import traceback
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from cosim.errors import InputError
+
+# Grid parameters, in the order runs.csv lists (and sorts) them.
+PARAMETERS = ("driver", "plant", "occupant", "mu", "density", "seed")
+# Parameters that define a grid cell of summary.csv (every parameter but the seed).
+CELL = ("driver", "plant", "occupant", "mu", "density")
+STATUS_OK = "ok"
+STATUS_FAILED = "failed"
+# Columns of runs.csv measured by the wall clock: they differ between two
+# executions of the same run; everything else is reproducible.
+TIMING_COLUMNS = ("wall_time_s",)
+# Metric-name fragments that mark a wall-clock measurement inside metrics.csv.
+_TIMING_MARKS = ("wall", "cpu_time", "planning_time", "plan_time", "_ms")
+
+# Metrics summarised per grid cell (names as cosim.metrics writes them).
+SUCCESS_METRIC = "lane_change_completed"  # bool: the commanded lane change ended in its lane
+COLLISION_METRIC = "collision"  # bool: our geometric check saw an overlap
+DURATION_METRIC = "lane_change_duration_s"  # s
+TTC_METRIC = "min_ttc_s"  # s
+PERCENTILES = (10, 50, 90)
+CONFIDENCE = 0.95
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of a study: the base scenario and the grid values that replace its own."""
+
+    scenario: str  # path of the base scenario file
+    scenario_sha: str  # sha256 of the base scenario file's bytes
+    duration: float | None  # s, simulated time (None: the scenario's own)
+    driver: str  # SV controller: "mimo" | "siso" | "sumo"
+    plant: str  # "twotrack" | "bicycle"
+    occupant: float  # -, p in [0, 1]
+    mu: float  # -, road friction
+    density: float  # veh per km per lane
+    seed: int  # SUMO and traffic seed
+    traces: bool = False  # keep the run's trace and metrics files
+
+    @property
+    def run_id(self) -> str:
+        """12 hex digits of a hash of everything that determines the run's result."""
+        key = {
+            "scenario_sha": self.scenario_sha,
+            "duration": None if self.duration is None else float(self.duration),
+            **{name: getattr(self, name) for name in PARAMETERS},
+        }
+        key["occupant"] = float(key["occupant"])
+        key["mu"] = float(key["mu"])
+        key["density"] = float(key["density"])
+        key["seed"] = int(key["seed"])
+        text = json.dumps(key, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+    def parameters(self) -> dict[str, Any]:
+        return {name: getattr(self, name) for name in PARAMETERS}
+
+
+def file_sha(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def expand(
+    scenario: str | Path,
+    *,
+    densities: Sequence[float],
+    seeds: Sequence[int],
+    occupants: Sequence[float],
+    mus: Sequence[float],
+    drivers: Sequence[str],
+    plants: Sequence[str],
+    duration: float | None = None,
+    traces: bool = False,
+) -> list[RunSpec]:
+    """The grid as RunSpecs, in a fixed shuffled order (so the time left shown
+    while the study runs is not skewed by running all dense cases last)."""
+    sha = file_sha(scenario)
+    specs = [
+        RunSpec(
+            scenario=str(Path(scenario).resolve()), scenario_sha=sha, duration=duration,
+            driver=d, plant=pl, occupant=float(p), mu=float(m), density=float(k), seed=int(s),
+            traces=traces,
+        )
+        for d in drivers for pl in plants for p in occupants for m in mus
+        for k in densities for s in seeds
+    ]
+    ids = [s.run_id for s in specs]
+    if len(set(ids)) != len(ids):
+        raise InputError(str(scenario), "grid", "repeated values", "each grid value once")
+    random.Random(0).shuffle(specs)
+    return specs
+
+
+# --------------------------------------------------------------------------- one run
+
+
+def apply_spec(spec: RunSpec) -> Any:
+    """The base scenario with the run's grid values in place."""
+    from cosim.scenario import load_scenario, with_overrides
+
+    scenario = load_scenario(spec.scenario)
+    changes: dict[str, Any] = {
+        "seed": spec.seed,
+        "density": spec.density,
+        "occupant": spec.occupant,
+        "mu": spec.mu,
+        "controller": spec.driver,
+        "plant": spec.plant,
+    }
+    if spec.duration is not None:
+        changes["duration"] = spec.duration
+    return with_overrides(scenario, **changes)
+
+
+def execute_run(spec: RunSpec, out_dir: str) -> dict[str, Any]:
+    """Run one grid point and return its record; never raises.
+
+    The one worker function of both back ends. A run that raises is returned
+    as a failed record with the error's type and message (and the traceback,
+    kept in the JSON record only)."""
+    start = time.perf_counter()
+    record: dict[str, Any] = {"run_id": spec.run_id, **spec.parameters()}
+    try:
+        from cosim.sim import run_scenario
+
+        scenario = apply_spec(spec)
+        if spec.traces:
+            run_dir = Path(out_dir) / "traces" / spec.run_id
+            run_dir.mkdir(parents=True, exist_ok=True)
+            metrics = run_scenario(
+                scenario, run_dir, write_trace=True, write_figures=False, progress=False, gui=False
+            )
+        else:
+            with tempfile.TemporaryDirectory(prefix="cosim-run-") as tmp:
+                metrics = run_scenario(
+                    scenario, Path(tmp), write_trace=False, write_figures=False,
+                    progress=False, gui=False,
+                )
+        record.update(status=STATUS_OK, error="")
+        for key, value in metrics.items():
+            if key not in record:  # the grid's own values win over the scenario echo
+                record[key] = _plain(value)
+    except Exception as exc:
+        record.update(
+            status=STATUS_FAILED, error=error_text(exc), traceback=traceback.format_exc()
+        )
+    record["wall_time_s"] = time.perf_counter() - start
+    return record
+
+
+def error_text(exc: BaseException) -> str:
+    """One line: the exception's type and message."""
+    return " ".join(f"{type(exc).__name__}: {exc}".split())
+
+
+def failed_record(spec: RunSpec, error: str, wall_time: float = math.nan) -> dict[str, Any]:
+    """The record of a run whose worker never returned (its process died)."""
+    return {
+        "run_id": spec.run_id, **spec.parameters(), "status": STATUS_FAILED,
+        "error": error, "wall_time_s": wall_time,
+    }
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars -> Python scalars, so records are plain JSON."""
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+# --------------------------------------------------------------------------- records
+
+
+def runs_dir(out_dir: Path) -> Path:
+    return out_dir / "runs"
+
+
+def record_path(out_dir: Path, run_id: str) -> Path:
+    return runs_dir(out_dir) / f"{run_id}.json"
+
+
+def write_record(out_dir: Path, record: dict[str, Any]) -> None:
+    """Write a run's record atomically: a reader sees the whole file or none."""
+    path = record_path(out_dir, record["run_id"])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(record, f, sort_keys=True, allow_nan=True)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def read_record(out_dir: Path, run_id: str) -> dict[str, Any] | None:
+    path = record_path(out_dir, run_id)
+    try:
+        return json.loads(path.read_text())
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
+
+
+def pending(
+    specs: Iterable[RunSpec], out_dir: Path, *, retry_failed: bool = False
+) -> list[RunSpec]:
+    """The runs that still have to be run: no record yet (or a failed one, if asked)."""
+    todo = []
+    for spec in specs:
+        record = read_record(out_dir, spec.run_id)
+        if record is None or (retry_failed and record.get("status") != STATUS_OK):
+            todo.append(spec)
+    return todo
+
+
+# --------------------------------------------------------------------------- back ends
+
+OnRecord = Callable[[dict[str, Any]], None]
+
+
+def _pool(workers: int) -> cf.ProcessPoolExecutor:
+    # A fresh process per run (max_tasks_per_child=1): libsumo holds one
+    # simulation per process, and a run cannot leak state into the next.
+    # forkserver: children fork from a server that has imported cosim already.
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(["cosim.batch", "cosim.sim"])
+    return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1)
+
+
+def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: OnRecord) -> None:
+    """Run every spec in a local process pool of `workers` processes.
+
+    At most `workers` runs are submitted at a time, so that a run whose
+    process dies (a crash, not an exception) breaks the pool with few runs in
+    flight; those are then retried one by one, each alone in a pool, and the
+    one that breaks its pool alone is recorded as failed."""
+    queue = list(reversed(specs))
+    while queue:
+        broken: list[RunSpec] = []
+        with _pool(workers) as pool:
+            running: dict[cf.Future[dict[str, Any]], RunSpec] = {}
+            while (queue or running) and not broken:
+                while queue and len(running) < workers:
+                    spec = queue.pop()
+                    running[pool.submit(execute_run, spec, str(out_dir))] = spec
+                done, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+                for future in done:
+                    spec = running.pop(future)
+                    try:
+                        on_record(future.result())
+                    except cf.process.BrokenProcessPool:
+                        broken.append(spec)
+            broken += list(running.values())
+        for spec in broken:
+            start = time.perf_counter()
+            with _pool(1) as alone:
+                try:
+                    record = alone.submit(execute_run, spec, str(out_dir)).result()
+                except cf.process.BrokenProcessPool as exc:
+                    record = failed_record(
+                        spec, f"worker process died: {error_text(exc)}",
+                        time.perf_counter() - start,
+                    )
+            on_record(record)
+
+
+def dask_client(address: str, workers: int) -> Any:
+    """A distributed.Client: on `address`, or on a new LocalCluster if it is "local"."""
+    from distributed import Client, LocalCluster
+
+    if address == "local":
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+        return Client(cluster)
+    try:
+        client = Client(address, timeout="20s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(
+            "--dask", "address", address, f"a reachable Dask scheduler ({exc})"
+        ) from None
+    threads = client.nthreads()
+    many = {w: n for w, n in threads.items() if n != 1}
+    if many:
+        client.close()
+        raise InputError(
+            "--dask", "worker threads", many,
+            "one thread per worker (libsumo: one simulation per process); "
+            "start workers with `dask worker ADDRESS --nthreads 1`",
+        )
+    return client
+
+
+def run_dask(specs: Sequence[RunSpec], out_dir: Path, client: Any, on_record: OnRecord) -> None:
+    """Run every spec as a task of `client`; a task whose worker died is a failed run."""
+    from distributed import as_completed
+
+    futures = client.map(
+        execute_run, list(specs), out_dir=str(out_dir), pure=False,
+        key=[f"cosim-run-{s.run_id}-{time.time_ns()}" for s in specs],
+    )
+    spec_of = {f.key: s for f, s in zip(futures, specs, strict=True)}
+    for future in as_completed(futures):
+        try:
+            record = future.result()
+        except Exception as exc:  # KilledWorker and the like: the task never returned
+            record = failed_record(spec_of[future.key], f"worker died: {error_text(exc)}")
+        on_record(record)
+        future.release()
+
+
+# --------------------------------------------------------------------------- tables
+
+
+def is_timing_column(name: str) -> bool:
+    """Whether a runs.csv column is a wall-clock measurement (not reproducible)."""
+    return name in TIMING_COLUMNS or any(mark in name for mark in _TIMING_MARKS)
+
+
+def assemble(specs: Iterable[RunSpec], out_dir: Path) -> pd.DataFrame:
+    """runs.csv as a table: one row per run of the grid, sorted by its parameters.
+
+    Columns: run_id, the parameters, status, error, the metrics (in the order
+    the first successful run reports them), then the wall-time columns."""
+    records = [read_record(out_dir, s.run_id) for s in specs]
+    records = [r for r in records if r is not None]
+    records.sort(key=lambda r: tuple(r[p] for p in PARAMETERS))
+    head = ["run_id", *PARAMETERS, "status", "error"]
+    metric_columns: list[str] = []
+    for r in sorted(records, key=lambda r: r["status"] != STATUS_OK):
+        metric_columns += [k for k in r if k not in head and k not in metric_columns]
+    metric_columns = [k for k in metric_columns if k != "traceback"]
+    timing = [c for c in metric_columns if is_timing_column(c)]
+    columns = head + [c for c in metric_columns if c not in timing] + timing
+    return pd.DataFrame.from_records(records, columns=columns)
+
+
+def wilson(successes: int, n: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (NaNs for n = 0)."""
+    if n == 0:
+        return (math.nan, math.nan)
+    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def mean_ci(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[float, float, float]:
+    """Mean and Student-t confidence interval (NaN where undefined)."""
+    values = values[np.isfinite(values)]
+    n = len(values)
+    if n == 0:
+        return (math.nan, math.nan, math.nan)
+    mean = float(values.mean())
+    if n == 1:
+        return (mean, math.nan, math.nan)
+    half = float(stats.t.ppf(0.5 + confidence / 2, n - 1) * values.std(ddof=1) / math.sqrt(n))
+    return (mean, mean - half, mean + half)
+
+
+def _as_bool(column: pd.Series) -> pd.Series:
+    if column.dtype == object:
+        return column.map(lambda v: str(v).strip().lower() in ("true", "1", "1.0", "yes"))
+    return column.fillna(0).astype(float) != 0
+
+
+def summarize(runs: pd.DataFrame) -> pd.DataFrame:
+    """summary.csv: per grid cell (all parameters but the seed), the number of
+    runs, failed runs, success and collision rates with Wilson intervals, and
+    lane-change duration and minimum TTC: mean with a t interval, percentiles.
+
+    Rates are over the runs that finished (status ok): a failed run is a fault
+    of the tool, not an outcome of the manoeuvre, and is counted apart."""
+    rows = []
+    for cell, group in runs.groupby(list(CELL), sort=True):
+        ok = group[group["status"] == STATUS_OK]
+        n = len(ok)
+        row: dict[str, Any] = dict(zip(CELL, cell, strict=True))
+        row.update(runs=len(group), ok=n, failed=len(group) - n)
+        for name, metric in (("success", SUCCESS_METRIC), ("collision", COLLISION_METRIC)):
+            hits = int(_as_bool(ok[metric]).sum()) if metric in ok and n else 0
+            row[f"{name}_rate"] = hits / n if n else math.nan
+            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = wilson(hits, n)
+        for name, metric in (("lc_duration_s", DURATION_METRIC), ("min_ttc_s", TTC_METRIC)):
+            values = (
+                pd.to_numeric(ok[metric], errors="coerce").to_numpy(float)
+                if metric in ok else np.empty(0)
+            )
+            finite = values[np.isfinite(values)]
+            row[f"{name}_n"] = len(finite)
+            row[f"{name}_mean"], row[f"{name}_ci_low"], row[f"{name}_ci_high"] = mean_ci(values)
+            for q in PERCENTILES:
+                row[f"{name}_p{q}"] = float(np.percentile(finite, q)) if len(finite) else math.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def write_tables(runs: pd.DataFrame, summary: pd.DataFrame, out_dir: Path) -> None:
+    """runs.csv and summary.csv, each replaced atomically."""
+    for name, frame in (("runs.csv", runs), ("summary.csv", summary)):
+        tmp = out_dir / f".{name}.tmp"
+        frame.to_csv(tmp, index=False)
+        os.replace(tmp, out_dir / name)
+
+
+# --------------------------------------------------------------------------- the study
+
+
+@dataclass
+class StudyResult:
+    out_dir: Path
+    runs: pd.DataFrame
+    summary: pd.DataFrame
+    ran: int  # runs executed by this call
+    skipped: int  # runs already recorded before this call
+    failed: int  # failed runs in the whole study
+    wall_time: float  # s, this call
+    plots: list[Path]
+
+
+def run_study(
+    specs: Sequence[RunSpec],
+    out_dir: Path,
+    *,
+    workers: int | None = None,
+    dask: str | None = None,
+    progress: bool = True,
+    retry_failed: bool = False,
+    plots: bool = True,
+    title: str = "study",
+) -> StudyResult:
+    """Run what is not yet recorded, then write runs.csv, summary.csv and plots."""
+    start = time.perf_counter()
+    out_dir = Path(out_dir)
+    workers = workers or os.cpu_count() or 1
+    todo = pending(specs, out_dir, retry_failed=retry_failed)
+    done_before = len(specs) - len(todo)
+    todo_ids = {s.run_id for s in todo}
+    failed_before = sum(
+        1 for s in specs
+        if s.run_id not in todo_ids
+        and (read_record(out_dir, s.run_id) or {}).get("status") != STATUS_OK
+    )
+    # Connect first: a bad address is an input error, before anything is written.
+    client = dask_client(dask, workers) if dask is not None and todo else None
+    runs_dir(out_dir).mkdir(parents=True, exist_ok=True)
+    (out_dir / "study.json").write_text(
+        json.dumps({"title": title, "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
+                   indent=1, sort_keys=True)
+    )
+
+    from tqdm import tqdm
+
+    bar = tqdm(
+        total=len(specs), initial=done_before, unit="run", desc=title, disable=not progress,
+        dynamic_ncols=True,
+    )
+    failed = [failed_before]
+
+    def on_record(record: dict[str, Any]) -> None:
+        write_record(out_dir, record)
+        if record["status"] != STATUS_OK:
+            failed[0] += 1
+        bar.update(1)
+        bar.set_postfix(done=bar.n, failed=failed[0], refresh=True)
+
+    bar.set_postfix(done=bar.n, failed=failed[0])
+    try:
+        if client is not None:
+            run_dask(todo, out_dir, client, on_record)
+        elif todo:
+            run_local(todo, out_dir, workers, on_record)
+    finally:
+        bar.close()
+        if client is not None:
+            cluster = client.cluster if dask == "local" else None
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+    runs = assemble(specs, out_dir)
+    summary = summarize(runs)
+    write_tables(runs, summary, out_dir)
+    figures: list[Path] = []
+    if plots and len(runs):
+        from cosim.plots.batch import plot_summary
+
+        figures = plot_summary(summary, out_dir / "plots", title=title)
+    return StudyResult(
+        out_dir=out_dir, runs=runs, summary=summary, ran=len(todo), skipped=done_before,
+        failed=int((runs["status"] != STATUS_OK).sum()) if len(runs) else 0,
+        wall_time=time.perf_counter() - start, plots=figures,
+    )

@@ -1,0 +1,77 @@
+"""`cosim bench batch`: the same study on 1 and on N local worker processes.
+
+The study (densities x seeds on one base scenario, one driver) runs into a
+fresh temporary folder each time, so nothing is skipped; the ratio of the wall
+times is the speed-up of the process pool on this machine (target: >= 1.7 on
+2 cores). Repeats alternate 1 and N workers and report medians.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cosim.batch import expand, run_study
+from cosim.scenario import project_root
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--scenario", type=Path,
+                        default=project_root() / "scenarios" / "traffic_medium.toml",
+                        help="base scenario (default: scenarios/traffic_medium.toml)")
+    parser.add_argument("--densities", default="10,20", help="veh/km/lane, comma-separated")
+    parser.add_argument("--seeds", type=int, default=4, help="seeds 1..N per density")
+    parser.add_argument("--driver", default="mimo", help="mimo, siso or sumo")
+    parser.add_argument("--duration", type=float, default=20.0, help="s, simulated time per run")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 2,
+                        help="workers of the parallel case (default: the machine's cores)")
+    parser.add_argument("--repeats", type=int, default=1, help="repeats of each case")
+
+
+def measure(args: argparse.Namespace) -> dict[str, Any]:
+    from cosim.commands.batch import parse_list
+    from cosim.study import DENSITY
+
+    densities = parse_list(args.densities, "--densities", DENSITY) or (10.0,)
+    specs = expand(
+        args.scenario, densities=densities, seeds=range(1, args.seeds + 1),
+        occupants=(0.5,), mus=(0.8,), drivers=(args.driver,), plants=("twotrack",),
+        duration=args.duration,
+    )
+    cases = (1, args.workers)
+    times: dict[int, list[float]] = {n: [] for n in cases}
+    failed = 0
+    for _ in range(args.repeats):
+        for n in cases:
+            with tempfile.TemporaryDirectory(prefix="cosim-bench-batch-") as tmp:
+                start = time.perf_counter()
+                result = run_study(specs, Path(tmp), workers=n, progress=False, plots=False)
+                times[n].append(time.perf_counter() - start)
+                failed += result.failed
+    rows = []
+    for n in cases:
+        wall = float(np.median(times[n]))
+        rows.append({"case": f"{n} worker{'s' if n > 1 else ''}", "runs": len(specs),
+                     "wall_s": wall, "per_run_s": wall / len(specs)})
+    speedup = rows[0]["wall_s"] / rows[1]["wall_s"]
+    notes = [
+        f"{len(specs)} runs: densities {', '.join(f'{d:g}' for d in densities)} veh/km/lane x "
+        f"seeds 1-{args.seeds}, driver {args.driver}, {args.duration:g} s simulated each, "
+        f"base {args.scenario.name}; one fresh process per run",
+        f"{os.cpu_count()} cores; median of {args.repeats} repeat(s)",
+    ]
+    if failed:
+        notes.append(f"{failed} runs failed (their time still counts)")
+    return {
+        "title": f"cosim bench batch: the same study on 1 and {args.workers} local processes",
+        "rows": rows,
+        "ratios": {f"speedup_{args.workers}_workers": speedup},
+        "targets": {f"speedup_{args.workers}_workers": ">= 1.7 on 2 cores"},
+        "notes": notes,
+    }

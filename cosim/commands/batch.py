@@ -1,0 +1,166 @@
+"""`cosim batch [STUDY.toml] [flags]`: a grid of runs, resumable, on local
+processes (default) or a Dask cluster (`--dask ADDRESS` or `--dask local`).
+
+Writes DIR/runs/<run_id>.json (one per finished run), DIR/runs.csv,
+DIR/summary.csv and DIR/plots/density.png. Running the same command again
+skips the runs already recorded. Everything the user gives is checked before
+anything is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from cosim.batch import RunSpec, expand, run_study
+from cosim.errors import InputError
+from cosim.study import DENSITY, DRIVER, MU, OCCUPANT, PLANT, SEED, Study, load_study
+from cosim.validation import Field
+
+SOURCE = "command line"
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "batch",
+        help="a study: runs over density x seed x p x mu x driver x plant, resumable",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("study", nargs="?", type=Path, help="study file (TOML, [study] table)")
+    p.add_argument("--scenario", type=Path, help="base scenario (replaces the study's)")
+    p.add_argument("-o", "--out", type=Path,
+                   help="output folder (default: results/batch/<study name>)")
+    p.add_argument("--name", help="study name (default: the study file's, or 'study')")
+    p.add_argument("--densities", help="veh/km/lane, comma-separated, e.g. 5,10,20")
+    p.add_argument("--seeds", help="comma-separated seeds or a range A-B, e.g. 1-10")
+    p.add_argument("--occupants", help="occupant types p, comma-separated")
+    p.add_argument("--mu", help="road friction values, comma-separated")
+    p.add_argument("--drivers", help="SV drivers: mimo, siso, sumo (comma-separated)")
+    p.add_argument("--plants", help="SV plants: twotrack, bicycle (comma-separated)")
+    p.add_argument("--duration", type=float, metavar="S", help="simulated time of each run (s)")
+    p.add_argument("--traces", action="store_true", default=None,
+                   help="keep each run's trace files in DIR/traces/<run_id>/")
+    p.add_argument("--workers", type=int, help="processes (default: the machine's cores)")
+    p.add_argument("--dask", metavar="ADDRESS",
+                   help="run on a Dask cluster: a scheduler address, or 'local' (LocalCluster)")
+    p.add_argument("--retry-failed", action="store_true", help="run failed runs again")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-plots", action="store_true", help="no figures")
+    p.set_defaults(func=run)
+
+
+def parse_list(text: str | None, flag: str, element: Field) -> tuple[Any, ...] | None:
+    """A comma-separated flag value, each element checked like the study file's."""
+    if text is None:
+        return None
+    items = [s.strip() for s in text.split(",")]
+    if not all(items):
+        raise InputError(SOURCE, flag, text, f"a comma-separated list, each {element.allowed()}")
+    values: list[Any] = []
+    for item in items:
+        if element is SEED and "-" in item.lstrip("-"):
+            lo, _, hi = item.partition("-")
+            try:
+                a, b = int(lo), int(hi)
+            except ValueError:
+                raise InputError(SOURCE, flag, text, "integers or ranges A-B") from None
+            if b < a:
+                raise InputError(SOURCE, flag, text, "ranges A-B with A <= B")
+            values += [element.convert(SOURCE, flag, v) for v in range(a, b + 1)]
+            continue
+        raw: Any = item
+        if element.kind in (int, float):
+            try:
+                raw = int(item) if element.kind is int else float(item)
+            except ValueError:
+                raise InputError(SOURCE, flag, item, element.allowed()) from None
+        values.append(element.convert(SOURCE, flag, raw))
+    if len(set(values)) != len(values):
+        raise InputError(SOURCE, flag, text, "distinct values")
+    return tuple(values)
+
+
+def study_from_args(args: argparse.Namespace) -> Study:
+    """The study file (if any) with the flags applied; validated."""
+    if args.study is not None:
+        study = load_study(args.study)
+    elif args.scenario is not None:
+        study = Study(
+            path=None, name="study", description="", scenario=args.scenario, densities=(),
+            seeds=(), occupants=None, mus=None, drivers=None, plants=None, duration=None,
+            traces=False,
+        )
+    else:
+        raise InputError(SOURCE, "study", None, "a study file or --scenario FILE")
+    if args.duration is not None and not 0 < args.duration <= 3600:
+        raise InputError(SOURCE, "--duration", args.duration, "a number of seconds in (0, 3600]")
+    study = study.with_flags(
+        scenario=args.scenario,
+        name=args.name,
+        densities=parse_list(args.densities, "--densities", DENSITY),
+        seeds=parse_list(args.seeds, "--seeds", SEED),
+        occupants=parse_list(args.occupants, "--occupants", OCCUPANT),
+        mus=parse_list(args.mu, "--mu", MU),
+        drivers=parse_list(args.drivers, "--drivers", DRIVER),
+        plants=parse_list(args.plants, "--plants", PLANT),
+        duration=args.duration,
+        traces=args.traces,
+    )
+    if not study.scenario.is_file():
+        raise InputError(SOURCE, "--scenario", str(study.scenario), "an existing scenario file")
+    if not study.densities:
+        raise InputError(SOURCE, "--densities", None, "required without a study file")
+    if not study.seeds:
+        raise InputError(SOURCE, "--seeds", None, "required without a study file")
+    if args.workers is not None and args.workers < 1:
+        raise InputError(SOURCE, "--workers", args.workers, "an integer >= 1")
+    return study
+
+
+def specs_of(study: Study) -> list[RunSpec]:
+    """The study's runs; grid values the study leaves open are the base scenario's.
+
+    Every distinct grid value is applied to the base scenario once here, so a
+    value the scenario rules refuse is an input error before anything runs."""
+    from cosim.scenario import load_scenario, with_overrides
+
+    base = load_scenario(study.scenario)
+    occupants = study.occupants or (base.sv.occupant,)
+    mus = study.mus or (base.road.mu,)
+    drivers = study.drivers or (base.sv.controller,)
+    plants = study.plants or (base.sv.plant,)
+    for key, values in (("density", study.densities), ("seed", study.seeds),
+                        ("occupant", occupants), ("mu", mus), ("controller", drivers),
+                        ("plant", plants)):
+        for value in values:
+            with_overrides(base, **{key: value})
+    if study.duration is not None:
+        with_overrides(base, duration=study.duration)
+    return expand(
+        study.scenario, densities=study.densities, seeds=study.seeds, occupants=occupants,
+        mus=mus, drivers=drivers, plants=plants, duration=study.duration, traces=study.traces,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    study = study_from_args(args)
+    specs = specs_of(study)
+    out = args.out or Path("results") / "batch" / study.name
+    workers = args.workers or os.cpu_count() or 1
+    where = f"Dask {args.dask}" if args.dask else f"{workers} local processes"
+    print(f"cosim batch: {study.name}: {len(specs)} runs on {where} -> {out}", file=sys.stderr)
+    result = run_study(
+        specs, out, workers=workers, dask=args.dask, progress=not args.no_progress,
+        retry_failed=args.retry_failed, plots=not args.no_plots, title=study.name,
+    )
+    print(
+        f"{len(result.runs)} runs ({result.ran} run now, {result.skipped} already done), "
+        f"{result.failed} failed, {result.wall_time:.1f} s\n"
+        f"  {out / 'runs.csv'}\n  {out / 'summary.csv'}"
+        + "".join(f"\n  {p}" for p in result.plots)
+    )
+    return 0

@@ -1,0 +1,145 @@
+"""Study files: a grid of runs over a base scenario (TOML, like scenarios).
+
+```toml
+[study]
+name = "density"
+description = "lane change success over traffic density"
+scenario = "traffic_medium.toml"      # base scenario, relative to this file
+densities_veh_per_km_lane = [5, 10, 15, 20, 25]
+seeds = [1, 2, 3]                     # or seed_count = 10 (seeds 1..10)
+occupants = [0.5]                     # p; absent: the base scenario's
+mu = [0.8, 0.5]                       # absent: the base scenario's
+drivers = ["mimo", "siso", "sumo"]    # SV controller; absent: the base scenario's
+plants = ["twotrack"]                 # absent: the base scenario's
+duration_s = 30.0                     # absent: the base scenario's
+traces = false                        # keep each run's trace files
+```
+
+`load_study` validates the whole file (one-line InputError on the first
+problem) before anything is written; `Study.with_flags` lets command-line
+flags replace any list.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from cosim.errors import InputError
+from cosim.scenario import ROAD_FIELDS, SCENARIO_FIELDS, SV_FIELDS, TRAFFIC_FIELDS
+from cosim.validation import Field, check_known_tables, check_table, validate_table
+
+
+def _scenario_field(fields: tuple[Field, ...], key: str) -> Field:
+    return next(f for f in fields if f.key == key)
+
+
+# One element of each grid list, checked with the scenario files' own rules.
+DENSITY = _scenario_field(TRAFFIC_FIELDS, "density_veh_per_km_lane")
+SEED = _scenario_field(SCENARIO_FIELDS, "seed")
+OCCUPANT = _scenario_field(SV_FIELDS, "occupant")
+MU = _scenario_field(ROAD_FIELDS, "mu")
+DRIVER = _scenario_field(SV_FIELDS, "controller")
+PLANT = _scenario_field(SV_FIELDS, "plant")
+DURATION = _scenario_field(SCENARIO_FIELDS, "duration_s")
+DRIVERS = DRIVER.choices
+PLANTS = PLANT.choices
+
+
+def _list_of(element: Field) -> Any:
+    """A `parse` for a non-empty list of distinct values, each checked by `element`."""
+
+    def parse(source: str, key: str, value: Any) -> tuple[Any, ...]:
+        allowed = f"a non-empty list of distinct values, each {element.allowed()}"
+        if not isinstance(value, list) or not value:
+            raise InputError(source, key, value, allowed)
+        out = tuple(element.convert(source, f"{key}[{i}]", v) for i, v in enumerate(value))
+        if len(set(out)) != len(out):
+            raise InputError(source, key, value, allowed)
+        return out
+
+    return parse
+
+
+def _describe(element: Field) -> str:
+    return f"a non-empty list of distinct values, each {element.allowed()}"
+
+
+STUDY_FIELDS = (
+    Field("name", str, pattern=r"[A-Za-z0-9_.-]+", default="study"),
+    Field("description", str, default=""),
+    Field("scenario", str),
+    Field("densities_veh_per_km_lane", list, name="densities", parse=_list_of(DENSITY),
+          describe=_describe(DENSITY)),
+    Field("seeds", list, parse=_list_of(SEED), describe=_describe(SEED), default=None),
+    Field("seed_count", int, lo=1, hi=100000, default=None),
+    Field("occupants", list, parse=_list_of(OCCUPANT), describe=_describe(OCCUPANT), default=None),
+    Field("mu", list, name="mus", parse=_list_of(MU), describe=_describe(MU), default=None),
+    Field("drivers", list, parse=_list_of(DRIVER), describe=_describe(DRIVER), default=None),
+    Field("plants", list, parse=_list_of(PLANT), describe=_describe(PLANT), default=None),
+    replace(DURATION, name="duration", default=None),
+    Field("traces", bool, default=False),
+)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A grid of runs. `None` lists take the base scenario's single value."""
+
+    path: Path | None  # the study file (None: built from flags)
+    name: str
+    description: str
+    scenario: Path  # base scenario file
+    densities: tuple[float, ...]  # veh per km per lane
+    seeds: tuple[int, ...]
+    occupants: tuple[float, ...] | None  # -, p
+    mus: tuple[float, ...] | None  # -, road friction
+    drivers: tuple[str, ...] | None  # SV controller
+    plants: tuple[str, ...] | None
+    duration: float | None  # s, simulated time of every run (None: the scenario's)
+    traces: bool  # keep each run's trace files
+
+    def with_flags(self, **changes: Any) -> Study:
+        """The study with the given fields replaced (None values are ignored)."""
+        return replace(self, **{k: v for k, v in changes.items() if v is not None})
+
+    @property
+    def size(self) -> int:
+        n = len(self.densities) * len(self.seeds)
+        for values in (self.occupants, self.mus, self.drivers, self.plants):
+            n *= len(values) if values else 1
+        return n
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and validate a study file; the base scenario path is resolved
+    relative to the study file and must exist."""
+    path = Path(path)
+    source = str(path)
+    if not path.is_file():
+        raise InputError(source, "file", str(path), "an existing study file (.toml)")
+    try:
+        doc = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(source, "toml", " ".join(str(exc).split()), "valid TOML") from None
+    check_known_tables(source, doc, ["study"])
+    if "study" not in doc:
+        raise InputError(source, "study", None, "required: a [study] table")
+    raw = check_table(source, "study", doc["study"])
+    values = validate_table(source, "study", raw, STUDY_FIELDS)
+    if values["seeds"] is not None and values["seed_count"] is not None:
+        raise InputError(source, "study.seed_count", values["seed_count"],
+                         "either seeds or seed_count, not both")
+    if values["seeds"] is None:
+        if values["seed_count"] is None:
+            raise InputError(source, "study.seeds", None, "required: seeds or seed_count")
+        values["seeds"] = tuple(range(1, values["seed_count"] + 1))
+    del values["seed_count"]
+    scenario = Path(values.pop("scenario"))
+    if not scenario.is_absolute():
+        scenario = path.parent / scenario
+    if not scenario.is_file():
+        raise InputError(source, "study.scenario", str(scenario), "an existing scenario file")
+    return Study(path=path, scenario=scenario, **values)
