@@ -1,0 +1,127 @@
+"""Random highway traffic by density, with the paper's lane speed bands.
+
+At t = 0 every lane gets `density` vehicles per km spread along the first
+`length` metres (about evenly, jittered), so the road is full from the start;
+then an inflow at the start of the road inserts the next vehicle of a lane once
+the last one has driven a spacing of about 1000/density m, so the density holds.
+Each traffic vehicle (TV) draws where its desired speed sits in a band
+(`quantile`); SumoSim sets its desired speed from the band of whatever lane it
+is in (Section 5: lanes 60-90, 90-110, 110-120 km/h).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cosim.errors import InputError
+from cosim.params import RoadParams
+from cosim.traffic.sumo import TV_LENGTH, SumoSim
+
+QUANTILE_RANGE = (0.1, 0.95)  # -, desired speeds stay off the band's edges (drivers dawdle)
+SPACING_JITTER = 0.25  # -, spacing varies by +-25 % of 1000/density
+
+
+@dataclass
+class Traffic:
+    """The random traffic of one run: what was placed, and the inflow that keeps it."""
+
+    density: float  # veh per km per lane
+    length: float  # m, stretch of road filled at t = 0
+    rng: np.random.Generator
+    placed: dict[int, list[str]] = field(default_factory=dict)  # lane -> TV ids placed at t = 0
+    inflow: bool = True
+    _last: dict[int, str] = field(default_factory=dict)  # lane -> last vehicle inserted
+    _next_gap: dict[int, float] = field(default_factory=dict)  # lane -> m before the next one
+    _count: int = 0
+
+    def new_id(self) -> str:
+        self._count += 1
+        return f"tv{self._count}"
+
+    def spacing(self) -> float:
+        """m, one random spacing around 1000/density."""
+        mean = 1000.0 / self.density
+        return mean * (1.0 + SPACING_JITTER * (2.0 * self.rng.random() - 1.0))
+
+    def quantile(self) -> float:
+        lo, hi = QUANTILE_RANGE
+        return lo + (hi - lo) * self.rng.random()
+
+    def __call__(self, sim: SumoSim) -> None:
+        """The inflow (a SumoSim hook, after each step)."""
+        if not self.inflow:
+            return
+        present = set(sim.vehicle_ids())
+        waiting = set(sim.pending())
+        for lane, last in list(self._last.items()):
+            if last in waiting:
+                continue  # the previous one has not found room yet
+            if last in present and sim.lane_position(last) < self._next_gap[lane]:
+                continue
+            vid = self.new_id()
+            q = self.quantile()
+            sim.add_traffic(vid, lane, sim.highway.x_start + 0.5 * TV_LENGTH, q)
+            self._last[lane] = vid
+            self._next_gap[lane] = self.spacing()
+
+
+def placement(
+    rng: np.random.Generator, density: float, x_start: float, length: float
+) -> np.ndarray:
+    """m, centre x of one lane's vehicles at t = 0: density per km, jittered even spacing."""
+    n = int(round(density * length / 1000.0))
+    if n == 0:
+        return np.empty(0)
+    cell = length / n
+    jitter = SPACING_JITTER * (2.0 * rng.random(n) - 1.0)
+    x = x_start + (np.arange(n) + 0.5 + 0.5 * jitter) * cell
+    return np.clip(x, x_start + 0.5 * TV_LENGTH, x_start + length - 0.5 * TV_LENGTH)
+
+
+def populate(
+    sim: SumoSim,
+    road: RoadParams,
+    density: float,
+    seed: int | np.random.Generator,
+    length: float,
+    exclude_zone: tuple[float, float] | None = None,
+    inflow: bool = True,
+) -> Traffic:
+    """Place traffic for t = 0 (call before the first step) and keep an inflow.
+
+    `exclude_zone` (x_lo, x_hi), m: no TV's body may overlap this stretch in any
+    lane at t = 0 (keep it free around the SV). Returns the `Traffic`, already
+    registered as a step hook of `sim`.
+    """
+    if density < 0 or not np.isfinite(density):
+        raise InputError("traffic", "density_veh_per_km_lane", density, ">= 0 veh/km/lane")
+    if length <= 0 or length > sim.highway.length:
+        raise InputError(
+            "traffic", "length_m", length, f"0 < length <= the road's {sim.highway.length:.0f} m"
+        )
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    traffic = Traffic(density=density, length=length, rng=rng, inflow=inflow)
+    if density == 0:
+        return traffic
+    for lane in range(road.n_lanes):
+        xs = placement(rng, density, sim.highway.x_start, length)
+        if exclude_zone is not None:
+            lo, hi = exclude_zone
+            xs = xs[(xs + 0.5 * TV_LENGTH < lo) | (xs - 0.5 * TV_LENGTH > hi)]
+        ids = []
+        for x in xs[::-1]:  # front to back: each one is inserted behind its leader
+            vid = traffic.new_id()
+            q = traffic.quantile()
+            sim.add_traffic(vid, lane, float(x), q)
+            ids.append(vid)
+        traffic.placed[lane] = ids
+        if ids:
+            traffic._last[lane] = ids[-1]  # the rearmost: the inflow follows it
+            traffic._next_gap[lane] = traffic.spacing()
+        else:
+            traffic._last[lane] = ""
+            traffic._next_gap[lane] = 0.0
+    sim.add_hook(traffic)
+    return traffic
