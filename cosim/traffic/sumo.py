@@ -149,8 +149,8 @@ class _Controlled:
     inserted: bool = False  # SUMO has it on the network (it inserts it in the next step)
 
 
-def _import_api(gui: bool) -> ModuleType:
-    if gui:
+def _import_api(use_traci: bool) -> ModuleType:
+    if use_traci:
         import traci  # sumo-gui needs the socket client; libsumo has no GUI
 
         return traci
@@ -166,6 +166,9 @@ class SumoSim:
     lateral speed for that long); `sublane` uses SUMO's sublane model instead
     (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci.
     `speed_bands` (m/s per lane) set each TV's desired speed in the lane it is in.
+    `traci` runs the headless binary through traci (what `gui` does, minus the
+    window). `strict`: a controlled vehicle leaving the network raises
+    SimulationError (else it is only recorded in `events`).
     """
 
     def __init__(
@@ -181,6 +184,7 @@ class SumoSim:
         speed_bands: tuple[tuple[float, float], ...] | None = None,
         lateral_resolution: float = 0.8,
         strict: bool = True,
+        traci: bool = False,
     ) -> None:
         if step <= 0:
             raise InputError("SumoSim", "step", step, "a positive step length in s")
@@ -192,6 +196,7 @@ class SumoSim:
         self.lanechange_duration = float(lanechange_duration)
         self.sublane = bool(sublane)
         self.gui = bool(gui)
+        self.use_traci = bool(traci) or self.gui  # the GUI is only reachable through traci
         self.extra_args = tuple(extra_args)
         self.lateral_resolution = float(lateral_resolution)
         self.strict = bool(strict)
@@ -254,7 +259,7 @@ class SumoSim:
         if _active is not None and _active is not self and _active._api is not None:
             raise SimulationError(0.0, "another SUMO simulation is running in this process")
         self._tmp = tempfile.TemporaryDirectory(prefix="cosim-sumo-")
-        self._api = _import_api(self.gui)
+        self._api = _import_api(self.use_traci)
         self._api.start(self.command())
         _active = self
         self._api.route.add(ROUTE_ID, [self.highway.edge_id])

@@ -3,11 +3,29 @@
 Assumption S1 of the paper: every TV within range publishes its state, its
 lane-change intention and, while changing lanes, its reference trajectory. The
 planner's TV prediction (categories C1/C2/C3) reads only these messages.
+
+`V2VChannel` carries them: a range around the SV, a fixed latency, independent
+loss of each message (seeded RNG), and a perception-only mode (the paper's
+Remark 2 without V2V: noisy measured state, no intention, no trajectory).
+A TV changing lanes under SUMO's `--lanechange.duration` moves sideways at a
+constant speed W/D; `lateral_motion` turns what is measured (lateral position
+and speed) back into the `LateralMotion` it would broadcast.
 """
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from cosim.errors import InputError
+from cosim.params import RoadParams
+
+if TYPE_CHECKING:
+    from cosim.traffic.sumo import TrafficSnapshot
 
 
 @dataclass(frozen=True)
@@ -28,6 +46,29 @@ class LateralMotion:
     width: float  # m, signed lateral displacement (+ to the left)
     profile: str = "quintic"  # "quintic" | "linear"
 
+    def position(self, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """m, global (x, y) of the TV's centre at absolute time(s) t.
+
+        Before t0 the TV is taken at (x0, y0) moving at vx0; after t0 + tau it
+        keeps vxf in the target lane. "quintic": eq. 2 and eq. 4; "linear":
+        constant lateral speed width/tau, longitudinal speed vx0.
+        """
+        t = np.asarray(t, dtype=float)
+        dt = t - self.t0
+        s = np.clip(dt / self.tau, 0.0, 1.0)
+        if self.profile == "linear":
+            return self.x0 + self.vx0 * dt, self.y0 + self.width * s
+        if self.profile != "quintic":
+            raise ValueError(f"unknown LateralMotion profile {self.profile!r}")
+        tc = np.clip(dt, 0.0, self.tau)
+        dv = self.vx0 - self.vxf
+        x_in = dv / (2.0 * self.tau**3) * tc**4 - dv / self.tau**2 * tc**3 + self.vx0 * tc  # eq. 2
+        x = np.where(
+            dt < 0.0, self.vx0 * dt, x_in + self.vxf * np.maximum(dt - self.tau, 0.0)
+        )
+        y = self.width * (6.0 * s**5 - 15.0 * s**4 + 10.0 * s**3)  # eq. 4
+        return self.x0 + x, self.y0 + y
+
 
 @dataclass(frozen=True)
 class V2VMessage:
@@ -46,3 +87,204 @@ class V2VMessage:
     width: float  # m
     intention: int  # -1 wants to change right, 0 none, +1 wants to change left (blinker)
     motion: LateralMotion | None = None  # set while the TV is changing lanes (C3)
+
+
+LATERAL_SPEED_EPS = 1e-6  # m/s, below this a TV is not moving sideways
+
+
+def lateral_motion(
+    t: float,
+    x: float,
+    y: float,
+    heading: float,
+    speed: float,
+    lateral_speed: float,
+    length: float,
+    road: RoadParams,
+) -> LateralMotion | None:
+    """The linear lane change a TV is in, reconstructed from one measurement.
+
+    SUMO's `--lanechange.duration` moves the front bumper sideways at a constant
+    speed from the origin lane's centre; the origin lane is the one whose centre
+    the front has left behind (by at most a lane width). The front's line gives
+    the start, the centre follows it L/(2|v|) later; tau = W / |vy|.
+    """
+    if abs(lateral_speed) < LATERAL_SPEED_EPS:
+        return None
+    sign = 1.0 if lateral_speed > 0 else -1.0
+    y_front = y + 0.5 * length * math.sin(heading)
+    u = (y_front - road.y_right) / road.lane_width - 0.5  # lane coordinate of the front
+    # the front leaves the origin centre in the first step and sits exactly on the
+    # target centre in the last one (SUMO still reports the lateral speed then)
+    origin = math.ceil(u - 1e-6) - 1 if sign > 0 else math.floor(u + 1e-6) + 1
+    y0 = road.lane_center(origin)
+    vx = speed  # SUMO's speed is along the lane; the sideways motion comes on top
+    # the centre trails the front by L/2 sin(h), h = atan2(vy, vx) once the body has
+    # turned (SUMO turns it within a few steps): the centre's line is the front's,
+    # L / (2 |v|) later; from the front this holds from the first step on
+    t0 = t - (y_front - y0) / lateral_speed + 0.5 * length / math.hypot(vx, lateral_speed)
+    return LateralMotion(
+        t0=t0,
+        tau=road.lane_width / abs(lateral_speed),
+        x0=x - vx * (t - t0),
+        y0=y0,
+        vx0=vx,
+        vxf=vx,
+        width=sign * road.lane_width,
+        profile="linear",
+    )
+
+
+def messages(snapshot: TrafficSnapshot, road: RoadParams) -> list[V2VMessage]:
+    """What every vehicle of `snapshot` broadcasts (S1): state, blinker, lane change."""
+    intention = snapshot.intention
+    out = []
+    for i, vid in enumerate(snapshot.ids):
+        motion = lateral_motion(
+            snapshot.time,
+            float(snapshot.x[i]),
+            float(snapshot.y[i]),
+            float(snapshot.heading[i]),
+            float(snapshot.speed[i]),
+            float(snapshot.lateral_speed[i]),
+            float(snapshot.length[i]),
+            road,
+        )
+        out.append(
+            V2VMessage(
+                vehicle_id=vid,
+                t=snapshot.time,
+                x=float(snapshot.x[i]),
+                y=float(snapshot.y[i]),
+                heading=float(snapshot.heading[i]),
+                speed=float(snapshot.speed[i]),
+                accel=float(snapshot.accel[i]),
+                lane=int(snapshot.lane[i]),
+                lateral_speed=float(snapshot.lateral_speed[i]),
+                length=float(snapshot.length[i]),
+                width=float(snapshot.width[i]),
+                intention=int(intention[i]),
+                motion=motion,
+            )
+        )
+    return out
+
+
+@dataclass(frozen=True)
+class PerceptionNoise:
+    """Standard deviations of what on-board sensors measure (perception-only mode)."""
+
+    position: float = 0.2  # m, x and y of the centre
+    heading: float = 0.01  # rad
+    speed: float = 0.2  # m/s
+    accel: float = 0.3  # m/s^2
+    lateral_speed: float = 0.1  # m/s
+
+
+MODES = ("v2v", "perception")
+
+
+class V2VChannel:
+    """Messages from the TVs within `range` of the SV, `latency` late, each lost with `loss`.
+
+    `exchange(snapshot, sv_x, sv_y)` once per step: the TVs publish, and the
+    SV's current view comes back: the newest message it has received from each
+    TV, no older than `max_age`. Mode "perception": the SV measures instead
+    (same range and latency; noisy state, no intention, no lane-change motion).
+    """
+
+    def __init__(
+        self,
+        road: RoadParams,
+        range: float = 300.0,  # m, the scenario's own name for it
+        latency: float = 0.0,
+        loss: float = 0.0,
+        mode: str = "v2v",
+        seed: int = 0,
+        max_age: float = 1.0,
+        noise: PerceptionNoise | None = None,
+    ) -> None:
+        if range < 0:
+            raise InputError("v2v", "range_m", range, ">= 0 m")
+        if latency < 0:
+            raise InputError("v2v", "latency_s", latency, ">= 0 s")
+        if not 0.0 <= loss <= 1.0:
+            raise InputError("v2v", "loss", loss, "a probability in [0, 1]")
+        if mode not in MODES:
+            raise InputError("v2v", "mode", mode, " | ".join(MODES))
+        self.road = road
+        self.range = float(range)
+        self.latency = float(latency)
+        self.loss = float(loss)
+        self.mode = mode
+        self.max_age = float(max_age)
+        self.noise = noise or PerceptionNoise()
+        self.rng = np.random.default_rng(seed)
+        self._queue: deque[tuple[float, V2VMessage]] = deque()  # (arrival time, message)
+        self._latest: dict[str, V2VMessage] = {}
+        self.sent = 0  # messages published
+        self.lost = 0  # messages dropped by the channel
+
+    @classmethod
+    def from_spec(cls, spec: object, road: RoadParams, seed: int) -> V2VChannel:
+        """From a scenario's V2VSpec (range, latency, loss, mode)."""
+        return cls(
+            road,
+            range=spec.range,  # type: ignore[attr-defined]
+            latency=spec.latency,  # type: ignore[attr-defined]
+            loss=spec.loss,  # type: ignore[attr-defined]
+            mode=spec.mode,  # type: ignore[attr-defined]
+            seed=seed,
+        )
+
+    def publish(self, snapshot: TrafficSnapshot, sv_x: float, sv_y: float) -> None:
+        """The TVs of `snapshot` within range send (or are measured) now."""
+        near = np.hypot(snapshot.x - sv_x, snapshot.y - sv_y) <= self.range
+        snap = snapshot.select(near)
+        if len(snap) == 0:
+            return
+        kept = self.rng.random(len(snap)) >= self.loss  # drawn for every message: reproducible
+        self.sent += len(snap)
+        self.lost += int(np.sum(~kept))
+        snap = snap.select(kept)
+        measured = self.mode == "perception"
+        batch = self._measure(snap) if measured else messages(snap, self.road)
+        arrival = snapshot.time + self.latency
+        self._queue.extend((arrival, m) for m in batch)
+
+    def _measure(self, snap: TrafficSnapshot) -> list[V2VMessage]:
+        n, nz = len(snap), self.noise
+        r = self.rng.standard_normal((6, n))
+        return [
+            V2VMessage(
+                vehicle_id=vid,
+                t=snap.time,
+                x=float(snap.x[i] + nz.position * r[0, i]),
+                y=float(snap.y[i] + nz.position * r[1, i]),
+                heading=float(snap.heading[i] + nz.heading * r[2, i]),
+                speed=float(snap.speed[i] + nz.speed * r[3, i]),
+                accel=float(snap.accel[i] + nz.accel * r[4, i]),
+                lane=self.road.lane_of(float(snap.y[i] + nz.position * r[1, i])),
+                lateral_speed=float(snap.lateral_speed[i] + nz.lateral_speed * r[5, i]),
+                length=float(snap.length[i]),
+                width=float(snap.width[i]),
+                intention=0,
+                motion=None,
+            )
+            for i, vid in enumerate(snap.ids)
+        ]
+
+    def receive(self, t: float) -> list[V2VMessage]:
+        """The SV's view at time t: newest delivered message per TV, at most max_age old."""
+        while self._queue and self._queue[0][0] <= t + 1e-9:
+            _, msg = self._queue.popleft()
+            self._latest[msg.vehicle_id] = msg
+        stale = [vid for vid, m in self._latest.items() if t - m.t > self.max_age + 1e-9]
+        for vid in stale:
+            del self._latest[vid]
+        return list(self._latest.values())
+
+    def exchange(self, snapshot: TrafficSnapshot, sv_x: float, sv_y: float) -> list[V2VMessage]:
+        """publish + receive at the snapshot's time (one call per step)."""
+        self.publish(snapshot, sv_x, sv_y)
+        return self.receive(snapshot.time)
