@@ -229,7 +229,7 @@ def _parse_bands(source: str, key: str, value: Any) -> tuple[tuple[float, float]
 
 
 def _parse_network(source: str, key: str, value: Any) -> str:
-    if not isinstance(value, str) or not value.strip() or "\x00" in value:
+    if not isinstance(value, str) or not value.strip() or "\x00" in value or len(value) > 4096:
         raise InputError(source, key, value, "the path of a SUMO .net.xml file")
     return value
 
@@ -397,17 +397,25 @@ def project_root() -> Path:
     return Path.cwd()
 
 
+def _exists(p: Path, want_file: bool = False) -> bool:
+    """Path.exists / is_file that say False for names the OS refuses (too long, ...)."""
+    try:
+        return p.is_file() if want_file else p.exists()
+    except (OSError, ValueError):
+        return False
+
+
 def _resolve(base_dir: Path, name: str) -> Path:
     """A path from a scenario file: absolute, else relative to the file's directory,
     else relative to the project root."""
     p = Path(name).expanduser()
     if p.is_absolute():
         return p
-    first = (base_dir / p).resolve()
-    if first.exists():
-        return first
-    second = (project_root() / p).resolve()
-    return second if second.exists() else first
+    first = base_dir / p
+    if _exists(first):
+        return first.resolve()
+    second = project_root() / p
+    return second.resolve() if _exists(second) else first
 
 
 @dataclass(frozen=True)
@@ -419,7 +427,7 @@ class _NetInfo:
 
 def _read_network(source: str, key: str, path: Path) -> _NetInfo:
     """Check that `path` is a SUMO network and read what validation needs."""
-    if not path.is_file():
+    if not _exists(path, want_file=True):
         raise InputError(source, key, str(path), "an existing SUMO .net.xml file")
     try:
         root = ET.parse(path).getroot()
@@ -455,7 +463,7 @@ def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario file; raise InputError (one line) if anything is wrong."""
     p = Path(path)
     source = str(p)
-    if not p.is_file():
+    if not _exists(p, want_file=True):
         raise InputError(source, "file", source, "an existing scenario file (.toml)")
     try:
         data = p.read_bytes()
@@ -549,6 +557,7 @@ def _tv_lane_change(values: Mapping[str, Any] | None) -> TVLaneChange | None:
 def _check_cross(src: str, s: Scenario, network_key: str) -> None:
     n = s.road.n_lanes
     lanes_allowed = f"a lane index 0..{n - 1} (road.lane_speeds_kmh has {n} lanes)"
+    net = _check_network(src, s, network_key)
 
     # Time grid.
     ratio = s.duration / s.step
@@ -676,7 +685,7 @@ def _check_cross(src: str, s: Scenario, network_key: str) -> None:
                     f"before scenario.duration_s = {s.duration:g} s",
                 )
     _check_no_overlap(src, s)
-    _check_network(src, s, network_key)
+    _check_positions(src, s, net)
 
 
 def _settled_lane(tv: TVSpec) -> int | None:
@@ -706,7 +715,17 @@ def _check_no_overlap(src: str, s: Scenario) -> None:
                 )
 
 
-def _check_network(src: str, s: Scenario, key: str) -> None:
+def _check_network(src: str, s: Scenario, key: str) -> _NetInfo:
+    """The network exists, is a SUMO net, and has the scenario's lanes (count and width)."""
+    if not _exists(s.network, want_file=True):
+        road = s.document.get("road", {})
+        written = road.get("network", DEFAULT_NETWORK) if isinstance(road, Mapping) else ""
+        looked = (
+            s.network
+            if Path(written).is_absolute()
+            else (f"{s.path.parent / written} or {project_root() / written}")
+        )
+        raise InputError(src, key, written, f"an existing SUMO .net.xml file (not found: {looked})")
     net = _read_network(src, key, s.network)
     n = s.road.n_lanes
     if n not in net.lane_counts:
@@ -724,6 +743,11 @@ def _check_network(src: str, s: Scenario, key: str) -> None:
             s.road.lane_width,
             f"the network's lane width {net.lane_widths[0]:g} m",
         )
+    return net
+
+
+def _check_positions(src: str, s: Scenario, net: _NetInfo) -> None:
+    """Every vehicle starts on the road, and the SV cannot run off its end in `duration`."""
     if net.x_range is None:
         return
     x0, x1 = net.x_range
@@ -744,7 +768,7 @@ def _check_network(src: str, s: Scenario, key: str) -> None:
     # The SV must not run off the end of the road: SUMO would silently drop it.
     lanes = {s.sv.lane} | {c.target_lane for c in s.sv.lane_changes}
     if s.sv.decision:
-        lanes = set(range(n))
+        lanes = set(range(s.road.n_lanes))
     fastest = max(
         [s.sv.speed, s.sv.desired_speed or 0.0] + [s.road.speed_bands[k][1] for k in lanes]
     )

@@ -32,6 +32,9 @@ MISSING: Any = REQUIRED  # the value shown in an error about a missing key
 
 
 def _fmt(x: float) -> str:
+    """A bound as a person writes it: 2147483647, 0.05, 1e+06."""
+    if float(x).is_integer() and abs(x) < 1e12:
+        return str(int(x))
     return f"{x:g}"
 
 

@@ -1,0 +1,419 @@
+"""Every malformed scenario or study file gets one clear line and exit status 2,
+and nothing is written.
+
+Each file in this folder breaks `base.toml` (a valid scenario) in one way; the
+table below says which key the message must name and what value it must show.
+The CLI is run in-process (`cosim.cli.main`) and, for a few cases, as a
+subprocess. Random documents and random bytes (hypothesis) never raise anything
+but InputError.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from cosim.cli import main
+from cosim.errors import InputError
+from cosim.scenario import (
+    TABLES,
+    TV_FIELDS,
+    TV_LANE_CHANGE_FIELDS,
+    load_scenario,
+    scenario_from_dict,
+)
+
+HERE = Path(__file__).resolve().parent
+BASE = HERE / "base.toml"
+
+# file -> (key the message names, the value as the message shows it)
+SCENARIO_CASES: dict[str, tuple[str, str]] = {
+    "empty.toml": ("[scenario]", "<missing>"),
+    "only_comment.toml": ("[scenario]", "<missing>"),
+    "garbage.toml": ("file", "byte 0"),
+    "not_toml.toml": ("file", "line 10"),
+    "duplicate_key.toml": ("file", "line 12"),
+    "missing_duration.toml": ("scenario.duration_s", "<missing>"),
+    "missing_sv_speed.toml": ("sv.speed_kmh", "<missing>"),
+    "missing_tv_id.toml": ("tv[1].id", "<missing>"),
+    "missing_sv_table.toml": ("[sv]", "<missing>"),
+    "table_misspelled.toml": ("sv_vehicle", "{'lane': 1"),
+    "typo_key.toml": ("sv.sped_kmh", "100.0"),
+    "typo_table.toml": ("v2w", "{'loss': 0.1}"),
+    "typo_choice.toml": ("sv.controller", "'mimmo'"),
+    "typo_envelope.toml": ("planner.envelope", "'inverse-dynamics'"),
+    "speed_in_wrong_unit_key.toml": ("sv.speed_mps", "27.8"),
+    "mu_too_high.toml": ("road.mu", "1.5"),
+    "mu_too_low.toml": ("road.mu", "0.05"),
+    "mu_nan.toml": ("road.mu", "nan"),
+    "occupant_above_one.toml": ("sv.occupant", "1.5"),
+    "loss_negative.toml": ("v2v.loss", "-0.1"),
+    "speed_is_string.toml": ("sv.speed_kmh", "'100'"),
+    "duration_is_bool.toml": ("scenario.duration_s", "True"),
+    "lane_is_bool.toml": ("sv.lane", "True"),
+    "decision_is_string.toml": ("sv.decision", "'yes'"),
+    "substeps_is_float.toml": ("scenario.substeps", "2.5"),
+    "substeps_zero.toml": ("scenario.substeps", "0"),
+    "duration_inf.toml": ("scenario.duration_s", "inf"),
+    "seed_huge.toml": ("scenario.seed", "1000000000000000000000000000000000000"),
+    "gap_huge.toml": ("tv[0].gap_m", "1e+300"),
+    "duration_negative.toml": ("scenario.duration_s", "-5.0"),
+    "step_zero.toml": ("scenario.step_s", "0.0"),
+    "duration_not_multiple_of_step.toml": ("scenario.duration_s", "10.01"),
+    "step_does_not_divide.toml": ("scenario.duration_s", "10.0"),
+    "duration_longer_than_road.toml": ("scenario.duration_s", "1000.0"),
+    "tau_max_zero.toml": ("planner.tau_max_s", "0.0"),
+    "gains_unstable.toml": ("controller.kyI", "500.0"),
+    "sv_lane_unknown.toml": ("sv.lane", "3"),
+    "tv_lane_unknown.toml": ("tv[1].lane", "5"),
+    "sv_target_not_adjacent.toml": ("sv.lane_changes[0].target_lane", "2"),
+    "sv_target_is_own_lane.toml": ("sv.lane_changes[0].target_lane", "1"),
+    "sv_second_change_not_adjacent.toml": ("sv.lane_changes[1].target_lane", "0"),
+    "sv_changes_out_of_order.toml": ("sv.lane_changes[1].at_s", "1.0"),
+    "sv_change_after_end.toml": ("sv.lane_changes[0].at_s", "10.0"),
+    "sv_speed_outside_band.toml": ("sv.speed_kmh", "130.0"),
+    "sv_position_off_road.toml": ("sv.position_m", "7000.0"),
+    "sv_is_number.toml": ("sv", "5"),
+    "lane_changes_not_list.toml": ("sv.lane_changes", "3"),
+    "tv_target_not_adjacent.toml": ("tv[0].lane_change.target_lane", "1"),
+    "tv_ids_duplicate.toml": ("tv[1].id", "'tv1'"),
+    "tv_overlaps_sv.toml": ("tv[0].gap_m", "2.0"),
+    "tv_off_road.toml": ("tv[1].gap_m", "-400.0"),
+    "tv_change_finished_before_start.toml": ("tv[0].lane_change.start_s", "-5.0"),
+    "tv_broadcast_unknown.toml": ("tv[0].lane_change.broadcast", "'everything'"),
+    "tv_length_negative.toml": ("tv[0].length_m", "-4.32"),
+    "tv_lane_change_not_table.toml": ("tv[0].lane_change", "3"),
+    "tv_not_array.toml": ("tv", "'tv1'"),
+    "network_missing.toml": ("road.network", "'no_such_dir/highway.net.xml'"),
+    "network_not_sumo.toml": ("road.network", "not_a_net.xml"),
+    "network_broken_xml.toml": ("road.network", "broken.net.xml"),
+    "network_is_number.toml": ("road.network", "42"),
+    "lane_width_not_network.toml": ("road.lane_width_m", "3.5"),
+    "lane_speeds_bad_shape.toml": ("road.lane_speeds_kmh[1]", "[110]"),
+    "lane_speeds_min_above_max.toml": ("road.lane_speeds_kmh[1]", "[110, 90]"),
+    "lane_speeds_two_lanes_vs_network.toml": ("road.network", "highway.net.xml"),
+}
+
+# A few messages must also say what is allowed (the suggestion, the range, the rule).
+ALLOWED_HINTS: dict[str, str] = {
+    "typo_key.toml": "did you mean 'speed_kmh'?",
+    "typo_table.toml": "did you mean 'v2v'?",
+    "typo_choice.toml": "did you mean 'mimo'?",
+    "mu_too_high.toml": "[0.1, 1.2]",
+    "duration_not_multiple_of_step.toml": "multiple of scenario.step_s",
+    "sv_target_not_adjacent.toml": "one lane at a time",
+    "sv_speed_outside_band.toml": "[90, 110] km/h",
+    "gains_unstable.toml": "eq. 25",
+    "network_not_sumo.toml": "root <net>",
+}
+
+
+def test_every_file_in_the_folder_has_a_case() -> None:
+    files = {p.name for p in HERE.glob("*.toml")} - {"base.toml"}
+    assert files == set(SCENARIO_CASES)
+    assert len(files) >= 30
+
+
+def test_base_is_valid() -> None:
+    """Each bad file differs from this one; it must load, or the cases prove nothing."""
+    s = load_scenario(BASE)
+    assert s.sv.lane == 1 and len(s.tvs) == 2
+
+
+def _snapshot(folder: Path) -> dict[str, tuple[int, int]]:
+    return {
+        str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns)
+        for p in sorted(folder.rglob("*"))
+        if "__pycache__" not in p.parts
+    }
+
+
+def _check_message(message: str, path: Path, key: str, value: str) -> None:
+    assert "\n" not in message.strip(), message
+    assert str(path) in message, message
+    assert f"{key} = " in message, message
+    assert value in message, message
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIO_CASES))
+def test_load_scenario_names_file_key_value(name: str) -> None:
+    path = HERE / name
+    key, value = SCENARIO_CASES[name]
+    before = _snapshot(HERE)
+    with pytest.raises(InputError) as info:
+        load_scenario(path)
+    message = str(info.value)
+    _check_message(message, path, key, value)
+    assert info.value.key == key
+    if name in ALLOWED_HINTS:
+        assert ALLOWED_HINTS[name] in message
+    assert _snapshot(HERE) == before
+
+
+def test_missing_scenario_file(tmp_path: Path) -> None:
+    path = tmp_path / "nowhere.toml"
+    with pytest.raises(InputError) as info:
+        load_scenario(path)
+    _check_message(str(info.value), path, "file", "nowhere.toml")
+
+
+def test_directory_is_not_a_scenario(tmp_path: Path) -> None:
+    with pytest.raises(InputError) as info:
+        load_scenario(tmp_path)
+    assert info.value.key == "file"
+
+
+# ------------------------------------------------------------------ through the CLI
+
+
+def _cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    status = main(argv)
+    return status, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIO_CASES))
+def test_cli_batch_rejects_bad_scenario_without_output(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`cosim batch --scenario BAD ...` loads the scenario before creating anything."""
+    out = tmp_path / "out"
+    path = HERE / name
+    status, err = _cli(
+        [
+            "batch",
+            "--scenario",
+            str(path),
+            "--densities",
+            "0",
+            "--seeds",
+            "1",
+            "--no-progress",
+            "--no-plots",
+            "-o",
+            str(out),
+        ],
+        capsys,
+    )
+    assert status == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    key, value = SCENARIO_CASES[name]
+    _check_message(lines[0], path, key, value)
+    assert not out.exists()
+
+
+def test_cli_leaves_an_existing_output_folder_untouched(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "runs.csv").write_text("run_id,ok\nabc,1\n")
+    before = _snapshot(out)
+    status, err = _cli(
+        [
+            "batch",
+            "--scenario",
+            str(HERE / "mu_too_high.toml"),
+            "--densities",
+            "0",
+            "--seeds",
+            "1",
+            "--no-progress",
+            "--no-plots",
+            "-o",
+            str(out),
+        ],
+        capsys,
+    )
+    assert status == 2 and "road.mu" in err
+    assert _snapshot(out) == before
+    assert (out / "runs.csv").read_text() == "run_id,ok\nabc,1\n"
+
+
+# Study files (`cosim batch STUDY`): the same mechanism, the same guarantees.
+STUDY_CASES: dict[str, tuple[str, str]] = {
+    "typo": (
+        '[study]\nscenario = "../base.toml"\ndensitys_veh_per_km_lane = [5]\nseeds = [1]\n',
+        "study.densitys_veh_per_km_lane",
+    ),
+    "density_negative": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5, -1]\nseeds = [1]\n',
+        "study.densities_veh_per_km_lane[1]",
+    ),
+    "mu_out_of_range": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
+        "mu = [0.5, 2.0]\n",
+        "study.mu[1]",
+    ),
+    "driver_unknown": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
+        'drivers = ["mimo", "human"]\n',
+        "study.drivers[1]",
+    ),
+    "seeds_empty": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = []\n',
+        "study.seeds",
+    ),
+    "scenario_missing": (
+        '[study]\nscenario = "nowhere.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n',
+        "study.scenario",
+    ),
+    "base_scenario_bad": (
+        '[study]\nscenario = "../mu_too_high.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n',
+        "road.mu",
+    ),
+    "duration_not_multiple": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
+        "duration_s = 7.01\n",
+        "scenario.duration_s",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(STUDY_CASES))
+def test_cli_batch_rejects_bad_study_without_output(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text, key = STUDY_CASES[name]
+    folder = tmp_path / "studies"
+    folder.mkdir()
+    # The study names its base scenario relative to itself: "../base.toml" -> this folder.
+    text = text.replace('"../', f'"{HERE}/')
+    study = folder / f"{name}.toml"
+    study.write_text(text)
+    out = tmp_path / "out"
+    status, err = _cli(["batch", str(study), "--no-progress", "--no-plots", "-o", str(out)], capsys)
+    assert status == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert f"{key} = " in lines[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("name", ["typo_key.toml", "garbage.toml"])
+def test_subprocess_exit_status_two(name: str, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cosim.cli",
+            "batch",
+            "--scenario",
+            str(HERE / name),
+            "--densities",
+            "0",
+            "--seeds",
+            "1",
+            "--no-progress",
+            "-o",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(HERE / name) in lines[0]
+    assert not out.exists()
+
+
+# ------------------------------------------------------------------ random documents
+
+_KEYS = sorted({f.key for specs in TABLES.values() for f in specs})
+_scalars = st.one_of(
+    st.booleans(),
+    st.integers(min_value=-(2**70), max_value=2**70),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=12),
+    st.sampled_from(["mimo", "twotrack", "reference", "v2v", "exact", "base.toml"]),
+)
+_values = st.recursive(
+    _scalars,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4),
+        st.dictionaries(st.sampled_from(_KEYS) | st.text(max_size=6), inner, max_size=4),
+    ),
+    max_leaves=12,
+)
+_tables = st.dictionaries(st.sampled_from(_KEYS) | st.text(max_size=8), _values, max_size=6)
+_documents = st.dictionaries(
+    st.sampled_from([*TABLES, "sv_", "roads"]), _tables | _values, max_size=6
+)
+_BASE_DOC = tomllib.loads(BASE.read_text())
+
+
+def _loads_or_input_error(call: Any) -> None:
+    try:
+        call()
+    except InputError as exc:
+        assert "\n" not in str(exc)
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_documents)
+def test_random_documents_raise_only_input_error(doc: dict[str, Any]) -> None:
+    _loads_or_input_error(lambda: scenario_from_dict(doc, path=BASE))
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.sampled_from([t for t in TABLES if t != "tv"]),
+    st.sampled_from(_KEYS),
+    _values,
+)
+def test_one_changed_key_raises_only_input_error(table: str, key: str, value: Any) -> None:
+    """Mostly-valid documents reach the cross-field rules."""
+    doc = {k: (dict(v) if isinstance(v, dict) else v) for k, v in _BASE_DOC.items()}
+    doc[table] = {**doc.get(table, {}), key: value}
+    _loads_or_input_error(lambda: scenario_from_dict(doc, path=BASE))
+
+
+_TV_KEYS = [f.key for f in TV_FIELDS] + [f.key for f in TV_LANE_CHANGE_FIELDS]
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(0, 1), st.booleans(), st.sampled_from(_TV_KEYS), _values)
+def test_tv_entries_raise_only_input_error(index: int, nested: bool, key: str, value: Any) -> None:
+    doc = {k: (dict(v) if isinstance(v, dict) else v) for k, v in _BASE_DOC.items()}
+    tvs = [dict(t) for t in doc["tv"]]
+    if nested:
+        tvs[index]["lane_change"] = {**tvs[0]["lane_change"], key: value}
+    else:
+        tvs[index][key] = value
+    doc["tv"] = tvs
+    _loads_or_input_error(lambda: scenario_from_dict(doc, path=BASE))
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.binary(max_size=600) | st.text(max_size=300).map(str.encode))
+def test_random_bytes_raise_only_input_error(data: bytes) -> None:
+    fd, name = tempfile.mkstemp(suffix=".toml")
+    path = Path(name)
+    try:
+        os.write(fd, data)
+        os.close(fd)
+        _loads_or_input_error(lambda: load_scenario(path))
+    finally:
+        path.unlink(missing_ok=True)
+
+
+def test_nan_and_inf_are_never_accepted() -> None:
+    for value in (math.nan, math.inf, -math.inf):
+        doc = {**_BASE_DOC, "road": {**_BASE_DOC["road"], "mu": value}}
+        with pytest.raises(InputError):
+            scenario_from_dict(doc, path=BASE)
