@@ -1,0 +1,128 @@
+"""Atomic output: a result file is either absent or complete, never truncated."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import matplotlib
+import pandas as pd
+import pytest
+
+from cosim.output import (
+    atomic_open,
+    atomic_path,
+    atomic_write_bytes,
+    atomic_write_csv,
+    atomic_write_json,
+    atomic_write_text,
+    make_output_dir,
+    new_run_dir,
+    stale_temp_files,
+)
+
+matplotlib.use("Agg")
+
+
+def test_text_bytes_json_round_trip(tmp_path: Path) -> None:
+    atomic_write_text(tmp_path / "a.txt", "héllo\nworld\n")
+    atomic_write_bytes(tmp_path / "b.bin", bytes(range(256)))
+    atomic_write_json(tmp_path / "c.json", {"x": 1.5, "y": [1, 2]})
+    assert (tmp_path / "a.txt").read_text(encoding="utf-8") == "héllo\nworld\n"
+    assert (tmp_path / "b.bin").read_bytes() == bytes(range(256))
+    assert (tmp_path / "c.json").read_text().startswith("{\n")
+    assert pd.read_json(tmp_path / "c.json", typ="series")["x"] == 1.5
+    assert stale_temp_files(tmp_path) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.bin", "c.json"]
+
+
+def test_csv_round_trip_and_replaces_old_file(tmp_path: Path) -> None:
+    path = tmp_path / "runs.csv"
+    path.write_text("old\n")
+    frame = pd.DataFrame({"run": ["a", "b"], "iae": [0.1, 0.25]})
+    atomic_write_csv(path, frame)
+    back = pd.read_csv(path)
+    assert list(back.columns) == ["run", "iae"]
+    assert back["iae"].tolist() == [0.1, 0.25]
+    assert stale_temp_files(tmp_path) == []
+
+
+def test_error_while_writing_keeps_the_old_file(tmp_path: Path) -> None:
+    path = tmp_path / "summary.csv"
+    path.write_text("complete,old\n")
+    with pytest.raises(RuntimeError), atomic_open(path) as fh:
+        fh.write("half a line")
+        raise RuntimeError("interrupted")
+    assert path.read_text() == "complete,old\n"
+    assert stale_temp_files(tmp_path) == []
+
+
+def test_interrupt_while_writing_leaves_no_new_file(tmp_path: Path) -> None:
+    path = tmp_path / "new.csv"
+    with pytest.raises(KeyboardInterrupt), atomic_open(path) as fh:
+        fh.write("a,b\n1,")
+        raise KeyboardInterrupt
+    assert not path.exists()
+
+
+def test_killed_process_never_leaves_a_truncated_file(tmp_path: Path) -> None:
+    """SIGKILL half way through a write: the final name does not appear at all."""
+    path = tmp_path / "trace.csv"
+    script = textwrap.dedent(
+        f"""
+        import os, signal
+        from cosim.output import atomic_open
+        with atomic_open({str(path)!r}) as fh:
+            fh.write("t,x\\n" + "0.0,1.0\\n" * 10000)
+            fh.flush()
+            os.kill(os.getpid(), signal.SIGKILL)
+        """
+    )
+    proc = subprocess.run([sys.executable, "-c", script], timeout=60)
+    assert proc.returncode == -signal.SIGKILL
+    assert not path.exists()
+    leftovers = stale_temp_files(tmp_path)
+    assert len(leftovers) == 1 and leftovers[0].stat().st_size > 0  # the evidence, hidden
+
+
+def test_figure_through_atomic_path(tmp_path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    path = tmp_path / "fig.png"
+    with atomic_path(path) as tmp:
+        assert tmp.suffix == ".png" and tmp.parent == tmp_path
+        fig.savefig(tmp)
+    plt.close(fig)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert stale_temp_files(tmp_path) == []
+
+
+def test_atomic_open_refuses_append(tmp_path: Path) -> None:
+    with pytest.raises(ValueError), atomic_open(tmp_path / "x.txt", "a"):
+        pass
+
+
+def test_make_output_dir_and_unique_run_dirs(tmp_path: Path) -> None:
+    base = make_output_dir(tmp_path / "results" / "deep")
+    assert base.is_dir()
+    a = new_run_dir(base, "case51")
+    b = new_run_dir(base, "case51")
+    assert a != b and a.is_dir() and b.is_dir()
+    assert a.name.startswith("case51-") and b.name.startswith("case51-")
+
+
+def test_temp_file_is_in_the_same_directory(tmp_path: Path) -> None:
+    """os.replace is atomic only within one file system: the temp file sits beside the target."""
+    seen: list[Path] = []
+    with atomic_path(tmp_path / "x.json") as tmp:
+        seen.append(tmp)
+        tmp.write_text("{}")
+        assert os.path.dirname(tmp) == str(tmp_path)
+    assert not seen[0].exists()
+    assert (tmp_path / "x.json").read_text() == "{}"
