@@ -1,0 +1,243 @@
+"""Scenario files: SI conversion, defaults, path resolution, overrides, export,
+and the declarative field mechanism the study files reuse."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from cosim.errors import InputError
+from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
+from cosim.scenario import (
+    OVERRIDES,
+    Scenario,
+    load_scenario,
+    project_root,
+    scenario_from_dict,
+    scenario_to_dict,
+    with_overrides,
+)
+from cosim.validation import REQUIRED, Field, validate_table
+
+BASE = Path(__file__).resolve().parent / "bad_inputs" / "base.toml"
+MINIMAL = """
+[scenario]
+duration_s = 5.0
+[sv]
+lane = 0
+position_m = 200.0
+speed_kmh = 80.0
+"""
+
+
+def _doc() -> dict[str, Any]:
+    return tomllib.loads(BASE.read_text())
+
+
+def _write(folder: Path, text: str, name: str = "s.toml") -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+def test_units_are_converted_to_si() -> None:
+    s = load_scenario(BASE)
+    assert s.sv.speed == pytest.approx(100.0 / 3.6, rel=1e-15)
+    assert s.tvs[0].speed == pytest.approx(95.0 / 3.6, rel=1e-15)
+    assert s.tvs[0].gap == 40.0 and s.tvs[1].gap == -30.0
+    assert s.sv.lane_changes[0].at == 1.0 and s.sv.lane_changes[0].target_lane == 2
+    lc = s.tvs[0].lane_change
+    assert lc is not None and (lc.start, lc.target_lane, lc.tau) == (2.0, 0, 4.0)
+    assert lc.target_speed is None and lc.broadcast == "reference"
+    assert s.road.speed_bands[1] == pytest.approx((25.0, 110.0 / 3.6))
+    assert s.n_steps == 200
+
+
+def test_defaults_come_from_the_parameter_dataclasses(tmp_path: Path) -> None:
+    s = load_scenario(_write(tmp_path, MINIMAL, "minimal_case.toml"))
+    assert s.name == "minimal_case"  # the file's stem
+    assert s.vehicle == VehicleParams()
+    assert s.gains == ControllerGains()
+    assert s.planner == PlannerConfig()
+    assert s.road == RoadParams()
+    assert (s.step, s.substeps, s.seed) == (0.05, 10, 0)
+    assert s.tvs == () and s.sv.lane_changes == ()
+    assert (s.sv.plant, s.sv.controller, s.sv.decision) == ("twotrack", "mimo", False)
+    assert s.sv.desired_speed is None
+    assert s.traffic.density == 0.0 and s.v2v.loss == 0.0
+    assert s.network == project_root() / "networks" / "highway.net.xml"
+
+
+def test_overrides_of_table1_and_gains(tmp_path: Path) -> None:
+    text = MINIMAL + "[vehicle]\nmass_kg = 1500\n[controller]\nky0 = 12.0\n"
+    s = load_scenario(_write(tmp_path, text))
+    assert s.vehicle.mass == 1500.0 and isinstance(s.vehicle.mass, float)
+    assert s.vehicle.lf == VehicleParams().lf
+    assert s.gains.ky0 == 12.0
+
+
+def test_network_relative_to_the_scenario_file_first(tmp_path: Path) -> None:
+    shutil.copy(project_root() / "networks" / "highway.net.xml", tmp_path / "highway.net.xml")
+    s = load_scenario(_write(tmp_path, MINIMAL + '[road]\nnetwork = "highway.net.xml"\n'))
+    assert s.network == tmp_path / "highway.net.xml"
+    # Not beside the file: the project root.
+    s = load_scenario(
+        _write(tmp_path, MINIMAL + '[road]\nnetwork = "networks/highway.net.xml"\n', "b.toml")
+    )
+    assert s.network == project_root() / "networks" / "highway.net.xml"
+
+
+def test_decision_scenarios_may_start_outside_the_band(tmp_path: Path) -> None:
+    text = MINIMAL.replace("speed_kmh = 80.0", "speed_kmh = 100.0")
+    with pytest.raises(InputError, match="sv.speed_kmh"):
+        load_scenario(_write(tmp_path, text))
+    s = load_scenario(_write(tmp_path, text.replace("lane = 0", "lane = 0\ndecision = true")))
+    assert s.sv.decision and s.sv.speed == pytest.approx(100 / 3.6)
+
+
+def test_tv_changing_lanes_at_t0_may_sit_beside_the_sv(tmp_path: Path) -> None:
+    """Case 5.3: TV1 in the target lane 0 m apart is fine; in the SV's own lane it is not."""
+    tv = (
+        '[[tv]]\nid = "tv1"\nlane = {lane}\ngap_m = 0.0\nspeed_kmh = 120.0\n'
+        "[tv.lane_change]\nstart_s = {start}\ntarget_lane = 1\ntau_s = 4.0\n"
+    )
+    sv = MINIMAL.replace("lane = 0", "lane = 1").replace("80.0", "105.0")
+    ok = load_scenario(_write(tmp_path, sv + tv.format(lane=2, start=0.0)))
+    assert ok.tvs[0].lane == 2
+    under_way = load_scenario(_write(tmp_path, sv + tv.format(lane=2, start=-1.5)))
+    assert under_way.tvs[0].lane_change.start == -1.5  # type: ignore[union-attr]
+    with pytest.raises(InputError, match=r"tv\[0\]\.gap_m"):
+        load_scenario(
+            _write(
+                tmp_path,
+                sv + tv.format(lane=1, start=0.0).replace("target_lane = 1", "target_lane = 2"),
+            )
+        )
+
+
+def test_duration_multiple_of_step_tolerates_rounding(tmp_path: Path) -> None:
+    text = MINIMAL.replace("duration_s = 5.0", "duration_s = 0.3\nstep_s = 0.1")
+    s = load_scenario(_write(tmp_path, text))  # 0.3 / 0.1 = 2.9999999999999996
+    assert s.n_steps == 3
+
+
+def test_with_overrides_revalidates_and_keeps_the_original() -> None:
+    s = load_scenario(BASE)
+    t = with_overrides(
+        s,
+        density=20,
+        mu=0.8,
+        seed=7,
+        occupant=0.2,
+        controller="siso",
+        plant="bicycle",
+        duration=20.0,
+        sv_speed=105 / 3.6,
+    )
+    assert t.traffic.density == 20.0 and t.road.mu == 0.8 and t.seed == 7
+    assert t.sv.occupant == 0.2 and t.sv.controller == "siso" and t.sv.plant == "bicycle"
+    assert t.duration == 20.0 and t.sv.speed == pytest.approx(105 / 3.6)
+    assert (s.traffic.density, s.road.mu, s.seed, s.duration) == (0.0, 0.6, 1, 10.0)
+    assert with_overrides(s, **{"vehicle.mass_kg": 1500}).vehicle.mass == 1500.0
+    bold = with_overrides(s, occupant=0.9)
+    assert with_overrides(bold, occupant=None).sv.occupant == 0.5  # None: back to the default
+
+
+@pytest.mark.parametrize(
+    ("changes", "key"),
+    [
+        ({"mu": 2.0}, "road.mu"),
+        ({"density": -1}, "traffic.density_veh_per_km_lane"),
+        ({"duration": 10.01}, "scenario.duration_s"),
+        ({"controller": "human"}, "sv.controller"),
+        ({"seed": True}, "scenario.seed"),
+        ({"dencity": 5}, "dencity"),
+        ({"sv.sped_kmh": 100}, "sv.sped_kmh"),
+    ],
+)
+def test_with_overrides_rejects_like_a_file(changes: dict[str, Any], key: str) -> None:
+    s = load_scenario(BASE)
+    with pytest.raises(InputError) as info:
+        with_overrides(s, **changes)
+    assert info.value.key == key
+    assert "(overrides)" in str(info.value)
+
+
+def test_unknown_override_name_gets_a_suggestion() -> None:
+    with pytest.raises(InputError, match="did you mean 'density'"):
+        with_overrides(load_scenario(BASE), dencity=5)
+    assert {"density", "seed", "occupant", "mu", "controller", "plant", "duration"} <= set(
+        OVERRIDES
+    )
+
+
+def test_scenario_to_dict_is_json_and_round_trips(tmp_path: Path) -> None:
+    s = load_scenario(BASE)
+    d = scenario_to_dict(s)
+    text = json.dumps(d, allow_nan=False)
+    assert d["sv"]["speed_kmh"] == 100.0 and d["road"]["lane_speeds_kmh"][0] == [60.0, 90.0]
+    assert d["tv"][0]["lane_change"]["tau_s"] == 4.0 and "lane_change" not in d["tv"][1]
+    back = scenario_from_dict(json.loads(text), path=s.path)
+    assert back == s
+    assert hash(back) == hash(s)
+
+
+def test_scenario_is_frozen() -> None:
+    s = load_scenario(BASE)
+    with pytest.raises(AttributeError):
+        s.duration = 3.0  # type: ignore[misc]
+    assert isinstance(s, Scenario)
+
+
+# ------------------------------------------------------------------ the field mechanism
+
+SPECS = (
+    Field("count", int, lo=1, hi=10, default=REQUIRED),
+    Field(
+        "speed_kmh",
+        float,
+        name="speed",
+        unit="km/h",
+        lo=0,
+        hi=200,
+        lo_open=True,
+        default=50 / 3.6,
+        si_divisor=3.6,
+    ),
+    Field("mode", str, choices=("fast", "slow"), default="fast"),
+    Field("verbose", bool, default=False),
+)
+
+
+def test_validate_table_fills_defaults_and_converts() -> None:
+    out = validate_table("study.toml", "grid", {"count": 3, "speed_kmh": 72}, SPECS)
+    assert out == {"count": 3, "speed": 20.0, "mode": "fast", "verbose": False}
+
+
+@pytest.mark.parametrize(
+    ("raw", "key", "fragment"),
+    [
+        ({}, "grid.count", "required: an integer in [1, 10]"),
+        ({"count": 0}, "grid.count", "[1, 10]"),
+        ({"count": 2.0}, "grid.count", "an integer"),
+        ({"count": True}, "grid.count", "an integer"),
+        ({"count": 1, "speed_kmh": 0}, "grid.speed_kmh", "(0, 200] km/h"),
+        ({"count": 1, "speed_kmh": float("nan")}, "grid.speed_kmh", "finite"),
+        ({"count": 1, "mode": "fsat"}, "grid.mode", "did you mean 'fast'"),
+        ({"count": 1, "verbose": 1}, "grid.verbose", "true or false"),
+        ({"count": 1, "speed": 3}, "grid.speed", "did you mean 'speed_kmh'"),
+        ([1, 2], "grid", "a table"),
+    ],
+)
+def test_validate_table_errors(raw: Any, key: str, fragment: str) -> None:
+    with pytest.raises(InputError) as info:
+        validate_table("study.toml", "grid", raw, SPECS)
+    assert info.value.key == key
+    message = str(info.value)
+    assert message.startswith("study.toml: ") and fragment in message
+    assert "\n" not in message
