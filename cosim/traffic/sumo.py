@@ -532,10 +532,12 @@ class SumoSim:
 
     def leader(self, vehicle_id: str, distance: float = 200.0) -> tuple[str, float] | None:
         """(id, gap in m bumper to bumper) of the leader in the vehicle's lane, or None."""
-        found = self.api.vehicle.getLeader(vehicle_id, distance)
+        vehicle = self.api.vehicle
+        found = vehicle.getLeader(vehicle_id, distance)
         if not found or not found[0]:
             return None
-        return str(found[0]), float(found[1])
+        # SUMO measures from the follower's front + its minGap: add the minGap back
+        return str(found[0]), float(found[1]) + float(vehicle.getMinGap(vehicle_id))
 
     def _length(self, vehicle_id: str) -> float:
         dims = self._dims.get(vehicle_id)
@@ -619,5 +621,8 @@ class SumoSim:
             return ""
 
     def warnings(self) -> list[str]:
-        """SUMO's warnings and errors so far (captured in a log file, not printed)."""
+        """SUMO's warnings and errors (captured in a log file, not printed).
+
+        SUMO buffers the file: the list is complete once the simulation is closed.
+        """
         return [line for line in self._read_log().splitlines() if line.strip()]

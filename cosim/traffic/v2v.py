@@ -55,19 +55,20 @@ class LateralMotion:
         """
         t = np.asarray(t, dtype=float)
         dt = t - self.t0
-        s = np.clip(dt / self.tau, 0.0, 1.0)
         if self.profile == "linear":
+            s = np.clip(dt / self.tau, 0.0, 1.0)
             return self.x0 + self.vx0 * dt, self.y0 + self.width * s
         if self.profile != "quintic":
             raise ValueError(f"unknown LateralMotion profile {self.profile!r}")
-        tc = np.clip(dt, 0.0, self.tau)
-        dv = self.vx0 - self.vxf
-        x_in = dv / (2.0 * self.tau**3) * tc**4 - dv / self.tau**2 * tc**3 + self.vx0 * tc  # eq. 2
-        x = np.where(
-            dt < 0.0, self.vx0 * dt, x_in + self.vxf * np.maximum(dt - self.tau, 0.0)
-        )
-        y = self.width * (6.0 * s**5 - 15.0 * s**4 + 10.0 * s**3)  # eq. 4
-        return self.x0 + x, self.y0 + y
+        from cosim.planning.trajectory import LaneChangeTrajectory  # planning imports v2v
+
+        ref = LaneChangeTrajectory(
+            t0=self.t0, tau=self.tau, x0=self.x0, y0=self.y0,
+            vx0=self.vx0, vxf=self.vxf, width=self.width,
+        )  # fmt: skip
+        x, y = ref.position(np.maximum(t, self.t0))
+        before = dt < 0.0
+        return np.where(before, self.x0 + self.vx0 * dt, x), np.where(before, self.y0, y)
 
 
 @dataclass(frozen=True)
