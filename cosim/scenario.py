@@ -63,6 +63,8 @@ MAX_SPEED_KMH = 250.0  # km/h, the highest speed any scenario may name
 DEFAULT_NETWORK = "networks/highway.net.xml"  # relative to the project root
 DEFAULT_STEP = 0.05  # s, SUMO step
 DEFAULT_SUBSTEPS = 10  # plant/controller substeps per SUMO step
+# s, continuous TV lane changes (SUMO_NOTES: the default instant change is a 3.5 m jump)
+DEFAULT_LANECHANGE_DURATION = 3.0
 STEP_TOLERANCE = 1e-9  # relative, "duration is a multiple of the step"
 _VEH = VehicleParams()
 _PLAN = PlannerConfig()
@@ -126,7 +128,8 @@ class TrafficSpec:
     """Random SUMO traffic around the scripted vehicles."""
 
     density: float  # veh per km per lane (0: no random traffic)
-    lanechange_duration: float  # s, SUMO --lanechange.duration (0: instant lane changes)
+    # s, SUMO --lanechange.duration (0: instant lane changes); default 3 s, 0 with sublane
+    lanechange_duration: float
     sublane: bool  # use SUMO's --lateral-resolution instead
     length: float  # m, stretch of road the traffic is placed on at start
 
@@ -351,7 +354,7 @@ TV_LANE_CHANGE_FIELDS = (
 
 TRAFFIC_FIELDS = (
     _f("density_veh_per_km_lane", "density", "veh/km/lane", 0.0, 150.0, 0.0),
-    _f("lanechange_duration_s", "lanechange_duration", "s", 0.0, 20.0, 0.0),
+    _f("lanechange_duration_s", "lanechange_duration", "s", 0.0, 20.0, None),
     Field("sublane", bool, default=False),
     _f("length_m", "length", "m", 0.0, 1e5, 1000.0, lo_open=True),
 )
@@ -539,7 +542,7 @@ def scenario_from_dict(
         planner=PlannerConfig(**tables["planner"]),
         sv=sv,
         tvs=tvs,
-        traffic=TrafficSpec(**tables["traffic"]),
+        traffic=_traffic(src, tables["traffic"]),
         v2v=V2VSpec(**tables["v2v"]),
         document=copy.deepcopy(dict(doc)),
     )
@@ -548,6 +551,21 @@ def scenario_from_dict(
 
 
 # ---------------------------------------------------------------- cross-field rules
+
+
+def _traffic(src: str, values: dict[str, Any]) -> TrafficSpec:
+    """SUMO cannot combine --lanechange.duration with the sublane model."""
+    duration = values["lanechange_duration"]
+    if values["sublane"] and duration not in (None, 0.0):
+        raise InputError(
+            src,
+            "traffic.lanechange_duration_s",
+            duration,
+            "0 or absent with traffic.sublane = true (SUMO uses one or the other)",
+        )
+    if duration is None:
+        duration = 0.0 if values["sublane"] else DEFAULT_LANECHANGE_DURATION
+    return TrafficSpec(**{**values, "lanechange_duration": duration})
 
 
 def _tv_lane_change(values: Mapping[str, Any] | None) -> TVLaneChange | None:

@@ -120,6 +120,12 @@ def test_tv_changing_lanes_at_t0_may_sit_beside_the_sv(tmp_path: Path) -> None:
         )
 
 
+def test_traffic_lane_changes_are_continuous_unless_sublane(tmp_path: Path) -> None:
+    assert load_scenario(_write(tmp_path, MINIMAL)).traffic.lanechange_duration == 3.0
+    s = load_scenario(_write(tmp_path, MINIMAL + "[traffic]\nsublane = true\n"))
+    assert s.traffic.sublane and s.traffic.lanechange_duration == 0.0
+
+
 def test_duration_multiple_of_step_tolerates_rounding(tmp_path: Path) -> None:
     text = MINIMAL.replace("duration_s = 5.0", "duration_s = 0.3\nstep_s = 0.1")
     s = load_scenario(_write(tmp_path, text))  # 0.3 / 0.1 = 2.9999999999999996
