@@ -1,0 +1,87 @@
+"""Figures of one co-simulation run: global trajectories of the SV and the TVs
+near it (like the paper's Fig. 16), with the lane lines and where each lane
+change started and ended."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+from numpy.typing import NDArray
+
+from cosim.params import RoadParams
+
+Array = NDArray[np.float64]
+
+
+def global_trajectories(
+    path: Path,
+    t: Array,
+    sv_x: Array,
+    sv_y: Array,
+    tv_tracks: Mapping[str, tuple[Array, Array, Array]],
+    road: RoadParams,
+    *,
+    highlight: Sequence[str] = (),
+    lane_changes: Sequence[tuple[float, float]] = (),
+    title: str = "",
+) -> Path:
+    """Write a PNG of x-y paths: the SV in colour, TVs in grey (those named in
+    `highlight`, e.g. the scenario's scripted TVs, in colour), dots every 1 s.
+
+    tv_tracks: id -> (t, x, y) arrays while the TV was near the SV.
+    lane_changes: (start, end) simulation times of the SV's lane changes.
+    """
+    fig, ax = plt.subplots(figsize=(11, 3.6))
+    x_lo = float(np.nanmin(sv_x))
+    x_hi = float(np.nanmax(sv_x))
+    for _tid, (_tt, xx, _yy) in tv_tracks.items():
+        if xx.size:
+            x_lo, x_hi = min(x_lo, float(np.nanmin(xx))), max(x_hi, float(np.nanmax(xx)))
+    pad = 0.02 * (x_hi - x_lo + 1.0)
+    for k in range(road.n_lanes + 1):
+        y_line = road.y_right + k * road.lane_width
+        style = "-" if k in (0, road.n_lanes) else "--"
+        ax.axhline(y_line, color="0.5", lw=0.8, ls=style, zorder=0)
+    for k in range(road.n_lanes):
+        ax.text(x_lo - 0.8 * pad, road.lane_center(k) + 0.3 * road.lane_width, f"lane {k}",
+                fontsize=7, va="center", ha="left", color="0.4")
+    colour = 1
+    for tid, (tt, xx, yy) in sorted(tv_tracks.items()):
+        if tid in highlight:
+            c = f"C{colour}"
+            colour += 1
+            ax.plot(xx, yy, color=c, lw=1.5, label=tid)
+            every = _every_second(tt)
+            ax.plot(xx[every], yy[every], "o", color=c, ms=2.5)
+        else:
+            ax.plot(xx, yy, color="0.65", lw=0.7)
+    ax.plot(sv_x, sv_y, color="C0", lw=2.0, label="SV")
+    every = _every_second(t)
+    ax.plot(sv_x[every], sv_y[every], "o", color="C0", ms=3)
+    for start, end in lane_changes:
+        for when, marker in ((start, ">"), (end, "|")):
+            i = int(np.searchsorted(t, when))
+            if 0 <= i < t.size:
+                ax.plot(sv_x[i], sv_y[i], marker, color="k", ms=8)
+    ax.set_xlim(x_lo - pad, x_hi + pad)
+    ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
+    ax.set_xlabel("global x (m)")
+    ax.set_ylabel("global y (m)")
+    ax.set_title(title or "global trajectories (dots every 1 s; > start, | end of lane change)")
+    ax.legend(loc="upper left", fontsize=8, ncol=4)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _every_second(t: Array) -> Array:
+    """Indices of the samples closest to whole seconds."""
+    if t.size == 0:
+        return np.zeros(0, dtype=int)
+    marks = np.arange(np.ceil(t[0]), t[-1] + 1e-9, 1.0)
+    return np.clip(np.searchsorted(t, marks - 1e-9), 0, t.size - 1)

@@ -1,0 +1,805 @@
+"""The co-simulation loop: our SV (planner + controller + plant) in SUMO traffic.
+
+One step of `dt = scenario.step` (DESIGN.md "One co-simulation step"); at the
+top of step k SUMO and the plant are both at t_k = k dt:
+
+1. snapshot of every vehicle SUMO has (one pass, numpy arrays),
+2. record row k: SV state, reference, errors, inputs, our exact overlap check
+   of the SV against every TV, SUMO's collisions of the last step, gap / TTC,
+3. V2V: messages of the TVs near the SV (scripted TVs: `scripted.message`),
+   through the channel (range, latency, loss),
+4. plan when a lane change is wanted (scripted request due, or the decision
+   rule) and the SV is not already changing lanes; no collision-free tau:
+   keep the lane, follow the leader, ask again `retry_interval` later,
+5. control + plant: `scenario.substeps` substeps from t_k to t_k+1 tracking the
+   plan, or, keeping the lane, a straight reference on the lane centre whose
+   speed follows the IDM law (cosim.decision),
+6. write back: SV and scripted TVs to SUMO with moveToXY (through the adapter),
+7. `simulationStep()`: SUMO moves its own vehicles to t_k+1.
+
+Controller "sumo" is the baseline: the SV is an ordinary SUMO vehicle of the
+SV's size; scripted requests become `changeLane` calls, the decision rule is
+SUMO's own lane-change model; the same trace columns (those SUMO has) and the
+same metrics.
+
+`run_scenario` runs one scenario and writes trace.csv, plans.csv,
+metrics.csv, timing.csv and the figures (all atomically, all but timing.csv
+byte-identical between two runs of the same scenario and seed).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cosim import metrics as mx
+from cosim.decision import DecisionConfig, LaneChangeTimer, decide
+from cosim.params import RoadParams
+from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.scenario import Scenario
+from cosim.traffic.sumo import SumoSim, TrafficSnapshot
+
+Array = NDArray[np.float64]
+
+SV_ID = "sv"
+NEAR_RANGE = 150.0  # m, TVs within this x distance of the SV are recorded for the figures
+SETTLE_TOL = 0.1  # m, |y - target lane centre| below which a lane change counts as done
+FOLLOW_HORIZON = 1.0  # s, horizon of the straight lane-keeping reference
+CSV_FLOAT = "%.9g"  # float format of every CSV (fixed: byte-identical reruns)
+
+# ----------------------------------------------------------------------------- columns
+
+TRACE_COLUMNS: dict[str, str] = {
+    "t_s": "simulation time (s)",
+    "x_m": "SV centre (= CG) global x (m)",
+    "y_m": "SV centre global y (m)",
+    "psi_deg": "SV heading, 0 along +x, counter-clockwise positive (deg)",
+    "vx_mps": "SV body longitudinal speed Vx (m/s)",
+    "vy_mps": "SV body lateral speed Vy (m/s)",
+    "yaw_rate_degps": "SV yaw rate Omega_z (deg/s)",
+    "ax_mps2": "SV body longitudinal acceleration (m/s^2)",
+    "ay_mps2": "SV body lateral acceleration (m/s^2)",
+    "x_ref_m": "reference point global x (m); NaN for the SUMO baseline",
+    "y_ref_m": "reference point global y (m)",
+    "psi_ref_deg": "reference path heading (deg)",
+    "vx_ref_mps": "reference speed Vx* (eq. 14) (m/s)",
+    "curvature_ref_1pm": "reference path curvature KL (eq. 15) (1/m)",
+    "ex_mps": "speed error ex = Vx - Vx* (eq. 28) (m/s)",
+    "ye_m": "lateral offset from the reference path ye (eq. 16) (m)",
+    "phie_deg": "heading error phi_e (eq. 16) (deg)",
+    "delta_f_deg": "front road-wheel steering angle delta_f (deg)",
+    "dmz_nm": "yaw moment demand dMz (eq. 22) (N m)",
+    "fa_n": "total longitudinal force demand Fa (eq. 28) (N)",
+    "fx_fl_n": "front-left wheel longitudinal force (eq. 30) (N)",
+    "fx_fr_n": "front-right wheel longitudinal force (N)",
+    "fx_rl_n": "rear-left wheel longitudinal force (N)",
+    "fx_rr_n": "rear-right wheel longitudinal force (N)",
+    "fx_total_n": "sum of the four wheel longitudinal forces (N)",
+    "lane": "lane the SV's centre is in, from its y (SUMO index)",
+    "sumo_lane": "SV's lane index as SUMO has it (-1 off the network)",
+    "target_lane": "lane the SV is heading for (= lane when keeping its lane)",
+    "changing": "1 while a planned lane change is under way, else 0",
+    "leader_gap_m": "bumper-to-bumper gap to the leader in the SV's lane (m; inf: none)",
+    "idm_accel_mps2": "car-following (IDM) acceleration when keeping the lane (m/s^2)",
+    "gap_min_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
+    "ttc_min_s": "smallest along-lane time-to-collision to such a TV (s; inf: none)",
+    "collisions": "number of TVs whose rectangle overlaps the SV's (our exact check)",
+    "sumo_collisions": "number of collisions involving the SV SUMO reported this step",
+    "n_tvs": "number of TVs within 150 m (x) of the SV",
+}
+COLUMN = {name: i for i, name in enumerate(TRACE_COLUMNS)}
+
+PLAN_COLUMNS: dict[str, str] = {
+    "t_s": "simulation time of the planning request (s)",
+    "trigger": "scripted | decision | retry",
+    "origin_lane": "lane the SV is in (SUMO index)",
+    "target_lane": "lane requested (SUMO index)",
+    "vx0_mps": "SV speed at the request (m/s)",
+    "vxf_mps": "target speed at the end of the lane change (band rule) (m/s)",
+    "n_candidates": "number of tau values on the grid",
+    "tau_min_stable_s": "smallest stable tau (handling envelope) (s)",
+    "stable_set_s": "stable tau set as intervals a-b;c-d (s)",
+    "collision_free_set_s": "collision-free tau set (intervals) (s)",
+    "tau_opt_s": "tau_opt of eq. 13 over the collision-free set (s)",
+    "tau_s": "tau chosen (collision-free tau nearest tau_opt) (s; NaN: no plan)",
+    "ok": "1: a plan was adopted, 0: no collision-free tau (the SV keeps its lane)",
+    "rejected_unstable": "candidates rejected by the handling envelope",
+    "rejected_collision": "candidates rejected for a collision",
+    "rejections": "collisions per TV id, id:count;id:count",
+}
+
+METRIC_DOCS: dict[str, str] = {
+    "scenario": "scenario name",
+    "seed": "random seed (SUMO and traffic)",
+    "controller": "mimo | siso | sumo (SUMO-native baseline)",
+    "plant": "twotrack | bicycle (none for the baseline)",
+    "duration_s": "simulated time (s)",
+    "steps": "number of SUMO steps",
+    "lane_change_requests": "lane changes requested (scripted or by the decision rule)",
+    "plans": "planner calls",
+    "plans_failed": "planner calls that found no collision-free tau",
+    "lane_changes": "lane changes completed (ended within 0.1 m of the target lane centre)",
+    "lane_change_completed": "1 if at least one lane change was requested and all started ones "
+    "completed, else 0",
+    "lane_change_duration_s": "mean duration of the completed lane changes, start to settled "
+    "within 0.1 m of the target lane centre (s; NaN: none)",
+    "lane_change_duration_max_s": "longest such duration (s; NaN: none)",
+    "tau_first_s": "tau of the first adopted plan (s; NaN: none)",
+    "collisions": "collision events by our exact overlap check (SV against every TV; one "
+    "contact counts once)",
+    "collision": "1 if collisions > 0, else 0",
+    "sumo_collisions": "collision events involving the SV reported by SUMO (cross-check)",
+    "min_gap_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
+    "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
+    "max_abs_lat_accel_mps2": "largest |body lateral acceleration| (m/s^2)",
+    "max_abs_long_accel_mps2": "largest |body longitudinal acceleration| (m/s^2)",
+    "max_jerk_mps3": "largest |d(ax, ay)/dt| between steps (m/s^3)",
+    "iae_vx_mps_s": "IAE of ex = Vx - Vx* over the run (Table 2 column Vx) ((m/s) s)",
+    "iae_ye_m_s": "IAE of ye (Table 2 column ye) (m s)",
+    "iae_phie_deg_s": "IAE of phi_e (Table 2 column phi_e) (deg s)",
+    "iae_deltaf_deg_s": "integral of |delta_f| (Table 2 column delta_f) (deg s)",
+    "iae_fx_kn_s": "integral of |sum of wheel Fx| (Table 2 column Fx) (kN s)",
+    "final_lane": "SV's lane at the end (SUMO index, from y)",
+    "final_offset_m": "SV's y minus its lane centre at the end (m)",
+    "mean_speed_mps": "SV's mean speed (m/s)",
+    "sumo_events": "SUMO teleports / lost vehicles during the run",
+}
+
+TIMING_DOCS: dict[str, str] = {
+    "scenario": "scenario name",
+    "wall_time_s": "wall time of the whole run, SUMO start to close (s)",
+    "wall_sumo_s": "wall time in SUMO stepping and reading (s)",
+    "wall_planning_s": "wall time in the planner (s)",
+    "wall_control_s": "wall time in controller + plant (s)",
+    "wall_realtime_factor": "simulated time / wall time (-)",
+}
+
+
+def _fmt_intervals(spans: list[tuple[float, float]]) -> str:
+    return ";".join(f"{a:.2f}-{b:.2f}" for a, b in spans)
+
+
+def plan_row(plan: Any, trigger: str, vx0: float) -> dict[str, Any]:
+    """One plans.csv row of a planner's Plan (see PLAN_COLUMNS)."""
+    per_tv: dict[str, int] = {}
+    n_unstable = 0
+    for rej in plan.rejections:
+        if rej.reason == "unstable":
+            n_unstable += 1
+        else:
+            key = rej.vehicle_id or "?"
+            per_tv[key] = per_tv.get(key, 0) + 1
+    return {
+        "t_s": plan.t,
+        "trigger": trigger,
+        "origin_lane": plan.origin_lane,
+        "target_lane": plan.target_lane,
+        "vx0_mps": vx0,
+        "vxf_mps": plan.vxf,
+        "n_candidates": int(plan.taus.size),
+        "tau_min_stable_s": plan.tau_min,
+        "stable_set_s": _fmt_intervals(plan.stable_intervals),
+        "collision_free_set_s": _fmt_intervals(plan.collision_free_intervals),
+        "tau_opt_s": plan.tau_opt,
+        "tau_s": math.nan if plan.tau is None else float(plan.tau),
+        "ok": int(plan.tau is not None),
+        "rejected_unstable": n_unstable,
+        "rejected_collision": sum(per_tv.values()),
+        "rejections": ";".join(f"{k}:{v}" for k, v in sorted(per_tv.items())),
+    }
+
+
+# ----------------------------------------------------------------------------- records
+
+
+@dataclass
+class LaneChange:
+    """One adopted lane-change plan and how it went."""
+
+    t0: float  # s, start
+    tau: float  # s, planned duration
+    origin_lane: int
+    target_lane: int
+    y_target: float  # m, target lane centre
+    trajectory: LaneChangeTrajectory
+    plan: Any  # the planner's Plan (for the tau-set figure)
+    t_next: float = math.inf  # s, when the next manoeuvre started (window end)
+
+
+@dataclass
+class RunResult:
+    """Everything one run produced (what run_scenario writes)."""
+
+    scenario: Scenario
+    road: RoadParams
+    trace: dict[str, Array]
+    plans: list[dict[str, Any]]
+    lane_changes: list[LaneChange]
+    tv_tracks: dict[str, tuple[Array, Array, Array]]
+    metrics: dict[str, Any]
+    timing: dict[str, Any]
+    events: list[str] = field(default_factory=list)
+
+
+class _Tracks:
+    """TV positions near the SV, appended per step as arrays (for Fig. 16)."""
+
+    def __init__(self) -> None:
+        self.chunks: list[tuple[float, tuple[str, ...], Array, Array]] = []
+
+    def add(self, t: float, snap: TrafficSnapshot, mask: NDArray[np.bool_]) -> None:
+        if np.any(mask):
+            ids = tuple(i for i, keep in zip(snap.ids, mask, strict=True) if keep)
+            self.chunks.append((t, ids, snap.x[mask].copy(), snap.y[mask].copy()))
+
+    def result(self) -> dict[str, tuple[Array, Array, Array]]:
+        rows: dict[str, list[tuple[float, float, float]]] = {}
+        for t, ids, xs, ys in self.chunks:
+            for vid, x, y in zip(ids, xs, ys, strict=True):
+                rows.setdefault(vid, []).append((t, x, y))
+        out = {}
+        for vid, r in rows.items():
+            a = np.asarray(r)
+            out[vid] = (a[:, 0], a[:, 1], a[:, 2])
+        return out
+
+
+def lane_keeping_reference(
+    t: float, x: float, y_centre: float, speed: float, accel: float
+) -> LaneChangeTrajectory:
+    """A straight reference along a lane centre whose speed starts at `speed` and
+    changes at `accel` (m/s^2) over the next FOLLOW_HORIZON (a 'lane change' of width 0)."""
+    return LaneChangeTrajectory(
+        t0=t, tau=FOLLOW_HORIZON, x0=x, y0=y_centre, vx0=speed,
+        vxf=max(speed + accel * FOLLOW_HORIZON, 0.0), width=0.0, ax0=accel,
+    )
+
+
+ProgressFn = Callable[[int], None]
+
+
+# ----------------------------------------------------------------------------- the loop
+
+
+class CoSimulation:
+    """One run of a scenario: SUMO (through SumoSim) + planner + controller + plant."""
+
+    def __init__(self, scenario: Scenario, *, gui: bool = False,
+                 decision: DecisionConfig | None = None) -> None:
+        self.sc = scenario
+        self.gui = gui
+        self.cfg = decision or DecisionConfig()
+        self.baseline = scenario.sv.controller == "sumo"
+        self.dt = scenario.step
+        self.n_steps = scenario.n_steps
+        self.timer = LaneChangeTimer(self.cfg)
+        self.pending = list(scenario.sv.lane_changes)  # scripted requests not yet served
+        self.lane_changes: list[LaneChange] = []
+        self.active: LaneChange | None = None
+        self.plans: list[dict[str, Any]] = []
+        self.requests = 0
+        self.wall = {"sumo": 0.0, "planning": 0.0, "control": 0.0}
+        self.tracks = _Tracks()
+        self.data = np.full((self.n_steps + 1, len(TRACE_COLUMNS)), np.nan)
+        self.sumo_pairs: set[tuple[str, ...]] = set()
+        self.sumo_new = 0  # SUMO collision events involving the SV (onsets)
+        self.sumo_step_collisions = 0  # SUMO collisions involving the SV in the last step
+        self.collision_flags: list[frozenset[str]] = []
+        self.v_cruise = scenario.sv.speed  # m/s, speed kept without a leader (no decision rule)
+        self.idm_accel = 0.0
+        self.leader_gap = math.inf
+
+        self.sv_length = scenario.vehicle.length
+        self.sv_width = scenario.vehicle.width
+        self.started = False
+        self.last_failed: tuple[int, int] | None = None  # (origin, target) of a failed plan
+
+    # ------------------------------------------------------------------ set-up
+    def _start(self) -> None:
+        sc = self.sc
+        tr = sc.traffic
+        self.sumo = SumoSim(
+            sc.network, sc.step, sc.seed,
+            lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=self.gui,
+            speed_bands=sc.road.speed_bands,
+        )
+        self.sumo.start()
+        self.started = True
+        hw = self.sumo.highway
+        self.road = RoadParams(lane_width=hw.lane_width, speed_bands=sc.road.speed_bands,
+                               mu=sc.road.mu, y_right=hw.y_right)
+        road = self.road
+        x0 = hw.x_start + sc.sv.position
+        y0 = road.lane_center(sc.sv.lane)
+        self.x0 = x0
+        if tr.density > 0:
+            from cosim.traffic.demand import populate
+
+            margin = 2.0 * self.sv_length
+            populate(self.sumo, road, tr.density, sc.seed, tr.length,
+                     exclude_zone=(x0 - margin, x0 + margin))
+        self._start_scripted(x0)
+        if self.baseline:
+            self._add_baseline_sv(x0, sc.sv.lane)
+        else:
+            from cosim.control.closed_loop import ClosedLoop
+            from cosim.planning.planner import LaneChangePlanner
+
+            self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
+                                   road.mu, x0, y0, 0.0, sc.sv.speed)
+            self.planner = LaneChangePlanner(sc.vehicle, road, sc.planner)
+            self.sumo.add_controlled(SV_ID, x0, y0, 0.0, sc.sv.speed, self.sv_length,
+                                     self.sv_width, sc.sv.lane)
+            self.loop.set_reference(lane_keeping_reference(0.0, x0, y0, sc.sv.speed, 0.0))
+            self.record = self.loop.record(0.0)
+        from cosim.traffic.v2v import V2VChannel
+
+        self.channel = V2VChannel.from_spec(sc.v2v, road, sc.seed)
+        # the first step inserts every vehicle at its place
+        self.sumo.step()
+        self.t_offset = self.sumo.time  # SUMO's clock when our t = 0
+        self.v_ref = sc.sv.speed  # m/s, lane-keeping reference speed (integrated IDM)
+
+    # ------------------------------------------------------------------ scripted TVs
+    def _start_scripted(self, x_sv: float) -> None:
+        """Add the scenario's [[tv]] vehicles as controlled vehicles on their scripts."""
+        self.scripted: list[Any] = []
+        self.scripted_ids: tuple[str, ...] = tuple(tv.id for tv in self.sc.tvs)
+        if not self.sc.tvs:
+            return
+        from cosim.traffic import scripted
+
+        for spec in self.sc.tvs:
+            tv = scripted.ScriptedTV(spec, self.road, x_sv)
+            x, y, h, v, _a = tv.state(0.0)
+            self.sumo.add_controlled(spec.id, x, y, h, v, spec.length, spec.width, spec.lane,
+                                     vtype="tv_scripted")
+            self.scripted.append(tv)
+
+    def _move_scripted(self, t: float) -> None:
+        for tv in self.scripted:
+            x, y, h, v, a = tv.state(t)
+            self.sumo.move(tv.spec.id, x, y, h, v, a)
+
+    def _scripted_messages(self, t: float) -> list[Any]:
+        return [m for m in (tv.message(t) for tv in self.scripted) if m is not None]
+
+    # ------------------------------------------------------------------ baseline SV
+    def _add_baseline_sv(self, x0: float, lane: int) -> None:
+        """The SV as an ordinary SUMO vehicle of the SV's size (controller 'sumo')."""
+        sc = self.sc
+        desired = sc.sv.desired_speed or sc.road.speed_bands[lane][1]
+        self.sumo.add_driven(SV_ID, lane, x0, sc.sv.speed, desired, self.sv_length,
+                             self.sv_width, own_lane_changes=sc.sv.decision)
+
+    # ------------------------------------------------------------------ one run
+    def run(self, progress: ProgressFn | None = None) -> RunResult:
+        wall0 = time.perf_counter()
+        try:
+            self._start()
+            for k in range(self.n_steps + 1):
+                t = k * self.dt
+                w0 = time.perf_counter()
+                snap_all = self.sumo.snapshot()
+                self.wall["sumo"] += time.perf_counter() - w0
+                sv = self._sv_view(snap_all)
+                near, tvs = self._near(snap_all, sv)
+                self._record_row(k, t, sv, tvs)
+                if k == self.n_steps:
+                    break
+                if self.baseline:
+                    self._baseline_step(t, sv, tvs)
+                else:
+                    self._step(t, sv, tvs, snap_all)
+                self._move_scripted(t + self.dt)
+                w0 = time.perf_counter()
+                self.sumo.step()
+                self.wall["sumo"] += time.perf_counter() - w0
+                self._sumo_collisions()
+                if progress is not None:
+                    progress(1)
+            events = [f"{e.time - self.t_offset:.2f} s {e.kind} {e.vehicle_id}: {e.detail}"
+                      for e in self.sumo.events]
+        finally:
+            if self.started:
+                self.sumo.close()
+        wall = time.perf_counter() - wall0
+        return self._result(wall, events)
+
+    def _sv_view(self, snap_all: TrafficSnapshot) -> dict[str, float]:
+        """The SV now: ours from the closed loop, the baseline's from SUMO."""
+        i = snap_all.index(SV_ID)
+        lane = float(snap_all.lane[i])
+        if not self.baseline:
+            r = self.record
+            return {"x": r.x, "y": r.y, "h": r.heading, "vx": r.vx, "vy": r.vy, "lane": lane}
+        h = float(snap_all.heading[i])
+        v = float(snap_all.speed[i])
+        vlat = float(snap_all.lateral_speed[i])
+        return {"x": float(snap_all.x[i]), "y": float(snap_all.y[i]), "h": h,
+                "vx": v, "vy": vlat, "ax": float(snap_all.accel[i]),
+                "lane": lane}
+
+    def _near(self, snap_all: TrafficSnapshot, sv: dict[str, float]
+              ) -> tuple[NDArray[np.bool_], TrafficSnapshot]:
+        not_sv = np.array([vid != SV_ID for vid in snap_all.ids], dtype=bool)
+        near = not_sv & (np.abs(snap_all.x - sv["x"]) <= NEAR_RANGE) & (snap_all.lane >= 0)
+        return near, snap_all.select(near)
+
+    def _record_row(self, k: int, t: float, sv: dict[str, float], tvs: TrafficSnapshot) -> None:
+        from cosim.planning.collision import overlap_sat
+
+        row = self.data[k]
+        C = COLUMN
+        x, y, h, vx, vy = sv["x"], sv["y"], sv["h"], sv["vx"], sv["vy"]
+        row[C["t_s"]] = t
+        row[C["x_m"]] = x
+        row[C["y_m"]] = y
+        row[C["psi_deg"]] = math.degrees(h)
+        row[C["vx_mps"]] = vx
+        row[C["vy_mps"]] = vy
+        if self.baseline:
+            row[C["ax_mps2"]] = sv["ax"]
+        else:
+            r = self.record
+            row[C["yaw_rate_degps"]] = math.degrees(r.yaw_rate)
+            row[C["ax_mps2"]] = r.ax
+            row[C["ay_mps2"]] = r.ay
+            row[C["x_ref_m"]] = r.x_ref
+            row[C["y_ref_m"]] = r.y_ref
+            row[C["psi_ref_deg"]] = math.degrees(r.heading - r.phi_e)
+            row[C["vx_ref_mps"]] = r.vx_ref
+            row[C["curvature_ref_1pm"]] = r.kappa_ref
+            row[C["ex_mps"]] = r.ex
+            row[C["ye_m"]] = r.ye
+            row[C["phie_deg"]] = math.degrees(r.phi_e)
+            row[C["delta_f_deg"]] = math.degrees(r.delta_f)
+            row[C["dmz_nm"]] = r.dmz
+            row[C["fa_n"]] = r.fa
+            row[C["fx_fl_n"]], row[C["fx_fr_n"]], row[C["fx_rl_n"]], row[C["fx_rr_n"]] = r.fx
+            row[C["fx_total_n"]] = sum(r.fx)
+        lane = self.road.lane_of(y)
+        row[C["lane"]] = lane
+        row[C["sumo_lane"]] = sv["lane"]
+        row[C["target_lane"]] = self.active.target_lane if self.active is not None else lane
+        row[C["changing"]] = 1.0 if self.active is not None else 0.0
+        row[C["leader_gap_m"]] = self.leader_gap
+        row[C["idm_accel_mps2"]] = self.idm_accel if self.active is None else math.nan
+        # gap / TTC along the lane, and our exact overlap check against every TV near
+        hx, hy = mx.half_extents(self.sv_length, self.sv_width, h)
+        tv_hx, tv_hy = mx.half_extents(tvs.length, tvs.width, tvs.heading)
+        sv_vxg = vx * math.cos(h) - vy * math.sin(h)
+        gap, ttc = mx.gap_ttc(x, y, sv_vxg, hx, hy, tvs.x, tvs.y,
+                             tvs.speed * np.cos(tvs.heading), tv_hx, tv_hy)
+        row[C["gap_min_m"]] = float(gap.min()) if gap.size else math.inf
+        row[C["ttc_min_s"]] = float(ttc.min()) if ttc.size else math.inf
+        hit = overlap_sat(x, y, h, self.sv_length, self.sv_width,
+                          tvs.x, tvs.y, tvs.heading, tvs.length, tvs.width)
+        hits = frozenset(vid for vid, c in zip(tvs.ids, hit, strict=True) if c)
+        self.collision_flags.append(hits)
+        row[C["collisions"]] = len(hits)
+        row[C["sumo_collisions"]] = self.sumo_step_collisions
+        row[C["n_tvs"]] = len(tvs)
+        self.tracks.add(t, tvs, np.ones(len(tvs), dtype=bool))
+
+    def _sumo_collisions(self) -> None:
+        """SUMO's collisions of the last step that involve the SV (cross-check)."""
+        pairs = {tuple(sorted(p)) for p in self.sumo.collisions() if SV_ID in p}
+        self.sumo_new += len(pairs - self.sumo_pairs)
+        self.sumo_pairs = pairs  # type: ignore[assignment]
+        self.sumo_step_collisions = len(pairs)
+
+    # ------------------------------------------------------------------ decisions
+    def _desired_speed(self, lane: int) -> float:
+        sv = self.sc.sv
+        if sv.desired_speed is not None:
+            return sv.desired_speed
+        if sv.decision:
+            return self.road.speed_bands[lane][1]
+        return self.v_cruise
+
+    def _decide(self, t: float, sv: dict[str, float], tvs: TrafficSnapshot,
+                allow: bool) -> tuple[int | None, str]:
+        """Car-following acceleration for this step, and a lane change wanted now."""
+        lane = self.road.lane_of(sv["y"])
+        speed = self.v_ref
+        d = decide(sv["x"], sv["y"], speed, self.sv_length, self._desired_speed(lane),
+                   tvs.x, tvs.y, tvs.speed * np.cos(tvs.heading), tvs.length, tvs.width,
+                   self.road, self.cfg, allow_change=allow and self.sc.sv.decision)
+        self.idm_accel = d.accel
+        self.leader_gap = d.leader_gap
+        if not allow:
+            return None, ""
+        # scripted requests first (due, in time order); one already satisfied is dropped
+        while self.pending and self.pending[0].at <= t + 1e-9:
+            target = self.pending[0].target_lane
+            if target == lane:
+                self.pending.pop(0)
+                continue
+            return target, "scripted"
+        if d.target_lane is not None:
+            return d.target_lane, "decision"
+        return None, ""
+
+    def _step(self, t: float, sv: dict[str, float], tvs: TrafficSnapshot,
+              snap_all: TrafficSnapshot) -> None:
+        """Our SV: V2V, maybe plan, then control + plant over one step, then write back."""
+        sc = self.sc
+        if self.active is not None and t >= self.active.t0 + self.active.tau - 1e-9:
+            done = self.active
+            self.active = None
+            self.v_ref = float(done.trajectory.vxf)
+            self.v_cruise = self.v_ref
+            self.timer.manoeuvre_done(t)
+        public = snap_all.select(np.array(
+            [vid != SV_ID and vid not in self.scripted_ids for vid in snap_all.ids], dtype=bool))
+        messages = self.channel.exchange(public, sv["x"], sv["y"])
+        messages = messages + self._scripted_messages(t)
+        allow = self.active is None and self.timer.may_request(t)
+        target, trigger = self._decide(t, sv, tvs, allow)
+        if target is not None:
+            self._plan(t, target, trigger, messages)
+        if self.active is not None:
+            reference = self.active.trajectory
+        else:
+            lane = self.road.lane_of(sv["y"])
+            reference = lane_keeping_reference(t, sv["x"], self.road.lane_center(lane),
+                                               self.v_ref, self.idm_accel)
+            self.v_ref = max(self.v_ref + self.idm_accel * self.dt, 0.0)
+        w0 = time.perf_counter()
+        self.record = self.loop.advance(t, self.dt, sc.substeps, reference)
+        self.wall["control"] += time.perf_counter() - w0
+        r = self.record
+        self.sumo.move(SV_ID, r.x, r.y, r.heading, r.vx, r.ax)
+
+    def _plan(self, t: float, target: int, trigger: str, messages: list[Any]) -> None:
+        """Ask the planner for a lane change to `target`; adopt the plan, or keep the
+        lane and ask again after `retry_interval`."""
+        from cosim.planning.planner import SVPlanState
+
+        r = self.record
+        c, s = math.cos(r.heading), math.sin(r.heading)
+        lane = self.road.lane_of(r.y)
+        state = SVPlanState(
+            x=r.x, y=r.y, heading=r.heading, vx=r.vx * c - r.vy * s, ax=r.ax * c - r.ay * s,
+            vy=r.vx * s + r.vy * c, ay=r.ax * s + r.ay * c, lane=lane,
+        )
+        if trigger != "decision" and self.last_failed == (lane, target):
+            trigger = "retry"
+        if trigger != "retry":
+            self.requests += 1
+        w0 = time.perf_counter()
+        plan = self.planner.plan(t, state, target, messages, self.sc.sv.occupant)
+        self.wall["planning"] += time.perf_counter() - w0
+        self.plans.append(plan_row(plan, trigger, state.vx))
+        if plan.trajectory is None:
+            self.timer.planning_failed(t)
+            self.last_failed = (lane, target)
+            return
+        self.last_failed = None
+        if trigger != "decision" and self.pending:
+            self.pending.pop(0)
+        self.active = LaneChange(
+            t0=t, tau=float(plan.tau), origin_lane=lane, target_lane=target,
+            y_target=self.road.lane_center(target), trajectory=plan.trajectory, plan=plan,
+        )
+        self.lane_changes.append(self.active)
+
+    def _baseline_step(self, t: float, sv: dict[str, float], tvs: TrafficSnapshot) -> None:
+        """SUMO drives the SV; scripted requests become changeLane calls."""
+        lane = self.road.lane_of(sv["y"])
+        while self.pending and self.pending[0].at <= t + 1e-9:
+            target = self.pending.pop(0).target_lane
+            if target == lane:
+                continue
+            self.requests += 1
+            self.sumo.change_lane(SV_ID, target)
+            row = dict.fromkeys(PLAN_COLUMNS, math.nan)
+            row.update(t_s=t, trigger="scripted", origin_lane=lane, target_lane=target,
+                       vx0_mps=sv["vx"], ok=1, stable_set_s="", collision_free_set_s="",
+                       rejections="")
+            self.plans.append(row)
+            break
+        # the gap to the leader, for the trace (SUMO's own model follows it)
+        self.v_ref = sv["vx"]
+        self._decide(t, sv, tvs, allow=False)
+
+    # ------------------------------------------------------------------ results
+    def _result(self, wall: float, events: list[str]) -> RunResult:
+        sc = self.sc
+        trace = {name: self.data[:, i].copy() for name, i in COLUMN.items()}
+        t = trace["t_s"]
+        if self.baseline:
+            _baseline_accelerations(trace)
+        # lane changes: ours from each adopted plan's start, the baseline's from the path
+        if self.baseline:
+            starts, targets, ends = _excursions(t, trace["y_m"], self.road)
+        else:
+            for a, b in zip(self.lane_changes, self.lane_changes[1:], strict=False):
+                a.t_next = b.t0
+            starts = [lc.t0 for lc in self.lane_changes]
+            targets = [lc.y_target for lc in self.lane_changes]
+            ends = [min(lc.t_next, t[-1]) for lc in self.lane_changes]
+        durations = mx.lane_change_durations(t, trace["y_m"], starts, targets, ends, SETTLE_TOL)
+        done = durations[np.isfinite(durations)]
+        collisions = 0
+        prev: frozenset[str] = frozenset()
+        for hits in self.collision_flags:
+            collisions += len(hits - prev)
+            prev = hits
+        ok_plans = [p for p in self.plans if p["ok"] == 1]
+        y_end = float(trace["y_m"][-1])
+        lane_end = self.road.lane_of(y_end)
+        m: dict[str, Any] = {
+            "scenario": sc.name,
+            "seed": sc.seed,
+            "controller": sc.sv.controller,
+            "plant": "none" if self.baseline else sc.sv.plant,
+            "duration_s": float(t[-1]),
+            "steps": self.n_steps,
+            "lane_change_requests": self.requests,
+            "plans": 0 if self.baseline else len(self.plans),
+            "plans_failed": sum(1 for p in self.plans if p["ok"] == 0),
+            "lane_changes": int(done.size),
+            "lane_change_completed": int(self.requests > 0 and len(starts) > 0
+                                         and done.size == len(starts)),
+            "lane_change_duration_s": float(done.mean()) if done.size else math.nan,
+            "lane_change_duration_max_s": float(done.max()) if done.size else math.nan,
+            "tau_first_s": float(ok_plans[0]["tau_s"]) if ok_plans else math.nan,
+            "collisions": collisions,
+            "collision": int(collisions > 0),
+            "sumo_collisions": self.sumo_new,
+            "min_gap_m": float(np.min(trace["gap_min_m"])),
+            "min_ttc_s": float(np.min(trace["ttc_min_s"])),
+            "max_abs_lat_accel_mps2": mx.max_abs(trace["ay_mps2"]),
+            "max_abs_long_accel_mps2": mx.max_abs(trace["ax_mps2"]),
+            "max_jerk_mps3": mx.max_abs(mx.jerk(t, trace["ax_mps2"], trace["ay_mps2"])),
+        }
+        if self.baseline:
+            m.update(dict.fromkeys(mx.IAE_COLUMNS, math.nan))
+        else:
+            m.update(mx.iae_row(t, trace, 0.0, float(t[-1])))
+        m.update(
+            final_lane=lane_end,
+            final_offset_m=y_end - self.road.lane_center(lane_end),
+            mean_speed_mps=float(np.mean(trace["vx_mps"])),
+            sumo_events=len(events),
+        )
+        timing = {
+            "scenario": sc.name,
+            "wall_time_s": wall,
+            "wall_sumo_s": self.wall["sumo"],
+            "wall_planning_s": self.wall["planning"],
+            "wall_control_s": self.wall["control"],
+            "wall_realtime_factor": float(t[-1]) / wall if wall > 0 else math.nan,
+        }
+        return RunResult(sc, self.road, trace, self.plans, self.lane_changes,
+                         self.tracks.result(), m, timing, events)
+
+
+def _baseline_accelerations(trace: dict[str, Array]) -> None:
+    """Body accelerations and yaw rate of the SUMO-driven SV from its path (finite
+    differences of the recorded poses; SUMO does not report lateral acceleration)."""
+    t, x, y = trace["t_s"], trace["x_m"], trace["y_m"]
+    psi = np.radians(trace["psi_deg"])
+    if t.size < 3:
+        return
+    vxg, vyg = np.gradient(x, t), np.gradient(y, t)
+    axg, ayg = np.gradient(vxg, t), np.gradient(vyg, t)
+    c, s = np.cos(psi), np.sin(psi)
+    trace["ay_mps2"] = -axg * s + ayg * c
+    trace["yaw_rate_degps"] = np.degrees(np.gradient(np.unwrap(psi), t))
+
+
+def _excursions(t: Array, y: Array, road: RoadParams) -> tuple[list[float], list[float],
+                                                               list[float]]:
+    """Lane changes read off a path: each time the SV leaves one lane centre band
+    (|y - centre| < SETTLE_TOL) and next enters another's. Returns starts, target
+    centres and window ends (the run's end)."""
+    centres = np.array([road.lane_center(k) for k in range(road.n_lanes)])
+    dist = np.abs(y[:, None] - centres[None, :])
+    home = np.where(dist.min(axis=1) < SETTLE_TOL, dist.argmin(axis=1), -1)
+    starts: list[float] = []
+    targets: list[float] = []
+    last_home, last_t = -1, 0.0
+    for i in np.flatnonzero(home >= 0):
+        k = int(home[i])
+        if last_home >= 0 and k != last_home:
+            starts.append(last_t)
+            targets.append(float(centres[k]))
+        last_home, last_t = k, float(t[i])
+    return starts, targets, [float(t[-1])] * len(starts)
+
+
+# ----------------------------------------------------------------------------- outputs
+
+INT_TRACE_COLUMNS = ("lane", "sumo_lane", "target_lane", "changing", "collisions",
+                     "sumo_collisions", "n_tvs")
+
+
+def trace_frame(trace: dict[str, Array]) -> Any:
+    import pandas as pd
+
+    frame = pd.DataFrame({name: trace[name] for name in TRACE_COLUMNS})
+    for name in INT_TRACE_COLUMNS:
+        frame[name] = frame[name].astype(int)
+    return frame
+
+
+def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
+                  write_figures: bool = True) -> list[Path]:
+    """trace.csv, plans.csv, metrics.csv, timing.csv and the figures, each atomically."""
+    import pandas as pd
+
+    from cosim.output import atomic_write_csv, make_output_dir
+
+    out = make_output_dir(out_dir)
+    written = []
+    if write_trace:
+        written.append(atomic_write_csv(out / "trace.csv", trace_frame(result.trace),
+                                        float_format=CSV_FLOAT))
+        plans = pd.DataFrame(result.plans, columns=list(PLAN_COLUMNS))
+        written.append(atomic_write_csv(out / "plans.csv", plans, float_format=CSV_FLOAT))
+    written.append(atomic_write_csv(out / "metrics.csv", pd.DataFrame([result.metrics]),
+                                    float_format=CSV_FLOAT))
+    written.append(atomic_write_csv(out / "timing.csv", pd.DataFrame([result.timing]),
+                                    float_format=CSV_FLOAT))
+    if write_figures:
+        written += write_run_figures(result, out)
+    return written
+
+
+def write_run_figures(result: RunResult, out: Path) -> list[Path]:
+    """trajectories.png (Fig. 16), tracking.png (Fig. 13-15), tau_sets.png (Fig. 10-12)."""
+    from cosim.output import atomic_path
+    from cosim.plots.run import global_trajectories
+
+    tr = result.trace
+    paths = []
+    spans = [(lc.t0, lc.t0 + lc.tau) for lc in result.lane_changes]
+    with atomic_path(out / "trajectories.png") as tmp:
+        global_trajectories(tmp, tr["t_s"], tr["x_m"], tr["y_m"], result.tv_tracks, result.road,
+                            highlight=[tv.id for tv in result.scenario.tvs], lane_changes=spans,
+                            title=f"{result.scenario.name}: global trajectories")
+    paths.append(out / "trajectories.png")
+    return paths
+
+
+def run_scenario(
+    scenario: Scenario,
+    out_dir: Path | None,
+    *,
+    write_trace: bool = True,
+    write_figures: bool = True,
+    progress: bool = False,
+    gui: bool = False,
+) -> dict[str, Any]:
+    """Run one scenario (one libsumo simulation in this process); write its outputs
+    into `out_dir` (None: write nothing); return the metrics row merged with the
+    wall-time columns (names starting `wall_`)."""
+    result = simulate(scenario, progress=progress, gui=gui)
+    if out_dir is not None:
+        write_outputs(result, Path(out_dir), write_trace=write_trace,
+                      write_figures=write_figures)
+    return {**result.metrics, **{k: v for k, v in result.timing.items() if k != "scenario"}}
+
+
+def simulate(scenario: Scenario, *, progress: bool = False, gui: bool = False,
+             decision: DecisionConfig | None = None) -> RunResult:
+    """Run one scenario and return everything it produced (nothing written)."""
+    sim = CoSimulation(scenario, gui=gui, decision=decision)
+    if not progress:
+        return sim.run()
+    from tqdm import tqdm
+
+    with tqdm(total=sim.n_steps, desc=scenario.name, unit="step", file=sys.stderr,
+              leave=False) as bar:
+        return sim.run(bar.update)
