@@ -481,7 +481,8 @@ def load_scenario(path: str | Path) -> Scenario:
     except tomllib.TOMLDecodeError as exc:
         raise InputError(source, "file", str(exc), "valid TOML") from None
     except (RecursionError, ValueError) as exc:  # pathological nesting
-        raise InputError(source, "file", type(exc).__name__, "valid TOML") from None
+        what = "nesting too deep" if isinstance(exc, RecursionError) else str(exc)
+        raise InputError(source, "file", what, "valid TOML") from None
     return scenario_from_dict(doc, path=p.resolve(), source=source)
 
 

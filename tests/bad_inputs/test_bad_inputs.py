@@ -10,6 +10,7 @@ but InputError.
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 import subprocess
@@ -43,6 +44,7 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "garbage.toml": ("file", "byte 0"),
     "not_toml.toml": ("file", "line 10"),
     "duplicate_key.toml": ("file", "line 12"),
+    "deep_nesting.toml": ("file", "nesting too deep"),
     "missing_duration.toml": ("scenario.duration_s", "<missing>"),
     "missing_sv_speed.toml": ("sv.speed_kmh", "<missing>"),
     "missing_tv_id.toml": ("tv[1].id", "<missing>"),
@@ -206,6 +208,29 @@ def test_cli_batch_rejects_bad_scenario_without_output(
         ],
         capsys,
     )
+    assert status == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    key, value = SCENARIO_CASES[name]
+    _check_message(lines[0], path, key, value)
+    assert not out.exists()
+
+
+def _commands_taking_a_scenario() -> list[str]:
+    """`cosim run` / `cosim plan` as they land (each takes SCENARIO --out DIR)."""
+    return [c for c in ("run", "plan") if importlib.util.find_spec(f"cosim.commands.{c}")]
+
+
+@pytest.mark.parametrize("command", ["run", "plan"])
+@pytest.mark.parametrize("name", sorted(SCENARIO_CASES))
+def test_cli_run_and_plan_reject_bad_scenario_without_output(
+    command: str, name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    if command not in _commands_taking_a_scenario():
+        pytest.skip(f"cosim {command} is not built yet")
+    out = tmp_path / "out"
+    path = HERE / name
+    status, err = _cli([command, str(path), "--out", str(out)], capsys)
     assert status == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
