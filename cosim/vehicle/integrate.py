@@ -1,0 +1,25 @@
+"""Fixed-step fourth-order Runge-Kutta on a list of floats.
+
+The plants are small (6 or 12 states) and are stepped thousands of times per
+simulated second, so plain Python floats in lists beat tiny numpy arrays here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+Derivative = Callable[[list[float]], list[float]]
+
+
+def rk4_step(f: Derivative, s: list[float], h: float) -> list[float]:
+    """One classical RK4 step of ds/dt = f(s) (inputs held) of length h."""
+    half = 0.5 * h
+    k1 = f(s)
+    k2 = f([a + half * b for a, b in zip(s, k1, strict=True)])
+    k3 = f([a + half * b for a, b in zip(s, k2, strict=True)])
+    k4 = f([a + h * b for a, b in zip(s, k3, strict=True)])
+    sixth = h / 6.0
+    return [
+        a + sixth * (b + 2.0 * (c + d) + e)
+        for a, b, c, d, e in zip(s, k1, k2, k3, k4, strict=True)
+    ]

@@ -1,0 +1,49 @@
+"""What the closed loop needs from a plant, and what a plant reports."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+from cosim.errors import SimulationError
+
+
+@dataclass(frozen=True)
+class PlantOutputs:
+    """Accelerations and tyre forces at one state (body frame, wheels FL, FR, RL, RR)."""
+
+    ax: float  # m/s^2, body longitudinal acceleration of the CG
+    ay: float  # m/s^2, body lateral acceleration of the CG
+    fx: tuple[float, float, float, float]  # N, wheel longitudinal forces (wheel frame)
+    fy: tuple[float, float, float, float] | None  # N, wheel lateral forces (None: axle model)
+    fz: tuple[float, float, float, float] | None  # N, wheel vertical loads (None: not modelled)
+
+
+class Plant(Protocol):
+    """A vehicle model stepped with held inputs.
+
+    `state[:6]` is always (x, y, heading, vx, vy, yaw_rate): CG position (m),
+    heading (rad, math convention), body velocities (m/s) and yaw rate (rad/s).
+    """
+
+    kind: str
+    state_names: tuple[str, ...]
+    state: list[float]
+
+    def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
+        """Integrate h seconds with road-wheel angle delta (rad) and wheel force demands (N)."""
+        ...
+
+    def outputs(self) -> PlantOutputs:
+        """Accelerations and wheel forces at the current state with the last inputs."""
+        ...
+
+
+def check_finite(t: float, names: tuple[str, ...], state: list[float]) -> None:
+    """Raise SimulationError naming every non-finite state (NaN never propagates silently)."""
+    if math.isfinite(sum(state)):  # any NaN or inf makes the sum non-finite
+        return
+    bad = ", ".join(f"{n} = {v}" for n, v in zip(names, state, strict=True) if not math.isfinite(v))
+    shown = ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, state, strict=True))
+    raise SimulationError(t, f"non-finite plant state: {bad}", shown)

@@ -1,0 +1,62 @@
+"""Tests of cosim.vehicle.bicycle: the 2-DOF design model (eq. 17-19, 26, 20, 27)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from cosim.control.allocation import virtual_inputs
+from cosim.params import VehicleParams
+from cosim.vehicle.bicycle import BicyclePlant, steady_state, understeer_gradient
+
+VEHICLE = VehicleParams()
+
+
+def hold_speed_run(plant: BicyclePlant, delta: float, seconds: float) -> None:
+    """Step with the exact Fa that keeps vx constant (eq. 26 solved for Fa)."""
+    v = VEHICLE
+    for _ in range(int(seconds / 0.005)):
+        _, _, _, vx, vy, r = plant.state
+        fa = v.drag * vx * vx - v.mass * vy * r
+        plant.step(0.005, delta, (0.0, 0.0, fa / 2.0, fa / 2.0))
+
+
+@pytest.mark.parametrize("speed", [10.0, 22.0, 30.0])
+def test_simulation_settles_on_the_analytic_steady_state(speed: float) -> None:
+    delta = 0.003
+    plant = BicyclePlant(VEHICLE, vx=speed)
+    hold_speed_run(plant, delta, 8.0)
+    vy_ss, r_ss = steady_state(VEHICLE, plant.state[3], delta)
+    assert plant.state[3] == pytest.approx(speed, rel=1e-4)  # Fa is held over each step
+    assert plant.state[4] == pytest.approx(vy_ss, rel=1e-4)
+    assert plant.state[5] == pytest.approx(r_ss, rel=1e-4)
+
+
+@pytest.mark.parametrize("speed", [10.0, 25.0, 35.0])
+def test_steady_yaw_gain_is_the_bicycle_formula(speed: float) -> None:
+    v = VEHICLE
+    _, r = steady_state(v, speed, 0.01)
+    k = understeer_gradient(v)
+    assert r / 0.01 == pytest.approx(speed / (v.wheelbase + k * speed**2), rel=1e-9)
+
+
+def test_table1_car_oversteers_with_a_critical_speed_near_40_mps() -> None:
+    k = understeer_gradient(VEHICLE)
+    assert k < 0
+    assert math.sqrt(-VEHICLE.wheelbase / k) == pytest.approx(39.9, abs=0.1)
+
+
+def test_wheel_forces_enter_through_eq_20_and_27() -> None:
+    delta = 0.05
+    fx = (300.0, -100.0, 250.0, 50.0)
+    plant = BicyclePlant(VEHICLE, vx=20.0)
+    plant.set_inputs(delta, fx)
+    dmz, fa = virtual_inputs(VEHICLE, delta, fx)
+    d = plant.derivative(plant.state)
+    fyf, fyr = plant.lateral_forces(plant.state)
+    assert d[3] == pytest.approx((fa - VEHICLE.drag * 400.0) / VEHICLE.mass)
+    assert d[5] == pytest.approx((VEHICLE.lf * fyf - VEHICLE.lr * fyr + dmz) / VEHICLE.yaw_inertia)
+    by_hand = -0.71 * 300 * math.cos(delta) + 1.45 * 300 * math.sin(delta)
+    by_hand += -100 * (0.71 * math.cos(delta) + 1.45 * math.sin(delta)) + 0.71 * (50 - 250)
+    assert dmz == pytest.approx(by_hand)
