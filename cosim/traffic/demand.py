@@ -12,6 +12,7 @@ is in (Section 5: lanes 60-90, 90-110, 110-120 km/h).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -125,3 +126,61 @@ def populate(
             traffic._next_gap[lane] = 0.0
     sim.add_hook(traffic)
     return traffic
+
+
+@dataclass(frozen=True)
+class LaneSpeeds:
+    """Speeds of traffic vehicles sampled per lane over a run (what the band plot shows)."""
+
+    speeds: tuple[np.ndarray, ...]  # m/s, samples per SUMO lane index
+    bands: tuple[tuple[float, float], ...]  # m/s, (min, max) per lane
+    density: float  # veh per km per lane
+    duration: float  # s
+    lane_changes: int  # lane changes the TVs made themselves
+
+    def inside(self, tolerance: float = 0.5 / 3.6) -> tuple[float, ...]:
+        """-, fraction of each lane's samples inside its band (+- tolerance m/s)."""
+        return tuple(
+            float(np.mean((v >= lo - tolerance) & (v <= hi + tolerance))) if len(v) else 0.0
+            for v, (lo, hi) in zip(self.speeds, self.bands, strict=True)
+        )
+
+
+def sample_lane_speeds(
+    network: Path,
+    density: float,
+    seed: int,
+    duration: float,
+    *,
+    step: float = 0.05,
+    lanechange_duration: float = 3.0,
+    length: float = 2000.0,
+    window: tuple[float, float] = (300.0, 2500.0),
+    every: int = 10,
+) -> LaneSpeeds:
+    """Run traffic alone for `duration` s and sample TV speeds per lane inside `window` (m)."""
+    speeds: list[list[float]] = []
+    changes = 0
+    with SumoSim(network, step, seed, lanechange_duration=lanechange_duration) as sim:
+        road = sim.road()
+        speeds = [[] for _ in range(road.n_lanes)]
+        populate(sim, road, density, seed, length)
+        lanes: dict[str, int] = {}
+        for k in range(int(round(duration / step))):
+            sim.step()
+            snap = sim.snapshot()
+            for vid, lane in zip(snap.ids, snap.lane, strict=True):
+                changes += int(lanes.get(vid, lane) != lane)
+                lanes[vid] = int(lane)
+            if k % every:
+                continue
+            inside = (snap.x > window[0]) & (snap.x < window[1])
+            for lane in range(road.n_lanes):
+                speeds[lane].extend(snap.speed[inside & (snap.lane == lane)])
+    return LaneSpeeds(
+        speeds=tuple(np.array(v) for v in speeds),
+        bands=road.speed_bands,
+        density=density,
+        duration=duration,
+        lane_changes=changes,
+    )
