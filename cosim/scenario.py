@@ -21,6 +21,7 @@ complete, validated scenario as a JSON-able dict shaped like the file.
 from __future__ import annotations
 
 import copy
+import functools
 import math
 import tomllib
 import xml.etree.ElementTree as ET
@@ -433,14 +434,31 @@ def _read_network(source: str, key: str, path: Path) -> _NetInfo:
     if not _exists(path, want_file=True):
         raise InputError(source, key, str(path), "an existing SUMO .net.xml file")
     try:
+        st = path.stat()
+    except OSError as exc:
+        raise InputError(source, key, str(path), f"a readable file ({exc.strerror})") from None
+    info = _net_info(str(path), st.st_mtime_ns, st.st_size)
+    if isinstance(info, str):
+        raise InputError(source, key, str(path), info)
+    return info
+
+
+@functools.lru_cache(maxsize=16)
+def _net_info(path: str, mtime_ns: int, size: int) -> _NetInfo | str:
+    """What validation needs from a network, or what is wrong with it.
+
+    Cached on (path, mtime, size): a batch validates the same network once per run.
+    """
+    del mtime_ns, size  # part of the cache key only
+    try:
         root = ET.parse(path).getroot()
     except (ET.ParseError, OSError, ValueError) as exc:
-        raise InputError(source, key, str(path), f"a readable SUMO .net.xml file ({exc})") from None
+        return f"a readable SUMO .net.xml file ({exc})"
     if root.tag != "net":
-        raise InputError(source, key, str(path), f"a SUMO network (root <net>, found <{root.tag}>)")
+        return f"a SUMO network (root <net>, found <{root.tag}>)"
     edges = [e for e in root.iter("edge") if e.get("function", "normal") == "normal"]
     if not edges:
-        raise InputError(source, key, str(path), "a SUMO network with at least one edge")
+        return "a SUMO network with at least one edge"
     counts = tuple(len(e.findall("lane")) for e in edges)
     widest = max(edges, key=lambda e: len(e.findall("lane")))
     try:
@@ -455,7 +473,7 @@ def _read_network(source: str, key: str, path: Path) -> _NetInfo:
             if xs:
                 x_range = (min(xs), max(xs))
     except ValueError as exc:
-        raise InputError(source, key, str(path), f"a well-formed SUMO network ({exc})") from None
+        return f"a well-formed SUMO network ({exc})"
     return _NetInfo(counts, widths, x_range)
 
 

@@ -92,6 +92,16 @@ def test_network_relative_to_the_scenario_file_first(tmp_path: Path) -> None:
     assert s.network == project_root() / "networks" / "highway.net.xml"
 
 
+def test_a_changed_network_file_is_read_again(tmp_path: Path) -> None:
+    net = tmp_path / "highway.net.xml"
+    shutil.copy(project_root() / "networks" / "highway.net.xml", net)
+    path = _write(tmp_path, MINIMAL + '[road]\nnetwork = "highway.net.xml"\n')
+    load_scenario(path)
+    net.write_text("<routes/>\n")
+    with pytest.raises(InputError, match="root <net>"):
+        load_scenario(path)
+
+
 def test_decision_scenarios_may_start_outside_the_band(tmp_path: Path) -> None:
     text = MINIMAL.replace("speed_kmh = 80.0", "speed_kmh = 100.0")
     with pytest.raises(InputError, match="sv.speed_kmh"):

@@ -327,7 +327,7 @@ def test_cli_batch_rejects_bad_study_without_output(
     assert not out.exists()
 
 
-@pytest.mark.parametrize("name", ["typo_key.toml", "garbage.toml"])
+@pytest.mark.parametrize("name", ["garbage.toml"])  # one: each start imports the CLI
 def test_subprocess_exit_status_two(name: str, tmp_path: Path) -> None:
     out = tmp_path / "out"
     proc = subprocess.run(
@@ -391,7 +391,7 @@ def _loads_or_input_error(call: Any) -> None:
         assert "\n" not in str(exc)
 
 
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(_documents)
 def test_random_documents_raise_only_input_error(doc: dict[str, Any]) -> None:
     _loads_or_input_error(lambda: scenario_from_dict(doc, path=BASE))
