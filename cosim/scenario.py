@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import json
 import math
 import tomllib
 import xml.etree.ElementTree as ET
@@ -949,3 +950,39 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
         "traffic": obj(TRAFFIC_FIELDS, s.traffic),
         "v2v": obj(V2V_FIELDS, s.v2v),
     }
+
+
+_DEFAULT_NOTES = {
+    "scenario.name": "the file's stem",
+    "road.lane_speeds_kmh": "`[[60, 90], [90, 110], [110, 120]]`",
+    "road.network": f"`{DEFAULT_NETWORK}`",
+    "sv.desired_speed_kmh": "its lane's maximum",
+    "sv.lane_changes": "`[]`",
+    "traffic.lanechange_duration_s": f"`{DEFAULT_LANECHANGE_DURATION}` (`0` with sublane)",
+    "tv.lane_change.target_speed_kmh": "the band rule",
+}
+
+
+def schema_markdown() -> str:
+    """Every key of a scenario file as a Markdown table (what, allowed, default), from
+    the same `Field`s that validate it, so the documentation cannot drift."""
+    rows = ["| key | allowed | default |", "|---|---|---|"]
+    nested = {"sv.lane_changes[]": LANE_CHANGE_FIELDS, "tv.lane_change": TV_LANE_CHANGE_FIELDS}
+    groups = [
+        (("[[tv]]" if name == "tv" else f"[{name}]"), name, specs) for name, specs in TABLES.items()
+    ]
+    groups += [(name, name, specs) for name, specs in nested.items()]
+    for title, prefix, specs in groups:
+        rows.append(f"| **{title}** | | |")
+        for f in specs:
+            allowed = f.allowed().removeprefix("required: ")
+            if f.default is REQUIRED:
+                default = "required"
+            elif f"{prefix}.{f.key}" in _DEFAULT_NOTES:
+                default = _DEFAULT_NOTES[f"{prefix}.{f.key}"]
+            elif f.default is None:
+                default = "-"
+            else:
+                default = f"`{json.dumps(f.to_file_units(f.default))}`"
+            rows.append(f"| `{prefix}.{f.key}` | {allowed.replace('|', '/')} | {default} |")
+    return "\n".join(rows) + "\n"

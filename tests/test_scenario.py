@@ -257,3 +257,14 @@ def test_validate_table_errors(raw: Any, key: str, fragment: str) -> None:
     message = str(info.value)
     assert message.startswith("study.toml: ") and fragment in message
     assert "\n" not in message
+
+
+def test_schema_table_lists_every_key() -> None:
+    from cosim.scenario import TABLES, schema_markdown
+
+    text = schema_markdown()
+    for name, specs in TABLES.items():
+        for f in specs:
+            assert f"`{name}.{f.key}`" in text
+    assert "| `road.mu` | a finite number in [0.1, 1.2] | `0.6` |" in text
+    assert "| `sv.decision` | true or false | `false` |" in text
