@@ -268,3 +268,11 @@ def test_schema_table_lists_every_key() -> None:
             assert f"`{name}.{f.key}`" in text
     assert "| `road.mu` | a finite number in [0.1, 1.2] | `0.6` |" in text
     assert "| `sv.decision` | true or false | `false` |" in text
+
+
+def test_every_shipped_scenario_is_valid() -> None:
+    files = sorted((project_root() / "scenarios").glob("*.toml"))
+    assert files, "no scenarios shipped"
+    for path in files:
+        s = load_scenario(path)
+        assert s.path == path and s.n_steps > 0
