@@ -25,6 +25,16 @@ if TYPE_CHECKING:  # pandas is imported lazily: only CSV writers need it
 TEMP_MARK = ".tmp-"  # part of every temporary file's name
 
 
+def _read_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# mkstemp makes 0600 files; results get the mode an ordinary open() would give them.
+FILE_MODE = 0o666 & ~_read_umask()
+
+
 def _fsync_dir(directory: Path) -> None:
     """Make the rename itself durable (POSIX); harmless where directories cannot be opened."""
     try:
@@ -60,6 +70,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         # Whatever wrote the file may not have synced it: do it here, before the rename.
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
+        os.chmod(tmp, FILE_MODE)
         os.replace(tmp, final)
     except BaseException:
         with contextlib.suppress(OSError):

@@ -40,6 +40,14 @@ def test_text_bytes_json_round_trip(tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.bin", "c.json"]
 
 
+def test_files_get_the_mode_open_would_give(tmp_path: Path) -> None:
+    """Not mkstemp's private 0600: other users and tools may read the results."""
+    plain = tmp_path / "plain.txt"
+    plain.write_text("x")
+    path = atomic_write_text(tmp_path / "atomic.txt", "x")
+    assert path.stat().st_mode & 0o777 == plain.stat().st_mode & 0o777
+
+
 def test_csv_round_trip_and_replaces_old_file(tmp_path: Path) -> None:
     path = tmp_path / "runs.csv"
     path.write_text("old\n")
