@@ -220,6 +220,8 @@ class SumoSim:
         self._hooks: list[Callable[[SumoSim], None]] = []
         self._types: set[str] = set()
         self._snapshot: TrafficSnapshot | None = None
+        self._context: tuple[str, float] | None = None  # (centre id, radius) subscribed
+        self._context_keys: tuple[int, ...] = ()
 
     # ------------------------------------------------------------------ lifecycle
     def command(self) -> list[str]:
@@ -319,53 +321,54 @@ class SumoSim:
         self._hooks.append(hook)
 
     def step(self) -> None:
-        """Advance one step; keep TV speed bands; record teleports; check controlled vehicles."""
+        """Advance one step; read everyone; keep TV speed bands; record teleports and lost
+        controlled vehicles (SimulationError if `strict`); run the step hooks."""
         api = self.api
         api.simulationStep()
         self._moved = False
-        self._snapshot = None
         t = float(api.simulation.getTime())
+        for vid in api.simulation.getArrivedIDList():
+            self._band_quantile.pop(vid, None)
+            self._band_lane.pop(vid, None)
+            self._dims.pop(vid, None)
         for vid in api.simulation.getStartingTeleportIDList():
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
-        self._keep_bands()
-        self._check_controlled(t)
+        snap = self._snapshot = self._read_all()  # one pass serves the checks and the caller
+        self._keep_bands(snap)
+        self._check_controlled(snap)
         for hook in self._hooks:
             hook(self)
 
-    def _check_controlled(self, t: float) -> None:
+    def _check_controlled(self, snap: TrafficSnapshot) -> None:
         """A moveToXY vehicle off the network is dropped silently by SUMO: catch it."""
         if not self._controlled:
             return
-        api = self.api
-        present = set(api.vehicle.getIDList())
+        row = {vid: i for i, vid in enumerate(snap.ids)}
         for vid, ctl in list(self._controlled.items()):
-            lost = vid not in present or api.vehicle.getLaneID(vid) == ""
-            if not lost:
+            i = row.get(vid)
+            if i is not None and snap.lane[i] >= 0:
                 ctl.inserted = True
                 continue
             x, y, h = ctl.last
             detail = f"{vid} left the network at x = {x:.2f} m, y = {y:.2f} m"
-            self.events.append(TrafficEvent(t, "lost", vid, detail))
+            self.events.append(TrafficEvent(snap.time, "lost", vid, detail))
             del self._controlled[vid]
             if self.strict:
-                raise SimulationError(t, detail, f"heading {h:.4f} rad")
+                raise SimulationError(snap.time, detail, f"heading {h:.4f} rad")
 
-    def _keep_bands(self) -> None:
+    def _keep_bands(self, snap: TrafficSnapshot) -> None:
         """A TV whose lane changed gets its desired speed from its new lane's band."""
-        if not self._band_quantile:
+        if not self._band_lane:
             return
-        vehicle = self.api.vehicle
         bands = self._road.speed_bands
-        for vid in self.api.simulation.getArrivedIDList():
-            self._band_quantile.pop(vid, None)
-            self._band_lane.pop(vid, None)
-            self._dims.pop(vid, None)
-        for vid, lane_was in self._band_lane.items():
-            lane = vehicle.getLaneIndex(vid)
-            if lane != lane_was and 0 <= lane < len(bands):
-                lo, hi = bands[lane]
-                vehicle.setMaxSpeed(vid, lo + self._band_quantile[vid] * (hi - lo))
-                self._band_lane[vid] = lane
+        was = self._band_lane
+        for vid, lane in zip(snap.ids, snap.lane.tolist(), strict=True):
+            lane_was = was.get(vid)
+            if lane_was is None or lane == lane_was or not 0 <= lane < len(bands):
+                continue
+            lo, hi = bands[lane]
+            self.api.vehicle.setMaxSpeed(vid, lo + self._band_quantile[vid] * (hi - lo))
+            was[vid] = lane
 
     # ------------------------------------------------------------------ traffic
     def _ensure_type(self, type_id: str, length: float, width: float, traffic: bool) -> None:
@@ -412,6 +415,33 @@ class SumoSim:
         self._band_quantile[vehicle_id] = float(quantile)
         self._band_lane[vehicle_id] = lane
         self._dims[vehicle_id] = (TV_LENGTH, TV_WIDTH)
+
+    def add_driven(
+        self, vehicle_id: str, lane: int, x: float, speed: float, desired_speed: float,
+        length: float, width: float, *, own_lane_changes: bool = True,
+    ) -> None:
+        """Insert a vehicle SUMO drives itself (the SV of the 'sumo' baseline): centre at
+        global x in `lane`, its own size, no driver imperfection, desired speed in m/s.
+
+        own_lane_changes False: SUMO makes no lane change of its own (lane-change
+        mode 512: only `change_lane` requests, still with SUMO's safety checks).
+        """
+        type_id = f"driven_{vehicle_id}"
+        self._ensure_type(type_id, length, width, traffic=False)
+        self.api.vehicletype.setImperfection(type_id, 0.0)
+        front = x - self.highway.x_start + 0.5 * length
+        self.api.vehicle.add(
+            vehicle_id, ROUTE_ID, typeID=type_id, departLane=str(lane),
+            departPos=repr(float(front)), departSpeed=repr(float(max(speed, 0.0))),
+        )
+        self.api.vehicle.setMaxSpeed(vehicle_id, float(desired_speed))
+        if not own_lane_changes:
+            self.api.vehicle.setLaneChangeMode(vehicle_id, 512)
+        self._dims[vehicle_id] = (length, width)
+
+    def change_lane(self, vehicle_id: str, lane: int, duration: float = 30.0) -> None:
+        """Ask SUMO to move a vehicle it drives to `lane` (keeps trying for `duration` s)."""
+        self.api.vehicle.changeLane(vehicle_id, lane, duration)
 
     def lane_position(self, vehicle_id: str) -> float:
         """m, distance of the vehicle's front bumper from the start of the road."""
@@ -557,6 +587,60 @@ class SumoSim:
         if not skip:
             return snap
         return snap.select(np.array([vid not in skip for vid in snap.ids], dtype=bool))
+
+    def snapshot_near(self, center_id: str, radius: float) -> TrafficSnapshot:
+        """Vehicles within `radius` m of vehicle `center_id` (itself included), read by a
+        SUMO context subscription: the cost grows with the vehicles near it, not with
+        the whole road's traffic (what the co-simulation's hot path needs)."""
+        api = self.api
+        if self._context != (center_id, radius):
+            import traci.constants as tc
+
+            api.vehicle.subscribeContext(
+                center_id, tc.CMD_GET_VEHICLE_VARIABLE, float(radius),
+                [tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_ACCELERATION,
+                 tc.VAR_LANE_INDEX, tc.VAR_SPEED_LAT, tc.VAR_SIGNALS],
+            )
+            self._context = (center_id, radius)
+            self._context_keys = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED,
+                                  tc.VAR_ACCELERATION, tc.VAR_LANE_INDEX, tc.VAR_SPEED_LAT,
+                                  tc.VAR_SIGNALS)
+        results = api.vehicle.getContextSubscriptionResults(center_id) or {}
+        ids = tuple(sorted(results))  # sorted: the order does not depend on SUMO's internals
+        n = len(ids)
+        k_pos, k_ang, k_spd, k_acc, k_lane, k_lat, k_sig = self._context_keys
+        rows = [results[vid] for vid in ids]
+        xf = np.fromiter((r[k_pos][0] for r in rows), float, n)
+        yf = np.fromiter((r[k_pos][1] for r in rows), float, n)
+        angle = np.fromiter((r[k_ang] for r in rows), float, n)
+        lane = np.fromiter((r[k_lane] for r in rows), int, n)
+        dims = [self._dims.get(vid) or self._read_dims(vid) for vid in ids]
+        length = np.fromiter((d[0] for d in dims), float, n)
+        width = np.fromiter((d[1] for d in dims), float, n)
+        off = xf < INVALID
+        lane[off] = -1
+        h = np.radians(90.0 - angle)
+        h = np.arctan2(np.sin(h), np.cos(h))
+        return TrafficSnapshot(
+            time=float(api.simulation.getTime()),
+            ids=ids,
+            x=xf - 0.5 * length * np.cos(h),
+            y=yf - 0.5 * length * np.sin(h),
+            heading=h,
+            speed=np.fromiter((r[k_spd] for r in rows), float, n),
+            accel=np.fromiter((r[k_acc] for r in rows), float, n),
+            lane=lane,
+            lateral_speed=np.fromiter((r[k_lat] for r in rows), float, n),
+            length=length,
+            width=width,
+            signals=np.fromiter((r[k_sig] for r in rows), int, n),
+        )
+
+    def _read_dims(self, vehicle_id: str) -> tuple[float, float]:
+        vehicle = self.api.vehicle
+        dims = (float(vehicle.getLength(vehicle_id)), float(vehicle.getWidth(vehicle_id)))
+        self._dims[vehicle_id] = dims
+        return dims
 
     def _read_all(self) -> TrafficSnapshot:
         api = self.api
