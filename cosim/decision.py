@@ -8,7 +8,9 @@ Beyond the paper (which starts every case with "SV decides to change lanes"):
   faster — its own leader, if any within `look_ahead`, is faster than the SV's
   leader by `speed_margin`, and its band allows more — and free enough: the gap to its
   leader at least `min_gap + time_gap_ahead * v_sv`, the gap to its follower at
-  least `min_gap + time_gap_behind * v_follower + closing * time_gap_behind`.
+  least `min_gap + time_gap_behind * v_follower + closing * closing_time` (closing:
+  how much faster the follower is than the SV will be at the end of the change).
+  This is a pre-filter; the planner's collision check decides.
   A TV belongs to every lane its rectangle touches (a TV half way through a
   lane change blocks both).
 - Keeping the lane: the intelligent driver model (IDM, Treiber et al. 2000)
@@ -39,9 +41,10 @@ class DecisionConfig:
 
     speed_margin: float = 2.0  # m/s, leader slower than desired by more than this: overtake
     look_ahead: float = 100.0  # m, bumper-to-bumper gap within which a vehicle is a leader
-    min_gap: float = 8.0  # m, smallest gap ahead/behind in the target lane
-    time_gap_ahead: float = 1.0  # s, extra gap ahead per m/s of the SV's speed
-    time_gap_behind: float = 1.0  # s, extra gap behind per m/s of the follower's speed
+    min_gap: float = 5.0  # m, smallest gap ahead/behind in the target lane
+    time_gap_ahead: float = 0.5  # s, extra gap ahead per m/s of the SV's speed
+    time_gap_behind: float = 0.5  # s, extra gap behind per m/s of the follower's speed
+    closing_time: float = 2.0  # s, how long a faster follower closes in on the SV
     retry_interval: float = 1.0  # s, wait before planning again after a failure
     cooldown: float = 3.0  # s, wait after a manoeuvre before the next request
     idm_accel: float = 1.0  # m/s^2, IDM maximum acceleration a
@@ -123,14 +126,22 @@ def idm_acceleration(
     return float(max(cfg.idm_accel * (free - interaction), -cfg.max_brake))
 
 
-def lane_free(n: Neighbours, sv_speed: float, cfg: DecisionConfig) -> bool:
-    """Enough room ahead and behind in a lane to start a lane change into it."""
+def lane_free(n: Neighbours, sv_speed: float, cfg: DecisionConfig,
+              end_speed: float | None = None) -> bool:
+    """Enough room ahead and behind in a lane to start a lane change into it.
+
+    Ahead: min_gap + time_gap_ahead * v_sv. Behind: min_gap + time_gap_behind *
+    v_follower, plus what a faster follower closes in half a typical lane change
+    (`closing_time`) on the SV, which will be at `end_speed` (the band rule's
+    target speed) by the end of the change."""
     need_ahead = cfg.min_gap + cfg.time_gap_ahead * sv_speed
     ok_ahead = n.gap_ahead >= need_ahead
     if n.follower < 0:
         return bool(ok_ahead)
-    closing = max(n.follower_speed - sv_speed, 0.0)
-    need_behind = cfg.min_gap + cfg.time_gap_behind * (n.follower_speed + closing)
+    v_end = max(sv_speed, end_speed if end_speed is not None else sv_speed)
+    closing = max(n.follower_speed - v_end, 0.0)
+    need_behind = (cfg.min_gap + cfg.time_gap_behind * n.follower_speed
+                   + closing * cfg.closing_time)
     return bool(ok_ahead and n.gap_behind >= need_behind)
 
 
@@ -180,7 +191,7 @@ def decide(
             lane_speed = min(lane_speed, n.leader_speed)
         if lane_speed < lead_v + cfg.speed_margin:
             continue
-        if lane_free(n, sv_speed, cfg):
+        if lane_free(n, sv_speed, cfg, road.target_speed(lane, target)):
             return Decision(target, accel, own.gap_ahead, f"slow leader, lane {target} free")
     return Decision(None, accel, own.gap_ahead, "slow leader, no free faster lane")
 

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 
 from cosim import metrics as mx
 from cosim.decision import DecisionConfig, LaneChangeTimer, decide
-from cosim.params import RoadParams
+from cosim.params import G, RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.scenario import Scenario
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
@@ -53,6 +53,9 @@ SV_ID = "sv"
 NEAR_RANGE = 150.0  # m, TVs within this x distance of the SV are recorded for the figures
 SETTLE_TOL = 0.1  # m, |y - target lane centre| below which a lane change counts as done
 FOLLOW_HORIZON = 1.0  # s, horizon of the straight lane-keeping reference
+FOLLOW_GRIP = 0.7  # -, share of mu g the car-following reference may brake with
+MAX_FOLLOW_JERK = 15.0  # m/s^3, rate limit of the car-following acceleration
+REF_SPEED_BAND = 0.5  # m/s, the lane-keeping reference speed stays this close to Vx
 CSV_FLOAT = "%.9g"  # float format of every CSV (fixed: byte-identical reruns)
 
 # ----------------------------------------------------------------------------- columns
@@ -343,6 +346,11 @@ class CoSimulation:
         from cosim.traffic.v2v import V2VChannel
 
         self.channel = V2VChannel.from_spec(sc.v2v, road, sc.seed)
+        # without latency or loss the messages at a planning call are exactly those
+        # published then: build them only when planning (they are the costly part)
+        v2v = sc.v2v
+        self.v2v_every_step = v2v.latency > 0 or v2v.loss > 0 or v2v.mode != "v2v"
+        self.radius = max(NEAR_RANGE, v2v.range) + 2.0 * self.sv_length
         # the first step inserts every vehicle at its place
         self.sumo.step()
         self.t_offset = self.sumo.time  # SUMO's clock when our t = 0
@@ -388,7 +396,7 @@ class CoSimulation:
             for k in range(self.n_steps + 1):
                 t = k * self.dt
                 w0 = time.perf_counter()
-                snap_all = self.sumo.snapshot()
+                snap_all = self.sumo.snapshot_near(SV_ID, self.radius)
                 self.wall["sumo"] += time.perf_counter() - w0
                 sv = self._sv_view(snap_all)
                 near, tvs = self._near(snap_all, sv)
@@ -514,7 +522,12 @@ class CoSimulation:
         d = decide(sv["x"], sv["y"], speed, self.sv_length, self._desired_speed(lane),
                    tvs.x, tvs.y, tvs.speed * np.cos(tvs.heading), tvs.length, tvs.width,
                    self.road, self.cfg, allow_change=allow and self.sc.sv.decision)
-        self.idm_accel = d.accel
+        # a reference the car can follow: braking within the road's grip, and the
+        # acceleration changing at most MAX_FOLLOW_JERK (a new leader cutting in)
+        lo = -min(self.cfg.max_brake, FOLLOW_GRIP * self.road.mu * G)
+        step = MAX_FOLLOW_JERK * self.dt
+        a = min(max(d.accel, lo, self.idm_accel - step), self.idm_accel + step)
+        self.idm_accel = a
         self.leader_gap = d.leader_gap
         if not allow:
             return None, ""
@@ -539,18 +552,22 @@ class CoSimulation:
             self.v_ref = float(done.trajectory.vxf)
             self.v_cruise = self.v_ref
             self.timer.manoeuvre_done(t)
-        public = snap_all.select(np.array(
-            [vid != SV_ID and vid not in self.scripted_ids for vid in snap_all.ids], dtype=bool))
-        messages = self.channel.exchange(public, sv["x"], sv["y"])
-        messages = messages + self._scripted_messages(t)
         allow = self.active is None and self.timer.may_request(t)
         target, trigger = self._decide(t, sv, tvs, allow)
+        if self.v2v_every_step or target is not None:
+            public = snap_all.select(np.array(
+                [vid != SV_ID and vid not in self.scripted_ids for vid in snap_all.ids],
+                dtype=bool))
+            messages = self.channel.exchange(public, sv["x"], sv["y"])
         if target is not None:
+            messages = messages + self._scripted_messages(t)
             self._plan(t, target, trigger, messages)
         if self.active is not None:
             reference = self.active.trajectory
         else:
             lane = self.road.lane_of(sv["y"])
+            # anti-windup of the reference: never far from the speed the car has
+            self.v_ref = min(max(self.v_ref, sv["vx"] - REF_SPEED_BAND), sv["vx"] + REF_SPEED_BAND)
             reference = lane_keeping_reference(t, sv["x"], self.road.lane_center(lane),
                                                self.v_ref, self.idm_accel)
             self.v_ref = max(self.v_ref + self.idm_accel * self.dt, 0.0)
@@ -566,12 +583,12 @@ class CoSimulation:
         from cosim.planning.planner import SVPlanState
 
         r = self.record
-        c, s = math.cos(r.heading), math.sin(r.heading)
         lane = self.road.lane_of(r.y)
-        state = SVPlanState(
-            x=r.x, y=r.y, heading=r.heading, vx=r.vx * c - r.vy * s, ax=r.ax * c - r.ay * s,
-            vy=r.vx * s + r.vy * c, ay=r.ax * s + r.ay * c, lane=lane,
-        )
+        # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans
+        # only while keeping its lane, where these are ~0; the measured values carry
+        # the plant's transients (at t = 0: drag with no force yet) into the plan
+        state = SVPlanState(x=r.x, y=r.y, heading=r.heading, vx=r.vx, ax=0.0, vy=0.0, ay=0.0,
+                            lane=lane)
         if trigger != "decision" and self.last_failed == (lane, target):
             trigger = "retry"
         if trigger != "retry":

@@ -234,26 +234,30 @@ class SumoSim:
             binary = sumolib.checkBinary(binary)
         except (ImportError, SystemExit):  # sumolib exits if the binary is missing
             pass
-        cmd = [
-            binary,
-            "-n", str(self.highway.path),
-            "--step-length", repr(self.step_length),
-            "--seed", str(self.seed),
-            "--collision.action", "warn",
-            "--collision.mingap-factor", "0",
-            "--collision.check-junctions", "true",
-            "--time-to-teleport", "-1",
-            "--no-step-log", "true",
-            "--no-warnings", "true",
-            "--error-log", str(Path(self._tmp.name) / "sumo-warnings.log"),
-            "--duration-log.disable", "true",
-        ]  # fmt: skip
+        options = [
+            ("-n", str(self.highway.path)),
+            ("--step-length", repr(self.step_length)),
+            ("--seed", str(self.seed)),
+            ("--collision.action", "warn"),
+            ("--collision.mingap-factor", "0"),
+            ("--time-to-teleport", "-1"),
+            ("--no-step-log", "true"),
+            ("--no-warnings", "true"),
+            ("--error-log", str(Path(self._tmp.name) / "sumo-warnings.log")),
+            ("--duration-log.disable", "true"),
+        ]
         if self.sublane:
-            cmd += ["--lateral-resolution", repr(self.lateral_resolution)]
+            options.append(("--lateral-resolution", repr(self.lateral_resolution)))
         elif self.lanechange_duration > 0:
-            cmd += ["--lanechange.duration", repr(self.lanechange_duration)]
+            options.append(("--lanechange.duration", repr(self.lanechange_duration)))
         if self.gui:
-            cmd += ["--start", "true", "--quit-on-end", "true"]
+            options += [("--start", "true"), ("--quit-on-end", "true")]
+        # SUMO refuses an option given twice: extra_args replace our defaults
+        overridden = {a for a in self.extra_args if a.startswith("-")}
+        cmd = [binary]
+        for name, value in options:
+            if name not in overridden:
+                cmd += [name, value]
         return cmd + list(self.extra_args)
 
     def start(self) -> SumoSim:
@@ -331,15 +335,16 @@ class SumoSim:
             self._band_quantile.pop(vid, None)
             self._band_lane.pop(vid, None)
             self._dims.pop(vid, None)
-        for vid in api.simulation.getStartingTeleportIDList():
+        teleported = set(api.simulation.getStartingTeleportIDList())
+        for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
         snap = self._snapshot = self._read_all()  # one pass serves the checks and the caller
         self._keep_bands(snap)
-        self._check_controlled(snap)
+        self._check_controlled(snap, teleported)
         for hook in self._hooks:
             hook(self)
 
-    def _check_controlled(self, snap: TrafficSnapshot) -> None:
+    def _check_controlled(self, snap: TrafficSnapshot, teleported: set[str]) -> None:
         """A moveToXY vehicle off the network is dropped silently by SUMO: catch it."""
         if not self._controlled:
             return
@@ -351,6 +356,8 @@ class SumoSim:
                 continue
             x, y, h = ctl.last
             detail = f"{vid} left the network at x = {x:.2f} m, y = {y:.2f} m"
+            if vid in teleported:
+                detail += " (SUMO teleported it: a jam with --time-to-teleport set)"
             self.events.append(TrafficEvent(snap.time, "lost", vid, detail))
             del self._controlled[vid]
             if self.strict:
