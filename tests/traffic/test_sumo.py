@@ -103,6 +103,32 @@ def test_leaving_the_network_is_detected() -> None:
         assert "y = -8.00" in sim.events[0].detail
 
 
+def _blocked_road(sim: SumoSim) -> None:
+    """Three stopped controlled vehicles side by side, a TV coming up behind them."""
+    road = sim.road()
+    for k in range(3):
+        sim.add_controlled(f"block{k}", 300.0, road.lane_center(k), 0.0, 0.0, L, W, k)
+    sim.add_traffic("tv", 0, 200.0, 0.5)
+    for _ in range(int(3.0 / STEP)):
+        for k in range(3):
+            if f"block{k}" in sim.vehicle_ids():
+                sim.move(f"block{k}", 300.0, road.lane_center(k), 0.0, 0.0)
+        sim.step()
+
+
+def test_teleports_are_recorded_and_off_by_default() -> None:
+    with make_sim() as sim:  # --time-to-teleport -1: a standing controlled vehicle stays
+        _blocked_road(sim)
+        assert sim.events == []
+        assert sim.pose("block0")[0] == pytest.approx(300.0)
+    with make_sim(strict=False, extra_args=("--time-to-teleport", "1")) as sim:
+        _blocked_road(sim)
+        kinds = {(e.kind, e.vehicle_id) for e in sim.events}
+        assert ("teleport", "block0") in kinds and ("lost", "block0") in kinds
+        assert all(e.time == pytest.approx(1.1) for e in sim.events)
+        assert "teleported" in [e for e in sim.events if e.kind == "lost"][0].detail
+
+
 def test_forced_overlap_is_reported_by_sumo_with_the_warn_action() -> None:
     with make_sim() as sim:
         road = sim.road()
