@@ -10,6 +10,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from cosim.output import atomic_path
+
 # (summary column prefix, axis label); rates are shown in per cent.
 PANELS = (
     ("success", "lane changes completed (%)"),
@@ -77,6 +79,7 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
                  y=0.995, fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.93))
     path = out_dir / "density.png"
-    fig.savefig(path, dpi=120)
+    with atomic_path(path) as tmp:  # an interrupted study never leaves half a PNG
+        fig.savefig(tmp, dpi=120)
     plt.close(fig)
     return [path]
