@@ -26,7 +26,9 @@ def _grid(taus: ArrayLike, t: ArrayLike) -> tuple[Array, Array]:
     tt = np.asarray(t, dtype=float)
     if tau.ndim == 1 and tt.ndim == 1:
         return tau[:, None], tt[None, :]
-    return np.broadcast_arrays(tau, tt)  # type: ignore[return-value]
+    np.broadcast_shapes(tau.shape, tt.shape)  # raises on a mismatch
+    # not broadcast: the coefficients stay per candidate, only the evaluation is (n_tau, n_t)
+    return tau, tt
 
 
 def longitudinal_coefficients(
@@ -63,10 +65,56 @@ def lateral_coefficients(
 def _poly_derivs(coeffs: list[Array], t: Array, order: int) -> Array:
     """Evaluate d^order/dt^order of sum_k coeffs[k] t^k (Horner)."""
     n = len(coeffs)
-    out = np.zeros(np.broadcast_shapes(t.shape, *(np.shape(c) for c in coeffs)))
-    for k in range(n - 1, order - 1, -1):
-        factor = float(np.prod(np.arange(k - order + 1, k + 1))) if order else 1.0
-        out = out * t + factor * coeffs[k]
+    shape = np.broadcast_shapes(t.shape, *(np.shape(c) for c in coeffs))
+
+    def factor(k: int) -> float:
+        return float(np.prod(np.arange(k - order + 1, k + 1))) if order else 1.0
+
+    if order >= n:
+        return np.zeros(shape)
+    out = factor(n - 1) * coeffs[n - 1]
+    for k in range(n - 2, order - 1, -1):
+        out = out * t + factor(k) * coeffs[k]
+    return out if out.shape == shape else np.broadcast_to(out, shape).copy()
+
+
+def cluster_derivatives(
+    vx0: float,
+    vxf: float,
+    width: float,
+    taus: ArrayLike,
+    t: ArrayLike,
+    orders: tuple[int, ...] = (0,),
+    *,
+    ax0: float = 0.0,
+    vy0: float = 0.0,
+    ay0: float = 0.0,
+) -> dict[int, tuple[Array, Array]]:
+    """{order: (x, y)} of every candidate for several derivative orders at once, each
+    shaped like taus x t broadcast (eq. 2, 4; the coefficients are computed once).
+    Past tau the candidate drives straight at vxf."""
+    tau, tt = _grid(taus, t)
+    c3x, c4x = longitudinal_coefficients(vx0, vxf, tau, ax0)
+    c3y, c4y, c5y = lateral_coefficients(width, tau, vy0, ay0)
+    zero = np.zeros_like(tau)
+    x_coeffs = [zero, zero + vx0, zero + ax0 / 2.0, c3x, c4x]
+    y_coeffs = [zero, zero + vy0, zero + ay0 / 2.0, c3y, c4y, c5y]
+    ts = np.minimum(np.maximum(tt, 0.0), tau)
+    after = tt - ts  # time past the end of the manoeuvre
+    ended = after > 0
+    out: dict[int, tuple[Array, Array]] = {}
+    for order in orders:
+        x = _poly_derivs(x_coeffs, ts, order)
+        y = _poly_derivs(y_coeffs, ts, order)
+        if order == 0:
+            x = x + vxf * after
+        elif order == 1:
+            x = np.where(ended, vxf, x)
+            y = np.where(ended, 0.0, y)
+        else:
+            x = np.where(ended, 0.0, x)
+            y = np.where(ended, 0.0, y)
+        out[order] = (x, y)
     return out
 
 
@@ -84,25 +132,9 @@ def cluster(
 ) -> tuple[Array, Array]:
     """Relative (x(t), y(t)) of every candidate, or their `order`-th derivatives,
     shaped (n_tau, n_t) (eq. 2, 4). Past tau the candidate drives straight at vxf."""
-    tau, tt = _grid(taus, t)
-    c3x, c4x = longitudinal_coefficients(vx0, vxf, tau, ax0)
-    c3y, c4y, c5y = lateral_coefficients(width, tau, vy0, ay0)
-    zero = np.zeros_like(tau)
-    x_coeffs = [zero, zero + vx0, zero + ax0 / 2.0, c3x, c4x]
-    y_coeffs = [zero, zero + vy0, zero + ay0 / 2.0, c3y, c4y, c5y]
-    ts = np.clip(tt, 0.0, tau)
-    x = _poly_derivs(x_coeffs, ts, order)
-    y = _poly_derivs(y_coeffs, ts, order)
-    after = tt - ts  # time past the end of the manoeuvre
-    if order == 0:
-        x = x + vxf * after
-    elif order == 1:
-        x = np.where(after > 0, vxf, x)
-        y = np.where(after > 0, 0.0, y)
-    else:
-        x = np.where(after > 0, 0.0, x)
-        y = np.where(after > 0, 0.0, y)
-    return x, y
+    return cluster_derivatives(
+        vx0, vxf, width, taus, t, (order,), ax0=ax0, vy0=vy0, ay0=ay0
+    )[order]
 
 
 def jerk_costs(

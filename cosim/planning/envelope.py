@@ -1,0 +1,214 @@
+"""Handling envelope and the stable set of a trajectory cluster (Section 3.1).
+
+A lane change of duration tau is stable when the yaw rate needed to follow it
+stays inside the friction-circle envelope (eq. 5-6) for all t in [0, tau]:
+
+    |Omega_z| <= f sqrt((mu g)^2 - Ax^2) / Vx.
+
+Which yaw rate the paper bounds is not written down. The default here is the
+2-DOF model of eq. 17-19 made to follow the planned centre-of-gravity path
+exactly (inverse dynamics): the path fixes the lateral acceleration a_n = V^2 kappa
+the tyres must deliver, and the model's side-slip and yaw rate respond to it
+
+    dVy/dt     = a_n - V Omega
+    dOmega/dt  = (lf M a_n - (lf + lr) Fyr) / Iz,   Fyr = Cr (lr Omega - Vy) / V
+
+(the front force is whatever is left of M a_n; the steering that realises it is
+not needed). Ax = dVx*/dt of eq. 14. "kinematic" (Omega = V kappa) is kept as an
+option to show that it is not enough. The paper's calibrated maps (eq. 31-34)
+are the third option.
+
+Everything is vectorised over tau: each candidate is sampled on its own
+normalised time grid s = t / tau in [0, 1], arrays shaped (n_tau, n_s). The one
+sequential part is the time stepping of the linear ODE, one numpy step for all
+candidates at a time (trapezoidal rule: A-stable, second order).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cosim.errors import InputError
+from cosim.params import G, VehicleParams
+from cosim.planning.trajectory import cluster_derivatives
+
+Array = NDArray[np.float64]
+
+YAW_MODELS = ("inverse_dynamics", "kinematic")
+ENVELOPES = ("inverse_dynamics", "kinematic", "paper_maps")
+
+# eq. 31-34, vx0 in km/h: (c0, c_v, c_mu, c_v2, c_vmu, c_mu2) per mode
+PAPER_MAPS: dict[int, tuple[float, float, float, float, float, float]] = {
+    1: (4.46, -1.11e-2, -3.20, 2.79e-5, 3.23e-3, 1.20),
+    2: (3.58, -1.91e-2, -4.31, 1.45e-4, 8.15e-3, 1.58),
+    3: (-0.05, -6.53e-2, -2.82, 2.21e-4, 1.49e-2, 2.18),
+    4: (5.04, -3.61e-2, -2.11, 2.38e-5, 1.25e-2, 1.65),
+}
+# Fig. 5's four modes by (origin, target) SUMO lane: 1->2, 2->3, 3->2, 2->1 in the paper's numbering
+MODES: dict[tuple[int, int], int] = {(0, 1): 1, (1, 2): 2, (2, 1): 3, (1, 0): 4}
+
+
+def inverse_dynamics_yaw_rate(
+    speed: Array, lateral_accel: Array, dt: Array, vehicle: VehicleParams,
+    omega0: ArrayLike = 0.0,
+) -> Array:
+    """rad/s, yaw rate of the 2-DOF linear model (eq. 17-19) whose CG follows a path
+    with normal acceleration `lateral_accel` at `speed`, both (n, n_s) on steps `dt` (n,).
+
+    Starts with no side slip and yaw rate `omega0`; trapezoidal rule along axis 1.
+    """
+    M, Iz, lf, lr, Cr = vehicle.mass, vehicle.yaw_inertia, vehicle.lf, vehicle.lr, vehicle.cr
+    L = lf + lr
+    V = np.maximum(speed, 0.5)  # the linear tyre model is singular at standstill
+    k = L * Cr / (Iz * V)  # 1/s, rear-axle stiffness term of the yaw equation
+    # z' = A z + b a_n with z = (Vy, Omega), A = [[0, -V], [k, -k lr]], b = (1, lf M / Iz)
+    a01 = -V
+    a10 = k
+    a11 = -k * lr
+    h = 0.5 * np.asarray(dt, dtype=float)[:, None]
+    # trapezoid: (I - h A_{k+1}) z_{k+1} = (I + h A_k) z_k + h (b u_k + b u_{k+1})
+    u = lateral_accel
+    g0 = h * (u[:, :-1] + u[:, 1:])
+    g1 = g0 * (lf * M / Iz)
+    # inverse of (I - h A_{k+1}) = [[1, h V], [-h k, 1 + h k lr]]
+    m00, m01 = 1.0, -h * a01[:, 1:]
+    m10, m11 = -h * a10[:, 1:], 1.0 - h * a11[:, 1:]
+    det = m00 * m11 - m01 * m10
+    i00, i01, i10, i11 = m11 / det, -m01 / det, -m10 / det, m00 / det
+    p00, p01 = 1.0, h * a01[:, :-1]
+    p10, p11 = h * a10[:, :-1], 1.0 + h * a11[:, :-1]
+    # one step: z_{k+1} = Inv (P z_k + g); fold into z_{k+1} = T z_k + c
+    t00 = i00 * p00 + i01 * p10
+    t01 = i00 * p01 + i01 * p11
+    t10 = i10 * p00 + i11 * p10
+    t11 = i10 * p01 + i11 * p11
+    c0 = i00 * g0 + i01 * g1
+    c1 = i10 * g0 + i11 * g1
+    # time-major copies so each step reads contiguous rows
+    t00, t01, t10, t11, c0, c1 = (np.ascontiguousarray(a.T) for a in (t00, t01, t10, t11, c0, c1))
+    n, n_s = speed.shape
+    omega = np.empty((n_s, n))
+    vy = np.zeros(n)
+    om = np.broadcast_to(np.asarray(omega0, dtype=float), (n,)).copy()
+    omega[0] = om
+    for j in range(n_s - 1):  # sequential in time by nature; vectorised over candidates
+        vy, om = t00[j] * vy + t01[j] * om + c0[j], t10[j] * vy + t11[j] * om + c1[j]
+        omega[j + 1] = om
+    return omega.T
+
+
+@dataclass(frozen=True)
+class StableSet:
+    """The handling-envelope verdict on a tau grid."""
+
+    taus: Array  # s, (n_tau,) the grid
+    margin: Array  # -, (n_tau,) max of |Omega_z| / bound on [0, tau] (<= 1 stable; inf |Ax| > mu g)
+    stable: Array  # bool (n_tau,)
+    tau_min: float  # s, shortest stable tau (interpolated between grid points; nan: none)
+
+
+def envelope_margin(
+    vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, taus: ArrayLike, mu: float,
+    vehicle: VehicleParams, *, safety_factor: float = 0.8, yaw_model: str = "inverse_dynamics",
+    ax0: float = 0.0, vy0: float = 0.0, ay0: float = 0.0, n_s: int = 64,
+) -> Array:
+    """-, max over t in [0, tau] of |Omega_z(t)| / (f sqrt((mu g)^2 - Ax^2) / Vx) (eq. 5-6)
+    for every tau; > 1 means the candidate leaves the envelope. Shape (n_tau,).
+
+    vx0, vxf, width and the initial values may be arrays of the same length as
+    `taus`: one row per (vehicle, tau), so the clusters of several vehicles are
+    checked in one call."""
+    if yaw_model not in YAW_MODELS:
+        raise InputError("planner", "envelope", yaw_model, f"one of {', '.join(ENVELOPES)}")
+    tau = np.atleast_1d(np.asarray(taus, dtype=float))
+
+    def col(a: ArrayLike) -> Array:
+        return np.broadcast_to(np.asarray(a, dtype=float), tau.shape)[:, None]
+
+    s = np.linspace(0.0, 1.0, n_s)
+    t = tau[:, None] * s[None, :]  # (n_tau, n_s), each candidate on its own [0, tau]
+    kw = {"ax0": col(ax0), "vy0": col(vy0), "ay0": col(ay0)}
+    d = cluster_derivatives(col(vx0), col(vxf), col(width), tau[:, None], t, (1, 2), **kw)
+    (xd, yd), (xdd, ydd) = d[1], d[2]
+    V = np.hypot(xd, yd)  # Vx* (eq. 14)
+    Ax = (xd * xdd + yd * ydd) / V  # dVx*/dt
+    a_n = (xd * ydd - yd * xdd) / V  # V^2 KL (eq. 15)
+    if yaw_model == "kinematic":
+        omega = a_n / V
+    else:
+        omega0 = a_n[:, 0] / V[:, 0]  # a plan that starts mid-curve starts on it
+        omega = inverse_dynamics_yaw_rate(V, a_n, tau / (n_s - 1), vehicle, omega0)
+    grip2 = (mu * G) ** 2 - Ax**2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        bound = safety_factor * np.sqrt(np.where(grip2 > 0, grip2, np.nan)) / V
+        ratio = np.abs(omega) / bound
+    ratio = np.where(np.isnan(ratio), np.inf, ratio)  # |Ax| >= mu g: outside the envelope
+    return ratio.max(axis=1)
+
+
+def tau_min_from_margin(taus: Array, margin: Array) -> float:
+    """s, the tau where the margin first falls to 1 for good: linear interpolation
+    between the last unstable and the first stable grid point of the final stable run."""
+    stable = margin <= 1.0
+    if not stable.any():
+        return float("nan")
+    if stable.all():
+        return float(taus[0])
+    unstable_idx = np.flatnonzero(~stable)
+    last_bad = int(unstable_idx[-1])
+    if last_bad == len(taus) - 1:
+        return float("nan")
+    m0, m1 = margin[last_bad], margin[last_bad + 1]
+    if not np.isfinite(m0):
+        return float(taus[last_bad + 1])
+    frac = (m0 - 1.0) / (m0 - m1)
+    return float(taus[last_bad] + frac * (taus[last_bad + 1] - taus[last_bad]))
+
+
+def paper_map_tau_min(mode: int, vx0: float, mu: float) -> float:
+    """s, tau_min,i = F_i(vx0, mu) of eq. 31-34 (vx0 in m/s here, km/h in the fit)."""
+    if mode not in PAPER_MAPS:
+        raise InputError("planner", "mode", mode, "1, 2, 3 or 4 (Fig. 5)")
+    c0, cv, cm, cv2, cvm, cm2 = PAPER_MAPS[mode]
+    v = vx0 * 3.6
+    return c0 + cv * v + cm * mu + cv2 * v**2 + cvm * v * mu + cm2 * mu**2
+
+
+def stable_set(
+    vx0: float, vxf: float, width: float, taus: ArrayLike, mu: float,
+    vehicle: VehicleParams, *, envelope: str = "inverse_dynamics", safety_factor: float = 0.8,
+    ax0: float = 0.0, vy0: float = 0.0, ay0: float = 0.0, mode: int | None = None,
+    tau_floor: float = 1.0,
+) -> StableSet:
+    """The stable candidates on `taus` (Section 3.1, eq. 5-8).
+
+    `envelope` "inverse_dynamics" (default) or "kinematic": the yaw-rate envelope
+    checked on every candidate; "paper_maps": tau >= F_mode(vx0, mu) (eq. 31-34),
+    with a warning and `tau_floor` in place of a map value below it (eq. 33 is
+    negative over the whole speed range: a misprint).
+    """
+    tau = np.atleast_1d(np.asarray(taus, dtype=float))
+    if envelope == "paper_maps":
+        if mode is None:
+            raise InputError("planner", "envelope", envelope, "paper maps need a lane-change mode")
+        value = paper_map_tau_min(mode, vx0, mu)
+        if not np.isfinite(value) or value < tau_floor:
+            warnings.warn(
+                f"paper map eq. {30 + mode} gives tau_min = {value:.2f} s at "
+                f"{vx0 * 3.6:.0f} km/h, mu {mu}: using {tau_floor} s",
+                stacklevel=2,
+            )
+            value = tau_floor
+        margin = np.where(tau >= value, 0.0, np.inf)
+        return StableSet(tau, margin, tau >= value - 1e-12, float(value))
+    if envelope not in YAW_MODELS:
+        raise InputError("planner", "envelope", envelope, f"one of {', '.join(ENVELOPES)}")
+    margin = envelope_margin(
+        vx0, vxf, width, tau, mu, vehicle, safety_factor=safety_factor, yaw_model=envelope,
+        ax0=ax0, vy0=vy0, ay0=ay0,
+    )
+    return StableSet(tau, margin, margin <= 1.0, tau_min_from_margin(tau, margin))

@@ -1,0 +1,302 @@
+"""The lane-change planner: cluster -> stable set -> TV futures -> collision-free set -> tau.
+
+Sections 2-3 of the paper put together: the trajectory cluster over tau (eq. 2,
+4), the handling envelope's stable set (eq. 5-8), the TVs' predicted futures
+(C1-C3), the collision check (eq. 9-11; exact by default), and the choice of tau
+(eq. 13, 35). `LaneChangePlanner.plan` returns a `Plan` that says what it chose
+and why every other tau was rejected; `check` re-tests a committed trajectory
+against fresh messages.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cosim.errors import InputError
+from cosim.params import PlannerConfig, RoadParams, VehicleParams
+from cosim.planning.collision import COLLISION_TESTS, HeadingFn, check_cluster, sampling_pad
+from cosim.planning.envelope import ENVELOPES, MODES, stable_set
+from cosim.planning.prediction import TVFutures, predict
+from cosim.planning.selection import choose, intervals, omega
+from cosim.planning.trajectory import LaneChangeTrajectory, cluster_derivatives
+from cosim.traffic.v2v import V2VMessage
+
+Array = NDArray[np.float64]
+
+COLLISION_STEP = 0.05  # s, sample step of the collision check (rectangles padded, see collision.py)
+
+
+@dataclass(frozen=True)
+class SVPlanState:
+    """The subject vehicle's state when it plans."""
+
+    x: float  # m, global x of the CG
+    y: float  # m, global y of the CG (the lateral start of the plan)
+    heading: float  # rad
+    vx: float  # m/s, longitudinal speed
+    ax: float  # m/s^2, longitudinal acceleration
+    vy: float  # m/s, lateral speed (+ left)
+    ay: float  # m/s^2, lateral acceleration
+    lane: int  # SUMO index of the origin lane
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """Why one tau was not taken."""
+
+    tau: float  # s
+    reason: str  # "unstable" | "collision"
+    vehicle_id: str | None = None  # the TV it would hit first
+    time: float | None = None  # s, simulation time of that first overlap
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The outcome of one planning call."""
+
+    t: float  # s, simulation time of the plan
+    origin_lane: int
+    target_lane: int
+    taus: Array  # s, the tau grid (n_tau,)
+    stable: NDArray[np.bool_]  # (n_tau,) inside the handling envelope
+    collision_free: NDArray[np.bool_]  # (n_tau,) stable and collision-free
+    tau_min: float  # s, shortest stable tau (nan: none)
+    tau_max: float  # s
+    stable_intervals: list[tuple[float, float]]  # s
+    collision_free_intervals: list[tuple[float, float]]  # s
+    omega: float  # -, eq. 35 (clipped)
+    tau_opt: float  # s, eq. 13 over the collision-free set (nan: empty)
+    tau: float | None  # s, chosen; None: keep the lane
+    trajectory: LaneChangeTrajectory | None
+    rejections: list[Rejection]
+    planning_time_s: float  # s, wall time of plan()
+    vxf: float = math.nan  # m/s, target speed of the lane change
+    categories: dict[str, str] = field(default_factory=dict)  # TV id -> "C1" | "C2" | "C3"
+    futures: TVFutures | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def feasible(self) -> bool:
+        """A collision-free tau exists (otherwise: keep the lane)."""
+        return self.tau is not None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no arrays of the grid; intervals as [lo, hi] lists)."""
+
+        def num(v: float | None) -> float | None:
+            return None if v is None or not math.isfinite(v) else round(float(v), 6)
+
+        return {
+            "t": num(self.t),
+            "origin_lane": self.origin_lane,
+            "target_lane": self.target_lane,
+            "tau_min": num(self.tau_min),
+            "tau_max": num(self.tau_max),
+            "tau_step": num(float(np.median(np.diff(self.taus)))) if self.taus.size > 1 else None,
+            "stable": [[num(a), num(b)] for a, b in self.stable_intervals],
+            "collision_free": [[num(a), num(b)] for a, b in self.collision_free_intervals],
+            "omega": num(self.omega),
+            "tau_opt": num(self.tau_opt),
+            "tau": num(self.tau),
+            "feasible": self.feasible,
+            "vxf": num(self.vxf),
+            "categories": dict(self.categories),
+            "planning_time_s": self.planning_time_s,
+            "rejected": [
+                {"tau": num(r.tau), "reason": r.reason, "vehicle_id": r.vehicle_id,
+                 "time": num(r.time)}
+                for r in self.rejections
+            ],
+        }
+
+
+class LaneChangePlanner:
+    """Plans a lane change of one vehicle (Sections 2-3)."""
+
+    def __init__(
+        self, vehicle: VehicleParams, road: RoadParams, config: PlannerConfig,
+        *, collision_step: float = COLLISION_STEP,
+    ) -> None:
+        if config.envelope not in ENVELOPES:
+            raise InputError("planner", "envelope", config.envelope, f"one of {ENVELOPES}")
+        if config.collision_test not in COLLISION_TESTS:
+            raise InputError("planner", "collision_test", config.collision_test,
+                             f"one of {COLLISION_TESTS}")
+        if not 0 < config.tau_step <= 1.0:
+            raise InputError("planner", "tau_step_s", config.tau_step, "in (0, 1] s")
+        if not config.tau_min_floor < config.tau_max:
+            raise InputError("planner", "tau_max_s", config.tau_max,
+                             f"greater than tau_min_floor ({config.tau_min_floor} s)")
+        self.vehicle = vehicle
+        self.road = road
+        self.config = config
+        self.collision_step = collision_step
+        n = int(round((config.tau_max - config.tau_min_floor) / config.tau_step))
+        grid = config.tau_min_floor + config.tau_step * np.arange(n + 1)
+        self.grid = grid[grid <= config.tau_max + 1e-9]
+
+    # -- pieces ------------------------------------------------------------------
+
+    def _validate(self, sv: SVPlanState, target_lane: int, occupant: float) -> None:
+        if not 0 <= target_lane < self.road.n_lanes or abs(target_lane - sv.lane) != 1:
+            raise InputError("planner", "target_lane", target_lane,
+                             f"a lane next to {sv.lane} in 0..{self.road.n_lanes - 1}")
+        if not 0.0 <= occupant <= 1.0:
+            raise InputError("planner", "occupant", occupant, "in [0, 1]")
+        if not sv.vx > 0.0:
+            raise InputError("planner", "vx", sv.vx, "a positive speed")
+
+    def _time_grid(self, horizon: float) -> Array:
+        n = int(math.ceil(horizon / self.collision_step))
+        return self.collision_step * np.arange(n + 1)
+
+    def _sv_cluster(
+        self, sv: SVPlanState, vxf: float, width: float, taus: Array, t_rel: Array
+    ) -> tuple[Array, Array, HeadingFn]:
+        """Global (x, y) of every candidate on the time grid, and its heading as a
+        function of (candidate, time) indices: headings are needed only where the
+        exact test runs."""
+        kw = {"ax0": sv.ax, "vy0": sv.vy, "ay0": sv.ay}
+        x, y = cluster_derivatives(sv.vx, vxf, width, taus, t_rel, (0,), **kw)[0]
+
+        def heading(c: NDArray[np.int64], k: NDArray[np.int64]) -> Array:
+            xd, yd = cluster_derivatives(
+                sv.vx, vxf, width, taus[c][:, None], t_rel[k][:, None], (1,), **kw
+            )[1]
+            return np.arctan2(yd[:, 0], xd[:, 0])
+
+        return x + sv.x, y + sv.y, heading
+
+    def _collisions(
+        self, t: float, t_rel: Array, sx: Array, sy: Array, sh: Array | HeadingFn,
+        sv_end: Array, futures: TVFutures,
+    ) -> tuple[NDArray[np.bool_], list[str | None], list[float | None]]:
+        """(collides (n_c,), first TV id, first time) of every SV candidate."""
+        cfg = self.config
+        n_c = sx.shape[0]
+        if futures.n_hypotheses == 0 or n_c == 0:
+            return np.zeros(n_c, dtype=bool), [None] * n_c, [None] * n_c
+        r_sv = 0.5 * math.hypot(self.vehicle.length, self.vehicle.width)
+        r_tv = 0.5 * np.hypot(futures.length, futures.width)
+        sv_turn = self._max_heading_step(sx, sy)
+        pad = sampling_pad(sx, sy, sv_turn, futures.x, futures.y, futures.heading, r_sv, r_tv)
+        tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
+        hits = check_cluster(
+            t_rel, sx, sy, sh, self.vehicle.length, self.vehicle.width,
+            sv_end + cfg.horizon_extra, futures.x, futures.y, futures.heading,
+            futures.length, futures.width, tv_end + cfg.horizon_extra,
+            margin=cfg.safety_margin, test=cfg.collision_test, pad=pad,
+            sv_max_heading=self._max_heading(sx, sy) + sv_turn,
+        )
+        ids: list[str | None] = [None] * n_c
+        when: list[float | None] = [None] * n_c
+        for c in np.flatnonzero(hits.collides):  # only to name the culprits
+            ids[c] = futures.vehicle_ids[futures.owner[hits.first_hypothesis[c]]]
+            when[c] = float(t + t_rel[hits.first_index[c]])
+        return hits.collides, ids, when
+
+    @staticmethod
+    def _max_heading(sx: Array, sy: Array) -> float:
+        """rad, the largest |chord direction| of any candidate between two samples."""
+        if sx.shape[1] < 2:
+            return 0.5 * math.pi
+        return float(np.abs(np.arctan2(np.diff(sy, axis=1), np.diff(sx, axis=1))).max())
+
+    @staticmethod
+    def _max_heading_step(sx: Array, sy: Array) -> float:
+        """rad, the largest heading change of any candidate between two samples
+        (from the chord directions: the path turns at most twice the chord angle change)."""
+        if sx.shape[1] < 3:
+            return 0.0
+        chord = np.arctan2(np.diff(sy, axis=1), np.diff(sx, axis=1))
+        return float(2.0 * np.abs(np.diff(chord, axis=1)).max())
+
+    # -- the planner -------------------------------------------------------------
+
+    def plan(
+        self, t: float, sv: SVPlanState, target_lane: int, messages: Sequence[V2VMessage],
+        occupant: float,
+    ) -> Plan:
+        """Plan a lane change from sv.lane to `target_lane` at simulation time t."""
+        start = time.perf_counter()
+        self._validate(sv, target_lane, occupant)
+        cfg, road = self.config, self.road
+        vxf = road.target_speed(sv.lane, target_lane)
+        width = road.lane_center(target_lane) - sv.y
+        st = stable_set(
+            sv.vx, vxf, width, self.grid, road.mu, self.vehicle, envelope=cfg.envelope,
+            safety_factor=cfg.safety_factor, ax0=sv.ax, vy0=sv.vy, ay0=sv.ay,
+            mode=MODES.get((sv.lane, target_lane)), tau_floor=cfg.tau_min_floor,
+        )
+        taus, stable = st.taus, st.stable
+        if math.isfinite(st.tau_min) and not np.isclose(taus, st.tau_min, atol=1e-9).any():
+            # the interval starts at tau_min itself, not at the next grid point
+            at = int(np.searchsorted(taus, st.tau_min))
+            taus = np.insert(taus, at, st.tau_min)
+            stable = np.insert(stable, at, True)
+        cand = np.flatnonzero(stable)
+        tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
+        t_rel = self._time_grid(max(cfg.tau_max, tv_last) + cfg.horizon_extra)
+        futures = predict(
+            messages, t, t_rel, road, self.vehicle, self.grid,
+            envelope=cfg.envelope, safety_factor=cfg.safety_factor,
+        )
+        sx, sy, sh = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
+        collides, ids, when = self._collisions(t, t_rel, sx, sy, sh, taus[cand], futures)
+        free = np.zeros(taus.size, dtype=bool)
+        free[cand[~collides]] = True
+        w = omega(occupant, road.mu)
+        tau, t_opt = choose(taus, free, w)
+        # one reason per rejected tau, in tau order
+        cand_of = np.full(taus.size, -1)
+        cand_of[cand] = np.arange(cand.size)
+        rejections = [
+            Rejection(float(taus[i]), "unstable") if cand_of[i] < 0
+            else Rejection(float(taus[i]), "collision", ids[cand_of[i]], when[cand_of[i]])
+            for i in np.flatnonzero(~free)
+        ]
+        trajectory = None
+        if tau is not None:
+            trajectory = LaneChangeTrajectory(
+                t0=t, tau=tau, x0=sv.x, y0=sv.y, vx0=sv.vx, vxf=vxf, width=width,
+                ax0=sv.ax, vy0=sv.vy, ay0=sv.ay,
+            )
+        return Plan(
+            t=t, origin_lane=sv.lane, target_lane=target_lane, taus=taus, stable=stable,
+            collision_free=free, tau_min=st.tau_min, tau_max=cfg.tau_max,
+            stable_intervals=intervals(taus, stable),
+            collision_free_intervals=intervals(taus, free), omega=w, tau_opt=t_opt,
+            tau=tau, trajectory=trajectory, rejections=rejections,
+            planning_time_s=time.perf_counter() - start, vxf=vxf,
+            categories=dict(zip(futures.vehicle_ids, futures.categories, strict=True)),
+            futures=futures,
+        )
+
+    def check(
+        self, trajectory: LaneChangeTrajectory, t: float, messages: Sequence[V2VMessage]
+    ) -> Rejection | None:
+        """Re-check a committed trajectory from time t on against fresh predictions:
+        the first collision it would now have, or None."""
+        cfg = self.config
+        remaining = max(trajectory.t_end - t, 0.0)
+        tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
+        t_rel = self._time_grid(max(remaining, tv_last, cfg.tau_max) + cfg.horizon_extra)
+        futures = predict(
+            messages, t, t_rel, self.road, self.vehicle, self.grid,
+            envelope=cfg.envelope, safety_factor=cfg.safety_factor,
+        )
+        ts = t + t_rel
+        x, y = trajectory.position(ts)
+        h = trajectory.heading(ts)
+        collides, ids, when = self._collisions(
+            t, t_rel, x[None, :], y[None, :], h[None, :], np.array([remaining]), futures
+        )
+        if not collides[0]:
+            return None
+        return Rejection(trajectory.tau, "collision", ids[0], when[0])

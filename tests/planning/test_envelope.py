@@ -1,0 +1,85 @@
+"""Handling envelope and stable set (eq. 5-8, 31-34)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cosim.params import VehicleParams, kmh
+from cosim.planning.envelope import (
+    envelope_margin,
+    inverse_dynamics_yaw_rate,
+    paper_map_tau_min,
+    stable_set,
+)
+
+VEH = VehicleParams()
+GRID = np.arange(1.0, 10.0001, 0.05)
+# (vx0 km/h, vxf km/h, W m, mu, paper's tau_min s)
+PAPER = [(80, 90, 3.75, 0.4, 2.75), (110, 90, -3.75, 0.6, 2.56), (105, 110, 3.75, 0.8, 2.23)]
+
+
+def test_steady_turn_yaw_rate_is_speed_over_radius() -> None:
+    """On a circle at constant speed the model's yaw rate settles at V / R."""
+    V, R = 25.0, 300.0
+    n = 4001
+    speed = np.full((1, n), V)
+    a_n = np.full((1, n), V**2 / R)
+    omega = inverse_dynamics_yaw_rate(speed, a_n, np.array([10.0 / (n - 1)]), VEH)
+    assert omega[0, -1] == pytest.approx(V / R, rel=1e-6)
+    assert omega[0, 0] == 0.0
+
+
+@pytest.mark.parametrize(("v0", "vf", "W", "mu", "paper"), PAPER)
+def test_tau_min_reproduces_the_paper(v0: float, vf: float, W: float, mu: float,
+                                      paper: float) -> None:
+    st = stable_set(kmh(v0), kmh(vf), W, GRID, mu, VEH)
+    assert abs(st.tau_min - paper) < 0.04
+    # the stable set is the interval [tau_min, tau_max] on the grid
+    assert st.stable[st.tau_min + 1e-9 <= GRID].all()
+    assert not st.stable[st.tau_min - 1e-9 > GRID].any()
+
+
+@pytest.mark.parametrize(("v0", "vf", "W", "mu", "paper"), PAPER)
+def test_kinematic_yaw_rate_is_not_enough(v0: float, vf: float, W: float, mu: float,
+                                          paper: float) -> None:
+    """The oversteering car needs more yaw rate than V * curvature: shorter kinematic tau_min."""
+    dyn = stable_set(kmh(v0), kmh(vf), W, GRID, mu, VEH)
+    kin = stable_set(kmh(v0), kmh(vf), W, GRID, mu, VEH, envelope="kinematic")
+    assert kin.tau_min < dyn.tau_min - 0.05
+
+
+def test_lower_friction_and_safety_factor_lengthen_tau_min() -> None:
+    base = stable_set(kmh(100), kmh(110), 3.75, GRID, 0.8, VEH).tau_min
+    assert stable_set(kmh(100), kmh(110), 3.75, GRID, 0.4, VEH).tau_min > base
+    assert stable_set(kmh(100), kmh(110), 3.75, GRID, 0.8, VEH, safety_factor=0.5).tau_min > base
+
+
+def test_rows_of_several_vehicles_in_one_call() -> None:
+    taus = GRID[::10]
+    a = envelope_margin(kmh(80), kmh(90), 3.75, taus, 0.5, VEH)
+    b = envelope_margin(kmh(110), kmh(90), -3.75, taus, 0.5, VEH)
+    both = envelope_margin(
+        np.repeat([kmh(80), kmh(110)], taus.size), np.repeat([kmh(90), kmh(90)], taus.size),
+        np.repeat([3.75, -3.75], taus.size), np.tile(taus, 2), 0.5, VEH,
+    )
+    np.testing.assert_allclose(both, np.concatenate([a, b]), rtol=1e-12)
+
+
+def test_acceleration_beyond_grip_is_outside() -> None:
+    """A 0 -> 30 m/s change in 1 s needs |Ax| > mu g: margin inf."""
+    m = envelope_margin(0.5, 30.0, 3.75, [1.0], 0.4, VEH)
+    assert np.isinf(m[0])
+
+
+def test_paper_maps() -> None:
+    # eq. 31 is the one that matches the paper's own case 5.1 (2.77 vs 2.75)
+    assert paper_map_tau_min(1, kmh(80), 0.4) == pytest.approx(2.77, abs=0.01)
+    st = stable_set(kmh(80), kmh(90), 3.75, GRID, 0.4, VEH, envelope="paper_maps", mode=1)
+    assert st.tau_min == pytest.approx(2.77, abs=0.01)
+    assert st.stable[GRID >= 2.8].all() and not st.stable[GRID < 2.75].any()
+    # eq. 33 is negative over the speed range (a misprint): warned and floored
+    with pytest.warns(UserWarning, match="eq. 33"):
+        st3 = stable_set(kmh(110), kmh(110), -3.75, GRID, 0.6, VEH, envelope="paper_maps",
+                         mode=3, tau_floor=1.0)
+    assert st3.tau_min == 1.0

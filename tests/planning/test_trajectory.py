@@ -1,0 +1,85 @@
+"""Min-jerk cluster (eq. 2, 4, 12, 14, 15): boundary conditions and jerk costs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from cosim.planning.trajectory import (
+    LaneChangeTrajectory,
+    cluster,
+    cluster_derivatives,
+    jerk_costs,
+)
+
+RNG = np.random.default_rng(20200814)
+CASES = [
+    (RNG.uniform(15, 35), RNG.uniform(15, 35), RNG.choice([-1, 1]) * RNG.uniform(2.5, 4.5),
+     RNG.uniform(1.0, 10.0))
+    for _ in range(25)
+]
+
+
+@pytest.mark.parametrize(("vx0", "vxf", "W", "tau"), CASES)
+def test_boundary_conditions_to_1e9(vx0: float, vxf: float, W: float, tau: float) -> None:
+    ends = np.array([0.0, tau])
+    d = cluster_derivatives(vx0, vxf, W, [tau], ends, (0, 1, 2))
+    (x, y), (xd, yd), (xdd, ydd) = d[0], d[1], d[2]
+    # values at tau are evaluated just inside the manoeuvre (after it the motion is straight)
+    inside = cluster_derivatives(vx0, vxf, W, [tau], [tau * (1 - 1e-15)], (1, 2))
+    np.testing.assert_allclose([x[0, 0], y[0, 0], yd[0, 0], ydd[0, 0], xdd[0, 0]], 0.0, atol=1e-9)
+    assert xd[0, 0] == pytest.approx(vx0, abs=1e-9)
+    assert y[0, 1] == pytest.approx(W, abs=1e-9)
+    assert inside[1][0][0, 0] == pytest.approx(vxf, abs=1e-9)
+    np.testing.assert_allclose([inside[1][1][0, 0], inside[2][0][0, 0], inside[2][1][0, 0]],
+                               0.0, atol=1e-9)
+    # eq. 2 and eq. 4 as printed
+    t = np.linspace(0, tau, 7)
+    xs, ys = cluster(vx0, vxf, W, [tau], t)
+    eq2 = (vx0 - vxf) / (2 * tau**3) * t**4 - (vx0 - vxf) / tau**2 * t**3 + vx0 * t
+    s = t / tau
+    eq4 = W * (6 * s**5 - 15 * s**4 + 10 * s**3)
+    np.testing.assert_allclose(xs[0], eq2, atol=1e-9)
+    np.testing.assert_allclose(ys[0], eq4, atol=1e-9)
+
+
+def test_general_start_conditions() -> None:
+    """A plan started mid-manoeuvre keeps the given y', y'', x'' at 0 and ends at rest."""
+    tau, W = 4.0, 2.1
+    d = cluster_derivatives(25.0, 27.0, W, [tau], [0.0], (1, 2), ax0=0.4, vy0=0.6, ay0=-0.3)
+    assert d[1][1][0, 0] == pytest.approx(0.6)
+    assert d[2][1][0, 0] == pytest.approx(-0.3)
+    assert d[2][0][0, 0] == pytest.approx(0.4)
+    end = cluster_derivatives(25.0, 27.0, W, [tau], [tau * (1 - 1e-15)], (0, 1, 2),
+                              ax0=0.4, vy0=0.6, ay0=-0.3)
+    assert end[0][1][0, 0] == pytest.approx(W, abs=1e-9)
+    assert end[1][0][0, 0] == pytest.approx(27.0, abs=1e-9)
+    assert abs(end[1][1][0, 0]) < 1e-9 and abs(end[2][1][0, 0]) < 1e-9
+
+
+@pytest.mark.parametrize(("vx0", "vxf", "W", "tau"), CASES[:6])
+def test_jerk_costs_match_quadrature(vx0: float, vxf: float, W: float, tau: float) -> None:
+    jx_closed, jy_closed = jerk_costs(vx0, vxf, W, tau)
+
+    def jerk(t: float) -> tuple[float, float]:
+        d = cluster_derivatives(vx0, vxf, W, [tau], [t], (3,))[3]
+        return float(d[0][0, 0]), float(d[1][0, 0])
+
+    jx = quad(lambda t: 0.5 * jerk(t)[0] ** 2, 0, tau, epsabs=1e-12, epsrel=1e-10)[0]
+    jy = quad(lambda t: 0.5 * jerk(t)[1] ** 2, 0, tau, epsabs=1e-12, epsrel=1e-10)[0]
+    assert jx == pytest.approx(float(jx_closed), rel=1e-7, abs=1e-12)
+    assert jy == pytest.approx(float(jy_closed), rel=1e-7)
+
+
+def test_reference_speed_and_curvature() -> None:
+    """eq. 14-15 against finite differences of the global path."""
+    tr = LaneChangeTrajectory(t0=3.0, tau=5.0, x0=100.0, y0=1.875, vx0=22.0, vxf=25.0, width=3.75)
+    t = np.linspace(3.2, 7.8, 9)
+    h = 1e-5
+    x1, y1 = tr.position(t + h)
+    x0, y0 = tr.position(t - h)
+    speed = np.hypot(x1 - x0, y1 - y0) / (2 * h)
+    np.testing.assert_allclose(tr.speed(t), speed, rtol=1e-6)
+    heading_rate = (tr.heading(t + h) - tr.heading(t - h)) / (2 * h)
+    np.testing.assert_allclose(tr.curvature(t), heading_rate / tr.speed(t), atol=1e-7)
