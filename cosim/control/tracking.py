@@ -22,7 +22,7 @@ from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.vehicle.actuators import ActuatorLimits
 from cosim.vehicle.chassis import ChassisParams
 
-from .closed_loop import ClosedLoop, StepRecord
+from .closed_loop import YAW_MOMENT_SHARE, ClosedLoop, StepRecord
 
 # The paper's Table 2 (IAE of the single lane change, veDYNA), for comparison only.
 PAPER_TABLE2: dict[str, dict[str, float]] = {
@@ -74,6 +74,7 @@ def run_tracking(
     limits: ActuatorLimits | None = None,
     record_step: float = 0.01,
     substeps: int = 2,
+    yaw_moment_share: float | None = YAW_MOMENT_SHARE,
 ) -> TrackingRun:
     """Start on the reference at its t0 (position, heading, speed) and follow it for
     `duration` seconds; substeps of record_step / substeps (5 ms by default, as in
@@ -85,7 +86,7 @@ def run_tracking(
     x0, y0 = (float(v) for v in reference.position(t0))
     loop = ClosedLoop(
         plant, controller, vehicle, gains, mu, x0, y0, heading, float(reference.speed(t0)),
-        chassis=chassis, limits=limits,
+        chassis=chassis, limits=limits, yaw_moment_share=yaw_moment_share,
     )
     loop.set_reference(reference, reset=True)
     records = [loop.record(t0)]

@@ -140,3 +140,20 @@ def test_nan_state_raises_a_simulation_error_naming_it() -> None:
 def test_bad_configuration_is_an_input_error(plant: str, controller: str, gains) -> None:
     with pytest.raises(InputError):
         ClosedLoop(plant, controller, VEHICLE, gains, 0.6, 0.0, 0.0, 0.0, V0)
+
+
+def test_yaw_moment_limit_keeps_the_two_track_on_the_path_where_the_printed_law_spins() -> None:
+    """mu = 0.4, case 5.1 speeds, tau = 3.5 s: the printed MIMO law's zero-sideslip yaw
+    moment overruns the wheels' friction; limited to 0.2 mu M g ls it tracks."""
+    ref = LaneChangeTrajectory(t0=0.0, tau=3.5, x0=0.0, y0=0.0, vx0=80 / 3.6, vxf=90 / 3.6,
+                               width=3.75)
+    worst = {}
+    for share in (None, 0.2):
+        loop = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.4, 0.0, 0.0, 0.0, 80 / 3.6,
+                          yaw_moment_share=share)
+        records = run(loop, ref, 6.0)
+        worst[share] = max(abs(r.ye) for r in records)
+        if share is not None:
+            assert max(abs(r.dmz) for r in records) <= 0.2 * 0.4 * VEHICLE.mass * 9.81 * 0.71 + 1e-9
+    assert worst[None] > 1.0
+    assert worst[0.2] < 0.05
