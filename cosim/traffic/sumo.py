@@ -147,6 +147,10 @@ class _Controlled:
     width: float  # m
     last: tuple[float, float, float]  # m, m, rad: the last centre pose written
     inserted: bool = False  # SUMO has it on the network (it inserts it in the next step)
+    t_write: float = -1.0  # s, simulation time of the last write
+    y_before: float | None = None  # m, centre y written in the step before that
+    lateral_speed: float = 0.0  # m/s, dy/dt of the written poses (SUMO reports 0 for them)
+    signals: int = -1  # SUMO signal bits to hold (-1: leave them to SUMO)
 
 
 def _import_api(use_traci: bool) -> ModuleType:
@@ -325,8 +329,9 @@ class SumoSim:
         self._hooks.append(hook)
 
     def step(self) -> None:
-        """Advance one step; read everyone; keep TV speed bands; record teleports and lost
-        controlled vehicles (SimulationError if `strict`); run the step hooks."""
+        """Advance one step; keep TV speed bands; record teleports and lost controlled
+        vehicles (SimulationError if `strict`); run the step hooks. Snapshots are read
+        on demand."""
         api = self.api
         api.simulationStep()
         self._moved = False
@@ -338,43 +343,52 @@ class SumoSim:
         teleported = set(api.simulation.getStartingTeleportIDList())
         for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
-        snap = self._snapshot = self._read_all()  # one pass serves the checks and the caller
-        self._keep_bands(snap)
-        self._check_controlled(snap, teleported)
+        self._snapshot = None  # read on demand: snapshot() or snapshot_near()
+        self._keep_bands()
+        self._check_controlled(t, teleported)
         for hook in self._hooks:
             hook(self)
 
-    def _check_controlled(self, snap: TrafficSnapshot, teleported: set[str]) -> None:
+    def _check_controlled(self, t: float, teleported: set[str]) -> None:
         """A moveToXY vehicle off the network is dropped silently by SUMO: catch it."""
         if not self._controlled:
             return
-        row = {vid: i for i, vid in enumerate(snap.ids)}
+        vehicle = self.api.vehicle
+        present = set(vehicle.getIDList()) if len(self._controlled) > 1 else None
         for vid, ctl in list(self._controlled.items()):
-            i = row.get(vid)
-            if i is not None and snap.lane[i] >= 0:
+            try:
+                on_road = (present is None or vid in present) and vehicle.getLaneID(vid) != ""
+            except self.api.TraCIException:  # an unknown vehicle id
+                on_road = False
+            if on_road:
                 ctl.inserted = True
                 continue
             x, y, h = ctl.last
             detail = f"{vid} left the network at x = {x:.2f} m, y = {y:.2f} m"
             if vid in teleported:
                 detail += " (SUMO teleported it: a jam with --time-to-teleport set)"
-            self.events.append(TrafficEvent(snap.time, "lost", vid, detail))
+            self.events.append(TrafficEvent(t, "lost", vid, detail))
             del self._controlled[vid]
             if self.strict:
-                raise SimulationError(snap.time, detail, f"heading {h:.4f} rad")
+                raise SimulationError(t, detail, f"heading {h:.4f} rad")
 
-    def _keep_bands(self, snap: TrafficSnapshot) -> None:
-        """A TV whose lane changed gets its desired speed from its new lane's band."""
+    def _keep_bands(self) -> None:
+        """A TV whose lane changed gets its desired speed from its new lane's band
+        (one lane-index read per TV and step, ~1 us each with libsumo)."""
         if not self._band_lane:
             return
+        vehicle = self.api.vehicle
         bands = self._road.speed_bands
         was = self._band_lane
-        for vid, lane in zip(snap.ids, snap.lane.tolist(), strict=True):
-            lane_was = was.get(vid)
-            if lane_was is None or lane == lane_was or not 0 <= lane < len(bands):
+        for vid, lane_was in was.items():
+            try:
+                lane = vehicle.getLaneIndex(vid)
+            except self.api.TraCIException:  # added but not inserted yet
+                continue
+            if lane == lane_was or not 0 <= lane < len(bands):
                 continue
             lo, hi = bands[lane]
-            self.api.vehicle.setMaxSpeed(vid, lo + self._band_quantile[vid] * (hi - lo))
+            vehicle.setMaxSpeed(vid, lo + self._band_quantile[vid] * (hi - lo))
             was[vid] = lane
 
     # ------------------------------------------------------------------ traffic
@@ -532,8 +546,28 @@ class SumoSim:
                 vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0))
             else:
                 vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0), float(accel))
+        t = self.time
+        if t > ctl.t_write:  # a new step: the previous write becomes the reference
+            ctl.y_before, t_before = ctl.last[1], ctl.t_write
+            ctl.lateral_speed = 0.0 if t_before < 0 else (y - ctl.y_before) / (t - t_before)
+        elif ctl.y_before is not None:  # written twice in one step: the latest counts
+            ctl.lateral_speed = (y - ctl.y_before) / self.step_length
+        ctl.t_write = t
         ctl.last = (float(x), float(y), float(heading))
+        if ctl.signals >= 0:  # SUMO resets the signals of a moved vehicle: hold them
+            vehicle.setSignals(vehicle_id, ctl.signals)
         self._moved = True
+
+    def set_blinker(self, vehicle_id: str, direction: int) -> None:
+        """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""
+        bits = {-1: SIGNAL_BLINKER_RIGHT, 0: 0, 1: SIGNAL_BLINKER_LEFT}.get(direction)
+        if bits is None:
+            raise InputError("blinker", "direction", direction, "-1, 0 or +1")
+        ctl = self._controlled.get(vehicle_id)
+        if ctl is None:
+            raise SimulationError(self.time, f"{vehicle_id} is not a controlled vehicle")
+        ctl.signals = bits
+        self.api.vehicle.setSignals(vehicle_id, bits)
 
     # aliases for the scripted-TV code (same operation as for the SV)
     add_vehicle = add_controlled
@@ -626,6 +660,8 @@ class SumoSim:
         width = np.fromiter((d[1] for d in dims), float, n)
         off = xf < INVALID
         lane[off] = -1
+        lat = np.fromiter((r[k_lat] for r in rows), float, n)
+        self._controlled_lateral_speed(ids, lat)
         h = np.radians(90.0 - angle)
         h = np.arctan2(np.sin(h), np.cos(h))
         return TrafficSnapshot(
@@ -637,11 +673,20 @@ class SumoSim:
             speed=np.fromiter((r[k_spd] for r in rows), float, n),
             accel=np.fromiter((r[k_acc] for r in rows), float, n),
             lane=lane,
-            lateral_speed=np.fromiter((r[k_lat] for r in rows), float, n),
+            lateral_speed=lat,
             length=length,
             width=width,
             signals=np.fromiter((r[k_sig] for r in rows), int, n),
         )
+
+    def _controlled_lateral_speed(self, ids: tuple[str, ...], lat: np.ndarray) -> None:
+        """SUMO reports no sideways speed of a moved vehicle: use dy/dt of its written poses."""
+        if not self._controlled:
+            return
+        rows = {vid: i for i, vid in enumerate(ids)}
+        for vid, ctl in self._controlled.items():
+            if vid in rows:
+                lat[rows[vid]] = ctl.lateral_speed
 
     def _read_dims(self, vehicle_id: str) -> tuple[float, float]:
         vehicle = self.api.vehicle
@@ -679,6 +724,7 @@ class SumoSim:
             length[i], width[i] = dims
         off = xf < INVALID
         lane[off] = -1
+        self._controlled_lateral_speed(ids, lat)
         h = np.radians(90.0 - angle)
         h = np.arctan2(np.sin(h), np.cos(h))
         x = xf - 0.5 * length * np.cos(h)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -136,21 +137,38 @@ def lateral_motion(
     )
 
 
-def messages(snapshot: TrafficSnapshot, road: RoadParams) -> list[V2VMessage]:
-    """What every vehicle of `snapshot` broadcasts (S1): state, blinker, lane change."""
+Override = tuple[int, "LateralMotion | None"]  # (intention, motion) a vehicle announces
+
+
+def messages(
+    snapshot: TrafficSnapshot,
+    road: RoadParams,
+    overrides: Mapping[str, Override] | None = None,
+) -> list[V2VMessage]:
+    """What every vehicle of `snapshot` broadcasts (S1): state, blinker, lane change.
+
+    A SUMO TV's lane change is rebuilt from its lateral motion (`lateral_motion`).
+    `overrides` replaces (intention, motion) for vehicles that know their own plan:
+    scripted TVs broadcast their min-jerk reference, or only an intention, or nothing.
+    """
     intention = snapshot.intention
+    overrides = overrides or {}
     out = []
     for i, vid in enumerate(snapshot.ids):
-        motion = lateral_motion(
-            snapshot.time,
-            float(snapshot.x[i]),
-            float(snapshot.y[i]),
-            float(snapshot.heading[i]),
-            float(snapshot.speed[i]),
-            float(snapshot.lateral_speed[i]),
-            float(snapshot.length[i]),
-            road,
-        )
+        if vid in overrides:
+            announced, motion = overrides[vid]
+        else:
+            announced = int(intention[i])
+            motion = lateral_motion(
+                snapshot.time,
+                float(snapshot.x[i]),
+                float(snapshot.y[i]),
+                float(snapshot.heading[i]),
+                float(snapshot.speed[i]),
+                float(snapshot.lateral_speed[i]),
+                float(snapshot.length[i]),
+                road,
+            )
         out.append(
             V2VMessage(
                 vehicle_id=vid,
@@ -164,7 +182,7 @@ def messages(snapshot: TrafficSnapshot, road: RoadParams) -> list[V2VMessage]:
                 lateral_speed=float(snapshot.lateral_speed[i]),
                 length=float(snapshot.length[i]),
                 width=float(snapshot.width[i]),
-                intention=int(intention[i]),
+                intention=int(announced),
                 motion=motion,
             )
         )
@@ -238,8 +256,18 @@ class V2VChannel:
             seed=seed,
         )
 
-    def publish(self, snapshot: TrafficSnapshot, sv_x: float, sv_y: float) -> None:
-        """The TVs of `snapshot` within range send (or are measured) now."""
+    def publish(
+        self,
+        snapshot: TrafficSnapshot,
+        sv_x: float,
+        sv_y: float,
+        overrides: Mapping[str, Override] | None = None,
+    ) -> None:
+        """The TVs of `snapshot` within range send (or are measured) now.
+
+        `overrides`: (intention, motion) of vehicles that announce their own plan
+        (scripted TVs); ignored in perception mode, where nobody announces anything.
+        """
         near = np.hypot(snapshot.x - sv_x, snapshot.y - sv_y) <= self.range
         snap = snapshot.select(near)
         if len(snap) == 0:
@@ -249,7 +277,7 @@ class V2VChannel:
         self.lost += int(np.sum(~kept))
         snap = snap.select(kept)
         measured = self.mode == "perception"
-        batch = self._measure(snap) if measured else messages(snap, self.road)
+        batch = self._measure(snap) if measured else messages(snap, self.road, overrides)
         arrival = snapshot.time + self.latency
         self._queue.extend((arrival, m) for m in batch)
 
@@ -285,7 +313,13 @@ class V2VChannel:
             del self._latest[vid]
         return list(self._latest.values())
 
-    def exchange(self, snapshot: TrafficSnapshot, sv_x: float, sv_y: float) -> list[V2VMessage]:
+    def exchange(
+        self,
+        snapshot: TrafficSnapshot,
+        sv_x: float,
+        sv_y: float,
+        overrides: Mapping[str, Override] | None = None,
+    ) -> list[V2VMessage]:
         """publish + receive at the snapshot's time (one call per step)."""
-        self.publish(snapshot, sv_x, sv_y)
+        self.publish(snapshot, sv_x, sv_y, overrides)
         return self.receive(snapshot.time)

@@ -79,6 +79,27 @@ def test_lane_index_follows_the_lateral_position() -> None:
         assert seen == {0, 1, 2}
 
 
+def test_scripted_vehicle_shows_its_lateral_speed_and_blinker() -> None:
+    """A moved TV (scripted) is seen by the snapshot as it moves: SUMO itself reports 0."""
+    with make_sim() as sim:
+        sim.add_vehicle("s1", 100.0, 1.875, 0.0, 25.0, L, W, 0, vtype="scripted")
+        sim.set_blinker("s1", 1)
+        y = 1.875
+        for k in range(1, 21):
+            sim.step()
+            snap = sim.snapshot()
+            i = snap.index("s1")
+            assert snap.y[i] == pytest.approx(y, abs=1e-6)
+            assert snap.intention[i] == (1 if k <= 10 else 0)
+            if k > 1:
+                assert snap.lateral_speed[i] == pytest.approx(1.0)
+                assert sim.api.vehicle.getLateralSpeed("s1") == 0.0
+            if k == 10:
+                sim.set_blinker("s1", 0)
+            y += 0.05
+            sim.move_vehicle("s1", 100.0 + 1.25 * k, y, math.atan2(1.0, 25.0), 25.0)
+
+
 def test_leaving_the_network_is_detected() -> None:
     with make_sim() as sim:
         end = sim.highway.x_end

@@ -161,6 +161,19 @@ def test_perception_mode_measures_state_with_noise_and_nothing_else() -> None:
     assert np.std(speed) == pytest.approx(0.2, rel=0.1)
 
 
+def test_scripted_vehicles_announce_their_own_plan() -> None:
+    plan = LateralMotion(t0=0.5, tau=4.0, x0=0.0, y0=1.875, vx0=25.0, vxf=25.0, width=3.75)
+    snap = snapshot(1.0, [10.0, 20.0, 30.0], [2.0, 5.625, 9.375], lateral_speed=[0.5, 0.0, 0.0],
+                    signals=[0, 0, 2])  # fmt: skip
+    ch = V2VChannel(ROAD)
+    got = {m.vehicle_id: m for m in ch.exchange(snap, 0.0, 5.0, {"v0": (1, plan), "v2": (0, None)})}
+    assert got["v0"].motion is plan and got["v0"].intention == 1  # "reference"
+    assert got["v2"].motion is None and got["v2"].intention == 0  # "none": blinker not told
+    assert got["v1"].motion is None and got["v1"].intention == 0
+    seen = V2VChannel(ROAD, mode="perception").exchange(snap, 0.0, 5.0, {"v0": (1, plan)})
+    assert all(m.motion is None and m.intention == 0 for m in seen)
+
+
 def test_bad_channel_settings_are_input_errors() -> None:
     with pytest.raises(InputError, match="loss"):
         V2VChannel(ROAD, loss=1.5)
