@@ -21,6 +21,7 @@ from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, TrackingRun, run_t
 from cosim.errors import InputError
 from cosim.params import ControllerGains, RoadParams, VehicleParams, kmh
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.vehicle.chassis import ChassisParams
 
 PAPER_TAU = 6.25  # s, the paper's tau_opt of case 5.1
 HEADERS = {
@@ -47,6 +48,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", type=Path, default=Path("results/track"),
                         help="folder for the figures (default results/track)")
     parser.add_argument("--no-plot", action="store_true", help="write no figures")
+    parser.add_argument("--cornering-scale", type=float, default=1.0,
+                        help="two-track tyres' true cornering stiffness / Table 1's "
+                        "(model mismatch; default 1)")
     parser.add_argument("--paper-law", action="store_true",
                         help="no yaw-moment limit: the MIMO law exactly as printed")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -120,12 +124,17 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--mu", "mu", args.mu, "road friction in (0, 1.5]")
     if not 0.5 <= args.duration_s <= 120.0:
         raise InputError("--duration-s", "duration", args.duration_s, "in [0.5, 120] s")
+    if not 0.2 <= args.cornering_scale <= 2.0:
+        raise InputError("--cornering-scale", "cornering_scale", args.cornering_scale,
+                         "in [0.2, 2]")
+    chassis = ChassisParams(cornering_scale=args.cornering_scale)
     ref, origin = case_5_1_reference(args.source, args.tau_s, args.mu)
     plants = ("twotrack", "bicycle") if args.plant == "both" else (args.plant,)
     gains, vehicle = ControllerGains(), VehicleParams()
+    share = None if args.paper_law else YAW_MOMENT_SHARE
     runs = [
         run_tracking(p, c, ref, mu=args.mu, duration=args.duration_s, vehicle=vehicle,
-                     gains=gains, yaw_moment_share=None if args.paper_law else YAW_MOMENT_SHARE)
+                     gains=gains, chassis=chassis, yaw_moment_share=share)
         for p in plants for c in ("mimo", "siso")
     ]
     verdicts: dict[str, bool] = {}
@@ -145,6 +154,7 @@ def run(args: argparse.Namespace) -> int:
         out: dict[str, Any] = {
             "reference": {"tau_s": ref.tau, "vx0_mps": ref.vx0, "vxf_mps": ref.vxf,
                           "width_m": ref.width, "mu": args.mu, "origin": origin},
+            "cornering_scale": args.cornering_scale,
             "yaw_moment_share": None if args.paper_law else YAW_MOMENT_SHARE,
             "duration_s": args.duration_s,
             "paper": PAPER_TABLE2,
@@ -158,7 +168,8 @@ def run(args: argparse.Namespace) -> int:
     law = ("MIMO law as printed (no yaw-moment limit)" if args.paper_law
            else f"MIMO yaw moment limited to {YAW_MOMENT_SHARE:g} mu M g ls")
     print(f"case 5.1 lane change: lane 0 -> 1, 80 -> 90 km/h, W = {ref.width:g} m, "
-          f"mu = {args.mu:g}; {origin}; {args.duration_s:g} s; {law}")
+          f"mu = {args.mu:g}; {origin}; {args.duration_s:g} s; {law}; two-track cornering "
+          f"stiffness x {args.cornering_scale:g}")
     print(table(runs))
     for p, ok in verdicts.items():
         print(f"MIMO beats SISO on heading error ({p}): {'yes' if ok else 'NO'}")

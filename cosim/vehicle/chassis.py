@@ -28,6 +28,9 @@ class ChassisParams:
     roll_share_front: float = 0.55  # -, share of lateral load transfer taken by the front axle
     load_lag: float = 0.08  # s, first-order lag of load transfer (pitch/roll of the body)
     slip_speed_floor: float = 1.0  # m/s, slip denominators never below this (standstill guard)
+    # -, true tyre cornering stiffness / Table 1's Cf, Cr: 1 makes the design model exact at
+    # small slip; below 1 models a plant that differs from what the controller assumes
+    cornering_scale: float = 1.0
 
     def check(self) -> None:
         """Raise InputError for a value no physical chassis has."""
@@ -38,6 +41,7 @@ class ChassisParams:
             "slip_stiffness": self.slip_stiffness,
             "load_lag": self.load_lag,
             "slip_speed_floor": self.slip_speed_floor,
+            "cornering_scale": self.cornering_scale,
         }
         for key, value in positive.items():
             if not value > 0.0:

@@ -73,8 +73,9 @@ class TwoTrackPlant:
         self.wheel_radius = ch.wheel_radius
         self.fz0_front, self.fz0_rear = static_wheel_loads(vehicle)
         # cornering stiffness per unit load: the axle has Cf (Cr) at its static load
-        self.c_alpha_front = vehicle.cf / (2.0 * self.fz0_front)
-        self.c_alpha_rear = vehicle.cr / (2.0 * self.fz0_rear)
+        # (times cornering_scale, 1 by default)
+        self.c_alpha_front = ch.cornering_scale * vehicle.cf / (2.0 * self.fz0_front)
+        self.c_alpha_rear = ch.cornering_scale * vehicle.cr / (2.0 * self.fz0_rear)
         dlat = vehicle.mass * ch.cg_height / (2.0 * vehicle.half_track)  # N per m/s^2
         # constants of `derivative`, unpacked at once (attribute look-ups are slow)
         self._const = (

@@ -102,3 +102,16 @@ def test_non_finite_state_is_named() -> None:
     with pytest.raises(SimulationError, match="vy = nan") as info:
         check_finite(1.25, plant.state_names, plant.state)
     assert info.value.time_s == 1.25
+
+
+def test_cornering_scale_makes_a_plant_unlike_the_design_model() -> None:
+    import dataclasses
+
+    speed, delta = 20.0, 0.002
+    plant = TwoTrackPlant(VEHICLE, 0.8, vx=speed, chassis=ChassisParams(cornering_scale=0.7))
+    drive(plant, lambda t: delta, 6.0, speed)
+    softer = dataclasses.replace(VEHICLE, cf=0.7 * VEHICLE.cf, cr=0.7 * VEHICLE.cr)
+    _, r_softer = steady_state(softer, speed, delta)
+    _, r_design = steady_state(VEHICLE, speed, delta)
+    assert plant.state[5] == pytest.approx(r_softer, rel=0.05)
+    assert abs(plant.state[5] / r_design - 1.0) > 0.15
