@@ -238,3 +238,20 @@ def test_traci_backend_runs_the_same_adapter() -> None:
             assert sim.pose("sv") == pytest.approx((x, 5.625, 0.0), abs=1e-6)
             sim.move("sv", x + 1.5, 5.625, 0.0, 30.0)
         assert len(sim.snapshot(exclude=("sv",))) == 1
+
+
+def test_sublane_option_gives_gradual_lateral_motion() -> None:
+    """--lateral-resolution instead of --lanechange.duration: lateral speed ramps up."""
+    lateral: list[float] = []
+    with SumoSim(DEFAULT_NETWORK, STEP, 3, sublane=True) as sim:
+        assert "--lateral-resolution" in sim.command()
+        assert "--lanechange.duration" not in sim.command()
+        populate(sim, sim.road(), 16.0, 3, 1000.0)
+        for _ in range(int(12.0 / STEP)):
+            sim.step()
+            snap = sim.snapshot()
+            lateral += list(np.abs(snap.lateral_speed[snap.changing]))
+    assert len(lateral) > 50
+    speeds = np.round(lateral, 2)
+    assert len(np.unique(speeds)) > 5  # a trapezoid, not the constant W/D of the other model
+    assert speeds.max() <= 1.0 + 1e-9  # SUMO's default maxSpeedLat
