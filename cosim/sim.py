@@ -50,6 +50,7 @@ from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 Array = NDArray[np.float64]
 
 SV_ID = "sv"
+SV_LENGTH_MARGIN = 2.0  # SV lengths kept free of random traffic around the SV at t = 0
 NEAR_RANGE = 150.0  # m, TVs within this x distance of the SV are recorded for the figures
 SETTLE_TOL = 0.1  # m, |y - target lane centre| below which a lane change counts as done
 FOLLOW_HORIZON = 1.0  # s, horizon of the straight lane-keeping reference
@@ -326,7 +327,7 @@ class CoSimulation:
         if tr.density > 0:
             from cosim.traffic.demand import populate
 
-            margin = 2.0 * self.sv_length
+            margin = SV_LENGTH_MARGIN * self.sv_length
             populate(self.sumo, road, tr.density, sc.seed, tr.length,
                      exclude_zone=(x0 - margin, x0 + margin))
         self._start_scripted(x0)
@@ -396,7 +397,7 @@ class CoSimulation:
             for k in range(self.n_steps + 1):
                 t = k * self.dt
                 w0 = time.perf_counter()
-                snap_all = self.sumo.snapshot_near(SV_ID, self.radius)
+                snap_all = self.sumo.snapshot()  # read once per step by SumoSim.step
                 self.wall["sumo"] += time.perf_counter() - w0
                 sv = self._sv_view(snap_all)
                 near, tvs = self._near(snap_all, sv)

@@ -1,0 +1,117 @@
+"""`cosim bench cosim`: what our SV costs on top of the traffic simulation.
+
+Side by side in one run, medians over repeats, each from SUMO start to close:
+
+- "sumo alone": the scenario's random traffic (same network, density, seed,
+  inflow, lane-change settings, band rule) stepped by SumoSim with no SV;
+- "cosim": the same scenario with our SV (planner, controller, plant, V2V,
+  decision rule, moveToXY write-back, per-step trace and collision check);
+- a paper case (5.1 by default): its real-time factor, simulated / wall time.
+
+Targets: cosim / sumo alone <= 2.0; the paper case >= 50x real time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
+
+DEFAULT_DENSE = "scenarios/traffic_high.toml"
+DEFAULT_PAPER = "scenarios/paper_case1_overtaking.toml"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--scenario", type=Path, default=None,
+                        help=f"dense traffic scenario (default {DEFAULT_DENSE})")
+    parser.add_argument("--paper", type=Path, default=None,
+                        help=f"paper case for the real-time factor (default {DEFAULT_PAPER})")
+    parser.add_argument("--duration", type=float, default=30.0,
+                        help="simulated seconds of the dense run (default 30)")
+    parser.add_argument("--repeats", type=int, default=3, help="repeats (median; default 3)")
+
+
+def sumo_alone(scenario: Scenario) -> float:
+    """s, wall time of the scenario's traffic alone (no SV), SUMO start to close."""
+    from cosim.sim import SV_LENGTH_MARGIN
+    from cosim.traffic.demand import populate
+    from cosim.traffic.sumo import SumoSim
+
+    start = time.perf_counter()
+    tr = scenario.traffic
+    sim = SumoSim(scenario.network, scenario.step, scenario.seed,
+                  lanechange_duration=tr.lanechange_duration, sublane=tr.sublane,
+                  speed_bands=scenario.road.speed_bands)
+    with sim:
+        x0 = sim.highway.x_start + scenario.sv.position
+        margin = SV_LENGTH_MARGIN * scenario.vehicle.length
+        if tr.density > 0:
+            populate(sim, sim.road(), tr.density, scenario.seed, tr.length,
+                     exclude_zone=(x0 - margin, x0 + margin))
+        for _ in range(scenario.n_steps + 1):
+            sim.step()
+    return time.perf_counter() - start
+
+
+def cosim_run(scenario: Scenario) -> tuple[float, dict[str, Any]]:
+    """s, wall time of the full co-simulation (nothing written), and its timing row."""
+    from cosim.sim import simulate
+
+    start = time.perf_counter()
+    result = simulate(scenario)
+    return time.perf_counter() - start, result.timing
+
+
+def _path(given: Path | None, default: str) -> Path:
+    return given if given is not None else project_root() / default
+
+
+def measure(args: argparse.Namespace) -> dict[str, Any]:
+    dense = with_overrides(load_scenario(_path(args.scenario, DEFAULT_DENSE)),
+                           duration=float(args.duration))
+    paper = load_scenario(_path(args.paper, DEFAULT_PAPER))
+    repeats = max(int(args.repeats), 1)
+    # warm-up (imports, first libsumo start), then alternate so drift hits both alike
+    sumo_alone(with_overrides(dense, duration=1.0))
+    cosim_run(with_overrides(dense, duration=1.0))
+    alone, ours, paper_wall = [], [], []
+    timing: dict[str, Any] = {}
+    for _ in range(repeats):
+        alone.append(sumo_alone(dense))
+        wall, timing = cosim_run(dense)
+        ours.append(wall)
+        paper_wall.append(cosim_run(paper)[0])
+    t_alone, t_ours, t_paper = (float(np.median(v)) for v in (alone, ours, paper_wall))
+    steps = dense.n_steps
+    rows = [
+        {"case": f"sumo alone ({dense.name})", "wall_s": t_alone,
+         "per_step_ms": 1e3 * t_alone / steps, "realtime_x": dense.duration / t_alone},
+        {"case": f"cosim, our SV ({dense.name})", "wall_s": t_ours,
+         "per_step_ms": 1e3 * t_ours / steps, "realtime_x": dense.duration / t_ours},
+        {"case": f"paper case ({paper.name})", "wall_s": t_paper,
+         "per_step_ms": 1e3 * t_paper / paper.n_steps, "realtime_x": paper.duration / t_paper},
+    ]
+    return {
+        "title": f"co-simulation cost: {dense.name}, {dense.duration:g} s simulated, "
+                 f"{dense.traffic.density:g} veh/km/lane; median of {repeats}",
+        "rows": rows,
+        "ratios": {
+            "cosim / sumo alone": t_ours / t_alone,
+            "paper case real-time factor": paper.duration / t_paper,
+        },
+        "targets": {"cosim / sumo alone": "<= 2.0", "paper case real-time factor": ">= 50"},
+        "notes": [
+            "wall times from SUMO start to close; 'sumo alone' steps the same traffic "
+            "(network, density, seed, inflow, band rule) through SumoSim without an SV",
+            f"last cosim run split (s): SUMO step+read {timing.get('wall_sumo_s', 0):.3f}, "
+            f"control+plant {timing.get('wall_control_s', 0):.3f}, "
+            f"planning {timing.get('wall_planning_s', 0):.3f}",
+            f"plant {dense.sv.plant}, controller {dense.sv.controller}, "
+            f"{dense.substeps} substeps per {dense.step:g} s step",
+        ],
+    }
