@@ -1,0 +1,162 @@
+"""LaneChangePlanner end to end: sets, reasons, choice, re-check, the paper's cases."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim.errors import InputError
+from cosim.params import PlannerConfig, RoadParams, VehicleParams, kmh
+from cosim.planning.planner import LaneChangePlanner, Plan, SVPlanState
+from cosim.planning.situation import situation
+from cosim.scenario import TVSpec, load_scenario
+from cosim.traffic import scripted
+from cosim.traffic.v2v import V2VMessage
+
+ROOT = Path(__file__).resolve().parents[2]
+VEH = VehicleParams()
+
+
+def sv_state(road: RoadParams, lane: int, speed_kmh: float, x: float = 200.0) -> SVPlanState:
+    return SVPlanState(x, road.lane_center(lane), 0.0, kmh(speed_kmh), 0.0, 0.0, 0.0, lane)
+
+
+def tv_msg(road: RoadParams, vid: str, lane: int, gap: float, speed_kmh: float,
+           x_sv: float = 200.0) -> V2VMessage:
+    spec = TVSpec(vid, lane, gap, kmh(speed_kmh), 0.0, 4.32, 1.8, None)
+    return scripted.message(spec, 0.0, road, x_sv)
+
+
+def plan_file(name: str, **planner: object) -> Plan:
+    sc = load_scenario(ROOT / "scenarios" / f"{name}.toml")
+    si = situation(sc)
+    cfg = replace(sc.planner, **planner)
+    return LaneChangePlanner(sc.vehicle, si.road, cfg).plan(
+        si.t, si.sv, si.target_lane, si.messages, si.occupant)
+
+
+def test_open_road_takes_tau_opt_of_the_stable_set() -> None:
+    road = RoadParams(mu=0.6)
+    p = LaneChangePlanner(VEH, road, PlannerConfig()).plan(0.0, sv_state(road, 1, 100), 2, [], 0.5)
+    assert p.feasible
+    assert p.stable_intervals == p.collision_free_intervals == [(p.tau_min, 10.0)]
+    assert p.tau_opt == pytest.approx(p.omega * (10.0 - p.tau_min) + p.tau_min)
+    assert abs(p.tau - p.tau_opt) <= 0.025 + 1e-9
+    assert {r.reason for r in p.rejections} == {"unstable"}
+    assert all(r.tau < p.tau_min for r in p.rejections)
+    tr = p.trajectory
+    assert tr is not None and tr.y_final == pytest.approx(road.lane_center(2))
+    assert tr.vxf == pytest.approx(kmh(110))
+
+
+def test_collision_free_set_of_two_intervals() -> None:
+    """SV 110 -> 90 km/h into lane 0 behind a 90 km/h TV 15 m ahead: quick changes slot
+    in behind it, slow ones pass it first, the ones in between hit it."""
+    road = RoadParams(mu=0.8)
+    planner = LaneChangePlanner(VEH, road, PlannerConfig())
+    p = planner.plan(0.0, sv_state(road, 1, 110), 0, [tv_msg(road, "a", 0, 15.0, 90)], 0.5)
+    iv = p.collision_free_intervals
+    assert len(iv) == 2
+    (lo1, hi1), (lo2, hi2) = iv
+    assert lo1 == pytest.approx(p.tau_min) and hi1 < lo2 and hi2 == 10.0
+    between = [r for r in p.rejections if hi1 < r.tau < lo2]
+    assert between and all(r.reason == "collision" and r.vehicle_id == "a" for r in between)
+    assert all(0.0 < r.time <= r.tau + planner.config.horizon_extra for r in between)
+    assert p.tau is not None and p.collision_free[np.isclose(p.taus, p.tau)].all()
+
+
+def test_no_collision_free_tau_keeps_the_lane() -> None:
+    road = RoadParams(mu=0.6)
+    # a car right beside the SV in the target lane, same speed
+    p = LaneChangePlanner(VEH, road, PlannerConfig()).plan(
+        0.0, sv_state(road, 1, 100), 2, [tv_msg(road, "b", 2, 0.0, 100)], 0.5)
+    assert not p.feasible and p.tau is None and p.trajectory is None
+    assert np.isnan(p.tau_opt) and p.collision_free_intervals == []
+    assert {r.vehicle_id for r in p.rejections if r.reason == "collision"} == {"b"}
+
+
+def test_safety_margin_shrinks_the_set() -> None:
+    road = RoadParams(mu=0.4)
+    msgs = [tv_msg(road, "pvc", 0, 15.0, 70)]
+    base = LaneChangePlanner(VEH, road, PlannerConfig()).plan(
+        0.0, sv_state(road, 0, 80), 1, msgs, 0.2)
+    wide = LaneChangePlanner(VEH, road, PlannerConfig(safety_margin=0.5)).plan(
+        0.0, sv_state(road, 0, 80), 1, msgs, 0.2)
+    assert wide.collision_free.sum() < base.collision_free.sum()
+    assert not (wide.collision_free & ~base.collision_free).any()
+
+
+def test_check_a_committed_trajectory() -> None:
+    road = RoadParams(mu=0.6)
+    planner = LaneChangePlanner(VEH, road, PlannerConfig())
+    p = planner.plan(0.0, sv_state(road, 1, 100), 2, [], 0.5)
+    assert p.trajectory is not None
+    assert planner.check(p.trajectory, 1.0, []) is None
+    # one second in, a car appears in the target lane where the SV is heading
+    x, _ = p.trajectory.position(np.array([1.0]))
+    cut = V2VMessage("cut", 1.0, float(x[0]) + 8.0, road.lane_center(2), 0.0, kmh(100), 0.0,
+                     2, 0.0, 4.32, 1.8, 0, None)
+    rej = planner.check(p.trajectory, 1.0, [cut])
+    assert rej is not None and rej.reason == "collision" and rej.vehicle_id == "cut"
+    assert 1.0 <= rej.time <= p.trajectory.t_end + planner.config.horizon_extra
+
+
+def test_plan_to_dict_is_json() -> None:
+    road = RoadParams(mu=0.4)
+    p = LaneChangePlanner(VEH, road, PlannerConfig()).plan(
+        0.0, sv_state(road, 0, 80), 1, [tv_msg(road, "pvc", 0, 15.0, 70)], 0.2)
+    d = json.loads(json.dumps(p.to_dict()))
+    for key in ("tau_min", "tau_max", "stable", "collision_free", "tau_opt", "omega",
+                "planning_time_s", "rejected"):
+        assert key in d
+    assert d["collision_free"] == [[pytest.approx(a), pytest.approx(b)]
+                                   for a, b in p.collision_free_intervals]
+    assert {r["reason"] for r in d["rejected"]} == {"unstable", "collision"}
+
+
+def test_bad_requests_are_input_errors() -> None:
+    road = RoadParams()
+    planner = LaneChangePlanner(VEH, road, PlannerConfig())
+    with pytest.raises(InputError, match="target_lane"):
+        planner.plan(0.0, sv_state(road, 0, 80), 2, [], 0.5)
+    with pytest.raises(InputError, match="occupant"):
+        planner.plan(0.0, sv_state(road, 0, 80), 1, [], 1.5)
+    with pytest.raises(InputError, match="envelope"):
+        LaneChangePlanner(VEH, road, PlannerConfig(envelope="magic"))
+
+
+def test_paper_case1_overtaking() -> None:
+    exact = plan_file("paper_case1_overtaking")
+    col = plan_file("paper_case1_overtaking", collision_test="col")
+    assert exact.tau_min == pytest.approx(2.75, abs=0.04)
+    (lo, hi), = exact.collision_free_intervals
+    (_, hi_col), = col.collision_free_intervals
+    assert lo == exact.tau_min
+    # the paper's 6.75 s is the last point of its 0.25 s grid inside CoL's set
+    assert 6.75 <= hi_col < 7.0
+    assert 6.0 < hi < hi_col  # the exact test also sees the PVC's corner in the SV's side
+    assert {r.vehicle_id for r in exact.rejections if r.reason == "collision"} == {"pvc"}
+
+
+def test_paper_case2_tv_changing_lanes() -> None:
+    p = plan_file("paper_case2_tv_lane_change")
+    assert p.categories == {"pvt": "C3"}
+    assert p.tau_min == pytest.approx(2.56, abs=0.04)
+    (lo, hi), = p.collision_free_intervals
+    assert hi == pytest.approx(8.56, abs=0.1)
+    assert p.tau == pytest.approx(5.56, abs=0.1)
+
+
+def test_paper_case3_lane_exchange() -> None:
+    exact = plan_file("paper_case3_lane_exchange")
+    col = plan_file("paper_case3_lane_exchange", collision_test="col")
+    assert exact.categories == {"tv1": "C2", "tv2": "C1"}
+    assert exact.tau_min == pytest.approx(2.23, abs=0.04)
+    assert not exact.feasible  # TV 1's quickest changes cut in beside the SV
+    (lo, hi), = col.collision_free_intervals
+    assert 6.0 < lo < 7.0 and hi == 10.0
+    assert {r.vehicle_id for r in exact.rejections if r.reason == "collision"} == {"tv1"}

@@ -1,0 +1,97 @@
+"""TV futures from V2V messages: C1, C2, C3."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cosim.params import RoadParams, VehicleParams, kmh
+from cosim.planning.envelope import stable_set
+from cosim.planning.prediction import c2_lanes, category, predict
+from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.traffic.v2v import LateralMotion, V2VMessage
+
+ROAD = RoadParams(mu=0.8)
+VEH = VehicleParams()
+GRID = np.arange(1.0, 10.0001, 0.05)
+T_REL = np.arange(0.0, 12.0001, 0.05)
+
+
+def msg(vid: str = "tv", *, t: float = 0.0, x: float = 50.0, lane: int = 1, speed: float = 25.0,
+        accel: float = 0.0, intention: int = 0, motion: LateralMotion | None = None,
+        y: float | None = None, lateral_speed: float = 0.0) -> V2VMessage:
+    yy = ROAD.lane_center(lane) if y is None else y
+    return V2VMessage(vid, t, x, yy, 0.0, speed, accel, lane, lateral_speed, 4.32, 1.8,
+                      intention, motion)
+
+
+def test_c1_constant_acceleration_stops_at_zero_speed() -> None:
+    f = predict([msg(speed=10.0, accel=-2.0)], 0.0, T_REL, ROAD, VEH, GRID)
+    assert f.categories == ("C1",)
+    x = f.x[0]
+    # stops after 5 s, 25 m further, and stays
+    assert x[T_REL == 2.0][0] == pytest.approx(50 + 20 - 4)
+    assert x[-1] == pytest.approx(75.0)
+    assert np.all(np.diff(x) >= -1e-12)
+    np.testing.assert_allclose(f.y[0], ROAD.lane_center(1))
+
+
+def test_c1_message_latency_is_projected_to_now() -> None:
+    f = predict([msg(t=-0.5, speed=20.0, accel=1.0)], 0.0, T_REL, ROAD, VEH, GRID)
+    assert f.x[0, 0] == pytest.approx(50 + 20 * 0.5 + 0.5 * 0.25)
+
+
+def test_c2_is_the_tvs_whole_stable_cluster() -> None:
+    m = msg(speed=kmh(120), lane=2, intention=-1)
+    f = predict([m], 0.0, T_REL, ROAD, VEH, GRID)
+    assert f.categories == ("C2",)
+    st = stable_set(kmh(120), kmh(110), -ROAD.lane_width, GRID, ROAD.mu, VEH)
+    np.testing.assert_allclose(f.tau, GRID[st.stable])  # one hypothesis per stable tau
+    assert f.n_hypotheses == st.stable.sum() > 100
+    np.testing.assert_allclose(f.x[:, 0], 50.0)
+    np.testing.assert_allclose(f.y[:, -1], ROAD.lane_center(1), atol=1e-9)  # all end in lane 1
+    # the band rule: a decelerating change ends at the target lane's maximum, 110 km/h
+    end_speed = (f.x[:, -1] - f.x[:, -2]) / (T_REL[-1] - T_REL[-2])
+    np.testing.assert_allclose(end_speed, kmh(110), rtol=1e-9)
+    np.testing.assert_allclose(f.t_end, f.tau)
+
+
+def test_c2_off_the_road_is_c1_and_crossed_line_targets_current_lane() -> None:
+    assert c2_lanes(msg(lane=2, intention=1), ROAD) is None
+    f = predict([msg(lane=2, intention=1)], 0.0, T_REL, ROAD, VEH, GRID)
+    assert f.categories == ("C1",)
+    # moving left, already past the line into lane 2 (right of its centre): heads for lane 2
+    y = ROAD.lane_center(2) - 1.0
+    assert c2_lanes(msg(y=y, intention=1), ROAD) == (1, 2)
+    assert c2_lanes(msg(lane=1, intention=1), ROAD) == (1, 2)
+
+
+def test_c3_follows_the_broadcast_reference() -> None:
+    mo = LateralMotion(t0=-1.5, tau=4.0, x0=10.0, y0=ROAD.lane_center(0), vx0=kmh(80),
+                       vxf=kmh(90), width=ROAD.lane_width)
+    f = predict([msg(motion=mo, intention=1, lane=0)], 0.0, T_REL, ROAD, VEH, GRID)
+    assert f.categories == ("C3",)
+    ref = LaneChangeTrajectory(-1.5, 4.0, 10.0, ROAD.lane_center(0), kmh(80), kmh(90),
+                               ROAD.lane_width)
+    x, y = ref.position(T_REL)
+    np.testing.assert_allclose(f.x[0], x, atol=1e-9)
+    np.testing.assert_allclose(f.y[0], y, atol=1e-9)
+    np.testing.assert_allclose(f.heading[0], ref.heading(T_REL), atol=1e-12)
+    assert f.t_end[0] == pytest.approx(2.5)
+
+
+def test_c3_linear_profile() -> None:
+    mo = LateralMotion(t0=0.0, tau=3.0, x0=0.0, y0=1.875, vx0=20.0, vxf=20.0, width=3.75,
+                       profile="linear")
+    f = predict([msg(motion=mo, intention=1, lane=0)], 0.0, T_REL, ROAD, VEH, GRID)
+    i = np.searchsorted(T_REL, 1.5)
+    assert f.y[0, i] == pytest.approx(1.875 + 3.75 / 2)
+    assert f.heading[0, i] == pytest.approx(np.arctan2(1.25, 20.0))
+    assert f.y[0, -1] == pytest.approx(5.625) and f.heading[0, -1] == 0.0
+
+
+def test_categories() -> None:
+    assert category(msg()) == "C1"
+    assert category(msg(intention=-1)) == "C2"
+    mo = LateralMotion(0, 3, 0, 0, 20, 20, 3.75)
+    assert category(msg(intention=1, motion=mo)) == "C3"
