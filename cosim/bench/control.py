@@ -10,7 +10,12 @@ plant, well under the SUMO step cost it runs beside.
 from __future__ import annotations
 
 import argparse
+import os
+import time
+from collections.abc import Callable
 from typing import Any
+
+import numpy as np
 
 from cosim.bench import median_time
 from cosim.control.closed_loop import ClosedLoop
@@ -24,6 +29,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=float, default=10.0, help="s simulated per repeat")
 
 
+def median_cpu_time(fn: Callable[[], Any], repeats: int) -> float:
+    """s, median process CPU time of fn() (less sensitive than wall time to other
+    processes competing for the cores; measured in separate calls after the wall times)."""
+    times = np.empty(repeats)
+    for i in range(repeats):
+        start = time.process_time()
+        fn()
+        times[i] = time.process_time() - start
+    return float(np.median(times))
+
+
 def measure(args: argparse.Namespace) -> dict[str, Any]:
     vehicle, gains = VehicleParams(), ControllerGains()
     step, substeps = 0.05, 10
@@ -32,13 +48,13 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         t0=0.0, tau=6.25, x0=0.0, y0=1.875, vx0=kmh(80.0), vxf=kmh(90.0), width=3.75
     )
 
-    def closed_loop(plant: str, controller: str) -> float:
+    def closed_loop(plant: str, controller: str) -> tuple[float, float]:
         def run() -> None:
             loop = ClosedLoop(plant, controller, vehicle, gains, 0.4, 0.0, 1.875, 0.0, kmh(80.0))
             for k in range(n):
                 loop.advance(k * step, step, substeps, ref)
 
-        return median_time(run, args.repeats)
+        return median_time(run, args.repeats), median_cpu_time(run, args.repeats)
 
     def plant_alone() -> None:
         p = TwoTrackPlant(vehicle, 0.4, 0.0, 1.875, 0.0, kmh(80.0))
@@ -48,13 +64,15 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
 
     rows: list[dict[str, Any]] = []
     walls: dict[str, float] = {}
+    load_before = os.getloadavg()[0]
     for plant in ("twotrack", "bicycle"):
         for controller in ("mimo", "siso"):
-            wall = closed_loop(plant, controller)
+            wall, cpu = closed_loop(plant, controller)
             walls[f"{plant}_{controller}"] = wall
             rows.append({
                 "case": f"{plant} + {controller}",
                 "wall_s": wall,
+                "cpu_s": cpu,
                 "realtime_factor": args.duration / wall,
                 "us_per_sumo_step": wall / n * 1e6,
             })
@@ -62,9 +80,11 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     rows.append({
         "case": "twotrack plant alone",
         "wall_s": alone,
+        "cpu_s": median_cpu_time(plant_alone, args.repeats),
         "realtime_factor": args.duration / alone,
         "us_per_sumo_step": alone / n * 1e6,
     })
+    load_after = os.getloadavg()[0]
     return {
         "title": f"plant + controller, {args.duration:g} s lane change (case 5.1), "
         f"{step:g} s steps x {substeps} substeps, median of {args.repeats}",
@@ -79,5 +99,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         "notes": [
             "controller every substep (200 Hz); two-track RK4 steps <= 2x the wheel-spin "
             "time constant and <= 5 ms",
+            f"1-min load average {load_before:.2f} before, {load_after:.2f} after, on "
+            f"{os.cpu_count()} cores: wall times grow when other processes compete; cpu_s "
+            "is the process CPU time",
         ],
     }
