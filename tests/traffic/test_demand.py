@@ -68,20 +68,20 @@ class Run:
     speeds: dict[int, np.ndarray]  # km/h of TVs per lane, sampled along the run
     band_ok: float  # fraction of samples whose desired speed sits in its lane's band
     lane_changes: int  # lane changes TVs made themselves
-    density_end: float  # veh/km/lane on [0, 3000] m at the end
+    density_end: float  # veh/km/lane on [0, 2500] m at the end
     bands_kmh: tuple[tuple[float, float], ...]
 
 
 @pytest.fixture(scope="module")
 def run16() -> Run:
-    """60 s of 16 veh/km/lane traffic (closed before the tests use it)."""
+    """40 s of 16 veh/km/lane traffic (closed before the tests use it)."""
     speeds: dict[int, list[float]] = {0: [], 1: [], 2: []}
     ok = total = changes = 0
     with make_sim(11) as sim:
         road = sim.road()
         populate(sim, road, 16.0, 11, 2000.0)
         lanes: dict[str, int] = {}
-        for k in range(int(60.0 / STEP)):
+        for k in range(int(40.0 / STEP)):
             sim.step()
             snap = sim.snapshot()
             for vid, lane in zip(snap.ids, snap.lane, strict=True):
@@ -97,8 +97,8 @@ def run16() -> Run:
                 desired = sim.api.vehicle.getMaxSpeed(vid)
                 ok += int(lo - 1e-6 <= desired <= hi + 1e-6)
                 total += 1
-        m = snap.x < 3000.0
-        density_end = float(np.sum(m)) / 3 / 3.0
+        m = snap.x < 2500.0
+        density_end = float(np.sum(m)) / 3 / 2.5
         bands = tuple((lo * KMH, hi * KMH) for lo, hi in road.speed_bands)
     return Run({k: np.array(v) for k, v in speeds.items()}, ok / total, changes, density_end, bands)
 
