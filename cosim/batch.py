@@ -18,9 +18,9 @@ Life of a study (`cosim batch`):
 5. `assemble` reads the grid's records into `runs.csv` (sorted by the
    parameters), `summarize` groups them into `summary.csv`, and the plots go
    to `DIR/plots/`. Both CSVs depend only on the records, and the records
-   only on the parameters -- except the wall-time columns (`TIMING_COLUMNS`
-   and metric columns that are wall-clock measurements), which differ from
-   one execution to the next.
+   only on the parameters -- except the wall-time columns (`wall_time_s` and
+   the run's own `wall_*` columns), which differ from one execution to the
+   next.
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ import math
 import multiprocessing
 import os
 import random
-import tempfile
 import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
@@ -45,6 +44,7 @@ import pandas as pd
 from scipy import stats
 
 from cosim.errors import InputError
+from cosim.output import atomic_write_csv, atomic_write_json, make_output_dir, stale_temp_files
 
 # Grid parameters, in the order runs.csv lists (and sorts) them.
 PARAMETERS = ("driver", "plant", "occupant", "mu", "density", "seed")
@@ -52,11 +52,12 @@ PARAMETERS = ("driver", "plant", "occupant", "mu", "density", "seed")
 CELL = ("driver", "plant", "occupant", "mu", "density")
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
-# Columns of runs.csv measured by the wall clock: they differ between two
-# executions of the same run; everything else is reproducible.
-TIMING_COLUMNS = ("wall_time_s",)
-# Metric-name fragments that mark a wall-clock measurement inside metrics.csv.
-_TIMING_MARKS = ("wall", "cpu_time", "planning_time", "plan_time", "_ms")
+# Columns of runs.csv measured by the wall clock (`wall_time_s` and the run's own
+# `wall_*` columns from cosim.sim): they differ between two executions of the
+# same run; everything else is reproducible.
+TIMING_PREFIX = "wall_"
+# The plant of the SUMO-native driver: SUMO moves the SV, no plant of ours runs.
+NO_PLANT = "none"
 
 # Metrics summarised per grid cell (names as cosim.metrics writes them).
 SUCCESS_METRIC = "lane_change_completed"  # bool: the commanded lane change ended in its lane
@@ -126,8 +127,8 @@ def expand(
             driver=d, plant=pl, occupant=float(p), mu=float(m), density=float(k), seed=int(s),
             traces=traces,
         )
-        for d in drivers for pl in plants for p in occupants for m in mus
-        for k in densities for s in seeds
+        for d in drivers for pl in (plants if d != "sumo" else (NO_PLANT,))
+        for p in occupants for m in mus for k in densities for s in seeds
     ]
     ids = [s.run_id for s in specs]
     if len(set(ids)) != len(ids):
@@ -143,6 +144,14 @@ def apply_spec(spec: RunSpec) -> Any:
     """The base scenario with the run's grid values in place."""
     from cosim.scenario import load_scenario, with_overrides
 
+    # The run id names the base scenario's bytes: a file edited while the study
+    # runs would give results under the wrong id, so such a run fails instead.
+    if file_sha(spec.scenario) != spec.scenario_sha:
+        raise InputError(
+            spec.scenario, "file", "(edited)",
+            "the base scenario as it was when the study started; run the study again "
+            "to run the edited scenario under new run ids",
+        )
     scenario = load_scenario(spec.scenario)
     changes: dict[str, Any] = {
         "seed": spec.seed,
@@ -150,8 +159,9 @@ def apply_spec(spec: RunSpec) -> Any:
         "occupant": spec.occupant,
         "mu": spec.mu,
         "controller": spec.driver,
-        "plant": spec.plant,
     }
+    if spec.plant != NO_PLANT:
+        changes["plant"] = spec.plant
     if spec.duration is not None:
         changes["duration"] = spec.duration
     return with_overrides(scenario, **changes)
@@ -169,18 +179,11 @@ def execute_run(spec: RunSpec, out_dir: str) -> dict[str, Any]:
         from cosim.sim import run_scenario
 
         scenario = apply_spec(spec)
-        if spec.traces:
-            run_dir = Path(out_dir) / "traces" / spec.run_id
-            run_dir.mkdir(parents=True, exist_ok=True)
-            metrics = run_scenario(
-                scenario, run_dir, write_trace=True, write_figures=False, progress=False, gui=False
-            )
-        else:
-            with tempfile.TemporaryDirectory(prefix="cosim-run-") as tmp:
-                metrics = run_scenario(
-                    scenario, Path(tmp), write_trace=False, write_figures=False,
-                    progress=False, gui=False,
-                )
+        # Traces (trace.csv, plans.csv, metrics.csv, timing.csv) only when asked.
+        run_dir = Path(out_dir) / "traces" / spec.run_id if spec.traces else None
+        metrics = run_scenario(
+            scenario, run_dir, write_trace=True, write_figures=False, progress=False, gui=False
+        )
         record.update(status=STATUS_OK, error="")
         for key, value in metrics.items():
             if key not in record:  # the grid's own values win over the scenario echo
@@ -226,18 +229,7 @@ def record_path(out_dir: Path, run_id: str) -> Path:
 
 def write_record(out_dir: Path, record: dict[str, Any]) -> None:
     """Write a run's record atomically: a reader sees the whole file or none."""
-    path = record_path(out_dir, record["run_id"])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(record, f, sort_keys=True, allow_nan=True)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_json(record_path(out_dir, record["run_id"]), record)
 
 
 def read_record(out_dir: Path, run_id: str) -> dict[str, Any] | None:
@@ -361,7 +353,7 @@ def run_dask(specs: Sequence[RunSpec], out_dir: Path, client: Any, on_record: On
 
 def is_timing_column(name: str) -> bool:
     """Whether a runs.csv column is a wall-clock measurement (not reproducible)."""
-    return name in TIMING_COLUMNS or any(mark in name for mark in _TIMING_MARKS)
+    return name.startswith(TIMING_PREFIX) or name == "wall_time_s"
 
 
 def assemble(specs: Iterable[RunSpec], out_dir: Path) -> pd.DataFrame:
@@ -445,10 +437,8 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
 
 def write_tables(runs: pd.DataFrame, summary: pd.DataFrame, out_dir: Path) -> None:
     """runs.csv and summary.csv, each replaced atomically."""
-    for name, frame in (("runs.csv", runs), ("summary.csv", summary)):
-        tmp = out_dir / f".{name}.tmp"
-        frame.to_csv(tmp, index=False)
-        os.replace(tmp, out_dir / name)
+    atomic_write_csv(out_dir / "runs.csv", runs)
+    atomic_write_csv(out_dir / "summary.csv", summary)
 
 
 # --------------------------------------------------------------------------- the study
@@ -481,6 +471,7 @@ def run_study(
     start = time.perf_counter()
     out_dir = Path(out_dir)
     workers = workers or os.cpu_count() or 1
+    specs = list({s.run_id: s for s in specs}.values())  # a run listed twice runs once
     todo = pending(specs, out_dir, retry_failed=retry_failed)
     done_before = len(specs) - len(todo)
     todo_ids = {s.run_id for s in todo}
@@ -491,10 +482,12 @@ def run_study(
     )
     # Connect first: a bad address is an input error, before anything is written.
     client = dask_client(dask, workers) if dask is not None and todo else None
-    runs_dir(out_dir).mkdir(parents=True, exist_ok=True)
-    (out_dir / "study.json").write_text(
-        json.dumps({"title": title, "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
-                   indent=1, sort_keys=True)
+    make_output_dir(runs_dir(out_dir))
+    for stale in stale_temp_files(runs_dir(out_dir)):  # left by a killed study
+        stale.unlink(missing_ok=True)
+    atomic_write_json(
+        out_dir / "study.json",
+        {"title": title, "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
     )
 
     from tqdm import tqdm

@@ -9,6 +9,11 @@ study is run once and is the reference of the Dask, resume and failure tests.
 from __future__ import annotations
 
 import math
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -21,6 +26,7 @@ from cosim.batch import (
     is_timing_column,
     mean_ci,
     read_record,
+    run_study,
     summarize,
     wilson,
     write_record,
@@ -48,7 +54,7 @@ def test_run_ids_depend_on_parameters_and_base_scenario_only(tmp_path: Path) -> 
     grid = dict(densities=[5, 20], seeds=[1, 2], occupants=[0.5], mus=[0.8],
                 drivers=["mimo", "sumo"], plants=["twotrack"])
     a = expand(BASE, **grid)
-    b = expand(BASE, **{**grid, "densities": [5.0, 20.0]}, traces=True)
+    b = expand(BASE, **{**grid, "densities": [5.0, 20.0]}, traces=True)  # type: ignore[arg-type]
     assert len({s.run_id for s in a}) == N_RUNS
     assert {s.run_id for s in a} == {s.run_id for s in b}  # 5 == 5.0; traces change nothing
     other = tmp_path / "base.toml"
@@ -149,4 +155,102 @@ def test_flags_replace_study_lists() -> None:
         ["batch", str(STUDY), "--seeds", "3-5,9", "--mu", "0.4,0.8"])
     study = study_from_args(args)
     assert study.seeds == (3, 4, 5, 9) and study.mus == (0.4, 0.8)
-    assert study.densities == (5.0, 20.0) and study.size == 2 * 4 * 2 * 2
+    assert study.densities == (5.0, 10.0) and study.size == 2 * 4 * 2 * 2
+
+
+# --------------------------------------------------------------------------- real studies
+
+
+@pytest.fixture(scope="module")
+def local_study(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The small study on the local process pool, uninterrupted: the reference."""
+    out = tmp_path_factory.mktemp("batch") / "local"
+    assert main(["batch", str(STUDY), "-o", str(out), "--workers", "2", "--no-progress"]) == 0
+    return out
+
+
+def test_local_study_records_every_run_and_summarises_each_cell(local_study: Path) -> None:
+    runs = pd.read_csv(local_study / "runs.csv")
+    assert len(runs) == N_RUNS and len(list((local_study / "runs").glob("*.json"))) == N_RUNS
+    # Runs that raise inside the simulation are the simulation's business; here:
+    # each run is either ok or failed with its error, and most of them are ok.
+    failed = runs["status"] == STATUS_FAILED
+    assert runs["status"].isin([STATUS_OK, STATUS_FAILED]).all()
+    assert runs.loc[failed, "error"].astype(str).str.len().gt(0).all()
+    assert (~failed).sum() >= N_RUNS // 2, runs.loc[failed, "error"].tolist()
+    grid = set(zip(runs["driver"], runs["density"], runs["seed"], strict=True))
+    assert grid == {(d, k, s) for d in ("mimo", "sumo") for k in (5.0, 10.0) for s in (1, 2)}
+    assert runs["run_id"].is_unique and (runs["wall_time_s"] > 0).all()
+    summary = pd.read_csv(local_study / "summary.csv")
+    assert len(summary) == 4 and (summary["runs"] == 2).all()
+    assert summary["failed"].sum() == failed.sum()
+    rates = summary[["success_rate", "collision_rate"]].dropna().to_numpy()
+    assert len(rates) and ((rates >= 0) & (rates <= 1)).all()
+    assert (local_study / "plots" / "density.png").stat().st_size > 10_000
+
+
+def test_same_command_again_runs_nothing(local_study: Path, capsys: pytest.CaptureFixture) -> None:
+    before = {p.name: p.stat().st_mtime_ns for p in (local_study / "runs").iterdir()}
+    summary = (local_study / "summary.csv").read_bytes()
+    assert main(["batch", str(STUDY), "-o", str(local_study), "--no-progress"]) == 0
+    assert "(0 run now, 8 already done)" in capsys.readouterr().out
+    assert {p.name: p.stat().st_mtime_ns for p in (local_study / "runs").iterdir()} == before
+    assert (local_study / "summary.csv").read_bytes() == summary
+
+
+def test_dask_local_cluster_gives_the_same_runs(local_study: Path, tmp_path: Path) -> None:
+    out = tmp_path / "dask"
+    code = main(["batch", str(STUDY), "-o", str(out), "--dask", "local", "--workers", "2",
+                 "--no-progress"])
+    assert code == 0
+    pd.testing.assert_frame_equal(reproducible(out / "runs.csv"),
+                                  reproducible(local_study / "runs.csv"))
+    assert (out / "summary.csv").read_bytes() == (local_study / "summary.csv").read_bytes()
+
+
+def test_killed_study_resumes_to_the_same_csvs(local_study: Path, tmp_path: Path) -> None:
+    out = tmp_path / "killed"
+    command = [sys.executable, "-m", "cosim.cli", "batch", str(STUDY), "-o", str(out),
+               "--workers", "1", "--no-progress"]
+    # A session of its own: SIGKILL reaches the pool's processes too.
+    proc = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60.0
+    while time.monotonic() < deadline and proc.poll() is None:
+        if len(list((out / "runs").glob("*.json"))) >= 2:
+            break
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    finished = len(list((out / "runs").glob("*.json")))
+    assert 2 <= finished < N_RUNS and not (out / "runs.csv").exists()
+    assert main(["batch", str(STUDY), "-o", str(out), "--workers", "2", "--no-progress"]) == 0
+    pd.testing.assert_frame_equal(reproducible(out / "runs.csv"),
+                                  reproducible(local_study / "runs.csv"))
+    assert (out / "summary.csv").read_bytes() == (local_study / "summary.csv").read_bytes()
+
+
+def test_failing_run_is_recorded_and_the_others_go_on(tmp_path: Path) -> None:
+    # A run that raises inside its worker: its base scenario is edited after the
+    # grid was made, so execute_run refuses it (the run id names the file's bytes).
+    edited = tmp_path / "edited.toml"
+    edited.write_text(BASE.read_text() + "# a copy\n")  # other bytes: other run ids
+    grid = dict(densities=[5], occupants=[0.5], mus=[0.8], drivers=["mimo"],
+                plants=["twotrack"])
+    good = expand(BASE, seeds=[1, 2], **grid)
+    bad = expand(edited, seeds=[1], **grid)
+    edited.write_text(BASE.read_text().replace("speed_kmh = 80.0", "speed_kmh = 85.0"))
+    assert not {s.run_id for s in good} & {s.run_id for s in bad}
+    out = tmp_path / "out"
+    result = run_study(bad + good, out, workers=2, progress=False, plots=False)
+    runs = result.runs.set_index("run_id")
+    assert len(runs) == 3 and result.failed == 1
+    assert runs.loc[bad[0].run_id, "status"] == STATUS_FAILED
+    assert "InputError" in runs.loc[bad[0].run_id, "error"]
+    assert "edited" in runs.loc[bad[0].run_id, "error"]
+    assert (runs.loc[[s.run_id for s in good], "status"] == STATUS_OK).all()
+    assert "traceback" in read_record(out, bad[0].run_id)
+    # A second call runs nothing; asked to, it retries the failed run (which fails again).
+    assert run_study(bad + good, out, workers=2, progress=False, plots=False).ran == 0
+    again = run_study(bad + good, out, workers=1, progress=False, plots=False, retry_failed=True)
+    assert again.ran == 1 and again.failed == 1
