@@ -24,6 +24,7 @@ One libsumo simulation per process: a second start silently replaces the first.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import tempfile
 from collections.abc import Callable, Iterable, Sequence
@@ -284,7 +285,9 @@ class SumoSim:
             return
         try:
             if self._moved:
-                api.simulationStep()
+                # closing anyway: only the pending move had to be consumed
+                with contextlib.suppress(api.TraCIException):
+                    api.simulationStep()
                 self._moved = False
         finally:
             try:
