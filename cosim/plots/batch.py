@@ -23,61 +23,70 @@ DRIVER_LABELS = {"mimo": "ours, MIMO", "siso": "ours, SISO", "sumo": "SUMO-nativ
 _OTHER = ("plant", "occupant", "mu")
 
 
-def _label(driver: str, key: tuple, varying: list[str]) -> str:
-    text = DRIVER_LABELS.get(driver, driver)
-    extra = [f"{name} {value:g}" if isinstance(value, float) else f"{value}"
-             for name, value in zip(_OTHER, key, strict=True) if name in varying]
-    return ", ".join([text, *extra])
+def _variant(row: pd.Series, varying: list[str]) -> str:
+    """The line's grid values besides driver and density, as a label part."""
+    parts = []
+    for name in varying:
+        value = row[name]
+        if name == "plant":
+            if value != "none":  # the SUMO-native driver runs no plant of ours
+                parts.append(str(value))
+        else:
+            parts.append(f"{'p' if name == 'occupant' else name} {value:g}")
+    return ", ".join(parts)
 
 
 def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") -> list[Path]:
     """Write `density.png` (2 x 2 panels) into `out_dir`; return the paths written."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    varying = [name for name in _OTHER if summary[name].nunique() > 1]
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
+    summary = summary.copy()
+    plants = summary.loc[summary["plant"] != "none", "plant"]
+    varying = [name for name in _OTHER
+               if (plants if name == "plant" else summary[name]).nunique() > 1]
+    summary["variant"] = [_variant(row, varying) for _, row in summary.iterrows()]
     drivers = list(dict.fromkeys(summary["driver"]))
+    variants = sorted(set(summary["variant"]))
+    lines = [(d, v) for d in drivers for v in variants
+             if ((summary["driver"] == d) & (summary["variant"] == v)).any()]
     colours = {d: f"C{i}" for i, d in enumerate(drivers)}
-    others = sorted({tuple(r) for r in summary[list(_OTHER)].itertuples(index=False)})
     styles = ["-", "--", ":", "-."]
     markers = ["o", "s", "^", "D", "v", "P"]
-    n_lines = len(drivers) * len(others)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
     for ax, (prefix, ylabel) in zip(axes.flat, PANELS, strict=True):
         scale = 100.0 if prefix in ("success", "collision") else 1.0
         column = f"{prefix}_rate" if scale != 1.0 else f"{prefix}_mean"
-        line = 0
-        for driver in drivers:
-            for j, key in enumerate(others):
-                mask = (summary["driver"] == driver) & np.logical_and.reduce(
-                    [summary[name] == value for name, value in zip(_OTHER, key, strict=True)]
-                )
-                cell = summary[mask].sort_values("density")
-                if cell.empty:
-                    continue
-                x = cell["density"].to_numpy(float)
-                # Dodge the lines sideways a little so error bars do not hide each other.
-                dx = (line - (n_lines - 1) / 2) * 0.012 * (np.ptp(x) or 1.0)
-                y = cell[column].to_numpy(float) * scale
-                low = cell[f"{prefix}_ci_low"].to_numpy(float) * scale
-                high = cell[f"{prefix}_ci_high"].to_numpy(float) * scale
-                err = np.vstack([np.nan_to_num(y - low), np.nan_to_num(high - y)])
-                ax.errorbar(
-                    x + dx, y, yerr=err, color=colours[driver], linestyle=styles[j % 4],
-                    marker=markers[j % 6], markersize=4, capsize=3, linewidth=1.4,
-                    label=_label(driver, key, varying),
-                )
-                line += 1
+        for i, (driver, variant) in enumerate(lines):
+            j = variants.index(variant)
+            cell = summary[(summary["driver"] == driver) & (summary["variant"] == variant)]
+            cell = cell.sort_values("density")
+            x = cell["density"].to_numpy(float)
+            # Dodge the lines sideways a little so error bars do not hide each other.
+            dx = (i - (len(lines) - 1) / 2) * 0.012 * (np.ptp(x) or 1.0)
+            y = cell[column].to_numpy(float) * scale
+            low = cell[f"{prefix}_ci_low"].to_numpy(float) * scale
+            high = cell[f"{prefix}_ci_high"].to_numpy(float) * scale
+            err = np.vstack([np.nan_to_num(y - low), np.nan_to_num(high - y)])
+            label = ", ".join(filter(None, [DRIVER_LABELS.get(driver, driver), variant]))
+            ax.errorbar(
+                x + dx, y, yerr=err, color=colours[driver], linestyle=styles[j % 4],
+                marker=markers[j % 6], markersize=4, capsize=3, linewidth=1.4, label=label,
+            )
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
         if scale != 1.0:
             ax.set_ylim(-5, 105)
+        else:
+            ax.set_ylim(0.0, ax.get_ylim()[1] * 1.08)
     for ax in axes[1]:
         ax.set_xlabel("traffic density (veh/km/lane)")
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 4), frameon=False)
-    n = int(summary["runs"].max()) if len(summary) else 0
-    fig.suptitle(f"{title}: means with 95 % confidence intervals (up to {n} seeds per point)",
-                 y=0.995, fontsize=11)
-    fig.tight_layout(rect=(0, 0, 1, 0.93))
+    counts = sorted(set(summary["ok"].astype(int)))
+    n = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]}-{counts[-1]}"
+    fig.suptitle(f"{title}: means with 95 % confidence intervals ({n} finished runs per point)",
+                 fontsize=11)
+    fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.955),
+               ncol=min(len(labels), 4), frameon=False)
+    fig.tight_layout(rect=(0, 0, 1, 0.91))
     path = out_dir / "density.png"
     with atomic_path(path) as tmp:  # an interrupted study never leaves half a PNG
         fig.savefig(tmp, dpi=120)
