@@ -80,6 +80,7 @@ class Plan:
     vxf: float = math.nan  # m/s, target speed of the lane change
     categories: dict[str, str] = field(default_factory=dict)  # TV id -> "C1" | "C2" | "C3"
     futures: TVFutures | None = field(default=None, repr=False, compare=False)
+    sv: SVPlanState | None = field(default=None, repr=False, compare=False)  # planned from
 
     @property
     def feasible(self) -> bool:
@@ -275,7 +276,7 @@ class LaneChangePlanner:
             tau=tau, trajectory=trajectory, rejections=rejections,
             planning_time_s=time.perf_counter() - start, vxf=vxf,
             categories=dict(zip(futures.vehicle_ids, futures.categories, strict=True)),
-            futures=futures,
+            futures=futures, sv=sv,
         )
 
     def check(

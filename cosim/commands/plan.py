@@ -1,0 +1,124 @@
+"""`cosim plan SCENARIO.toml`: the planner's verdict at the scenario's planning instant.
+
+Builds the situation at the SV's first scripted lane-change request without SUMO
+(cosim.planning.situation: y_right = 0, scripted TVs where their scripts put
+them), plans, and prints the stable set, the collision-free set (a union of
+intervals), omega, tau_opt, the chosen tau and why every other tau was rejected.
+Draws the paper's Fig. 10-12 style picture (cluster, tau sets, rectangles) unless
+--no-plot. With --json, one JSON object instead of the text.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from cosim.errors import InputError
+from cosim.planning.planner import LaneChangePlanner, Plan, Rejection
+from cosim.planning.situation import situation
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    parser = sub.add_parser(
+        "plan",
+        help="plan the scenario's first lane change (no SUMO): tau sets, tau_opt, reasons",
+        description="Plan the SV's first scripted lane change of a scenario at its request "
+        "time, without SUMO, and print the stable set, the collision-free set, tau_opt and "
+        "the reason for every rejected tau; draw Fig. 10-12 style pictures.",
+    )
+    parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--out", type=Path, default=Path("results/plan"),
+                        help="folder for the figure (default results/plan)")
+    parser.add_argument("--no-plot", action="store_true", help="draw no figure")
+    parser.add_argument("--collision-test", choices=("exact", "col"), default=None,
+                        help="override the scenario's [planner] collision_test")
+    parser.add_argument("--envelope", choices=("inverse_dynamics", "kinematic", "paper_maps"),
+                        default=None, help="override the scenario's [planner] envelope")
+    parser.set_defaults(func=run)
+
+
+def rejection_ranges(rejections: list[Rejection]) -> list[dict[str, Any]]:
+    """Consecutive rejected taus with the same reason and TV, merged into ranges."""
+    out: list[dict[str, Any]] = []
+    for r in rejections:
+        last = out[-1] if out else None
+        if last and last["reason"] == r.reason and last["vehicle_id"] == r.vehicle_id:
+            last["tau_hi"] = r.tau
+            last["count"] += 1
+            if r.time is not None:
+                last["t_lo"] = min(last["t_lo"], r.time)
+                last["t_hi"] = max(last["t_hi"], r.time)
+            continue
+        out.append({"reason": r.reason, "vehicle_id": r.vehicle_id, "tau_lo": r.tau,
+                    "tau_hi": r.tau, "count": 1, "t_lo": r.time, "t_hi": r.time})
+    return out
+
+
+def _intervals(iv: list[tuple[float, float]]) -> str:
+    return " U ".join(f"[{a:.2f}, {b:.2f}]" for a, b in iv) or "empty"
+
+
+def report(name: str, plan: Plan) -> str:
+    lines = [
+        f"{name}: lane {plan.origin_lane} -> {plan.target_lane} at t = {plan.t:g} s, "
+        f"target speed {plan.vxf * 3.6:.1f} km/h",
+        "TVs: " + (", ".join(f"{k} {v}" for k, v in plan.categories.items()) or "none"),
+        f"stable set      tau_min = {plan.tau_min:.3f} s, tau_max = {plan.tau_max:.2f} s: "
+        f"{_intervals(plan.stable_intervals)}",
+        f"collision-free  {_intervals(plan.collision_free_intervals)}",
+        f"omega = {plan.omega:.3f}, tau_opt (eq. 13) = {plan.tau_opt:.3f} s",
+        f"chosen tau      {plan.tau:.2f} s" if plan.tau is not None
+        else "chosen          none: keep the lane",
+        f"planning time   {plan.planning_time_s * 1e3:.2f} ms",
+        "rejected:",
+    ]
+    for g in rejection_ranges(plan.rejections):
+        span = f"{g['tau_lo']:.2f}-{g['tau_hi']:.2f} s ({g['count']})"
+        if g["reason"] == "unstable":
+            lines.append(f"  {span}: unstable (outside the handling envelope)")
+        else:
+            lines.append(f"  {span}: collision with {g['vehicle_id']} "
+                         f"(first overlap at t = {g['t_lo']:.2f}-{g['t_hi']:.2f} s)")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from cosim.scenario import load_scenario
+
+    sc = load_scenario(args.scenario)
+    cfg = sc.planner
+    if args.collision_test:
+        cfg = replace(cfg, collision_test=args.collision_test)
+    if args.envelope:
+        cfg = replace(cfg, envelope=args.envelope)
+    si = situation(sc)
+    planner = LaneChangePlanner(sc.vehicle, si.road, cfg)
+    plan = planner.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
+    figure = None
+    if not args.no_plot:
+        from cosim.output import atomic_path, make_output_dir
+        from cosim.plots.planning import planning_figure
+
+        try:
+            out = make_output_dir(args.out)
+        except OSError as exc:
+            raise InputError("cosim plan", "--out", str(args.out),
+                             f"a writable folder ({exc})") from None
+        figure = out / f"{sc.name}.png"
+        with atomic_path(figure) as tmp:
+            planning_figure(tmp, plan, si.road, sc.vehicle,
+                            title=f"{sc.name}: planning at t = {si.t:g} s")
+    if args.json:
+        d = plan.to_dict()
+        d["scenario"] = sc.name
+        d["figure"] = str(figure) if figure is not None else None
+        print(json.dumps(d, sort_keys=True))
+    else:
+        print(report(sc.name, plan))
+        if figure is not None:
+            print(f"figure: {figure}")
+    return 0

@@ -1,0 +1,181 @@
+"""Planning figures in the style of the paper's Fig. 2 and Fig. 10-12.
+
+(a) the SV's stable trajectory cluster with the TVs' predicted futures (C2: their
+whole clusters), the chosen trajectory in bold; (b) the tau sets: stable,
+collision-free, every rejected tau coloured by its reason, tau_opt and the choice;
+(c) the chosen lane change as rectangles once a second, with the TVs (for C2 TVs
+every hypothesis, faint).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.patches import Polygon
+
+from cosim.params import RoadParams, VehicleParams
+from cosim.planning.collision import corners
+from cosim.planning.planner import Plan
+from cosim.planning.trajectory import cluster_derivatives
+
+RECT_TIMES = 1.0  # s, spacing of the rectangles of panel (c)
+
+
+def _lanes(ax: Axes, road: RoadParams) -> None:
+    for k in range(road.n_lanes + 1):
+        y = road.y_right + k * road.lane_width
+        ax.axhline(y, color="0.3", lw=0.8, ls="-" if k in (0, road.n_lanes) else "--")
+
+
+def _sv_cluster(
+    plan: Plan, road: RoadParams, t_rel: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(taus, x, y) of the stable candidates on t_rel, global."""
+    sv = plan.sv
+    assert sv is not None
+    taus = plan.taus[plan.stable]
+    width = road.lane_center(plan.target_lane) - sv.y
+    x, y = cluster_derivatives(sv.vx, plan.vxf, width, taus, t_rel, (0,), ax0=sv.ax,
+                               vy0=sv.vy, ay0=sv.ay)[0]
+    return taus, x + sv.x, y + sv.y
+
+
+def draw_cluster(ax: Axes, plan: Plan, road: RoadParams) -> None:
+    """Panel (a): stable cluster, TV futures, chosen trajectory (Fig. 2, 10a-12a)."""
+    t_rel = plan.futures.t - plan.t if plan.futures is not None else np.linspace(0, 12, 241)
+    _lanes(ax, road)
+    if plan.sv is not None and plan.stable.any():
+        taus, x, y = _sv_cluster(plan, road, t_rel)
+        cmap = plt.get_cmap("viridis")
+        span = max(float(taus.max() - taus.min()), 1e-9)
+        step = max(1, taus.size // 40)  # about 40 lines: readable
+        for i in range(0, taus.size, step):
+            free = plan.collision_free[plan.stable][i]
+            ax.plot(x[i], y[i], color=cmap((taus[i] - taus.min()) / span), lw=0.6,
+                    alpha=0.9 if free else 0.35, ls="-" if free else ":")
+    f = plan.futures
+    if f is not None:
+        for j, vid in enumerate(f.vehicle_ids):
+            rows = np.flatnonzero(f.owner == j)
+            step = max(1, rows.size // 15)
+            for n, h in enumerate(rows[::step]):
+                ax.plot(f.x[h], f.y[h], color="C3", lw=0.7 if rows.size > 1 else 1.6,
+                        alpha=0.5 if rows.size > 1 else 1.0,
+                        label=f"{vid} ({f.categories[j]})" if n == 0 else None)
+    if plan.trajectory is not None:
+        tr = plan.trajectory
+        ts = plan.t + t_rel[t_rel <= tr.tau + 2.0]
+        x, y = tr.position(ts)
+        ax.plot(x, y, color="k", lw=2.2, label=f"chosen tau = {tr.tau:.2f} s")
+    ax.set_xlabel("global x (m)")
+    ax.set_ylabel("global y (m)")
+    ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
+    ax.set_title("(a) stable cluster (dotted: collides) and TV futures")
+    ax.legend(loc="upper left", fontsize=7, ncol=3)
+
+
+def draw_tau_sets(ax: Axes, plan: Plan) -> None:
+    """Panel (b): which tau is stable, collision-free, or rejected why (Fig. 10b-12b)."""
+    taus = plan.taus
+    rows = {"stable": 2.0, "collision-free": 1.0, "rejected": 0.0}
+    for lo, hi in plan.stable_intervals:
+        ax.plot([lo, hi], [rows["stable"]] * 2, color="C2", lw=8, solid_capstyle="butt")
+    for lo, hi in plan.collision_free_intervals:
+        ax.plot([lo, hi], [rows["collision-free"]] * 2, color="C0", lw=8, solid_capstyle="butt")
+    unstable = np.array([r.tau for r in plan.rejections if r.reason == "unstable"])
+    if unstable.size:
+        ax.plot(unstable, np.zeros_like(unstable), "|", color="0.5", ms=10, label="unstable")
+    by_tv: dict[str, list[float]] = {}
+    for r in plan.rejections:
+        if r.reason == "collision":
+            by_tv.setdefault(str(r.vehicle_id), []).append(r.tau)
+    for k, (vid, tv_taus) in enumerate(sorted(by_tv.items())):
+        ax.plot(tv_taus, np.zeros(len(tv_taus)), "|", color=f"C{(k + 3) % 10}", ms=14,
+                label=f"collides with {vid}")
+    if np.isfinite(plan.tau_opt):
+        ax.axvline(plan.tau_opt, color="k", ls="--", lw=1, label=f"tau_opt = {plan.tau_opt:.2f} s")
+    if plan.tau is not None:
+        ax.plot([plan.tau], [rows["collision-free"]], "v", color="k", ms=9,
+                label=f"chosen {plan.tau:.2f} s")
+    ax.set_yticks(list(rows.values()), list(rows.keys()))
+    ax.set_ylim(-0.7, 2.7)
+    ax.set_xlim(float(taus.min()) - 0.2, float(taus.max()) + 0.2)
+    ax.set_xlabel("lane-change duration tau (s)")
+    ax.set_title(f"(b) tau sets (omega = {plan.omega:.3f})")
+    ax.legend(loc="upper left", fontsize=7, ncol=2)
+
+
+def draw_snapshots(ax: Axes, plan: Plan, road: RoadParams, vehicle: VehicleParams) -> None:
+    """Panel (c): the chosen trajectory and the TVs as rectangles every second (Fig. 10c-12c)."""
+    _lanes(ax, road)
+    f = plan.futures
+    if plan.trajectory is None or f is None:
+        ax.set_title("(c) no collision-free tau: keep lane (SV and TVs now)")
+        if plan.sv is not None:
+            sv = plan.sv
+            ax.add_patch(Polygon(corners(sv.x, sv.y, sv.heading, vehicle.length, vehicle.width),
+                                 closed=True, fill=False, ec="k", lw=1.2))
+            xs = [sv.x]
+            if f is not None and f.n_hypotheses:
+                first = np.unique(f.owner, return_index=True)[1]
+                for hh in first:
+                    ax.add_patch(Polygon(corners(f.x[hh, 0], f.y[hh, 0], f.heading[hh, 0],
+                                                 f.length[hh], f.width[hh]),
+                                         closed=True, fill=False, ec="C3", lw=1.0))
+                xs += list(f.x[first, 0])
+            ax.set_xlim(min(xs) - 20, max(xs) + 20)
+            ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
+        return
+    tr = plan.trajectory
+    marks = np.arange(0.0, tr.tau + 1e-9, RECT_TIMES)
+    k = np.clip(np.searchsorted(f.t - plan.t, marks - 1e-9), 0, f.t.size - 1)
+    x, y = tr.position(f.t[k])
+    h = tr.heading(f.t[k])
+    for i in range(k.size):
+        ax.add_patch(Polygon(corners(x[i], y[i], h[i], vehicle.length, vehicle.width),
+                             closed=True, fill=False, ec="k", lw=1.0))
+    for j in range(len(f.vehicle_ids)):
+        rows = np.flatnonzero(f.owner == j)
+        single = rows.size == 1
+        for hh in rows[:: max(1, rows.size // 6)]:
+            for i in k:
+                ax.add_patch(Polygon(
+                    corners(f.x[hh, i], f.y[hh, i], f.heading[hh, i], f.length[hh], f.width[hh]),
+                    closed=True, fill=False, ec="C3", lw=1.0 if single else 0.5,
+                    alpha=1.0 if single else 0.4))
+    xs = np.concatenate([x, f.x[:, k].ravel()])
+    ax.set_xlim(float(xs.min()) - 5, float(xs.max()) + 5)
+    ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
+    ax.set_xlabel("global x (m)")
+    ax.set_ylabel("global y (m)")
+    ax.set_title(f"(c) chosen lane change and TVs every {RECT_TIMES:g} s (black: SV)")
+
+
+def planning_figure(path: Path, plan: Plan, road: RoadParams, vehicle: VehicleParams,
+                    title: str = "") -> Path:
+    """The three panels in one PNG at `path` (written as given; use output.atomic_path)."""
+    fig, axes = plt.subplots(3, 1, figsize=(10, 11))
+    draw_cluster(axes[0], plan, road)
+    draw_tau_sets(axes[1], plan)
+    draw_snapshots(axes[2], plan, road, vehicle)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def tau_sets(path: Path, plan: Plan, title: str = "") -> Path:
+    """Panel (b) alone (the co-simulation's tau_sets.png)."""
+    fig, ax = plt.subplots(figsize=(9, 3.2))
+    draw_tau_sets(ax, plan)
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
