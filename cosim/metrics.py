@@ -155,17 +155,23 @@ IAE_COLUMNS = {
     "iae_ye_m_s": ("ye_m", 1.0),
     "iae_phie_deg_s": ("phie_deg", 1.0),
     "iae_deltaf_deg_s": ("delta_f_deg", 1.0),
-    "iae_fx_kn_s": ("fx_total_n", 1e-3),
+    "iae_fx_kn_s": ("fx_abs_sum_n", 1e-3),
 }
+FX_WHEEL_COLUMNS = ("fx_fl_n", "fx_fr_n", "fx_rl_n", "fx_rr_n")
 
 
 def iae_row(t: ArrayLike, trace: dict[str, Array], t0: float, t1: float) -> dict[str, float]:
     """IAE per Table 2 column over [t0, t1] of the trace (see IAE_COLUMNS).
 
-    `fx_total_n` is the sum of the four wheels' longitudinal forces (N)."""
+    The Fx column integrates the sum of the four wheels' |Fx| (N; the trace's
+    FX_WHEEL_COLUMNS), as `cosim track` does."""
     tt = np.asarray(t, dtype=float)
     w = (tt >= t0) & (tt <= t1)
+    cols = dict(trace)
+    if "fx_abs_sum_n" not in cols:
+        cols["fx_abs_sum_n"] = np.sum(
+            [np.abs(np.asarray(trace[c], dtype=float)) for c in FX_WHEEL_COLUMNS], axis=0)
     return {
-        name: iae(tt[w], np.asarray(trace[col], dtype=float)[w] * scale)
+        name: iae(tt[w], np.asarray(cols[col], dtype=float)[w] * scale)
         for name, (col, scale) in IAE_COLUMNS.items()
     }

@@ -54,6 +54,7 @@ SV_LENGTH_MARGIN = 2.0  # SV lengths kept free of random traffic around the SV a
 NEAR_RANGE = 150.0  # m, TVs within this x distance of the SV are recorded for the figures
 SETTLE_TOL = 0.1  # m, |y - target lane centre| below which a lane change counts as done
 FOLLOW_HORIZON = 1.0  # s, horizon of the straight lane-keeping reference
+IAE_WINDOW = 10.0  # s, IAE from the start of the first lane change (cosim track's default)
 FOLLOW_GRIP = 0.7  # -, share of mu g the car-following reference may brake with
 MAX_FOLLOW_JERK = 15.0  # m/s^3, rate limit of the car-following acceleration
 REF_SPEED_BAND = 0.5  # m/s, the lane-keeping reference speed stays this close to Vx
@@ -146,11 +147,13 @@ METRIC_DOCS: dict[str, str] = {
     "max_abs_lat_accel_mps2": "largest |body lateral acceleration| (m/s^2)",
     "max_abs_long_accel_mps2": "largest |body longitudinal acceleration| (m/s^2)",
     "max_jerk_mps3": "largest |d(ax, ay)/dt| between steps (m/s^3)",
-    "iae_vx_mps_s": "IAE of ex = Vx - Vx* over the run (Table 2 column Vx) ((m/s) s)",
-    "iae_ye_m_s": "IAE of ye (Table 2 column ye) (m s)",
-    "iae_phie_deg_s": "IAE of phi_e (Table 2 column phi_e) (deg s)",
-    "iae_deltaf_deg_s": "integral of |delta_f| (Table 2 column delta_f) (deg s)",
-    "iae_fx_kn_s": "integral of |sum of wheel Fx| (Table 2 column Fx) (kN s)",
+    "iae_vx_mps_s": "IAE of ex = Vx - Vx* over the 10 s from the start of the first lane "
+    "change (the whole run without one) (Table 2 column Vx) ((m/s) s)",
+    "iae_ye_m_s": "IAE of ye, same window (Table 2 column ye) (m s)",
+    "iae_phie_deg_s": "IAE of phi_e, same window (Table 2 column phi_e) (deg s)",
+    "iae_deltaf_deg_s": "integral of |delta_f|, same window (Table 2 column delta_f) (deg s)",
+    "iae_fx_kn_s": "integral of the sum of the four wheels' |Fx|, same window (Table 2 "
+    "column Fx) (kN s)",
     "final_lane": "SV's lane at the end (SUMO index, from y)",
     "final_offset_m": "SV's y minus its lane centre at the end (m)",
     "mean_speed_mps": "SV's mean speed (m/s)",
@@ -231,6 +234,8 @@ class RunResult:
     metrics: dict[str, Any]
     timing: dict[str, Any]
     events: list[str] = field(default_factory=list)
+    records: list[Any] = field(default_factory=list)  # closed-loop StepRecords (ours only)
+    first_plan: Any = None  # the planner's first Plan (for the tau-set figure)
 
 
 class _Tracks:
@@ -304,6 +309,8 @@ class CoSimulation:
         self.sv_length = scenario.vehicle.length
         self.sv_width = scenario.vehicle.width
         self.started = False
+        self.first_plan: Any = None
+        self.records: list[Any] = []
         self.last_failed: tuple[int, int] | None = None  # (origin, target) of a failed plan
 
     # ------------------------------------------------------------------ set-up
@@ -344,6 +351,7 @@ class CoSimulation:
                                      self.sv_width, sc.sv.lane)
             self.loop.set_reference(lane_keeping_reference(0.0, x0, y0, sc.sv.speed, 0.0))
             self.record = self.loop.record(0.0)
+            self.records = [self.record]
         from cosim.traffic.v2v import V2VChannel
 
         self.channel = V2VChannel.from_spec(sc.v2v, road, sc.seed)
@@ -397,7 +405,7 @@ class CoSimulation:
             for k in range(self.n_steps + 1):
                 t = k * self.dt
                 w0 = time.perf_counter()
-                snap_all = self.sumo.snapshot()  # read once per step by SumoSim.step
+                snap_all = self.sumo.snapshot_near(SV_ID, self.radius)
                 self.wall["sumo"] += time.perf_counter() - w0
                 sv = self._sv_view(snap_all)
                 near, tvs = self._near(snap_all, sv)
@@ -574,6 +582,7 @@ class CoSimulation:
             self.v_ref = max(self.v_ref + self.idm_accel * self.dt, 0.0)
         w0 = time.perf_counter()
         self.record = self.loop.advance(t, self.dt, sc.substeps, reference)
+        self.records.append(self.record)
         self.wall["control"] += time.perf_counter() - w0
         r = self.record
         self.sumo.move(SV_ID, r.x, r.y, r.heading, r.vx, r.ax)
@@ -598,6 +607,8 @@ class CoSimulation:
         plan = self.planner.plan(t, state, target, messages, self.sc.sv.occupant)
         self.wall["planning"] += time.perf_counter() - w0
         self.plans.append(plan_row(plan, trigger, state.vx))
+        if self.first_plan is None:
+            self.first_plan = plan
         if plan.trajectory is None:
             self.timer.planning_failed(t)
             self.last_failed = (lane, target)
@@ -684,7 +695,11 @@ class CoSimulation:
         if self.baseline:
             m.update(dict.fromkeys(mx.IAE_COLUMNS, math.nan))
         else:
-            m.update(mx.iae_row(t, trace, 0.0, float(t[-1])))
+            # over the first lane change (Table 2: "the single lane change"), as long
+            # as `cosim track` runs; the whole run when there is none
+            t0 = self.lane_changes[0].t0 if self.lane_changes else 0.0
+            t1 = t0 + IAE_WINDOW if self.lane_changes else float(t[-1])
+            m.update(mx.iae_row(t, trace, t0, t1))
         m.update(
             final_lane=lane_end,
             final_offset_m=y_end - self.road.lane_center(lane_end),
@@ -700,7 +715,9 @@ class CoSimulation:
             "wall_realtime_factor": float(t[-1]) / wall if wall > 0 else math.nan,
         }
         return RunResult(sc, self.road, trace, self.plans, self.lane_changes,
-                         self.tracks.result(), m, timing, events)
+                         self.tracks.result(), m, timing, events,
+                         records=[] if self.baseline else self.records,
+                         first_plan=self.first_plan)
 
 
 def _baseline_accelerations(trace: dict[str, Array]) -> None:
@@ -788,6 +805,28 @@ def write_run_figures(result: RunResult, out: Path) -> list[Path]:
                             highlight=[tv.id for tv in result.scenario.tvs], lane_changes=spans,
                             title=f"{result.scenario.name}: global trajectories")
     paths.append(out / "trajectories.png")
+    sc = result.scenario
+    if result.records:
+        from cosim.control.tracking import TrackingRun
+        from cosim.plots.tracking import plot_inputs, plot_states
+
+        run = TrackingRun(sc.sv.plant, sc.sv.controller, result.road.mu,
+                          tuple(result.records))
+        paths.append(plot_states([run], out / "tracking.png",
+                                 f"{sc.name}: tracking (cf. Fig. 13-15)"))
+        paths.append(plot_inputs([run], out / "inputs.png", f"{sc.name}: inputs"))
+    plan = result.first_plan
+    if plan is not None:
+        from cosim.plots.planning import planning_figure, tau_sets
+
+        with atomic_path(out / "tau_sets.png") as tmp:
+            tau_sets(tmp, plan, f"{sc.name}: tau sets of the plan at t = {plan.t:.2f} s "
+                                "(cf. Fig. 10-12 b)")
+        paths.append(out / "tau_sets.png")
+        with atomic_path(out / "planning.png") as tmp:
+            planning_figure(tmp, plan, result.road, sc.vehicle,
+                            f"{sc.name}: plan at t = {plan.t:.2f} s (cf. Fig. 10-12)")
+        paths.append(out / "planning.png")
     return paths
 
 

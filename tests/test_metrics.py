@@ -102,8 +102,11 @@ def test_iae_row_uses_the_window_and_kilonewtons() -> None:
     t = np.linspace(0.0, 10.0, 101)
     trace = {
         "ex_mps": np.ones_like(t), "ye_m": np.ones_like(t), "phie_deg": np.ones_like(t),
-        "delta_f_deg": np.ones_like(t), "fx_total_n": 2000.0 * np.ones_like(t),
+        "delta_f_deg": np.ones_like(t), "fx_fl_n": 500.0 * np.ones_like(t),
+        "fx_fr_n": -500.0 * np.ones_like(t), "fx_rl_n": 500.0 * np.ones_like(t),
+        "fx_rr_n": 500.0 * np.ones_like(t),
     }
     row = iae_row(t, trace, 2.0, 4.0)
     assert row["iae_ye_m_s"] == pytest.approx(2.0)
+    # sum of the wheels' |Fx|: 2 kN for 2 s (a braking wheel counts as much as a driving one)
     assert row["iae_fx_kn_s"] == pytest.approx(4.0)
