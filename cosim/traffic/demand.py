@@ -54,13 +54,14 @@ class Traffic:
         """The inflow (a SumoSim hook, after each step)."""
         if not self.inflow:
             return
-        present = set(sim.vehicle_ids())
-        waiting = set(sim.pending())
         for lane, last in list(self._last.items()):
-            if last in waiting:
-                continue  # the previous one has not found room yet
-            if last in present and sim.lane_position(last) < self._next_gap[lane]:
-                continue
+            # front position of the last one inserted; a vehicle still waiting for room
+            # reads INVALID (< any gap); one that has left the road raises: insert then
+            try:
+                if last and sim.lane_position(last) < self._next_gap[lane]:
+                    continue
+            except sim.api.TraCIException:
+                pass
             vid = self.new_id()
             q = self.quantile()
             sim.add_traffic(vid, lane, sim.highway.x_start + 0.5 * TV_LENGTH, q)
