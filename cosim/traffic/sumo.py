@@ -230,8 +230,10 @@ class SumoSim:
 
     # ------------------------------------------------------------------ lifecycle
     def command(self) -> list[str]:
-        """The SUMO command line this simulation starts with."""
-        assert self._tmp is not None
+        """The SUMO command line this simulation starts with (warnings go to a
+        temporary log file that lives until close)."""
+        if self._tmp is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="cosim-sumo-")
         binary = "sumo-gui" if self.gui else "sumo"
         try:
             import sumolib
@@ -269,7 +271,6 @@ class SumoSim:
         global _active
         if _active is not None and _active is not self and _active._api is not None:
             raise SimulationError(0.0, "another SUMO simulation is running in this process")
-        self._tmp = tempfile.TemporaryDirectory(prefix="cosim-sumo-")
         self._api = _import_api(self.use_traci)
         self._api.start(self.command())
         _active = self

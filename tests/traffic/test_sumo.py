@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -255,3 +256,21 @@ def test_sublane_option_gives_gradual_lateral_motion() -> None:
     speeds = np.round(lateral, 2)
     assert len(np.unique(speeds)) > 5  # a trapezoid, not the constant W/D of the other model
     assert speeds.max() <= 1.0 + 1e-9  # SUMO's default maxSpeedLat
+
+
+def test_command_line_of_each_mode() -> None:
+    """What SUMO is started with: collisions as real overlaps, no teleports, quiet;
+    --gui swaps only the binary (sumo-gui through traci)."""
+    cmd = make_sim(seed=42).command()
+    pairs = dict(zip(cmd[1::2], cmd[2::2], strict=True))
+    assert pairs["--collision.action"] == "warn"
+    assert pairs["--collision.mingap-factor"] == "0"
+    assert pairs["--time-to-teleport"] == "-1"
+    assert pairs["--seed"] == "42" and pairs["--step-length"] == "0.05"
+    assert pairs["--lanechange.duration"] == "3.0" and pairs["--no-warnings"] == "true"
+    assert Path(cmd[0]).name == "sumo"
+    gui = make_sim(gui=True)
+    assert gui.use_traci and Path(gui.command()[0]).name == "sumo-gui"
+    assert "--start" in gui.command()
+    custom = make_sim(extra_args=("--time-to-teleport", "5")).command()
+    assert custom.count("--time-to-teleport") == 1 and custom[-1] == "5"
