@@ -109,7 +109,12 @@ def lateral_motion(
     SUMO's `--lanechange.duration` moves the front bumper sideways at a constant
     speed from the origin lane's centre; the origin lane is the one whose centre
     the front has left behind (by at most a lane width). The front's line gives
-    the start, the centre follows it L/(2|v|) later; tau = W / |vy|.
+    the start, the centre follows it L/(2|v|) later; tau = W / |vy|. Measured: the
+    centre's y 1 s ahead within 6 cm (max, 16 veh/km/lane).
+
+    With SUMO's sublane model instead, the lateral speed is a trapezoid and a change
+    need not end on a lane centre: this reconstruction is then only approximate
+    (measured 1 s ahead: median 3 cm, 90th percentile 0.42 m, max 0.89 m).
     """
     if abs(lateral_speed) < LATERAL_SPEED_EPS:
         return None
