@@ -78,28 +78,29 @@ class TwoTrackPlant:
         self.c_alpha_rear = ch.cornering_scale * vehicle.cr / (2.0 * self.fz0_rear)
         dlat = vehicle.mass * ch.cg_height / (2.0 * vehicle.half_track)  # N per m/s^2
         # constants of `derivative`, unpacked at once (attribute look-ups are slow)
+        # (stiffnesses over mu: the normalised slips of `cosim.vehicle.tyre`)
         self._const = (
             vehicle.mass, vehicle.yaw_inertia, vehicle.lf, vehicle.lr, vehicle.half_track,
-            ch.wheel_radius, ch.slip_speed_floor, ch.shape, ch.slip_stiffness, mu,
-            vehicle.drag, ch.wheel_inertia, ch.load_lag,
+            ch.wheel_radius, ch.slip_speed_floor, ch.shape, 1.0 / ch.shape,
+            ch.slip_stiffness / mu, mu, vehicle.drag, ch.wheel_inertia, ch.load_lag,
             vehicle.mass * ch.cg_height / (2.0 * vehicle.wheelbase),
             dlat * ch.roll_share_front, dlat * (1.0 - ch.roll_share_front),
-            self.fz0_front, self.fz0_rear, self.c_alpha_front, self.c_alpha_rear,
+            self.fz0_front, self.fz0_rear, self.c_alpha_front / mu, self.c_alpha_rear / mu,
         )
         w0 = vx / ch.wheel_radius
         self.state = [x, y, heading, vx, vy, yaw_rate, w0, w0, w0, w0, 0.0, 0.0]
         self._delta = 0.0
+        self._cos_sin_delta = (1.0, 0.0)
         self._torque = (0.0, 0.0, 0.0, 0.0)
         self._forces: tuple[float, ...] = (0.0,) * 14
 
     # -- dynamics --------------------------------------------------------------
     def derivative(self, s: list[float]) -> list[float]:
         """ds/dt at state s with the held steering angle and wheel torques."""
-        (m, iz, lf, lr, ls, rad, floor, shape, ck, mu, drag, iw, lag, kd_long, kd_lat_f,
-         kd_lat_r, fz0f, fz0r, caf, car) = self._const
+        (m, iz, lf, lr, ls, rad, floor, shape, inv_shape, ckm, mu, drag, iw, lag, kd_long,
+         kd_lat_f, kd_lat_r, fz0f, fz0r, cafm, carm) = self._const
         _, _, psi, vx, vy, r, w1, w2, w3, w4, axl, ayl = s
-        delta = self._delta
-        cd, sd = math.cos(delta), math.sin(delta)
+        cd, sd = self._cos_sin_delta
 
         # vertical loads: static + longitudinal (pitch) + lateral (roll) transfer
         dlong = kd_long * axl
@@ -126,9 +127,7 @@ class TwoTrackPlant:
         l2 = -vr * sd + vyf * cd
 
         # tyres: `cosim.vehicle.tyre.tyre_forces` inlined (this is the hot loop)
-        ckm, cafm, carm = ck / mu, caf / mu, car / mu
         atan, sin, sqrt = math.atan, math.sin, math.sqrt
-        inv_shape = 1.0 / shape
         # FL
         ref = u1 if u1 > floor else (-u1 if -u1 > floor else floor)
         ux, uy = ckm * (w1 * rad - u1) / ref, -cafm * l1 / ref
@@ -201,7 +200,9 @@ class TwoTrackPlant:
     def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Integrate h seconds: steering delta (rad), wheel torques R * fx_cmd (N m)."""
         rad = self.chassis.wheel_radius
-        self._delta = delta
+        if delta != self._delta:
+            self._delta = delta
+            self._cos_sin_delta = (math.cos(delta), math.sin(delta))
         self._torque = (rad * fx_cmd[0], rad * fx_cmd[1], rad * fx_cmd[2], rad * fx_cmd[3])
         limit = min(self.max_step, self.step_factor * self.wheel_time_constant())
         n = max(1, math.ceil(h / limit - 1e-9))

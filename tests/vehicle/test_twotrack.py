@@ -115,3 +115,28 @@ def test_cornering_scale_makes_a_plant_unlike_the_design_model() -> None:
     _, r_design = steady_state(VEHICLE, speed, delta)
     assert plant.state[5] == pytest.approx(r_softer, rel=0.05)
     assert abs(plant.state[5] / r_design - 1.0) > 0.15
+
+
+def test_inlined_tyres_are_the_tyre_module() -> None:
+    from cosim.vehicle.tyre import tyre_forces
+
+    plant = TwoTrackPlant(VEHICLE, 0.5, vx=20.0, vy=0.4, yaw_rate=0.15)
+    plant.state[6:12] = [66.0, 64.0, 63.0, 66.5, 0.8, 2.5]
+    plant.step(1e-9, 0.05, (0.0,) * 4)  # sets the steering angle, moves nothing
+    out = plant.outputs()
+    assert out.fz is not None and out.fy is not None
+    v, ch = VEHICLE, plant.chassis
+    _, _, _, vx, vy, r, *omegas = plant.state[:10]
+    c, s = math.cos(0.05), math.sin(0.05)
+    for i, (x, y, steered) in enumerate(
+        [(v.lf, v.half_track, True), (v.lf, -v.half_track, True),
+         (-v.lr, v.half_track, False), (-v.lr, -v.half_track, False)]
+    ):
+        bx, by = vx - r * y, vy + r * x
+        u, lat = (bx * c + by * s, -bx * s + by * c) if steered else (bx, by)
+        ref = max(abs(u), ch.slip_speed_floor)
+        c_alpha = plant.c_alpha_front if steered else plant.c_alpha_rear
+        fx, fy = tyre_forces((omegas[i] * ch.wheel_radius - u) / ref, -lat / ref, out.fz[i],
+                             ch.slip_stiffness, c_alpha, 0.5, ch.shape)
+        assert out.fx[i] == pytest.approx(fx, rel=1e-9)
+        assert out.fy[i] == pytest.approx(fy, rel=1e-9)
