@@ -270,9 +270,14 @@ def test_schema_table_lists_every_key() -> None:
     assert "| `sv.decision` | true or false | `false` |" in text
 
 
-def test_every_shipped_scenario_is_valid() -> None:
+def test_every_shipped_scenario_and_study_is_valid() -> None:
+    from cosim.study import load_study
+
     files = sorted((project_root() / "scenarios").glob("*.toml"))
     assert files, "no scenarios shipped"
     for path in files:
+        if "study" in tomllib.loads(path.read_text()):
+            assert load_study(path).size > 0
+            continue
         s = load_scenario(path)
         assert s.path == path and s.n_steps > 0
