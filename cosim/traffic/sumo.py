@@ -79,7 +79,7 @@ class TrafficEvent:
     """Something SUMO did that a run must record: a teleport, a vehicle lost."""
 
     time: float  # s, simulation time
-    kind: str  # "teleport" | "lost" | "arrived"
+    kind: str  # "teleport" | "lost" (a controlled vehicle SUMO dropped)
     vehicle_id: str
     detail: str
 
