@@ -308,6 +308,7 @@ class CoSimulation:
 
         self.sv_length = scenario.vehicle.length
         self.sv_width = scenario.vehicle.width
+        self.sv_diag = math.hypot(self.sv_length, self.sv_width)  # m, body diagonal
         self.started = False
         self.first_plan: Any = None
         self.records: list[Any] = []
@@ -498,9 +499,14 @@ class CoSimulation:
                              tvs.speed * np.cos(tvs.heading), tv_hx, tv_hy)
         row[C["gap_min_m"]] = float(gap.min()) if gap.size else math.inf
         row[C["ttc_min_s"]] = float(ttc.min()) if ttc.size else math.inf
-        hit = overlap_sat(x, y, h, self.sv_length, self.sv_width,
-                          tvs.x, tvs.y, tvs.heading, tvs.length, tvs.width)
-        hits = frozenset(vid for vid, c in zip(tvs.ids, hit, strict=True) if c)
+        # exact test only where the bounding circles meet (most steps: nobody)
+        reach = 0.5 * (np.hypot(tvs.length, tvs.width) + self.sv_diag)
+        near = np.flatnonzero(np.hypot(tvs.x - x, tvs.y - y) <= reach)
+        hits: frozenset[str] = frozenset()
+        if near.size:
+            hit = overlap_sat(x, y, h, self.sv_length, self.sv_width, tvs.x[near], tvs.y[near],
+                              tvs.heading[near], tvs.length[near], tvs.width[near])
+            hits = frozenset(tvs.ids[i] for i, c in zip(near, hit, strict=True) if c)
         self.collision_flags.append(hits)
         row[C["collisions"]] = len(hits)
         row[C["sumo_collisions"]] = self.sumo_step_collisions
