@@ -360,7 +360,10 @@ class CoSimulation:
         # published then: build them only when planning (they are the costly part)
         v2v = sc.v2v
         self.v2v_every_step = v2v.latency > 0 or v2v.loss > 0 or v2v.mode != "v2v"
-        self.radius = max(NEAR_RANGE, v2v.range) + 2.0 * self.sv_length
+        # the per-step read covers what the rule, the records and the collision check
+        # need; a planning call reads everyone in V2V range once more
+        self.radius = (max(NEAR_RANGE, v2v.range) if self.v2v_every_step else NEAR_RANGE) \
+            + 2.0 * self.sv_length
         # the first step inserts every vehicle at its place
         self.sumo.step()
         self.t_offset = self.sumo.time  # SUMO's clock when our t = 0
@@ -570,6 +573,8 @@ class CoSimulation:
         allow = self.active is None and self.timer.may_request(t)
         target, trigger = self._decide(t, sv, tvs, allow)
         if self.v2v_every_step or target is not None:
+            if not self.v2v_every_step and self.sc.v2v.range > NEAR_RANGE:
+                snap_all = self.sumo.snapshot()  # everyone: the channel keeps those in range
             public = snap_all.select(np.array(
                 [vid != SV_ID and vid not in self.scripted_ids for vid in snap_all.ids],
                 dtype=bool))
