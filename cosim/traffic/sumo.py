@@ -383,11 +383,12 @@ class SumoSim:
         if not self._band_lane:
             return
         vehicle = self.api.vehicle
+        get_lane = self._getters()[4]
         bands = self._road.speed_bands
         was = self._band_lane
         for vid, lane_was in was.items():
             try:
-                lane = vehicle.getLaneIndex(vid)
+                lane = get_lane(vid)
             except self.api.TraCIException:  # added but not inserted yet
                 continue
             if lane == lane_was or not 0 <= lane < len(bands):
