@@ -117,6 +117,10 @@ class ClosedLoop:
             )
         if control_every < 1:
             raise InputError("closed loop", "control_every", control_every, "an integer >= 1")
+        if not 0.0 < mu <= 1.5:
+            raise InputError("closed loop", "mu", mu, "road friction in (0, 1.5]")
+        if not speed_floor > 0.0:
+            raise InputError("closed loop", "speed_floor", speed_floor, "> 0 m/s")
         check_gains(gains)
         self.limits = limits or ActuatorLimits()
         self.limits.check()
@@ -234,12 +238,12 @@ class ClosedLoop:
     ) -> StepRecord:
         """Advance from time t to t + dt in `substeps` substeps following `reference`;
         a reference different from the current one is taken up by `set_reference`."""
+        if substeps < 1 or not dt > 0.0:
+            raise InputError("closed loop", "substeps/dt", (substeps, dt), "substeps >= 1, dt > 0")
         if self._path is None or (
             reference is not self._path.trajectory and reference != self._path.trajectory
         ):
             self.set_reference(reference)
-        if substeps < 1 or not dt > 0.0:
-            raise InputError("closed loop", "substeps/dt", (substeps, dt), "substeps >= 1, dt > 0")
         h = dt / substeps
         plant = self.plant
         saturated = False
