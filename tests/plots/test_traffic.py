@@ -35,3 +35,11 @@ def test_snapshot_figure(tmp_path: Path) -> None:
     )  # fmt: skip
     out = plot_snapshot(snap, road, tmp_path / "snap.png", (0.0, 60.0), highlight=("sv",))
     assert out.read_bytes()[:4] == PNG
+
+
+def test_speed_figure_from_a_short_sumo_run(tmp_path: Path) -> None:
+    from cosim.plots.traffic import main
+
+    out = tmp_path / "speeds.png"
+    assert main(["--density", "12", "--duration", "4", "--out", str(out)]) == 0
+    assert out.read_bytes()[:4] == PNG
