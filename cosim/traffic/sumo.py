@@ -19,7 +19,19 @@ collision is then a real overlap, not a gap below minGap), `--time-to-teleport
 `--no-warnings` with an `--error-log` file: warnings are captured, readable
 through `SumoSim.warnings()`, and not printed.
 
-One libsumo simulation per process: a second start silently replaces the first.
+Traffic vehicles keep the lane speed bands (Section 5): each TV has a place in
+[0, 1] within a band, and whenever its lane index changes its desired speed
+(maxSpeed; speedFactor 1) is set to that place in the new lane's band. SUMO's
+lane-change model decides the changes; `--lanechange.duration` makes them
+continuous (constant lateral speed), the sublane model is the alternative.
+
+Controlled vehicles (SV, scripted TVs) leave SUMO's control (speed mode 0,
+lane-change mode 0); a pending moveToXY is flushed by one step before close
+(it would leak into the next simulation in the process), and one that takes a
+vehicle off the network (SUMO drops it silently) raises SimulationError.
+
+One libsumo simulation per process: a second start silently replaces the first,
+so `start` refuses while another SumoSim is running.
 """
 
 from __future__ import annotations
