@@ -50,11 +50,23 @@ def test_track_command_json(tmp_path, capsys) -> None:
                    "--json", "--out", str(tmp_path), "--no-plot"])
     assert status == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["reference"]["tau_s"] == 6.25
-    assert out["mimo_beats_siso_on_heading"] == {"bicycle": True}
-    assert [(r["plant"], r["controller"]) for r in out["runs"]] == [
+    (case,) = out["cases"]
+    assert case["case"] == "5.1" and case["reference"]["tau_s"] == 6.25
+    assert case["reference"]["mu"] == 0.4
+    assert case["mimo_beats_siso_on_heading"] == {"bicycle": True}
+    assert [(r["plant"], r["controller"]) for r in case["runs"]] == [
         ("bicycle", "mimo"), ("bicycle", "siso")]
     assert not any(tmp_path.iterdir())
+
+
+def test_track_command_runs_the_three_paper_cases(capsys) -> None:
+    status = main(["track", "--case", "all", "--plant", "bicycle", "--duration-s", "3",
+                   "--json", "--no-plot", "--source", "paper"])
+    assert status == 0
+    cases = json.loads(capsys.readouterr().out)["cases"]
+    assert [c["case"] for c in cases] == ["5.1", "5.2", "5.3"]
+    assert [c["reference"]["mu"] for c in cases] == [0.4, 0.6, 0.8]
+    assert cases[1]["reference"]["width_m"] == -3.75  # 5.2 goes to the slower lane
 
 
 def test_track_command_table_and_figures(tmp_path, capsys) -> None:
