@@ -105,25 +105,49 @@ class ClusterHits:
     triplets_checked: int  # -, (candidate, hypothesis, time) triplets given to the exact test
 
 
+@dataclass(frozen=True)
+class ClusterMotion:
+    """Bounds on how the SV cluster moves between two samples (from its positions)."""
+
+    dx_min: float  # m, least x travel of any candidate in one step
+    dx_max: float  # m, most x travel in one step
+    dy_max: float  # m, most |y| travel in one step
+    turn: float  # rad, most heading change in one step
+    max_heading: float  # rad, most |heading| anywhere
+
+
+def cluster_motion(sv_x: Array, sv_y: Array) -> ClusterMotion:
+    """Step bounds of a cluster (n_c, n_t) from its chords: the heading is within one
+    chord-angle change of the chord's direction (the path turns by less than twice that
+    per step; |d atan(s)| <= |ds| bounds the chord-angle change by the slope change)."""
+    if sv_x.shape[1] < 3:
+        return ClusterMotion(0.0, 0.0, 0.0, 0.0, 0.5 * np.pi)
+    ddx = np.diff(sv_x, axis=1)
+    ddy = np.diff(sv_y, axis=1)
+    slope = ddy / np.maximum(ddx, 1e-9)  # the SV drives forwards
+    turn = 2.0 * float(np.abs(np.diff(slope, axis=1)).max())
+    return ClusterMotion(
+        dx_min=float(ddx.min()), dx_max=float(ddx.max()), dy_max=float(np.abs(ddy).max()),
+        turn=turn, max_heading=float(np.arctan(np.abs(slope).max())) + turn,
+    )
+
+
 def sampling_pad(
-    sv_x: Array, sv_y: Array, sv_turn: float, tv_x: Array, tv_y: Array, tv_h: Array,
-    sv_radius: float, tv_radius: Array,
+    sv: ClusterMotion, tv_x: Array, tv_y: Array, tv_h: Array, sv_radius: float,
+    tv_radius: Array,
 ) -> Array:
     """m, per TV hypothesis (n_h,): how much each rectangle must grow so that an
     overlap at any time between two samples shows at the nearest sample.
 
     Between samples the relative pose changes by at most D (relative centre travel
-    plus each body's radius times its heading change, per step; `sv_turn` rad is
-    the SV's largest heading change per step); at the nearest sample (<= half a
-    step away) the bodies are apart by at most D/2, so growing each by D/4 keeps
-    the overlap.
+    plus each body's radius times its heading change, per step); at the nearest
+    sample (<= half a step away) the bodies are apart by at most D/2, so growing
+    each by D/4 keeps the overlap.
     """
-    ddx_sv = np.diff(sv_x, axis=1)  # (n_c, n_t-1)
-    ddy_sv = np.abs(np.diff(sv_y, axis=1)).max()
     ddx_tv = np.diff(tv_x, axis=1)  # (n_h, n_t-1)
-    rel_x = np.maximum(ddx_tv.max(axis=1) - ddx_sv.min(), ddx_sv.max() - ddx_tv.min(axis=1))
-    rel_y = np.abs(np.diff(tv_y, axis=1)).max(axis=1) + ddy_sv
-    rot = sv_radius * sv_turn + tv_radius * np.abs(np.diff(tv_h, axis=1)).max(axis=1)
+    rel_x = np.maximum(ddx_tv.max(axis=1) - sv.dx_min, sv.dx_max - ddx_tv.min(axis=1))
+    rel_y = np.abs(np.diff(tv_y, axis=1)).max(axis=1) + sv.dy_max
+    rot = sv_radius * sv.turn + tv_radius * np.abs(np.diff(tv_h, axis=1)).max(axis=1)
     return 0.25 * (np.hypot(rel_x, rel_y) + rot)
 
 
@@ -168,14 +192,15 @@ def check_cluster(
     t: Array, sv_x: Array, sv_y: Array, sv_heading: Array | HeadingFn, sv_length: float,
     sv_width: float, sv_horizon: Array, tv_x: Array, tv_y: Array, tv_h: Array,
     tv_length: Array, tv_width: Array, tv_horizon: Array, *, margin: float = 0.0,
-    test: str = "exact", pad: Array | None = None, chunk: int = 20,
+    test: str = "exact", pad: Array | None = None, chunk: int = 40,
     sv_max_heading: float = 0.5 * np.pi,
 ) -> ClusterHits:
     """First overlap of every SV candidate (n_c, n_t) with any TV hypothesis (n_h, n_t).
 
     A pair (candidate c, hypothesis h) is checked at the times t_k <=
     max(sv_horizon[c], tv_horizon[h]) (eq. 10's horizon, extended by the caller).
-    Time is taken in chunks, in order, and a candidate leaves the check at its
+    Time is taken in chunks (growing up to `chunk` samples), in order, and a
+    candidate leaves the check at its
     first overlap (its earliest one: nothing earlier can follow). Per chunk,
     stage 1 keeps the (h, k) whose TV is near the bounding box of the remaining SV
     candidates at t_k; stage 2 keeps the (c, h, k) whose centres are within the sum
@@ -210,14 +235,21 @@ def check_cluster(
     sv_hy = 0.5 * sv_length * sin_max + 0.5 * sv_width
     last_k = np.searchsorted(t, np.maximum(sv_horizon.max(), tv_horizon), side="right")  # (n_h,)
     checked = 0
-    for k0 in range(0, int(last_k.max(initial=0)), chunk):  # chunks of time, in order
+    k_end = int(last_k.max(initial=0))
+    bounds = [0]
+    size = max(1, chunk // 8)  # short chunks first: most overlaps, if any, come early
+    while bounds[-1] < k_end:
+        bounds.append(min(bounds[-1] + size, k_end))
+        size = min(2 * size, chunk)
+    for k0, k1 in zip(bounds[:-1], bounds[1:], strict=True):  # chunks of time, in order
         alive = np.flatnonzero(~collides)
         if alive.size == 0:
             break
-        k1 = min(k0 + chunk, n_t)
         ks = np.arange(k0, k1)
         # stage 1: hypothesis vs the bounding box of the remaining candidates at each time
-        bx, by = sv_x[alive, k0:k1], sv_y[alive, k0:k1]
+        every = alive.size == n_c
+        bx = sv_x[:, k0:k1] if every else sv_x[alive, k0:k1]
+        by = sv_y[:, k0:k1] if every else sv_y[alive, k0:k1]
         r = reach[:, None]
         txc, tyc = tv_x[:, k0:k1], tv_y[:, k0:k1]
         near = (
@@ -235,7 +267,7 @@ def check_cluster(
         g2 = 2.0 * grow[ph]  # each box grows by at most 2 g (g on each of two sides' projections)
         lim_x = sv_hx + 0.5 * tv_length[ph] * ct + 0.5 * tv_width[ph] * st + g2
         lim_y = sv_hy + 0.5 * tv_length[ph] * st + 0.5 * tv_width[ph] * ct + g2
-        qa, qp = _y_window(sv_y[alive, k0:k1], pk - k0, tv_y[ph, pk], lim_y)
+        qa, qp = _y_window(by, pk - k0, tv_y[ph, pk], lim_y)
         dx = sv_x[alive[qa], pk[qp]] - tv_x[ph[qp], pk[qp]]
         dy = sv_y[alive[qa], pk[qp]] - tv_y[ph[qp], pk[qp]]
         close = (

@@ -212,3 +212,47 @@ def stable_set(
         ax0=ax0, vy0=vy0, ay0=ay0,
     )
     return StableSet(tau, margin, margin <= 1.0, tau_min_from_margin(tau, margin))
+
+
+class TauMinMap:
+    """tau_min as a function of the initial speed for one lane-change mode: eq. 7's
+    tau_min,i = F_i(vx0, mu), with F computed from the envelope for the vehicle at
+    hand instead of the paper's fitted polynomials.
+
+    Built once: a bisection over tau run for all speeds of a grid at once (it
+    assumes what eq. 7-8 assume, a stable set [tau_min, tau_max]); queried by
+    linear interpolation in vx0. Covers starts from rest laterally (vy0 = ay0 =
+    ax0 = 0) with the given width; other starts need `stable_set`.
+    """
+
+    def __init__(
+        self, vxf: float, width: float, mu: float, vehicle: VehicleParams, *,
+        tau_lo: float, tau_hi: float, safety_factor: float = 0.8,
+        yaw_model: str = "inverse_dynamics", v_lo: float = 1.0, v_hi: float = 50.0,
+        v_step: float = 0.5, tol: float = 1e-3,
+    ) -> None:
+        self.speeds = np.arange(v_lo, v_hi + 1e-9, v_step)
+        n = self.speeds.size
+        lo = np.full(n, tau_lo)
+        hi = np.full(n, tau_hi)
+
+        def margin(taus: Array) -> Array:
+            return envelope_margin(self.speeds, vxf, width, taus, mu, vehicle,
+                                   safety_factor=safety_factor, yaw_model=yaw_model)
+
+        ok_lo = margin(lo) <= 1.0
+        ok_hi = margin(hi) <= 1.0
+        n_iter = int(np.ceil(np.log2(max(tau_hi - tau_lo, tol) / tol)))
+        for _ in range(n_iter):  # bisection, all speeds at once
+            mid = 0.5 * (lo + hi)
+            ok = margin(mid) <= 1.0
+            hi = np.where(ok, mid, hi)
+            lo = np.where(ok, lo, mid)
+        self.tau_min = np.where(ok_lo, tau_lo, np.where(ok_hi, hi, np.nan))
+
+    def __call__(self, vx0: ArrayLike) -> Array:
+        """s, tau_min at the initial speed(s) vx0 (nan: no stable tau up to tau_hi,
+        or outside the map's speed range)."""
+        v = np.asarray(vx0, dtype=float)
+        out = np.interp(v, self.speeds, self.tau_min)
+        return np.where((v < self.speeds[0]) | (v > self.speeds[-1]), np.nan, out)

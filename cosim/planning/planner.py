@@ -21,8 +21,22 @@ from numpy.typing import NDArray
 
 from cosim.errors import InputError
 from cosim.params import PlannerConfig, RoadParams, VehicleParams
-from cosim.planning.collision import COLLISION_TESTS, HeadingFn, check_cluster, sampling_pad
-from cosim.planning.envelope import ENVELOPES, MODES, stable_set
+from cosim.planning.collision import (
+    COLLISION_TESTS,
+    HeadingFn,
+    check_cluster,
+    cluster_motion,
+    sampling_pad,
+)
+from cosim.planning.envelope import (
+    ENVELOPES,
+    MODES,
+    YAW_MODELS,
+    StableSet,
+    TauMinMap,
+    envelope_margin,
+    stable_set,
+)
 from cosim.planning.prediction import TVFutures, predict
 from cosim.planning.selection import choose, intervals, omega
 from cosim.planning.trajectory import LaneChangeTrajectory, cluster_derivatives
@@ -31,6 +45,7 @@ from cosim.traffic.v2v import V2VMessage
 Array = NDArray[np.float64]
 
 COLLISION_STEP = 0.05  # s, sample step of the collision check (rectangles padded, see collision.py)
+MAP_WIDTH_TOLERANCE = 0.02  # m, widths this close to a lane width use the tau_min maps
 
 
 @dataclass(frozen=True)
@@ -122,8 +137,11 @@ class LaneChangePlanner:
 
     def __init__(
         self, vehicle: VehicleParams, road: RoadParams, config: PlannerConfig,
-        *, collision_step: float = COLLISION_STEP,
+        *, collision_step: float = COLLISION_STEP, use_maps: bool = True,
     ) -> None:
+        """`use_maps`: take tau_min of lane changes that start from rest laterally (the
+        SV from its lane centre, C2 TVs) from a `TauMinMap` built once per mode
+        (eq. 7 with our envelope); starts mid-manoeuvre always run the envelope."""
         if config.envelope not in ENVELOPES:
             raise InputError("planner", "envelope", config.envelope, f"one of {ENVELOPES}")
         if config.collision_test not in COLLISION_TESTS:
@@ -141,8 +159,67 @@ class LaneChangePlanner:
         n = int(round((config.tau_max - config.tau_min_floor) / config.tau_step))
         grid = config.tau_min_floor + config.tau_step * np.arange(n + 1)
         self.grid = grid[grid <= config.tau_max + 1e-9]
+        self.use_maps = use_maps and config.envelope in YAW_MODELS
+        self._maps: dict[tuple[float, float], TauMinMap] = {}
 
     # -- pieces ------------------------------------------------------------------
+
+    def tau_min_map(self, vxf: float, width: float) -> TauMinMap:
+        """The (lazily built) map vx0 -> tau_min for this target speed and width."""
+        key = (round(vxf, 9), round(width, 9))
+        if key not in self._maps:
+            cfg = self.config
+            self._maps[key] = TauMinMap(
+                vxf, width, self.road.mu, self.vehicle, tau_lo=cfg.tau_min_floor,
+                tau_hi=cfg.tau_max, safety_factor=cfg.safety_factor, yaw_model=cfg.envelope,
+            )
+        return self._maps[key]
+
+    def _map_tau_min(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
+                     ay0: float) -> float:
+        """tau_min from a map, or nan where the map does not apply: a start that is not
+        at rest laterally, or a width more than MAP_WIDTH_TOLERANCE off a lane width
+        (within it, tau_min is scaled by sqrt(|width| / lane width): the lateral
+        acceleration goes as W / tau^2)."""
+        lane = self.road.lane_width
+        if not (self.use_maps and abs(ax0) < 1e-9 and abs(vy0) < 1e-9 and abs(ay0) < 1e-9
+                and abs(abs(width) - lane) <= MAP_WIDTH_TOLERANCE):
+            return math.nan
+        tau_min = float(self.tau_min_map(vxf, math.copysign(lane, width))(vx0))
+        return tau_min * math.sqrt(abs(width) / lane)
+
+    def _stable_set(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
+                    ay0: float, mode: int | None) -> StableSet:
+        cfg = self.config
+        tau_min = self._map_tau_min(vx0, vxf, width, ax0, vy0, ay0)
+        if math.isfinite(tau_min):
+            stable = self.grid >= tau_min - 1e-12
+            return StableSet(self.grid, np.where(stable, 0.0, np.inf), stable, tau_min)
+        return stable_set(
+            vx0, vxf, width, self.grid, self.road.mu, self.vehicle, envelope=cfg.envelope,
+            safety_factor=cfg.safety_factor, ax0=ax0, vy0=vy0, ay0=ay0, mode=mode,
+            tau_floor=cfg.tau_min_floor,
+        )
+
+    def _tv_stable(self, vx0: Array, vxf: Array, width: Array, vy0: Array) -> NDArray[np.bool_]:
+        """(n_tv, n_tau) stable masks of C2 TVs' clusters (S3: built like the SV): from
+        the maps where they apply, the rest in one batched envelope call."""
+        n, grid = vx0.size, self.grid
+        tau_min = np.array([self._map_tau_min(float(vx0[i]), float(vxf[i]), float(width[i]),
+                                              0.0, float(vy0[i]), 0.0) for i in range(n)])
+        out = grid[None, :] >= tau_min[:, None] - 1e-12
+        rest = np.flatnonzero(~np.isfinite(tau_min))
+        if rest.size:
+            cfg = self.config
+            k = grid.size
+            margin = envelope_margin(
+                np.repeat(vx0[rest], k), np.repeat(vxf[rest], k), np.repeat(width[rest], k),
+                np.tile(grid, rest.size), self.road.mu, self.vehicle,
+                safety_factor=cfg.safety_factor, yaw_model=cfg.envelope,
+                vy0=np.repeat(vy0[rest], k),
+            )
+            out[rest] = (margin <= 1.0).reshape(rest.size, k)
+        return out
 
     def _validate(self, sv: SVPlanState, target_lane: int, occupant: float) -> None:
         if not 0 <= target_lane < self.road.n_lanes or abs(target_lane - sv.lane) != 1:
@@ -185,15 +262,15 @@ class LaneChangePlanner:
             return np.zeros(n_c, dtype=bool), [None] * n_c, [None] * n_c
         r_sv = 0.5 * math.hypot(self.vehicle.length, self.vehicle.width)
         r_tv = 0.5 * np.hypot(futures.length, futures.width)
-        sv_turn = self._max_heading_step(sx, sy)
-        pad = sampling_pad(sx, sy, sv_turn, futures.x, futures.y, futures.heading, r_sv, r_tv)
+        motion = cluster_motion(sx, sy)
+        pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv, r_tv)
         tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
         hits = check_cluster(
             t_rel, sx, sy, sh, self.vehicle.length, self.vehicle.width,
             sv_end + cfg.horizon_extra, futures.x, futures.y, futures.heading,
             futures.length, futures.width, tv_end + cfg.horizon_extra,
             margin=cfg.safety_margin, test=cfg.collision_test, pad=pad,
-            sv_max_heading=self._max_heading(sx, sy) + sv_turn,
+            sv_max_heading=motion.max_heading,
         )
         ids: list[str | None] = [None] * n_c
         when: list[float | None] = [None] * n_c
@@ -201,22 +278,6 @@ class LaneChangePlanner:
             ids[c] = futures.vehicle_ids[futures.owner[hits.first_hypothesis[c]]]
             when[c] = float(t + t_rel[hits.first_index[c]])
         return hits.collides, ids, when
-
-    @staticmethod
-    def _max_heading(sx: Array, sy: Array) -> float:
-        """rad, the largest |chord direction| of any candidate between two samples."""
-        if sx.shape[1] < 2:
-            return 0.5 * math.pi
-        return float(np.abs(np.arctan2(np.diff(sy, axis=1), np.diff(sx, axis=1))).max())
-
-    @staticmethod
-    def _max_heading_step(sx: Array, sy: Array) -> float:
-        """rad, the largest heading change of any candidate between two samples
-        (from the chord directions: the path turns at most twice the chord angle change)."""
-        if sx.shape[1] < 3:
-            return 0.0
-        chord = np.arctan2(np.diff(sy, axis=1), np.diff(sx, axis=1))
-        return float(2.0 * np.abs(np.diff(chord, axis=1)).max())
 
     # -- the planner -------------------------------------------------------------
 
@@ -230,11 +291,8 @@ class LaneChangePlanner:
         cfg, road = self.config, self.road
         vxf = road.target_speed(sv.lane, target_lane)
         width = road.lane_center(target_lane) - sv.y
-        st = stable_set(
-            sv.vx, vxf, width, self.grid, road.mu, self.vehicle, envelope=cfg.envelope,
-            safety_factor=cfg.safety_factor, ax0=sv.ax, vy0=sv.vy, ay0=sv.ay,
-            mode=MODES.get((sv.lane, target_lane)), tau_floor=cfg.tau_min_floor,
-        )
+        st = self._stable_set(sv.vx, vxf, width, sv.ax, sv.vy, sv.ay,
+                              MODES.get((sv.lane, target_lane)))
         taus, stable = st.taus, st.stable
         if math.isfinite(st.tau_min) and not np.isclose(taus, st.tau_min, atol=1e-9).any():
             # the interval starts at tau_min itself, not at the next grid point
@@ -247,6 +305,7 @@ class LaneChangePlanner:
         futures = predict(
             messages, t, t_rel, road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
+            stable_fn=self._tv_stable if self.use_maps else None,
         )
         sx, sy, sh = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
         collides, ids, when = self._collisions(t, t_rel, sx, sy, sh, taus[cand], futures)
@@ -291,6 +350,7 @@ class LaneChangePlanner:
         futures = predict(
             messages, t, t_rel, self.road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
+            stable_fn=self._tv_stable if self.use_maps else None,
         )
         ts = t + t_rel
         x, y = trajectory.position(ts)

@@ -13,7 +13,7 @@ Output: `TVFutures`, arrays over (hypothesis, time) of centre x, y and heading.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,15 +95,19 @@ def motion_path(m: LateralMotion, t: Array) -> tuple[Array, Array, Array]:
     return x[0] + m.x0, y[0] + m.y0, np.arctan2(yd[0], xd[0])
 
 
+StableFn = Callable[[Array, Array, Array, Array], NDArray[np.bool_]]
+
+
 def predict(
     messages: Sequence[V2VMessage], t_plan: float, t_rel: Array, road: RoadParams,
     vehicle: VehicleParams, taus: Array, *, envelope: str = "inverse_dynamics",
-    safety_factor: float = 0.8,
+    safety_factor: float = 0.8, stable_fn: StableFn | None = None,
 ) -> TVFutures:
     """TV futures at absolute times t_plan + t_rel for every message (C1/C2/C3).
 
-    C2 clusters use the planner's tau grid `taus` and its envelope; all C2 TVs are
-    checked in one batched envelope call.
+    C2 clusters use the planner's tau grid `taus` and its envelope: all C2 TVs are
+    checked in one batched envelope call, or by `stable_fn(vx0, vxf, width, vy0)`
+    -> (n_c2, n_tau) bool when given (the planner's tau_min maps).
     """
     t = t_plan + np.asarray(t_rel, dtype=float)
     n_t = t.size
@@ -156,7 +160,9 @@ def predict(
         width = np.array([road.lane_center(g) - m.y for _, m, _, g in c2])
         vy0 = np.array([m.lateral_speed for _, m, _, _ in c2])
         n_tau = taus.size
-        if envelope == "paper_maps":
+        if stable_fn is not None:
+            stable = stable_fn(v0, vxf, width, vy0)
+        elif envelope == "paper_maps":
             tmin = np.array([
                 paper_map_tau_min(MODES.get((o, g), 1), v, road.mu)
                 for (_, _, o, g), v in zip(c2, v0, strict=True)

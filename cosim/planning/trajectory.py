@@ -13,6 +13,7 @@ vxf in the target lane's centre, before 0 it is not defined (clipped to 0).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,8 +68,8 @@ def _poly_derivs(coeffs: list[Array], t: Array, order: int) -> Array:
     n = len(coeffs)
     shape = np.broadcast_shapes(t.shape, *(np.shape(c) for c in coeffs))
 
-    def factor(k: int) -> float:
-        return float(np.prod(np.arange(k - order + 1, k + 1))) if order else 1.0
+    def factor(k: int) -> float:  # k (k-1) ... (k-order+1)
+        return float(math.prod(range(k - order + 1, k + 1)))
 
     if order >= n:
         return np.zeros(shape)

@@ -83,3 +83,15 @@ def test_paper_maps() -> None:
         st3 = stable_set(kmh(110), kmh(110), -3.75, GRID, 0.6, VEH, envelope="paper_maps",
                          mode=3, tau_floor=1.0)
     assert st3.tau_min == 1.0
+
+
+def test_tau_min_map_matches_the_envelope() -> None:
+    """eq. 7's map F(vx0), computed from the envelope, against direct fine-grid runs."""
+    from cosim.planning.envelope import TauMinMap
+
+    fmap = TauMinMap(kmh(90), -3.75, 0.6, VEH, tau_lo=1.0, tau_hi=10.0)
+    fine = np.arange(1.0, 10.0001, 0.005)
+    for v in (12.3, 21.7, 30.9):
+        direct = stable_set(v, kmh(90), -3.75, fine, 0.6, VEH).tau_min
+        assert float(fmap(v)) == pytest.approx(direct, abs=0.005)
+    assert np.isnan(fmap(80.0))  # outside the map

@@ -1,0 +1,37 @@
+"""The bench's loop transcription of the paper's procedure finds the planner's sets."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from cosim.bench.planner import dense_situation, loop_plan, paper_situation
+from cosim.planning.planner import LaneChangePlanner
+
+
+def _coarse(planner: LaneChangePlanner) -> LaneChangePlanner:
+    cfg = replace(planner.config, tau_step=0.25)  # a coarse grid keeps the loop quick
+    return LaneChangePlanner(planner.vehicle, planner.road, cfg)
+
+
+def _agree(sit: tuple) -> np.ndarray:  # type: ignore[type-arg]
+    planner, t, sv, target, messages, occupant = sit
+    planner = _coarse(planner)
+    plan = planner.plan(t, sv, target, messages, occupant)
+    on_grid = np.isin(np.round(plan.taus, 9), np.round(planner.grid, 9))
+    loop = loop_plan(planner, t, sv, target, messages)
+    np.testing.assert_array_equal(plan.collision_free[on_grid], loop)
+    return loop
+
+
+def test_loop_agrees_on_paper_case_1() -> None:
+    free = _agree(paper_situation("paper_case1_overtaking"))
+    assert free.any() and not free.all()
+
+
+def test_loop_agrees_on_the_dense_case() -> None:
+    planner, t, sv, target, messages, occupant = dense_situation()
+    assert len(messages) == 20
+    assert sum(m.intention != 0 for m in messages) == 5
+    _agree((planner, t, sv, target, messages, occupant))
