@@ -203,6 +203,15 @@ def test_scenario_to_dict_is_json_and_round_trips(tmp_path: Path) -> None:
     assert hash(back) == hash(s)
 
 
+def test_scenario_pickles_for_worker_processes() -> None:
+    import pickle
+
+    s = load_scenario(BASE)
+    back = pickle.loads(pickle.dumps(s))
+    assert back == s and back.document == s.document
+    assert with_overrides(back, seed=9).seed == 9  # the document travels with it
+
+
 def test_scenario_is_frozen() -> None:
     s = load_scenario(BASE)
     with pytest.raises(AttributeError):
