@@ -118,7 +118,7 @@ PLAN_COLUMNS: dict[str, str] = {
     "ok": "1: a plan was adopted, 0: no collision-free tau (the SV keeps its lane)",
     "rejected_unstable": "candidates rejected by the handling envelope",
     "rejected_collision": "candidates rejected for a collision",
-    "rejections": "collisions per TV id, id:count;id:count",
+    "rejections": "collisions per TV id, id:count;id:count (or why the request was dropped)",
 }
 
 METRIC_DOCS: dict[str, str] = {
@@ -374,20 +374,28 @@ class CoSimulation:
         """Add the scenario's [[tv]] vehicles as controlled vehicles on their scripts."""
         self.scripted: list[Any] = []
         self.scripted_ids: tuple[str, ...] = tuple(tv.id for tv in self.sc.tvs)
+        self.scripted_poses: list[list[tuple[float, ...]]] = []
         if not self.sc.tvs:
             return
         from cosim.traffic import scripted
 
+        # the scripts are known in advance: evaluate them once for every step time
+        times = self.dt * np.arange(self.n_steps + 2)
         for spec in self.sc.tvs:
             tv = scripted.ScriptedTV(spec, self.road, x_sv)
-            x, y, h, v, _a = tv.state(0.0)
+            k = tv.kinematics(times)
+            poses = list(zip(k.x.tolist(), k.y.tolist(), k.heading.tolist(), k.speed.tolist(),
+                             k.accel.tolist(), strict=True))
+            x, y, h, v, _a = poses[0]
             self.sumo.add_controlled(spec.id, x, y, h, v, spec.length, spec.width, spec.lane,
                                      vtype="tv_scripted")
             self.scripted.append(tv)
+            self.scripted_poses.append(poses)
 
     def _move_scripted(self, t: float) -> None:
-        for tv in self.scripted:
-            x, y, h, v, a = tv.state(t)
+        k = int(round(t / self.dt))
+        for tv, poses in zip(self.scripted, self.scripted_poses, strict=True):
+            x, y, h, v, a = poses[k]
             self.sumo.move(tv.spec.id, x, y, h, v, a)
 
     def _scripted_messages(self, t: float) -> list[Any]:
@@ -495,7 +503,9 @@ class CoSimulation:
         row[C["leader_gap_m"]] = self.leader_gap
         row[C["idm_accel_mps2"]] = self.idm_accel if self.active is None else math.nan
         # gap / TTC along the lane, and our exact overlap check against every TV near
-        hx, hy = mx.half_extents(self.sv_length, self.sv_width, h)
+        c, s_ = abs(math.cos(h)), abs(math.sin(h))
+        hx = 0.5 * (self.sv_length * c + self.sv_width * s_)
+        hy = 0.5 * (self.sv_length * s_ + self.sv_width * c)
         tv_hx, tv_hy = mx.half_extents(tvs.length, tvs.width, tvs.heading)
         sv_vxg = vx * math.cos(h) - vy * math.sin(h)
         gap, ttc = mx.gap_ttc(x, y, sv_vxg, hx, hy, tvs.x, tvs.y,
@@ -555,6 +565,15 @@ class CoSimulation:
             if target == lane:
                 self.pending.pop(0)
                 continue
+            if abs(target - lane) != 1:  # an earlier change never happened: drop it
+                self.pending.pop(0)
+                row = dict.fromkeys(PLAN_COLUMNS, math.nan)
+                row.update(t_s=t, trigger="scripted", origin_lane=lane, target_lane=target,
+                           vx0_mps=sv["vx"], ok=0, stable_set_s="", collision_free_set_s="",
+                           rejections="not an adjacent lane")
+                self.plans.append(row)
+                self.requests += 1
+                continue
             return target, "scripted"
         if d.target_lane is not None:
             return d.target_lane, "decision"
@@ -570,6 +589,7 @@ class CoSimulation:
             self.v_ref = float(done.trajectory.vxf)
             self.v_cruise = self.v_ref
             self.timer.manoeuvre_done(t)
+            self.sumo.set_blinker(SV_ID, 0)
         allow = self.active is None and self.timer.may_request(t)
         target, trigger = self._decide(t, sv, tvs, allow)
         if self.v2v_every_step or target is not None:
@@ -632,6 +652,7 @@ class CoSimulation:
             y_target=self.road.lane_center(target), trajectory=plan.trajectory, plan=plan,
         )
         self.lane_changes.append(self.active)
+        self.sumo.set_blinker(SV_ID, 1 if target > lane else -1)
 
     def _baseline_step(self, t: float, sv: dict[str, float], tvs: TrafficSnapshot) -> None:
         """SUMO drives the SV; scripted requests become changeLane calls."""
