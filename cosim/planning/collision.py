@@ -56,15 +56,16 @@ def overlap_sat(
     hla, hwa = 0.5 * np.asarray(al) + m, 0.5 * np.asarray(aw) + m
     hlb, hwb = 0.5 * np.asarray(bl) + m, 0.5 * np.asarray(bw) + m
     ah = np.asarray(ah, dtype=float)
+    bh = np.asarray(bh, dtype=float)
     ca, sa = np.cos(ah), np.sin(ah)
-    delta = np.asarray(bh, dtype=float) - ah
-    C, S = np.abs(np.cos(delta)), np.abs(np.sin(delta))
+    cb, sb = np.cos(bh), np.sin(bh)
+    # |cos| and |sin| of the relative heading bh - ah, without more trigonometry
+    C, S = np.abs(ca * cb + sa * sb), np.abs(sa * cb - ca * sb)
     dx = np.asarray(bx, dtype=float) - ax
     dy = np.asarray(by, dtype=float) - ay
     # centre offset in A's frame and in B's frame (axes ua, va of A; ub, vb of B)
     da_u = dx * ca + dy * sa
     da_v = -dx * sa + dy * ca
-    cb, sb = np.cos(np.asarray(bh, dtype=float)), np.sin(np.asarray(bh, dtype=float))
     db_u = dx * cb + dy * sb
     db_v = -dx * sb + dy * cb
     sep = np.abs(da_u) > hla + C * hlb + S * hwb
@@ -132,6 +133,26 @@ def cluster_motion(sv_x: Array, sv_y: Array) -> ClusterMotion:
     )
 
 
+def standard_cluster_motion(
+    vx0: float, vxf: float, width: float, tau_shortest: float, dt: float
+) -> ClusterMotion:
+    """The same bounds in closed form for a cluster of eq. 2 / eq. 4 lane changes
+    (no initial lateral motion or acceleration), from its shortest candidate:
+    x' stays between vx0 and vxf; |y'| <= 1.875 |W| / tau; |y''| <= 5.7736 |W| / tau^2;
+    |x''| <= 1.5 |vxf - vx0| / tau; heading rate <= |y''| / x' + |y'| |x''| / x'^2."""
+    v_lo, v_hi = min(vx0, vxf), max(vx0, vxf)
+    w = abs(width)
+    yd = 1.875 * w / tau_shortest
+    ydd = 5.7736 * w / tau_shortest**2
+    xdd = 1.5 * abs(vxf - vx0) / tau_shortest
+    v_lo = max(v_lo, 1e-3)
+    rate = ydd / v_lo + yd * xdd / v_lo**2
+    return ClusterMotion(
+        dx_min=v_lo * dt, dx_max=v_hi * dt, dy_max=yd * dt, turn=rate * dt,
+        max_heading=float(np.arctan(yd / v_lo)),
+    )
+
+
 def sampling_pad(
     sv: ClusterMotion, tv_x: Array, tv_y: Array, tv_h: Array, sv_radius: float,
     tv_radius: Array,
@@ -154,37 +175,57 @@ def sampling_pad(
 HeadingFn = Callable[[IntArray, IntArray], Array]
 
 
-def _y_window(
-    sv_y: Array, col: IntArray, y: Array, half: Array
-) -> tuple[IntArray, IntArray]:
-    """All (row, query) with |sv_y[row, col[q]] - y[q]| <= half[q], as two index arrays.
-
-    When every column of sv_y is monotone along the rows (a lane-change cluster is:
-    |y| falls as tau grows), each query's rows are one contiguous run found by binary
-    search, so the work is proportional to the answer; otherwise all rows are tested.
-    """
-    n_r, n_col = sv_y.shape
-    n_q = y.size
-    steps = np.diff(sv_y, axis=0)
-    if n_r > 1 and not ((steps >= 0).all() or (steps <= 0).all()):
-        r, q = np.nonzero(np.abs(sv_y[:, col] - y[None, :]) <= half[None, :])
-        return r, q
-    flip = n_r > 1 and bool((steps <= 0).all() and (steps < 0).any())
-    ys = sv_y[::-1] if flip else sv_y
+def _run(
+    block: Array, col: IntArray, value: Array, half: Array
+) -> tuple[IntArray, IntArray] | None:
+    """Rows [lo, hi) of `block` (n_r, n_col) with |block[row, col[q]] - value[q]| <=
+    half[q], per query q, when every column is monotone along the rows (then the rows
+    form one contiguous run, found by binary search); None when some column is not."""
+    n_r, n_col = block.shape
+    steps = np.diff(block, axis=0)
+    rising = bool((steps >= 0).all())
+    if n_r > 1 and not rising and not (steps <= 0).all():
+        return None
+    ys = block if rising or n_r <= 1 else block[::-1]
     # one sorted array of all columns, each column shifted past the previous one
     span = float(ys.max() - ys.min()) + 2.0 * float(half.max(initial=0.0)) + 1.0
     flat = (ys + span * np.arange(n_col)[None, :]).T.ravel()
     base = col * span
-    lo = np.searchsorted(flat, base + y - half, side="left") - col * n_r
-    hi = np.searchsorted(flat, base + y + half, side="right") - col * n_r
+    lo = np.searchsorted(flat, base + value - half, side="left") - col * n_r
+    hi = np.searchsorted(flat, base + value + half, side="right") - col * n_r
     lo, hi = np.clip(lo, 0, n_r), np.clip(hi, 0, n_r)
+    if not (rising or n_r <= 1):
+        lo, hi = n_r - hi, n_r - lo
+    return lo, hi
+
+
+def _window(
+    bx: Array, by: Array, col: IntArray, x: Array, y: Array, half_x: Array, half_y: Array
+) -> tuple[IntArray, IntArray]:
+    """All (row, query) with |bx[row, col] - x| <= half_x and |by[row, col] - y| <= half_y.
+
+    A lane-change cluster is ordered by tau at every time (|y| falls, and x moves
+    one way, as tau grows), so each condition holds on one run of rows: the answer
+    is the intersection of two binary searches and the work is proportional to it.
+    Without that order, all rows are tested."""
+    n_r = by.shape[0]
+    n_q = y.size
+    ry = _run(by, col, y, half_y)
+    rx = _run(bx, col, x, half_x)
+    if ry is None and rx is None:
+        r, q = np.nonzero((np.abs(by[:, col] - y[None, :]) <= half_y[None, :])
+                          & (np.abs(bx[:, col] - x[None, :]) <= half_x[None, :]))
+        return r, q
+    if ry is not None and rx is not None:
+        lo, hi = np.maximum(ry[0], rx[0]), np.minimum(ry[1], rx[1])
+    else:
+        lo, hi = ry if ry is not None else rx  # type: ignore[misc]
     counts = np.maximum(hi - lo, 0)
     total = int(counts.sum())
     q = np.repeat(np.arange(n_q), counts)
     starts = np.cumsum(counts) - counts
     r = lo[q] + (np.arange(total) - starts[q])
-    if flip:
-        r = n_r - 1 - r
+    del n_r
     return r, q
 
 
@@ -201,9 +242,9 @@ def check_cluster(
     max(sv_horizon[c], tv_horizon[h]) (eq. 10's horizon, extended by the caller).
     Time is taken in chunks (growing up to `chunk` samples), in order, and a
     candidate leaves the check at its
-    first overlap (its earliest one: nothing earlier can follow). Per chunk,
-    stage 1 keeps the (h, k) whose TV is near the bounding box of the remaining SV
-    candidates at t_k; stage 2 keeps the (c, h, k) whose centres are within the sum
+    first overlap (its earliest one: nothing earlier can follow). Stage 1 keeps
+    the (h, k) whose TV is near the bounding box of the SV cluster at t_k; per
+    chunk, stage 2 keeps the (c, h, k) whose centres are within the sum
     of the circumradii and whose axis-aligned boxes overlap (the SV's box from
     `sv_max_heading`, a bound on |heading| over the cluster); stage 3 runs the
     exact (or CoL) test on those only.
@@ -241,25 +282,24 @@ def check_cluster(
     while bounds[-1] < k_end:
         bounds.append(min(bounds[-1] + size, k_end))
         size = min(2 * size, chunk)
+    # stage 1, once for all times: hypothesis vs the bounding box of the whole cluster
+    r = reach[:, None]
+    near_all = (
+        (np.arange(n_t)[None, :] < last_k[:, None])
+        & (tv_x >= sv_x.min(axis=0) - r) & (tv_x <= sv_x.max(axis=0) + r)
+        & (tv_y >= sv_y.min(axis=0) - r) & (tv_y <= sv_y.max(axis=0) + r)
+    )
+    busy = np.flatnonzero(near_all.any(axis=0))  # times with any TV near
     for k0, k1 in zip(bounds[:-1], bounds[1:], strict=True):  # chunks of time, in order
+        if not ((busy >= k0) & (busy < k1)).any():
+            continue
         alive = np.flatnonzero(~collides)
         if alive.size == 0:
             break
-        ks = np.arange(k0, k1)
-        # stage 1: hypothesis vs the bounding box of the remaining candidates at each time
         every = alive.size == n_c
         bx = sv_x[:, k0:k1] if every else sv_x[alive, k0:k1]
         by = sv_y[:, k0:k1] if every else sv_y[alive, k0:k1]
-        r = reach[:, None]
-        txc, tyc = tv_x[:, k0:k1], tv_y[:, k0:k1]
-        near = (
-            (ks[None, :] < last_k[:, None])
-            & (txc >= bx.min(axis=0) - r) & (txc <= bx.max(axis=0) + r)
-            & (tyc >= by.min(axis=0) - r) & (tyc <= by.max(axis=0) + r)
-        )
-        ph, pk = np.nonzero(near)
-        if ph.size == 0:
-            continue
+        ph, pk = np.nonzero(near_all[:, k0:k1])
         pk = pk + k0
         # stage 2: remaining candidates x surviving (h, k): boxes, centre distance, horizon
         th = tv_h[ph, pk]
@@ -267,7 +307,7 @@ def check_cluster(
         g2 = 2.0 * grow[ph]  # each box grows by at most 2 g (g on each of two sides' projections)
         lim_x = sv_hx + 0.5 * tv_length[ph] * ct + 0.5 * tv_width[ph] * st + g2
         lim_y = sv_hy + 0.5 * tv_length[ph] * st + 0.5 * tv_width[ph] * ct + g2
-        qa, qp = _y_window(by, pk - k0, tv_y[ph, pk], lim_y)
+        qa, qp = _window(bx, by, pk - k0, tv_x[ph, pk], tv_y[ph, pk], lim_x, lim_y)
         dx = sv_x[alive[qa], pk[qp]] - tv_x[ph[qp], pk[qp]]
         dy = sv_y[alive[qa], pk[qp]] - tv_y[ph[qp], pk[qp]]
         close = (

@@ -23,10 +23,12 @@ from cosim.errors import InputError
 from cosim.params import PlannerConfig, RoadParams, VehicleParams
 from cosim.planning.collision import (
     COLLISION_TESTS,
+    ClusterMotion,
     HeadingFn,
     check_cluster,
     cluster_motion,
     sampling_pad,
+    standard_cluster_motion,
 )
 from cosim.planning.envelope import (
     ENVELOPES,
@@ -39,7 +41,11 @@ from cosim.planning.envelope import (
 )
 from cosim.planning.prediction import TVFutures, predict
 from cosim.planning.selection import choose, intervals, omega
-from cosim.planning.trajectory import LaneChangeTrajectory, cluster_derivatives
+from cosim.planning.trajectory import (
+    LaneChangeTrajectory,
+    cluster_derivatives,
+    standard_positions,
+)
 from cosim.traffic.v2v import V2VMessage
 
 Array = NDArray[np.float64]
@@ -236,12 +242,19 @@ class LaneChangePlanner:
 
     def _sv_cluster(
         self, sv: SVPlanState, vxf: float, width: float, taus: Array, t_rel: Array
-    ) -> tuple[Array, Array, HeadingFn]:
-        """Global (x, y) of every candidate on the time grid, and its heading as a
-        function of (candidate, time) indices: headings are needed only where the
-        exact test runs."""
+    ) -> tuple[Array, Array, HeadingFn, ClusterMotion]:
+        """Global (x, y) of every candidate on the time grid, its heading as a function
+        of (candidate, time) indices (headings are needed only where the exact test
+        runs), and the bounds on its motion per sample step."""
         kw = {"ax0": sv.ax, "vy0": sv.vy, "ay0": sv.ay}
-        x, y = cluster_derivatives(sv.vx, vxf, width, taus, t_rel, (0,), **kw)[0]
+        at_rest = abs(sv.ax) < 1e-12 and abs(sv.vy) < 1e-12 and abs(sv.ay) < 1e-12
+        if at_rest and taus.size:  # eq. 2 / eq. 4 as printed: a cheaper form and closed bounds
+            x, y = standard_positions(sv.vx, vxf, width, taus, t_rel)
+            motion = standard_cluster_motion(sv.vx, vxf, width, float(taus.min()),
+                                             self.collision_step)
+        else:
+            x, y = cluster_derivatives(sv.vx, vxf, width, taus, t_rel, (0,), **kw)[0]
+            motion = cluster_motion(x, y)
 
         def heading(c: NDArray[np.int64], k: NDArray[np.int64]) -> Array:
             xd, yd = cluster_derivatives(
@@ -249,11 +262,13 @@ class LaneChangePlanner:
             )[1]
             return np.arctan2(yd[:, 0], xd[:, 0])
 
-        return x + sv.x, y + sv.y, heading
+        x += sv.x
+        y += sv.y
+        return x, y, heading, motion
 
     def _collisions(
         self, t: float, t_rel: Array, sx: Array, sy: Array, sh: Array | HeadingFn,
-        sv_end: Array, futures: TVFutures,
+        sv_end: Array, futures: TVFutures, motion: ClusterMotion | None = None,
     ) -> tuple[NDArray[np.bool_], list[str | None], list[float | None]]:
         """(collides (n_c,), first TV id, first time) of every SV candidate."""
         cfg = self.config
@@ -262,7 +277,7 @@ class LaneChangePlanner:
             return np.zeros(n_c, dtype=bool), [None] * n_c, [None] * n_c
         r_sv = 0.5 * math.hypot(self.vehicle.length, self.vehicle.width)
         r_tv = 0.5 * np.hypot(futures.length, futures.width)
-        motion = cluster_motion(sx, sy)
+        motion = motion if motion is not None else cluster_motion(sx, sy)
         pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv, r_tv)
         tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
         hits = check_cluster(
@@ -307,8 +322,9 @@ class LaneChangePlanner:
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
         )
-        sx, sy, sh = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
-        collides, ids, when = self._collisions(t, t_rel, sx, sy, sh, taus[cand], futures)
+        sx, sy, sh, motion = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
+        collides, ids, when = self._collisions(t, t_rel, sx, sy, sh, taus[cand], futures,
+                                               motion)
         free = np.zeros(taus.size, dtype=bool)
         free[cand[~collides]] = True
         w = omega(occupant, road.mu)

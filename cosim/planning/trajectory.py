@@ -119,6 +119,36 @@ def cluster_derivatives(
     return out
 
 
+def standard_positions(
+    vx0: float, vxf: float, width: float, taus: ArrayLike, t: ArrayLike
+) -> tuple[Array, Array]:
+    """Relative (x, y) of eq. 2 and eq. 4 exactly (starts with no lateral motion and no
+    longitudinal acceleration), shaped (n_tau, n_t), in fewer operations than `cluster`:
+    with u = t / tau and s = min(u, 1), y = W (10 s^3 - 15 s^4 + 6 s^5) and
+    x = tau (vxf u - (vxf - vx0) (s - s^3 + s^4 / 2)) (straight at vxf after tau)."""
+    tau = np.asarray(taus, dtype=float)[:, None]
+    # in place where possible: fresh (n_tau, n_t) temporaries cost page faults
+    u = np.asarray(t, dtype=float)[None, :] * (1.0 / tau)
+    s = np.minimum(u, 1.0)
+    s3 = s * s
+    s3 *= s
+    y = s * 6.0
+    y -= 15.0
+    y *= s
+    y += 10.0
+    y *= s3
+    y *= width
+    x = s3 * s  # s^4
+    x *= 0.5
+    x -= s3
+    x += s
+    x *= vx0 - vxf
+    u *= vxf
+    x += u
+    x *= tau
+    return x, y
+
+
 def cluster(
     vx0: float,
     vxf: float,

@@ -152,3 +152,23 @@ def test_padding_catches_an_overlap_between_samples() -> None:
     assert not check_cluster(*args).collides[0]
     pad = np.array([0.25 * 4.0])  # D/4 with D = 4 m of relative travel per step
     assert check_cluster(*args, pad=pad).collides[0]
+
+
+def test_closed_form_cluster_bounds_cover_the_sampled_motion() -> None:
+    from cosim.planning.collision import standard_cluster_motion
+    from cosim.planning.trajectory import cluster_derivatives
+
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        vx0, vxf = rng.uniform(10, 35, 2)
+        W = rng.choice([-1, 1]) * rng.uniform(2, 4)
+        taus = np.arange(rng.uniform(1.5, 4.0), 10.0, 0.05)
+        t = np.arange(0.0, 12.001, 0.01)  # fine: the true derivatives, not chords
+        d = cluster_derivatives(vx0, vxf, W, taus, t, (1, 2))
+        (xd, yd), (xdd, ydd) = d[1], d[2]
+        rate = np.abs((xd * ydd - yd * xdd) / (xd**2 + yd**2))
+        b = standard_cluster_motion(vx0, vxf, W, float(taus.min()), 1.0)
+        assert b.dx_min <= xd.min() + 1e-9 and b.dx_max >= xd.max() - 1e-9
+        assert b.dy_max >= np.abs(yd).max() - 1e-9
+        assert b.turn >= rate.max() - 1e-9
+        assert b.max_heading >= np.abs(np.arctan2(yd, xd)).max() - 1e-9

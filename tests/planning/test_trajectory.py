@@ -83,3 +83,16 @@ def test_reference_speed_and_curvature() -> None:
     np.testing.assert_allclose(tr.speed(t), speed, rtol=1e-6)
     heading_rate = (tr.heading(t + h) - tr.heading(t - h)) / (2 * h)
     np.testing.assert_allclose(tr.curvature(t), heading_rate / tr.speed(t), atol=1e-7)
+
+
+@pytest.mark.parametrize(("vx0", "vxf", "W", "tau"), CASES[:8])
+def test_standard_positions_equal_the_general_form(vx0: float, vxf: float, W: float,
+                                                   tau: float) -> None:
+    from cosim.planning.trajectory import standard_positions
+
+    taus = np.array([tau, tau + 0.5, tau + 3.0])
+    t = np.linspace(0.0, 15.0, 61)
+    fast = standard_positions(vx0, vxf, W, taus, t)
+    slow = cluster(vx0, vxf, W, taus, t)
+    np.testing.assert_allclose(fast[0], slow[0], atol=1e-9)
+    np.testing.assert_allclose(fast[1], slow[1], atol=1e-9)
