@@ -44,7 +44,13 @@ import pandas as pd
 from scipy import stats
 
 from cosim.errors import InputError
-from cosim.output import atomic_write_csv, atomic_write_json, make_output_dir, stale_temp_files
+from cosim.output import (
+    atomic_write_csv,
+    atomic_write_json,
+    atomic_write_text,
+    make_output_dir,
+    stale_temp_files,
+)
 
 # Grid parameters, in the order runs.csv lists (and sorts) them.
 PARAMETERS = ("driver", "plant", "occupant", "mu", "density", "seed")
@@ -435,10 +441,47 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def summary_markdown(summary: pd.DataFrame) -> str:
+    """The main figures of summary.csv as a Markdown table (for docs and READMEs)."""
+
+    def pct(row: pd.Series, name: str) -> str:
+        if not math.isfinite(row[f"{name}_rate"]):
+            return "-"
+        return (f"{100 * row[f'{name}_rate']:.0f} ({100 * row[f'{name}_ci_low']:.0f}-"
+                f"{100 * row[f'{name}_ci_high']:.0f})")
+
+    def mean(row: pd.Series, name: str) -> str:
+        if not math.isfinite(row[f"{name}_mean"]):
+            return "-"
+        text = f"{row[f'{name}_mean']:.2f}"
+        if math.isfinite(row[f"{name}_ci_low"]):
+            text += f" ({row[f'{name}_ci_low']:.2f}-{row[f'{name}_ci_high']:.2f})"
+        return text
+
+    ours = summary[summary["plant"] != NO_PLANT]
+    varying = [c for c in ("plant", "occupant", "mu")
+               if (ours if c == "plant" else summary)[c].nunique() > 1]
+    head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
+            "success % (95 % CI)", "collision % (95 % CI)", "lane-change duration s (95 % CI)",
+            "min TTC s: median (p10-p90)"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for _, row in summary.iterrows():
+        ttc = "-"
+        if math.isfinite(row["min_ttc_s_p50"]):
+            ttc = (f"{row['min_ttc_s_p50']:.2f} "
+                   f"({row['min_ttc_s_p10']:.2f}-{row['min_ttc_s_p90']:.2f})")
+        cells = [str(row["driver"]), *(f"{row[c]}" for c in varying), f"{row['density']:g}",
+                 f"{row['ok']} / {row['failed']}", pct(row, "success"), pct(row, "collision"),
+                 mean(row, "lc_duration_s"), ttc]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def write_tables(runs: pd.DataFrame, summary: pd.DataFrame, out_dir: Path) -> None:
-    """runs.csv and summary.csv, each replaced atomically."""
+    """runs.csv, summary.csv and summary.md, each replaced atomically."""
     atomic_write_csv(out_dir / "runs.csv", runs)
     atomic_write_csv(out_dir / "summary.csv", summary)
+    atomic_write_text(out_dir / "summary.md", summary_markdown(summary))
 
 
 # --------------------------------------------------------------------------- the study

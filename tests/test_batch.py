@@ -186,6 +186,8 @@ def test_local_study_records_every_run_and_summarises_each_cell(local_study: Pat
     assert summary["failed"].sum() == failed.sum()
     rates = summary[["success_rate", "collision_rate"]].dropna().to_numpy()
     assert len(rates) and ((rates >= 0) & (rates <= 1)).all()
+    table = (local_study / "summary.md").read_text().splitlines()
+    assert len(table) == 2 + 4 and table[0].startswith("| driver | density")
     assert (local_study / "plots" / "density.png").stat().st_size > 10_000
 
 
@@ -205,7 +207,8 @@ def test_dask_local_cluster_gives_the_same_runs(local_study: Path, tmp_path: Pat
     assert code == 0
     pd.testing.assert_frame_equal(reproducible(out / "runs.csv"),
                                   reproducible(local_study / "runs.csv"))
-    assert (out / "summary.csv").read_bytes() == (local_study / "summary.csv").read_bytes()
+    for name in ("summary.csv", "summary.md"):
+        assert (out / name).read_bytes() == (local_study / name).read_bytes()
 
 
 def test_killed_study_resumes_to_the_same_csvs(local_study: Path, tmp_path: Path) -> None:
@@ -227,7 +230,8 @@ def test_killed_study_resumes_to_the_same_csvs(local_study: Path, tmp_path: Path
     assert main(["batch", str(STUDY), "-o", str(out), "--workers", "2", "--no-progress"]) == 0
     pd.testing.assert_frame_equal(reproducible(out / "runs.csv"),
                                   reproducible(local_study / "runs.csv"))
-    assert (out / "summary.csv").read_bytes() == (local_study / "summary.csv").read_bytes()
+    for name in ("summary.csv", "summary.md"):
+        assert (out / name).read_bytes() == (local_study / name).read_bytes()
 
 
 def test_failing_run_is_recorded_and_the_others_go_on(tmp_path: Path) -> None:

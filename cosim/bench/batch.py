@@ -23,8 +23,8 @@ from cosim.scenario import project_root
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", type=Path,
-                        default=project_root() / "scenarios" / "traffic_medium.toml",
-                        help="base scenario (default: scenarios/traffic_medium.toml)")
+                        default=project_root() / "scenarios" / "study_density_base.toml",
+                        help="base scenario (default: scenarios/study_density_base.toml)")
     parser.add_argument("--densities", default="10,20", help="veh/km/lane, comma-separated")
     parser.add_argument("--seeds", type=int, default=4, help="seeds 1..N per density")
     parser.add_argument("--driver", default="mimo", help="mimo, siso or sumo")
@@ -44,6 +44,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         occupants=(0.5,), mus=(0.8,), drivers=(args.driver,), plants=("twotrack",),
         duration=args.duration,
     )
+    load_before = os.getloadavg()[0]
     cases = (1, args.workers)
     times: dict[int, list[float]] = {n: [] for n in cases}
     failed = 0
@@ -64,7 +65,9 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         f"{len(specs)} runs: densities {', '.join(f'{d:g}' for d in densities)} veh/km/lane x "
         f"seeds 1-{args.seeds}, driver {args.driver}, {args.duration:g} s simulated each, "
         f"base {args.scenario.name}; one fresh process per run",
-        f"{os.cpu_count()} cores; median of {args.repeats} repeat(s)",
+        f"{os.cpu_count()} cores; median of {args.repeats} repeat(s); 1-min load average "
+        f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after (other processes on the "
+        "machine take cores from the 2-worker case and lower the ratio)",
     ]
     if failed:
         notes.append(f"{failed} runs failed (their time still counts)")

@@ -65,7 +65,8 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
             y = cell[column].to_numpy(float) * scale
             low = cell[f"{prefix}_ci_low"].to_numpy(float) * scale
             high = cell[f"{prefix}_ci_high"].to_numpy(float) * scale
-            err = np.vstack([np.nan_to_num(y - low), np.nan_to_num(high - y)])
+            # clip: a Wilson bound equals the rate up to rounding at 0 % and 100 %
+            err = np.clip(np.vstack([np.nan_to_num(y - low), np.nan_to_num(high - y)]), 0, None)
             label = ", ".join(filter(None, [DRIVER_LABELS.get(driver, driver), variant]))
             ax.errorbar(
                 x + dx, y, yerr=err, color=colours[driver], linestyle=styles[j % 4],
