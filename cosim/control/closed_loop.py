@@ -11,10 +11,11 @@ substep, i.e. at 200 Hz for the default 0.05 s step with 10 substeps.
 
 Guards: the controller divides by max(vx, speed_floor); the yaw moment is
 limited to what the wheels can give without eating the lateral grip the
-planner counts on (`yaw_moment_share`, below); integrators are frozen while an
-actuator saturates (anti-windup: int(ye) for steering or wheel-force limits,
-int(phi_e) also for the yaw-moment limit); a non-finite plant state or control
-output raises `SimulationError` naming the state.
+planner counts on (`yaw_moment_share`, below); an integrator stops while its
+actuator saturates in the direction its error pushes (conditional integration,
+anti-windup); a non-finite plant state or control output raises
+`SimulationError` naming the state. The two-track plant itself has ABS /
+traction control (`TwoTrackPlant._slip_limited`).
 
 Yaw-moment limit (beyond the paper): the MIMO law asks for the yaw moment that
 keeps the heading on the path tangent (zero sideslip). For the oversteering
@@ -212,26 +213,28 @@ class ClosedLoop:
         delta = self.limits.steer(self._delta, delta_cmd, h_ctrl)
         steer_sat = abs(delta_cmd) > self.limits.max_steer
         yaw_sat = abs(dmz) > self.dmz_limit
+        dmz_cmd = dmz
         if yaw_sat:
             dmz = math.copysign(self.dmz_limit, dmz)
         fx = allocate(v, delta, dmz, fa, g.allocation_eps)
         lo, hi = self._force_bounds
         f1, f2, f3, f4 = fx
-        if lo <= min(f1, f2, f3, f4) and max(f1, f2, f3, f4) <= hi:
-            clipped = fx
-            lateral_sat = steer_sat
-        else:
-            clipped = (min(max(f1, lo), hi), min(max(f2, lo), hi),
-                       min(max(f3, lo), hi), min(max(f4, lo), hi))
-            lateral_sat = True
-        self._saturated = lateral_sat or yaw_sat
-        # anti-windup: integrate only while the actuators can act on the error
-        if not lateral_sat:
+        force_sat = not (lo <= min(f1, f2, f3, f4) and max(f1, f2, f3, f4) <= hi)
+        if force_sat:
+            fx = (min(max(f1, lo), hi), min(max(f2, lo), hi),
+                  min(max(f3, lo), hi), min(max(f4, lo), hi))
+        self._saturated = steer_sat or yaw_sat or force_sat
+        # conditional integration (anti-windup): an integrator stops only while its
+        # actuator is saturated AND the error would push it further in. int(ye) acts
+        # through the steering (on delta_f with the sign of -ye), int(phi_e) through
+        # the wheel forces (on dMz with the sign of -phi_e). Freezing regardless can
+        # hold a saturated demand for ever.
+        if not (steer_sat and e.ye * delta_cmd < 0.0):
             self._int_ye += e.ye * h_ctrl
-            if not yaw_sat:
-                self._int_phi += e.phi_e * h_ctrl
+        if not ((yaw_sat or force_sat) and e.phi_e * dmz_cmd < 0.0):
+            self._int_phi += e.phi_e * h_ctrl
         self._delta, self._dmz, self._fa = delta, dmz, fa
-        self._fx = clipped
+        self._fx = fx
 
     def advance(
         self, t: float, dt: float, substeps: int, reference: LaneChangeTrajectory

@@ -33,6 +33,7 @@ from cosim.params import G, VehicleParams
 from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
 from cosim.vehicle.integrate import rk4_step
 from cosim.vehicle.plant import PlantOutputs
+from cosim.vehicle.tyre import peak_slip
 
 STATE_NAMES = (
     "x", "y", "heading", "vx", "vy", "yaw_rate",
@@ -93,6 +94,8 @@ class TwoTrackPlant:
         self._cos_sin_delta = (1.0, 0.0)
         self._torque = (0.0, 0.0, 0.0, 0.0)
         self._forces: tuple[float, ...] = (0.0,) * 14
+        # longitudinal slip at the peak of the pure-slip tyre curve (ABS / TCS threshold)
+        self._kappa_peak = peak_slip(ch.shape) * mu / ch.slip_stiffness
 
     # -- dynamics --------------------------------------------------------------
     def derivative(self, s: list[float]) -> list[float]:
@@ -197,13 +200,44 @@ class TwoTrackPlant:
         fz_max = 1.2 * (max(self.fz0_front, self.fz0_rear) + transfer)
         return ch.wheel_inertia * v / (ch.slip_stiffness * fz_max * ch.wheel_radius**2)
 
+    def _slip_limited(self, torques: tuple[float, float, float, float]) -> tuple[
+        float, float, float, float
+    ]:
+        """ABS / traction control: a wheel whose longitudinal slip is past the peak of
+        its tyre curve, in the direction its torque pushes, gets only the torque its
+        tyre transmits (R Fx at the last evaluation), so it neither locks nor spins up.
+        Slips are those of the current state, forces those of the last derivative."""
+        s = self.state
+        vx, vy, r = s[3], s[4], s[5]
+        ls, lf = self.vehicle.half_track, self.vehicle.lf
+        cd, sd = self._cos_sin_delta
+        vyf = vy + r * lf
+        speeds = (
+            (vx - r * ls) * cd + vyf * sd, (vx + r * ls) * cd + vyf * sd,
+            vx - r * ls, vx + r * ls,
+        )
+        rad, floor = self.chassis.wheel_radius, self.chassis.slip_speed_floor
+        peak = self._kappa_peak
+        out = list(torques)
+        for i in range(4):
+            u = speeds[i]
+            kappa = (s[6 + i] * rad - u) / max(abs(u), floor)
+            if (torques[i] > 0.0 and kappa > peak) or (torques[i] < 0.0 and kappa < -peak):
+                transmitted = rad * self._forces[2 + i]
+                out[i] = min(torques[i], transmitted) if torques[i] > 0 else max(
+                    torques[i], transmitted)
+        return out[0], out[1], out[2], out[3]
+
     def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
-        """Integrate h seconds: steering delta (rad), wheel torques R * fx_cmd (N m)."""
+        """Integrate h seconds: steering delta (rad), wheel torques R * fx_cmd (N m), cut
+        by the ABS / traction control of `_slip_limited`."""
         rad = self.chassis.wheel_radius
         if delta != self._delta:
             self._delta = delta
             self._cos_sin_delta = (math.cos(delta), math.sin(delta))
-        self._torque = (rad * fx_cmd[0], rad * fx_cmd[1], rad * fx_cmd[2], rad * fx_cmd[3])
+        self._torque = self._slip_limited(
+            (rad * fx_cmd[0], rad * fx_cmd[1], rad * fx_cmd[2], rad * fx_cmd[3])
+        )
         limit = min(self.max_step, self.step_factor * self.wheel_time_constant())
         n = max(1, math.ceil(h / limit - 1e-9))
         hi = h / n
