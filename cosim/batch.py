@@ -71,6 +71,8 @@ COLLISION_METRIC = "collision"  # bool: our geometric check saw an overlap
 DURATION_METRIC = "lane_change_duration_s"  # s
 TTC_METRIC = "min_ttc_s"  # s
 PERCENTILES = (10, 50, 90)
+# Record keys kept in DIR/runs/<run_id>.json but not in runs.csv.
+RECORD_ONLY = ("traceback", "code")
 CONFIDENCE = 0.95
 
 
@@ -374,7 +376,7 @@ def assemble(specs: Iterable[RunSpec], out_dir: Path) -> pd.DataFrame:
     metric_columns: list[str] = []
     for r in sorted(records, key=lambda r: r["status"] != STATUS_OK):
         metric_columns += [k for k in r if k not in head and k not in metric_columns]
-    metric_columns = [k for k in metric_columns if k != "traceback"]
+    metric_columns = [k for k in metric_columns if k not in RECORD_ONLY]
     timing = [c for c in metric_columns if is_timing_column(c)]
     columns = head + [c for c in metric_columns if c not in timing] + timing
     return pd.DataFrame.from_records(records, columns=columns)
@@ -487,6 +489,26 @@ def write_tables(runs: pd.DataFrame, summary: pd.DataFrame, out_dir: Path) -> No
 # --------------------------------------------------------------------------- the study
 
 
+def provenance() -> dict[str, Any]:
+    """The code that ran this call of the study (run ids do not name it: after
+    changing cosim, start a new output folder)."""
+    import subprocess
+
+    from cosim import __version__
+
+    info: dict[str, Any] = {"cosim": __version__}
+    root = Path(__file__).resolve().parent.parent
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
+                              text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "cosim"],
+                               capture_output=True, text=True, timeout=10, check=True).stdout
+        info.update(git_commit=head, cosim_files_modified=len(dirty.splitlines()))
+    except (OSError, subprocess.SubprocessError):
+        pass  # not a git checkout
+    return info
+
+
 @dataclass
 class StudyResult:
     out_dir: Path
@@ -541,7 +563,10 @@ def run_study(
     )
     failed = [failed_before]
 
+    code = provenance()
+
     def on_record(record: dict[str, Any]) -> None:
+        record["code"] = code  # which code made this record (kept in the JSON only)
         write_record(out_dir, record)
         if record["status"] != STATUS_OK:
             failed[0] += 1

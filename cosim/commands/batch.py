@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"{len(result.runs)} runs ({result.ran} run now, {result.skipped} already done), "
         f"{result.failed} failed, {result.wall_time:.1f} s\n"
-        f"  {out / 'runs.csv'}\n  {out / 'summary.csv'}"
+        f"  {out / 'runs.csv'}\n  {out / 'summary.csv'}\n  {out / 'summary.md'}"
         + "".join(f"\n  {p}" for p in result.plots)
     )
     return 0
