@@ -87,12 +87,21 @@ def neighbours(
     tv_length: ArrayLike,
     tv_width: ArrayLike,
     road: RoadParams,
+    tv_lateral_speed: ArrayLike | None = None,
 ) -> Neighbours:
-    """The SV's leader and follower in `lane` (TVs touching that lane)."""
+    """The SV's leader and follower in `lane` (TVs touching that lane).
+
+    With `tv_lateral_speed` (m/s, + left), a TV whose centre is already in
+    another lane and that moves away from `lane` does not count (it is leaving)."""
     x = np.asarray(tv_x, dtype=float)
     v = np.asarray(tv_speed, dtype=float)
     lo, hi = lanes_touched(tv_y, 0.5 * np.asarray(tv_width, dtype=float), road)
     inside = (lo <= lane) & (hi >= lane)
+    if tv_lateral_speed is not None:
+        centre = np.floor((np.asarray(tv_y, dtype=float) - road.y_right) / road.lane_width)
+        vy = np.asarray(tv_lateral_speed, dtype=float)
+        leaving = ((centre > lane) & (vy > 0.0)) | ((centre < lane) & (vy < 0.0))
+        inside &= ~leaving
     dx = x - sv_x
     gap = np.abs(dx) - 0.5 * (sv_length + np.asarray(tv_length, dtype=float))
     ahead = np.where(inside & (dx >= 0.0), gap, np.inf)
@@ -170,11 +179,15 @@ def decide(
     cfg: DecisionConfig,
     *,
     allow_change: bool = True,
+    tv_lateral_speed: ArrayLike | None = None,
 ) -> Decision:
-    """The rule of the module docstring, for an SV at (sv_x, sv_y) driving sv_speed."""
+    """The rule of the module docstring, for an SV at (sv_x, sv_y) driving sv_speed.
+
+    `tv_lateral_speed` (m/s, + left): a TV leaving the SV's lane is not its leader
+    (target lanes still count every TV touching them)."""
     lane = road.lane_of(sv_y)
     args = (sv_x, sv_length, tv_x, tv_y, tv_speed, tv_length, tv_width, road)
-    own = neighbours(lane, *args)
+    own = neighbours(lane, *args, tv_lateral_speed)
     lead_v = own.leader_speed if own.leader >= 0 else math.inf
     within = own.gap_ahead <= cfg.look_ahead
     accel = idm_acceleration(sv_speed, desired_speed, own.gap_ahead, lead_v, cfg)

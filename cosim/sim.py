@@ -549,7 +549,8 @@ class CoSimulation:
         speed = self.v_ref
         d = decide(sv["x"], sv["y"], speed, self.sv_length, self._desired_speed(lane),
                    tvs.x, tvs.y, tvs.speed * np.cos(tvs.heading), tvs.length, tvs.width,
-                   self.road, self.cfg, allow_change=allow and self.sc.sv.decision)
+                   self.road, self.cfg, allow_change=allow and self.sc.sv.decision,
+                   tv_lateral_speed=tvs.lateral_speed)
         # a reference the car can follow: braking within the road's grip, and the
         # acceleration changing at most MAX_FOLLOW_JERK (a new leader cutting in)
         lo = -min(self.cfg.max_brake, FOLLOW_GRIP * self.road.mu * G)

@@ -141,3 +141,14 @@ def test_timer_waits_after_a_failure_and_after_a_manoeuvre() -> None:
     timer.manoeuvre_done(10.0)
     assert not timer.may_request(12.0)
     assert timer.may_request(10.0 + CFG.cooldown)
+
+
+def test_a_tv_leaving_the_lane_is_no_longer_the_leader() -> None:
+    """Half across the line into lane 1 and moving left: not lane 0's leader any more;
+    moving right (coming in), or still centred in lane 0, it is."""
+    y = np.array([ROAD.y_right + ROAD.lane_width + 0.3])  # centre just inside lane 1
+    args = (0.0, L, np.array([12.0]), y, np.array([20.0]), np.full(1, L), np.full(1, W), ROAD)
+    assert neighbours(0, *args).leader == 0  # without lateral speeds: touches lane 0
+    assert neighbours(0, *args, np.array([1.0])).leader == -1  # leaving
+    assert neighbours(0, *args, np.array([-1.0])).leader == 0  # cutting in
+    assert neighbours(1, *args, np.array([1.0])).leader == 0  # its new lane
