@@ -322,6 +322,8 @@ class CoSimulation:
             sc.network, sc.step, sc.seed,
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=self.gui,
             speed_bands=sc.road.speed_bands,
+            # sumo-gui: one step per step length of wall time (watchable, real time)
+            extra_args=("--delay", f"{1000.0 * sc.step:g}") if self.gui else (),
         )
         self.sumo.start()
         self.started = True
@@ -367,6 +369,7 @@ class CoSimulation:
         # the first step inserts every vehicle at its place
         self.sumo.step()
         self.t_offset = self.sumo.time  # SUMO's clock when our t = 0
+        self.sumo.follow_in_gui(SV_ID)
         self.v_ref = sc.sv.speed  # m/s, lane-keeping reference speed (integrated IDM)
 
     # ------------------------------------------------------------------ scripted TVs

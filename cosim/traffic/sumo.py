@@ -478,6 +478,12 @@ class SumoSim:
             self.api.vehicle.setLaneChangeMode(vehicle_id, 512)
         self._dims[vehicle_id] = (length, width)
 
+    def follow_in_gui(self, vehicle_id: str, zoom: float = 400.0) -> None:
+        """sumo-gui only: keep the main view centred on a vehicle (no-op without GUI)."""
+        if self.gui:
+            self.api.gui.trackVehicle("View #0", vehicle_id)
+            self.api.gui.setZoom("View #0", zoom)
+
     def change_lane(self, vehicle_id: str, lane: int, duration: float = 30.0) -> None:
         """Ask SUMO to move a vehicle it drives to `lane` (keeps trying for `duration` s)."""
         self.api.vehicle.changeLane(vehicle_id, lane, duration)
