@@ -175,58 +175,52 @@ def sampling_pad(
 HeadingFn = Callable[[IntArray, IntArray], Array]
 
 
-def _run(
-    block: Array, col: IntArray, value: Array, half: Array
-) -> tuple[IntArray, IntArray] | None:
-    """Rows [lo, hi) of `block` (n_r, n_col) with |block[row, col[q]] - value[q]| <=
-    half[q], per query q, when every column is monotone along the rows (then the rows
-    form one contiguous run, found by binary search); None when some column is not."""
-    n_r, n_col = block.shape
-    steps = np.diff(block, axis=0)
-    rising = bool((steps >= 0).all())
-    if n_r > 1 and not rising and not (steps <= 0).all():
+@dataclass(frozen=True)
+class _Ordered:
+    """One coordinate of the SV cluster (n_c, n_t), if it is monotone along the
+    candidates at every time, as one sorted array (each time's column shifted past
+    the previous one), so that windows are binary searches."""
+
+    flat: Array  # (n_t * n_c,)
+    span: float
+    flip: bool  # the column falls along the candidates
+    n_r: int
+
+
+ORDER_TOLERANCE = 1e-9  # m, rounding that does not break the order (windows are widened by it)
+
+
+def _ordered(values: Array, slack: float) -> _Ordered | None:
+    n_r = values.shape[0]
+    steps = np.diff(values, axis=0)
+    rising = bool((steps >= -ORDER_TOLERANCE).all())
+    if n_r > 1 and not rising and not (steps <= ORDER_TOLERANCE).all():
         return None
-    ys = block if rising or n_r <= 1 else block[::-1]
-    # one sorted array of all columns, each column shifted past the previous one
-    span = float(ys.max() - ys.min()) + 2.0 * float(half.max(initial=0.0)) + 1.0
-    flat = (ys + span * np.arange(n_col)[None, :]).T.ravel()
-    base = col * span
-    lo = np.searchsorted(flat, base + value - half, side="left") - col * n_r
-    hi = np.searchsorted(flat, base + value + half, side="right") - col * n_r
-    lo, hi = np.clip(lo, 0, n_r), np.clip(hi, 0, n_r)
-    if not (rising or n_r <= 1):
-        lo, hi = n_r - hi, n_r - lo
+    flip = n_r > 1 and not rising
+    ys = values[::-1] if flip else values
+    span = float(ys.max() - ys.min()) + 2.0 * slack + 1.0
+    flat = (ys + span * np.arange(values.shape[1])[None, :]).T.ravel()
+    return _Ordered(flat, span, flip, n_r)
+
+
+def _run(o: _Ordered, col: IntArray, value: Array, half: Array) -> tuple[IntArray, IntArray]:
+    """Candidate rows [lo, hi) with |value at (row, col[q]) - value[q]| <= half[q]."""
+    base = col * o.span
+    wide = half + 1e3 * ORDER_TOLERANCE  # rounding wobble stays inside the window
+    lo = np.searchsorted(o.flat, base + value - wide, side="left") - col * o.n_r
+    hi = np.searchsorted(o.flat, base + value + wide, side="right") - col * o.n_r
+    lo, hi = np.clip(lo, 0, o.n_r), np.clip(hi, 0, o.n_r)
+    if o.flip:
+        lo, hi = o.n_r - hi, o.n_r - lo
     return lo, hi
 
 
-def _window(
-    bx: Array, by: Array, col: IntArray, x: Array, y: Array, half_x: Array, half_y: Array
-) -> tuple[IntArray, IntArray]:
-    """All (row, query) with |bx[row, col] - x| <= half_x and |by[row, col] - y| <= half_y.
-
-    A lane-change cluster is ordered by tau at every time (|y| falls, and x moves
-    one way, as tau grows), so each condition holds on one run of rows: the answer
-    is the intersection of two binary searches and the work is proportional to it.
-    Without that order, all rows are tested."""
-    n_r = by.shape[0]
-    n_q = y.size
-    ry = _run(by, col, y, half_y)
-    rx = _run(bx, col, x, half_x)
-    if ry is None and rx is None:
-        r, q = np.nonzero((np.abs(by[:, col] - y[None, :]) <= half_y[None, :])
-                          & (np.abs(bx[:, col] - x[None, :]) <= half_x[None, :]))
-        return r, q
-    if ry is not None and rx is not None:
-        lo, hi = np.maximum(ry[0], rx[0]), np.minimum(ry[1], rx[1])
-    else:
-        lo, hi = ry if ry is not None else rx  # type: ignore[misc]
+def _expand(lo: IntArray, hi: IntArray) -> tuple[IntArray, IntArray]:
+    """(row, query) for every row in [lo[q], hi[q])."""
     counts = np.maximum(hi - lo, 0)
-    total = int(counts.sum())
-    q = np.repeat(np.arange(n_q), counts)
+    q = np.repeat(np.arange(lo.size), counts)
     starts = np.cumsum(counts) - counts
-    r = lo[q] + (np.arange(total) - starts[q])
-    del n_r
-    return r, q
+    return lo[q] + (np.arange(q.size) - starts[q]), q
 
 
 def check_cluster(
@@ -234,13 +228,14 @@ def check_cluster(
     sv_width: float, sv_horizon: Array, tv_x: Array, tv_y: Array, tv_h: Array,
     tv_length: Array, tv_width: Array, tv_horizon: Array, *, margin: float = 0.0,
     test: str = "exact", pad: Array | None = None, chunk: int = 40,
-    sv_max_heading: float = 0.5 * np.pi,
+    sv_max_heading: float = 0.5 * np.pi, split_above: int = 50_000,
 ) -> ClusterHits:
     """First overlap of every SV candidate (n_c, n_t) with any TV hypothesis (n_h, n_t).
 
     A pair (candidate c, hypothesis h) is checked at the times t_k <=
     max(sv_horizon[c], tv_horizon[h]) (eq. 10's horizon, extended by the caller).
-    Time is taken in chunks (growing up to `chunk` samples), in order, and a
+    Time is taken in chunks (growing up to `chunk` samples; halved while more than
+    `split_above` candidate x pair combinations are near), in order, and a
     candidate leaves the check at its
     first overlap (its earliest one: nothing earlier can follow). Stage 1 keeps
     the (h, k) whose TV is near the bounding box of the SV cluster at t_k; per
@@ -290,16 +285,24 @@ def check_cluster(
         & (tv_y >= sv_y.min(axis=0) - r) & (tv_y <= sv_y.max(axis=0) + r)
     )
     busy = np.flatnonzero(near_all.any(axis=0))  # times with any TV near
-    for k0, k1 in zip(bounds[:-1], bounds[1:], strict=True):  # chunks of time, in order
+    # a lane-change cluster is ordered by tau at every time (|y| falls, and x moves one
+    # way, as tau grows): each window condition holds on one run of candidates
+    slack = float(reach.max()) + 8.0
+    ord_x, ord_y = _ordered(sv_x, slack), _ordered(sv_y, slack)
+    todo = list(zip(bounds[:-1], bounds[1:], strict=True))[::-1]  # a stack, earliest on top
+    while todo:  # chunks of time, in order
+        k0, k1 = todo.pop()
         if not ((busy >= k0) & (busy < k1)).any():
             continue
         alive = np.flatnonzero(~collides)
         if alive.size == 0:
             break
-        every = alive.size == n_c
-        bx = sv_x[:, k0:k1] if every else sv_x[alive, k0:k1]
-        by = sv_y[:, k0:k1] if every else sv_y[alive, k0:k1]
         ph, pk = np.nonzero(near_all[:, k0:k1])
+        if k1 - k0 > 1 and ph.size * alive.size > split_above:
+            # crowded: the earlier half may settle most candidates before the later one
+            mid = (k0 + k1) // 2
+            todo += [(mid, k1), (k0, mid)]
+            continue
         pk = pk + k0
         # stage 2: remaining candidates x surviving (h, k): boxes, centre distance, horizon
         th = tv_h[ph, pk]
@@ -307,16 +310,28 @@ def check_cluster(
         g2 = 2.0 * grow[ph]  # each box grows by at most 2 g (g on each of two sides' projections)
         lim_x = sv_hx + 0.5 * tv_length[ph] * ct + 0.5 * tv_width[ph] * st + g2
         lim_y = sv_hy + 0.5 * tv_length[ph] * st + 0.5 * tv_width[ph] * ct + g2
-        qa, qp = _window(bx, by, pk - k0, tv_x[ph, pk], tv_y[ph, pk], lim_x, lim_y)
-        dx = sv_x[alive[qa], pk[qp]] - tv_x[ph[qp], pk[qp]]
-        dy = sv_y[alive[qa], pk[qp]] - tv_y[ph[qp], pk[qp]]
+        if ord_x is not None or ord_y is not None:
+            runs = [_run(o, pk, v, lim) for o, v, lim in (
+                (ord_x, tv_x[ph, pk], lim_x), (ord_y, tv_y[ph, pk], lim_y)) if o is not None]
+            lo = np.maximum.reduce([r[0] for r in runs])
+            hi = np.minimum.reduce([r[1] for r in runs])
+            qc, qp = _expand(lo, hi)
+            keep = ~collides[qc]
+            qc, qp = qc[keep], qp[keep]
+        else:
+            qa, qp = np.nonzero(np.ones((alive.size, pk.size), dtype=bool))
+            qc = alive[qa]  # unordered cluster: every remaining candidate
+        dx = sv_x[qc, pk[qp]] - tv_x[ph[qp], pk[qp]]
+        dy = sv_y[qc, pk[qp]] - tv_y[ph[qp], pk[qp]]
         close = (
             (np.abs(dx) <= lim_x[qp]) & (np.abs(dy) <= lim_y[qp])
             & (dx * dx + dy * dy <= reach2[ph[qp]])
-            & (t[pk[qp]] <= np.maximum(sv_horizon[alive[qa]], tv_horizon[ph[qp]]))
+            & (t[pk[qp]] <= np.maximum(sv_horizon[qc], tv_horizon[ph[qp]]))
         )
-        qa, qp = qa[close], qp[close]
-        qc, qh, qk = alive[qa], ph[qp], pk[qp]
+        qc, qp = qc[close], qp[close]
+        if qc.size == 0:
+            continue
+        qh, qk = ph[qp], pk[qp]
         checked += int(qc.size)
         # stage 3: the exact test on the survivors
         args = (sv_x[qc, qk], sv_y[qc, qk], heading_at(qc, qk), sv_length, sv_width,

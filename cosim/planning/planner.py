@@ -45,6 +45,7 @@ from cosim.planning.trajectory import (
     LaneChangeTrajectory,
     cluster_derivatives,
     standard_positions,
+    standard_velocities,
 )
 from cosim.traffic.v2v import V2VMessage
 
@@ -257,6 +258,9 @@ class LaneChangePlanner:
             motion = cluster_motion(x, y)
 
         def heading(c: NDArray[np.int64], k: NDArray[np.int64]) -> Array:
+            if at_rest:
+                xd, yd = standard_velocities(sv.vx, vxf, width, taus[c], t_rel[k])
+                return np.arctan2(yd, xd)
             xd, yd = cluster_derivatives(
                 sv.vx, vxf, width, taus[c][:, None], t_rel[k][:, None], (1,), **kw
             )[1]

@@ -21,7 +21,11 @@ from numpy.typing import NDArray
 
 from cosim.params import RoadParams, VehicleParams
 from cosim.planning.envelope import MODES, envelope_margin, paper_map_tau_min
-from cosim.planning.trajectory import cluster_derivatives
+from cosim.planning.trajectory import (
+    cluster_derivatives,
+    standard_positions,
+    standard_velocities,
+)
 from cosim.traffic.v2v import LateralMotion, V2VMessage
 
 Array = NDArray[np.float64]
@@ -175,15 +179,30 @@ def predict(
                 yaw_model=envelope, vy0=np.repeat(vy0, n_tau),
             )
             stable = (margin <= 1.0).reshape(len(c2), n_tau)
+        rel = t - t_plan
+        still = np.abs(vy0) < 1e-12
+        # TVs starting from rest laterally: eq. 2 / eq. 4 in closed form, all in one batch
+        rows_j, rows_tau = np.nonzero(stable & still[:, None])
+        if rows_j.size:
+            tau_r = taus[rows_tau]
+            x, y = standard_positions(v0[rows_j], vxf[rows_j], width[rows_j], tau_r, rel)
+            xd, yd = standard_velocities(v0[rows_j][:, None], vxf[rows_j][:, None],
+                                         width[rows_j][:, None], tau_r[:, None], rel[None, :])
+            x += x0[rows_j][:, None]
+            y += np.array([m.y for _, m, _, _ in c2])[rows_j][:, None]
+            heading = np.arctan2(yd, xd)
         for j, (i, m, _, _) in enumerate(c2):
             ok = taus[stable[j]]
             if ok.size == 0:  # it cannot change lanes safely: it keeps its lane
                 cats[i] = "C1"
                 add_c1(i, m)
-                continue
-            d = cluster_derivatives(v0[j], vxf[j], width[j], ok, t - t_plan, (0, 1), vy0=vy0[j])
-            (x, y), (xd, yd) = d[0], d[1]
-            add(i, x + x0[j], y + m.y, np.arctan2(yd, xd), ok, t_plan + ok)
+            elif still[j]:
+                a, b = np.searchsorted(rows_j, [j, j + 1])  # rows are grouped by TV: a view
+                add(i, x[a:b], y[a:b], heading[a:b], ok, t_plan + ok)
+            else:
+                d = cluster_derivatives(v0[j], vxf[j], width[j], ok, rel, (0, 1), vy0=vy0[j])
+                (xg, yg), (xdg, ydg) = d[0], d[1]
+                add(i, xg + x0[j], yg + m.y, np.arctan2(ydg, xdg), ok, t_plan + ok)
 
     if not owner:
         empty = np.zeros((0, n_t))

@@ -119,14 +119,21 @@ def cluster_derivatives(
     return out
 
 
+def _per_row(a: ArrayLike) -> Array | float:
+    """A per-candidate parameter: scalars stay, 1-D arrays become columns."""
+    arr = np.asarray(a, dtype=float)
+    return float(arr) if arr.ndim == 0 else arr[:, None]
+
+
 def standard_positions(
-    vx0: float, vxf: float, width: float, taus: ArrayLike, t: ArrayLike
+    vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, taus: ArrayLike, t: ArrayLike
 ) -> tuple[Array, Array]:
     """Relative (x, y) of eq. 2 and eq. 4 exactly (starts with no lateral motion and no
     longitudinal acceleration), shaped (n_tau, n_t), in fewer operations than `cluster`:
     with u = t / tau and s = min(u, 1), y = W (10 s^3 - 15 s^4 + 6 s^5) and
     x = tau (vxf u - (vxf - vx0) (s - s^3 + s^4 / 2)) (straight at vxf after tau)."""
     tau = np.asarray(taus, dtype=float)[:, None]
+    vx0, vxf, width = _per_row(vx0), _per_row(vxf), _per_row(width)  # (n,) -> per row
     # in place where possible: fresh (n_tau, n_t) temporaries cost page faults
     u = np.asarray(t, dtype=float)[None, :] * (1.0 / tau)
     s = np.minimum(u, 1.0)
@@ -147,6 +154,28 @@ def standard_positions(
     x += u
     x *= tau
     return x, y
+
+
+def standard_velocities(
+    vx0: float, vxf: float, width: float, taus: ArrayLike, t: ArrayLike
+) -> tuple[Array, Array]:
+    """(x', y') of eq. 2 and eq. 4 at matching (tau, t) pairs (same shapes, broadcast):
+    x' = vx0 + (vxf - vx0) (3 s^2 - 2 s^3), y' = 30 W s^2 (1 - s)^2 / tau, s = min(t/tau, 1)."""
+    tau = np.asarray(taus, dtype=float)
+    s = np.asarray(t, dtype=float) / tau
+    np.minimum(s, 1.0, out=s)
+    xd = s * -2.0  # in place: fresh temporaries of a big grid cost page faults
+    xd += 3.0
+    xd *= s
+    xd *= s
+    xd *= np.asarray(vxf) - vx0
+    xd += vx0
+    yd = 1.0 - s
+    yd *= s
+    yd *= yd
+    yd *= 30.0 * np.asarray(width)
+    yd /= tau
+    return xd, yd
 
 
 def cluster(

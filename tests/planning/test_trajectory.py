@@ -96,3 +96,15 @@ def test_standard_positions_equal_the_general_form(vx0: float, vxf: float, W: fl
     slow = cluster(vx0, vxf, W, taus, t)
     np.testing.assert_allclose(fast[0], slow[0], atol=1e-9)
     np.testing.assert_allclose(fast[1], slow[1], atol=1e-9)
+
+
+def test_standard_velocities_equal_the_general_form() -> None:
+    from cosim.planning.trajectory import standard_velocities
+
+    vx0, vxf, W = 29.2, 25.0, -3.75
+    taus = np.array([2.5, 4.0, 9.0])
+    t = np.linspace(0.0, 12.0, 49)
+    xd, yd = standard_velocities(vx0, vxf, W, taus[:, None], t[None, :])
+    ref = cluster_derivatives(vx0, vxf, W, taus, t, (1,))[1]
+    np.testing.assert_allclose(xd, ref[0], atol=1e-9)
+    np.testing.assert_allclose(yd, ref[1], atol=1e-9)
