@@ -33,6 +33,8 @@ from typing import Any
 
 from cosim.errors import InputError
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
+from cosim.planning.collision import COLLISION_TESTS  # the planner owns its option names
+from cosim.planning.envelope import ENVELOPES
 from cosim.validation import (
     MISSING,
     REQUIRED,
@@ -294,9 +296,9 @@ LANE_CHANGE_FIELDS = (
 PLANNER_FIELDS = (
     _f("tau_max_s", "tau_max", "s", 0.0, 60.0, _PLAN.tau_max, lo_open=True),
     _f("tau_step_s", "tau_step", "s", 0.0, 1.0, _PLAN.tau_step, lo_open=True),
-    Field("envelope", str, choices=("inverse_dynamics", "paper_maps"), default=_PLAN.envelope),
+    Field("envelope", str, choices=ENVELOPES, default=_PLAN.envelope),
     _f("safety_factor", "safety_factor", "", 0.0, 1.0, _PLAN.safety_factor, lo_open=True),
-    Field("collision_test", str, choices=("exact", "col"), default=_PLAN.collision_test),
+    Field("collision_test", str, choices=COLLISION_TESTS, default=_PLAN.collision_test),
     _f("safety_margin_m", "safety_margin", "m", 0.0, 5.0, _PLAN.safety_margin),
     _f("horizon_extra_s", "horizon_extra", "s", 0.0, 60.0, _PLAN.horizon_extra),
     _f("tau_min_floor_s", "tau_min_floor", "s", 0.0, 60.0, _PLAN.tau_min_floor, lo_open=True),
