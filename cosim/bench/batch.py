@@ -47,6 +47,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     load_before = os.getloadavg()[0]
     cases = (1, args.workers)
     times: dict[int, list[float]] = {n: [] for n in cases}
+    run_times: dict[int, list[float]] = {n: [] for n in cases}
     failed = 0
     for _ in range(args.repeats):
         for n in cases:
@@ -54,17 +55,20 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                 start = time.perf_counter()
                 result = run_study(specs, Path(tmp), workers=n, progress=False, plots=False)
                 times[n].append(time.perf_counter() - start)
+                run_times[n] += result.runs["wall_time_s"].tolist()
                 failed += result.failed
     rows = []
     for n in cases:
         wall = float(np.median(times[n]))
         rows.append({"case": f"{n} worker{'s' if n > 1 else ''}", "runs": len(specs),
-                     "wall_s": wall, "per_run_s": wall / len(specs)})
+                     "wall_s": wall, "wall_per_run_s": wall / len(specs),
+                     "run_median_s": float(np.median(run_times[n]))})
     speedup = rows[0]["wall_s"] / rows[1]["wall_s"]
     notes = [
         f"{len(specs)} runs: densities {', '.join(f'{d:g}' for d in densities)} veh/km/lane x "
         f"seeds 1-{args.seeds}, driver {args.driver}, {args.duration:g} s simulated each, "
-        f"base {args.scenario.name}; one fresh process per run",
+        f"base {args.scenario.name}; one fresh process per run; run_median_s: a run's own "
+        "wall time (load, simulate) - it grows in the parallel case when the cores are shared",
         f"{os.cpu_count()} cores; median of {args.repeats} repeat(s); 1-min load average "
         f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after (other processes on the "
         "machine take cores from the 2-worker case and lower the ratio)",
