@@ -167,6 +167,8 @@ TIMING_DOCS: dict[str, str] = {
     "wall_planning_s": "wall time in the planner (s)",
     "wall_control_s": "wall time in controller + plant (s)",
     "wall_realtime_factor": "simulated time / wall time (-)",
+    "cpu_time_s": "CPU time of this process over the run, SUMO included (libsumo runs "
+    "in-process) (s): less sensitive than wall time to other load on the machine",
 }
 
 
@@ -310,6 +312,7 @@ class CoSimulation:
         self.sv_width = scenario.vehicle.width
         self.sv_diag = math.hypot(self.sv_length, self.sv_width)  # m, body diagonal
         self.started = False
+        self.cpu = 0.0  # s, process CPU time of the run
         self.first_plan: Any = None
         self.records: list[Any] = []
         self.last_failed: tuple[int, int] | None = None  # (origin, target) of a failed plan
@@ -415,6 +418,7 @@ class CoSimulation:
     # ------------------------------------------------------------------ one run
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()
+        cpu0 = time.process_time()
         try:
             self._start()
             for k in range(self.n_steps + 1):
@@ -444,6 +448,7 @@ class CoSimulation:
             if self.started:
                 self.sumo.close()
         wall = time.perf_counter() - wall0
+        self.cpu = time.process_time() - cpu0
         return self._result(wall, events)
 
     def _sv_view(self, snap_all: TrafficSnapshot) -> dict[str, float]:
@@ -749,6 +754,7 @@ class CoSimulation:
             "wall_planning_s": self.wall["planning"],
             "wall_control_s": self.wall["control"],
             "wall_realtime_factor": float(t[-1]) / wall if wall > 0 else math.nan,
+            "cpu_time_s": self.cpu,
         }
         return RunResult(sc, self.road, trace, self.plans, self.lane_changes,
                          self.tracks.result(), m, timing, events,

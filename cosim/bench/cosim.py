@@ -36,13 +36,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=3, help="repeats (median; default 3)")
 
 
-def sumo_alone(scenario: Scenario) -> float:
-    """s, wall time of the scenario's traffic alone (no SV), SUMO start to close."""
+def sumo_alone(scenario: Scenario) -> tuple[float, float]:
+    """s, wall and CPU time of the scenario's traffic alone (no SV), SUMO start to close."""
     from cosim.sim import SV_LENGTH_MARGIN
     from cosim.traffic.demand import populate
     from cosim.traffic.sumo import SumoSim
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     tr = scenario.traffic
     sim = SumoSim(scenario.network, scenario.step, scenario.seed,
                   lanechange_duration=tr.lanechange_duration, sublane=tr.sublane,
@@ -55,16 +55,16 @@ def sumo_alone(scenario: Scenario) -> float:
                      exclude_zone=(x0 - margin, x0 + margin))
         for _ in range(scenario.n_steps + 1):
             sim.step()
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.process_time() - cpu
 
 
-def cosim_run(scenario: Scenario) -> tuple[float, dict[str, Any]]:
-    """s, wall time of the full co-simulation (nothing written), and its timing row."""
+def cosim_run(scenario: Scenario) -> tuple[float, float, dict[str, Any]]:
+    """s, wall and CPU time of the full co-simulation (nothing written), its timing row."""
     from cosim.sim import simulate
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     result = simulate(scenario)
-    return time.perf_counter() - start, result.timing
+    return time.perf_counter() - start, time.process_time() - cpu, result.timing
 
 
 def _path(given: Path | None, default: str) -> Path:
@@ -79,35 +79,44 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     # warm-up (imports, first libsumo start), then alternate so drift hits both alike
     sumo_alone(with_overrides(dense, duration=1.0))
     cosim_run(with_overrides(dense, duration=1.0))
-    alone, ours, paper_wall = [], [], []
+    walls: dict[str, list[float]] = {"alone": [], "ours": [], "paper": []}
+    cpus: dict[str, list[float]] = {"alone": [], "ours": [], "paper": []}
     timing: dict[str, Any] = {}
     for _ in range(repeats):
-        alone.append(sumo_alone(dense))
-        wall, timing = cosim_run(dense)
-        ours.append(wall)
-        paper_wall.append(cosim_run(paper)[0])
-    t_alone, t_ours, t_paper = (float(np.median(v)) for v in (alone, ours, paper_wall))
-    steps = dense.n_steps
-    rows = [
-        {"case": f"sumo alone ({dense.name})", "wall_s": t_alone,
-         "per_step_ms": 1e3 * t_alone / steps, "realtime_x": dense.duration / t_alone},
-        {"case": f"cosim, our SV ({dense.name})", "wall_s": t_ours,
-         "per_step_ms": 1e3 * t_ours / steps, "realtime_x": dense.duration / t_ours},
-        {"case": f"paper case ({paper.name})", "wall_s": t_paper,
-         "per_step_ms": 1e3 * t_paper / paper.n_steps, "realtime_x": paper.duration / t_paper},
-    ]
+        wall, cpu = sumo_alone(dense)
+        walls["alone"].append(wall)
+        cpus["alone"].append(cpu)
+        wall, cpu, timing = cosim_run(dense)
+        walls["ours"].append(wall)
+        cpus["ours"].append(cpu)
+        wall, cpu, _ = cosim_run(paper)
+        walls["paper"].append(wall)
+        cpus["paper"].append(cpu)
+    w = {k: float(np.median(v)) for k, v in walls.items()}
+    c = {k: float(np.median(v)) for k, v in cpus.items()}
+    rows = []
+    for key, label, sc in (("alone", f"sumo alone ({dense.name})", dense),
+                           ("ours", f"cosim, our SV ({dense.name})", dense),
+                           ("paper", f"paper case ({paper.name})", paper)):
+        rows.append({"case": label, "wall_s": w[key], "cpu_s": c[key],
+                     "per_step_ms": 1e3 * w[key] / sc.n_steps,
+                     "realtime_x": sc.duration / w[key], "realtime_cpu_x": sc.duration / c[key]})
+    t_alone, t_ours, t_paper = w["alone"], w["ours"], w["paper"]
     return {
         "title": f"co-simulation cost: {dense.name}, {dense.duration:g} s simulated, "
                  f"{dense.traffic.density:g} veh/km/lane; median of {repeats}",
         "rows": rows,
         "ratios": {
             "cosim / sumo alone": t_ours / t_alone,
+            "cosim / sumo alone (cpu)": c["ours"] / c["alone"],
             "paper case real-time factor": paper.duration / t_paper,
+            "paper case real-time factor (cpu)": paper.duration / c["paper"],
         },
         "targets": {"cosim / sumo alone": "<= 2.0", "paper case real-time factor": ">= 50"},
         "notes": [
             "wall times from SUMO start to close; 'sumo alone' steps the same traffic "
             "(network, density, seed, inflow, band rule) through SumoSim without an SV",
+            "cpu: process CPU time (libsumo runs in-process), less sensitive to other load",
             f"last cosim run split (s): SUMO step+read {timing.get('wall_sumo_s', 0):.3f}, "
             f"control+plant {timing.get('wall_control_s', 0):.3f}, "
             f"planning {timing.get('wall_planning_s', 0):.3f}",
