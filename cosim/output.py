@@ -115,6 +115,38 @@ def atomic_write_csv(path: str | Path, frame: pd.DataFrame, **to_csv_kwargs: Any
     return Path(path)
 
 
+def check_output_dir(path: str | Path, source: str = "command line", key: str = "--out") -> Path:
+    """Check, without creating anything, that `path` can be used as an output folder.
+
+    Call it with the other input checks, before a run: a folder that cannot be
+    created must be an InputError up front, not a traceback after an hour of
+    simulation. It must be a directory we can write into, or not exist yet
+    below a writable directory.
+    """
+    from cosim.errors import InputError
+
+    out = Path(path)
+    try:
+        if out.exists():
+            if not out.is_dir():
+                raise InputError(source, key, str(out), "a folder (this is a file)")
+            if not os.access(out, os.W_OK | os.X_OK):
+                raise InputError(source, key, str(out), "a folder we may write into")
+            return out
+        parent = out.absolute().parent
+        while not parent.exists():
+            parent = parent.parent
+        if not parent.is_dir():
+            raise InputError(source, key, str(out), f"a folder path ({parent} is a file)")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise InputError(
+                source, key, str(out), f"a folder we may create ({parent} is read-only)"
+            )
+    except OSError as exc:
+        raise InputError(source, key, str(out), f"a usable folder path ({exc.strerror})") from None
+    return out
+
+
 def make_output_dir(path: str | Path) -> Path:
     """Create an output directory (and its parents) and return it.
 

@@ -13,6 +13,7 @@ import matplotlib
 import pandas as pd
 import pytest
 
+from cosim.errors import InputError
 from cosim.output import (
     atomic_open,
     atomic_path,
@@ -20,6 +21,7 @@ from cosim.output import (
     atomic_write_csv,
     atomic_write_json,
     atomic_write_text,
+    check_output_dir,
     make_output_dir,
     new_run_dir,
     stale_temp_files,
@@ -134,3 +136,18 @@ def test_temp_file_is_in_the_same_directory(tmp_path: Path) -> None:
         assert os.path.dirname(tmp) == str(tmp_path)
     assert not seen[0].exists()
     assert (tmp_path / "x.json").read_text() == "{}"
+
+
+def test_check_output_dir_creates_nothing(tmp_path: Path) -> None:
+    assert check_output_dir(tmp_path / "a" / "b" / "c") == tmp_path / "a" / "b" / "c"
+    assert check_output_dir(tmp_path) == tmp_path
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_check_output_dir_refuses_files(tmp_path: Path) -> None:
+    (tmp_path / "file").write_text("x")
+    for bad in (tmp_path / "file", tmp_path / "file" / "sub" / "deeper"):
+        with pytest.raises(InputError) as info:
+            check_output_dir(bad, "command line", "--out")
+        assert info.value.key == "--out" and str(bad) in str(info.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]

@@ -17,6 +17,7 @@ from typing import Any
 
 from cosim.batch import RunSpec, expand, run_study
 from cosim.errors import InputError
+from cosim.output import check_output_dir
 from cosim.study import DENSITY, DRIVER, MU, OCCUPANT, PLANT, SEED, Study, load_study
 from cosim.validation import Field
 
@@ -150,6 +151,7 @@ def run(args: argparse.Namespace) -> int:
     study = study_from_args(args)
     specs = specs_of(study)
     out = args.out or Path("results") / "batch" / study.name
+    check_output_dir(out)  # a bad --out is an input error now, not after the runs
     workers = args.workers or os.cpu_count() or 1
     where = f"Dask {args.dask}" if args.dask else f"{workers} local processes"
     print(f"cosim batch: {study.name}: {len(specs)} runs on {where} -> {out}", file=sys.stderr)

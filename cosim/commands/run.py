@@ -32,6 +32,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from cosim.output import check_output_dir
     from cosim.scenario import load_scenario, project_root, with_overrides
     from cosim.sim import run_scenario
 
@@ -46,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     if changes:
         scenario = with_overrides(scenario, **changes)
     out = args.out if args.out is not None else project_root() / "results" / scenario.name
+    check_output_dir(out)  # a bad --out is an input error now, not after the run
     metrics = run_scenario(
         scenario, out, write_trace=True, write_figures=not args.no_figures,
         progress=True, gui=args.gui,

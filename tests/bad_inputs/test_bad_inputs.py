@@ -239,6 +239,35 @@ def test_cli_run_and_plan_reject_bad_scenario_without_output(
     assert not out.exists()
 
 
+@pytest.mark.parametrize("command", ["run", "batch"])
+def test_cli_output_folder_that_cannot_be_made_is_an_input_error(
+    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Found before the simulation starts, not as a traceback after it."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder\n")
+    out = blocker / "out"
+    argv = [command, str(BASE), "--out", str(out)]
+    if command == "batch":
+        argv = [
+            "batch",
+            "--scenario",
+            str(BASE),
+            "--densities",
+            "0",
+            "--seeds",
+            "1",
+            "--no-progress",
+            "--out",
+            str(out),
+        ]
+    status, err = _cli(argv, capsys)
+    assert status == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "--out = " in lines[0] and str(out) in lines[0], err
+    assert blocker.read_text() == "not a folder\n"
+
+
 def test_cli_leaves_an_existing_output_folder_untouched(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
