@@ -517,6 +517,8 @@ def scenario_from_dict(
     p = Path(path)
     src = source if source is not None else str(p)
     check_table(src, "", doc)
+    if "study" in doc:
+        raise InputError(src, "study", "[study]", "a scenario file (this is a study: cosim batch)")
     check_known_tables(src, doc, list(TABLES))
     for name in REQUIRED_TABLES:
         if name not in doc:
@@ -532,7 +534,7 @@ def scenario_from_dict(
     tv_tables = [validate_table(src, f"tv[{i}]", t, TV_FIELDS) for i, t in enumerate(raw_tvs)]
 
     sc, rd, svt = tables["scenario"], tables["road"], tables["sv"]
-    base_dir = p.parent if p.suffix else Path.cwd()
+    base_dir = p.parent if p.is_absolute() else Path.cwd() / p.parent
     road = RoadParams(lane_width=rd["lane_width"], speed_bands=rd["speed_bands"], mu=rd["mu"])
     network = _resolve(base_dir, rd["network"])
     sv = SVSpec(

@@ -106,6 +106,7 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "lane_speeds_two_lanes_vs_network.toml": ("road.network", "highway.net.xml"),
     "sublane_with_lanechange_duration.toml": ("traffic.lanechange_duration_s", "2.0"),
     "traffic_density_negative.toml": ("traffic.density_veh_per_km_lane", "-5"),
+    "study_given_as_scenario.toml": ("study", "'[study]'"),
 }
 
 # A few messages must also say what is allowed (the suggestion, the range, the rule).
