@@ -321,7 +321,7 @@ def dask_client(address: str, workers: int) -> Any:
         )
         return Client(cluster)
     try:
-        client = Client(address, timeout="20s")
+        client = Client(address, timeout="10s")
     except (OSError, TimeoutError, ValueError) as exc:
         raise InputError(
             "--dask", "address", address, f"a reachable Dask scheduler ({exc})"
@@ -531,8 +531,12 @@ def run_study(
     retry_failed: bool = False,
     plots: bool = True,
     title: str = "study",
+    on_start: Callable[[int], None] | None = None,
 ) -> StudyResult:
-    """Run what is not yet recorded, then write runs.csv, summary.csv and plots."""
+    """Run what is not yet recorded, then write runs.csv, summary.csv and plots.
+
+    `on_start(n_to_run)` is called once the input is known good (a Dask
+    scheduler reached), just before anything is written."""
     start = time.perf_counter()
     out_dir = Path(out_dir)
     workers = workers or os.cpu_count() or 1
@@ -547,6 +551,8 @@ def run_study(
     )
     # Connect first: a bad address is an input error, before anything is written.
     client = dask_client(dask, workers) if dask is not None and todo else None
+    if on_start is not None:
+        on_start(len(todo))
     make_output_dir(runs_dir(out_dir))
     for stale in stale_temp_files(runs_dir(out_dir)):  # left by a killed study
         stale.unlink(missing_ok=True)

@@ -154,10 +154,15 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir(out)  # a bad --out is an input error now, not after the runs
     workers = args.workers or os.cpu_count() or 1
     where = f"Dask {args.dask}" if args.dask else f"{workers} local processes"
-    print(f"cosim batch: {study.name}: {len(specs)} runs on {where} -> {out}", file=sys.stderr)
+
+    def announce(todo: int) -> None:
+        print(f"cosim batch: {study.name}: {len(specs)} runs ({len(specs) - todo} done before) "
+              f"on {where} -> {out}", file=sys.stderr)
+
     result = run_study(
         specs, out, workers=workers, dask=args.dask, progress=not args.no_progress,
         retry_failed=args.retry_failed, plots=not args.no_plots, title=study.name,
+        on_start=announce,
     )
     print(
         f"{len(result.runs)} runs ({result.ran} run now, {result.skipped} already done), "
