@@ -7,7 +7,11 @@ samples the plant state, computes (delta_f, dMz) by the MIMO triple-step law
 wheel forces by eq. 30, and passes them through the actuator limits (steering
 angle and rate, wheel torque); the plant is then integrated over the substep
 with these inputs held (zero-order hold). Default: the controller runs every
-substep, i.e. at 200 Hz for the default 0.05 s step with 10 substeps.
+substep, i.e. at 200 Hz for the default 0.05 s step with 10 substeps. Keep the
+control period T well under 2 / kx1: eq. 28 with kx1 = 200 /s is a sampled
+proportional loop on speed, stable only for kx1 T < 2; at 100 Hz (T = 10 ms,
+kx1 T = 2) the speed error after a step keeps oscillating at +-0.03 m/s, at
+67 Hz it grows until the wheel forces saturate.
 
 Guards: the controller divides by max(vx, speed_floor); the yaw moment is
 limited to what the wheels can give without eating the lateral grip the
