@@ -169,3 +169,16 @@ def test_a_speed_step_during_a_lane_change_on_low_friction_stays_on_the_path() -
     assert max(abs(r.ye) for r in records) < 0.5
     assert records[-1].vx == pytest.approx(20.0, abs=0.05)
     assert any(r.saturated for r in records)
+
+
+def test_speed_loop_needs_kx1_times_control_period_below_two() -> None:
+    """Eq. 28 sampled every T: stable for kx1 T < 2; 200 Hz (kx1 T = 1) settles,
+    100 Hz (kx1 T = 2) is left oscillating after a 1 m/s speed step."""
+    ref = LaneChangeTrajectory(t0=0.0, tau=4.0, x0=0.0, y0=0.0, vx0=24.0, vxf=24.0, width=0.0)
+    final = {}
+    for every in (1, 2):
+        loop = ClosedLoop("bicycle", "mimo", VEHICLE, GAINS, 0.8, 0.0, 0.0, 0.0, 25.0,
+                          control_every=every)
+        final[every] = [r.ex for r in run(loop, ref, 2.0)[-4:]]
+    assert max(abs(e) for e in final[1]) < 0.002  # drag's steady error, ~1 mm/s
+    assert min(abs(e) for e in final[2]) > 0.02
