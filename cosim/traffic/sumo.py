@@ -53,6 +53,8 @@ from cosim.traffic.network import Highway, load_highway
 
 ROUTE_ID = "highway_route"
 TV_TYPE = "tv"
+NEAR_REFRESH = 1.0  # s, how often snapshot_near re-selects its candidates
+NEAR_MARGIN = 60.0  # m, most two vehicles' x distance can shrink in NEAR_REFRESH
 INVALID = -1e9  # m, SUMO reports -1073741824 (INVALID_DOUBLE_VALUE) for vehicles off the network
 SIGNAL_BLINKER_RIGHT = 1  # SUMO signal bits
 SIGNAL_BLINKER_LEFT = 2
@@ -238,8 +240,9 @@ class SumoSim:
         self._hooks: list[Callable[[SumoSim], None]] = []
         self._types: set[str] = set()
         self._snapshot: TrafficSnapshot | None = None
-        self._context: tuple[str, float] | None = None  # (centre id, radius) subscribed
-        self._context_keys: tuple[int, ...] = ()
+        self._near_key: tuple[str, float] | None = None  # (centre id, radius) of the candidates
+        self._near_next = -math.inf  # s, simulation time of the next candidate refresh
+        self._near_candidates: tuple[str, ...] = ()
 
     # ------------------------------------------------------------------ lifecycle
     def command(self) -> list[str]:
@@ -654,54 +657,35 @@ class SumoSim:
         return snap.select(np.array([vid not in skip for vid in snap.ids], dtype=bool))
 
     def snapshot_near(self, center_id: str, radius: float) -> TrafficSnapshot:
-        """Vehicles within `radius` m of vehicle `center_id` (itself included), read by a
-        SUMO context subscription: the cost grows with the vehicles near it, not with
-        the whole road's traffic (what the co-simulation's hot path needs)."""
-        api = self.api
-        if self._context != (center_id, radius):
-            import traci.constants as tc
+        """Vehicles whose centre is within `radius` m of vehicle `center_id`'s centre
+        (itself included): the cost follows the traffic near it, not the whole road's
+        (what the co-simulation's hot path needs).
 
-            api.vehicle.subscribeContext(
-                center_id, tc.CMD_GET_VEHICLE_VARIABLE, float(radius),
-                [tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED, tc.VAR_ACCELERATION,
-                 tc.VAR_LANE_INDEX, tc.VAR_SPEED_LAT, tc.VAR_SIGNALS],
-            )
-            self._context = (center_id, radius)
-            self._context_keys = (tc.VAR_POSITION, tc.VAR_ANGLE, tc.VAR_SPEED,
-                                  tc.VAR_ACCELERATION, tc.VAR_LANE_INDEX, tc.VAR_SPEED_LAT,
-                                  tc.VAR_SIGNALS)
-        results = api.vehicle.getContextSubscriptionResults(center_id) or {}
-        ids = tuple(sorted(results))  # sorted: the order does not depend on SUMO's internals
-        n = len(ids)
-        k_pos, k_ang, k_spd, k_acc, k_lane, k_lat, k_sig = self._context_keys
-        rows = [results[vid] for vid in ids]
-        xf = np.fromiter((r[k_pos][0] for r in rows), float, n)
-        yf = np.fromiter((r[k_pos][1] for r in rows), float, n)
-        angle = np.fromiter((r[k_ang] for r in rows), float, n)
-        lane = np.fromiter((r[k_lane] for r in rows), int, n)
-        dims = [self._dims.get(vid) or self._read_dims(vid) for vid in ids]
-        length = np.fromiter((d[0] for d in dims), float, n)
-        width = np.fromiter((d[1] for d in dims), float, n)
-        off = xf < INVALID
-        lane[off] = -1
-        lat = np.fromiter((r[k_lat] for r in rows), float, n)
-        self._controlled_lateral_speed(ids, lat)
-        h = np.radians(90.0 - angle)
-        h = np.arctan2(np.sin(h), np.cos(h))
-        return TrafficSnapshot(
-            time=float(api.simulation.getTime()),
-            ids=ids,
-            x=xf - 0.5 * length * np.cos(h),
-            y=yf - 0.5 * length * np.sin(h),
-            heading=h,
-            speed=np.fromiter((r[k_spd] for r in rows), float, n),
-            accel=np.fromiter((r[k_acc] for r in rows), float, n),
-            lane=lane,
-            lateral_speed=lat,
-            length=length,
-            width=width,
-            signals=np.fromiter((r[k_sig] for r in rows), int, n),
-        )
+        Every NEAR_REFRESH s of simulated time one cheap pass over all positions picks
+        the candidates within radius + NEAR_MARGIN along x (no vehicle closes in on
+        another by more than NEAR_MARGIN in that time); each call reads the seven
+        values of the candidates only. (A SUMO context subscription does the same
+        selection but costs more inside simulationStep than this whole read.)"""
+        api = self.api
+        t = float(api.simulation.getTime())
+        present = api.vehicle.getIDList()
+        key = (center_id, float(radius))
+        if self._near_key != key or t >= self._near_next - 1e-9 or center_id not in present:
+            get_pos = self._getters()[0]
+            cx = get_pos(center_id)[0] if center_id in present else math.nan
+            reach = radius + NEAR_MARGIN
+            self._near_candidates = tuple(
+                vid for vid in present if abs(get_pos(vid)[0] - cx) <= reach)
+            self._near_key = key
+            self._near_next = t + NEAR_REFRESH
+        alive = set(present)
+        ids = tuple(sorted(vid for vid in self._near_candidates if vid in alive))
+        snap = self._read(ids)
+        if center_id not in snap.ids:
+            return snap.select(np.zeros(len(snap), dtype=bool))
+        i = snap.index(center_id)
+        near = np.hypot(snap.x - snap.x[i], snap.y - snap.y[i]) <= radius
+        return snap.select(near)
 
     def _controlled_lateral_speed(self, ids: tuple[str, ...], lat: np.ndarray) -> None:
         """SUMO reports no sideways speed of a moved vehicle: use dy/dt of its written poses."""
@@ -730,9 +714,11 @@ class SumoSim:
         return tuple(getattr(v, n) for n in names)
 
     def _read_all(self) -> TrafficSnapshot:
+        return self._read(tuple(self.api.vehicle.getIDList()))
+
+    def _read(self, ids: tuple[str, ...]) -> TrafficSnapshot:
+        """The snapshot of the vehicles `ids` (all present now), in that order."""
         api = self.api
-        vehicle = api.vehicle
-        ids = tuple(vehicle.getIDList())
         n = len(ids)
         get_pos, get_angle, get_speed, get_accel, get_lane, get_lat, get_signals = self._getters()
         pos = np.array([get_pos(vid) for vid in ids], dtype=float).reshape(n, 2)
