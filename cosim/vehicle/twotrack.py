@@ -96,6 +96,14 @@ class TwoTrackPlant:
         self._forces: tuple[float, ...] = (0.0,) * 14
         # longitudinal slip at the peak of the pure-slip tyre curve (ABS / TCS threshold)
         self._kappa_peak = peak_slip(ch.shape) * mu / ch.slip_stiffness
+        # constants of `wheel_time_constant`: loads with 20 % margin
+        self._tau_const = (
+            vehicle.half_track, ch.slip_speed_floor,
+            1.2 * max(self.fz0_front, self.fz0_rear),
+            1.2 * vehicle.mass * ch.cg_height / (2.0 * vehicle.wheelbase),
+            1.2 * vehicle.mass * ch.cg_height / (2.0 * vehicle.half_track),
+            ch.wheel_inertia / (ch.slip_stiffness * ch.wheel_radius**2),
+        )
 
     # -- dynamics --------------------------------------------------------------
     def derivative(self, s: list[float]) -> list[float]:
@@ -191,14 +199,11 @@ class TwoTrackPlant:
     def wheel_time_constant(self) -> float:
         """s, fastest wheel-spin time constant Iw v / (C_kappa Fz R^2) at the current state,
         with 20 % margin on the largest wheel load (loads move within a substep)."""
-        ch, veh = self.chassis, self.vehicle
         s = self.state
-        v = max(abs(s[3]) - veh.half_track * abs(s[5]), ch.slip_speed_floor)
-        transfer = veh.mass * ch.cg_height * (
-            abs(s[10]) / (2.0 * veh.wheelbase) + abs(s[11]) / (2.0 * veh.half_track)
-        )
-        fz_max = 1.2 * (max(self.fz0_front, self.fz0_rear) + transfer)
-        return ch.wheel_inertia * v / (ch.slip_stiffness * fz_max * ch.wheel_radius**2)
+        half_track, floor, fz_max0, k_long, k_lat, scale = self._tau_const
+        v = abs(s[3]) - half_track * abs(s[5])
+        fz_max = fz_max0 + k_long * abs(s[10]) + k_lat * abs(s[11])
+        return scale * (v if v > floor else floor) / fz_max
 
     def _slip_limited(self, torques: tuple[float, float, float, float]) -> tuple[
         float, float, float, float
@@ -212,21 +217,21 @@ class TwoTrackPlant:
         ls, lf = self.vehicle.half_track, self.vehicle.lf
         cd, sd = self._cos_sin_delta
         vyf = vy + r * lf
-        speeds = (
-            (vx - r * ls) * cd + vyf * sd, (vx + r * ls) * cd + vyf * sd,
-            vx - r * ls, vx + r * ls,
-        )
+        vl, vr = vx - r * ls, vx + r * ls
+        speeds = (vl * cd + vyf * sd, vr * cd + vyf * sd, vl, vr)
         rad, floor = self.chassis.wheel_radius, self.chassis.slip_speed_floor
         peak = self._kappa_peak
-        out = list(torques)
-        for i in range(4):
+        out = torques
+        for i in (0, 1, 2, 3):
+            t = torques[i]
             u = speeds[i]
-            kappa = (s[6 + i] * rad - u) / max(abs(u), floor)
-            if (torques[i] > 0.0 and kappa > peak) or (torques[i] < 0.0 and kappa < -peak):
+            excess = s[6 + i] * rad - u  # slip speed
+            limit = peak * (u if u > floor else (-u if -u > floor else floor))
+            if (t > 0.0 and excess > limit) or (t < 0.0 and excess < -limit):
                 transmitted = rad * self._forces[2 + i]
-                out[i] = min(torques[i], transmitted) if torques[i] > 0 else max(
-                    torques[i], transmitted)
-        return out[0], out[1], out[2], out[3]
+                cut = min(t, transmitted) if t > 0.0 else max(t, transmitted)
+                out = (*out[:i], cut, *out[i + 1:])  # type: ignore[assignment]
+        return out
 
     def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Integrate h seconds: steering delta (rad), wheel torques R * fx_cmd (N m), cut
@@ -238,7 +243,9 @@ class TwoTrackPlant:
         self._torque = self._slip_limited(
             (rad * fx_cmd[0], rad * fx_cmd[1], rad * fx_cmd[2], rad * fx_cmd[3])
         )
-        limit = min(self.max_step, self.step_factor * self.wheel_time_constant())
+        limit = self.step_factor * self.wheel_time_constant()
+        if limit > self.max_step:
+            limit = self.max_step
         n = max(1, math.ceil(h / limit - 1e-9))
         hi = h / n
         s = self.state
