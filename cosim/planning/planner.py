@@ -25,6 +25,7 @@ from cosim.planning.collision import (
     COLLISION_TESTS,
     ClusterMotion,
     HeadingFn,
+    PoseFn,
     check_cluster,
     cluster_motion,
     sampling_pad,
@@ -243,7 +244,7 @@ class LaneChangePlanner:
 
     def _sv_cluster(
         self, sv: SVPlanState, vxf: float, width: float, taus: Array, t_rel: Array
-    ) -> tuple[Array, Array, HeadingFn, ClusterMotion]:
+    ) -> tuple[Array, Array, HeadingFn, ClusterMotion, PoseFn]:
         """Global (x, y) of every candidate on the time grid, its heading as a function
         of (candidate, time) indices (headings are needed only where the exact test
         runs), and the bounds on its motion per sample step."""
@@ -266,13 +267,19 @@ class LaneChangePlanner:
             )[1]
             return np.arctan2(yd[:, 0], xd[:, 0])
 
+        def pose(c: NDArray[np.int64], tt: Array) -> tuple[Array, Array, Array]:
+            d = cluster_derivatives(sv.vx, vxf, width, taus[c][:, None], tt, (0, 1), **kw)
+            (px, py), (vx, vy) = d[0], d[1]
+            return px + sv.x, py + sv.y, np.arctan2(vy, vx)
+
         x += sv.x
         y += sv.y
-        return x, y, heading, motion
+        return x, y, heading, motion, pose
 
     def _collisions(
         self, t: float, t_rel: Array, sx: Array, sy: Array, sh: Array | HeadingFn,
         sv_end: Array, futures: TVFutures, motion: ClusterMotion | None = None,
+        pose: PoseFn | None = None,
     ) -> tuple[NDArray[np.bool_], list[str | None], list[float | None]]:
         """(collides (n_c,), first TV id, first time) of every SV candidate."""
         cfg = self.config
@@ -289,7 +296,7 @@ class LaneChangePlanner:
             sv_end + cfg.horizon_extra, futures.x, futures.y, futures.heading,
             futures.length, futures.width, tv_end + cfg.horizon_extra,
             margin=cfg.safety_margin, test=cfg.collision_test, pad=pad,
-            sv_max_heading=motion.max_heading,
+            sv_max_heading=motion.max_heading, sv_pose=pose,
         )
         ids: list[str | None] = [None] * n_c
         when: list[float | None] = [None] * n_c
@@ -326,9 +333,9 @@ class LaneChangePlanner:
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
         )
-        sx, sy, sh, motion = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
+        sx, sy, sh, motion, pose = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
         collides, ids, when = self._collisions(t, t_rel, sx, sy, sh, taus[cand], futures,
-                                               motion)
+                                               motion, pose)
         free = np.zeros(taus.size, dtype=bool)
         free[cand[~collides]] = True
         w = omega(occupant, road.mu)
@@ -375,8 +382,14 @@ class LaneChangePlanner:
         ts = t + t_rel
         x, y = trajectory.position(ts)
         h = trajectory.heading(ts)
+
+        def pose(c: NDArray[np.int64], tt: Array) -> tuple[Array, Array, Array]:
+            px, py = trajectory.position(tt)
+            return px, py, trajectory.heading(tt)
+
         collides, ids, when = self._collisions(
-            t, t_rel, x[None, :], y[None, :], h[None, :], np.array([remaining]), futures
+            t, t_rel, x[None, :], y[None, :], h[None, :], np.array([remaining]), futures,
+            pose=pose,
         )
         if not collides[0]:
             return None

@@ -172,3 +172,31 @@ def test_closed_form_cluster_bounds_cover_the_sampled_motion() -> None:
         assert b.dy_max >= np.abs(yd).max() - 1e-9
         assert b.turn >= rate.max() - 1e-9
         assert b.max_heading >= np.abs(np.arctan2(yd, xd)).max() - 1e-9
+
+
+def test_refinement_keeps_real_overlaps_and_drops_pad_only_ones() -> None:
+    """Between-sample look: a real crossing between samples stays a collision, a near
+    miss that only the pad turned into an overlap does not."""
+    t = np.arange(0.0, 0.5001, 0.05)
+    n_t = t.size
+    zeros = np.zeros((1, n_t))
+
+    def pose(c: np.ndarray, tt: np.ndarray) -> tuple[np.ndarray, ...]:
+        return np.zeros_like(tt), np.zeros_like(tt), np.zeros_like(tt)
+
+    def run(ty: np.ndarray, tx: np.ndarray, pad: float, refine: bool) -> bool:
+        return bool(check_cluster(
+            t, zeros, zeros, zeros, 4.32, 1.8, np.array([1.0]), tx[None, :], ty[None, :],
+            np.zeros((1, n_t)), np.array([4.32]), np.array([1.8]), np.array([1.0]),
+            pad=np.array([pad]), sv_pose=pose if refine else None,
+        ).collides[0])
+
+    # crossing sideways at 80 m/s: overlaps only between t = 0.2 and 0.25
+    ty = -1.9 + 80.0 * (t - 0.2)
+    assert run(ty, np.zeros(n_t), 1.0, refine=False)
+    assert run(ty, np.zeros(n_t), 1.0, refine=True)
+    # passing 1.95 m to the side (15 cm clear) at 30 m/s relative: never overlaps
+    tx = -5.0 + 30.0 * t
+    side = np.full(n_t, 1.95)
+    assert run(side, tx, 0.4, refine=False)  # the pad alone calls it a collision
+    assert not run(side, tx, 0.4, refine=True)
