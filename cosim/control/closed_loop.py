@@ -90,7 +90,7 @@ class StepRecord:
     dmz: float  # N m, yaw moment demanded (eq. 24; 0 for SISO)
     fa: float  # N, longitudinal force demanded (eq. 28)
     fx: tuple[float, float, float, float]  # N, wheel longitudinal forces FL, FR, RL, RR
-    fy: tuple[float, float, float, float] | None  # N, wheel lateral forces (None: none)
+    fy: tuple[float, float, float, float] | None  # N, wheel lateral forces (2-DOF: axle / 2)
     fz: tuple[float, float, float, float] | None  # N, wheel loads (two-track only)
     saturated: bool  # an actuator limit was active during the step
 

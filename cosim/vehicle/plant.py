@@ -16,7 +16,7 @@ class PlantOutputs:
     ax: float  # m/s^2, body longitudinal acceleration of the CG
     ay: float  # m/s^2, body lateral acceleration of the CG
     fx: tuple[float, float, float, float]  # N, wheel longitudinal forces (wheel frame)
-    fy: tuple[float, float, float, float] | None  # N, wheel lateral forces (None: axle model)
+    fy: tuple[float, float, float, float] | None  # N, wheel lateral forces (2-DOF: axle / 2)
     fz: tuple[float, float, float, float] | None  # N, wheel vertical loads (None: not modelled)
 
 
