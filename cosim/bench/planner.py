@@ -34,7 +34,6 @@ from cosim.bench import median_time
 from cosim.params import PlannerConfig, RoadParams, VehicleParams, kmh
 from cosim.planning.collision import (
     REFINE_SUBSTEPS,
-    cluster_motion,
     overlap_sat,
     sampling_pad,
 )
@@ -136,10 +135,10 @@ def loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int
     tau_min = tau_min_from_margin(taus, margins)
     cand = np.unique(np.concatenate([taus[stable], [tau_min] if np.isfinite(tau_min) else []]))
     # the same conservative sampling pad as the planner (from the whole stable cluster)
-    sx_all, sy_all = cluster_derivatives(sv.vx, vxf, width, cand, t_rel, (0,), **kw)[0]
+    motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[3]  # the planner's bounds
     r_sv = 0.5 * math.hypot(veh.length, veh.width)
-    pad = sampling_pad(cluster_motion(sx_all + sv.x, sy_all + sv.y), futures.x, futures.y,
-                       futures.heading, r_sv, 0.5 * np.hypot(futures.length, futures.width))
+    pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv,
+                       0.5 * np.hypot(futures.length, futures.width))
     tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
     free = np.zeros(taus.size, dtype=bool)
     for i, tau in enumerate(taus):  # one candidate at a time
@@ -230,10 +229,10 @@ def step_loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target
     stable = margins <= 1.0
     tau_min = tau_min_from_margin(taus, margins)
     cand = np.unique(np.concatenate([taus[stable], [tau_min] if np.isfinite(tau_min) else []]))
-    sx_all, sy_all = cluster_derivatives(sv.vx, vxf, width, cand, t_rel, (0,), **kw)[0]
+    motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[3]  # the planner's bounds
     r_sv = 0.5 * math.hypot(veh.length, veh.width)
-    pad = sampling_pad(cluster_motion(sx_all + sv.x, sy_all + sv.y), futures.x, futures.y,
-                       futures.heading, r_sv, 0.5 * np.hypot(futures.length, futures.width))
+    pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv,
+                       0.5 * np.hypot(futures.length, futures.width))
     tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
     fx, fy, fh = futures.x.tolist(), futures.y.tolist(), futures.heading.tolist()
     free = np.zeros(taus.size, dtype=bool)
