@@ -8,11 +8,13 @@ study is run once and is the reference of the Dask, resume and failure tests.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -258,3 +260,48 @@ def test_failing_run_is_recorded_and_the_others_go_on(tmp_path: Path) -> None:
     assert run_study(bad + good, out, workers=2, progress=False, plots=False).ran == 0
     again = run_study(bad + good, out, workers=1, progress=False, plots=False, retry_failed=True)
     assert again.ran == 1 and again.failed == 1
+
+
+def _children(pid: int) -> list[int]:
+    """Processes whose parent is `pid` (Linux /proc)."""
+    kids = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            kids.append(int(stat.parent.name))
+    return kids
+
+
+def test_a_run_whose_process_dies_is_recorded_failed(tmp_path: Path) -> None:
+    # A real crash: every process the pool starts is SIGKILLed while this test
+    # watches, so the run never returns; it is retried alone, dies again and is
+    # recorded failed, and the study still finishes. Then, undisturbed, a retry runs.
+    from multiprocessing import forkserver
+
+    specs = expand(BASE, densities=[5], seeds=[1], occupants=[0.5], mus=[0.8],
+                   drivers=["sumo"], plants=["twotrack"])
+    stop = threading.Event()
+
+    def kill_workers() -> None:
+        while not stop.is_set():
+            server = getattr(forkserver._forkserver, "_forkserver_pid", None)
+            for pid in _children(server) if server else []:
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+            time.sleep(0.005)
+
+    killer = threading.Thread(target=kill_workers, daemon=True)
+    killer.start()
+    try:
+        result = run_study(specs, tmp_path, workers=2, progress=False, plots=False)
+    finally:
+        stop.set()
+        killer.join()
+    assert result.failed == 1
+    assert result.runs["error"].str.startswith("worker process died").all()
+    again = run_study(specs, tmp_path, workers=2, progress=False, plots=False,
+                      retry_failed=True)
+    assert again.ran == 1 and again.failed == 0

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from cosim.batch import expand, run_study
+from cosim.batch import expand, run_study, warm_up
 from cosim.scenario import project_root
 
 
@@ -44,6 +44,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         occupants=(0.5,), mus=(0.8,), drivers=(args.driver,), plants=("twotrack",),
         duration=args.duration,
     )
+    warm_up()  # the fork server's one-off start-up is no part of either case
     load_before = os.getloadavg()[0]
     cases = (1, args.workers)
     times: dict[int, list[float]] = {n: [] for n in cases}
