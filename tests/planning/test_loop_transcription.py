@@ -35,3 +35,20 @@ def test_loop_agrees_on_the_dense_case() -> None:
     assert len(messages) == 20
     assert sum(m.intention != 0 for m in messages) == 5
     _agree((planner, t, sv, target, messages, occupant))
+
+
+def test_loop_agrees_when_planning_mid_manoeuvre() -> None:
+    """A start off the lane centre with lateral speed and accelerations: the general
+    cluster, the envelope run directly (no map) and the unordered fallbacks."""
+    from cosim.planning.planner import SVPlanState
+
+    planner, t, sv, target, messages, occupant = paper_situation("paper_case1_overtaking")
+    planner = _coarse(planner)
+    mid = SVPlanState(sv.x, sv.y + 0.4, 0.02, sv.vx, 0.3, 0.5, 0.2, sv.lane)
+    plan = planner.plan(t, mid, target, messages, occupant)
+    assert plan.trajectory is not None
+    assert plan.trajectory.vy0 == 0.5 and plan.trajectory.y_final == planner.road.lane_center(1)
+    on_grid = np.isin(np.round(plan.taus, 9), np.round(planner.grid, 9))
+    loop = loop_plan(planner, t, mid, target, messages)
+    np.testing.assert_array_equal(plan.collision_free[on_grid], loop)
+    assert loop.any() and not loop.all()
