@@ -128,7 +128,8 @@ METRIC_DOCS: dict[str, str] = {
     "plant": "twotrack | bicycle (none for the baseline)",
     "duration_s": "simulated time (s)",
     "steps": "number of SUMO steps",
-    "lane_change_requests": "lane changes requested (scripted or by the decision rule)",
+    "lane_change_requests": "lane changes requested (scripted or by the decision rule; "
+    "for the SUMO baseline with decision = true, also the changes SUMO made on its own)",
     "plans": "planner calls",
     "plans_failed": "planner calls that found no collision-free tau",
     "lane_changes": "lane changes completed (ended within 0.1 m of the target lane centre)",
@@ -706,6 +707,10 @@ class CoSimulation:
             collisions += len(hits - prev)
             prev = hits
         ok_plans = [p for p in self.plans if p["ok"] == 1]
+        requests = self.requests
+        if self.baseline and sc.sv.decision:
+            # SUMO's own lane-change model decided: each change it made was its request
+            requests += max(len(starts) - self.requests, 0)
         y_end = float(trace["y_m"][-1])
         lane_end = self.road.lane_of(y_end)
         m: dict[str, Any] = {
@@ -715,11 +720,11 @@ class CoSimulation:
             "plant": "none" if self.baseline else sc.sv.plant,
             "duration_s": float(t[-1]),
             "steps": self.n_steps,
-            "lane_change_requests": self.requests,
+            "lane_change_requests": requests,
             "plans": 0 if self.baseline else len(self.plans),
             "plans_failed": sum(1 for p in self.plans if p["ok"] == 0),
             "lane_changes": int(done.size),
-            "lane_change_completed": int(self.requests > 0 and len(starts) > 0
+            "lane_change_completed": int(requests > 0 and len(starts) > 0
                                          and done.size == len(starts)),
             "lane_change_duration_s": float(done.mean()) if done.size else math.nan,
             "lane_change_duration_max_s": float(done.max()) if done.size else math.nan,
