@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=project_root() / "scenarios" / "study_density_base.toml",
                         help="base scenario (default: scenarios/study_density_base.toml)")
     parser.add_argument("--densities", default="10,20", help="veh/km/lane, comma-separated")
-    parser.add_argument("--seeds", type=int, default=4, help="seeds 1..N per density")
+    parser.add_argument("--seeds", type=int, default=8, help="seeds 1..N per density")
     parser.add_argument("--driver", default="mimo", help="mimo, siso or sumo")
     parser.add_argument("--duration", type=float, default=20.0, help="s, simulated time per run")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 2,
