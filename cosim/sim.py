@@ -372,6 +372,8 @@ class CoSimulation:
             + 2.0 * self.sv_length
         # the first step inserts every vehicle at its place
         self.sumo.step()
+        if self.baseline:
+            self.sumo.release(SV_ID)  # from now on SUMO drives it
         self.t_offset = self.sumo.time  # SUMO's clock when our t = 0
         self.sumo.follow_in_gui(SV_ID)
         self.v_ref = sc.sv.speed  # m/s, lane-keeping reference speed (integrated IDM)

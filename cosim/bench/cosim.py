@@ -6,6 +6,8 @@ Side by side in one run, medians over repeats, each from SUMO start to close:
   inflow, lane-change settings, band rule) stepped by SumoSim with no SV;
 - "cosim": the same scenario with our SV (planner, controller, plant, V2V,
   decision rule, moveToXY write-back, per-step trace and collision check);
+- "cosim, SUMO drives the SV": the same loop with the SUMO-native baseline SV
+  (what the loop's bookkeeping costs without planner, controller and plant);
 - a paper case (5.1 by default): its real-time factor, simulated / wall time.
 
 Targets: cosim / sumo alone <= 2.0; the paper case >= 50x real time.
@@ -79,8 +81,9 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     # warm-up (imports, first libsumo start), then alternate so drift hits both alike
     sumo_alone(with_overrides(dense, duration=1.0))
     cosim_run(with_overrides(dense, duration=1.0))
-    walls: dict[str, list[float]] = {"alone": [], "ours": [], "paper": []}
-    cpus: dict[str, list[float]] = {"alone": [], "ours": [], "paper": []}
+    baseline = with_overrides(dense, controller="sumo")
+    walls: dict[str, list[float]] = {"alone": [], "ours": [], "baseline": [], "paper": []}
+    cpus: dict[str, list[float]] = {"alone": [], "ours": [], "baseline": [], "paper": []}
     timing: dict[str, Any] = {}
     for _ in range(repeats):
         wall, cpu = sumo_alone(dense)
@@ -89,6 +92,9 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         wall, cpu, timing = cosim_run(dense)
         walls["ours"].append(wall)
         cpus["ours"].append(cpu)
+        wall, cpu, _ = cosim_run(baseline)
+        walls["baseline"].append(wall)
+        cpus["baseline"].append(cpu)
         wall, cpu, _ = cosim_run(paper)
         walls["paper"].append(wall)
         cpus["paper"].append(cpu)
@@ -97,6 +103,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     rows = []
     for key, label, sc in (("alone", f"sumo alone ({dense.name})", dense),
                            ("ours", f"cosim, our SV ({dense.name})", dense),
+                           ("baseline", f"cosim, SUMO drives the SV ({dense.name})", baseline),
                            ("paper", f"paper case ({paper.name})", paper)):
         rows.append({"case": label, "wall_s": w[key], "cpu_s": c[key],
                      "per_step_ms": 1e3 * w[key] / sc.n_steps,
@@ -109,6 +116,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         "ratios": {
             "cosim / sumo alone": t_ours / t_alone,
             "cosim / sumo alone (cpu)": c["ours"] / c["alone"],
+            "cosim / cosim with the SUMO baseline SV": t_ours / w["baseline"],
             "paper case real-time factor": paper.duration / t_paper,
             "paper case real-time factor (cpu)": paper.duration / c["paper"],
         },

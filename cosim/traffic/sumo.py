@@ -243,6 +243,7 @@ class SumoSim:
         self._near_key: tuple[str, float] | None = None  # (centre id, radius) of the candidates
         self._near_next = -math.inf  # s, simulation time of the next candidate refresh
         self._near_candidates: tuple[str, ...] = ()
+        self._release: dict[str, tuple[float, int]] = {}  # add_driven: (desired m/s, lc mode)
 
     # ------------------------------------------------------------------ lifecycle
     def command(self) -> list[str]:
@@ -462,24 +463,32 @@ class SumoSim:
         self, vehicle_id: str, lane: int, x: float, speed: float, desired_speed: float,
         length: float, width: float, *, own_lane_changes: bool = True,
     ) -> None:
-        """Insert a vehicle SUMO drives itself (the SV of the 'sumo' baseline): centre at
+        """A vehicle SUMO will drive itself (the SV of the 'sumo' baseline): centre at
         global x in `lane`, its own size, no driver imperfection, desired speed in m/s.
 
-        own_lane_changes False: SUMO makes no lane change of its own (lane-change
-        mode 512: only `change_lane` requests, still with SUMO's safety checks).
+        It is placed like a controlled vehicle (exactly there, whatever the gaps:
+        SUMO's own insertion may refuse or delay a car in dense traffic) and handed
+        to SUMO by `release` after the step that inserts it. own_lane_changes False:
+        SUMO makes no lane change of its own (lane-change mode 512: only
+        `change_lane` requests, still with SUMO's safety checks).
         """
         type_id = f"driven_{vehicle_id}"
         self._ensure_type(type_id, length, width, traffic=False)
         self.api.vehicletype.setImperfection(type_id, 0.0)
-        front = x - self.highway.x_start + 0.5 * length
-        self.api.vehicle.add(
-            vehicle_id, ROUTE_ID, typeID=type_id, departLane=str(lane),
-            departPos=repr(float(front)), departSpeed=repr(float(max(speed, 0.0))),
-        )
-        self.api.vehicle.setMaxSpeed(vehicle_id, float(desired_speed))
-        if not own_lane_changes:
-            self.api.vehicle.setLaneChangeMode(vehicle_id, 512)
-        self._dims[vehicle_id] = (length, width)
+        self._dims[f"type:{type_id}"] = (length, width)
+        self.add_controlled(vehicle_id, x, self._road.lane_center(lane), 0.0, speed, length,
+                            width, lane, vtype=type_id)
+        self._release[vehicle_id] = (float(desired_speed), 1621 if own_lane_changes else 512)
+
+    def release(self, vehicle_id: str) -> None:
+        """Hand a vehicle placed by `add_driven` to SUMO (call after it is inserted):
+        SUMO's speed and lane-change models from now on."""
+        desired, lc_mode = self._release.pop(vehicle_id)
+        vehicle = self.api.vehicle
+        vehicle.setSpeedMode(vehicle_id, 31)  # SUMO's default: all safety checks
+        vehicle.setLaneChangeMode(vehicle_id, lc_mode)
+        vehicle.setMaxSpeed(vehicle_id, desired)
+        self._controlled.pop(vehicle_id, None)
 
     def follow_in_gui(self, vehicle_id: str, zoom: float = 400.0) -> None:
         """sumo-gui only: keep the main view centred on a vehicle (no-op without GUI)."""
