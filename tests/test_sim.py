@@ -253,3 +253,18 @@ def test_docs_describe_every_output_column() -> None:
     for columns in (TRACE_COLUMNS, PLAN_COLUMNS, METRIC_DOCS, TIMING_DOCS):
         for name in columns:
             assert f"| `{name}` |" in text, name
+
+
+def test_sumo_baseline_sv_starts_where_ours_does_in_dense_traffic() -> None:
+    """SUMO's own insertion would refuse a car at 100 km/h in this traffic: the
+    baseline SV is placed like ours and then driven by SUMO."""
+    sc = with_overrides(load_scenario(SCENARIOS / "traffic_high.toml"), controller="sumo",
+                        duration=5.0)
+    r = simulate(sc)
+    x_ours = simulate(with_overrides(sc, controller="mimo", duration=0.1)).trace["x_m"][0]
+    assert r.trace["x_m"][0] == pytest.approx(x_ours, abs=1e-6)
+    assert r.trace["y_m"][0] == pytest.approx(r.road.lane_center(sc.sv.lane))
+    assert r.trace["vx_mps"][0] == pytest.approx(sc.sv.speed)
+    assert not r.events and r.metrics["collisions"] == 0
+    # SUMO drives it: its speed follows SUMO's car-following model, not a script
+    assert np.all(np.isfinite(r.trace["vx_mps"])) and r.trace["sumo_lane"].min() >= 0
