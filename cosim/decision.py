@@ -210,18 +210,21 @@ def decide(
 
 
 class LaneChangeTimer:
-    """When the SV may ask the planner again: after a failure (retry_interval) or
-    after a finished manoeuvre (cooldown)."""
+    """When the SV may ask the planner again: after a failure, `retry_interval`
+    later (any request); after a finished manoeuvre, `cooldown` later (requests of
+    the decision rule only: a scripted request comes when the scenario says)."""
 
     def __init__(self, cfg: DecisionConfig) -> None:
         self.cfg = cfg
-        self.next_request = -math.inf  # s, simulation time of the earliest next request
+        self.next_retry = -math.inf  # s, earliest request after a failed planning call
+        self.next_decision = -math.inf  # s, earliest decision-rule request after a manoeuvre
 
-    def may_request(self, t: float) -> bool:
-        return t >= self.next_request - 1e-9
+    def may_request(self, t: float, *, decision: bool = True) -> bool:
+        due = t >= self.next_retry - 1e-9
+        return due and (not decision or t >= self.next_decision - 1e-9)
 
     def planning_failed(self, t: float) -> None:
-        self.next_request = t + self.cfg.retry_interval
+        self.next_retry = t + self.cfg.retry_interval
 
     def manoeuvre_done(self, t: float) -> None:
-        self.next_request = t + self.cfg.cooldown
+        self.next_decision = t + self.cfg.cooldown

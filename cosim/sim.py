@@ -554,13 +554,14 @@ class CoSimulation:
         return self.v_cruise
 
     def _decide(self, t: float, sv: dict[str, float], tvs: TrafficSnapshot,
-                allow: bool) -> tuple[int | None, str]:
-        """Car-following acceleration for this step, and a lane change wanted now."""
+                allow_scripted: bool, allow_decision: bool) -> tuple[int | None, str]:
+        """Car-following acceleration for this step, and a lane change wanted now
+        (a due scripted request first, else the decision rule)."""
         lane = self.road.lane_of(sv["y"])
         speed = self.v_ref
         d = decide(sv["x"], sv["y"], speed, self.sv_length, self._desired_speed(lane),
                    tvs.x, tvs.y, tvs.speed * np.cos(tvs.heading), tvs.length, tvs.width,
-                   self.road, self.cfg, allow_change=allow and self.sc.sv.decision,
+                   self.road, self.cfg, allow_change=allow_decision and self.sc.sv.decision,
                    tv_lateral_speed=tvs.lateral_speed)
         # a reference the car can follow: braking within the road's grip, and the
         # acceleration changing at most MAX_FOLLOW_JERK (a new leader cutting in)
@@ -569,7 +570,7 @@ class CoSimulation:
         a = min(max(d.accel, lo, self.idm_accel - step), self.idm_accel + step)
         self.idm_accel = a
         self.leader_gap = d.leader_gap
-        if not allow:
+        if not allow_scripted:
             return None, ""
         # scripted requests first (due, in time order); one already satisfied is dropped
         while self.pending and self.pending[0].at <= t + 1e-9:
@@ -587,7 +588,7 @@ class CoSimulation:
                 self.requests += 1
                 continue
             return target, "scripted"
-        if d.target_lane is not None:
+        if allow_decision and d.target_lane is not None:
             return d.target_lane, "decision"
         return None, ""
 
@@ -602,8 +603,10 @@ class CoSimulation:
             self.v_cruise = self.v_ref
             self.timer.manoeuvre_done(t)
             self.sumo.set_blinker(SV_ID, 0)
-        allow = self.active is None and self.timer.may_request(t)
-        target, trigger = self._decide(t, sv, tvs, allow)
+        free = self.active is None
+        target, trigger = self._decide(
+            t, sv, tvs, free and self.timer.may_request(t, decision=False),
+            free and self.timer.may_request(t))
         if self.v2v_every_step or target is not None:
             if not self.v2v_every_step and self.sc.v2v.range > NEAR_RANGE:
                 snap_all = self.sumo.snapshot()  # everyone: the channel keeps those in range
@@ -683,7 +686,7 @@ class CoSimulation:
             break
         # the gap to the leader, for the trace (SUMO's own model follows it)
         self.v_ref = sv["vx"]
-        self._decide(t, sv, tvs, allow=False)
+        self._decide(t, sv, tvs, allow_scripted=False, allow_decision=False)
 
     # ------------------------------------------------------------------ results
     def _result(self, wall: float, events: list[str]) -> RunResult:

@@ -140,7 +140,10 @@ def test_timer_waits_after_a_failure_and_after_a_manoeuvre() -> None:
     assert timer.may_request(2.0 + CFG.retry_interval)
     timer.manoeuvre_done(10.0)
     assert not timer.may_request(12.0)
+    assert timer.may_request(12.0, decision=False)  # a scripted request is not held back
     assert timer.may_request(10.0 + CFG.cooldown)
+    timer.planning_failed(20.0)
+    assert not timer.may_request(20.5, decision=False)
 
 
 def test_a_tv_leaving_the_lane_is_no_longer_the_leader() -> None:

@@ -268,3 +268,31 @@ def test_sumo_baseline_sv_starts_where_ours_does_in_dense_traffic() -> None:
     assert not r.events and r.metrics["collisions"] == 0
     # SUMO drives it: its speed follows SUMO's car-following model, not a script
     assert np.all(np.isfinite(r.trace["vx_mps"])) and r.trace["sumo_lane"].min() >= 0
+
+
+THERE_AND_BACK = """
+[scenario]
+name = "there_and_back"
+duration_s = 10.0
+[road]
+mu = 0.8
+[sv]
+lane = 0
+position_m = 200.0
+speed_kmh = 85.0
+occupant = 1.0
+lane_changes = [{at_s = 0.0, target_lane = 1}, {at_s = 4.0, target_lane = 0}]
+"""
+
+
+def test_scripted_requests_come_when_the_scenario_says(tmp_path: Path) -> None:
+    """Two scripted changes, the second 4 s after the first began: it starts at 4 s
+    (the decision rule's cooldown does not hold scripted requests back), and the SV
+    ends back in the centre of lane 0."""
+    r = simulate(scenario_from(tmp_path, THERE_AND_BACK))
+    assert [p["trigger"] for p in r.plans] == ["scripted", "scripted"]
+    assert [p["t_s"] for p in r.plans] == pytest.approx([0.0, 4.0])
+    first = r.lane_changes[0]
+    assert first.t0 + first.tau < 4.0  # the first was over by then
+    assert r.metrics["lane_changes"] == 2 and r.metrics["final_lane"] == 0
+    assert abs(r.metrics["final_offset_m"]) < 0.1
