@@ -71,7 +71,7 @@ def global_trajectories(
     ax.set_xlabel("global x (m)")
     ax.set_ylabel("global y (m)")
     ax.set_title(title or "global trajectories (dots every 1 s; > start, | end of lane change)")
-    ax.legend(loc="upper left", fontsize=8, ncol=4)
+    ax.legend(loc="upper right", fontsize=8, ncol=4)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
