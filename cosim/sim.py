@@ -247,21 +247,25 @@ class _Tracks:
     def __init__(self) -> None:
         self.chunks: list[tuple[float, tuple[str, ...], Array, Array]] = []
 
-    def add(self, t: float, snap: TrafficSnapshot, mask: NDArray[np.bool_]) -> None:
-        if np.any(mask):
-            ids = tuple(i for i, keep in zip(snap.ids, mask, strict=True) if keep)
-            self.chunks.append((t, ids, snap.x[mask].copy(), snap.y[mask].copy()))
+    def add(self, t: float, snap: TrafficSnapshot) -> None:
+        if len(snap):
+            self.chunks.append((t, snap.ids, snap.x, snap.y))  # snapshots are never modified
 
     def result(self) -> dict[str, tuple[Array, Array, Array]]:
-        rows: dict[str, list[tuple[float, float, float]]] = {}
-        for t, ids, xs, ys in self.chunks:
-            for vid, x, y in zip(ids, xs, ys, strict=True):
-                rows.setdefault(vid, []).append((t, x, y))
-        out = {}
-        for vid, r in rows.items():
-            a = np.asarray(r)
-            out[vid] = (a[:, 0], a[:, 1], a[:, 2])
-        return out
+        """id -> (t, x, y) arrays in time order."""
+        if not self.chunks:
+            return {}
+        ids = np.array([vid for _, chunk_ids, _, _ in self.chunks for vid in chunk_ids])
+        t = np.concatenate([np.full(len(c[1]), c[0]) for c in self.chunks])
+        x = np.concatenate([c[2] for c in self.chunks])
+        y = np.concatenate([c[3] for c in self.chunks])
+        names, inverse = np.unique(ids, return_inverse=True)
+        order = np.argsort(inverse, kind="stable")  # by vehicle, in time order within
+        bounds = np.searchsorted(inverse[order], np.arange(names.size + 1))
+        return {
+            str(name): (t[order[a:b]], x[order[a:b]], y[order[a:b]])
+            for name, a, b in zip(names, bounds[:-1], bounds[1:], strict=True)
+        }
 
 
 def lane_keeping_reference(
@@ -470,9 +474,11 @@ class CoSimulation:
 
     def _near(self, snap_all: TrafficSnapshot, sv: dict[str, float]
               ) -> tuple[NDArray[np.bool_], TrafficSnapshot]:
-        not_sv = np.array([vid != SV_ID for vid in snap_all.ids], dtype=bool)
-        near = not_sv & (np.abs(snap_all.x - sv["x"]) <= NEAR_RANGE) & (snap_all.lane >= 0)
-        return near, snap_all.select(near)
+        near = (np.abs(snap_all.x - sv["x"]) <= NEAR_RANGE) & (snap_all.lane >= 0)
+        near[snap_all.index(SV_ID)] = False
+        tvs = snap_all.select(near)
+        self.tv_vx = tvs.speed * np.cos(tvs.heading)  # m/s, global x velocities
+        return near, tvs
 
     def _record_row(self, k: int, t: float, sv: dict[str, float], tvs: TrafficSnapshot) -> None:
         from cosim.planning.collision import overlap_sat
@@ -520,7 +526,7 @@ class CoSimulation:
         tv_hx, tv_hy = mx.half_extents(tvs.length, tvs.width, tvs.heading)
         sv_vxg = vx * math.cos(h) - vy * math.sin(h)
         gap, ttc = mx.gap_ttc(x, y, sv_vxg, hx, hy, tvs.x, tvs.y,
-                             tvs.speed * np.cos(tvs.heading), tv_hx, tv_hy)
+                             self.tv_vx, tv_hx, tv_hy)
         row[C["gap_min_m"]] = float(gap.min()) if gap.size else math.inf
         row[C["ttc_min_s"]] = float(ttc.min()) if ttc.size else math.inf
         # exact test only where the bounding circles meet (most steps: nobody)
@@ -535,7 +541,7 @@ class CoSimulation:
         row[C["collisions"]] = len(hits)
         row[C["sumo_collisions"]] = self.sumo_step_collisions
         row[C["n_tvs"]] = len(tvs)
-        self.tracks.add(t, tvs, np.ones(len(tvs), dtype=bool))
+        self.tracks.add(t, tvs)
 
     def _sumo_collisions(self) -> None:
         """SUMO's collisions of the last step that involve the SV (cross-check)."""
@@ -560,7 +566,7 @@ class CoSimulation:
         lane = self.road.lane_of(sv["y"])
         speed = self.v_ref
         d = decide(sv["x"], sv["y"], speed, self.sv_length, self._desired_speed(lane),
-                   tvs.x, tvs.y, tvs.speed * np.cos(tvs.heading), tvs.length, tvs.width,
+                   tvs.x, tvs.y, self.tv_vx, tvs.length, tvs.width,
                    self.road, self.cfg, allow_change=allow_decision and self.sc.sv.decision,
                    tv_lateral_speed=tvs.lateral_speed)
         # a reference the car can follow: braking within the road's grip, and the
