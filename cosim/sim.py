@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from cosim import metrics as mx
 from cosim.decision import DecisionConfig, LaneChangeTimer, decide
+from cosim.errors import SimulationError
 from cosim.params import G, RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.scenario import Scenario
@@ -460,6 +461,9 @@ class CoSimulation:
 
     def _sv_view(self, snap_all: TrafficSnapshot) -> dict[str, float]:
         """The SV now: ours from the closed loop, the baseline's from SUMO."""
+        if SV_ID not in snap_all.ids:  # the baseline SV reached the road's end
+            raise SimulationError(snap_all.time - self.t_offset,
+                                  "the SV is no longer on the network (end of the road?)")
         i = snap_all.index(SV_ID)
         lane = float(snap_all.lane[i])
         if not self.baseline:
