@@ -126,6 +126,8 @@ def test_a_forced_overlap_is_detected_by_our_check(tmp_path: Path) -> None:
     r = simulate(scenario_from(tmp_path, CUT_IN))
     assert r.metrics["collisions"] == 1  # one contact, counted once however long it lasts
     assert r.metrics["collision"] == 1
+    # SUMO's cross-check sees it too (one-dimensionally, once the TV's lane index is the SV's)
+    assert r.metrics["sumo_collisions"] == 1
     hit = r.trace["collisions"] > 0
     t_first = r.trace["t_s"][np.argmax(hit)]
     # the TV (quintic over 3 s from 0.5 s) reaches the SV's body when its near side,
