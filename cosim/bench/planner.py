@@ -135,7 +135,7 @@ def loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int
     tau_min = tau_min_from_margin(taus, margins)
     cand = np.unique(np.concatenate([taus[stable], [tau_min] if np.isfinite(tau_min) else []]))
     # the same conservative sampling pad as the planner (from the whole stable cluster)
-    motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[3]  # the planner's bounds
+    motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[1]  # the planner's bounds
     r_sv = 0.5 * math.hypot(veh.length, veh.width)
     pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv,
                        0.5 * np.hypot(futures.length, futures.width))
@@ -229,7 +229,7 @@ def step_loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target
     stable = margins <= 1.0
     tau_min = tau_min_from_margin(taus, margins)
     cand = np.unique(np.concatenate([taus[stable], [tau_min] if np.isfinite(tau_min) else []]))
-    motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[3]  # the planner's bounds
+    motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[1]  # the planner's bounds
     r_sv = 0.5 * math.hypot(veh.length, veh.width)
     pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv,
                        0.5 * np.hypot(futures.length, futures.width))

@@ -19,6 +19,7 @@ two samples (beyond the paper).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -226,15 +227,213 @@ def _expand(lo: IntArray, hi: IntArray) -> tuple[IntArray, IntArray]:
     return lo[q] + (np.arange(q.size) - starts[q]), q
 
 
+class ArrayCluster:
+    """An SV cluster given as (n_c, n_t) arrays of x and y (any cluster)."""
+
+    def __init__(self, x: Array, y: Array, heading: Array | HeadingFn) -> None:
+        self.x, self.y = x, y
+        self.n_c, self.n_t = x.shape
+        self._heading = heading
+        self._ord: tuple[_Ordered | None, _Ordered | None] | None = None
+
+    def bbox(self) -> tuple[Array, Array, Array, Array]:
+        """m, per time (n_t,): x min, x max, y min, y max over the candidates."""
+        return self.x.min(axis=0), self.x.max(axis=0), self.y.min(axis=0), self.y.max(axis=0)
+
+    def xy(self, c: IntArray, k: IntArray) -> tuple[Array, Array]:
+        return self.x[c, k], self.y[c, k]
+
+    def heading(self, c: IntArray, k: IntArray) -> Array:
+        h = self._heading
+        return h(c, k) if callable(h) else h[c, k]
+
+    def windows(self, k: IntArray, x: Array, hx: Array, y: Array, hy: Array,
+                slack: float) -> tuple[IntArray, IntArray] | None:
+        """Candidate rows [lo, hi) that may lie within (hx, hy) of (x, y) at time index k
+        (a superset), or None when the cluster is not ordered (every row may)."""
+        if self._ord is None:
+            # a lane-change cluster is ordered by tau at every time (|y| falls, and x
+            # moves one way, as tau grows): each window condition holds on one run of rows
+            self._ord = (_ordered(self.x, slack), _ordered(self.y, slack))
+        runs = [_run(o, k, v, lim) for o, v, lim in zip(self._ord, (x, y), (hx, hy), strict=True)
+                if o is not None]
+        if not runs:
+            return None
+        return np.maximum.reduce([r[0] for r in runs]), np.minimum.reduce([r[1] for r in runs])
+
+
+INVERSE_NODES = 16384  # -, value steps of the inverse tables of eq. 2 and eq. 4 below
+
+
+def _falling_inverse(f: Callable[[Array], Array], values: Array) -> Array:
+    """Roots u in [0, 1] of f(u) = values for a falling f (bisection to the last bit)."""
+    lo, hi = np.zeros(values.size), np.ones(values.size)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        above = f(mid) > values
+        lo = np.where(above, mid, lo)
+        hi = np.where(above, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+@functools.cache
+def _inverse_tables() -> tuple[Array, Array]:
+    """Inverses on even value steps j / INVERSE_NODES, j = 0 .. INVERSE_NODES:
+    of P(s) = 10 s^3 - 15 s^4 + 6 s^5 (eq. 4 normalised: rising from 0 to 1) at the
+    values j / n, and of H(u) = 1 - u^2 + u^3 / 2 (eq. 2: x = x0 + vxf t + (vx0 - vxf)
+    t H(t / tau), falling from 1 to 1/2 on [0, 1], 1 / (2 u) past it) at 1 - j / (2 n).
+    Both inverses rise with j, so entries j and j + 1 bracket any value between."""
+    n = INVERSE_NODES
+    v = np.arange(n + 1) / n
+    s_of_p = _falling_inverse(lambda s: -(s**3 * (10.0 - 15.0 * s + 6.0 * s * s)), -v)
+    u_of_h = _falling_inverse(lambda u: 1.0 - u * u + 0.5 * u**3, 1.0 - 0.5 * v)
+    s_of_p[0], s_of_p[-1], u_of_h[0], u_of_h[-1] = 0.0, 1.0, 0.0, 1.0
+    return s_of_p, u_of_h
+
+
+_WINDOW_TOLERANCE = 1e-6  # m, the windows' boxes are grown by this (rounding)
+
+
+class StandardCluster:
+    """The SV cluster of eq. 2 / eq. 4 from rest (no initial lateral motion or
+    acceleration), never stored as (n_c, n_t) arrays: positions are computed where
+    they are asked for (`standard_positions_at`, the same numbers as
+    `standard_positions`), the per-time bounding box from the two extreme candidates
+    and the candidate windows by inverting eq. 2 and eq. 4 in tau (both are monotone
+    in tau at any fixed time)."""
+
+    def __init__(self, t: Array, taus: Array, x0: float, y0: float, vx0: float, vxf: float,
+                 width: float, heading: HeadingFn) -> None:
+        self.t, self.taus = t, taus  # taus sorted ascending
+        self.x0, self.y0, self.vx0, self.vxf, self.width = x0, y0, vx0, vxf, width
+        self.n_c, self.n_t = taus.size, t.size
+        self._heading = heading
+        # evenly spaced from the second candidate on (the first may be tau_min itself):
+        # index ranges by arithmetic instead of a binary search per query
+        steps = np.diff(taus[1:])
+        self._step = float(steps.mean()) if steps.size else 0.0
+        self._even = steps.size > 0 and self._step > 0.0 and bool(
+            np.all(np.abs(steps - self._step) <= 1e-9 * self._step))
+
+    def _index_range(self, tau_lo: Array, tau_hi: Array) -> tuple[IntArray, IntArray]:
+        """Candidates [lo, hi) holding every tau in [tau_lo, tau_hi], and one more on
+        each side (rounding)."""
+        n_c = self.n_c
+        if not self._even:
+            lo = np.searchsorted(self.taus, tau_lo, side="left") - 1
+            hi = np.searchsorted(self.taus, tau_hi, side="right") + 1
+        else:  # taus[j] = taus[1] + (j - 1) step for j >= 1, taus[0] <= taus[1]
+            t1, d = self.taus[1], self._step
+            lo = np.floor(np.minimum(np.maximum((tau_lo - t1) / d, -2.0), n_c)) - 1.0
+            hi = np.ceil(np.minimum(np.maximum((tau_hi - t1) / d, -2.0), n_c)) + 3.0
+            with np.errstate(invalid="ignore"):  # nan at t = 0 (handled by the caller)
+                lo, hi = lo.astype(np.int64), hi.astype(np.int64)
+        return np.maximum(lo, 0), np.minimum(hi, n_c)
+
+    def xy(self, c: IntArray, k: IntArray) -> tuple[Array, Array]:
+        from cosim.planning.trajectory import standard_positions_at
+
+        x, y = standard_positions_at(self.vx0, self.vxf, self.width, self.taus[c], self.t[k])
+        x += self.x0
+        y += self.y0
+        return x, y
+
+    def heading(self, c: IntArray, k: IntArray) -> Array:
+        return self._heading(c, k)
+
+    def bbox(self) -> tuple[Array, Array, Array, Array]:
+        ends = np.array([0, self.n_c - 1])
+        x, y = self.xy(np.repeat(ends, self.n_t), np.tile(np.arange(self.n_t), 2))
+        x, y = x.reshape(2, self.n_t), y.reshape(2, self.n_t)
+        tol = _WINDOW_TOLERANCE
+        return x.min(axis=0) - tol, x.max(axis=0) + tol, y.min(axis=0) - tol, y.max(axis=0) + tol
+
+    def windows(self, k: IntArray, x: Array, hx: Array, y: Array, hy: Array,
+                slack: float) -> tuple[IntArray, IntArray]:
+        """Candidates [lo, hi) whose centre may be within (hx, hy) of (x, y) at time
+        index k: a superset (table brackets, grown boxes, one more candidate each side)."""
+        tol = _WINDOW_TOLERANCE
+        n = INVERSE_NODES
+        s_of_p, u_of_h = _inverse_tables()
+        t = self.t[k]
+        tau_lo = np.zeros(k.size)
+        tau_hi = np.full(k.size, np.inf)
+        empty = np.zeros(k.size, dtype=bool)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            if self.width != 0.0:  # y = y0 + W P(s), s = min(t / tau, 1)
+                a = (y - hy - tol - self.y0) * (n / self.width)  # in table steps
+                b = (y + hy + tol - self.y0) * (n / self.width)
+                if self.width < 0:
+                    a, b = b, a
+                empty |= (a > n) | (b < 0.0)
+                # s >= s_lo (a table entry at or below the root): tau <= t / s_lo;
+                # s <= s_hi < 1 (at or above): tau >= t / s_hi
+                s_lo = s_of_p[np.minimum(np.maximum(a, 0.0), n).astype(np.int64)]
+                s_hi = s_of_p[np.minimum(np.maximum(np.ceil(b), 0.0), n).astype(np.int64)]
+                tau_hi = t / s_lo  # s_lo = 0: inf
+                tau_lo = np.where(s_hi < 1.0, t / s_hi, 0.0)
+            dv = self.vx0 - self.vxf
+            if dv != 0.0:  # x = x0 + vxf t + dv t H(t / tau)
+                base = self.x0 + self.vxf * t
+                d = dv * t
+                ha = (x - hx - tol - base) / d
+                hb = (x + hx + tol - base) / d
+                ha, hb = np.minimum(ha, hb), np.maximum(ha, hb)
+                empty |= (ha > 1.0) | (hb <= 0.0)
+                # H(u) <= hb: u >= u_lo; H(u) >= ha: u <= u_hi (H falls); table step
+                # j holds the root of H = 1 - j / (2 n)
+                ja = (1.0 - ha) * (2 * n)
+                jb = (1.0 - hb) * (2 * n)
+                u_lo = np.where(
+                    hb >= 0.5, u_of_h[np.minimum(np.maximum(jb, 0.0), n).astype(np.int64)],
+                    0.5 / hb * (1.0 - 1e-9))
+                u_hi = np.where(
+                    ha >= 0.5,
+                    u_of_h[np.minimum(np.maximum(np.ceil(ja), 0.0), n).astype(np.int64)],
+                    np.where(ha > 0.0, 0.5 / ha * (1.0 + 1e-9), np.inf))
+                tau_lo = np.maximum(tau_lo, t / u_hi)
+                tau_hi = np.minimum(tau_hi, t / u_lo)  # u_lo = 0: inf
+        lo, hi = self._index_range(tau_lo, tau_hi)
+        hi = np.maximum(np.where(empty, lo, hi), lo)
+        at_start = t <= 0.0
+        if at_start.any():  # every candidate is at the start point: all or none
+            inside = ((np.abs(x - self.x0) <= hx + tol) & (np.abs(y - self.y0) <= hy + tol))
+            lo = np.where(at_start, 0, lo)
+            hi = np.where(at_start, np.where(inside, self.n_c, 0), hi)
+        return lo, hi
+
+
+SVCluster = ArrayCluster | StandardCluster
+
+
 def check_cluster(
     t: Array, sv_x: Array, sv_y: Array, sv_heading: Array | HeadingFn, sv_length: float,
     sv_width: float, sv_horizon: Array, tv_x: Array, tv_y: Array, tv_h: Array,
     tv_length: Array, tv_width: Array, tv_horizon: Array, *, margin: float = 0.0,
     test: str = "exact", pad: Array | None = None, chunk: int = 40,
-    sv_max_heading: float = 0.5 * np.pi, split_above: int = 50_000,
+    sv_max_heading: float = 0.5 * np.pi, split_above: int = 10_000,
     sv_pose: PoseFn | None = None,
 ) -> ClusterHits:
     """First overlap of every SV candidate (n_c, n_t) with any TV hypothesis (n_h, n_t).
+    The SV cluster as arrays; see `check_sv_cluster`."""
+    return check_sv_cluster(
+        t, ArrayCluster(sv_x, sv_y, sv_heading), sv_length, sv_width, sv_horizon, tv_x,
+        tv_y, tv_h, tv_length, tv_width, tv_horizon, margin=margin, test=test, pad=pad,
+        chunk=chunk, sv_max_heading=sv_max_heading, split_above=split_above,
+        sv_pose=sv_pose,
+    )
+
+
+def check_sv_cluster(
+    t: Array, sv: SVCluster, sv_length: float,
+    sv_width: float, sv_horizon: Array, tv_x: Array, tv_y: Array, tv_h: Array,
+    tv_length: Array, tv_width: Array, tv_horizon: Array, *, margin: float = 0.0,
+    test: str = "exact", pad: Array | None = None, chunk: int = 40,
+    sv_max_heading: float = 0.5 * np.pi, split_above: int = 10_000,
+    sv_pose: PoseFn | None = None,
+) -> ClusterHits:
+    """First overlap of every SV candidate (n_c of them, on the n_t times t) with any
+    TV hypothesis (n_h, n_t).
 
     A pair (candidate c, hypothesis h) is checked at the times t_k <=
     max(sv_horizon[c], tv_horizon[h]) (eq. 10's horizon, extended by the caller).
@@ -247,14 +446,14 @@ def check_cluster(
     of the circumradii and whose axis-aligned boxes overlap (the SV's box from
     `sv_max_heading`, a bound on |heading| over the cluster); stage 3 runs the
     exact (or CoL) test on those only.
-    `sv_heading` is an (n_c, n_t) array or a function of (c, k) index arrays (so
-    headings are computed only where needed); `pad` (n_h,) grows the rectangles of
+    The SV cluster `sv` computes positions and headings where they are asked for
+    (`StandardCluster`: never the whole (n_c, n_t) grid); `pad` (n_h,) grows the rectangles of
     the exact test (see `sampling_pad`). With `sv_pose` (the SV's exact pose at any
     time), an overlap that exists only thanks to the pad is looked at again at
     REFINE_SUBSTEPS instants around its sample with a pad that many times smaller:
     the verdict stays conservative but nearly exact.
     """
-    n_c, n_t = sv_x.shape
+    n_c, n_t = sv.n_c, sv.n_t
     n_h = tv_x.shape[0]
     collides = np.zeros(n_c, dtype=bool)
     first_k = np.full(n_c, -1, dtype=np.int64)
@@ -263,9 +462,6 @@ def check_cluster(
         return ClusterHits(collides, first_k, first_h, 0)
     if test not in COLLISION_TESTS:
         raise ValueError(f"collision test {test!r}: one of {COLLISION_TESTS}")
-    heading_at: HeadingFn = (
-        sv_heading if callable(sv_heading) else (lambda c, k: sv_heading[c, k])  # type: ignore[index]
-    )
     pad_h = np.zeros(n_h) if pad is None or test == "col" else np.asarray(pad, dtype=float)
     grow = (margin if test == "exact" else 0.0) + pad_h  # (n_h,)
     r_sv = 0.5 * np.hypot(sv_length, sv_width)
@@ -316,16 +512,13 @@ def check_cluster(
         size = min(2 * size, chunk)
     # stage 1, once for all times: hypothesis vs the bounding box of the whole cluster
     r = reach[:, None]
+    bx0, bx1, by0, by1 = sv.bbox()
     near_all = (
         (np.arange(n_t)[None, :] < last_k[:, None])
-        & (tv_x >= sv_x.min(axis=0) - r) & (tv_x <= sv_x.max(axis=0) + r)
-        & (tv_y >= sv_y.min(axis=0) - r) & (tv_y <= sv_y.max(axis=0) + r)
+        & (tv_x >= bx0 - r) & (tv_x <= bx1 + r) & (tv_y >= by0 - r) & (tv_y <= by1 + r)
     )
     busy = np.flatnonzero(near_all.any(axis=0))  # times with any TV near
-    # a lane-change cluster is ordered by tau at every time (|y| falls, and x moves one
-    # way, as tau grows): each window condition holds on one run of candidates
     slack = float(reach.max()) + 8.0
-    ord_x, ord_y = _ordered(sv_x, slack), _ordered(sv_y, slack)
     todo = list(zip(bounds[:-1], bounds[1:], strict=True))[::-1]  # a stack, earliest on top
     while todo:  # chunks of time, in order
         k0, k1 = todo.pop()
@@ -335,43 +528,42 @@ def check_cluster(
         if alive.size == 0:
             break
         ph, pk = np.nonzero(near_all[:, k0:k1])
-        if k1 - k0 > 1 and ph.size * alive.size > split_above:
-            # crowded: the earlier half may settle most candidates before the later one
-            mid = (k0 + k1) // 2
-            todo += [(mid, k1), (k0, mid)]
-            continue
-        pk = pk + k0
+        pk += k0
         # stage 2: remaining candidates x surviving (h, k): boxes, centre distance, horizon
         th = tv_h[ph, pk]
         ct, st = np.abs(np.cos(th)), np.abs(np.sin(th))
         g2 = 2.0 * grow[ph]  # each box grows by at most 2 g (g on each of two sides' projections)
         lim_x = sv_hx + 0.5 * tv_length[ph] * ct + 0.5 * tv_width[ph] * st + g2
         lim_y = sv_hy + 0.5 * tv_length[ph] * st + 0.5 * tv_width[ph] * ct + g2
-        if ord_x is not None or ord_y is not None:
-            runs = [_run(o, pk, v, lim) for o, v, lim in (
-                (ord_x, tv_x[ph, pk], lim_x), (ord_y, tv_y[ph, pk], lim_y)) if o is not None]
-            lo = np.maximum.reduce([r[0] for r in runs])
-            hi = np.minimum.reduce([r[1] for r in runs])
-            qc, qp = _expand(lo, hi)
+        win = sv.windows(pk, tv_x[ph, pk], lim_x, tv_y[ph, pk], lim_y, slack)
+        n_near = int((win[1] - win[0]).sum()) if win is not None else ph.size * alive.size
+        if k1 - k0 > 1 and n_near > split_above:
+            # crowded: the earlier half may settle most candidates before the later one
+            mid = (k0 + k1) // 2
+            todo += [(mid, k1), (k0, mid)]
+            continue
+        if win is not None:
+            qc, qp = _expand(*win)
             keep = ~collides[qc]
             qc, qp = qc[keep], qp[keep]
         else:
             qa, qp = np.nonzero(np.ones((alive.size, pk.size), dtype=bool))
             qc = alive[qa]  # unordered cluster: every remaining candidate
-        dx = sv_x[qc, pk[qp]] - tv_x[ph[qp], pk[qp]]
-        dy = sv_y[qc, pk[qp]] - tv_y[ph[qp], pk[qp]]
+        qh, qk = ph[qp], pk[qp]
+        sx, sy = sv.xy(qc, qk)
+        dx = sx - tv_x[qh, qk]
+        dy = sy - tv_y[qh, qk]
         close = (
             (np.abs(dx) <= lim_x[qp]) & (np.abs(dy) <= lim_y[qp])
-            & (dx * dx + dy * dy <= reach2[ph[qp]])
-            & (t[pk[qp]] <= np.maximum(sv_horizon[qc], tv_horizon[ph[qp]]))
+            & (dx * dx + dy * dy <= reach2[qh])
+            & (t[qk] <= np.maximum(sv_horizon[qc], tv_horizon[qh]))
         )
-        qc, qp = qc[close], qp[close]
+        qc, qh, qk = qc[close], qh[close], qk[close]
         if qc.size == 0:
             continue
-        qh, qk = ph[qp], pk[qp]
         checked += int(qc.size)
         # stage 3: the exact test on the survivors
-        args = (sv_x[qc, qk], sv_y[qc, qk], heading_at(qc, qk), sv_length, sv_width,
+        args = (sx[close], sy[close], sv.heading(qc, qk), sv_length, sv_width,
                 tv_x[qh, qk], tv_y[qh, qk], tv_h[qh, qk], tv_length[qh], tv_width[qh])
         if test == "col":
             ov = overlap_col(*args)
@@ -384,7 +576,12 @@ def check_cluster(
                 maybe = np.flatnonzero(ov & ~raw)
                 if maybe.size:
                     ov = raw
-                    ov[maybe] = _refine(qc[maybe], qh[maybe], qk[maybe])
+                    if raw.any():  # only what may come before a candidate's first sure overlap
+                        sure = np.full(n_c, n_t)
+                        np.minimum.at(sure, qc[raw], qk[raw])
+                        maybe = maybe[qk[maybe] <= sure[qc[maybe]]]
+                    if maybe.size:
+                        ov[maybe] = _refine(qc[maybe], qh[maybe], qk[maybe])
         if not ov.any():
             continue
         oc, oh, ok = qc[ov], qh[ov], qk[ov]

@@ -23,10 +23,12 @@ from cosim.errors import InputError
 from cosim.params import PlannerConfig, RoadParams, VehicleParams
 from cosim.planning.collision import (
     COLLISION_TESTS,
+    ArrayCluster,
     ClusterMotion,
-    HeadingFn,
     PoseFn,
-    check_cluster,
+    StandardCluster,
+    SVCluster,
+    check_sv_cluster,
     cluster_motion,
     sampling_pad,
     standard_cluster_motion,
@@ -45,7 +47,6 @@ from cosim.planning.selection import choose, intervals, omega
 from cosim.planning.trajectory import (
     LaneChangeTrajectory,
     cluster_derivatives,
-    standard_positions,
     standard_velocities,
 )
 from cosim.traffic.v2v import V2VMessage
@@ -244,19 +245,12 @@ class LaneChangePlanner:
 
     def _sv_cluster(
         self, sv: SVPlanState, vxf: float, width: float, taus: Array, t_rel: Array
-    ) -> tuple[Array, Array, HeadingFn, ClusterMotion, PoseFn]:
-        """Global (x, y) of every candidate on the time grid, its heading as a function
-        of (candidate, time) indices (headings are needed only where the exact test
-        runs), and the bounds on its motion per sample step."""
+    ) -> tuple[SVCluster, ClusterMotion, PoseFn]:
+        """Every candidate's global pose on the time grid (computed where the check asks
+        for it: the cluster of eq. 2 / eq. 4 from rest is never stored whole) and the
+        bounds on its motion per sample step."""
         kw = {"ax0": sv.ax, "vy0": sv.vy, "ay0": sv.ay}
         at_rest = abs(sv.ax) < 1e-12 and abs(sv.vy) < 1e-12 and abs(sv.ay) < 1e-12
-        if at_rest and taus.size:  # eq. 2 / eq. 4 as printed: a cheaper form and closed bounds
-            x, y = standard_positions(sv.vx, vxf, width, taus, t_rel)
-            motion = standard_cluster_motion(sv.vx, vxf, width, float(taus.min()),
-                                             self.collision_step)
-        else:
-            x, y = cluster_derivatives(sv.vx, vxf, width, taus, t_rel, (0,), **kw)[0]
-            motion = cluster_motion(x, y)
 
         def heading(c: NDArray[np.int64], k: NDArray[np.int64]) -> Array:
             if at_rest:
@@ -272,27 +266,32 @@ class LaneChangePlanner:
             (px, py), (vx, vy) = d[0], d[1]
             return px + sv.x, py + sv.y, np.arctan2(vy, vx)
 
-        x += sv.x
-        y += sv.y
-        return x, y, heading, motion, pose
+        cluster: SVCluster
+        if at_rest and taus.size:  # eq. 2 / eq. 4 as printed: closed forms and bounds
+            cluster = StandardCluster(t_rel, taus, sv.x, sv.y, sv.vx, vxf, width, heading)
+            motion = standard_cluster_motion(sv.vx, vxf, width, float(taus.min()),
+                                             self.collision_step)
+        else:
+            x, y = cluster_derivatives(sv.vx, vxf, width, taus, t_rel, (0,), **kw)[0]
+            motion = cluster_motion(x, y)
+            cluster = ArrayCluster(x + sv.x, y + sv.y, heading)
+        return cluster, motion, pose
 
     def _collisions(
-        self, t: float, t_rel: Array, sx: Array, sy: Array, sh: Array | HeadingFn,
-        sv_end: Array, futures: TVFutures, motion: ClusterMotion | None = None,
-        pose: PoseFn | None = None,
+        self, t: float, t_rel: Array, cluster: SVCluster, sv_end: Array, futures: TVFutures,
+        motion: ClusterMotion, pose: PoseFn | None = None,
     ) -> tuple[NDArray[np.bool_], list[str | None], list[float | None]]:
         """(collides (n_c,), first TV id, first time) of every SV candidate."""
         cfg = self.config
-        n_c = sx.shape[0]
+        n_c = cluster.n_c
         if futures.n_hypotheses == 0 or n_c == 0:
             return np.zeros(n_c, dtype=bool), [None] * n_c, [None] * n_c
         r_sv = 0.5 * math.hypot(self.vehicle.length, self.vehicle.width)
         r_tv = 0.5 * np.hypot(futures.length, futures.width)
-        motion = motion if motion is not None else cluster_motion(sx, sy)
         pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv, r_tv)
         tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
-        hits = check_cluster(
-            t_rel, sx, sy, sh, self.vehicle.length, self.vehicle.width,
+        hits = check_sv_cluster(
+            t_rel, cluster, self.vehicle.length, self.vehicle.width,
             sv_end + cfg.horizon_extra, futures.x, futures.y, futures.heading,
             futures.length, futures.width, tv_end + cfg.horizon_extra,
             margin=cfg.safety_margin, test=cfg.collision_test, pad=pad,
@@ -333,9 +332,9 @@ class LaneChangePlanner:
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
         )
-        sx, sy, sh, motion, pose = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
-        collides, ids, when = self._collisions(t, t_rel, sx, sy, sh, taus[cand], futures,
-                                               motion, pose)
+        cluster, motion, pose = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
+        collides, ids, when = self._collisions(t, t_rel, cluster, taus[cand], futures, motion,
+                                               pose)
         free = np.zeros(taus.size, dtype=bool)
         free[cand[~collides]] = True
         w = omega(occupant, road.mu)
@@ -388,8 +387,8 @@ class LaneChangePlanner:
             return px, py, trajectory.heading(tt)
 
         collides, ids, when = self._collisions(
-            t, t_rel, x[None, :], y[None, :], h[None, :], np.array([remaining]), futures,
-            pose=pose,
+            t, t_rel, ArrayCluster(x[None, :], y[None, :], h[None, :]), np.array([remaining]),
+            futures, cluster_motion(x[None, :], y[None, :]), pose=pose,
         )
         if not collides[0]:
             return None

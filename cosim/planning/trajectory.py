@@ -134,8 +134,17 @@ def standard_positions(
     x = tau (vxf u - (vxf - vx0) (s - s^3 + s^4 / 2)) (straight at vxf after tau)."""
     tau = np.asarray(taus, dtype=float)[:, None]
     vx0, vxf, width = _per_row(vx0), _per_row(vxf), _per_row(width)  # (n,) -> per row
+    return standard_positions_at(vx0, vxf, width, tau, np.asarray(t, dtype=float)[None, :])
+
+
+def standard_positions_at(
+    vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, tau: ArrayLike, t: ArrayLike
+) -> tuple[Array, Array]:
+    """`standard_positions` at matching (tau, t) pairs (broadcast elementwise), with the
+    same operations in the same order (so the same numbers to the last bit)."""
+    tau = np.asarray(tau, dtype=float)
     # in place where possible: fresh (n_tau, n_t) temporaries cost page faults
-    u = np.asarray(t, dtype=float)[None, :] * (1.0 / tau)
+    u = np.asarray(t, dtype=float) * (1.0 / tau)
     s = np.minimum(u, 1.0)
     s3 = s * s
     s3 *= s
@@ -149,7 +158,7 @@ def standard_positions(
     x *= 0.5
     x -= s3
     x += s
-    x *= vx0 - vxf
+    x *= np.subtract(vx0, vxf)
     u *= vxf
     x += u
     x *= tau

@@ -200,3 +200,81 @@ def test_refinement_keeps_real_overlaps_and_drops_pad_only_ones() -> None:
     side = np.full(n_t, 1.95)
     assert run(side, tx, 0.4, refine=False)  # the pad alone calls it a collision
     assert not run(side, tx, 0.4, refine=True)
+
+
+def _standard_case(rng: np.random.Generator):  # noqa: ANN202
+    from cosim.planning.trajectory import standard_positions, standard_velocities
+
+    vx0, vxf = rng.uniform(15, 35, 2)
+    if rng.random() < 0.2:
+        vxf = vx0  # no speed change: every candidate has the same x
+    W = float(rng.choice([-1, 1]) * rng.uniform(2.5, 4.0))
+    t = np.arange(0.0, 12.001, 0.05)
+    taus = np.arange(rng.uniform(1.5, 4.0), 10.0, 0.05)
+    taus = np.insert(taus, 0, taus[0] - rng.uniform(0.001, 0.05))  # tau_min itself
+    x0, y0 = 400.0, 5.625
+
+    def heading(c: np.ndarray, k: np.ndarray) -> np.ndarray:
+        xd, yd = standard_velocities(vx0, vxf, W, taus[c], t[k])
+        return np.arctan2(yd, xd)
+
+    x, y = standard_positions(vx0, vxf, W, taus, t)
+    return t, taus, (x0, y0, vx0, vxf, W), x + x0, y + y0, heading
+
+
+def test_standard_cluster_gives_the_arrays_positions_and_window_supersets() -> None:
+    from cosim.planning.collision import StandardCluster
+
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        t, taus, (x0, y0, vx0, vxf, W), x, y, heading = _standard_case(rng)
+        sc = StandardCluster(t, taus, x0, y0, vx0, vxf, W, heading)
+        c = rng.integers(0, taus.size, 500)
+        k = rng.integers(0, t.size, 500)
+        px, py = sc.xy(c, k)
+        np.testing.assert_array_equal(px, x[c, k])  # the same numbers, to the last bit
+        np.testing.assert_array_equal(py, y[c, k])
+        # windows: every candidate inside a query box is inside its window
+        q = 400
+        kq = rng.integers(0, t.size, q)
+        pick = rng.integers(0, taus.size, q)
+        qx = x[pick, kq] + rng.normal(0, 4, q)
+        qy = y[pick, kq] + rng.normal(0, 1.5, q)
+        hx, hy = rng.uniform(0.5, 6, q), rng.uniform(0.2, 3, q)
+        lo, hi = sc.windows(kq, qx, hx, qy, hy, 10.0)
+        inside = (np.abs(x[:, kq] - qx) <= hx) & (np.abs(y[:, kq] - qy) <= hy)  # (n_c, q)
+        rows = np.arange(taus.size)[:, None]
+        assert not (inside & ((rows < lo) | (rows >= hi))).any()
+        excess = (hi - lo) - inside.sum(axis=0)
+        assert inside.any() and np.median(excess) <= 6  # and they are tight
+
+
+def test_standard_cluster_check_equals_the_array_check() -> None:
+    from cosim.planning.collision import (
+        StandardCluster,
+        check_sv_cluster,
+        sampling_pad,
+        standard_cluster_motion,
+    )
+
+    rng = np.random.default_rng(9)
+    hits = 0
+    for _ in range(6):
+        t, taus, (x0, y0, vx0, vxf, W), x, y, heading = _standard_case(rng)
+        n_h = 12
+        lane = y0 + W * rng.integers(0, 2, (n_h, 1))
+        tx = x0 + rng.uniform(-40, 40, (n_h, 1)) + rng.uniform(15, 35, (n_h, 1)) * t[None, :]
+        ty = lane + 0 * t[None, :]
+        th = np.zeros_like(tx)
+        tl, tw = np.full(n_h, 4.32), np.full(n_h, 1.8)
+        motion = standard_cluster_motion(vx0, vxf, W, float(taus.min()), 0.05)
+        pad = sampling_pad(motion, tx, ty, th, 2.35, np.full(n_h, 2.35))
+        kw = {"margin": 0.1, "pad": pad, "sv_max_heading": motion.max_heading}
+        sv_hor, tv_hor = taus + 2.0, np.full(n_h, -np.inf)
+        a = check_cluster(t, x, y, heading, 4.32, 1.8, sv_hor, tx, ty, th, tl, tw, tv_hor, **kw)
+        b = check_sv_cluster(t, StandardCluster(t, taus, x0, y0, vx0, vxf, W, heading), 4.32,
+                             1.8, sv_hor, tx, ty, th, tl, tw, tv_hor, **kw)
+        for f in ("collides", "first_index", "first_hypothesis"):
+            np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+        hits += int(a.collides.sum())
+    assert hits > 0
