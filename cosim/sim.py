@@ -139,6 +139,8 @@ METRIC_DOCS: dict[str, str] = {
     "lane_change_duration_s": "mean duration of the completed lane changes, start to settled "
     "within 0.1 m of the target lane centre (s; NaN: none)",
     "lane_change_duration_max_s": "longest such duration (s; NaN: none)",
+    "lane_change_durations_s": "every lane change's duration in order, ';'-separated (s; "
+    "nan: did not settle before the next change or the end)",
     "tau_first_s": "tau of the first adopted plan (s; NaN: none)",
     "collisions": "collision events by our exact overlap check (SV against every TV; one "
     "contact counts once)",
@@ -743,6 +745,8 @@ class CoSimulation:
                                          and done.size == len(starts)),
             "lane_change_duration_s": float(done.mean()) if done.size else math.nan,
             "lane_change_duration_max_s": float(done.max()) if done.size else math.nan,
+            "lane_change_durations_s": ";".join(
+                "nan" if not np.isfinite(d) else f"{d:.2f}" for d in durations),
             "tau_first_s": float(ok_plans[0]["tau_s"]) if ok_plans else math.nan,
             "collisions": collisions,
             "collision": int(collisions > 0),
