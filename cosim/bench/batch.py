@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=float, default=20.0, help="s, simulated time per run")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 2,
                         help="workers of the parallel case (default: the machine's cores)")
-    parser.add_argument("--repeats", type=int, default=1, help="repeats of each case")
+    parser.add_argument("--repeats", type=int, default=3, help="repeats of each case")
 
 
 def measure(args: argparse.Namespace) -> dict[str, Any]:
@@ -64,12 +64,16 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         rows.append({"case": f"{n} worker{'s' if n > 1 else ''}", "runs": len(specs),
                      "wall_s": wall, "wall_per_run_s": wall / len(specs),
                      "run_median_s": float(np.median(run_times[n]))})
-    speedup = rows[0]["wall_s"] / rows[1]["wall_s"]
+    # Ratio of each repeat's pair (measured back to back), then the median: more
+    # robust to other jobs on a shared machine than a ratio of medians.
+    paired = [a / b for a, b in zip(times[cases[0]], times[cases[1]], strict=True)]
+    speedup = float(np.median(paired))
     notes = [
         f"{len(specs)} runs: densities {', '.join(f'{d:g}' for d in densities)} veh/km/lane x "
         f"seeds 1-{args.seeds}, driver {args.driver}, {args.duration:g} s simulated each, "
         f"base {args.scenario.name}; one fresh process per run; run_median_s: a run's own "
         "wall time (load, simulate) - it grows in the parallel case when the cores are shared",
+        f"speed-up per repeat: {', '.join(f'{r:.2f}' for r in paired)} (reported: the median)",
         f"{os.cpu_count()} cores; median of {args.repeats} repeat(s); 1-min load average "
         f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after (other processes on the "
         "machine take cores from the 2-worker case and lower the ratio)",
