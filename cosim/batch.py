@@ -87,7 +87,7 @@ class RunSpec:
     scenario_sha: str  # sha256 of the base scenario file's bytes
     duration: float | None  # s, simulated time (None: the scenario's own)
     driver: str  # SV controller: "mimo" | "siso" | "sumo"
-    plant: str  # "twotrack" | "bicycle"
+    plant: str  # "twotrack" | "bicycle" | "none" (the SUMO-native driver)
     occupant: float  # -, p in [0, 1]
     mu: float  # -, road friction
     density: float  # veh per km per lane
