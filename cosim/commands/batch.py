@@ -2,7 +2,7 @@
 processes (default) or a Dask cluster (`--dask ADDRESS` or `--dask local`).
 
 Writes DIR/runs/<run_id>.json (one per finished run), DIR/runs.csv,
-DIR/summary.csv and DIR/plots/density.png. Running the same command again
+DIR/summary.csv, DIR/summary.md and DIR/plots/density.png. Running the same command again
 skips the runs already recorded. Everything the user gives is checked before
 anything is written.
 """
@@ -32,20 +32,25 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("study", nargs="?", type=Path, help="study file (TOML, [study] table)")
-    p.add_argument("--scenario", type=Path, help="base scenario (replaces the study's)")
-    p.add_argument("-o", "--out", type=Path,
+    p.add_argument("--scenario", type=Path, metavar="FILE",
+                   help="base scenario (replaces the study's)")
+    p.add_argument("-o", "--out", type=Path, metavar="DIR",
                    help="output folder (default: results/batch/<study name>)")
     p.add_argument("--name", help="study name (default: the study file's, or 'study')")
-    p.add_argument("--densities", help="veh/km/lane, comma-separated, e.g. 5,10,20")
-    p.add_argument("--seeds", help="comma-separated seeds or a range A-B, e.g. 1-10")
-    p.add_argument("--occupants", help="occupant types p, comma-separated")
-    p.add_argument("--mu", help="road friction values, comma-separated")
-    p.add_argument("--drivers", help="SV drivers: mimo, siso, sumo (comma-separated)")
-    p.add_argument("--plants", help="SV plants: twotrack, bicycle (comma-separated)")
+    p.add_argument("--densities", metavar="LIST", help="veh/km/lane, comma-separated, e.g. 5,10,20")
+    p.add_argument("--seeds", metavar="LIST",
+                   help="comma-separated seeds or a range A-B, e.g. 1-10")
+    p.add_argument("--occupants", metavar="LIST", help="occupant types p, comma-separated")
+    p.add_argument("--mu", metavar="LIST", help="road friction values, comma-separated")
+    p.add_argument("--drivers", metavar="LIST",
+                   help="SV drivers: mimo, siso, sumo (comma-separated)")
+    p.add_argument("--plants", metavar="LIST",
+                   help="SV plants: twotrack, bicycle (comma-separated)")
     p.add_argument("--duration", type=float, metavar="S", help="simulated time of each run (s)")
     p.add_argument("--traces", action="store_true", default=None,
                    help="keep each run's trace files in DIR/traces/<run_id>/")
-    p.add_argument("--workers", type=int, help="processes (default: the machine's cores)")
+    p.add_argument("--workers", type=int, metavar="N",
+                   help="processes (default: the machine's cores)")
     p.add_argument("--dask", metavar="ADDRESS",
                    help="run on a Dask cluster: a scheduler address, or 'local' (LocalCluster)")
     p.add_argument("--retry-failed", action="store_true", help="run failed runs again")
