@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -406,6 +407,171 @@ class StandardCluster:
 SVCluster = ArrayCluster | StandardCluster
 
 
+def _sat_parts(
+    ax: Array, ay: Array, ah: Array, al: float, aw: float, bx: Array, by: Array, bh: Array,
+    bl: Array, bw: Array,
+) -> tuple[Array, ...]:
+    """The margin-free parts of `overlap_sat` (same operations), to test several margins."""
+    ca, sa = np.cos(ah), np.sin(ah)
+    cb, sb = np.cos(bh), np.sin(bh)
+    C, S = np.abs(ca * cb + sa * sb), np.abs(sa * cb - ca * sb)
+    dx = bx - ax
+    dy = by - ay
+    return (np.abs(dx * ca + dy * sa), np.abs(-dx * sa + dy * ca), np.abs(dx * cb + dy * sb),
+            np.abs(-dx * sb + dy * cb), C, S, np.broadcast_to(0.5 * al, C.shape),
+            np.broadcast_to(0.5 * aw, C.shape), 0.5 * bl, 0.5 * bw)
+
+
+def _sat_overlap(parts: tuple[Array, ...], margin: ArrayLike) -> NDArray[np.bool_]:
+    """`overlap_sat` from `_sat_parts`, bit for bit."""
+    au, av, bu, bv, C, S, hal, haw, hbl, hbw = parts
+    hla, hwa, hlb, hwb = hal + margin, haw + margin, hbl + margin, hbw + margin
+    sep = au > hla + C * hlb + S * hwb
+    sep |= av > hwa + S * hlb + C * hwb
+    sep |= bu > hlb + C * hla + S * hwa
+    sep |= bv > hwb + S * hla + C * hwa
+    return ~sep
+
+
+class TVArrays:
+    """TV hypotheses given as (n_h, n_t) arrays, with their sampling pads (n_h,)."""
+
+    def __init__(self, x: Array, y: Array, heading: Array, length: Array, width: Array,
+                 pad: Array | None) -> None:
+        self.x, self.y, self.h = x, y, heading
+        self.n_h = x.shape[0]
+        self.length, self.width = length, width
+        self.pad_bound = np.zeros(self.n_h) if pad is None else np.asarray(pad, dtype=float)
+
+    def pad(self, h: IntArray) -> Array:
+        """m, the exact sampling pad of hypotheses h (`pad_bound` is at least that)."""
+        return self.pad_bound[h]
+
+    def xy(self, h: IntArray, k: IntArray) -> tuple[Array, Array]:
+        return self.x[h, k], self.y[h, k]
+
+    def heading(self, h: IntArray, k: IntArray) -> Array:
+        return self.h[h, k]
+
+    def near(self, box: tuple[Array, Array, Array, Array], reach: Array,
+             last_k: IntArray) -> tuple[IntArray, IntArray]:
+        """(h, k) with k < last_k[h] and the TV within reach[h] of the box at t_k, in
+        time order (then h)."""
+        return _near_rows(self.x, self.y, box, reach, last_k)
+
+
+def _near_rows(x: Array, y: Array, box: tuple[Array, Array, Array, Array], reach: Array,
+               last_k: IntArray) -> tuple[IntArray, IntArray]:
+    bx0, bx1, by0, by1 = box
+    r = reach[:, None]
+    near = ((np.arange(x.shape[1])[None, :] < last_k[:, None])
+            & (x >= bx0 - r) & (x <= bx1 + r) & (y >= by0 - r) & (y <= by1 + r))
+    pk, ph = np.nonzero(near.T)
+    return ph, pk
+
+
+class TVClosedForm:
+    """TV hypotheses of `prediction.LazyFutures`: stored rows plus C2 clusters from rest
+    in closed form, evaluated only where the check asks (each cluster is ordered by tau
+    at every time, like the SV's, so it is searched through `StandardCluster`). The
+    sampling pad of a closed-form hypothesis is exact (`sampling_pad` over its whole
+    row) where the exact test needs it; the filters before use a closed-form bound."""
+
+    def __init__(self, futures: Any, sv_motion: ClusterMotion, sv_radius: float) -> None:
+        f = self.f = futures
+        self.n_h = f.n_hypotheses
+        self.length, self.width = f.length, f.width
+        self._motion, self._r_sv = sv_motion, sv_radius
+        self._r_tv = 0.5 * np.hypot(f.length, f.width)
+        self._pad = np.full(self.n_h, np.nan)
+        if f.stored.size:
+            self._pad[f.stored] = sampling_pad(sv_motion, f.sx, f.sy, f.sh, sv_radius,
+                                               self._r_tv[f.stored])
+        self.pad_bound = self._pad.copy()
+        closed = np.flatnonzero(f.row_of < 0)
+        if closed.size:
+            self.pad_bound[closed] = self._closed_pad_bound(closed)
+        self._clusters = [
+            StandardCluster(f.rel, f.tau[h0:h1], float(f.x0[h0]), float(f.y0[h0]),
+                            float(f.v0[h0]), float(f.vxf[h0]), float(f.dy[h0]), _no_heading)
+            for h0, h1 in f.blocks
+        ]
+
+    def _closed_pad_bound(self, h: IntArray) -> Array:
+        """m, at least `sampling_pad` of closed-form hypotheses h, from the bounds of
+        `standard_cluster_motion` (x' between v0 and vxf, |y'|, heading rate)."""
+        f, sv = self.f, self._motion
+        dt = float(f.rel[1] - f.rel[0]) if f.rel.size > 1 else 0.0
+        v0, vxf, tau, w = f.v0[h], f.vxf[h], f.tau[h], np.abs(f.dy[h])
+        v_min, v_max = np.minimum(v0, vxf), np.maximum(v0, vxf)
+        v_lo = np.maximum(v_min, 1e-3)
+        yd = 1.875 * w / tau
+        rate = 5.7736 * w / tau**2 / v_lo + yd * (1.5 * np.abs(vxf - v0) / tau) / v_lo**2
+        rel_x = np.maximum(v_max * dt - sv.dx_min, sv.dx_max - v_min * dt)
+        rel_y = yd * dt + sv.dy_max
+        rot = self._r_sv * sv.turn + self._r_tv[h] * rate * dt
+        return 0.25 * (np.hypot(rel_x, rel_y) + rot) * (1.0 + 1e-6) + 1e-9
+
+    def pad(self, h: IntArray) -> Array:
+        todo = np.unique(h[np.isnan(self._pad[h])])
+        if todo.size:
+            x, y, hd = self.f.rows(todo)
+            self._pad[todo] = sampling_pad(self._motion, x, y, hd, self._r_sv,
+                                           self._r_tv[todo])
+        return self._pad[h]
+
+    def xy(self, h: IntArray, k: IntArray) -> tuple[Array, Array]:
+        return self.f.xy(h, k)
+
+    def heading(self, h: IntArray, k: IntArray) -> Array:
+        return self.f.heading_at(h, k)
+
+    def near(self, box: tuple[Array, Array, Array, Array], reach: Array,
+             last_k: IntArray) -> tuple[IntArray, IntArray]:
+        f = self.f
+        n_t = f.rel.size
+        hs: list[IntArray] = []
+        ks: list[IntArray] = []
+        if f.stored.size:
+            ph, pk = _near_rows(f.sx, f.sy, box, reach[f.stored], last_k[f.stored])
+            hs.append(f.stored[ph])
+            ks.append(pk)
+        bx0, bx1, by0, by1 = box
+        for (h0, h1), cl in zip(f.blocks, self._clusters, strict=True):
+            # the cluster's box at each time against the SV's, then its hypotheses
+            # near the SV's box (a window of them), then each (h, k) as for rows
+            r = float(reach[h0:h1].max())
+            cx0, cx1, cy0, cy1 = cl.bbox()
+            k = np.flatnonzero((np.arange(n_t) < last_k[h0:h1].max())
+                               & (cx1 >= bx0 - r) & (cx0 <= bx1 + r)
+                               & (cy1 >= by0 - r) & (cy0 <= by1 + r))
+            if k.size == 0:
+                continue
+            lo, hi = cl.windows(k, 0.5 * (bx0[k] + bx1[k]), 0.5 * (bx1[k] - bx0[k]) + r,
+                                0.5 * (by0[k] + by1[k]), 0.5 * (by1[k] - by0[k]) + r, 0.0)
+            hh, q = _expand(lo, hi)
+            hh += h0
+            kk = k[q]
+            x, y = f.xy(hh, kk)
+            rr = reach[hh]
+            keep = ((kk < last_k[hh]) & (x >= bx0[kk] - rr) & (x <= bx1[kk] + rr)
+                    & (y >= by0[kk] - rr) & (y <= by1[kk] + rr))
+            hs.append(hh[keep])
+            ks.append(kk[keep])
+        if not hs:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        ph, pk = np.concatenate(hs), np.concatenate(ks)
+        order = np.lexsort((ph, pk))
+        return ph[order], pk[order]
+
+
+def _no_heading(c: IntArray, k: IntArray) -> Array:
+    raise NotImplementedError  # a TV cluster is searched, its headings come from the futures
+
+
+TVSource = TVArrays | TVClosedForm
+
+
 def check_cluster(
     t: Array, sv_x: Array, sv_y: Array, sv_heading: Array | HeadingFn, sv_length: float,
     sv_width: float, sv_horizon: Array, tv_x: Array, tv_y: Array, tv_h: Array,
@@ -414,47 +580,46 @@ def check_cluster(
     sv_max_heading: float = 0.5 * np.pi, split_above: int = 10_000,
     sv_pose: PoseFn | None = None,
 ) -> ClusterHits:
-    """First overlap of every SV candidate (n_c, n_t) with any TV hypothesis (n_h, n_t).
-    The SV cluster as arrays; see `check_sv_cluster`."""
+    """First overlap of every SV candidate (n_c, n_t) with any TV hypothesis (n_h, n_t),
+    all given as arrays; see `check_sv_cluster`. `pad` (n_h,) grows the rectangles of
+    the exact test (see `sampling_pad`)."""
     return check_sv_cluster(
-        t, ArrayCluster(sv_x, sv_y, sv_heading), sv_length, sv_width, sv_horizon, tv_x,
-        tv_y, tv_h, tv_length, tv_width, tv_horizon, margin=margin, test=test, pad=pad,
-        chunk=chunk, sv_max_heading=sv_max_heading, split_above=split_above,
-        sv_pose=sv_pose,
+        t, ArrayCluster(sv_x, sv_y, sv_heading), sv_length, sv_width, sv_horizon,
+        TVArrays(tv_x, tv_y, tv_h, tv_length, tv_width, pad), tv_horizon, margin=margin,
+        test=test, chunk=chunk, sv_max_heading=sv_max_heading, split_above=split_above,
+        sv_pose=sv_pose, padded=pad is not None,
     )
 
 
 def check_sv_cluster(
-    t: Array, sv: SVCluster, sv_length: float,
-    sv_width: float, sv_horizon: Array, tv_x: Array, tv_y: Array, tv_h: Array,
-    tv_length: Array, tv_width: Array, tv_horizon: Array, *, margin: float = 0.0,
-    test: str = "exact", pad: Array | None = None, chunk: int = 40,
-    sv_max_heading: float = 0.5 * np.pi, split_above: int = 10_000,
-    sv_pose: PoseFn | None = None,
+    t: Array, sv: SVCluster, sv_length: float, sv_width: float, sv_horizon: Array,
+    tv: TVSource, tv_horizon: Array, *, margin: float = 0.0, test: str = "exact",
+    chunk: int = 40, sv_max_heading: float = 0.5 * np.pi, split_above: int = 10_000,
+    sv_pose: PoseFn | None = None, padded: bool = True,
 ) -> ClusterHits:
     """First overlap of every SV candidate (n_c of them, on the n_t times t) with any
-    TV hypothesis (n_h, n_t).
+    TV hypothesis (n_h).
 
     A pair (candidate c, hypothesis h) is checked at the times t_k <=
     max(sv_horizon[c], tv_horizon[h]) (eq. 10's horizon, extended by the caller).
-    Time is taken in chunks (growing up to `chunk` samples; halved while more than
-    `split_above` candidate x pair combinations are near), in order, and a
-    candidate leaves the check at its
-    first overlap (its earliest one: nothing earlier can follow). Stage 1 keeps
-    the (h, k) whose TV is near the bounding box of the SV cluster at t_k; per
-    chunk, stage 2 keeps the (c, h, k) whose centres are within the sum
-    of the circumradii and whose axis-aligned boxes overlap (the SV's box from
-    `sv_max_heading`, a bound on |heading| over the cluster); stage 3 runs the
-    exact (or CoL) test on those only.
-    The SV cluster `sv` computes positions and headings where they are asked for
-    (`StandardCluster`: never the whole (n_c, n_t) grid); `pad` (n_h,) grows the rectangles of
-    the exact test (see `sampling_pad`). With `sv_pose` (the SV's exact pose at any
-    time), an overlap that exists only thanks to the pad is looked at again at
+    Stage 1 keeps the (h, k) whose TV is near the bounding box of the SV cluster at
+    t_k (`tv.near`). Time is then taken in chunks (growing up to `chunk` samples;
+    halved while more than `split_above` (candidate, h, k) triplets are near), in
+    order, and a candidate leaves the check at its first overlap (its earliest one:
+    nothing earlier can follow). Per chunk, stage 2 keeps the triplets whose centres
+    are within the sum of the circumradii and whose axis-aligned boxes overlap (the
+    SV's box from `sv_max_heading`, a bound on |heading| over the cluster), among
+    the candidates of each (h, k)'s window (`sv.windows`); stage 3 runs the exact
+    (or CoL) test on those only. Positions and headings are computed where asked.
+    The exact test grows every rectangle by the hypothesis' sampling pad
+    (`tv.pad`; with `padded`). With `sv_pose` (the SV's exact pose at any time), an
+    overlap that exists only thanks to the pad is looked at again at
     REFINE_SUBSTEPS instants around its sample with a pad that many times smaller:
-    the verdict stays conservative but nearly exact.
+    the verdict stays conservative but nearly exact. Ties (two hypotheses first hit
+    at the same sample) go to the lower hypothesis index.
     """
     n_c, n_t = sv.n_c, sv.n_t
-    n_h = tv_x.shape[0]
+    n_h = tv.n_h
     collides = np.zeros(n_c, dtype=bool)
     first_k = np.full(n_c, -1, dtype=np.int64)
     first_h = np.full(n_c, -1, dtype=np.int64)
@@ -462,11 +627,14 @@ def check_sv_cluster(
         return ClusterHits(collides, first_k, first_h, 0)
     if test not in COLLISION_TESTS:
         raise ValueError(f"collision test {test!r}: one of {COLLISION_TESTS}")
-    pad_h = np.zeros(n_h) if pad is None or test == "col" else np.asarray(pad, dtype=float)
-    grow = (margin if test == "exact" else 0.0) + pad_h  # (n_h,)
+    exact = test == "exact"
+    use_pad = padded and exact
+    base = margin if exact else 0.0
+    grow_b = base + (tv.pad_bound if use_pad else 0.0) * np.ones(n_h)  # (n_h,) for filters
+    tv_length, tv_width = tv.length, tv.width
     r_sv = 0.5 * np.hypot(sv_length, sv_width)
     r_tv = 0.5 * np.hypot(tv_length, tv_width)
-    reach = r_sv + r_tv + 2.0 * np.sqrt(2.0) * grow  # (n_h,); growth lengthens the diagonals
+    reach = r_sv + r_tv + 2.0 * np.sqrt(2.0) * grow_b  # (n_h,); growth lengthens the diagonals
     reach2 = reach**2
     # half extents of the SV's axis-aligned box for any heading within +-sv_max_heading
     sin_max = np.sin(min(abs(sv_max_heading), 0.5 * np.pi))
@@ -474,10 +642,9 @@ def check_sv_cluster(
     sv_hy = 0.5 * sv_length * sin_max + 0.5 * sv_width
     last_k = np.searchsorted(t, np.maximum(sv_horizon.max(), tv_horizon), side="right")  # (n_h,)
     checked = 0
-    sample_pad = pad_h if pad is not None else np.zeros(n_h)
     dt = float(t[1] - t[0]) if n_t > 1 else 0.0
 
-    def _refine(c: IntArray, h: IntArray, k: IntArray) -> NDArray[np.bool_]:
+    def _refine(c: IntArray, h: IntArray, k: IntArray, pad_h: Array) -> NDArray[np.bool_]:
         """Overlap anywhere in [t_k - dt/2, t_k + dt/2], at REFINE_SUBSTEPS + 1 instants:
         the SV exactly (`sv_pose`), the TV interpolated linearly between its samples
         (its interpolation error bounded from the second differences and added)."""
@@ -486,21 +653,27 @@ def check_sv_cluster(
         frac = np.arange(n_sub + 1) / n_sub - 0.5  # (n_s,), in steps
         kp, km = np.minimum(k + 1, n_t - 1), np.maximum(k - 1, 0)
         pos = frac[None, :] > 0
+        # second differences around k (at the ends of the grid, around its neighbour)
+        kc = np.minimum(np.maximum(k, 1), max(n_t - 2, 1))
+        k2p, k2m = np.minimum(kc + 1, n_t - 1), kc - 1
+        m = k.size
+        hh = np.tile(h, 6)
+        kk = np.concatenate((k, kp, km, k2p, kc, k2m))
+        vx, vy = tv.xy(hh, kk)
+        vh = tv.heading(hh, kk)
 
         def interp(a: Array) -> Array:
-            ak, ap, am = a[h, k][:, None], a[h, kp][:, None], a[h, km][:, None]
+            ak, ap, am = a[:m, None], a[m:2 * m, None], a[2 * m:3 * m, None]
             return np.where(pos, ak + frac * (ap - ak), ak + frac * (ak - am))
 
-        # second differences around k (at the ends of the grid, around its neighbour)
-        kc = np.clip(k, 1, max(n_t - 2, 1))
-        k2p, k2m = np.minimum(kc + 1, n_t - 1), kc - 1
-        second = (np.abs(tv_x[h, k2p] - 2 * tv_x[h, kc] + tv_x[h, k2m])
-                  + np.abs(tv_y[h, k2p] - 2 * tv_y[h, kc] + tv_y[h, k2m])
-                  + r_tv[h] * np.abs(tv_h[h, k2p] - 2 * tv_h[h, kc] + tv_h[h, k2m]))
-        fine_pad = margin + sample_pad[h] / n_sub + 0.25 * second  # >= 2x the (dt^2/8) a bound
+        def second_diff(a: Array) -> Array:
+            return np.abs(a[3 * m:4 * m] - 2 * a[4 * m:5 * m] + a[5 * m:])
+
+        second = second_diff(vx) + second_diff(vy) + r_tv[h] * second_diff(vh)
+        fine_pad = margin + pad_h / n_sub + 0.25 * second  # >= 2x the (dt^2/8) a bound
         sx, sy, sh = sv_pose(c, t[k][:, None] + frac[None, :] * dt)
-        hit = overlap_sat(sx, sy, sh, sv_length, sv_width, interp(tv_x), interp(tv_y),
-                          interp(tv_h), tv_length[h][:, None], tv_width[h][:, None],
+        hit = overlap_sat(sx, sy, sh, sv_length, sv_width, interp(vx), interp(vy),
+                          interp(vh), tv_length[h][:, None], tv_width[h][:, None],
                           margin=fine_pad[:, None])
         return hit.any(axis=1)
 
@@ -511,32 +684,32 @@ def check_sv_cluster(
         bounds.append(min(bounds[-1] + size, k_end))
         size = min(2 * size, chunk)
     # stage 1, once for all times: hypothesis vs the bounding box of the whole cluster
-    r = reach[:, None]
-    bx0, bx1, by0, by1 = sv.bbox()
-    near_all = (
-        (np.arange(n_t)[None, :] < last_k[:, None])
-        & (tv_x >= bx0 - r) & (tv_x <= bx1 + r) & (tv_y >= by0 - r) & (tv_y <= by1 + r)
-    )
-    busy = np.flatnonzero(near_all.any(axis=0))  # times with any TV near
+    ph_all, pk_all = tv.near(sv.bbox(), reach, last_k)  # in time order
+    at = np.searchsorted(pk_all, np.arange(n_t + 1))  # pairs of time k: at[k] .. at[k + 1]
     slack = float(reach.max()) + 8.0
     todo = list(zip(bounds[:-1], bounds[1:], strict=True))[::-1]  # a stack, earliest on top
     while todo:  # chunks of time, in order
         k0, k1 = todo.pop()
-        if not ((busy >= k0) & (busy < k1)).any():
+        a, b = int(at[k0]), int(at[k1])
+        if a == b:
             continue
         alive = np.flatnonzero(~collides)
         if alive.size == 0:
             break
-        ph, pk = np.nonzero(near_all[:, k0:k1])
-        pk += k0
+        ph, pk = ph_all[a:b], pk_all[a:b]
         # stage 2: remaining candidates x surviving (h, k): boxes, centre distance, horizon
-        th = tv_h[ph, pk]
+        tx, ty = tv.xy(ph, pk)
+        th = tv.heading(ph, pk)
         ct, st = np.abs(np.cos(th)), np.abs(np.sin(th))
-        g2 = 2.0 * grow[ph]  # each box grows by at most 2 g (g on each of two sides' projections)
+        g2 = 2.0 * grow_b[ph]  # each box grows by at most 2 g (g on each of two sides' projections)
         lim_x = sv_hx + 0.5 * tv_length[ph] * ct + 0.5 * tv_width[ph] * st + g2
         lim_y = sv_hy + 0.5 * tv_length[ph] * st + 0.5 * tv_width[ph] * ct + g2
-        win = sv.windows(pk, tv_x[ph, pk], lim_x, tv_y[ph, pk], lim_y, slack)
-        n_near = int((win[1] - win[0]).sum()) if win is not None else ph.size * alive.size
+        win = sv.windows(pk, tx, lim_x, ty, lim_y, slack)
+        if win is not None:  # triplets of the candidates still in the check
+            alive_upto = np.concatenate(([0], np.cumsum(~collides)))
+            n_near = int((alive_upto[win[1]] - alive_upto[np.minimum(win[0], win[1])]).sum())
+        else:
+            n_near = ph.size * alive.size
         if k1 - k0 > 1 and n_near > split_above:
             # crowded: the earlier half may settle most candidates before the later one
             mid = (k0 + k1) // 2
@@ -551,41 +724,54 @@ def check_sv_cluster(
             qc = alive[qa]  # unordered cluster: every remaining candidate
         qh, qk = ph[qp], pk[qp]
         sx, sy = sv.xy(qc, qk)
-        dx = sx - tv_x[qh, qk]
-        dy = sy - tv_y[qh, qk]
+        dx = sx - tx[qp]
+        dy = sy - ty[qp]
         close = (
             (np.abs(dx) <= lim_x[qp]) & (np.abs(dy) <= lim_y[qp])
             & (dx * dx + dy * dy <= reach2[qh])
             & (t[qk] <= np.maximum(sv_horizon[qc], tv_horizon[qh]))
         )
-        qc, qh, qk = qc[close], qh[close], qk[close]
+        qc, qh, qk, qp = qc[close], qh[close], qk[close], qp[close]
         if qc.size == 0:
             continue
+        sx, sy = sx[close], sy[close]
+        if exact and margin >= 0.0:
+            # a candidate's triplets after its first sure overlap cannot come first:
+            # centres closer than the two inscribed radii overlap whatever the headings
+            r_in = 0.5 * min(sv_length, sv_width) + 0.5 * np.minimum(tv_length[qh], tv_width[qh])
+            sure = dx[close] ** 2 + dy[close] ** 2 <= (0.999 * r_in) ** 2
+            if sure.any():
+                first_sure = np.full(n_c, n_t)
+                np.minimum.at(first_sure, qc[sure], qk[sure])
+                keep = qk <= first_sure[qc]
+                qc, qh, qk, qp, sx, sy = (a[keep] for a in (qc, qh, qk, qp, sx, sy))
         checked += int(qc.size)
         # stage 3: the exact test on the survivors
-        args = (sx[close], sy[close], sv.heading(qc, qk), sv_length, sv_width,
-                tv_x[qh, qk], tv_y[qh, qk], tv_h[qh, qk], tv_length[qh], tv_width[qh])
+        args = (sx, sy, sv.heading(qc, qk), sv_length, sv_width,
+                tx[qp], ty[qp], th[qp], tv_length[qh], tv_width[qh])
         if test == "col":
             ov = overlap_col(*args)
         else:
-            ov = overlap_sat(*args, margin=grow[qh])
-            if sv_pose is not None:
-                # padded overlaps that are not overlaps at the sample itself: look
-                # between the samples, where the pad needed is n_sub times smaller
-                raw = overlap_sat(*args, margin=margin)
-                maybe = np.flatnonzero(ov & ~raw)
-                if maybe.size:
-                    ov = raw
-                    if raw.any():  # only what may come before a candidate's first sure overlap
-                        sure = np.full(n_c, n_t)
-                        np.minimum.at(sure, qc[raw], qk[raw])
-                        maybe = maybe[qk[maybe] <= sure[qc[maybe]]]
-                    if maybe.size:
-                        ov[maybe] = _refine(qc[maybe], qh[maybe], qk[maybe])
+            parts = _sat_parts(*args)
+            ov = _sat_overlap(parts, margin)  # at the sample itself
+            if use_pad or sv_pose is None:
+                # padded overlaps (at k no later than the candidate's first overlap at its
+                # sample) that are not overlaps at the sample itself
+                first_raw = np.full(n_c, n_t)
+                np.minimum.at(first_raw, qc[ov], qk[ov])
+                maybe = np.flatnonzero(~ov & (qk <= first_raw[qc]))
+                pad_q = tv.pad(qh[maybe]) if use_pad else np.zeros(maybe.size)
+                padded_hit = _sat_overlap(tuple(a[maybe] for a in parts), margin + pad_q)
+                maybe, pad_q = maybe[padded_hit], pad_q[padded_hit]
+                if maybe.size and sv_pose is not None:
+                    # look between the samples, where the pad needed is n_sub times smaller
+                    ov[maybe] = _refine(qc[maybe], qh[maybe], qk[maybe], pad_q)
+                elif maybe.size:
+                    ov[maybe] = True
         if not ov.any():
             continue
         oc, oh, ok = qc[ov], qh[ov], qk[ov]
-        order = np.lexsort((ok, oc))  # by candidate, then time
+        order = np.lexsort((oh, ok, oc))  # by candidate, then time, then hypothesis
         cs, first = np.unique(oc[order], return_index=True)
         collides[cs] = True
         first_k[cs] = ok[order][first]

@@ -28,9 +28,9 @@ from cosim.planning.collision import (
     PoseFn,
     StandardCluster,
     SVCluster,
+    TVClosedForm,
     check_sv_cluster,
     cluster_motion,
-    sampling_pad,
     standard_cluster_motion,
 )
 from cosim.planning.envelope import (
@@ -42,11 +42,12 @@ from cosim.planning.envelope import (
     envelope_margin,
     stable_set,
 )
-from cosim.planning.prediction import TVFutures, predict
+from cosim.planning.prediction import LazyFutures, TVFutures, predict_lazy
 from cosim.planning.selection import choose, intervals, omega
 from cosim.planning.trajectory import (
     LaneChangeTrajectory,
     cluster_derivatives,
+    standard_positions_at,
     standard_velocities,
 )
 from cosim.traffic.v2v import V2VMessage
@@ -103,7 +104,8 @@ class Plan:
     planning_time_s: float  # s, wall time of plan()
     vxf: float = math.nan  # m/s, target speed of the lane change
     categories: dict[str, str] = field(default_factory=dict)  # TV id -> "C1" | "C2" | "C3"
-    futures: TVFutures | None = field(default=None, repr=False, compare=False)
+    # the TVs' futures (LazyFutures: arrays x, y, heading computed on first access)
+    futures: TVFutures | LazyFutures | None = field(default=None, repr=False, compare=False)
     sv: SVPlanState | None = field(default=None, repr=False, compare=False)  # planned from
 
     @property
@@ -262,6 +264,13 @@ class LaneChangePlanner:
             return np.arctan2(yd[:, 0], xd[:, 0])
 
         def pose(c: NDArray[np.int64], tt: Array) -> tuple[Array, Array, Array]:
+            if at_rest:  # eq. 2 / eq. 4 in closed form (the same to rounding)
+                tau_c = taus[c][:, None]
+                px, py = standard_positions_at(sv.vx, vxf, width, tau_c, tt)
+                vx, vy = standard_velocities(sv.vx, vxf, width, tau_c, tt)
+                px += sv.x
+                py += sv.y
+                return px, py, np.arctan2(vy, vx)
             d = cluster_derivatives(sv.vx, vxf, width, taus[c][:, None], tt, (0, 1), **kw)
             (px, py), (vx, vy) = d[0], d[1]
             return px + sv.x, py + sv.y, np.arctan2(vy, vx)
@@ -278,8 +287,8 @@ class LaneChangePlanner:
         return cluster, motion, pose
 
     def _collisions(
-        self, t: float, t_rel: Array, cluster: SVCluster, sv_end: Array, futures: TVFutures,
-        motion: ClusterMotion, pose: PoseFn | None = None,
+        self, t: float, t_rel: Array, cluster: SVCluster, sv_end: Array,
+        futures: LazyFutures, motion: ClusterMotion, pose: PoseFn | None = None,
     ) -> tuple[NDArray[np.bool_], list[str | None], list[float | None]]:
         """(collides (n_c,), first TV id, first time) of every SV candidate."""
         cfg = self.config
@@ -287,14 +296,11 @@ class LaneChangePlanner:
         if futures.n_hypotheses == 0 or n_c == 0:
             return np.zeros(n_c, dtype=bool), [None] * n_c, [None] * n_c
         r_sv = 0.5 * math.hypot(self.vehicle.length, self.vehicle.width)
-        r_tv = 0.5 * np.hypot(futures.length, futures.width)
-        pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv, r_tv)
         tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
         hits = check_sv_cluster(
             t_rel, cluster, self.vehicle.length, self.vehicle.width,
-            sv_end + cfg.horizon_extra, futures.x, futures.y, futures.heading,
-            futures.length, futures.width, tv_end + cfg.horizon_extra,
-            margin=cfg.safety_margin, test=cfg.collision_test, pad=pad,
+            sv_end + cfg.horizon_extra, TVClosedForm(futures, motion, r_sv),
+            tv_end + cfg.horizon_extra, margin=cfg.safety_margin, test=cfg.collision_test,
             sv_max_heading=motion.max_heading, sv_pose=pose,
         )
         ids: list[str | None] = [None] * n_c
@@ -327,7 +333,7 @@ class LaneChangePlanner:
         cand = np.flatnonzero(stable)
         tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
         t_rel = self._time_grid(max(cfg.tau_max, tv_last) + cfg.horizon_extra)
-        futures = predict(
+        futures = predict_lazy(
             messages, t, t_rel, road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
@@ -373,7 +379,7 @@ class LaneChangePlanner:
         remaining = max(trajectory.t_end - t, 0.0)
         tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
         t_rel = self._time_grid(max(remaining, tv_last, cfg.tau_max) + cfg.horizon_extra)
-        futures = predict(
+        futures = predict_lazy(
             messages, t, t_rel, self.road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,

@@ -13,6 +13,7 @@ Output: `TVFutures`, arrays over (hypothesis, time) of centre x, y and heading.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -24,6 +25,7 @@ from cosim.planning.envelope import MODES, envelope_margin, paper_map_tau_min
 from cosim.planning.trajectory import (
     cluster_derivatives,
     standard_positions,
+    standard_positions_at,
     standard_velocities,
 )
 from cosim.traffic.v2v import LateralMotion, V2VMessage
@@ -102,6 +104,113 @@ def motion_path(m: LateralMotion, t: Array) -> tuple[Array, Array, Array]:
 StableFn = Callable[[Array, Array, Array, Array], NDArray[np.bool_]]
 
 
+@dataclass(frozen=True)
+class LazyFutures:
+    """`TVFutures` whose C2 clusters from rest (eq. 2 / eq. 4 in closed form) are kept as
+    parameters and computed where they are asked for (`xy`, `heading`, `rows`): a dense
+    scene holds hundreds of such trajectories, of which the collision check needs a few
+    per cent of the samples. The other hypotheses are stored rows. `x`, `y`, `heading`
+    (and `materialise()`) give the whole arrays, bit for bit those of `predict`."""
+
+    t: Array  # s, absolute simulation times (n_t,)
+    rel: Array  # s, t minus the planning instant (the C2 clusters' own time)
+    vehicle_ids: tuple[str, ...]
+    categories: tuple[str, ...]
+    owner: IntArray  # (n_h,)
+    tau: Array  # s, (n_h,)
+    t_end: Array  # s, (n_h,)
+    length: Array  # m, (n_h,)
+    width: Array  # m, (n_h,)
+    stored: IntArray  # (n_s,) the hypotheses held as rows, ascending
+    row_of: IntArray  # (n_h,) index into the stored rows (-1: a closed-form hypothesis)
+    sx: Array  # m, (n_s, n_t) stored rows
+    sy: Array  # m
+    sh: Array  # rad
+    v0: Array  # m/s, (n_h,) closed-form hypotheses: start speed (nan: stored)
+    vxf: Array  # m/s, target speed
+    dy: Array  # m, signed lateral displacement W
+    x0: Array  # m, start x
+    y0: Array  # m, start y
+    blocks: tuple[tuple[int, int], ...]  # [h0, h1) of each TV's closed-form cluster (tau rising)
+
+    @property
+    def n_hypotheses(self) -> int:
+        return int(self.owner.size)
+
+    @property
+    def closed(self) -> NDArray[np.bool_]:
+        """(n_h,) the hypotheses in closed form."""
+        return self.row_of < 0
+
+    def xy(self, h: IntArray, k: IntArray) -> tuple[Array, Array]:
+        """m, centre (x, y) of hypotheses h at time indices k (matching shapes)."""
+        r = self.row_of[h]
+        if (r >= 0).all():
+            return self.sx[r, k], self.sy[r, k]
+        x, y = standard_positions_at(self.v0[h], self.vxf[h], self.dy[h], self.tau[h],
+                                     self.rel[k])
+        x += self.x0[h]
+        y += self.y0[h]
+        s = np.flatnonzero(r >= 0)
+        if s.size:
+            x[s], y[s] = self.sx[r[s], k[s]], self.sy[r[s], k[s]]
+        return x, y
+
+    def heading_at(self, h: IntArray, k: IntArray) -> Array:
+        """rad, heading of hypotheses h at time indices k."""
+        r = self.row_of[h]
+        if (r >= 0).all():
+            return self.sh[r, k]
+        xd, yd = standard_velocities(self.v0[h], self.vxf[h], self.dy[h], self.tau[h],
+                                     self.rel[k])
+        out = np.arctan2(yd, xd)
+        s = np.flatnonzero(r >= 0)
+        if s.size:
+            out[s] = self.sh[r[s], k[s]]
+        return out
+
+    def rows(self, h: IntArray) -> tuple[Array, Array, Array]:
+        """(x, y, heading) of hypotheses h over the whole grid, each (h.size, n_t)."""
+        n_t = self.t.size
+        x, y, hd = np.empty((h.size, n_t)), np.empty((h.size, n_t)), np.empty((h.size, n_t))
+        r = self.row_of[h]
+        s = r >= 0
+        x[s], y[s], hd[s] = self.sx[r[s]], self.sy[r[s]], self.sh[r[s]]
+        c = np.flatnonzero(~s)
+        if c.size:
+            hc = h[c]
+            cx, cy = standard_positions(self.v0[hc], self.vxf[hc], self.dy[hc], self.tau[hc],
+                                        self.rel)
+            cx += self.x0[hc][:, None]
+            cy += self.y0[hc][:, None]
+            xd, yd = standard_velocities(self.v0[hc][:, None], self.vxf[hc][:, None],
+                                         self.dy[hc][:, None], self.tau[hc][:, None],
+                                         self.rel[None, :])
+            x[c], y[c], hd[c] = cx, cy, np.arctan2(yd, xd)
+        return x, y, hd
+
+    @functools.cached_property
+    def _full(self) -> tuple[Array, Array, Array]:
+        return self.rows(np.arange(self.n_hypotheses))
+
+    @property
+    def x(self) -> Array:
+        return self._full[0]
+
+    @property
+    def y(self) -> Array:
+        return self._full[1]
+
+    @property
+    def heading(self) -> Array:
+        return self._full[2]
+
+    def materialise(self) -> TVFutures:
+        """The same futures as stored arrays."""
+        return TVFutures(self.t, self.vehicle_ids, self.categories, self.owner, self.tau,
+                         self.t_end, self.x, self.y, self.heading, self.length, self.width)
+
+
 def predict(
     messages: Sequence[V2VMessage], t_plan: float, t_rel: Array, road: RoadParams,
     vehicle: VehicleParams, taus: Array, *, envelope: str = "inverse_dynamics",
@@ -113,30 +222,41 @@ def predict(
     checked in one batched envelope call, or by `stable_fn(vx0, vxf, width, vy0)`
     -> (n_c2, n_tau) bool when given (the planner's tau_min maps).
     """
+    return predict_lazy(messages, t_plan, t_rel, road, vehicle, taus, envelope=envelope,
+                        safety_factor=safety_factor, stable_fn=stable_fn).materialise()
+
+
+def predict_lazy(
+    messages: Sequence[V2VMessage], t_plan: float, t_rel: Array, road: RoadParams,
+    vehicle: VehicleParams, taus: Array, *, envelope: str = "inverse_dynamics",
+    safety_factor: float = 0.8, stable_fn: StableFn | None = None,
+) -> LazyFutures:
+    """`predict`, with the C2 clusters from rest left in closed form (`LazyFutures`)."""
     t = t_plan + np.asarray(t_rel, dtype=float)
+    rel = t - t_plan
     n_t = t.size
     ids = tuple(m.vehicle_id for m in messages)
     cats: list[str] = []
-    xs: list[Array] = []
-    ys: list[Array] = []
-    hs: list[Array] = []
+    # blocks of hypotheses in order: ("rows", x, y, h) or ("closed", params...)
+    blocks: list[tuple] = []
     owner: list[IntArray] = []
     tau_h: list[Array] = []
     t_end: list[Array] = []
     dims: list[Array] = []
     c2: list[tuple[int, V2VMessage, int, int]] = []
 
-    def add(i: int, x: Array, y: Array, h: Array, tau: Array | float, end: Array | float) -> None:
-        """One block of hypotheses of TV i: x, y, h shaped (k, n_t) or (n_t,)."""
-        x2 = np.atleast_2d(x)
-        k = x2.shape[0]
-        xs.append(x2)
-        ys.append(np.broadcast_to(y, (k, n_t)))
-        hs.append(np.broadcast_to(h, (k, n_t)))
+    def meta(i: int, k: int, tau: Array | float, end: Array | float) -> None:
         owner.append(np.full(k, i, dtype=np.int64))
         tau_h.append(np.broadcast_to(np.asarray(tau, dtype=float), (k,)))
         t_end.append(np.broadcast_to(np.asarray(end, dtype=float), (k,)))
         dims.append(np.broadcast_to([messages[i].length, messages[i].width], (k, 2)))
+
+    def add(i: int, x: Array, y: Array, h: Array, tau: Array | float, end: Array | float) -> None:
+        """One block of hypotheses of TV i: x, y, h shaped (k, n_t) or (n_t,)."""
+        x2 = np.atleast_2d(x)
+        k = x2.shape[0]
+        blocks.append(("rows", x2, np.broadcast_to(y, (k, n_t)), np.broadcast_to(h, (k, n_t))))
+        meta(i, k, tau, end)
 
     def add_c1(i: int, m: V2VMessage) -> None:
         x, _ = constant_acceleration(m, t)
@@ -179,47 +299,56 @@ def predict(
                 yaw_model=envelope, vy0=np.repeat(vy0, n_tau),
             )
             stable = (margin <= 1.0).reshape(len(c2), n_tau)
-        rel = t - t_plan
         still = np.abs(vy0) < 1e-12
-        # TVs starting from rest laterally: eq. 2 / eq. 4 in closed form, all in one batch
-        rows_j, rows_tau = np.nonzero(stable & still[:, None])
-        if rows_j.size:
-            tau_r = taus[rows_tau]
-            x, y = standard_positions(v0[rows_j], vxf[rows_j], width[rows_j], tau_r, rel)
-            xd, yd = standard_velocities(v0[rows_j][:, None], vxf[rows_j][:, None],
-                                         width[rows_j][:, None], tau_r[:, None], rel[None, :])
-            x += x0[rows_j][:, None]
-            y += np.array([m.y for _, m, _, _ in c2])[rows_j][:, None]
-            heading = np.arctan2(yd, xd)
         for j, (i, m, _, _) in enumerate(c2):
             ok = taus[stable[j]]
             if ok.size == 0:  # it cannot change lanes safely: it keeps its lane
                 cats[i] = "C1"
                 add_c1(i, m)
-            elif still[j]:
-                a, b = np.searchsorted(rows_j, [j, j + 1])  # rows are grouped by TV: a view
-                add(i, x[a:b], y[a:b], heading[a:b], ok, t_plan + ok)
+            elif still[j]:  # eq. 2 / eq. 4 in closed form, from rest laterally
+                blocks.append(("closed", ok.size, v0[j], vxf[j], width[j], x0[j], m.y))
+                meta(i, ok.size, ok, t_plan + ok)
             else:
                 d = cluster_derivatives(v0[j], vxf[j], width[j], ok, rel, (0, 1), vy0=vy0[j])
                 (xg, yg), (xdg, ydg) = d[0], d[1]
                 add(i, xg + x0[j], yg + m.y, np.arctan2(ydg, xdg), ok, t_plan + ok)
 
+    none = np.zeros(0)
     if not owner:
         empty = np.zeros((0, n_t))
-        none = np.zeros(0)
-        return TVFutures(t, ids, tuple(cats), np.zeros(0, dtype=np.int64), none, none,
-                         empty, empty, empty, none, none)
+        noint = np.zeros(0, dtype=np.int64)
+        return LazyFutures(t, rel, ids, tuple(cats), noint, none, none, none, none, noint,
+                           noint, empty, empty, empty, none, none, none, none, none, ())
+    n_h = sum(o.size for o in owner)
+    params = np.full((5, n_h), np.nan)
+    row_of = np.full(n_h, -1, dtype=np.int64)
+    stored: list[IntArray] = []
+    rows_x: list[Array] = []
+    rows_y: list[Array] = []
+    rows_h: list[Array] = []
+    closed: list[tuple[int, int]] = []
+    h0 = 0
+    for b in blocks:
+        if b[0] == "rows":
+            k = b[1].shape[0]
+            row_of[h0:h0 + k] = sum(r.shape[0] for r in rows_x) + np.arange(k)
+            stored.append(np.arange(h0, h0 + k))
+            rows_x.append(b[1])
+            rows_y.append(b[2])
+            rows_h.append(b[3])
+        else:
+            k = b[1]
+            params[:, h0:h0 + k] = np.array(b[2:])[:, None]
+            closed.append((h0, h0 + k))
+        h0 += k
     dim = np.concatenate(dims)
-    return TVFutures(
-        t=t,
-        vehicle_ids=ids,
-        categories=tuple(cats),
-        owner=np.concatenate(owner),
-        tau=np.concatenate(tau_h),
-        t_end=np.concatenate(t_end),
-        x=np.concatenate(xs),
-        y=np.concatenate(ys),
-        heading=np.concatenate(hs),
-        length=dim[:, 0].copy(),
+    cat_rows = (lambda a: np.concatenate(a) if a else np.zeros((0, n_t)))  # noqa: E731
+    return LazyFutures(
+        t=t, rel=rel, vehicle_ids=ids, categories=tuple(cats), owner=np.concatenate(owner),
+        tau=np.concatenate(tau_h), t_end=np.concatenate(t_end), length=dim[:, 0].copy(),
         width=dim[:, 1].copy(),
+        stored=np.concatenate(stored) if stored else np.zeros(0, dtype=np.int64),
+        row_of=row_of, sx=cat_rows(rows_x), sy=cat_rows(rows_y), sh=cat_rows(rows_h),
+        v0=params[0], vxf=params[1], dy=params[2], x0=params[3], y0=params[4],
+        blocks=tuple(closed),
     )

@@ -252,6 +252,7 @@ def test_standard_cluster_gives_the_arrays_positions_and_window_supersets() -> N
 def test_standard_cluster_check_equals_the_array_check() -> None:
     from cosim.planning.collision import (
         StandardCluster,
+        TVArrays,
         check_sv_cluster,
         sampling_pad,
         standard_cluster_motion,
@@ -269,12 +270,87 @@ def test_standard_cluster_check_equals_the_array_check() -> None:
         tl, tw = np.full(n_h, 4.32), np.full(n_h, 1.8)
         motion = standard_cluster_motion(vx0, vxf, W, float(taus.min()), 0.05)
         pad = sampling_pad(motion, tx, ty, th, 2.35, np.full(n_h, 2.35))
-        kw = {"margin": 0.1, "pad": pad, "sv_max_heading": motion.max_heading}
+        kw = {"margin": 0.1, "sv_max_heading": motion.max_heading}
         sv_hor, tv_hor = taus + 2.0, np.full(n_h, -np.inf)
-        a = check_cluster(t, x, y, heading, 4.32, 1.8, sv_hor, tx, ty, th, tl, tw, tv_hor, **kw)
+        a = check_cluster(t, x, y, heading, 4.32, 1.8, sv_hor, tx, ty, th, tl, tw, tv_hor,
+                          pad=pad, **kw)
         b = check_sv_cluster(t, StandardCluster(t, taus, x0, y0, vx0, vxf, W, heading), 4.32,
-                             1.8, sv_hor, tx, ty, th, tl, tw, tv_hor, **kw)
+                             1.8, sv_hor, TVArrays(tx, ty, th, tl, tw, pad), tv_hor, **kw)
         for f in ("collides", "first_index", "first_hypothesis"):
             np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
         hits += int(a.collides.sum())
     assert hits > 0
+
+
+def test_closed_form_tv_clusters_give_the_array_check() -> None:
+    """C2 clusters left in closed form (evaluated where needed, pads exact where the
+    exact test runs, bounded before) give what their stored arrays give."""
+    from cosim.params import RoadParams, VehicleParams
+    from cosim.planning.collision import (
+        StandardCluster,
+        TVClosedForm,
+        check_sv_cluster,
+        sampling_pad,
+        standard_cluster_motion,
+    )
+    from cosim.planning.prediction import predict_lazy
+    from cosim.planning.trajectory import standard_positions
+    from cosim.traffic.v2v import V2VMessage
+
+    road, veh = RoadParams(mu=0.8), VehicleParams()
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 12.001, 0.05)
+    grid = np.arange(2.0, 10.001, 0.05)
+    hits = 0
+    vx0, vxf, W = 27.0, 30.0, 3.75
+    y0 = road.lane_center(1)
+    for _ in range(4):
+        msgs = [V2VMessage(f"tv{i}", 0.0, 500.0 + float(rng.uniform(-30, 40)),
+                           road.lane_center(lane), 0.0, float(rng.uniform(22, 32)), 0.0, lane,
+                           0.0, 4.32, 1.8, intention, None)
+                for i, (lane, intention) in enumerate([(2, -1), (2, 0), (0, 1), (1, 0)])]
+        f = predict_lazy(msgs, 0.0, t, road, veh, grid)
+        assert f.blocks  # some hypotheses are in closed form
+        x, y = standard_positions(vx0, vxf, W, grid, t)
+        x, y = x + 500.0, y + y0
+
+        def heading(c: np.ndarray, k: np.ndarray) -> np.ndarray:
+            from cosim.planning.trajectory import standard_velocities
+
+            xd, yd = standard_velocities(vx0, vxf, W, grid[c], t[k])
+            return np.arctan2(yd, xd)
+
+        motion = standard_cluster_motion(vx0, vxf, W, float(grid.min()), 0.05)
+        kw = {"margin": 0.1, "sv_max_heading": motion.max_heading}
+        sv_hor = grid + 2.0
+        tv_hor = np.where(np.isfinite(f.t_end), f.t_end, -np.inf) + 2.0
+        pad = sampling_pad(motion, f.x, f.y, f.heading, 2.35, 0.5 * np.hypot(f.length, f.width))
+        a = check_cluster(t, x, y, heading, 4.32, 1.8, sv_hor, f.x, f.y, f.heading, f.length,
+                          f.width, tv_hor, pad=pad, **kw)
+        sc = StandardCluster(t, grid, 500.0, y0, vx0, vxf, W, heading)
+        b = check_sv_cluster(t, sc, 4.32, 1.8, sv_hor, TVClosedForm(f, motion, 2.35), tv_hor,
+                             **kw)
+        for name in ("collides", "first_index", "first_hypothesis"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+        hits += int(a.collides.sum())
+    assert 0 < hits < 4 * grid.size
+
+
+def test_lazy_futures_give_their_arrays_pointwise() -> None:
+    from cosim.params import RoadParams, VehicleParams
+    from cosim.planning.prediction import predict_lazy
+    from cosim.traffic.v2v import V2VMessage
+
+    road = RoadParams(mu=0.8)
+    t = np.arange(0.0, 12.001, 0.05)
+    msgs = [V2VMessage("a", 0.0, 480.0, road.lane_center(2), 0.0, 25.0, 0.0, 2, 0.0, 4.32, 1.8,
+                       -1, None),
+            V2VMessage("b", 0.0, 520.0, road.lane_center(0), 0.0, 20.0, 0.5, 0, 0.0, 4.32, 1.8,
+                       0, None)]
+    f = predict_lazy(msgs, 1.0, t, road, VehicleParams(), np.arange(2.0, 10.001, 0.05))
+    h = RNG.integers(0, f.n_hypotheses, 300)
+    k = RNG.integers(0, t.size, 300)
+    x, y = f.xy(h, k)
+    np.testing.assert_array_equal(x, f.x[h, k])
+    np.testing.assert_array_equal(y, f.y[h, k])
+    np.testing.assert_array_equal(f.heading_at(h, k), f.heading[h, k])
