@@ -686,7 +686,16 @@ def check_sv_cluster(
     # stage 1, once for all times: hypothesis vs the bounding box of the whole cluster
     ph_all, pk_all = tv.near(sv.bbox(), reach, last_k)  # in time order
     at = np.searchsorted(pk_all, np.arange(n_t + 1))  # pairs of time k: at[k] .. at[k + 1]
+    # stage 2's boxes of every pair, and the window of candidates each may meet
+    tx_all, ty_all = tv.xy(ph_all, pk_all)
+    th_all = tv.heading(ph_all, pk_all)
+    ct, st = np.abs(np.cos(th_all)), np.abs(np.sin(th_all))
+    g2 = 2.0 * grow_b[ph_all]  # each box grows by at most 2 g (g on each of two sides' projections)
+    hl, hw = 0.5 * tv_length[ph_all], 0.5 * tv_width[ph_all]
+    lim_x_all = sv_hx + hl * ct + hw * st + g2
+    lim_y_all = sv_hy + hl * st + hw * ct + g2
     slack = float(reach.max()) + 8.0
+    win_all = sv.windows(pk_all, tx_all, lim_x_all, ty_all, lim_y_all, slack)
     todo = list(zip(bounds[:-1], bounds[1:], strict=True))[::-1]  # a stack, earliest on top
     while todo:  # chunks of time, in order
         k0, k1 = todo.pop()
@@ -698,14 +707,10 @@ def check_sv_cluster(
             break
         ph, pk = ph_all[a:b], pk_all[a:b]
         # stage 2: remaining candidates x surviving (h, k): boxes, centre distance, horizon
-        tx, ty = tv.xy(ph, pk)
-        th = tv.heading(ph, pk)
-        ct, st = np.abs(np.cos(th)), np.abs(np.sin(th))
-        g2 = 2.0 * grow_b[ph]  # each box grows by at most 2 g (g on each of two sides' projections)
-        lim_x = sv_hx + 0.5 * tv_length[ph] * ct + 0.5 * tv_width[ph] * st + g2
-        lim_y = sv_hy + 0.5 * tv_length[ph] * st + 0.5 * tv_width[ph] * ct + g2
-        win = sv.windows(pk, tx, lim_x, ty, lim_y, slack)
-        if win is not None:  # triplets of the candidates still in the check
+        tx, ty, th = tx_all[a:b], ty_all[a:b], th_all[a:b]
+        lim_x, lim_y = lim_x_all[a:b], lim_y_all[a:b]
+        if win_all is not None:  # triplets of the candidates still in the check
+            win = win_all[0][a:b], win_all[1][a:b]
             alive_upto = np.concatenate(([0], np.cumsum(~collides)))
             n_near = int((alive_upto[win[1]] - alive_upto[np.minimum(win[0], win[1])]).sum())
         else:
@@ -715,7 +720,9 @@ def check_sv_cluster(
             mid = (k0 + k1) // 2
             todo += [(mid, k1), (k0, mid)]
             continue
-        if win is not None:
+        if n_near == 0:
+            continue
+        if win_all is not None:
             qc, qp = _expand(*win)
             keep = ~collides[qc]
             qc, qp = qc[keep], qp[keep]

@@ -305,9 +305,12 @@ class LaneChangePlanner:
         )
         ids: list[str | None] = [None] * n_c
         when: list[float | None] = [None] * n_c
-        for c in np.flatnonzero(hits.collides):  # only to name the culprits
-            ids[c] = futures.vehicle_ids[futures.owner[hits.first_hypothesis[c]]]
-            when[c] = float(t + t_rel[hits.first_index[c]])
+        cs = np.flatnonzero(hits.collides)  # only to name the culprits
+        owners = futures.owner[hits.first_hypothesis[cs]].tolist()
+        times = (t + t_rel[hits.first_index[cs]]).tolist()
+        for c, o, tc in zip(cs.tolist(), owners, times, strict=True):
+            ids[c] = futures.vehicle_ids[o]
+            when[c] = tc
         return hits.collides, ids, when
 
     # -- the planner -------------------------------------------------------------
@@ -348,10 +351,11 @@ class LaneChangePlanner:
         # one reason per rejected tau, in tau order
         cand_of = np.full(taus.size, -1)
         cand_of[cand] = np.arange(cand.size)
+        tau_l, cand_l = taus.tolist(), cand_of.tolist()
         rejections = [
-            Rejection(float(taus[i]), "unstable") if cand_of[i] < 0
-            else Rejection(float(taus[i]), "collision", ids[cand_of[i]], when[cand_of[i]])
-            for i in np.flatnonzero(~free)
+            Rejection(tau_l[i], "unstable") if cand_l[i] < 0
+            else Rejection(tau_l[i], "collision", ids[cand_l[i]], when[cand_l[i]])
+            for i in np.flatnonzero(~free).tolist()
         ]
         trajectory = None
         if tau is not None:

@@ -259,8 +259,8 @@ def predict_lazy(
         meta(i, k, tau, end)
 
     def add_c1(i: int, m: V2VMessage) -> None:
-        x, _ = constant_acceleration(m, t)
-        add(i, x, np.full(n_t, m.y), np.full(n_t, m.heading), np.nan, -np.inf)
+        blocks.append(("c1", m))  # computed below, all C1 TVs at once
+        meta(i, 1, np.nan, -np.inf)
 
     for i, m in enumerate(messages):
         cat = category(m)
@@ -319,6 +319,17 @@ def predict_lazy(
         noint = np.zeros(0, dtype=np.int64)
         return LazyFutures(t, rel, ids, tuple(cats), noint, none, none, none, none, noint,
                            noint, empty, empty, empty, none, none, none, none, none, ())
+    c1 = [b[1] for b in blocks if b[0] == "c1"]
+    if c1:  # constant_acceleration of every C1 TV (the same operations, one array)
+        mt, v, a, mx = (np.array([getattr(m, f) for m in c1]) for f in ("t", "speed", "accel", "x"))
+        dt = t[None, :] - mt[:, None]
+        neg = np.flatnonzero(a < 0.0)
+        if neg.size:  # stopped: stays
+            dt[neg] = np.minimum(dt[neg], (v[neg] / -a[neg])[:, None])
+        x_c1 = mx[:, None] + v[:, None] * dt + 0.5 * a[:, None] * dt * dt
+        j = iter(range(len(c1)))
+        blocks = [("rows", x_c1[next(j)][None, :], np.full((1, n_t), b[1].y),
+                   np.full((1, n_t), b[1].heading)) if b[0] == "c1" else b for b in blocks]
     n_h = sum(o.size for o in owner)
     params = np.full((5, n_h), np.nan)
     row_of = np.full(n_h, -1, dtype=np.int64)
