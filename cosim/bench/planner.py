@@ -7,13 +7,16 @@ Side by side in one run, medians over repeats:
   safe against each one's whole stable cluster), tau step 0.05 s;
 
 each planned by `LaneChangePlanner.plan` and by `loop_plan`, a direct transcription
-of the paper's procedure with one Python loop per candidate tau and, inside it,
-one per TV trajectory (hypothesis): the candidate's envelope check, then the
-exact test of that pair over the time grid, stopping at the first overlap; for
-the paper cases also by `step_loop_plan`, which writes eq. 10's time integral out
-as a loop over the samples too. All share the prediction, the time grid, the
-horizons and the sampling pad, and the bench checks that their collision-free
-sets agree.
+of the paper's collision procedure with one Python loop per candidate tau of the
+stable set and, inside it, one per TV trajectory (hypothesis): the exact test of
+that pair over the time grid in one numpy call, stopping at the first overlap; for
+the paper cases also by `step_loop_plan`, with no vectorisation at all: for each
+candidate, for each time sample (eq. 10's integral as a sum), for each TV
+trajectory, one scalar test. All share the planner's stable set (so the loops time
+the collision procedure, not the envelope: the planner's tau_min maps are built
+once per planner), the prediction, the time grid, the horizons, the sampling pad
+and the look between samples, and the bench checks that their collision-free sets
+agree.
 
 Targets: paper cases < 2 ms, dense case < 10 ms, loop / vectorised >= 100x.
 """
@@ -37,7 +40,7 @@ from cosim.planning.collision import (
     overlap_sat,
     sampling_pad,
 )
-from cosim.planning.envelope import envelope_margin, tau_min_from_margin
+from cosim.planning.envelope import MODES
 from cosim.planning.planner import LaneChangePlanner, SVPlanState
 from cosim.planning.prediction import predict
 from cosim.planning.trajectory import cluster_derivatives
@@ -112,37 +115,45 @@ def _pose_fn(sv: SVPlanState, vxf: float, width: float, tau: float,
     return pose
 
 
-def loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int,
-              messages: list[V2VMessage]) -> NDArray[np.bool_]:
-    """The collision-free mask on the planner's grid, one candidate and one TV
-    trajectory at a time (the paper's procedure, transcribed directly)."""
+def _loop_setup(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int,
+                messages: list[V2VMessage]) -> dict[str, Any]:
+    """What the loops share with the planner: the stable set (the planner's own, so the
+    loops time the collision procedure over the same candidates), the prediction, the
+    time grid, the horizons and the sampling pad."""
     cfg, road, veh = planner.config, planner.road, planner.vehicle
     vxf = road.target_speed(sv.lane, target)
     width = road.lane_center(target) - sv.y
-    taus = planner.grid
+    st = planner._stable_set(sv.vx, vxf, width, sv.ax, sv.vy, sv.ay,
+                             MODES.get((sv.lane, target)))
+    taus, stable = planner.grid, st.stable
+    extra = [st.tau_min] if np.isfinite(st.tau_min) else []
+    cand = np.unique(np.concatenate([taus[stable], extra]))
     tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
     t_rel = planner._time_grid(max(cfg.tau_max, tv_last) + cfg.horizon_extra)
     futures = predict(messages, t, t_rel, road, veh, taus, envelope=cfg.envelope,
                       safety_factor=cfg.safety_factor)
-    kw = {"ax0": sv.ax, "vy0": sv.vy, "ay0": sv.ay}
-    # the stable cluster first, one candidate at a time (eq. 5-8)
-    margins = np.array([
-        envelope_margin(sv.vx, vxf, width, [tau], road.mu, veh,
-                        safety_factor=cfg.safety_factor, **kw)[0]
-        for tau in taus
-    ])
-    stable = margins <= 1.0
-    tau_min = tau_min_from_margin(taus, margins)
-    cand = np.unique(np.concatenate([taus[stable], [tau_min] if np.isfinite(tau_min) else []]))
-    # the same conservative sampling pad as the planner (from the whole stable cluster)
     motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[1]  # the planner's bounds
     r_sv = 0.5 * math.hypot(veh.length, veh.width)
     pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv,
                        0.5 * np.hypot(futures.length, futures.width))
     tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
+    return {"vxf": vxf, "width": width, "taus": taus, "stable": stable, "t_rel": t_rel,
+            "futures": futures, "pad": pad, "tv_end": tv_end,
+            "kw": {"ax0": sv.ax, "vy0": sv.vy, "ay0": sv.ay}}
+
+
+def loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int,
+              messages: list[V2VMessage]) -> NDArray[np.bool_]:
+    """The collision-free mask on the planner's grid, one candidate and one TV
+    trajectory at a time (the paper's procedure, transcribed directly; each pair's
+    test over the time samples in one numpy call)."""
+    cfg, veh = planner.config, planner.vehicle
+    s = _loop_setup(planner, t, sv, target, messages)
+    vxf, width, taus, t_rel, futures, pad, kw = (
+        s[k] for k in ("vxf", "width", "taus", "t_rel", "futures", "pad", "kw"))
     free = np.zeros(taus.size, dtype=bool)
-    for i, tau in enumerate(taus):  # one candidate at a time
-        if not stable[i]:
+    for i, tau in enumerate(taus):  # one candidate of the stable set at a time
+        if not s["stable"][i]:
             continue
         d = cluster_derivatives(sv.vx, vxf, width, [tau], t_rel, (0, 1), **kw)
         x, y = d[0][0][0] + sv.x, d[0][1][0] + sv.y
@@ -150,7 +161,7 @@ def loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int
         collides = False
         sv_pose = _pose_fn(sv, vxf, width, float(tau), kw)
         for j in range(futures.n_hypotheses):  # one TV trajectory at a time
-            horizon = max(tau, tv_end[j]) + cfg.horizon_extra
+            horizon = max(tau, s["tv_end"][j]) + cfg.horizon_extra
             k = t_rel <= horizon
             args = (x[k], y[k], h[k], veh.length, veh.width, futures.x[j, k], futures.y[j, k],
                     futures.heading[j, k], futures.length[j], futures.width[j])
@@ -210,55 +221,42 @@ def _overlap_scalar(ax: float, ay: float, ah: float, al: float, aw: float, bx: f
 
 def step_loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int,
                    messages: list[V2VMessage]) -> NDArray[np.bool_]:
-    """`loop_plan` with the time loop written out too: eq. 10's integral as a sum over
-    the samples, one scalar overlap test per (candidate, TV trajectory, time)."""
-    cfg, road, veh = planner.config, planner.road, planner.vehicle
-    vxf = road.target_speed(sv.lane, target)
-    width = road.lane_center(target) - sv.y
-    taus = planner.grid
-    tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
-    t_rel = planner._time_grid(max(cfg.tau_max, tv_last) + cfg.horizon_extra)
-    futures = predict(messages, t, t_rel, road, veh, taus, envelope=cfg.envelope,
-                      safety_factor=cfg.safety_factor)
-    kw = {"ax0": sv.ax, "vy0": sv.vy, "ay0": sv.ay}
-    margins = np.array([
-        envelope_margin(sv.vx, vxf, width, [tau], road.mu, veh,
-                        safety_factor=cfg.safety_factor, **kw)[0]
-        for tau in taus
-    ])
-    stable = margins <= 1.0
-    tau_min = tau_min_from_margin(taus, margins)
-    cand = np.unique(np.concatenate([taus[stable], [tau_min] if np.isfinite(tau_min) else []]))
-    motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[1]  # the planner's bounds
-    r_sv = 0.5 * math.hypot(veh.length, veh.width)
-    pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv,
-                       0.5 * np.hypot(futures.length, futures.width))
-    tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
+    """The paper's procedure with no vectorisation at all: for each candidate of the
+    stable set, for each time sample (eq. 10's integral as a sum), for each TV
+    trajectory, one scalar overlap test; a candidate stops at its first overlap."""
+    cfg, veh = planner.config, planner.vehicle
+    s = _loop_setup(planner, t, sv, target, messages)
+    vxf, width, taus, t_rel, futures, pad, kw = (
+        s[k] for k in ("vxf", "width", "taus", "t_rel", "futures", "pad", "kw"))
     fx, fy, fh = futures.x.tolist(), futures.y.tolist(), futures.heading.tolist()
+    fl, fw = futures.length.tolist(), futures.width.tolist()
+    tv_end = s["tv_end"].tolist()
+    m0 = cfg.safety_margin
+    padded_margin = (m0 + pad).tolist()
+    fine_margin = (m0 + pad / REFINE_SUBSTEPS).tolist()
     free = np.zeros(taus.size, dtype=bool)
-    for i, tau in enumerate(taus):
-        if not stable[i]:
+    for i, tau in enumerate(taus.tolist()):
+        if not s["stable"][i]:
             continue
         d = cluster_derivatives(sv.vx, vxf, width, [tau], t_rel, (0, 1), **kw)
         x = (d[0][0][0] + sv.x).tolist()
         y = (d[0][1][0] + sv.y).tolist()
         h = np.arctan2(d[1][1][0], d[1][0][0]).tolist()
+        horizon = [max(tau, e) + cfg.horizon_extra for e in tv_end]
+        last = max(horizon)
+        sv_pose = _pose_fn(sv, vxf, width, tau, kw)
         collides = False
-        sv_pose = _pose_fn(sv, vxf, width, float(tau), kw)
-        for j in range(futures.n_hypotheses):
-            horizon = max(tau, tv_end[j]) + cfg.horizon_extra
-            m0 = cfg.safety_margin
-            m = m0 + float(pad[j])
-            tl, tw = float(futures.length[j]), float(futures.width[j])
-            for k, tk in enumerate(t_rel):  # eq. 10: over the horizon, sample by sample
-                if tk > horizon:
-                    break
+        for k, tk in enumerate(t_rel.tolist()):  # eq. 10: over the horizon, sample by sample
+            if tk > last:
+                break
+            for j in range(futures.n_hypotheses):  # every TV trajectory at this sample
+                if tk > horizon[j]:
+                    continue
                 pose = (x[k], y[k], h[k], veh.length, veh.width, fx[j][k], fy[j][k], fh[j][k],
-                        tl, tw)
-                if _overlap_scalar(*pose, m) and (
+                        fl[j], fw[j])
+                if _overlap_scalar(*pose, padded_margin[j]) and (
                     _overlap_scalar(*pose, m0)
-                    or _refined_hit(sv_pose, veh, futures, j, k, t_rel,
-                                    m0 + float(pad[j]) / REFINE_SUBSTEPS)
+                    or _refined_hit(sv_pose, veh, futures, j, k, t_rel, fine_margin[j])
                 ):
                     collides = True
                     break
@@ -354,10 +352,11 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         f"vectorised: median wall time of {args.repeats} plan() calls after one warm-up; "
         f"cpu_ms: the same as process CPU time; no_maps_ms: tau_min from the envelope in "
         f"every call instead of the per-mode maps (built once, in the warm-up)",
-        f"loop: one Python loop per candidate tau and per TV trajectory, each pair's "
-        f"overlap test vectorised over time (median of {args.loop_repeats}); step_loop: "
-        f"the time loop written out as well (paper cases only; 1 run); same prediction, "
-        f"grid, horizons and pad as the planner",
+        f"loop: one Python loop per candidate tau of the stable set and per TV trajectory, "
+        f"each pair's test over time in one numpy call (median of {args.loop_repeats}); "
+        f"step_loop: no vectorisation, for each candidate, each time sample, each TV "
+        f"trajectory a scalar test (paper cases only; 1 run); both take the planner's "
+        f"stable set, prediction, grid, horizons and pad",
         f"1-minute load average at the end: {load:.2f} on {os.cpu_count()} cores",
         "sets_agree = 1: the loop and the vectorised planner found the same collision-free set",
         f"wall time of the whole bench {time.perf_counter() - start:.1f} s",

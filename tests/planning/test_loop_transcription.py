@@ -52,3 +52,14 @@ def test_loop_agrees_when_planning_mid_manoeuvre() -> None:
     loop = loop_plan(planner, t, mid, target, messages)
     np.testing.assert_array_equal(plan.collision_free[on_grid], loop)
     assert loop.any() and not loop.all()
+
+
+def test_step_loop_agrees_on_paper_case_2() -> None:
+    """The loop with no vectorisation (time outer, TV inner, scalar tests) too."""
+    from cosim.bench.planner import step_loop_plan
+
+    planner, t, sv, target, messages, occupant = paper_situation("paper_case2_tv_lane_change")
+    planner = _coarse(planner)
+    free = step_loop_plan(planner, t, sv, target, messages)
+    np.testing.assert_array_equal(free, loop_plan(planner, t, sv, target, messages))
+    assert free.any() and not free.all()
