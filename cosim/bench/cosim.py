@@ -3,7 +3,8 @@
 Side by side in one run, medians over repeats, each from SUMO start to close:
 
 - "sumo alone": the scenario's random traffic (same network, density, seed,
-  inflow, lane-change settings, band rule) stepped by SumoSim with no SV;
+  inflow, lane-change settings, band rule) stepped by SumoSim with no SV, and
+  the same with an SV that SUMO drives (no co-simulation loop at all);
 - "cosim": the same scenario with our SV (planner, controller, plant, V2V,
   decision rule, moveToXY write-back, per-step trace and collision check);
 - "cosim, SUMO drives the SV": the same loop with the SUMO-native baseline SV
@@ -38,9 +39,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=3, help="repeats (median; default 3)")
 
 
-def sumo_alone(scenario: Scenario) -> tuple[float, float]:
-    """s, wall and CPU time of the scenario's traffic alone (no SV), SUMO start to close."""
-    from cosim.sim import SV_LENGTH_MARGIN
+def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, float]:
+    """s, wall and CPU time of the scenario's traffic stepped by SumoSim alone, SUMO
+    start to close; with_sv: an SV of the scenario's size at its start, driven by
+    SUMO's own models (no co-simulation loop at all)."""
+    from cosim.sim import SV_ID, SV_LENGTH_MARGIN
     from cosim.traffic.demand import populate
     from cosim.traffic.sumo import SumoSim
 
@@ -55,7 +58,14 @@ def sumo_alone(scenario: Scenario) -> tuple[float, float]:
         if tr.density > 0:
             populate(sim, sim.road(), tr.density, scenario.seed, tr.length,
                      exclude_zone=(x0 - margin, x0 + margin))
-        for _ in range(scenario.n_steps + 1):
+        if with_sv:
+            sv = scenario.sv
+            desired = sv.desired_speed or scenario.road.speed_bands[sv.lane][1]
+            sim.add_driven(SV_ID, sv.lane, x0, sv.speed, desired, scenario.vehicle.length,
+                           scenario.vehicle.width, own_lane_changes=sv.decision)
+            sim.step()
+            sim.release(SV_ID)
+        for _ in range(scenario.n_steps + (0 if with_sv else 1)):
             sim.step()
     return time.perf_counter() - start, time.process_time() - cpu
 
@@ -79,16 +89,20 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     paper = load_scenario(_path(args.paper, DEFAULT_PAPER))
     repeats = max(int(args.repeats), 1)
     # warm-up (imports, first libsumo start), then alternate so drift hits both alike
-    sumo_alone(with_overrides(dense, duration=1.0))
+    sumo_alone(with_overrides(dense, duration=1.0), with_sv=True)
     cosim_run(with_overrides(dense, duration=1.0))
     baseline = with_overrides(dense, controller="sumo")
-    walls: dict[str, list[float]] = {"alone": [], "ours": [], "baseline": [], "paper": []}
-    cpus: dict[str, list[float]] = {"alone": [], "ours": [], "baseline": [], "paper": []}
+    keys = ("alone", "alone_sv", "ours", "baseline", "paper")
+    walls: dict[str, list[float]] = {k: [] for k in keys}
+    cpus: dict[str, list[float]] = {k: [] for k in keys}
     timing: dict[str, Any] = {}
     for _ in range(repeats):
         wall, cpu = sumo_alone(dense)
         walls["alone"].append(wall)
         cpus["alone"].append(cpu)
+        wall, cpu = sumo_alone(dense, with_sv=True)
+        walls["alone_sv"].append(wall)
+        cpus["alone_sv"].append(cpu)
         wall, cpu, timing = cosim_run(dense)
         walls["ours"].append(wall)
         cpus["ours"].append(cpu)
@@ -102,6 +116,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     c = {k: float(np.median(v)) for k, v in cpus.items()}
     rows = []
     for key, label, sc in (("alone", f"sumo alone ({dense.name})", dense),
+                           ("alone_sv", f"sumo alone, with a SUMO-driven SV ({dense.name})",
+                            dense),
                            ("ours", f"cosim, our SV ({dense.name})", dense),
                            ("baseline", f"cosim, SUMO drives the SV ({dense.name})", baseline),
                            ("paper", f"paper case ({paper.name})", paper)):
@@ -116,6 +132,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         "ratios": {
             "cosim / sumo alone": t_ours / t_alone,
             "cosim / sumo alone (cpu)": c["ours"] / c["alone"],
+            "cosim / sumo alone with a SUMO-driven SV": t_ours / w["alone_sv"],
             "cosim / cosim with the SUMO baseline SV": t_ours / w["baseline"],
             "paper case real-time factor": paper.duration / t_paper,
             "paper case real-time factor (cpu)": paper.duration / c["paper"],
