@@ -572,6 +572,48 @@ def _no_heading(c: IntArray, k: IntArray) -> Array:
 TVSource = TVArrays | TVClosedForm
 
 
+def _refine(c: IntArray, h: IntArray, k: IntArray, pad_h: Array, t: Array, tv: TVSource,
+            sv_pose: PoseFn, sv_length: float, sv_width: float,
+            margin: float) -> NDArray[np.bool_]:
+    """Overlap of candidate c and hypothesis h anywhere in [t_k - dt/2, t_k + dt/2], at
+    REFINE_SUBSTEPS + 1 instants: the SV exactly (`sv_pose`), the TV interpolated
+    linearly between its samples (its interpolation error bounded from the second
+    differences and added to the margin with the pad `pad_h` / REFINE_SUBSTEPS)."""
+    n_t = t.size
+    dt = float(t[1] - t[0]) if n_t > 1 else 0.0
+    n_sub = REFINE_SUBSTEPS
+    frac = np.arange(n_sub + 1) / n_sub - 0.5  # (n_s,), in steps
+    kp, km = np.minimum(k + 1, n_t - 1), np.maximum(k - 1, 0)
+    pos = frac[None, :] > 0
+    # second differences around k (at the ends of the grid, around its neighbour)
+    kc = np.minimum(np.maximum(k, 1), max(n_t - 2, 1))
+    k2p, k2m = np.minimum(kc + 1, n_t - 1), kc - 1
+    m = k.size
+    hh = np.tile(h, 6)
+    kk = np.concatenate((k, kp, km, k2p, kc, k2m))
+    vx, vy = tv.xy(hh, kk)
+    vh = tv.heading(hh, kk)
+
+    def interp(a: Array) -> Array:
+        """Linear between the samples: towards k + 1 after t_k, from k - 1 before."""
+        ak, ap, am = a[:m, None], a[m:2 * m, None], a[2 * m:3 * m, None]
+        slope = np.where(pos, ap - ak, ak - am)  # (m, n_s)
+        slope *= frac
+        slope += ak
+        return slope
+
+    def second_diff(a: Array) -> Array:
+        return np.abs(a[3 * m:4 * m] - 2 * a[4 * m:5 * m] + a[5 * m:])
+
+    r_tv = 0.5 * np.hypot(tv.length[h], tv.width[h])
+    second = second_diff(vx) + second_diff(vy) + r_tv * second_diff(vh)
+    fine_pad = margin + pad_h / n_sub + 0.25 * second  # >= 2x the (dt^2/8) a bound
+    sx, sy, sh = sv_pose(c, t[k][:, None] + frac[None, :] * dt)
+    hit = overlap_sat(sx, sy, sh, sv_length, sv_width, interp(vx), interp(vy), interp(vh),
+                      tv.length[h][:, None], tv.width[h][:, None], margin=fine_pad[:, None])
+    return hit.any(axis=1)
+
+
 def check_cluster(
     t: Array, sv_x: Array, sv_y: Array, sv_heading: Array | HeadingFn, sv_length: float,
     sv_width: float, sv_horizon: Array, tv_x: Array, tv_y: Array, tv_h: Array,
@@ -642,40 +684,6 @@ def check_sv_cluster(
     sv_hy = 0.5 * sv_length * sin_max + 0.5 * sv_width
     last_k = np.searchsorted(t, np.maximum(sv_horizon.max(), tv_horizon), side="right")  # (n_h,)
     checked = 0
-    dt = float(t[1] - t[0]) if n_t > 1 else 0.0
-
-    def _refine(c: IntArray, h: IntArray, k: IntArray, pad_h: Array) -> NDArray[np.bool_]:
-        """Overlap anywhere in [t_k - dt/2, t_k + dt/2], at REFINE_SUBSTEPS + 1 instants:
-        the SV exactly (`sv_pose`), the TV interpolated linearly between its samples
-        (its interpolation error bounded from the second differences and added)."""
-        assert sv_pose is not None
-        n_sub = REFINE_SUBSTEPS
-        frac = np.arange(n_sub + 1) / n_sub - 0.5  # (n_s,), in steps
-        kp, km = np.minimum(k + 1, n_t - 1), np.maximum(k - 1, 0)
-        pos = frac[None, :] > 0
-        # second differences around k (at the ends of the grid, around its neighbour)
-        kc = np.minimum(np.maximum(k, 1), max(n_t - 2, 1))
-        k2p, k2m = np.minimum(kc + 1, n_t - 1), kc - 1
-        m = k.size
-        hh = np.tile(h, 6)
-        kk = np.concatenate((k, kp, km, k2p, kc, k2m))
-        vx, vy = tv.xy(hh, kk)
-        vh = tv.heading(hh, kk)
-
-        def interp(a: Array) -> Array:
-            ak, ap, am = a[:m, None], a[m:2 * m, None], a[2 * m:3 * m, None]
-            return np.where(pos, ak + frac * (ap - ak), ak + frac * (ak - am))
-
-        def second_diff(a: Array) -> Array:
-            return np.abs(a[3 * m:4 * m] - 2 * a[4 * m:5 * m] + a[5 * m:])
-
-        second = second_diff(vx) + second_diff(vy) + r_tv[h] * second_diff(vh)
-        fine_pad = margin + pad_h / n_sub + 0.25 * second  # >= 2x the (dt^2/8) a bound
-        sx, sy, sh = sv_pose(c, t[k][:, None] + frac[None, :] * dt)
-        hit = overlap_sat(sx, sy, sh, sv_length, sv_width, interp(vx), interp(vy),
-                          interp(vh), tv_length[h][:, None], tv_width[h][:, None],
-                          margin=fine_pad[:, None])
-        return hit.any(axis=1)
 
     k_end = int(last_k.max(initial=0))
     bounds = [0]
@@ -772,7 +780,8 @@ def check_sv_cluster(
                 maybe, pad_q = maybe[padded_hit], pad_q[padded_hit]
                 if maybe.size and sv_pose is not None:
                     # look between the samples, where the pad needed is n_sub times smaller
-                    ov[maybe] = _refine(qc[maybe], qh[maybe], qk[maybe], pad_q)
+                    ov[maybe] = _refine(qc[maybe], qh[maybe], qk[maybe], pad_q, t, tv, sv_pose,
+                                        sv_length, sv_width, margin)
                 elif maybe.size:
                     ov[maybe] = True
         if not ov.any():

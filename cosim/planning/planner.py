@@ -328,11 +328,13 @@ class LaneChangePlanner:
         st = self._stable_set(sv.vx, vxf, width, sv.ax, sv.vy, sv.ay,
                               MODES.get((sv.lane, target_lane)))
         taus, stable = st.taus, st.stable
-        if math.isfinite(st.tau_min) and not np.isclose(taus, st.tau_min, atol=1e-9).any():
+        if math.isfinite(st.tau_min) and not (
+            np.abs(taus - st.tau_min) <= 1e-9 + 1e-5 * abs(st.tau_min)  # np.isclose, atol 1e-9
+        ).any():
             # the interval starts at tau_min itself, not at the next grid point
             at = int(np.searchsorted(taus, st.tau_min))
-            taus = np.insert(taus, at, st.tau_min)
-            stable = np.insert(stable, at, True)
+            taus = np.concatenate((taus[:at], [st.tau_min], taus[at:]))
+            stable = np.concatenate((stable[:at], [True], stable[at:]))
         cand = np.flatnonzero(stable)
         tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
         t_rel = self._time_grid(max(cfg.tau_max, tv_last) + cfg.horizon_extra)
