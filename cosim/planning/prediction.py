@@ -239,17 +239,20 @@ def predict_lazy(
     cats: list[str] = []
     # blocks of hypotheses in order: ("rows", x, y, h) or ("closed", params...)
     blocks: list[tuple] = []
-    owner: list[IntArray] = []
-    tau_h: list[Array] = []
-    t_end: list[Array] = []
-    dims: list[Array] = []
+    # per hypothesis, as plain lists (one array each at the end)
+    owner: list[int] = []
+    tau_h: list[float] = []
+    t_end: list[float] = []
+    lengths: list[float] = []
+    widths: list[float] = []
     c2: list[tuple[int, V2VMessage, int, int]] = []
 
     def meta(i: int, k: int, tau: Array | float, end: Array | float) -> None:
-        owner.append(np.full(k, i, dtype=np.int64))
-        tau_h.append(np.broadcast_to(np.asarray(tau, dtype=float), (k,)))
-        t_end.append(np.broadcast_to(np.asarray(end, dtype=float), (k,)))
-        dims.append(np.broadcast_to([messages[i].length, messages[i].width], (k, 2)))
+        owner.extend([i] * k)
+        tau_h.extend(tau.tolist() if isinstance(tau, np.ndarray) else [float(tau)] * k)
+        t_end.extend(end.tolist() if isinstance(end, np.ndarray) else [float(end)] * k)
+        lengths.extend([float(messages[i].length)] * k)
+        widths.extend([float(messages[i].width)] * k)
 
     def add(i: int, x: Array, y: Array, h: Array, tau: Array | float, end: Array | float) -> None:
         """One block of hypotheses of TV i: x, y, h shaped (k, n_t) or (n_t,)."""
@@ -330,7 +333,7 @@ def predict_lazy(
         j = iter(range(len(c1)))
         blocks = [("rows", x_c1[next(j)][None, :], np.full((1, n_t), b[1].y),
                    np.full((1, n_t), b[1].heading)) if b[0] == "c1" else b for b in blocks]
-    n_h = sum(o.size for o in owner)
+    n_h = len(owner)
     params = np.full((5, n_h), np.nan)
     row_of = np.full(n_h, -1, dtype=np.int64)
     stored: list[IntArray] = []
@@ -352,12 +355,11 @@ def predict_lazy(
             params[:, h0:h0 + k] = np.array(b[2:])[:, None]
             closed.append((h0, h0 + k))
         h0 += k
-    dim = np.concatenate(dims)
     cat_rows = (lambda a: np.concatenate(a) if a else np.zeros((0, n_t)))  # noqa: E731
     return LazyFutures(
-        t=t, rel=rel, vehicle_ids=ids, categories=tuple(cats), owner=np.concatenate(owner),
-        tau=np.concatenate(tau_h), t_end=np.concatenate(t_end), length=dim[:, 0].copy(),
-        width=dim[:, 1].copy(),
+        t=t, rel=rel, vehicle_ids=ids, categories=tuple(cats),
+        owner=np.array(owner, dtype=np.int64), tau=np.array(tau_h), t_end=np.array(t_end),
+        length=np.array(lengths), width=np.array(widths),
         stored=np.concatenate(stored) if stored else np.zeros(0, dtype=np.int64),
         row_of=row_of, sx=cat_rows(rows_x), sy=cat_rows(rows_y), sh=cat_rows(rows_h),
         v0=params[0], vxf=params[1], dy=params[2], x0=params[3], y0=params[4],
