@@ -24,8 +24,8 @@ class InputError(CosimError):
         self.value = value
         self.allowed = allowed
         shown = repr(value)
-        if len(shown) > 80:
-            shown = shown[:77] + "..."
+        if len(shown) > 240:
+            shown = shown[:237] + "..."
         message = f"{self.source}: {key} = {shown}: {allowed}"
         super().__init__(" ".join(message.split()))
 
