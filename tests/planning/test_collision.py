@@ -354,3 +354,26 @@ def test_lazy_futures_give_their_arrays_pointwise() -> None:
     np.testing.assert_array_equal(x, f.x[h, k])
     np.testing.assert_array_equal(y, f.y[h, k])
     np.testing.assert_array_equal(f.heading_at(h, k), f.heading[h, k])
+
+
+def test_closed_form_pad_bound_covers_the_exact_pad() -> None:
+    from cosim.params import RoadParams, VehicleParams
+    from cosim.planning.collision import TVClosedForm, standard_cluster_motion
+    from cosim.planning.prediction import predict_lazy
+    from cosim.traffic.v2v import V2VMessage
+
+    road = RoadParams(mu=0.8)
+    t = np.arange(0.0, 12.001, 0.05)
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        msgs = [V2VMessage(f"tv{i}", 0.0, float(rng.uniform(400, 600)), road.lane_center(lane),
+                           0.0, float(rng.uniform(15, 34)), 0.0, lane, 0.0, 4.32, 1.8,
+                           1 if lane < 2 else -1, None) for i, lane in enumerate((0, 1, 2))]
+        f = predict_lazy(msgs, 0.0, t, road, VehicleParams(), np.arange(1.5, 10.001, 0.05))
+        motion = standard_cluster_motion(float(rng.uniform(20, 30)), 27.0, 3.75, 2.5, 0.05)
+        tv = TVClosedForm(f, motion, 2.35)
+        closed = np.flatnonzero(f.closed)
+        assert closed.size > 100
+        exact = tv.pad(closed)
+        assert (tv.pad_bound[closed] >= exact).all()
+        assert (tv.pad_bound[closed] <= 1.5 * exact).all()  # and not far above
