@@ -50,6 +50,7 @@ __all__ = [
     "LaneChangeCommand",
     "SVSpec",
     "Scenario",
+    "TVBrake",
     "TVLaneChange",
     "TVSpec",
     "TrafficSpec",
@@ -114,6 +115,14 @@ class TVLaneChange:
 
 
 @dataclass(frozen=True)
+class TVBrake:
+    """A scripted braking event of a traffic vehicle in its lane."""
+
+    at: float  # s, sim time the braking starts
+    decel: float  # m/s^2, > 0, held until the TV stands still
+
+
+@dataclass(frozen=True)
 class TVSpec:
     """A scripted traffic vehicle, placed relative to the SV."""
 
@@ -125,6 +134,7 @@ class TVSpec:
     length: float  # m
     width: float  # m
     lane_change: TVLaneChange | None
+    brake: TVBrake | None = None  # scripted hard braking (beyond the paper)
 
 
 @dataclass(frozen=True)
@@ -146,6 +156,11 @@ class V2VSpec:
     latency: float  # s, delay of every message
     loss: float  # -, probability in [0, 1] that a message is lost
     mode: str  # "v2v" | "perception"
+    noise_position: float = 0.2  # m, perception: sd of measured x and y
+    noise_heading: float = 0.01  # rad, perception: sd of measured heading
+    noise_speed: float = 0.2  # m/s, perception: sd of measured speed
+    noise_accel: float = 0.3  # m/s^2, perception: sd of measured acceleration
+    noise_lateral_speed: float = 0.1  # m/s, perception: sd of measured lateral speed
 
 
 @dataclass(frozen=True)
@@ -302,6 +317,10 @@ PLANNER_FIELDS = (
     _f("safety_margin_m", "safety_margin", "m", 0.0, 5.0, _PLAN.safety_margin),
     _f("horizon_extra_s", "horizon_extra", "s", 0.0, 60.0, _PLAN.horizon_extra),
     _f("tau_min_floor_s", "tau_min_floor", "s", 0.0, 60.0, _PLAN.tau_min_floor, lo_open=True),
+    Field("replanning", bool, default=_PLAN.replanning),
+    _f("recheck_interval_s", "recheck_interval", "s", 0.0, 10.0, _PLAN.recheck_interval,
+       lo_open=True),
+    Field("uncertainty_margin", bool, default=_PLAN.uncertainty_margin),
 )
 
 VEHICLE_FIELDS = (
@@ -346,6 +365,18 @@ TV_FIELDS = (
         describe="a table {start_s, target_lane, tau_s, ...}",
         parse=lambda s, k, v: validate_table(s, k, v, TV_LANE_CHANGE_FIELDS),
     ),
+    Field(
+        "brake",
+        dict,
+        default=None,
+        describe="a table {at_s, decel_mps2}",
+        parse=lambda s, k, v: validate_table(s, k, v, TV_BRAKE_FIELDS),
+    ),
+)
+
+TV_BRAKE_FIELDS = (
+    _f("at_s", "at", "s", 0.0, 3600.0, REQUIRED),
+    _f("decel_mps2", "decel", "m/s^2", 0.0, 15.0, REQUIRED, lo_open=True),
 )
 
 TV_LANE_CHANGE_FIELDS = (
@@ -368,6 +399,12 @@ V2V_FIELDS = (
     _f("latency_s", "latency", "s", 0.0, 10.0, 0.0),
     _f("loss", "loss", "", 0.0, 1.0, 0.0),
     Field("mode", str, choices=("v2v", "perception"), default="v2v"),
+    # perception mode: standard deviations of the measured TV state
+    _f("noise_position_m", "noise_position", "m", 0.0, 10.0, 0.2),
+    _f("noise_heading_rad", "noise_heading", "rad", 0.0, 1.0, 0.01),
+    _f("noise_speed_mps", "noise_speed", "m/s", 0.0, 10.0, 0.2),
+    _f("noise_accel_mps2", "noise_accel", "m/s^2", 0.0, 10.0, 0.3),
+    _f("noise_lateral_speed_mps", "noise_lateral_speed", "m/s", 0.0, 10.0, 0.1),
 )
 
 TABLES: dict[str, tuple[Field, ...]] = {
@@ -549,7 +586,9 @@ def scenario_from_dict(
         desired_speed=svt["desired_speed"],
     )
     tvs = tuple(
-        TVSpec(**{**t, "lane_change": _tv_lane_change(t["lane_change"])}) for t in tv_tables
+        TVSpec(**{**t, "lane_change": _tv_lane_change(t["lane_change"]),
+                  "brake": TVBrake(**t["brake"]) if t["brake"] is not None else None})
+        for t in tv_tables
     )
     scenario = Scenario(
         path=p,
@@ -699,6 +738,9 @@ def _check_cross(src: str, s: Scenario, network_key: str) -> None:
         if tv.lane >= n:
             raise InputError(src, f"{key}.lane", tv.lane, lanes_allowed)
         lc = tv.lane_change
+        if tv.brake is not None and lc is not None:
+            raise InputError(src, f"{key}.brake", "[tv.brake]",
+                             "a TV without [tv.lane_change] (braking is scripted in its lane)")
         if lc is not None:
             if lc.target_lane >= n:
                 raise InputError(
@@ -862,6 +904,9 @@ OVERRIDES: dict[str, tuple[str, str, float]] = {
     "collision_test": ("planner", "collision_test", 1.0),
     "safety_margin": ("planner", "safety_margin_m", 1.0),
     "horizon_extra": ("planner", "horizon_extra_s", 1.0),
+    "replanning": ("planner", "replanning", 1.0),
+    "recheck_interval": ("planner", "recheck_interval_s", 1.0),
+    "uncertainty_margin": ("planner", "uncertainty_margin", 1.0),
 }
 
 
@@ -926,10 +971,13 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     tvs = []
     for tv in s.tvs:
         values = {f.name: getattr(tv, f.name) for f in fields(tv)}
-        t = _table_to_dict(TV_FIELDS[:-1], values)
+        t = _table_to_dict(TV_FIELDS[:-2], values)
         if tv.lane_change is not None:
             lc = {f.name: getattr(tv.lane_change, f.name) for f in fields(tv.lane_change)}
             t["lane_change"] = _table_to_dict(TV_LANE_CHANGE_FIELDS, lc)
+        if tv.brake is not None:
+            br = {f.name: getattr(tv.brake, f.name) for f in fields(tv.brake)}
+            t["brake"] = _table_to_dict(TV_BRAKE_FIELDS, br)
         tvs.append(t)
 
     def obj(specs: tuple[Field, ...], o: Any) -> dict[str, Any]:
@@ -971,7 +1019,8 @@ def schema_markdown() -> str:
     """Every key of a scenario file as a Markdown table (what, allowed, default), from
     the same `Field`s that validate it, so the documentation cannot drift."""
     rows = ["| key | allowed | default |", "|---|---|---|"]
-    nested = {"sv.lane_changes[]": LANE_CHANGE_FIELDS, "tv.lane_change": TV_LANE_CHANGE_FIELDS}
+    nested = {"sv.lane_changes[]": LANE_CHANGE_FIELDS, "tv.lane_change": TV_LANE_CHANGE_FIELDS,
+              "tv.brake": TV_BRAKE_FIELDS}
     groups = [
         (("[[tv]]" if name == "tv" else f"[{name}]"), name, specs) for name, specs in TABLES.items()
     ]

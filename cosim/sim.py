@@ -33,7 +33,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +60,10 @@ FOLLOW_GRIP = 0.7  # -, share of mu g the car-following reference may brake with
 MAX_FOLLOW_JERK = 15.0  # m/s^3, rate limit of the car-following acceleration
 REF_SPEED_BAND = 0.5  # m/s, the lane-keeping reference speed stays this close to Vx
 CSV_FLOAT = "%.9g"  # float format of every CSV (fixed: byte-identical reruns)
+BRAKE_GRIP = 0.7  # -, share of mu g an emergency brake (no replan, no abort) may use
+BRAKE_TAU = 3.0  # s, emergency brake's duration when the planner gave no tau_min
+BRAKE_TAU_MIN = 1.5  # s, shortest emergency brake (lateral move to the nearest centre)
+UNCERTAIN_CLOSING_SPEED = 5.0  # m/s, closing speed assumed for the V2V latency margin
 
 # ----------------------------------------------------------------------------- columns
 
@@ -120,6 +124,8 @@ PLAN_COLUMNS: dict[str, str] = {
     "rejected_unstable": "candidates rejected by the handling envelope",
     "rejected_collision": "candidates rejected for a collision",
     "rejections": "collisions per TV id, id:count;id:count (or why the request was dropped)",
+    "reason": "replan | abort | brake rows: why the plan under way was dropped (the re-check's "
+    "first collision); else empty",
 }
 
 METRIC_DOCS: dict[str, str] = {
@@ -133,6 +139,11 @@ METRIC_DOCS: dict[str, str] = {
     "for the SUMO baseline with decision = true, also the changes SUMO made on its own)",
     "plans": "planner calls",
     "plans_failed": "planner calls that found no collision-free tau",
+    "replans": "plans under way replaced by a new plan to the same target lane (re-check "
+    "found a collision; [planner] replanning)",
+    "aborts": "plans under way given up for a return to the origin lane",
+    "emergency_brakes": "plans under way given up for braking in the nearest lane (neither a "
+    "replan nor an abort was collision-free)",
     "lane_changes": "lane changes completed (ended within 0.1 m of the target lane centre)",
     "lane_change_completed": "1 if at least one lane change was requested and all started ones "
     "completed, else 0",
@@ -207,6 +218,7 @@ def plan_row(plan: Any, trigger: str, vx0: float) -> dict[str, Any]:
         "rejected_unstable": n_unstable,
         "rejected_collision": sum(per_tv.values()),
         "rejections": ";".join(f"{k}:{v}" for k, v in sorted(per_tv.items())),
+        "reason": "",
     }
 
 
@@ -225,6 +237,8 @@ class LaneChange:
     trajectory: LaneChangeTrajectory
     plan: Any  # the planner's Plan (for the tau-set figure)
     t_next: float = math.inf  # s, when the next manoeuvre started (window end)
+    trigger: str = ""  # what asked for it (scripted | decision | retry)
+    aborted: bool = False  # given up for a return to the origin lane (not a lane change)
 
 
 @dataclass
@@ -282,6 +296,36 @@ def lane_keeping_reference(
     )
 
 
+def reference_state(trajectory: LaneChangeTrajectory, t: float, lane: int) -> Any:
+    """The reference's state at t as a planning start (position, velocity and
+    acceleration of the reference, not of the plant: a new plan from it continues the
+    reference without a jump, and the controller's errors carry over unchanged)."""
+    from cosim.planning.planner import SVPlanState
+
+    x, y = trajectory.position(t)
+    xd, yd = trajectory.derivative(t, 1)
+    xdd, ydd = trajectory.derivative(t, 2)
+    return SVPlanState(x=float(x), y=float(y), heading=math.atan2(float(yd), float(xd)),
+                       vx=float(xd), ax=float(xdd), vy=float(yd), ay=float(ydd), lane=lane)
+
+
+def uncertain_config(scenario: Scenario) -> Any:
+    """The planner's settings with the safety margin widened for what V2V does not
+    tell exactly ([planner] uncertainty_margin): latency (and the extra age of lost
+    messages) times an assumed closing speed, plus, without V2V, two standard
+    deviations of the measured position and the speed noise over one second."""
+    cfg, v2v = scenario.planner, scenario.v2v
+    if not cfg.uncertainty_margin:
+        return cfg
+    age = v2v.latency + scenario.step * v2v.loss / max(1.0 - v2v.loss, 1e-3)
+    extra = age * UNCERTAIN_CLOSING_SPEED
+    if v2v.mode == "perception":
+        extra += 2.0 * v2v.noise_position + v2v.noise_speed * 1.0
+    if extra <= 0.0:
+        return cfg
+    return replace(cfg, safety_margin=cfg.safety_margin + extra)
+
+
 ProgressFn = Callable[[int], None]
 
 
@@ -324,6 +368,9 @@ class CoSimulation:
         self.first_plan: Any = None
         self.records: list[Any] = []
         self.last_failed: tuple[int, int] | None = None  # (origin, target) of a failed plan
+        self.replanning = scenario.planner.replanning and not self.baseline
+        self.next_check = math.inf  # s, next re-check of the plan under way
+        self.outcomes = {"replan": 0, "abort": 0, "brake": 0}  # re-check outcomes
 
     # ------------------------------------------------------------------ set-up
     def _start(self) -> None:
@@ -360,7 +407,7 @@ class CoSimulation:
 
             self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
                                    road.mu, x0, y0, 0.0, sc.sv.speed)
-            self.planner = LaneChangePlanner(sc.vehicle, road, sc.planner)
+            self.planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc))
             self.sumo.add_controlled(SV_ID, x0, y0, 0.0, sc.sv.speed, self.sv_length,
                                      self.sv_width, sc.sv.lane)
             self.loop.set_reference(lane_keeping_reference(0.0, x0, y0, sc.sv.speed, 0.0))
@@ -619,7 +666,8 @@ class CoSimulation:
         target, trigger = self._decide(
             t, sv, tvs, free and self.timer.may_request(t, decision=False),
             free and self.timer.may_request(t))
-        if self.v2v_every_step or target is not None:
+        check = self.active is not None and self.replanning and t >= self.next_check - 1e-9
+        if self.v2v_every_step or target is not None or check:
             if not self.v2v_every_step and self.sc.v2v.range > NEAR_RANGE:
                 snap_all = self.sumo.snapshot()  # everyone: the channel keeps those in range
             public = snap_all.select(np.array(
@@ -629,6 +677,8 @@ class CoSimulation:
         if target is not None:
             messages = messages + self._scripted_messages(t)
             self._plan(t, target, trigger, messages)
+        elif check:
+            self._recheck(t, messages + self._scripted_messages(t))
         if self.active is not None:
             reference = self.active.trajectory
         else:
@@ -678,8 +728,81 @@ class CoSimulation:
             t0=t, tau=float(plan.tau), origin_lane=lane, target_lane=target,
             y_target=self.road.lane_center(target), trajectory=plan.trajectory, plan=plan,
         )
+        self.active.trigger = trigger
         self.lane_changes.append(self.active)
         self.sumo.set_blinker(SV_ID, 1 if target > lane else -1)
+        self.next_check = t + self.sc.planner.recheck_interval
+
+    # ------------------------------------------------------------------ replanning
+    def _recheck(self, t: float, messages: list[Any]) -> None:
+        """Beyond the paper (S2): re-check the rest of the plan under way against fresh
+        predictions; if it now collides, replan to the target lane from the reference's
+        state at t, else abort to the origin lane, else brake in the nearest lane."""
+        lc = self.active
+        assert lc is not None
+        self.next_check = t + self.sc.planner.recheck_interval
+        w0 = time.perf_counter()
+        rejection = self.planner.check(lc.trajectory, t, messages)
+        self.wall["planning"] += time.perf_counter() - w0
+        if rejection is None:
+            return
+        when = math.nan if rejection.time is None else rejection.time
+        reason = f"re-check: collision with {rejection.vehicle_id} at {when:.2f} s"
+        state = reference_state(lc.trajectory, t, lc.origin_lane)
+        occupant = self.sc.sv.occupant
+        w0 = time.perf_counter()
+        # continuing keeps the driver's intent, so it is tried first; the abort only
+        # when no collision-free tau to the target lane is left
+        again = self.planner.plan(t, state, lc.target_lane, messages, occupant)
+        back = None
+        if again.trajectory is None:
+            back = self.planner.plan(t, replace(state, lane=lc.target_lane), lc.origin_lane,
+                                     messages, occupant)
+        self.wall["planning"] += time.perf_counter() - w0
+        if again.trajectory is not None:
+            kind, plan, trajectory = "replan", again, again.trajectory
+        elif back is not None and back.trajectory is not None:
+            kind, plan, trajectory = "abort", back, back.trajectory
+        else:
+            kind, plan = "brake", back if back is not None else again
+            trajectory = self._brake_trajectory(t, lc, plan)
+        self.outcomes[kind] += 1
+        row = plan_row(plan, kind, state.vx)
+        row.update(reason=reason)
+        if kind == "brake":
+            row.update(tau_s=trajectory.tau, ok=1, target_lane=self.road.lane_of(
+                trajectory.y_final))
+        self.plans.append(row)
+        lc.trajectory = trajectory
+        lc.plan = plan
+        lc.tau = trajectory.t_end - lc.t0
+        y_end = trajectory.y_final
+        wanted = lc.target_lane
+        if self.road.lane_of(y_end) == lc.origin_lane:  # back where it started
+            lc.aborted = True
+            lc.target_lane = lc.origin_lane
+            lc.y_target = self.road.lane_center(lc.origin_lane)
+            self.sumo.set_blinker(SV_ID, 0)
+            if lc.trigger in ("scripted", "retry"):  # ask again once back in the lane
+                from cosim.scenario import LaneChangeCommand
+
+                self.pending.insert(0, LaneChangeCommand(at=t, target_lane=wanted))
+
+    def _brake_trajectory(self, t: float, lc: LaneChange, plan: Any) -> LaneChangeTrajectory:
+        """Neither replan nor abort is collision-free: brake (within BRAKE_GRIP mu g at the
+        quartic's peak) while steering to the nearest lane centre, from the reference's
+        state at t (eq. 2 / eq. 4 with general start values)."""
+        st = reference_state(lc.trajectory, t, lc.origin_lane)
+        lane = self.road.lane_of(st.y)
+        tau = plan.tau_min if math.isfinite(plan.tau_min) else BRAKE_TAU
+        tau = max(tau, BRAKE_TAU_MIN)
+        # the quartic from a = ax0 to a(tau) = 0 peaks at about 1.5x its mean deceleration
+        decel = BRAKE_GRIP * self.road.mu * G / 1.5
+        vxf = max(st.vx - decel * tau, 0.0)
+        return LaneChangeTrajectory(
+            t0=t, tau=tau, x0=st.x, y0=st.y, vx0=st.vx, vxf=vxf,
+            width=self.road.lane_center(lane) - st.y, ax0=st.ax, vy0=st.vy, ay0=st.ay,
+        )
 
     def _baseline_step(self, t: float, sv: dict[str, float], tvs: TrafficSnapshot) -> None:
         """SUMO drives the SV; scripted requests become changeLane calls."""
@@ -713,9 +836,11 @@ class CoSimulation:
         else:
             for a, b in zip(self.lane_changes, self.lane_changes[1:], strict=False):
                 a.t_next = b.t0
-            starts = [lc.t0 for lc in self.lane_changes]
-            targets = [lc.y_target for lc in self.lane_changes]
-            ends = [min(lc.t_next, t[-1]) for lc in self.lane_changes]
+            # an aborted manoeuvre is not a lane change (the SV went back)
+            flown = [lc for lc in self.lane_changes if not lc.aborted]
+            starts = [lc.t0 for lc in flown]
+            targets = [lc.y_target for lc in flown]
+            ends = [min(lc.t_next, t[-1]) for lc in flown]
         durations = mx.lane_change_durations(t, trace["y_m"], starts, targets, ends, SETTLE_TOL)
         done = durations[np.isfinite(durations)]
         collisions = 0
@@ -740,6 +865,9 @@ class CoSimulation:
             "lane_change_requests": requests,
             "plans": 0 if self.baseline else len(self.plans),
             "plans_failed": sum(1 for p in self.plans if p["ok"] == 0),
+            "replans": self.outcomes["replan"],
+            "aborts": self.outcomes["abort"],
+            "emergency_brakes": self.outcomes["brake"],
             "lane_changes": int(done.size),
             "lane_change_completed": int(requests > 0 and len(starts) > 0
                                          and done.size == len(starts)),

@@ -84,6 +84,13 @@ def kinematics(tv: TVSpec, t: ArrayLike, road: RoadParams, sv_position: float) -
     x, v, a = _constant_accel(sv_position + tv.gap, tv.speed, tv.accel, tt)
     zeros = np.zeros_like(tt)
     if traj is None:
+        br = getattr(tv, "brake", None)
+        if br is not None:  # constant accel until br.at, then -br.decel down to standstill
+            xb, vb, _ = _constant_accel(sv_position + tv.gap, tv.speed, tv.accel,
+                                        np.array([br.at]))
+            x2, v2, a2 = _constant_accel(float(xb[0]), float(vb[0]), -br.decel, tt - br.at)
+            after = tt >= br.at
+            x, v, a = np.where(after, x2, x), np.where(after, v2, v), np.where(after, a2, a)
         return TVKinematics(x, zeros + y_lane, zeros, v, a, zeros)
     before = tt < traj.t0
     if traj.t0 <= 0.0:  # before a change under way at 0: steady at its start speed

@@ -259,6 +259,13 @@ class V2VChannel:
             loss=spec.loss,  # type: ignore[attr-defined]
             mode=spec.mode,  # type: ignore[attr-defined]
             seed=seed,
+            noise=PerceptionNoise(
+                position=getattr(spec, "noise_position", PerceptionNoise.position),
+                heading=getattr(spec, "noise_heading", PerceptionNoise.heading),
+                speed=getattr(spec, "noise_speed", PerceptionNoise.speed),
+                accel=getattr(spec, "noise_accel", PerceptionNoise.accel),
+                lateral_speed=getattr(spec, "noise_lateral_speed", PerceptionNoise.lateral_speed),
+            ),
         )
 
     def publish(
