@@ -34,7 +34,7 @@ import os
 import random
 import time
 import traceback
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from statistics import NormalDist
@@ -56,9 +56,12 @@ from cosim.output import (
 )
 
 # Grid parameters, in the order runs.csv lists (and sorts) them.
-PARAMETERS = ("driver", "plant", "occupant", "mu", "density", "seed")
+PARAMETERS = ("driver", "variant", "plant", "occupant", "mu", "density", "seed")
 # Parameters that define a grid cell of summary.csv (every parameter but the seed).
-CELL = ("driver", "plant", "occupant", "mu", "density")
+CELL = ("driver", "variant", "plant", "occupant", "mu", "density")
+# The variant of runs without one (and of the SUMO-native driver, which no variant
+# changes): the base scenario as it is.
+NO_VARIANT = ""
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
 # Columns of runs.csv measured by a clock (`wall_time_s` and the run's own
@@ -93,6 +96,8 @@ class RunSpec:
     density: float  # veh per km per lane
     seed: int  # SUMO and traffic seed
     traces: bool = False  # keep the run's trace and metrics files
+    variant: str = NO_VARIANT  # name of a set of scenario overrides (study `variants`)
+    overrides: tuple[tuple[str, Any], ...] = ()  # the variant's (override name, value) pairs
 
     @property
     def run_id(self) -> str:
@@ -106,6 +111,10 @@ class RunSpec:
         key["mu"] = float(key["mu"])
         key["density"] = float(key["density"])
         key["seed"] = int(key["seed"])
+        if self.variant == NO_VARIANT:
+            del key["variant"]  # ids of studies without variants stay what they were
+        else:
+            key["overrides"] = [list(pair) for pair in self.overrides]
         text = json.dumps(key, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:12]
 
@@ -128,17 +137,26 @@ def expand(
     plants: Sequence[str],
     duration: float | None = None,
     traces: bool = False,
+    variants: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> list[RunSpec]:
     """The grid as RunSpecs, in a fixed shuffled order (so the time left shown
-    while the study runs is not skewed by running all dense cases last)."""
+    while the study runs is not skewed by running all dense cases last).
+
+    `variants`: name -> scenario overrides (`cosim.scenario.with_overrides` names),
+    one more grid dimension for our drivers; the SUMO-native driver runs once, as
+    the base scenario (no variant)."""
     sha = file_sha(scenario)
+    named = [(name, tuple(sorted(ov.items()))) for name, ov in (variants or {}).items()]
+    if not named:
+        named = [(NO_VARIANT, ())]
     specs = [
         RunSpec(
             scenario=str(Path(scenario).resolve()), scenario_sha=sha, duration=duration,
             driver=d, plant=pl, occupant=float(p), mu=float(m), density=float(k), seed=int(s),
-            traces=traces,
+            traces=traces, variant=v, overrides=ov,
         )
         for d in drivers for pl in (plants if d != "sumo" else (NO_PLANT,))
+        for v, ov in (named if d != "sumo" else [(NO_VARIANT, ())])
         for p in occupants for m in mus for k in densities for s in seeds
     ]
     ids = [s.run_id for s in specs]
@@ -173,6 +191,7 @@ def apply_spec(spec: RunSpec) -> Any:
     }
     if spec.plant != NO_PLANT:
         changes["plant"] = spec.plant
+    changes.update(dict(spec.overrides))
     if spec.duration is not None:
         changes["duration"] = spec.duration
     return with_overrides(scenario, **changes)
@@ -392,6 +411,8 @@ def assemble(specs: Iterable[RunSpec], out_dir: Path) -> pd.DataFrame:
 
     records = [read_record(out_dir, s.run_id) for s in specs]
     records = [r for r in records if r is not None]
+    for r in records:
+        r.setdefault("variant", NO_VARIANT)  # records of studies without variants
     records.sort(key=lambda r: tuple(r[p] for p in PARAMETERS))
     head = ["run_id", *PARAMETERS, "status", "error"]
     metric_columns: list[str] = []
@@ -448,6 +469,9 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     import pandas as pd
 
     rows = []
+    if "variant" not in runs:
+        runs = runs.assign(variant=NO_VARIANT)
+    runs = runs.assign(variant=runs["variant"].fillna(NO_VARIANT).astype(str))
     for cell, group in runs.groupby(list(CELL), sort=True):
         ok = group[group["status"] == STATUS_OK]
         n = len(ok)
@@ -489,7 +513,7 @@ def summary_markdown(summary: pd.DataFrame) -> str:
         return text
 
     ours = summary[summary["plant"] != NO_PLANT]
-    varying = [c for c in ("plant", "occupant", "mu")
+    varying = [c for c in ("variant", "plant", "occupant", "mu")
                if (ours if c == "plant" else summary)[c].nunique() > 1]
     head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
             "success % (95 % CI)", "collision % (95 % CI)", "lane-change duration s (95 % CI)",

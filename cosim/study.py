@@ -13,6 +13,10 @@ drivers = ["mimo", "siso", "sumo"]    # SV controller; absent: the base scenario
 plants = ["twotrack"]                 # absent: the base scenario's
 duration_s = 30.0                     # absent: the base scenario's
 traces = false                        # keep each run's trace files
+
+[study.variants]                      # optional: named sets of scenario overrides,
+paper = { replanning = false }        # one more grid dimension for our drivers
+replan = { replanning = true, latency = 0.1, loss = 0.1 }
 ```
 
 `load_study` validates the whole file (one-line InputError on the first
@@ -22,6 +26,7 @@ flags replace any list.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -63,6 +68,24 @@ def _list_of(element: Field) -> Any:
     return parse
 
 
+def _parse_variants(source: str, key: str, value: Any) -> dict[str, dict[str, Any]]:
+    """name -> {override name: value}; the names and values are checked against the
+    base scenario later (`cosim.scenario.with_overrides`)."""
+    allowed = ("a table of variants, each name = {override = value, ...} "
+               "(names of cosim.scenario.OVERRIDES or dotted file keys)")
+    if not isinstance(value, dict) or not value:
+        raise InputError(source, key, value, allowed)
+    out: dict[str, dict[str, Any]] = {}
+    for name, overrides in value.items():
+        if not re.fullmatch(r"[A-Za-z0-9_.-]{1,40}", name) or not isinstance(overrides, dict):
+            raise InputError(source, f"{key}.{name}", overrides, allowed)
+        for k, v in overrides.items():
+            if not isinstance(v, (bool, int, float, str)):
+                raise InputError(source, f"{key}.{name}.{k}", v, "a number, string or boolean")
+        out[name] = dict(overrides)
+    return out
+
+
 def _describe(element: Field) -> str:
     return f"a non-empty list of distinct values, each {element.allowed()}"
 
@@ -81,6 +104,8 @@ STUDY_FIELDS = (
     Field("plants", list, parse=_list_of(PLANT), describe=_describe(PLANT), default=None),
     replace(DURATION, name="duration", default=None),
     Field("traces", bool, default=False),
+    Field("variants", dict, parse=_parse_variants, default=None,
+          describe="a table of named scenario-override sets"),
 )
 
 
@@ -100,6 +125,8 @@ class Study:
     plants: tuple[str, ...] | None
     duration: float | None  # s, simulated time of every run (None: the scenario's)
     traces: bool  # keep each run's trace files
+    variants: dict[str, dict[str, Any]] | None = None  # name -> scenario overrides
+
 
     def with_flags(self, **changes: Any) -> Study:
         """The study with the given fields replaced (None values are ignored)."""
@@ -108,7 +135,7 @@ class Study:
     @property
     def size(self) -> int:
         n = len(self.densities) * len(self.seeds)
-        for values in (self.occupants, self.mus, self.drivers, self.plants):
+        for values in (self.occupants, self.mus, self.drivers, self.plants, self.variants):
             n *= len(values) if values else 1
         return n
 

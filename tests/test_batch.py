@@ -24,6 +24,7 @@ import pytest
 from cosim.batch import (
     STATUS_FAILED,
     STATUS_OK,
+    apply_spec,
     expand,
     is_timing_column,
     mean_ci,
@@ -305,3 +306,27 @@ def test_a_run_whose_process_dies_is_recorded_failed(tmp_path: Path) -> None:
     again = run_study(specs, tmp_path, workers=2, progress=False, plots=False,
                       retry_failed=True)
     assert again.ran == 1 and again.failed == 0
+
+
+def test_variants_are_a_grid_dimension_for_our_drivers_only(tmp_path: Path) -> None:
+    grid = {"densities": [10.0], "seeds": [1, 2], "occupants": [0.5], "mus": [0.8],
+            "drivers": ["mimo", "sumo"], "plants": ["twotrack"]}
+    plain = expand(BASE, **grid)  # type: ignore[arg-type]
+    variants = {"paper": {"replanning": False}, "lossy": {"replanning": True, "latency": 0.1}}
+    varied = expand(BASE, **grid, variants=variants)  # type: ignore[arg-type]
+    assert len(varied) == 2 * 2 + 2  # mimo x 2 variants x 2 seeds, sumo x 2 seeds
+    assert {s.variant for s in varied if s.driver == "sumo"} == {""}
+    # runs without a variant keep their ids; each variant's runs get their own
+    sumo_ids = {s.run_id for s in plain if s.driver == "sumo"}
+    assert sumo_ids == {s.run_id for s in varied if s.driver == "sumo"}
+    assert len({s.run_id for s in varied}) == len(varied)
+    lossy = next(s for s in varied if s.variant == "lossy")
+    scenario = apply_spec(lossy)
+    assert scenario.planner.replanning and scenario.v2v.latency == 0.1
+    head = f'[study]\nscenario = "{BASE}"\ndensities_veh_per_km_lane = [10]\nseeds = [1]\n'
+    study = tmp_path / "study.toml"
+    study.write_text(head + "[study.variants]\nreplan = { replanning = true }\n", encoding="utf-8")
+    assert load_study(study).variants == {"replan": {"replanning": True}}
+    study.write_text(head + "variants = { bad = 3 }\n", encoding="utf-8")
+    with pytest.raises(InputError):
+        load_study(study)

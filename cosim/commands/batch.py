@@ -146,9 +146,12 @@ def specs_of(study: Study) -> list[RunSpec]:
             with_overrides(base, **{key: value})
     if study.duration is not None:
         with_overrides(base, duration=study.duration)
+    for overrides in (study.variants or {}).values():
+        with_overrides(base, **overrides)
     return expand(
         study.scenario, densities=study.densities, seeds=study.seeds, occupants=occupants,
         mus=mus, drivers=drivers, plants=plants, duration=study.duration, traces=study.traces,
+        variants=study.variants,
     )
 
 

@@ -20,7 +20,7 @@ PANELS = (
     ("min_ttc_s", "minimum TTC (s)"),
 )
 DRIVER_LABELS = {"mimo": "ours, MIMO", "siso": "ours, SISO", "sumo": "SUMO-native"}
-_OTHER = ("plant", "occupant", "mu")
+_OTHER = ("variant", "plant", "occupant", "mu")
 
 
 def _variant(row: pd.Series, varying: list[str]) -> str:
@@ -28,7 +28,10 @@ def _variant(row: pd.Series, varying: list[str]) -> str:
     parts = []
     for name in varying:
         value = row[name]
-        if name == "plant":
+        if name == "variant":
+            if isinstance(value, str) and value:  # a study's named scenario overrides
+                parts.append(value)
+        elif name == "plant":
             if value != "none":  # the SUMO-native driver runs no plant of ours
                 parts.append(str(value))
         else:
@@ -40,6 +43,9 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
     """Write `density.png` (2 x 2 panels) into `out_dir`; return the paths written."""
     out_dir.mkdir(parents=True, exist_ok=True)
     summary = summary.copy()
+    if "variant" not in summary:
+        summary["variant"] = ""
+    summary["variant"] = summary["variant"].fillna("").astype(str)
     plants = summary.loc[summary["plant"] != "none", "plant"]
     varying = [name for name in _OTHER
                if (plants if name == "plant" else summary[name]).nunique() > 1]
