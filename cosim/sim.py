@@ -156,6 +156,9 @@ METRIC_DOCS: dict[str, str] = {
     "collisions": "collision events by our exact overlap check (SV against every TV; one "
     "contact counts once)",
     "collision": "1 if collisions > 0, else 0",
+    "collisions_sv": "collision events the SV caused: at the onset it was changing lanes "
+    "(a planned manoeuvre under way), or the TV's centre was ahead of the SV's (the SV ran "
+    "into it); the rest are TVs running into a lane-keeping SV from behind or the side",
     "sumo_collisions": "collision events involving the SV reported by SUMO (cross-check)",
     "min_gap_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
     "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
@@ -231,14 +234,16 @@ class LaneChange:
 
     t0: float  # s, start
     tau: float  # s, planned duration
-    origin_lane: int
-    target_lane: int
+    origin_lane: int  # lane the manoeuvre under way leaves (after an abort: the one it aborted)
+    target_lane: int  # lane it heads for (after an abort: the lane it started in)
     y_target: float  # m, target lane centre
     trajectory: LaneChangeTrajectory
     plan: Any  # the planner's Plan (for the tau-set figure)
     t_next: float = math.inf  # s, when the next manoeuvre started (window end)
     trigger: str = ""  # what asked for it (scripted | decision | retry)
     aborted: bool = False  # given up for a return to the origin lane (not a lane change)
+    start_lane: int = -1  # lane it started in
+    wanted_lane: int = -1  # lane first asked for
 
 
 @dataclass
@@ -371,6 +376,7 @@ class CoSimulation:
         self.replanning = scenario.planner.replanning and not self.baseline
         self.next_check = math.inf  # s, next re-check of the plan under way
         self.outcomes = {"replan": 0, "abort": 0, "brake": 0}  # re-check outcomes
+        self.sv_fault = 0  # collision onsets the SV caused (see METRIC_DOCS)
 
     # ------------------------------------------------------------------ set-up
     def _start(self) -> None:
@@ -590,6 +596,13 @@ class CoSimulation:
             hit = overlap_sat(x, y, h, self.sv_length, self.sv_width, tvs.x[near], tvs.y[near],
                               tvs.heading[near], tvs.length[near], tvs.width[near])
             hits = frozenset(tvs.ids[i] for i, c in zip(near, hit, strict=True) if c)
+        prev = self.collision_flags[-1] if self.collision_flags else frozenset()
+        for vid in hits - prev:  # onsets: was the SV at fault? (changing lanes, or hit ahead)
+            i = tvs.index(vid)
+            # the SUMO-driven SV has no plan: moving sideways is its lane change
+            changing = self.active is not None or (self.baseline and abs(vy) > 0.05)
+            if changing or float(tvs.x[i]) > x:
+                self.sv_fault += 1
         self.collision_flags.append(hits)
         row[C["collisions"]] = len(hits)
         row[C["sumo_collisions"]] = self.sumo_step_collisions
@@ -729,6 +742,7 @@ class CoSimulation:
             y_target=self.road.lane_center(target), trajectory=plan.trajectory, plan=plan,
         )
         self.active.trigger = trigger
+        self.active.start_lane, self.active.wanted_lane = lane, target
         self.lane_changes.append(self.active)
         self.sumo.set_blinker(SV_ID, 1 if target > lane else -1)
         self.next_check = t + self.sc.planner.recheck_interval
@@ -748,16 +762,16 @@ class CoSimulation:
             return
         when = math.nan if rejection.time is None else rejection.time
         reason = f"re-check: collision with {rejection.vehicle_id} at {when:.2f} s"
-        state = reference_state(lc.trajectory, t, lc.origin_lane)
+        frm, to = lc.origin_lane, lc.target_lane
+        state = reference_state(lc.trajectory, t, frm)
         occupant = self.sc.sv.occupant
         w0 = time.perf_counter()
         # continuing keeps the driver's intent, so it is tried first; the abort only
         # when no collision-free tau to the target lane is left
-        again = self.planner.plan(t, state, lc.target_lane, messages, occupant)
+        again = self.planner.plan(t, state, to, messages, occupant)
         back = None
         if again.trajectory is None:
-            back = self.planner.plan(t, replace(state, lane=lc.target_lane), lc.origin_lane,
-                                     messages, occupant)
+            back = self.planner.plan(t, replace(state, lane=to), frm, messages, occupant)
         self.wall["planning"] += time.perf_counter() - w0
         if again.trajectory is not None:
             kind, plan, trajectory = "replan", again, again.trajectory
@@ -767,6 +781,8 @@ class CoSimulation:
             kind, plan = "brake", back if back is not None else again
             trajectory = self._brake_trajectory(t, lc, plan)
         self.outcomes[kind] += 1
+        if kind == "brake":
+            self.next_check = math.inf  # the last resort: not re-checked into another one
         row = plan_row(plan, kind, state.vx)
         row.update(reason=reason)
         if kind == "brake":
@@ -776,23 +792,23 @@ class CoSimulation:
         lc.trajectory = trajectory
         lc.plan = plan
         lc.tau = trajectory.t_end - lc.t0
-        y_end = trajectory.y_final
-        wanted = lc.target_lane
-        if self.road.lane_of(y_end) == lc.origin_lane:  # back where it started
-            lc.aborted = True
-            lc.target_lane = lc.origin_lane
-            lc.y_target = self.road.lane_center(lc.origin_lane)
-            self.sumo.set_blinker(SV_ID, 0)
-            if lc.trigger in ("scripted", "retry"):  # ask again once back in the lane
-                from cosim.scenario import LaneChangeCommand
+        end_lane = self.road.lane_of(trajectory.y_final)
+        if end_lane != to:  # heading back: the manoeuvre now leaves `to` for `end_lane`
+            lc.origin_lane, lc.target_lane = to, end_lane
+            lc.y_target = self.road.lane_center(end_lane)
+            self.sumo.set_blinker(SV_ID, 1 if end_lane > to else -1)
+        was_aborted = lc.aborted
+        lc.aborted = lc.target_lane == lc.start_lane  # back where it started: no lane change
+        if lc.aborted and not was_aborted and lc.trigger in ("scripted", "retry"):
+            from cosim.scenario import LaneChangeCommand  # ask again once back in the lane
 
-                self.pending.insert(0, LaneChangeCommand(at=t, target_lane=wanted))
+            self.pending.insert(0, LaneChangeCommand(at=t, target_lane=lc.wanted_lane))
 
     def _brake_trajectory(self, t: float, lc: LaneChange, plan: Any) -> LaneChangeTrajectory:
         """Neither replan nor abort is collision-free: brake (within BRAKE_GRIP mu g at the
         quartic's peak) while steering to the nearest lane centre, from the reference's
         state at t (eq. 2 / eq. 4 with general start values)."""
-        st = reference_state(lc.trajectory, t, lc.origin_lane)
+        st = reference_state(lc.trajectory, t, lc.origin_lane)  # lane unused here
         lane = self.road.lane_of(st.y)
         tau = plan.tau_min if math.isfinite(plan.tau_min) else BRAKE_TAU
         tau = max(tau, BRAKE_TAU_MIN)
@@ -878,6 +894,7 @@ class CoSimulation:
             "tau_first_s": float(ok_plans[0]["tau_s"]) if ok_plans else math.nan,
             "collisions": collisions,
             "collision": int(collisions > 0),
+            "collisions_sv": self.sv_fault,
             "sumo_collisions": self.sumo_new,
             "min_gap_m": float(np.min(trace["gap_min_m"])),
             "min_ttc_s": float(np.min(trace["ttc_min_s"])),
