@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 from cosim.params import VehicleParams
+from cosim.vehicle.compiled import njit
 
 
 def effectiveness(
@@ -33,13 +34,12 @@ def virtual_inputs(
     )
 
 
-def allocate(
-    vehicle: VehicleParams, delta: float, dmz: float, fa: float, eps: float
-) -> tuple[float, float, float, float]:
+@njit
+def allocate_core(ls: float, lf: float, delta: float, dmz: float, fa: float, eps: float
+                  ) -> tuple[float, float, float, float]:
     """N, wheel forces Fx = Mm^T (eps I + Mm Mm^T)^-1 [dMz, Fa] (eq. 30), written out
-    for the 2 x 4 Mm (the closed loop calls this every control step)."""
+    for the 2 x 4 Mm; ls half track, lf CG to front axle (m)."""
     c, s = math.cos(delta), math.sin(delta)
-    ls, lf = vehicle.half_track, vehicle.lf
     a1, a2 = -ls * c + lf * s, ls * c + lf * s  # Mm row 1: a1, a2, -ls, ls
     p11 = eps + a1 * a1 + a2 * a2 + 2.0 * ls * ls
     p12 = c * (a1 + a2)  # the rear terms cancel: -ls + ls
@@ -48,3 +48,11 @@ def allocate(
     l1 = (p22 * dmz - p12 * fa) / det
     l2 = (p11 * fa - p12 * dmz) / det
     return a1 * l1 + c * l2, a2 * l1 + c * l2, -ls * l1 + l2, ls * l1 + l2
+
+
+def allocate(
+    vehicle: VehicleParams, delta: float, dmz: float, fa: float, eps: float
+) -> tuple[float, float, float, float]:
+    """N, wheel forces Fx = Mm^T (eps I + Mm Mm^T)^-1 [dMz, Fa] (eq. 30) (compiled:
+    the closed loop calls `allocate_core` every control step)."""
+    return allocate_core(vehicle.half_track, vehicle.lf, delta, dmz, fa, eps)

@@ -39,6 +39,11 @@ speeds and tau = 2.78 s, shares 0.1 / 0.2 / 0.3 give a largest |ye| of
 printed. The steering law does not use dMz (B's
 first row), so while the limit is active ye is still regulated and only phi_e
 is left to the zero dynamics, as in the SISO baseline.
+
+Speed: the substep loop (`advance_core`: projection, laws, allocation, limits,
+anti-windup, plant RK4, finiteness check) is compiled with numba
+(`cosim.vehicle.compiled`) and runs on float arrays: one call per `advance`.
+The Python side builds the records and raises the errors.
 """
 
 from __future__ import annotations
@@ -46,19 +51,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.vehicle.actuators import ActuatorLimits
-from cosim.vehicle.bicycle import BicyclePlant
+from cosim.vehicle.actuators import ActuatorLimits, steer_core
+from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
 from cosim.vehicle.chassis import ChassisParams
+from cosim.vehicle.compiled import Array, njit
 from cosim.vehicle.plant import Plant, check_finite
-from cosim.vehicle.twotrack import TwoTrackPlant
+from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
-from .allocation import allocate
-from .longitudinal import longitudinal_force
-from .reference import PathErrors, ReferencePath
-from .triple_step import check_gains, mimo_law, siso_law
+from .allocation import allocate_core
+from .longitudinal import longitudinal_core
+from .reference import PathErrors, ReferencePath, path_errors
+from .triple_step import check_gains, law_params, mimo_core, siso_core
 
 PLANTS = ("twotrack", "bicycle")
 YAW_MOMENT_SHARE = 0.2  # -, default friction share of the yaw-moment limit (see above)
@@ -93,6 +101,95 @@ class StepRecord:
     fy: tuple[float, float, float, float] | None  # N, wheel lateral forces (2-DOF: axle / 2)
     fz: tuple[float, float, float, float] | None  # N, wheel loads (two-track only)
     saturated: bool  # an actuator limit was active during the step
+
+
+# Layout of the controller's constant array `cp` and state array `cs` (compiled code).
+CP_FLOOR, CP_MIMO, CP_MAX_STEER, CP_STEER_RATE, CP_DMZ_LIMIT = 0, 1, 2, 3, 4
+CP_FORCE_LO, CP_FORCE_HI, CP_LS, CP_LF, CP_EPS, CP_MASS, CP_KX1 = 5, 6, 7, 8, 9, 10, 11
+# cs: 0 projection (path parameter, s), 1 int(ye) (m s), 2 int(phi_e) (rad s),
+# 3 delta_f applied (rad), 4 dMz (N m), 5 Fa (N), 6-9 wheel forces (N),
+# 10 last control saturated (0/1), 11-15 a non-finite control output
+# (delta_f, dMz, Fa, ye, phi_e), 16 time of a non-finite plant state (s)
+CS_SIZE = 17
+OK, BAD_CONTROL, BAD_STATE = 0, 1, 2
+PLANT_CODES = {"twotrack": 0, "bicycle": 1}
+
+
+@njit
+def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: float,
+                 h_ctrl: float) -> int:
+    """Sample state s at time t, compute and limit the inputs into cs (held until the
+    next call): projection and errors (eq. 16), MIMO (eq. 22-24) or SISO law, Fa
+    (eq. 28), allocation (eq. 30), actuator limits, conditional integration.
+    Returns OK, or BAD_CONTROL with the non-finite outputs in cs[11:16]."""
+    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _) = path_errors(
+        coef, t, s[0], s[1], s[2], s[3], s[4], s[5], cs[0])
+    cs[0] = sproj
+    vx = max(s[3], cp[CP_FLOOR])
+    if cp[CP_MIMO] != 0.0:
+        delta_cmd, dmz = mimo_core(lp, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, cs[1], cs[2])
+    else:
+        delta_cmd = siso_core(lp, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, cs[1])
+        dmz = 0.0
+    fa = longitudinal_core(cp[CP_MASS], cp[CP_KX1], s[3], vx_ref, ax_ref)
+    if not (math.isfinite(delta_cmd) and math.isfinite(dmz) and math.isfinite(fa)):
+        cs[11], cs[12], cs[13], cs[14], cs[15] = delta_cmd, dmz, fa, ye, phi_e
+        return BAD_CONTROL
+    max_steer, dmz_limit = cp[CP_MAX_STEER], cp[CP_DMZ_LIMIT]
+    delta = steer_core(max_steer, cp[CP_STEER_RATE], cs[3], delta_cmd, h_ctrl)
+    steer_sat = abs(delta_cmd) > max_steer
+    yaw_sat = abs(dmz) > dmz_limit
+    dmz_cmd = dmz
+    if yaw_sat:
+        dmz = math.copysign(dmz_limit, dmz)
+    f1, f2, f3, f4 = allocate_core(cp[CP_LS], cp[CP_LF], delta, dmz, fa, cp[CP_EPS])
+    lo, hi = cp[CP_FORCE_LO], cp[CP_FORCE_HI]
+    force_sat = not (lo <= min(f1, f2, f3, f4) and max(f1, f2, f3, f4) <= hi)
+    if force_sat:
+        f1, f2 = min(max(f1, lo), hi), min(max(f2, lo), hi)
+        f3, f4 = min(max(f3, lo), hi), min(max(f4, lo), hi)
+    cs[10] = 1.0 if (steer_sat or yaw_sat or force_sat) else 0.0
+    # conditional integration (anti-windup): an integrator stops only while its
+    # actuator is saturated AND the error would push it further in. int(ye) acts
+    # through the steering (on delta_f with the sign of -ye), int(phi_e) through
+    # the wheel forces (on dMz with the sign of -phi_e). Freezing regardless can
+    # hold a saturated demand for ever.
+    if not (steer_sat and ye * delta_cmd < 0.0):
+        cs[1] += ye * h_ctrl
+    if not ((yaw_sat or force_sat) and phi_e * dmz_cmd < 0.0):
+        cs[2] += phi_e * h_ctrl
+    cs[3], cs[4], cs[5] = delta, dmz, fa
+    cs[6], cs[7], cs[8], cs[9] = f1, f2, f3, f4
+    return OK
+
+
+@njit
+def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Array,
+                 coef: Array, lp: Array, cp: Array, cs: Array, t: float, h: float,
+                 substeps: int, control_every: int, counter: int) -> tuple[int, int, bool]:
+    """`substeps` substeps of h from time t: the controller every `control_every`-th
+    substep (`control_core`), then the plant (kind 0 two-track, 1 bicycle) over the
+    substep with the inputs held. Returns (status, counter, saturated): status OK,
+    BAD_CONTROL, or BAD_STATE with the time in cs[16]."""
+    saturated = False
+    for k in range(substeps):
+        tk = t + k * h
+        if counter % control_every == 0:
+            if control_core(s, coef, lp, cp, cs, tk, h * control_every) != OK:
+                return BAD_CONTROL, counter, saturated
+            saturated = saturated or cs[10] != 0.0
+        counter += 1
+        if kind == 0:
+            twotrack_step(s, pconst, pinputs, pforces, h, cs[3], cs[6], cs[7], cs[8], cs[9])
+        else:
+            bicycle_step(s, pconst, pinputs, h, cs[3], cs[6], cs[7], cs[8], cs[9])
+        total = 0.0
+        for j in range(s.size):
+            total += s[j]
+        if not math.isfinite(total):  # any NaN or inf makes the sum non-finite
+            cs[16] = tk + h
+            return BAD_STATE, counter, saturated
+    return OK, counter, saturated
 
 
 class ClosedLoop:
@@ -149,18 +246,29 @@ class ClosedLoop:
             self.plant = TwoTrackPlant(vehicle, mu, x, y, heading, speed, chassis=ch)
         else:
             self.plant = BicyclePlant(vehicle, x, y, heading, speed)
+        self._kind = PLANT_CODES[plant]
+        self._pforces = getattr(self.plant, "_forces", np.zeros(1))
         # both plants get the force the same motors could deliver through wheels of radius R
-        self._force_bounds = self.limits.wheel_force_bounds(ch.wheel_radius)
+        lo, hi = self.limits.wheel_force_bounds(ch.wheel_radius)
+        self._lp = law_params(vehicle, gains)
+        self._cp = np.array([
+            speed_floor, 1.0 if controller == "mimo" else 0.0,
+            self.limits.max_steer, self.limits.max_steer_rate, self.dmz_limit, lo, hi,
+            vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
+        ])
+        self._cs = np.zeros(CS_SIZE)
         self._path: ReferencePath | None = None
-        self._s = 0.0  # last projection (path parameter, s)
-        self._int_ye = 0.0  # m s
-        self._int_phi = 0.0  # rad s
-        self._delta = 0.0  # rad, applied road-wheel angle
-        self._dmz = 0.0
-        self._fa = 0.0
-        self._fx: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-        self._saturated = False
         self._counter = 0
+
+    @property
+    def _int_ye(self) -> float:
+        """m s, int(ye) of eq. 24."""
+        return float(self._cs[1])
+
+    @property
+    def _int_phi(self) -> float:
+        """rad s, int(phi_e) of eq. 24."""
+        return float(self._cs[2])
 
     # -- reference --------------------------------------------------------------
     @property
@@ -173,74 +281,23 @@ class ClosedLoop:
         from the closest point of the new path."""
         self._path = ReferencePath(reference)
         s = self.plant.state
-        self._s, _ = self._path.project(s[0], s[1], reference.t0)
+        self._cs[0], _ = self._path.project(float(s[0]), float(s[1]), float(reference.t0))
         if reset:
             self.reset_integrators()
 
     def reset_integrators(self) -> None:
         """Zero int(ye) and int(phi_e) (eq. 24)."""
-        self._int_ye = 0.0
-        self._int_phi = 0.0
+        self._cs[1] = 0.0
+        self._cs[2] = 0.0
 
     # -- stepping ---------------------------------------------------------------
     def errors(self, t: float) -> PathErrors:
         """Path errors of the current plant state at time t (the reference must be set)."""
         assert self._path is not None
-        x, y, psi, vx, vy, r = self.plant.state[:6]
-        e = self._path.errors(t, x, y, psi, vx, vy, r, self._s)
-        self._s = e.s
+        x, y, psi, vx, vy, r = self.plant.state[:6].tolist()
+        e = self._path.errors(t, x, y, psi, vx, vy, r, float(self._cs[0]))
+        self._cs[0] = e.s
         return e
-
-    def _control(self, t: float, h_ctrl: float) -> None:
-        """Sample the state, compute and limit the inputs (held until the next call)."""
-        e = self.errors(t)
-        vx = max(self.plant.state[3], self.speed_floor)
-        v, g = self.vehicle, self.gains
-        if self.controller == "mimo":
-            delta_cmd, dmz = mimo_law(
-                v, g, vx, e.kappa, e.ye, e.phi_e, e.ye_dot, e.phi_e_dot,
-                self._int_ye, self._int_phi,
-            )
-        else:
-            delta_cmd = siso_law(
-                v, g, vx, e.kappa, e.ye, e.phi_e, e.ye_dot, e.phi_e_dot, self._int_ye
-            )
-            dmz = 0.0
-        fa = longitudinal_force(v, g, self.plant.state[3], e.vx_ref, e.ax_ref)
-        if not (math.isfinite(delta_cmd) and math.isfinite(dmz) and math.isfinite(fa)):
-            state = ", ".join(
-                f"{n} = {val:.6g}" for n, val in zip(
-                    self.plant.state_names, self.plant.state, strict=True)
-            )
-            raise SimulationError(
-                t, f"non-finite control output: delta_f = {delta_cmd}, dMz = {dmz}, Fa = {fa} "
-                f"(ye = {e.ye:.4g}, phi_e = {e.phi_e:.4g})", state,
-            )
-        delta = self.limits.steer(self._delta, delta_cmd, h_ctrl)
-        steer_sat = abs(delta_cmd) > self.limits.max_steer
-        yaw_sat = abs(dmz) > self.dmz_limit
-        dmz_cmd = dmz
-        if yaw_sat:
-            dmz = math.copysign(self.dmz_limit, dmz)
-        fx = allocate(v, delta, dmz, fa, g.allocation_eps)
-        lo, hi = self._force_bounds
-        f1, f2, f3, f4 = fx
-        force_sat = not (lo <= min(f1, f2, f3, f4) and max(f1, f2, f3, f4) <= hi)
-        if force_sat:
-            fx = (min(max(f1, lo), hi), min(max(f2, lo), hi),
-                  min(max(f3, lo), hi), min(max(f4, lo), hi))
-        self._saturated = steer_sat or yaw_sat or force_sat
-        # conditional integration (anti-windup): an integrator stops only while its
-        # actuator is saturated AND the error would push it further in. int(ye) acts
-        # through the steering (on delta_f with the sign of -ye), int(phi_e) through
-        # the wheel forces (on dMz with the sign of -phi_e). Freezing regardless can
-        # hold a saturated demand for ever.
-        if not (steer_sat and e.ye * delta_cmd < 0.0):
-            self._int_ye += e.ye * h_ctrl
-        if not ((yaw_sat or force_sat) and e.phi_e * dmz_cmd < 0.0):
-            self._int_phi += e.phi_e * h_ctrl
-        self._delta, self._dmz, self._fa = delta, dmz, fa
-        self._fx = fx
 
     def advance(
         self, t: float, dt: float, substeps: int, reference: LaneChangeTrajectory
@@ -253,28 +310,37 @@ class ClosedLoop:
             reference is not self._path.trajectory and reference != self._path.trajectory
         ):
             self.set_reference(reference)
-        h = dt / substeps
+        assert self._path is not None
         plant = self.plant
-        saturated = False
-        for k in range(substeps):
-            tk = t + k * h
-            if self._counter % self.control_every == 0:
-                self._control(tk, h * self.control_every)
-                saturated = saturated or self._saturated
-            self._counter += 1
-            plant.step(h, self._delta, self._fx)
-            check_finite(tk + h, plant.state_names, plant.state)
-        return self.record(t + dt, saturated)
+        status, self._counter, saturated = advance_core(
+            self._kind, plant.state, plant._const, plant._inputs, self._pforces,
+            self._path.coef, self._lp, self._cp, self._cs, float(t), dt / substeps,
+            substeps, self.control_every, self._counter,
+        )
+        if status == BAD_STATE:
+            check_finite(float(self._cs[16]), plant.state_names, plant.state.tolist())
+        elif status == BAD_CONTROL:
+            delta_cmd, dmz, fa, ye, phi_e = self._cs[11:16].tolist()
+            state = ", ".join(
+                f"{n} = {val:.6g}" for n, val in zip(
+                    plant.state_names, plant.state.tolist(), strict=True)
+            )
+            raise SimulationError(
+                t, f"non-finite control output: delta_f = {delta_cmd}, dMz = {dmz}, "
+                f"Fa = {fa} (ye = {ye:.4g}, phi_e = {phi_e:.4g})", state,
+            )
+        return self.record(t + dt, bool(saturated))
 
     def record(self, t: float, saturated: bool = False) -> StepRecord:
         """The closed loop's state at time t (no control update)."""
         e = self.errors(t)
         out = self.plant.outputs()
-        x, y, psi, vx, vy, r = self.plant.state[:6]
+        x, y, psi, vx, vy, r = self.plant.state[:6].tolist()
+        delta, dmz, fa = self._cs[3:6].tolist()
         return StepRecord(
             t=t, x=x, y=y, heading=psi, vx=vx, vy=vy, yaw_rate=r, ax=out.ax, ay=out.ay,
             x_ref=e.x_ref, y_ref=e.y_ref, vx_ref=e.vx_ref, kappa_ref=e.kappa,
             ye=e.ye, phi_e=e.phi_e, ex=vx - e.vx_ref, along=e.along,
-            delta_f=self._delta, dmz=self._dmz, fa=self._fa, fx=out.fx, fy=out.fy, fz=out.fz,
+            delta_f=delta, dmz=dmz, fa=fa, fx=out.fx, fy=out.fy, fz=out.fz,
             saturated=saturated,
         )

@@ -7,10 +7,18 @@ proportional term absorbs it with a small steady speed error.
 from __future__ import annotations
 
 from cosim.params import ControllerGains, VehicleParams
+from cosim.vehicle.compiled import njit
+
+
+@njit
+def longitudinal_core(mass: float, kx1: float, vx: float, vx_ref: float, ax_ref: float
+                      ) -> float:
+    """N, Fa = M (-kx1 (Vx - Vx*) + dVx*/dt) (eq. 28)."""
+    return mass * (-kx1 * (vx - vx_ref) + ax_ref)
 
 
 def longitudinal_force(
     vehicle: VehicleParams, gains: ControllerGains, vx: float, vx_ref: float, ax_ref: float
 ) -> float:
     """N, total longitudinal force Fa demanded of the four wheels."""
-    return vehicle.mass * (-gains.kx1 * (vx - vx_ref) + ax_ref)
+    return longitudinal_core(vehicle.mass, gains.kx1, vx, vx_ref, ax_ref)

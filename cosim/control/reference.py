@@ -13,6 +13,11 @@ the CG to the closest point of the path (+ when the car is left of it), phi_e
 the heading minus the path's tangent angle there, KL the path curvature there
 (eq. 15). Vx* (eq. 14) and dVx*/dt are taken at the current time: the paper
 tracks speed in time and the path in space.
+
+Speed: the evaluation, projection and errors are compiled (numba,
+`cosim.vehicle.compiled`) on the path's coefficient array (`ReferencePath.coef`),
+so the closed loop's compiled substep loop calls them directly; the methods
+wrap the same functions.
 """
 
 from __future__ import annotations
@@ -20,11 +25,19 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numpy as np
+
 from cosim.planning.trajectory import (
     LaneChangeTrajectory,
     lateral_coefficients,
     longitudinal_coefficients,
 )
+from cosim.vehicle.compiled import Array, njit
+
+Point = tuple[float, float, float, float, float, float]
+# Layout of the coefficient array: t0, tau, x polynomial (5), y polynomial (6),
+# the path at t0 + tau (x, y, x', y', x'', y''), vxf.
+N_COEF = 20
 
 
 class PathErrors(NamedTuple):
@@ -43,9 +56,81 @@ class PathErrors(NamedTuple):
     along: float  # m, position error along the path at time t (+ ahead of the plan)
 
 
+@njit
 def wrap_angle(a: float) -> float:
     """rad, a wrapped into [-pi, pi)."""
     return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit
+def path_poly(c: Array, ts: float) -> Point:
+    """(x, y, x', y', x'', y'') of the polynomials at trajectory time ts (s after t0)."""
+    a0, a1, a2, a3, a4 = c[2], c[3], c[4], c[5], c[6]
+    b0, b1, b2, b3, b4, b5 = c[7], c[8], c[9], c[10], c[11], c[12]
+    x = a0 + ts * (a1 + ts * (a2 + ts * (a3 + ts * a4)))
+    dx = a1 + ts * (2.0 * a2 + ts * (3.0 * a3 + ts * 4.0 * a4))
+    ddx = 2.0 * a2 + ts * (6.0 * a3 + ts * 12.0 * a4)
+    y = b0 + ts * (b1 + ts * (b2 + ts * (b3 + ts * (b4 + ts * b5))))
+    dy = b1 + ts * (2.0 * b2 + ts * (3.0 * b3 + ts * (4.0 * b4 + ts * 5.0 * b5)))
+    ddy = 2.0 * b2 + ts * (6.0 * b3 + ts * (12.0 * b4 + ts * 20.0 * b5))
+    return x, y, dx, dy, ddx, ddy
+
+
+@njit
+def path_point(c: Array, t: float) -> Point:
+    """(x, y, x', y', x'', y'') of the path at absolute time t: straight back along the
+    initial tangent before t0, straight at vxf in the target lane after t0 + tau."""
+    ts = t - c[0]
+    tau = c[1]
+    if ts <= 0.0:
+        x0, y0, dx, dy, ddx, ddy = path_poly(c, 0.0)
+        return x0 + dx * ts, y0 + dy * ts, dx, dy, ddx, ddy
+    if ts >= tau:
+        vxf = c[19]
+        return c[13] + vxf * (ts - tau), c[14], vxf, 0.0, 0.0, 0.0
+    return path_poly(c, ts)
+
+
+@njit
+def path_project(c: Array, x: float, y: float, guess: float) -> tuple[float, Point]:
+    """(s, point(s)): the path parameter (absolute time) of the point closest to (x, y),
+    by Gauss-Newton from `guess` (the last projection),
+    s += (P - p(s)) . p'(s) / |p'(s)|^2, stopped when the step is below 1e-7 s
+    (a few micrometres at highway speed)."""
+    s = guess
+    for _ in range(8):
+        pt = path_point(c, s)
+        px, py, dx, dy = pt[0], pt[1], pt[2], pt[3]
+        ds = ((x - px) * dx + (y - py) * dy) / (dx * dx + dy * dy)
+        if abs(ds) < 1e-7:
+            return s, pt
+        s += ds
+    return s, path_point(c, s)
+
+
+@njit
+def path_errors(
+    c: Array, t: float, x: float, y: float, heading: float, vx: float, vy: float,
+    yaw_rate: float, guess: float,
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
+    """The fields of `PathErrors` (in order) for a CG state at time t."""
+    s, (px, py, dx, dy, ddx, ddy) = path_project(c, x, y, guess)
+    v2 = dx * dx + dy * dy
+    v = math.sqrt(v2)
+    cth, sth = dx / v, dy / v
+    ye = -(x - px) * sth + (y - py) * cth
+    phi_e = wrap_angle(heading - math.atan2(dy, dx))
+    kappa = (dx * ddy - dy * ddx) / (v2 * v)
+    sp, cp = math.sin(phi_e), math.cos(phi_e)
+    # Frenet kinematics (eq. 16 is their small-angle form)
+    ye_dot = vx * sp + vy * cp
+    path_rate = (vx * cp - vy * sp) / (1.0 - kappa * ye)
+    phi_e_dot = yaw_rate - kappa * path_rate
+    rx, ry, rdx, rdy, rddx, rddy = path_point(c, t)
+    rv = math.sqrt(rdx * rdx + rdy * rdy)
+    along = ((x - rx) * rdx + (y - ry) * rdy) / rv
+    return (ye, phi_e, ye_dot, phi_e_dot, kappa, s,
+            rv, (rdx * rddx + rdy * rddy) / rv, rx, ry, along)
 
 
 class ReferencePath:
@@ -56,34 +141,18 @@ class ReferencePath:
         self.trajectory = tr
         c3x, c4x = longitudinal_coefficients(tr.vx0, tr.vxf, tr.tau, tr.ax0)
         c3y, c4y, c5y = lateral_coefficients(tr.width, tr.tau, tr.vy0, tr.ay0)
-        self._t0, self._tau = float(tr.t0), float(tr.tau)
-        self._x = (float(tr.x0), float(tr.vx0), 0.5 * float(tr.ax0), float(c3x), float(c4x))
-        self._y = (float(tr.y0), float(tr.vy0), 0.5 * float(tr.ay0),
-                   float(c3y), float(c4y), float(c5y))
-        self._end = self._eval_poly(self._tau)
+        coef = np.zeros(N_COEF)
+        coef[0:13] = (float(tr.t0), float(tr.tau),
+                      float(tr.x0), float(tr.vx0), 0.5 * float(tr.ax0), float(c3x), float(c4x),
+                      float(tr.y0), float(tr.vy0), 0.5 * float(tr.ay0),
+                      float(c3y), float(c4y), float(c5y))
+        coef[13:19] = path_poly(coef, float(tr.tau))
+        coef[19] = float(tr.vxf)
+        self.coef = coef
 
-    def _eval_poly(self, ts: float) -> tuple[float, float, float, float, float, float]:
-        a0, a1, a2, a3, a4 = self._x
-        b0, b1, b2, b3, b4, b5 = self._y
-        x = a0 + ts * (a1 + ts * (a2 + ts * (a3 + ts * a4)))
-        dx = a1 + ts * (2.0 * a2 + ts * (3.0 * a3 + ts * 4.0 * a4))
-        ddx = 2.0 * a2 + ts * (6.0 * a3 + ts * 12.0 * a4)
-        y = b0 + ts * (b1 + ts * (b2 + ts * (b3 + ts * (b4 + ts * b5))))
-        dy = b1 + ts * (2.0 * b2 + ts * (3.0 * b3 + ts * (4.0 * b4 + ts * 5.0 * b5)))
-        ddy = 2.0 * b2 + ts * (6.0 * b3 + ts * (12.0 * b4 + ts * 20.0 * b5))
-        return x, y, dx, dy, ddx, ddy
-
-    def point(self, t: float) -> tuple[float, float, float, float, float, float]:
+    def point(self, t: float) -> Point:
         """(x, y, x', y', x'', y'') of the path at absolute time t (m, m/s, m/s^2)."""
-        ts = t - self._t0
-        if ts <= 0.0:
-            x0, y0, dx, dy, ddx, ddy = self._eval_poly(0.0)
-            return x0 + dx * ts, y0 + dy * ts, dx, dy, ddx, ddy
-        if ts >= self._tau:
-            x, y, dx, dy, _, _ = self._end
-            vxf = self.trajectory.vxf
-            return x + vxf * (ts - self._tau), y, vxf, 0.0, 0.0, 0.0
-        return self._eval_poly(ts)
+        return path_point(self.coef, t)
 
     def speed(self, t: float) -> tuple[float, float]:
         """(Vx*, dVx*/dt) at absolute time t (eq. 14)."""
@@ -91,44 +160,14 @@ class ReferencePath:
         v = math.hypot(dx, dy)
         return v, (dx * ddx + dy * ddy) / v
 
-    def project(
-        self, x: float, y: float, guess: float
-    ) -> tuple[float, tuple[float, float, float, float, float, float]]:
+    def project(self, x: float, y: float, guess: float) -> tuple[float, Point]:
         """(s, point(s)): the path parameter (absolute time) of the point closest to
-        (x, y), by Gauss-Newton from `guess` (the last projection),
-        s += (P - p(s)) . p'(s) / |p'(s)|^2, stopped when the step is below 1e-7 s
-        (a few micrometres at highway speed)."""
-        s = guess
-        for _ in range(8):
-            pt = self.point(s)
-            px, py, dx, dy, _, _ = pt
-            ds = ((x - px) * dx + (y - py) * dy) / (dx * dx + dy * dy)
-            if abs(ds) < 1e-7:
-                return s, pt
-            s += ds
-        return s, self.point(s)
+        (x, y), by Gauss-Newton from `guess` (see `path_project`)."""
+        return path_project(self.coef, x, y, guess)
 
     def errors(
         self, t: float, x: float, y: float, heading: float, vx: float, vy: float,
         yaw_rate: float, guess: float,
     ) -> PathErrors:
         """ye, phi_e, their rates and the reference values for a CG state at time t."""
-        s, (px, py, dx, dy, ddx, ddy) = self.project(x, y, guess)
-        v2 = dx * dx + dy * dy
-        v = math.sqrt(v2)
-        cth, sth = dx / v, dy / v
-        ye = -(x - px) * sth + (y - py) * cth
-        phi_e = wrap_angle(heading - math.atan2(dy, dx))
-        kappa = (dx * ddy - dy * ddx) / (v2 * v)
-        sp, cp = math.sin(phi_e), math.cos(phi_e)
-        # Frenet kinematics (eq. 16 is their small-angle form)
-        ye_dot = vx * sp + vy * cp
-        path_rate = (vx * cp - vy * sp) / (1.0 - kappa * ye)
-        phi_e_dot = yaw_rate - kappa * path_rate
-        rx, ry, rdx, rdy, rddx, rddy = self.point(t)
-        rv = math.sqrt(rdx * rdx + rdy * rdy)
-        along = ((x - rx) * rdx + (y - ry) * rdy) / rv
-        return PathErrors(
-            ye, phi_e, ye_dot, phi_e_dot, kappa, s,
-            rv, (rdx * rddx + rdy * rddy) / rv, rx, ry, along,
-        )
+        return PathErrors(*path_errors(self.coef, t, x, y, heading, vx, vy, yaw_rate, guess))

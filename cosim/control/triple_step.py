@@ -9,6 +9,9 @@ z''' + kz1 z'' + kz0 z' + kzI z = 0 (in int z), Hurwitz exactly when eq. 25 hold
 SISO baseline (the paper's comparison, its ref. [33]): steering only (dMz = 0),
 the same triple-step structure on the single output ye; phi_e is left to the
 zero dynamics, which is why it cannot regulate the heading error directly.
+
+The laws are compiled (`mimo_core`, `siso_core`, numba) for the closed loop's
+compiled substep loop; `mimo_law` and `siso_law` wrap them for Python callers.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numpy as np
 
 from cosim.errors import InputError
 from cosim.params import ControllerGains, VehicleParams
+from cosim.vehicle.compiled import Array, njit
 
 
 def check_gains(gains: ControllerGains, source: str = "controller") -> None:
@@ -52,12 +56,20 @@ def is_hurwitz(coefficients: tuple[float, ...]) -> bool:
     return bool(np.all(np.roots(coefficients).real < 0.0))
 
 
-def design_terms(
-    vehicle: VehicleParams, vx: float, phi_e: float, kappa: float
-) -> tuple[float, float, float, float, float, float]:
-    """(A0_1, A0_2, A1_11, A1_12, A1_21, A1_22) of eq. 21 at speed vx (m/s)."""
-    v = vehicle
-    m, iz, lf, lr, cf, cr = v.mass, v.yaw_inertia, v.lf, v.lr, v.cf, v.cr
+def law_params(vehicle: VehicleParams, gains: ControllerGains) -> Array:
+    """The constants of `mimo_core` / `siso_core` as one array: M, Iz, lf, lr, Cf, Cr,
+    ky0, kyI, ky1, kphi0, kphiI, kphi1."""
+    v, g = vehicle, gains
+    return np.array([v.mass, v.yaw_inertia, v.lf, v.lr, v.cf, v.cr,
+                     g.ky0, g.kyI, g.ky1, g.kphi0, g.kphiI, g.kphi1], dtype=float)
+
+
+@njit
+def design_core(p: Array, vx: float, phi_e: float, kappa: float
+                ) -> tuple[float, float, float, float, float, float]:
+    """(A0_1, A0_2, A1_11, A1_12, A1_21, A1_22) of eq. 21 at speed vx (m/s);
+    p from `law_params`."""
+    m, iz, lf, lr, cf, cr = p[0], p[1], p[2], p[3], p[4], p[5]
     d1 = lf * cf - lr * cr
     d2 = lf * lf * cf + lr * lr * cr
     a0_1 = (cf + cr) / m * phi_e - (vx * vx + d1 / m) * kappa
@@ -69,22 +81,47 @@ def design_terms(
     )
 
 
+@njit
+def mimo_core(p: Array, vx: float, kappa: float, ye: float, phi_e: float, ye_dot: float,
+              phi_e_dot: float, int_ye: float, int_phi: float) -> tuple[float, float]:
+    """(delta_f rad, dMz N m) of eq. 22-24; p from `law_params`."""
+    a0_1, a0_2, a11, a12, a21, a22 = design_core(p, vx, phi_e, kappa)
+    ky0, kyI, ky1, kphi0, kphiI, kphi1 = p[6], p[7], p[8], p[9], p[10], p[11]
+    # wanted y'' (eq. 42-43) minus the model's drift A0 + A1 y'
+    w1 = -(ky0 * ye + kyI * int_ye + ky1 * ye_dot) - a0_1 - a11 * ye_dot - a12 * phi_e_dot
+    w2 = (-(kphi0 * phi_e + kphiI * int_phi + kphi1 * phi_e_dot)
+          - a0_2 - a21 * ye_dot - a22 * phi_e_dot)
+    # u = B^-1 w, B = [[Cf/M, 0], [lf Cf/Iz, 1/Iz]]
+    m, iz, lf, cf = p[0], p[1], p[2], p[4]
+    delta = m / cf * w1
+    dmz = iz * w2 - lf * m * w1
+    return delta, dmz
+
+
+@njit
+def siso_core(p: Array, vx: float, kappa: float, ye: float, phi_e: float, ye_dot: float,
+              phi_e_dot: float, int_ye: float) -> float:
+    """delta_f (rad): triple-step on ye alone, dMz = 0 (first row of eq. 21)."""
+    a0_1, _, a11, a12, _, _ = design_core(p, vx, phi_e, kappa)
+    ky0, kyI, ky1 = p[6], p[7], p[8]
+    w1 = -(ky0 * ye + kyI * int_ye + ky1 * ye_dot) - a0_1 - a11 * ye_dot - a12 * phi_e_dot
+    return p[0] / p[4] * w1
+
+
+def design_terms(
+    vehicle: VehicleParams, vx: float, phi_e: float, kappa: float
+) -> tuple[float, float, float, float, float, float]:
+    """(A0_1, A0_2, A1_11, A1_12, A1_21, A1_22) of eq. 21 at speed vx (m/s)."""
+    return design_core(law_params(vehicle, ControllerGains()), vx, phi_e, kappa)
+
+
 def mimo_law(
     vehicle: VehicleParams, gains: ControllerGains, vx: float, kappa: float,
     ye: float, phi_e: float, ye_dot: float, phi_e_dot: float, int_ye: float, int_phi: float,
 ) -> tuple[float, float]:
     """(delta_f rad, dMz N m) of eq. 22-24."""
-    a0_1, a0_2, a11, a12, a21, a22 = design_terms(vehicle, vx, phi_e, kappa)
-    g = gains
-    # wanted y'' (eq. 42-43) minus the model's drift A0 + A1 y'
-    w1 = -(g.ky0 * ye + g.kyI * int_ye + g.ky1 * ye_dot) - a0_1 - a11 * ye_dot - a12 * phi_e_dot
-    w2 = (-(g.kphi0 * phi_e + g.kphiI * int_phi + g.kphi1 * phi_e_dot)
-          - a0_2 - a21 * ye_dot - a22 * phi_e_dot)
-    # u = B^-1 w, B = [[Cf/M, 0], [lf Cf/Iz, 1/Iz]]
-    v = vehicle
-    delta = v.mass / v.cf * w1
-    dmz = v.yaw_inertia * w2 - v.lf * v.mass * w1
-    return delta, dmz
+    return mimo_core(law_params(vehicle, gains), vx, kappa, ye, phi_e, ye_dot, phi_e_dot,
+                     int_ye, int_phi)
 
 
 def siso_law(
@@ -92,7 +129,5 @@ def siso_law(
     ye: float, phi_e: float, ye_dot: float, phi_e_dot: float, int_ye: float,
 ) -> float:
     """delta_f (rad): triple-step on ye alone, dMz = 0 (first row of eq. 21)."""
-    a0_1, _, a11, a12, _, _ = design_terms(vehicle, vx, phi_e, kappa)
-    g = gains
-    w1 = -(g.ky0 * ye + g.kyI * int_ye + g.ky1 * ye_dot) - a0_1 - a11 * ye_dot - a12 * phi_e_dot
-    return vehicle.mass / vehicle.cf * w1
+    return siso_core(law_params(vehicle, gains), vx, kappa, ye, phi_e, ye_dot, phi_e_dot,
+                     int_ye)

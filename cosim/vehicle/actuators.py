@@ -10,6 +10,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from cosim.errors import InputError
+from cosim.vehicle.compiled import njit
+
+
+@njit
+def steer_core(max_steer: float, max_rate: float, previous: float, demand: float,
+               dt: float) -> float:
+    """rad, the road-wheel angle reached after dt from `previous` towards `demand` with
+    the angle limited to +-max_steer (rad) and its rate to max_rate (rad/s)."""
+    step = max_rate * dt
+    value = min(max(demand, previous - step), previous + step)
+    return min(max(value, -max_steer), max_steer)
 
 
 @dataclass(frozen=True)
@@ -30,9 +41,7 @@ class ActuatorLimits:
 
     def steer(self, previous: float, demand: float, dt: float) -> float:
         """rad, the road-wheel angle reached after dt from `previous` towards `demand`."""
-        step = self.max_steer_rate * dt
-        value = min(max(demand, previous - step), previous + step)
-        return min(max(value, -self.max_steer), self.max_steer)
+        return steer_core(self.max_steer, self.max_steer_rate, previous, demand, dt)
 
     def wheel_force_bounds(self, wheel_radius: float) -> tuple[float, float]:
         """N, (lowest, highest) longitudinal force one wheel's torque can ask for."""

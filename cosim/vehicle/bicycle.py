@@ -10,11 +10,77 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from cosim.params import VehicleParams
-from cosim.vehicle.integrate import rk4_step
+from cosim.vehicle.compiled import Array, njit
 from cosim.vehicle.plant import PlantOutputs
 
 STATE_NAMES = ("x", "y", "heading", "vx", "vy", "yaw_rate")
+
+
+@njit
+def bicycle_lateral_forces(s: Array, c: Array, inputs: Array) -> tuple[float, float]:
+    """N, (Fyf, Fyr) of eq. 17-18 at state s; c = constants, inputs = (delta, Fa, dMz)."""
+    lf, lr, cf, cr, floor = c[2], c[3], c[4], c[5], c[8]
+    vx = max(s[3], floor)
+    vy, r = s[4], s[5]
+    alpha_f = inputs[0] - (vy + lf * r) / vx
+    alpha_r = (lr * r - vy) / vx
+    return cf * alpha_f, cr * alpha_r
+
+
+@njit
+def bicycle_derivative(s: Array, c: Array, inputs: Array, out: Array) -> None:
+    """ds/dt into `out`: eq. 19 (lateral, yaw), eq. 26 (longitudinal), planar kinematics."""
+    m, iz, lf, lr, drag = c[0], c[1], c[2], c[3], c[6]
+    psi, vx, vy, r = s[2], s[3], s[4], s[5]
+    fyf, fyr = bicycle_lateral_forces(s, c, inputs)
+    cs, sn = math.cos(psi), math.sin(psi)
+    out[0] = vx * cs - vy * sn
+    out[1] = vx * sn + vy * cs
+    out[2] = r
+    out[3] = vy * r + (inputs[1] - drag * vx * abs(vx)) / m
+    out[4] = -vx * r + (fyf + fyr) / m
+    out[5] = (lf * fyf - lr * fyr + inputs[2]) / iz
+
+
+@njit
+def bicycle_set_inputs(c: Array, inputs: Array, delta: float,
+                       f1: float, f2: float, f3: float, f4: float) -> None:
+    """Hold delta (rad) and the wheel forces (N): Fa by eq. 27, dMz by eq. 20."""
+    ls, lf = c[7], c[2]
+    cs, sn = math.cos(delta), math.sin(delta)
+    inputs[0] = delta
+    inputs[1] = (f1 + f2) * cs + f3 + f4
+    inputs[2] = f1 * (-ls * cs + lf * sn) + f2 * (ls * cs + lf * sn) + ls * (f4 - f3)
+    inputs[3], inputs[4], inputs[5], inputs[6] = f1, f2, f3, f4
+
+
+@njit
+def bicycle_step(s: Array, c: Array, inputs: Array, h: float, delta: float,
+                 f1: float, f2: float, f3: float, f4: float) -> None:
+    """Integrate state s (in place) h seconds with held inputs (RK4, steps no longer
+    than max_step)."""
+    bicycle_set_inputs(c, inputs, delta, f1, f2, f3, f4)
+    n = max(1, math.ceil(h / c[9] - 1e-9))
+    hi = h / n
+    half = 0.5 * hi
+    sixth = hi / 6.0
+    k1, k2, k3, k4, tmp = np.empty(6), np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    for _ in range(n):
+        bicycle_derivative(s, c, inputs, k1)
+        for j in range(6):
+            tmp[j] = s[j] + half * k1[j]
+        bicycle_derivative(tmp, c, inputs, k2)
+        for j in range(6):
+            tmp[j] = s[j] + half * k2[j]
+        bicycle_derivative(tmp, c, inputs, k3)
+        for j in range(6):
+            tmp[j] = s[j] + hi * k3[j]
+        bicycle_derivative(tmp, c, inputs, k4)
+        for j in range(6):
+            s[j] = s[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
 
 
 class BicyclePlant:
@@ -37,71 +103,43 @@ class BicyclePlant:
         max_step: float = 0.01,  # s, longest RK4 step (the lateral modes are slow)
     ) -> None:
         self.vehicle = vehicle
-        self.state = [x, y, heading, vx, vy, yaw_rate]
+        self.state = np.array([x, y, heading, vx, vy, yaw_rate], dtype=float)
         self.speed_floor = speed_floor
         self.max_step = max_step
-        self._delta = 0.0
-        self._fa = 0.0
-        self._dmz = 0.0
-        self._fx: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+        v = vehicle
+        self._const = np.array([v.mass, v.yaw_inertia, v.lf, v.lr, v.cf, v.cr, v.drag,
+                                v.half_track, speed_floor, max_step])
+        # held inputs: delta (rad), Fa (N), dMz (N m), four wheel forces (N)
+        self._inputs = np.zeros(7)
 
     def set_inputs(self, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Hold delta (rad) and the wheel forces (N); Fa by eq. 27, dMz by eq. 20."""
-        v = self.vehicle
-        c, s = math.cos(delta), math.sin(delta)
-        f1, f2, f3, f4 = fx_cmd
-        self._delta = delta
-        self._fx = (f1, f2, f3, f4)
-        self._fa = (f1 + f2) * c + f3 + f4
-        self._dmz = (
-            f1 * (-v.half_track * c + v.lf * s)
-            + f2 * (v.half_track * c + v.lf * s)
-            + v.half_track * (f4 - f3)
-        )
+        bicycle_set_inputs(self._const, self._inputs, delta, *fx_cmd)
 
-    def lateral_forces(self, s: list[float]) -> tuple[float, float]:
+    def lateral_forces(self, s: list[float] | Array) -> tuple[float, float]:
         """N, (Fyf, Fyr) of eq. 17-18 at state s."""
-        v = self.vehicle
-        vx = max(s[3], self.speed_floor)
-        vy, r = s[4], s[5]
-        alpha_f = self._delta - (vy + v.lf * r) / vx
-        alpha_r = (v.lr * r - vy) / vx
-        return v.cf * alpha_f, v.cr * alpha_r
+        return bicycle_lateral_forces(np.asarray(s, dtype=float), self._const, self._inputs)
 
-    def derivative(self, s: list[float]) -> list[float]:
+    def derivative(self, s: list[float] | Array) -> list[float]:
         """ds/dt: eq. 19 (lateral, yaw), eq. 26 (longitudinal), planar kinematics."""
-        v = self.vehicle
-        _, _, psi, vx, vy, r = s
-        fyf, fyr = self.lateral_forces(s)
-        c, sn = math.cos(psi), math.sin(psi)
-        return [
-            vx * c - vy * sn,
-            vx * sn + vy * c,
-            r,
-            vy * r + (self._fa - v.drag * vx * abs(vx)) / v.mass,
-            -vx * r + (fyf + fyr) / v.mass,
-            (v.lf * fyf - v.lr * fyr + self._dmz) / v.yaw_inertia,
-        ]
+        out = np.empty(6)
+        bicycle_derivative(np.asarray(s, dtype=float), self._const, self._inputs, out)
+        return out.tolist()
 
     def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Integrate h seconds with held inputs (RK4, steps no longer than max_step)."""
-        self.set_inputs(delta, fx_cmd)
-        n = max(1, math.ceil(h / self.max_step - 1e-9))
-        hi = h / n
-        s = self.state
-        for _ in range(n):
-            s = rk4_step(self.derivative, s, hi)
-        self.state = s
+        bicycle_step(self.state, self._const, self._inputs, h, delta, *fx_cmd)
 
     def outputs(self) -> PlantOutputs:
         """Body accelerations (eq. 19, 26) and the held wheel forces."""
         v = self.vehicle
-        vx = self.state[3]
+        vx = float(self.state[3])
         fyf, fyr = self.lateral_forces(self.state)
+        _, fa, _, f1, f2, f3, f4 = self._inputs.tolist()
         return PlantOutputs(
-            ax=(self._fa - v.drag * vx * abs(vx)) / v.mass,
+            ax=(fa - v.drag * vx * abs(vx)) / v.mass,
             ay=(fyf + fyr) / v.mass,
-            fx=self._fx,
+            fx=(f1, f2, f3, f4),
             fy=(fyf / 2.0, fyf / 2.0, fyr / 2.0, fyr / 2.0),
             fz=None,
         )

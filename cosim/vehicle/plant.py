@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from cosim.errors import SimulationError
+from cosim.vehicle.compiled import Array
 
 
 @dataclass(frozen=True)
@@ -25,11 +26,15 @@ class Plant(Protocol):
 
     `state[:6]` is always (x, y, heading, vx, vy, yaw_rate): CG position (m),
     heading (rad, math convention), body velocities (m/s) and yaw rate (rad/s).
+    The state is a float64 array, integrated in place by compiled code; `_const`
+    and `_inputs` are the arrays the closed loop's compiled substep loop passes on.
     """
 
     kind: str
     state_names: tuple[str, ...]
-    state: list[float]
+    state: Array
+    _const: Array
+    _inputs: Array
 
     def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Integrate h seconds with road-wheel angle delta (rad) and wheel force demands (N)."""
@@ -40,7 +45,7 @@ class Plant(Protocol):
         ...
 
 
-def check_finite(t: float, names: tuple[str, ...], state: list[float]) -> None:
+def check_finite(t: float, names: tuple[str, ...], state: list[float] | Array) -> None:
     """Raise SimulationError naming every non-finite state (NaN never propagates silently)."""
     if math.isfinite(sum(state)):  # any NaN or inf makes the sum non-finite
         return

@@ -22,16 +22,23 @@ expected), so `step` splits a substep into RK4 steps no longer than
 constant and no longer than `max_step` (5 ms): one RK4 step per 5 ms substep at
 highway speed, more at low speed. Against a 0.2 ms reference, a 3 s sine-steer
 and drive/brake manoeuvre at 25 m/s ends within 1e-6 m and 1e-6 rad/s.
+
+Speed: the derivative, the ABS / traction control and the RK4 loop are compiled
+(numba, `cosim.vehicle.compiled`) and work on float arrays in place; the closed
+loop calls `twotrack_step` from its own compiled substep loop, the class methods
+wrap the same functions for Python callers.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from cosim.errors import InputError
 from cosim.params import G, VehicleParams
 from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
-from cosim.vehicle.integrate import rk4_step
+from cosim.vehicle.compiled import Array, njit
 from cosim.vehicle.plant import PlantOutputs
 from cosim.vehicle.tyre import peak_slip
 
@@ -39,6 +46,176 @@ STATE_NAMES = (
     "x", "y", "heading", "vx", "vy", "yaw_rate",
     "omega_fl", "omega_fr", "omega_rl", "omega_rr", "ax_load", "ay_load",
 )
+N_CONST = 30  # length of the constants array (layout: `TwoTrackPlant.__init__`)
+
+
+@njit
+def twotrack_derivative(s: Array, c: Array, inputs: Array, forces: Array, out: Array) -> None:
+    """ds/dt at state s into `out`; inputs = (cos delta, sin delta, four wheel torques);
+    the accelerations and wheel forces (ax, ay, Fx1..4, Fy1..4, Fz1..4) into `forces`."""
+    m, iz, lf, lr, ls, rad, floor = c[0], c[1], c[2], c[3], c[4], c[5], c[6]
+    shape, inv_shape, ckm, mu, drag, iw, lag = c[7], c[8], c[9], c[10], c[11], c[12], c[13]
+    kd_long, kd_lat_f, kd_lat_r, fz0f, fz0r, cafm, carm = (
+        c[14], c[15], c[16], c[17], c[18], c[19], c[20])
+    psi, vx, vy, r = s[2], s[3], s[4], s[5]
+    w1, w2, w3, w4, axl, ayl = s[6], s[7], s[8], s[9], s[10], s[11]
+    cd, sd = inputs[0], inputs[1]
+
+    # vertical loads: static + longitudinal (pitch) + lateral (roll) transfer
+    dlong = kd_long * axl
+    dlat_f = kd_lat_f * ayl
+    dlat_r = kd_lat_r * ayl
+    fz1 = fz0f - dlong - dlat_f
+    fz2 = fz0f - dlong + dlat_f
+    fz3 = fz0r + dlong - dlat_r
+    fz4 = fz0r + dlong + dlat_r
+    # a lifted wheel carries nothing
+    fz1 = fz1 if fz1 > 0.0 else 0.0
+    fz2 = fz2 if fz2 > 0.0 else 0.0
+    fz3 = fz3 if fz3 > 0.0 else 0.0
+    fz4 = fz4 if fz4 > 0.0 else 0.0
+
+    # wheel-centre velocities (body frame), then into each wheel's frame
+    vl = vx - r * ls  # left wheels' body-x speed
+    vr = vx + r * ls  # right wheels' body-x speed
+    vyf = vy + r * lf
+    vyr = vy - r * lr
+    u1 = vl * cd + vyf * sd
+    l1 = -vl * sd + vyf * cd
+    u2 = vr * cd + vyf * sd
+    l2 = -vr * sd + vyf * cd
+
+    # tyres: `cosim.vehicle.tyre.tyre_forces` inlined (normalised slips, stiffness / mu)
+    # FL
+    ref = u1 if u1 > floor else (-u1 if -u1 > floor else floor)
+    ux, uy = ckm * (w1 * rad - u1) / ref, -cafm * l1 / ref
+    u = math.sqrt(ux * ux + uy * uy)
+    d = mu * fz1 * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
+    fx1, fy1 = d * ux, d * uy
+    # FR
+    ref = u2 if u2 > floor else (-u2 if -u2 > floor else floor)
+    ux, uy = ckm * (w2 * rad - u2) / ref, -cafm * l2 / ref
+    u = math.sqrt(ux * ux + uy * uy)
+    d = mu * fz2 * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
+    fx2, fy2 = d * ux, d * uy
+    # RL
+    ref = vl if vl > floor else (-vl if -vl > floor else floor)
+    ux, uy = ckm * (w3 * rad - vl) / ref, -carm * vyr / ref
+    u = math.sqrt(ux * ux + uy * uy)
+    d = mu * fz3 * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
+    fx3, fy3 = d * ux, d * uy
+    # RR
+    ref = vr if vr > floor else (-vr if -vr > floor else floor)
+    ux, uy = ckm * (w4 * rad - vr) / ref, -carm * vyr / ref
+    u = math.sqrt(ux * ux + uy * uy)
+    d = mu * fz4 * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
+    fx4, fy4 = d * ux, d * uy
+
+    # front forces into the body frame
+    fxf = fx1 + fx2
+    fyf = fy1 + fy2
+    bx1 = fx1 * cd - fy1 * sd
+    bx2 = fx2 * cd - fy2 * sd
+    fx_body = fxf * cd - fyf * sd + fx3 + fx4
+    fy_body = fxf * sd + fyf * cd + fy3 + fy4
+    mz = (
+        lf * (fxf * sd + fyf * cd)
+        - lr * (fy3 + fy4)
+        + ls * (bx2 - bx1 + fx4 - fx3)
+    )
+    ax = (fx_body - drag * vx * abs(vx)) / m
+    ay = fy_body / m
+    forces[0], forces[1] = ax, ay
+    forces[2], forces[3], forces[4], forces[5] = fx1, fx2, fx3, fx4
+    forces[6], forces[7], forces[8], forces[9] = fy1, fy2, fy3, fy4
+    forces[10], forces[11], forces[12], forces[13] = fz1, fz2, fz3, fz4
+    c_, sn = math.cos(psi), math.sin(psi)
+    out[0] = vx * c_ - vy * sn
+    out[1] = vx * sn + vy * c_
+    out[2] = r
+    out[3] = ax + vy * r
+    out[4] = ay - vx * r
+    out[5] = mz / iz
+    out[6] = (inputs[2] - rad * fx1) / iw
+    out[7] = (inputs[3] - rad * fx2) / iw
+    out[8] = (inputs[4] - rad * fx3) / iw
+    out[9] = (inputs[5] - rad * fx4) / iw
+    out[10] = (ax - axl) / lag
+    out[11] = (ay - ayl) / lag
+
+
+@njit
+def twotrack_time_constant(s: Array, c: Array) -> float:
+    """s, fastest wheel-spin time constant Iw v / (C_kappa Fz R^2) at state s, with 20 %
+    margin on the largest wheel load (loads move within a substep)."""
+    half_track, floor, fz_max0, k_long, k_lat, scale = c[22], c[23], c[24], c[25], c[26], c[27]
+    v = abs(s[3]) - half_track * abs(s[5])
+    fz_max = fz_max0 + k_long * abs(s[10]) + k_lat * abs(s[11])
+    return scale * (v if v > floor else floor) / fz_max
+
+
+@njit
+def twotrack_slip_limit(s: Array, c: Array, inputs: Array, forces: Array) -> None:
+    """ABS / traction control on the torques inputs[2:6] (in place): a wheel whose
+    longitudinal slip is past the peak of its tyre curve, in the direction its torque
+    pushes, gets only the torque its tyre transmits (R Fx at the last evaluation), so it
+    neither locks nor spins up. Slips are those of state s, forces those of the last
+    derivative; inputs[0:2] = cos, sin of the steering angle."""
+    vx, vy, r = s[3], s[4], s[5]
+    ls, lf, rad, floor, peak = c[4], c[2], c[5], c[6], c[21]
+    cd, sd = inputs[0], inputs[1]
+    vyf = vy + r * lf
+    vl, vr = vx - r * ls, vx + r * ls
+    for i in range(4):
+        if i == 0:
+            u = vl * cd + vyf * sd
+        elif i == 1:
+            u = vr * cd + vyf * sd
+        elif i == 2:
+            u = vl
+        else:
+            u = vr
+        t = inputs[2 + i]
+        excess = s[6 + i] * rad - u  # slip speed
+        limit = peak * (u if u > floor else (-u if -u > floor else floor))
+        if (t > 0.0 and excess > limit) or (t < 0.0 and excess < -limit):
+            transmitted = rad * forces[2 + i]
+            inputs[2 + i] = min(t, transmitted) if t > 0.0 else max(t, transmitted)
+
+
+@njit
+def twotrack_step(s: Array, c: Array, inputs: Array, forces: Array, h: float, delta: float,
+                  f1: float, f2: float, f3: float, f4: float) -> None:
+    """Integrate state s (in place) h seconds: steering delta (rad), wheel torques R * f
+    (N m) cut by `twotrack_slip_limit`; RK4 steps no longer than step_factor x the
+    wheel-spin time constant and max_step."""
+    rad = c[5]
+    inputs[0], inputs[1] = math.cos(delta), math.sin(delta)
+    inputs[2], inputs[3], inputs[4], inputs[5] = rad * f1, rad * f2, rad * f3, rad * f4
+    twotrack_slip_limit(s, c, inputs, forces)
+    max_step, step_factor = c[28], c[29]
+    limit = step_factor * twotrack_time_constant(s, c)
+    if limit > max_step:
+        limit = max_step
+    n = max(1, math.ceil(h / limit - 1e-9))
+    hi = h / n
+    half = 0.5 * hi
+    sixth = hi / 6.0
+    k1, k2, k3, k4 = np.empty(12), np.empty(12), np.empty(12), np.empty(12)
+    tmp = np.empty(12)
+    for _ in range(n):
+        twotrack_derivative(s, c, inputs, forces, k1)
+        for j in range(12):
+            tmp[j] = s[j] + half * k1[j]
+        twotrack_derivative(tmp, c, inputs, forces, k2)
+        for j in range(12):
+            tmp[j] = s[j] + half * k2[j]
+        twotrack_derivative(tmp, c, inputs, forces, k3)
+        for j in range(12):
+            tmp[j] = s[j] + hi * k3[j]
+        twotrack_derivative(tmp, c, inputs, forces, k4)
+        for j in range(12):
+            s[j] = s[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
 
 
 class TwoTrackPlant:
@@ -78,185 +255,59 @@ class TwoTrackPlant:
         self.c_alpha_front = ch.cornering_scale * vehicle.cf / (2.0 * self.fz0_front)
         self.c_alpha_rear = ch.cornering_scale * vehicle.cr / (2.0 * self.fz0_rear)
         dlat = vehicle.mass * ch.cg_height / (2.0 * vehicle.half_track)  # N per m/s^2
-        # constants of `derivative`, unpacked at once (attribute look-ups are slow)
-        # (stiffnesses over mu: the normalised slips of `cosim.vehicle.tyre`)
-        self._const = (
+        # constants of the compiled functions (stiffnesses over mu: the normalised slips
+        # of `cosim.vehicle.tyre`), then the ABS threshold and `twotrack_time_constant`'s
+        self._const = np.array([
             vehicle.mass, vehicle.yaw_inertia, vehicle.lf, vehicle.lr, vehicle.half_track,
             ch.wheel_radius, ch.slip_speed_floor, ch.shape, 1.0 / ch.shape,
             ch.slip_stiffness / mu, mu, vehicle.drag, ch.wheel_inertia, ch.load_lag,
             vehicle.mass * ch.cg_height / (2.0 * vehicle.wheelbase),
             dlat * ch.roll_share_front, dlat * (1.0 - ch.roll_share_front),
             self.fz0_front, self.fz0_rear, self.c_alpha_front / mu, self.c_alpha_rear / mu,
-        )
-        w0 = vx / ch.wheel_radius
-        self.state = [x, y, heading, vx, vy, yaw_rate, w0, w0, w0, w0, 0.0, 0.0]
-        self._delta = 0.0
-        self._cos_sin_delta = (1.0, 0.0)
-        self._torque = (0.0, 0.0, 0.0, 0.0)
-        self._forces: tuple[float, ...] = (0.0,) * 14
-        # longitudinal slip at the peak of the pure-slip tyre curve (ABS / TCS threshold)
-        self._kappa_peak = peak_slip(ch.shape) * mu / ch.slip_stiffness
-        # constants of `wheel_time_constant`: loads with 20 % margin
-        self._tau_const = (
+            # 21: longitudinal slip at the peak of the pure-slip tyre curve (ABS / TCS)
+            peak_slip(ch.shape) * mu / ch.slip_stiffness,
+            # 22-27: wheel-spin time constant, loads with 20 % margin
             vehicle.half_track, ch.slip_speed_floor,
             1.2 * max(self.fz0_front, self.fz0_rear),
             1.2 * vehicle.mass * ch.cg_height / (2.0 * vehicle.wheelbase),
             1.2 * vehicle.mass * ch.cg_height / (2.0 * vehicle.half_track),
             ch.wheel_inertia / (ch.slip_stiffness * ch.wheel_radius**2),
-        )
+            # 28, 29: RK4 step limits
+            max_step, step_factor,
+        ])
+        assert self._const.size == N_CONST
+        w0 = vx / ch.wheel_radius
+        self.state = np.array([x, y, heading, vx, vy, yaw_rate, w0, w0, w0, w0, 0.0, 0.0])
+        self._delta = 0.0
+        # held inputs: cos delta, sin delta, four wheel torques (N m)
+        self._inputs = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        # ax, ay, Fx1..4, Fy1..4, Fz1..4 at the last derivative evaluation
+        self._forces = np.zeros(14)
 
     # -- dynamics --------------------------------------------------------------
-    def derivative(self, s: list[float]) -> list[float]:
+    def derivative(self, s: list[float] | Array) -> list[float]:
         """ds/dt at state s with the held steering angle and wheel torques."""
-        (m, iz, lf, lr, ls, rad, floor, shape, inv_shape, ckm, mu, drag, iw, lag, kd_long,
-         kd_lat_f, kd_lat_r, fz0f, fz0r, cafm, carm) = self._const
-        _, _, psi, vx, vy, r, w1, w2, w3, w4, axl, ayl = s
-        cd, sd = self._cos_sin_delta
-
-        # vertical loads: static + longitudinal (pitch) + lateral (roll) transfer
-        dlong = kd_long * axl
-        dlat_f = kd_lat_f * ayl
-        dlat_r = kd_lat_r * ayl
-        fz1 = fz0f - dlong - dlat_f
-        fz2 = fz0f - dlong + dlat_f
-        fz3 = fz0r + dlong - dlat_r
-        fz4 = fz0r + dlong + dlat_r
-        # a lifted wheel carries nothing
-        fz1 = fz1 if fz1 > 0.0 else 0.0
-        fz2 = fz2 if fz2 > 0.0 else 0.0
-        fz3 = fz3 if fz3 > 0.0 else 0.0
-        fz4 = fz4 if fz4 > 0.0 else 0.0
-
-        # wheel-centre velocities (body frame), then into each wheel's frame
-        vl = vx - r * ls  # left wheels' body-x speed
-        vr = vx + r * ls  # right wheels' body-x speed
-        vyf = vy + r * lf
-        vyr = vy - r * lr
-        u1 = vl * cd + vyf * sd
-        l1 = -vl * sd + vyf * cd
-        u2 = vr * cd + vyf * sd
-        l2 = -vr * sd + vyf * cd
-
-        # tyres: `cosim.vehicle.tyre.tyre_forces` inlined (this is the hot loop)
-        atan, sin, sqrt = math.atan, math.sin, math.sqrt
-        # FL
-        ref = u1 if u1 > floor else (-u1 if -u1 > floor else floor)
-        ux, uy = ckm * (w1 * rad - u1) / ref, -cafm * l1 / ref
-        u = sqrt(ux * ux + uy * uy)
-        d = mu * fz1 * (sin(shape * atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
-        fx1, fy1 = d * ux, d * uy
-        # FR
-        ref = u2 if u2 > floor else (-u2 if -u2 > floor else floor)
-        ux, uy = ckm * (w2 * rad - u2) / ref, -cafm * l2 / ref
-        u = sqrt(ux * ux + uy * uy)
-        d = mu * fz2 * (sin(shape * atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
-        fx2, fy2 = d * ux, d * uy
-        # RL
-        ref = vl if vl > floor else (-vl if -vl > floor else floor)
-        ux, uy = ckm * (w3 * rad - vl) / ref, -carm * vyr / ref
-        u = sqrt(ux * ux + uy * uy)
-        d = mu * fz3 * (sin(shape * atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
-        fx3, fy3 = d * ux, d * uy
-        # RR
-        ref = vr if vr > floor else (-vr if -vr > floor else floor)
-        ux, uy = ckm * (w4 * rad - vr) / ref, -carm * vyr / ref
-        u = sqrt(ux * ux + uy * uy)
-        d = mu * fz4 * (sin(shape * atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
-        fx4, fy4 = d * ux, d * uy
-
-        # front forces into the body frame
-        fxf = fx1 + fx2
-        fyf = fy1 + fy2
-        bx1 = fx1 * cd - fy1 * sd
-        bx2 = fx2 * cd - fy2 * sd
-        fx_body = fxf * cd - fyf * sd + fx3 + fx4
-        fy_body = fxf * sd + fyf * cd + fy3 + fy4
-        mz = (
-            lf * (fxf * sd + fyf * cd)
-            - lr * (fy3 + fy4)
-            + ls * (bx2 - bx1 + fx4 - fx3)
-        )
-        ax = (fx_body - drag * vx * abs(vx)) / m
-        ay = fy_body / m
-        t1, t2, t3, t4 = self._torque
-        self._forces = (ax, ay, fx1, fx2, fx3, fx4, fy1, fy2, fy3, fy4, fz1, fz2, fz3, fz4)
-        c, sn = math.cos(psi), math.sin(psi)
-        return [
-            vx * c - vy * sn,
-            vx * sn + vy * c,
-            r,
-            ax + vy * r,
-            ay - vx * r,
-            mz / iz,
-            (t1 - rad * fx1) / iw,
-            (t2 - rad * fx2) / iw,
-            (t3 - rad * fx3) / iw,
-            (t4 - rad * fx4) / iw,
-            (ax - axl) / lag,
-            (ay - ayl) / lag,
-        ]
+        out = np.empty(12)
+        twotrack_derivative(np.asarray(s, dtype=float), self._const, self._inputs,
+                            self._forces, out)
+        return out.tolist()
 
     def wheel_time_constant(self) -> float:
         """s, fastest wheel-spin time constant Iw v / (C_kappa Fz R^2) at the current state,
         with 20 % margin on the largest wheel load (loads move within a substep)."""
-        s = self.state
-        half_track, floor, fz_max0, k_long, k_lat, scale = self._tau_const
-        v = abs(s[3]) - half_track * abs(s[5])
-        fz_max = fz_max0 + k_long * abs(s[10]) + k_lat * abs(s[11])
-        return scale * (v if v > floor else floor) / fz_max
-
-    def _slip_limited(self, torques: tuple[float, float, float, float]) -> tuple[
-        float, float, float, float
-    ]:
-        """ABS / traction control: a wheel whose longitudinal slip is past the peak of
-        its tyre curve, in the direction its torque pushes, gets only the torque its
-        tyre transmits (R Fx at the last evaluation), so it neither locks nor spins up.
-        Slips are those of the current state, forces those of the last derivative."""
-        s = self.state
-        vx, vy, r = s[3], s[4], s[5]
-        ls, lf = self.vehicle.half_track, self.vehicle.lf
-        cd, sd = self._cos_sin_delta
-        vyf = vy + r * lf
-        vl, vr = vx - r * ls, vx + r * ls
-        speeds = (vl * cd + vyf * sd, vr * cd + vyf * sd, vl, vr)
-        rad, floor = self.chassis.wheel_radius, self.chassis.slip_speed_floor
-        peak = self._kappa_peak
-        out = torques
-        for i in (0, 1, 2, 3):
-            t = torques[i]
-            u = speeds[i]
-            excess = s[6 + i] * rad - u  # slip speed
-            limit = peak * (u if u > floor else (-u if -u > floor else floor))
-            if (t > 0.0 and excess > limit) or (t < 0.0 and excess < -limit):
-                transmitted = rad * self._forces[2 + i]
-                cut = min(t, transmitted) if t > 0.0 else max(t, transmitted)
-                out = (*out[:i], cut, *out[i + 1:])  # type: ignore[assignment]
-        return out
+        return float(twotrack_time_constant(self.state, self._const))
 
     def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Integrate h seconds: steering delta (rad), wheel torques R * fx_cmd (N m), cut
-        by the ABS / traction control of `_slip_limited`."""
-        rad = self.chassis.wheel_radius
-        if delta != self._delta:
-            self._delta = delta
-            self._cos_sin_delta = (math.cos(delta), math.sin(delta))
-        self._torque = self._slip_limited(
-            (rad * fx_cmd[0], rad * fx_cmd[1], rad * fx_cmd[2], rad * fx_cmd[3])
-        )
-        limit = self.step_factor * self.wheel_time_constant()
-        if limit > self.max_step:
-            limit = self.max_step
-        n = max(1, math.ceil(h / limit - 1e-9))
-        hi = h / n
-        s = self.state
-        for _ in range(n):
-            s = rk4_step(self.derivative, s, hi)
-        self.state = s
+        by the ABS / traction control of `twotrack_slip_limit`."""
+        self._delta = delta
+        twotrack_step(self.state, self._const, self._inputs, self._forces, h, delta,
+                      fx_cmd[0], fx_cmd[1], fx_cmd[2], fx_cmd[3])
 
     def outputs(self) -> PlantOutputs:
         """Accelerations and tyre forces at the current state."""
         self.derivative(self.state)
-        f = self._forces
+        f = self._forces.tolist()
         return PlantOutputs(
             ax=f[0], ay=f[1], fx=(f[2], f[3], f[4], f[5]), fy=(f[6], f[7], f[8], f[9]),
             fz=(f[10], f[11], f[12], f[13]),
