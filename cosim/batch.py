@@ -74,6 +74,8 @@ NO_PLANT = "none"
 # Metrics summarised per grid cell (names as cosim.metrics writes them).
 SUCCESS_METRIC = "lane_change_completed"  # bool: the commanded lane change ended in its lane
 COLLISION_METRIC = "collision"  # bool: our geometric check saw an overlap
+SV_COLLISION_METRIC = "collisions_sv"  # count: collisions the SV caused (cosim.sim)
+MANOEUVRE_COLLISION_METRIC = "collisions_manoeuvre"  # count: ... while changing lanes
 DURATION_METRIC = "lane_change_duration_s"  # s
 TTC_METRIC = "min_ttc_s"  # s
 PERCENTILES = (10, 50, 90)
@@ -477,9 +479,12 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         n = len(ok)
         row: dict[str, Any] = dict(zip(CELL, cell, strict=True))
         row.update(runs=len(group), ok=n, failed=len(group) - n)
-        for name, metric in (("success", SUCCESS_METRIC), ("collision", COLLISION_METRIC)):
+        for name, metric in (("success", SUCCESS_METRIC), ("collision", COLLISION_METRIC),
+                             ("sv_collision", SV_COLLISION_METRIC),
+                             ("manoeuvre_collision", MANOEUVRE_COLLISION_METRIC)):
             hits = int(_as_bool(ok[metric]).sum()) if metric in ok and n else 0
-            row[f"{name}_rate"] = hits / n if n else math.nan
+            known = metric in ok or name in ("success", "collision")  # older records lack some
+            row[f"{name}_rate"] = hits / n if n and known else math.nan
             row[f"{name}_ci_low"], row[f"{name}_ci_high"] = wilson(hits, n)
         for name, metric in (("lc_duration_s", DURATION_METRIC), ("min_ttc_s", TTC_METRIC)):
             values = (
@@ -516,7 +521,8 @@ def summary_markdown(summary: pd.DataFrame) -> str:
     varying = [c for c in ("variant", "plant", "occupant", "mu")
                if (ours if c == "plant" else summary)[c].nunique() > 1]
     head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
-            "success % (95 % CI)", "collision % (95 % CI)", "lane-change duration s (95 % CI)",
+            "success % (95 % CI)", "collision % (95 % CI)", "SV-caused collision % (95 % CI)",
+            "lane-change duration s (95 % CI)",
             "min TTC s: median (p10-p90)"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for _, row in summary.iterrows():
@@ -526,6 +532,7 @@ def summary_markdown(summary: pd.DataFrame) -> str:
                    f"({row['min_ttc_s_p10']:.2f}-{row['min_ttc_s_p90']:.2f})")
         cells = [str(row["driver"]), *(f"{row[c]}" for c in varying), f"{row['density']:g}",
                  f"{row['ok']} / {row['failed']}", pct(row, "success"), pct(row, "collision"),
+                 pct(row, "sv_collision"),
                  mean(row, "lc_duration_s"), ttc]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

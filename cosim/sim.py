@@ -159,6 +159,9 @@ METRIC_DOCS: dict[str, str] = {
     "collisions_sv": "collision events the SV caused: at the onset it was changing lanes "
     "(a planned manoeuvre under way), or the TV's centre was ahead of the SV's (the SV ran "
     "into it); the rest are TVs running into a lane-keeping SV from behind or the side",
+    "collisions_manoeuvre": "collision events whose onset fell while the SV was changing lanes "
+    "(a planned manoeuvre under way, replans and aborts included; the SUMO-driven SV: moving "
+    "sideways faster than 0.05 m/s)",
     "sumo_collisions": "collision events involving the SV reported by SUMO (cross-check)",
     "min_gap_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
     "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
@@ -377,6 +380,7 @@ class CoSimulation:
         self.next_check = math.inf  # s, next re-check of the plan under way
         self.outcomes = {"replan": 0, "abort": 0, "brake": 0}  # re-check outcomes
         self.sv_fault = 0  # collision onsets the SV caused (see METRIC_DOCS)
+        self.manoeuvre_hits = 0  # collision onsets during a lane change of the SV
 
     # ------------------------------------------------------------------ set-up
     def _start(self) -> None:
@@ -603,6 +607,7 @@ class CoSimulation:
             changing = self.active is not None or (self.baseline and abs(vy) > 0.05)
             if changing or float(tvs.x[i]) > x:
                 self.sv_fault += 1
+            self.manoeuvre_hits += int(changing)
         self.collision_flags.append(hits)
         row[C["collisions"]] = len(hits)
         row[C["sumo_collisions"]] = self.sumo_step_collisions
@@ -895,6 +900,7 @@ class CoSimulation:
             "collisions": collisions,
             "collision": int(collisions > 0),
             "collisions_sv": self.sv_fault,
+            "collisions_manoeuvre": self.manoeuvre_hits,
             "sumo_collisions": self.sumo_new,
             "min_gap_m": float(np.min(trace["gap_min_m"])),
             "min_ttc_s": float(np.min(trace["ttc_min_s"])),
