@@ -344,3 +344,18 @@ class ClosedLoop:
             delta_f=delta, dmz=dmz, fa=fa, fx=out.fx, fy=out.fy, fz=out.fz,
             saturated=saturated,
         )
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) the compiled substep loop for every plant
+    and controller by advancing each once: a process that forks runs from it (a fork
+    server) calls this once, so that no run pays for it."""
+    from cosim.planning.trajectory import LaneChangeTrajectory as Trajectory
+
+    ref = Trajectory(t0=0.0, tau=1.0, x0=0.0, y0=0.0, vx0=20.0, vxf=20.0, width=0.0)
+    for plant in PLANTS:
+        for controller in CONTROLLERS:
+            loop = ClosedLoop(plant, controller, VehicleParams(), ControllerGains(), 0.8,
+                              0.0, 0.0, 0.0, 20.0)
+            loop.advance(0.0, 0.05, 10, ref)
+            loop.plant.outputs()

@@ -7,23 +7,75 @@ mode and work on float64 arrays in place. `cache=True` keeps the machine code
 in `__pycache__`, so a fresh process loads it instead of compiling again.
 No fastmath: results match the interpreted arithmetic operation by operation
 (IEEE order kept), up to the last bit of libm's sin/cos/atan.
+
+numba itself is imported only when a compiled function is first called (about
+0.4 s to import, 0.7 s to set up its compiler on the first call, then a few ms
+per cached function): commands that never step a vehicle (`cosim plan`,
+`--help`) do not pay for it. Until then `njit` returns a stand-in; the first
+call compiles every function declared so far and puts the compiled functions
+in place of the stand-ins in every loaded `cosim` module, so compiled code
+calling compiled code finds compiled functions. `warm_up` does all of this
+ahead of time (a fork server calls it once for all its children).
 """
 
 from __future__ import annotations
 
+import functools
+import sys
 from collections.abc import Callable
 from typing import Any, TypeVar
 
 import numpy as np
-from numba import njit as _njit
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 F = TypeVar("F", bound=Callable[..., Any])
 
 
+class _Deferred:
+    """A function to be compiled with numba on first use (see the module docstring)."""
+
+    def __init__(self, fn: Callable[..., Any]) -> None:
+        functools.update_wrapper(self, fn)
+        self.py_func = fn
+        self.compiled: Callable[..., Any] | None = None
+        _PENDING.append(self)
+
+    def __call__(self, *args: Any) -> Any:
+        if self.compiled is None:
+            _compile_all()
+        assert self.compiled is not None
+        return self.compiled(*args)
+
+
+_PENDING: list[_Deferred] = []
+
+
+def _compile_all() -> None:
+    """Wrap every deferred function with numba.njit and rebind the stand-ins in the
+    loaded cosim modules (numba resolves a callee through its caller's globals)."""
+    from numba import njit as numba_njit
+
+    for d in _PENDING:
+        if d.compiled is None:
+            # no fastmath; error_model="numpy": x / 0 gives inf or NaN as in numpy, which
+            # the closed loop's finiteness checks catch
+            d.compiled = numba_njit(cache=True, error_model="numpy")(d.py_func)
+    for name, module in list(sys.modules.items()):
+        if name == "cosim" or name.startswith("cosim."):
+            for attr, value in list(vars(module).items()):
+                if isinstance(value, _Deferred) and value.compiled is not None:
+                    setattr(module, attr, value.compiled)
+
+
 def njit(fn: F) -> F:
-    """numba.njit with the on-disk cache, no fastmath, no error model checks beyond
-    Python's (division by zero gives inf/NaN as numpy does, caught by the finiteness
-    checks of the closed loop)."""
-    return _njit(cache=True, error_model="numpy")(fn)  # type: ignore[no-any-return]
+    """Mark fn for numba compilation (nopython, cached on disk, no fastmath)."""
+    return _Deferred(fn)  # type: ignore[return-value]
+
+
+def warm_up() -> None:
+    """Import numba and compile (or load from the cache) the closed loop's functions
+    now, by running one step of every plant and controller."""
+    from cosim.control.closed_loop import warm_up as loop_warm_up
+
+    loop_warm_up()
