@@ -471,7 +471,19 @@ class CoSimulation:
             x, y, h, v, a = poses[k]
             self.sumo.move(tv.spec.id, x, y, h, v, a)
 
+    def _scripted_accel(self, snap: TrafficSnapshot, t: float) -> TrafficSnapshot:
+        """The snapshot with the scripted TVs' true accelerations: SUMO reports a wrong
+        one for vehicles moved by moveToXY (+4 m/s^2 for a TV braking at 8 m/s^2)."""
+        accel = np.array(snap.accel, dtype=float)
+        k = int(round(t / self.dt))
+        for tv, poses in zip(self.scripted, self.scripted_poses, strict=True):
+            if tv.spec.id in snap.ids:
+                accel[snap.index(tv.spec.id)] = poses[k][4]
+        return replace(snap, accel=accel)
+
     def _scripted_messages(self, t: float) -> list[Any]:
+        if self.sc.v2v.mode == "perception":  # measured through the channel like the rest
+            return []
         return [m for m in (tv.message(t) for tv in self.scripted) if m is not None]
 
     # ------------------------------------------------------------------ baseline SV
@@ -688,9 +700,13 @@ class CoSimulation:
         if self.v2v_every_step or target is not None or check:
             if not self.v2v_every_step and self.sc.v2v.range > NEAR_RANGE:
                 snap_all = self.sumo.snapshot()  # everyone: the channel keeps those in range
+            perceived = self.sc.v2v.mode == "perception"  # scripted TVs are measured too
             public = snap_all.select(np.array(
-                [vid != SV_ID and vid not in self.scripted_ids for vid in snap_all.ids],
+                [vid != SV_ID and (perceived or vid not in self.scripted_ids)
+                 for vid in snap_all.ids],
                 dtype=bool))
+            if perceived and self.scripted:
+                public = self._scripted_accel(public, t)
             messages = self.channel.exchange(public, sv["x"], sv["y"])
         if target is not None:
             messages = messages + self._scripted_messages(t)

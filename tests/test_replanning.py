@@ -123,3 +123,16 @@ def test_uncertainty_widens_the_margin() -> None:
     assert base == sc.planner.safety_margin
     assert lossy > base and seen > base and off.safety_margin == base
     assert math.isfinite(lossy)
+
+
+@pytest.mark.parametrize("v2v", [{"latency": 0.1, "loss": 0.1}, {"v2v_mode": "perception"},
+                                 {"v2v_mode": "perception", "latency": 0.1, "loss": 0.1}])
+def test_no_collision_with_late_lossy_or_perceived_information(v2v: dict) -> None:
+    """The braking TV seen through 100 ms latency with 10 % loss, or only measured
+    (perception, its noise): still a replan, abort or brake, and no collision. (The
+    lossy case once re-planned from a state with no stable tau: the planner must
+    answer 'none' rather than fail.)"""
+    r = simulate(with_overrides(load_scenario(SCENARIO), **v2v))
+    m = r.metrics
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0
+    assert m["replans"] + m["aborts"] + m["emergency_brakes"] >= 1

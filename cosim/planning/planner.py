@@ -343,9 +343,11 @@ class LaneChangePlanner:
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
         )
-        cluster, motion, pose = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
-        collides, ids, when = self._collisions(t, t_rel, cluster, taus[cand], futures, motion,
-                                               pose)
+        collides, ids, when = np.zeros(0, dtype=bool), [], []  # no stable tau: nothing to test
+        if cand.size:  # (an empty general-start cluster has no motion bounds)
+            cluster, motion, pose = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
+            collides, ids, when = self._collisions(t, t_rel, cluster, taus[cand], futures,
+                                                   motion, pose)
         free = np.zeros(taus.size, dtype=bool)
         free[cand[~collides]] = True
         w = omega(occupant, road.mu)
