@@ -488,7 +488,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
             hits = int(_as_bool(ok[metric]).sum()) if metric in ok and n else 0
             known = metric in ok or name in ("success", "collision")  # older records lack some
             row[f"{name}_rate"] = hits / n if n and known else math.nan
-            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = wilson(hits, n)
+            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = wilson(hits, n if known else 0)
         for name, metric in (("lc_duration_s", DURATION_METRIC), ("min_ttc_s", TTC_METRIC)):
             values = (
                 pd.to_numeric(ok[metric], errors="coerce").to_numpy(float)
