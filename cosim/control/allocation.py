@@ -55,4 +55,5 @@ def allocate(
 ) -> tuple[float, float, float, float]:
     """N, wheel forces Fx = Mm^T (eps I + Mm Mm^T)^-1 [dMz, Fa] (eq. 30) (compiled:
     the closed loop calls `allocate_core` every control step)."""
-    return allocate_core(vehicle.half_track, vehicle.lf, delta, dmz, fa, eps)
+    return allocate_core(vehicle.half_track, vehicle.lf, float(delta), float(dmz), float(fa),
+                         float(eps))

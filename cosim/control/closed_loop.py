@@ -347,15 +347,37 @@ class ClosedLoop:
 
 
 def warm_up() -> None:
-    """Compile (or load from numba's cache) the compiled substep loop for every plant
-    and controller by advancing each once: a process that forks runs from it (a fork
-    server) calls this once, so that no run pays for it."""
+    """Compile (or load from numba's cache) every compiled function, for every plant
+    and controller, by calling each entry point once (a function compiled only as the
+    callee of another has no entry of its own for Python callers): a process that
+    forks runs from it (a fork server) calls this once, so that no run pays for it."""
     from cosim.planning.trajectory import LaneChangeTrajectory as Trajectory
 
+    from .allocation import allocate
+    from .longitudinal import longitudinal_force
+    from .triple_step import design_terms, mimo_law, siso_law
+
+    vehicle, gains = VehicleParams(), ControllerGains()
     ref = Trajectory(t0=0.0, tau=1.0, x0=0.0, y0=0.0, vx0=20.0, vxf=20.0, width=0.0)
     for plant in PLANTS:
         for controller in CONTROLLERS:
-            loop = ClosedLoop(plant, controller, VehicleParams(), ControllerGains(), 0.8,
-                              0.0, 0.0, 0.0, 20.0)
+            loop = ClosedLoop(plant, controller, vehicle, gains, 0.8, 0.0, 0.0, 0.0, 20.0)
             loop.advance(0.0, 0.05, 10, ref)
-            loop.plant.outputs()
+        p = loop.plant
+        p.step(0.005, 0.0, (0.0, 0.0, 0.0, 0.0))
+        p.derivative(p.state)
+        p.outputs()
+        if isinstance(p, TwoTrackPlant):
+            p.wheel_time_constant()
+        else:
+            p.set_inputs(0.0, (0.0, 0.0, 0.0, 0.0))
+            p.lateral_forces(p.state)
+        path = ReferencePath(ref)
+        path.point(0.5)
+        path.project(1.0, 0.0, 0.0)
+    allocate(vehicle, 0.0, 0.0, 0.0, gains.allocation_eps)
+    longitudinal_force(vehicle, gains, 20.0, 20.0, 0.0)
+    design_terms(vehicle, 20.0, 0.0, 0.0)
+    mimo_law(vehicle, gains, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    siso_law(vehicle, gains, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    ActuatorLimits().steer(0.0, 0.0, 0.005)

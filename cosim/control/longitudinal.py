@@ -21,4 +21,5 @@ def longitudinal_force(
     vehicle: VehicleParams, gains: ControllerGains, vx: float, vx_ref: float, ax_ref: float
 ) -> float:
     """N, total longitudinal force Fa demanded of the four wheels."""
-    return longitudinal_core(vehicle.mass, gains.kx1, vx, vx_ref, ax_ref)
+    return longitudinal_core(float(vehicle.mass), float(gains.kx1), float(vx), float(vx_ref),
+                             float(ax_ref))

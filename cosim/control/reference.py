@@ -152,7 +152,7 @@ class ReferencePath:
 
     def point(self, t: float) -> Point:
         """(x, y, x', y', x'', y'') of the path at absolute time t (m, m/s, m/s^2)."""
-        return path_point(self.coef, t)
+        return path_point(self.coef, float(t))
 
     def speed(self, t: float) -> tuple[float, float]:
         """(Vx*, dVx*/dt) at absolute time t (eq. 14)."""
@@ -163,11 +163,12 @@ class ReferencePath:
     def project(self, x: float, y: float, guess: float) -> tuple[float, Point]:
         """(s, point(s)): the path parameter (absolute time) of the point closest to
         (x, y), by Gauss-Newton from `guess` (see `path_project`)."""
-        return path_project(self.coef, x, y, guess)
+        return path_project(self.coef, float(x), float(y), float(guess))
 
     def errors(
         self, t: float, x: float, y: float, heading: float, vx: float, vy: float,
         yaw_rate: float, guess: float,
     ) -> PathErrors:
         """ye, phi_e, their rates and the reference values for a CG state at time t."""
-        return PathErrors(*path_errors(self.coef, t, x, y, heading, vx, vy, yaw_rate, guess))
+        args = (t, x, y, heading, vx, vy, yaw_rate, guess)
+        return PathErrors(*path_errors(self.coef, *(float(a) for a in args)))

@@ -112,7 +112,8 @@ def design_terms(
     vehicle: VehicleParams, vx: float, phi_e: float, kappa: float
 ) -> tuple[float, float, float, float, float, float]:
     """(A0_1, A0_2, A1_11, A1_12, A1_21, A1_22) of eq. 21 at speed vx (m/s)."""
-    return design_core(law_params(vehicle, ControllerGains()), vx, phi_e, kappa)
+    return design_core(law_params(vehicle, ControllerGains()), float(vx), float(phi_e),
+                       float(kappa))
 
 
 def mimo_law(
@@ -120,8 +121,8 @@ def mimo_law(
     ye: float, phi_e: float, ye_dot: float, phi_e_dot: float, int_ye: float, int_phi: float,
 ) -> tuple[float, float]:
     """(delta_f rad, dMz N m) of eq. 22-24."""
-    return mimo_core(law_params(vehicle, gains), vx, kappa, ye, phi_e, ye_dot, phi_e_dot,
-                     int_ye, int_phi)
+    args = (vx, kappa, ye, phi_e, ye_dot, phi_e_dot, int_ye, int_phi)
+    return mimo_core(law_params(vehicle, gains), *(float(a) for a in args))
 
 
 def siso_law(
@@ -129,5 +130,5 @@ def siso_law(
     ye: float, phi_e: float, ye_dot: float, phi_e_dot: float, int_ye: float,
 ) -> float:
     """delta_f (rad): triple-step on ye alone, dMz = 0 (first row of eq. 21)."""
-    return siso_core(law_params(vehicle, gains), vx, kappa, ye, phi_e, ye_dot, phi_e_dot,
-                     int_ye)
+    args = (vx, kappa, ye, phi_e, ye_dot, phi_e_dot, int_ye)
+    return siso_core(law_params(vehicle, gains), *(float(a) for a in args))

@@ -41,7 +41,8 @@ class ActuatorLimits:
 
     def steer(self, previous: float, demand: float, dt: float) -> float:
         """rad, the road-wheel angle reached after dt from `previous` towards `demand`."""
-        return steer_core(self.max_steer, self.max_steer_rate, previous, demand, dt)
+        return steer_core(float(self.max_steer), float(self.max_steer_rate), float(previous),
+                          float(demand), float(dt))
 
     def wheel_force_bounds(self, wheel_radius: float) -> tuple[float, float]:
         """N, (lowest, highest) longitudinal force one wheel's torque can ask for."""

@@ -114,7 +114,7 @@ class BicyclePlant:
 
     def set_inputs(self, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Hold delta (rad) and the wheel forces (N); Fa by eq. 27, dMz by eq. 20."""
-        bicycle_set_inputs(self._const, self._inputs, delta, *fx_cmd)
+        bicycle_set_inputs(self._const, self._inputs, float(delta), *(float(f) for f in fx_cmd))
 
     def lateral_forces(self, s: list[float] | Array) -> tuple[float, float]:
         """N, (Fyf, Fyr) of eq. 17-18 at state s."""
@@ -128,7 +128,8 @@ class BicyclePlant:
 
     def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Integrate h seconds with held inputs (RK4, steps no longer than max_step)."""
-        bicycle_step(self.state, self._const, self._inputs, h, delta, *fx_cmd)
+        bicycle_step(self.state, self._const, self._inputs, float(h), float(delta),
+                     *(float(f) for f in fx_cmd))
 
     def outputs(self) -> PlantOutputs:
         """Body accelerations (eq. 19, 26) and the held wheel forces."""

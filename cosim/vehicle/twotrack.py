@@ -277,7 +277,8 @@ class TwoTrackPlant:
         ])
         assert self._const.size == N_CONST
         w0 = vx / ch.wheel_radius
-        self.state = np.array([x, y, heading, vx, vy, yaw_rate, w0, w0, w0, w0, 0.0, 0.0])
+        self.state = np.array([x, y, heading, vx, vy, yaw_rate, w0, w0, w0, w0, 0.0, 0.0],
+                              dtype=float)
         self._delta = 0.0
         # held inputs: cos delta, sin delta, four wheel torques (N m)
         self._inputs = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
@@ -301,8 +302,9 @@ class TwoTrackPlant:
         """Integrate h seconds: steering delta (rad), wheel torques R * fx_cmd (N m), cut
         by the ABS / traction control of `twotrack_slip_limit`."""
         self._delta = delta
-        twotrack_step(self.state, self._const, self._inputs, self._forces, h, delta,
-                      fx_cmd[0], fx_cmd[1], fx_cmd[2], fx_cmd[3])
+        f1, f2, f3, f4 = (float(f) for f in fx_cmd)
+        twotrack_step(self.state, self._const, self._inputs, self._forces, float(h),
+                      float(delta), f1, f2, f3, f4)
 
     def outputs(self) -> PlantOutputs:
         """Accelerations and tyre forces at the current state."""
