@@ -22,6 +22,7 @@ wrap the same functions.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -133,14 +134,29 @@ def path_errors(
             rv, (rdx * rddx + rdy * rddy) / rv, rx, ry, along)
 
 
+@functools.lru_cache(maxsize=256)
+def _longitudinal(vx0: float, vxf: float, tau: float, ax0: float) -> tuple[float, float]:
+    """`longitudinal_coefficients` as floats, remembered: the lane-keeping reference is
+    rebuilt every step and often repeats them (cruising), and numpy on scalars is slow."""
+    c3, c4 = longitudinal_coefficients(vx0, vxf, tau, ax0)
+    return float(c3), float(c4)
+
+
+@functools.lru_cache(maxsize=256)
+def _lateral(width: float, tau: float, vy0: float, ay0: float) -> tuple[float, float, float]:
+    """`lateral_coefficients` as floats, remembered (lane keeping: always width 0)."""
+    c3, c4, c5 = lateral_coefficients(width, tau, vy0, ay0)
+    return float(c3), float(c4), float(c5)
+
+
 class ReferencePath:
     """Scalar evaluator and projector for one `LaneChangeTrajectory`."""
 
     def __init__(self, trajectory: LaneChangeTrajectory) -> None:
         tr = trajectory
         self.trajectory = tr
-        c3x, c4x = longitudinal_coefficients(tr.vx0, tr.vxf, tr.tau, tr.ax0)
-        c3y, c4y, c5y = lateral_coefficients(tr.width, tr.tau, tr.vy0, tr.ay0)
+        c3x, c4x = _longitudinal(float(tr.vx0), float(tr.vxf), float(tr.tau), float(tr.ax0))
+        c3y, c4y, c5y = _lateral(float(tr.width), float(tr.tau), float(tr.vy0), float(tr.ay0))
         coef = np.zeros(N_COEF)
         coef[0:13] = (float(tr.t0), float(tr.tau),
                       float(tr.x0), float(tr.vx0), 0.5 * float(tr.ax0), float(c3x), float(c4x),
