@@ -1,0 +1,52 @@
+"""Tests of cosim.vehicle.compiled: numba compiles the hot functions without
+changing their arithmetic, compiled callers call compiled callees, and numba is
+imported only when a compiled function is first called."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+
+from cosim.params import VehicleParams
+from cosim.vehicle import bicycle, twotrack
+from cosim.vehicle.compiled import warm_up
+
+VEHICLE = VehicleParams()
+
+
+def test_compiled_derivatives_equal_the_interpreted_functions() -> None:
+    warm_up()
+    plant = twotrack.TwoTrackPlant(VEHICLE, 0.6, vx=25.0)
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        s = plant.state + rng.normal(0.0, 0.05, 12) * np.abs(plant.state + 1.0)
+        inputs = np.array([math.cos(0.02), math.sin(0.02), *rng.normal(0.0, 300.0, 4)])
+        out_c, out_p = np.empty(12), np.empty(12)
+        forces_c, forces_p = np.zeros(14), np.zeros(14)
+        twotrack.twotrack_derivative(s, plant._const, inputs, forces_c, out_c)
+        twotrack.twotrack_derivative.py_func(s, plant._const, inputs, forces_p, out_p)
+        np.testing.assert_allclose(out_c, out_p, rtol=1e-13, atol=1e-12)
+        np.testing.assert_allclose(forces_c, forces_p, rtol=1e-13, atol=1e-12)
+    bike = bicycle.BicyclePlant(VEHICLE, vx=25.0, vy=0.3, yaw_rate=0.05)
+    bike.set_inputs(0.01, (100.0, -50.0, 200.0, 20.0))
+    out_c, out_p = np.empty(6), np.empty(6)
+    bicycle.bicycle_derivative(bike.state, bike._const, bike._inputs, out_c)
+    bicycle.bicycle_derivative.py_func(bike.state, bike._const, bike._inputs, out_p)
+    np.testing.assert_allclose(out_c, out_p, rtol=1e-13, atol=1e-12)
+
+
+def test_compiled_callers_see_compiled_callees() -> None:
+    warm_up()
+    # the stand-ins are replaced in the modules' globals (numba looks callees up there)
+    assert hasattr(twotrack.twotrack_step, "signatures")
+    assert twotrack.twotrack_step.signatures
+    assert hasattr(twotrack.twotrack_derivative, "signatures")
+
+
+def test_importing_the_closed_loop_does_not_import_numba() -> None:
+    code = ("import sys, cosim.control.closed_loop, cosim.sim; "
+            "sys.exit(1 if 'numba' in sys.modules else 0)")
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
