@@ -16,13 +16,23 @@ call compiles every function declared so far and puts the compiled functions
 in place of the stand-ins in every loaded `cosim` module, so compiled code
 calling compiled code finds compiled functions. `warm_up` does all of this
 ahead of time (a fork server calls it once for all its children).
+
+Cache invalidation: numba checks only the timestamp of a cached function's own
+file, so a caller cached before its callee (in another file) changed would keep
+the old callee's code. The cache therefore lives in a directory named after a
+hash of the sources of every module that defines compiled functions
+(`__pycache__/numba/<hash>` beside this package, or under NUMBA_CACHE_DIR):
+any change to one of them starts a fresh cache (about 10 s of compiling once).
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import inspect
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
@@ -55,17 +65,33 @@ def _compile_all() -> None:
     """Wrap every deferred function with numba.njit and rebind the stand-ins in the
     loaded cosim modules (numba resolves a callee through its caller's globals)."""
     from numba import njit as numba_njit
+    from numba.core import config
 
-    for d in _PENDING:
-        if d.compiled is None:
-            # no fastmath; error_model="numpy": x / 0 gives inf or NaN as in numpy, which
-            # the closed loop's finiteness checks catch
-            d.compiled = numba_njit(cache=True, error_model="numpy")(d.py_func)
+    user_dir = config.CACHE_DIR
+    config.CACHE_DIR = str(_cache_dir(user_dir))
+    try:
+        for d in _PENDING:
+            if d.compiled is None:
+                # no fastmath; error_model="numpy": x / 0 gives inf or NaN as in numpy,
+                # which the closed loop's finiteness checks catch
+                d.compiled = numba_njit(cache=True, error_model="numpy")(d.py_func)
+    finally:
+        config.CACHE_DIR = user_dir  # the directory is bound to each function already
     for name, module in list(sys.modules.items()):
         if name == "cosim" or name.startswith("cosim."):
             for attr, value in list(vars(module).items()):
                 if isinstance(value, _Deferred) and value.compiled is not None:
                     setattr(module, attr, value.compiled)
+
+
+def _cache_dir(user_dir: str) -> Path:
+    """Where the cache goes: a directory per hash of the compiled modules' sources."""
+    digest = hashlib.sha1()
+    for path in sorted({inspect.getsourcefile(d.py_func) or "" for d in _PENDING}):
+        digest.update(path.encode())
+        digest.update(Path(path).read_bytes())
+    base = Path(user_dir) if user_dir else Path(__file__).resolve().parent.parent / "__pycache__"
+    return base / "numba" / digest.hexdigest()[:16]
 
 
 def njit(fn: F) -> F:
