@@ -9,6 +9,7 @@ times is the speed-up of the process pool on this machine (target: >= 1.7 on
 from __future__ import annotations
 
 import argparse
+import concurrent.futures as cf
 import os
 import tempfile
 import time
@@ -19,6 +20,27 @@ import numpy as np
 
 from cosim.batch import expand, run_study, warm_up
 from cosim.scenario import project_root
+
+
+def _spin(n: int) -> float:
+    """s, wall time of a pure-Python CPU loop (the machine's parallel ceiling)."""
+    start = time.perf_counter()
+    total = 0
+    for i in range(n):
+        total += i
+    return time.perf_counter() - start
+
+
+def ceiling(workers: int, tasks: int = 4, n: int = 10_000_000) -> float:
+    """Speed-up of `tasks` CPU loops on `workers` processes over 1, measured now:
+    what the machine gives at this moment (other jobs take cores too)."""
+    walls = []
+    for w in (1, workers):
+        with cf.ProcessPoolExecutor(w) as pool:
+            start = time.perf_counter()
+            list(pool.map(_spin, [n] * tasks))
+            walls.append(time.perf_counter() - start)
+    return walls[0] / walls[1]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -50,7 +72,9 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     times: dict[int, list[float]] = {n: [] for n in cases}
     run_times: dict[int, list[float]] = {n: [] for n in cases}
     failed = 0
+    ceilings = []
     for _ in range(args.repeats):
+        ceilings.append(ceiling(args.workers))
         for n in cases:
             with tempfile.TemporaryDirectory(prefix="cosim-bench-batch-") as tmp:
                 start = time.perf_counter()
@@ -73,7 +97,9 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         f"seeds 1-{args.seeds}, driver {args.driver}, {args.duration:g} s simulated each, "
         f"base {args.scenario.name}; one fresh process per run; run_median_s: a run's own "
         "wall time (load, simulate) - it grows in the parallel case when the cores are shared",
-        f"speed-up per repeat: {', '.join(f'{r:.2f}' for r in paired)} (reported: the median)",
+        f"speed-up per repeat: {', '.join(f'{r:.2f}' for r in paired)} (reported: the median); "
+        f"a pure-Python CPU loop on the same pool sizes just before each repeat: "
+        f"{', '.join(f'{c:.2f}' for c in ceilings)} (what the machine gave then)",
         f"{os.cpu_count()} cores; median of {args.repeats} repeat(s); 1-min load average "
         f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after (other processes on the "
         "machine take cores from the 2-worker case and lower the ratio)",
@@ -83,7 +109,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     return {
         "title": f"cosim bench batch: the same study on 1 and {args.workers} local processes",
         "rows": rows,
-        "ratios": {f"speedup_{args.workers}_workers": speedup},
+        "ratios": {f"speedup_{args.workers}_workers": speedup,
+                   f"cpu_loop_speedup_{args.workers}_workers": float(np.median(ceilings))},
         "targets": {f"speedup_{args.workers}_workers": ">= 1.7 on 2 cores"},
         "notes": notes,
     }
