@@ -290,3 +290,11 @@ def test_every_shipped_scenario_and_study_is_valid() -> None:
             continue
         s = load_scenario(path)
         assert s.path == path and s.n_steps > 0
+
+
+def test_docs_list_every_scenario_key_as_the_code_validates_it() -> None:
+    """docs/scenario_keys.md is the generated key reference; it must match the code."""
+    from cosim.scenario import project_root, schema_markdown
+
+    text = (project_root() / "docs" / "scenario_keys.md").read_text(encoding="utf-8")
+    assert text.endswith(schema_markdown())
