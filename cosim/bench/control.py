@@ -16,10 +16,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
-from collections.abc import Callable
 from typing import Any
-
-import numpy as np
 
 from cosim.bench import median_time
 from cosim.control.closed_loop import ClosedLoop
@@ -31,17 +28,6 @@ from cosim.vehicle.twotrack import TwoTrackPlant
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=7, help="timed repeats (median)")
     parser.add_argument("--duration", type=float, default=10.0, help="s simulated per repeat")
-
-
-def median_cpu_time(fn: Callable[[], Any], repeats: int) -> float:
-    """s, median process CPU time of fn() (less sensitive than wall time to other
-    processes competing for the cores; measured in separate calls after the wall times)."""
-    times = np.empty(repeats)
-    for i in range(repeats):
-        start = time.process_time()
-        fn()
-        times[i] = time.process_time() - start
-    return float(np.median(times))
 
 
 def measure(args: argparse.Namespace) -> dict[str, Any]:
@@ -63,7 +49,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
             for k in range(n):
                 loop.advance(k * step, step, substeps, ref)
 
-        return median_time(run, args.repeats), median_cpu_time(run, args.repeats)
+        cpu = median_time(run, args.repeats, warmup=0, clock=time.process_time)
+        return median_time(run, args.repeats), cpu
 
     def plant_alone() -> None:
         p = TwoTrackPlant(vehicle, 0.4, 0.0, 1.875, 0.0, kmh(80.0))
@@ -89,7 +76,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     rows.append({
         "case": "twotrack plant alone",
         "wall_s": alone,
-        "cpu_s": median_cpu_time(plant_alone, args.repeats),
+        "cpu_s": median_time(plant_alone, args.repeats, warmup=0, clock=time.process_time),
         "realtime_factor": args.duration / alone,
         "us_per_sumo_step": alone / n * 1e6,
     })

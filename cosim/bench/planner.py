@@ -266,24 +266,14 @@ def step_loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target
     return free
 
 
-def _median_cpu(fn: Callable[[], Any], repeats: int) -> float:
-    """s, median process CPU time of fn() (what the wall time would be on an idle
-    machine, roughly: other processes' load does not count)."""
-    fn()
-    times = np.empty(repeats)
-    for i in range(repeats):
-        start = time.process_time()
-        fn()
-        times[i] = time.process_time() - start
-    return float(np.median(times))
-
-
 def _case(label: str, sit: Situation, repeats: int, loop_repeats: int,
           step_loop: bool = False) -> dict[str, Any]:
     planner, t, sv, target, messages, occupant = sit
     plan = planner.plan(t, sv, target, messages, occupant)
     vec = median_time(lambda: planner.plan(t, sv, target, messages, occupant), repeats)
-    vec_cpu = _median_cpu(lambda: planner.plan(t, sv, target, messages, occupant), repeats)
+    vec_cpu = median_time(
+        lambda: planner.plan(t, sv, target, messages, occupant), repeats, clock=time.process_time
+    )
     no_maps = LaneChangePlanner(planner.vehicle, planner.road, planner.config, use_maps=False)
     direct = median_time(lambda: no_maps.plan(t, sv, target, messages, occupant), repeats)
     loop_free: list[NDArray[np.bool_]] = []
