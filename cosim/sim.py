@@ -403,11 +403,15 @@ class CoSimulation:
         y0 = road.lane_center(sc.sv.lane)
         self.x0 = x0
         if tr.density > 0:
-            from cosim.traffic.demand import populate
+            from cosim.traffic.demand import populate, start_zone
 
             margin = SV_LENGTH_MARGIN * self.sv_length
+            # in its own lane the SV starts at its scenario speed, often faster than
+            # the queue SUMO inserts: keep room to brake (and for its follower)
+            zone = start_zone(x0, self.sv_length, sc.sv.speed,
+                              road.speed_bands[sc.sv.lane][1])
             populate(self.sumo, road, tr.density, sc.seed, tr.length,
-                     exclude_zone=(x0 - margin, x0 + margin))
+                     exclude_zone=(x0 - margin, x0 + margin), lane_zones={sc.sv.lane: zone})
         self._start_scripted(x0)
         if self.baseline:
             self._add_baseline_sv(x0, sc.sv.lane)

@@ -48,7 +48,7 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
     start to close; with_sv: an SV of the scenario's size at its start, driven by
     SUMO's own models (no co-simulation loop at all)."""
     from cosim.sim import SV_ID, SV_LENGTH_MARGIN
-    from cosim.traffic.demand import populate
+    from cosim.traffic.demand import populate, start_zone
     from cosim.traffic.sumo import SumoSim
 
     start, cpu = time.perf_counter(), time.process_time()
@@ -60,8 +60,11 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
         x0 = sim.highway.x_start + scenario.sv.position
         margin = SV_LENGTH_MARGIN * scenario.vehicle.length
         if tr.density > 0:
+            sv = scenario.sv
+            zone = start_zone(x0, scenario.vehicle.length, sv.speed,
+                              scenario.road.speed_bands[sv.lane][1])
             populate(sim, sim.road(), tr.density, scenario.seed, tr.length,
-                     exclude_zone=(x0 - margin, x0 + margin))
+                     exclude_zone=(x0 - margin, x0 + margin), lane_zones={sv.lane: zone})
         if with_sv:
             sv = scenario.sv
             desired = sv.desired_speed or scenario.road.speed_bands[sv.lane][1]

@@ -7,10 +7,18 @@ the last one has driven a spacing of about 1000/density m, so the density holds.
 Each traffic vehicle (TV) draws where its desired speed sits in a band
 (`quantile`); SumoSim sets its desired speed from the band of whatever lane it
 is in (Section 5: lanes 60-90, 90-110, 110-120 km/h).
+
+Start-up safety: TVs are inserted at SUMO's "max" depart speed, which SUMO
+lowers to a speed safe behind the TV ahead (in dense traffic the queue starts
+slow, ~13 m/s at 50 veh/km/lane), so TVs never start on a collision course
+with each other. The SV, though, is placed at its scenario speed (e.g.
+100 km/h) into that queue: `start_zone` gives the stretch of its lane kept free
+so it can brake behind its leader and its follower behind it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,6 +30,9 @@ from cosim.traffic.sumo import TV_LENGTH, SumoSim
 
 QUANTILE_RANGE = (0.1, 0.95)  # -, desired speeds stay off the band's edges (drivers dawdle)
 SPACING_JITTER = 0.25  # -, spacing varies by +-25 % of 1000/density
+START_HEADWAY = 2.0  # s, free road ahead of the SV at t = 0 per m/s of its speed
+TV_MIN_GAP = 2.5  # m, SUMO's default minGap of the TV type (front to rear, standstill)
+TV_HEADWAY = 1.0  # s, SUMO's default tau of the TV type (Krauss safe headway)
 
 
 @dataclass
@@ -82,6 +93,25 @@ def placement(
     return np.clip(x, x_start + 0.5 * TV_LENGTH, x_start + length - 0.5 * TV_LENGTH)
 
 
+def start_zone(
+    x: float, length: float, speed: float, follower_speed: float
+) -> tuple[float, float]:
+    """(x_lo, x_hi), m: the stretch of its lane kept free of TVs around a vehicle
+    placed at t = 0 with its centre at x, its `length` (m) and `speed` (m/s).
+
+    Ahead: minGap + START_HEADWAY * speed from its front, so a vehicle placed at
+    speed behind a much slower queue can still brake (at 50 veh/km/lane the SV at
+    27.8 m/s otherwise starts ~7 m behind a TV at ~13 m/s and hits it at
+    t = 0.6 s, whoever drives it). Behind: minGap + the TVs' own headway at
+    `follower_speed` (m/s, an upper bound of the follower's speed, e.g. its lane's
+    band maximum: the follower is inserted before the vehicle exists, so SUMO's
+    insertion check cannot see it), so the follower can brake when it does.
+    """
+    ahead = 0.5 * length + TV_MIN_GAP + START_HEADWAY * max(speed, 0.0)
+    behind = 0.5 * length + TV_MIN_GAP + TV_HEADWAY * max(follower_speed, 0.0)
+    return x - behind, x + ahead
+
+
 def populate(
     sim: SumoSim,
     road: RoadParams,
@@ -90,12 +120,16 @@ def populate(
     length: float,
     exclude_zone: tuple[float, float] | None = None,
     inflow: bool = True,
+    lane_zones: Mapping[int, tuple[float, float]] | None = None,
 ) -> Traffic:
     """Place traffic for t = 0 (call before the first step) and keep an inflow.
 
     `exclude_zone` (x_lo, x_hi), m: no TV's body may overlap this stretch in any
-    lane at t = 0 (keep it free around the SV). Returns the `Traffic`, already
-    registered as a step hook of `sim`.
+    lane at t = 0 (keep it free around the SV). `lane_zones`: lane -> (x_lo,
+    x_hi), m, further stretches kept free in that lane only (e.g. `start_zone`
+    of the SV in its own lane). Positions and desired speeds are drawn for every
+    slot before the zones cut some (so a seed gives the same traffic outside the
+    zones whatever their size). Returns the `Traffic`, already registered as a step hook of `sim`.
     """
     if density < 0 or not np.isfinite(density):
         raise InputError("traffic", "density_veh_per_km_lane", density, ">= 0 veh/km/lane")
@@ -108,15 +142,19 @@ def populate(
     if density == 0:
         return traffic
     for lane in range(road.n_lanes):
-        xs = placement(rng, density, sim.highway.x_start, length)
-        if exclude_zone is not None:
-            lo, hi = exclude_zone
-            xs = xs[(xs + 0.5 * TV_LENGTH < lo) | (xs - 0.5 * TV_LENGTH > hi)]
+        # front to back: each one is inserted behind its leader
+        xs = placement(rng, density, sim.highway.x_start, length)[::-1]
+        qs = QUANTILE_RANGE[0] + (QUANTILE_RANGE[1] - QUANTILE_RANGE[0]) * rng.random(len(xs))
+        keep = np.ones(len(xs), dtype=bool)
+        zones = [exclude_zone] if exclude_zone is not None else []
+        if lane_zones and lane in lane_zones:
+            zones.append(lane_zones[lane])
+        for lo, hi in zones:
+            keep &= (xs + 0.5 * TV_LENGTH < lo) | (xs - 0.5 * TV_LENGTH > hi)
         ids = []
-        for x in xs[::-1]:  # front to back: each one is inserted behind its leader
+        for x, q in zip(xs[keep], qs[keep], strict=True):
             vid = traffic.new_id()
-            q = traffic.quantile()
-            sim.add_traffic(vid, lane, float(x), q)
+            sim.add_traffic(vid, lane, float(x), float(q))
             ids.append(vid)
         traffic.placed[lane] = ids
         if ids:

@@ -8,9 +8,11 @@ import numpy as np
 import pytest
 
 from cosim.errors import InputError
-from cosim.traffic.demand import placement, populate
+from cosim.traffic.demand import placement, populate, start_zone
 from cosim.traffic.network import DEFAULT_NETWORK
 from cosim.traffic.sumo import TV_LENGTH, SumoSim
+
+SV_ID = "sv"
 
 STEP = 0.05  # s
 KMH = 3.6
@@ -43,6 +45,44 @@ def test_exclude_zone_is_free_at_the_start() -> None:
     rear, front = snap.x - snap.length / 2, snap.x + snap.length / 2
     assert not np.any((front >= 480.0) & (rear <= 530.0))
     assert np.sum((snap.x > 300.0) & (snap.x < 700.0)) > 20  # but the rest is full
+
+
+def test_lane_zone_cuts_one_lane_and_leaves_the_rest_as_the_seed_drew_it() -> None:
+    def placed(lane_zones: dict[int, tuple[float, float]] | None) -> dict[int, np.ndarray]:
+        with make_sim(5) as sim:
+            populate(sim, sim.road(), 40.0, 5, 1500.0, lane_zones=lane_zones)
+            sim.step()
+            snap = sim.snapshot()
+        return {lane: np.sort(snap.x[snap.lane == lane]) for lane in range(3)}
+
+    full, cut = placed(None), placed({1: (500.0, 600.0)})
+    np.testing.assert_array_equal(cut[0], full[0])
+    np.testing.assert_array_equal(cut[2], full[2])
+    outside = (full[1] + TV_LENGTH / 2 < 500.0) | (full[1] - TV_LENGTH / 2 > 600.0)
+    np.testing.assert_array_equal(cut[1], full[1][outside])
+    assert len(cut[1]) < len(full[1])
+
+
+@pytest.mark.parametrize("seed", [2, 3])
+def test_a_car_placed_at_speed_in_its_start_zone_does_not_hit_the_dense_queue(seed: int) -> None:
+    """At 50 veh/km/lane SUMO starts the queue at ~13 m/s; a car placed at 100 km/h
+    with only 2 car lengths kept free hit its leader at t = 0.6 s (the density study
+    before the start zone). With `start_zone` SUMO's own driver brakes in time."""
+    speed, length = 100.0 / KMH, 4.32
+    with make_sim(seed) as sim:
+        x0 = sim.highway.x_start + 600.0
+        zone = start_zone(x0, length, speed, sim.road().speed_bands[1][1])
+        populate(sim, sim.road(), 50.0, seed, 1500.0, exclude_zone=(x0 - 8.64, x0 + 8.64),
+                 lane_zones={1: zone})
+        sim.add_driven(SV_ID, 1, x0, speed, speed, length, 1.82, own_lane_changes=False)
+        sim.step()
+        sim.release(SV_ID)
+        hits = 0
+        for _ in range(80):  # 4 s: the start-up transient
+            sim.step()
+            hits += sum(SV_ID in pair for pair in sim.collisions())
+    assert hits == 0
+    assert zone[1] - x0 > 2.0 * speed  # the rule: 2 s of its speed ahead, at least
 
 
 def test_placement_spacing_is_jittered_but_never_overlapping() -> None:
