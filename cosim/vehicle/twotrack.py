@@ -40,7 +40,7 @@ from cosim.params import G, VehicleParams
 from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
 from cosim.vehicle.compiled import Array, njit
 from cosim.vehicle.plant import PlantOutputs
-from cosim.vehicle.tyre import peak_slip
+from cosim.vehicle.tyre import magic_formula, peak_slip
 
 STATE_NAMES = (
     "x", "y", "heading", "vx", "vy", "yaw_rate",
@@ -85,31 +85,19 @@ def twotrack_derivative(s: Array, c: Array, inputs: Array, forces: Array, out: A
     u2 = vr * cd + vyf * sd
     l2 = -vr * sd + vyf * cd
 
-    # tyres: `cosim.vehicle.tyre.tyre_forces` inlined (normalised slips, stiffness / mu)
-    # FL
+    # tyres: normalised slips (stiffness / mu over the slip reference speed)
     ref = u1 if u1 > floor else (-u1 if -u1 > floor else floor)
-    ux, uy = ckm * (w1 * rad - u1) / ref, -cafm * l1 / ref
-    u = math.sqrt(ux * ux + uy * uy)
-    d = mu * fz1 * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
-    fx1, fy1 = d * ux, d * uy
-    # FR
+    fx1, fy1 = magic_formula(ckm * (w1 * rad - u1) / ref, -cafm * l1 / ref, fz1, mu, shape,
+                             inv_shape)
     ref = u2 if u2 > floor else (-u2 if -u2 > floor else floor)
-    ux, uy = ckm * (w2 * rad - u2) / ref, -cafm * l2 / ref
-    u = math.sqrt(ux * ux + uy * uy)
-    d = mu * fz2 * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
-    fx2, fy2 = d * ux, d * uy
-    # RL
+    fx2, fy2 = magic_formula(ckm * (w2 * rad - u2) / ref, -cafm * l2 / ref, fz2, mu, shape,
+                             inv_shape)
     ref = vl if vl > floor else (-vl if -vl > floor else floor)
-    ux, uy = ckm * (w3 * rad - vl) / ref, -carm * vyr / ref
-    u = math.sqrt(ux * ux + uy * uy)
-    d = mu * fz3 * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
-    fx3, fy3 = d * ux, d * uy
-    # RR
+    fx3, fy3 = magic_formula(ckm * (w3 * rad - vl) / ref, -carm * vyr / ref, fz3, mu, shape,
+                             inv_shape)
     ref = vr if vr > floor else (-vr if -vr > floor else floor)
-    ux, uy = ckm * (w4 * rad - vr) / ref, -carm * vyr / ref
-    u = math.sqrt(ux * ux + uy * uy)
-    d = mu * fz4 * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
-    fx4, fy4 = d * ux, d * uy
+    fx4, fy4 = magic_formula(ckm * (w4 * rad - vr) / ref, -carm * vyr / ref, fz4, mu, shape,
+                             inv_shape)
 
     # front forces into the body frame
     fxf = fx1 + fx2

@@ -20,6 +20,19 @@ from __future__ import annotations
 
 import math
 
+from cosim.vehicle.compiled import njit
+
+
+@njit
+def magic_formula(ux: float, uy: float, fz: float, mu: float, shape: float,
+                  inv_shape: float) -> tuple[float, float]:
+    """N, (Fx, Fy) from the normalised slips (ux, uy): the resultant
+    mu Fz sin(C atan(u / C)) split along the slip direction. The two-track plant
+    calls this for each wheel with its slips already normalised."""
+    u = math.sqrt(ux * ux + uy * uy)
+    d = mu * fz * (math.sin(shape * math.atan(u * inv_shape)) / u if u > 1e-9 else 1.0)
+    return d * ux, d * uy
+
 
 def tyre_forces(
     kappa: float, tan_alpha: float, fz: float, c_kappa: float, c_alpha: float,
@@ -34,12 +47,8 @@ def tyre_forces(
     """
     if fz <= 0.0:
         return 0.0, 0.0
-    ux = c_kappa * kappa / mu
-    uy = c_alpha * tan_alpha / mu
-    u = math.sqrt(ux * ux + uy * uy)
-    gain = math.sin(shape * math.atan(u / shape)) / u if u > 1e-9 else 1.0
-    d = mu * fz * gain
-    return d * ux, d * uy
+    return magic_formula(c_kappa * kappa / mu, c_alpha * tan_alpha / mu, fz, mu, shape,
+                         1.0 / shape)
 
 
 def peak_slip(shape: float) -> float:

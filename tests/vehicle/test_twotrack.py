@@ -117,7 +117,7 @@ def test_cornering_scale_makes_a_plant_unlike_the_design_model() -> None:
     assert abs(plant.state[5] / r_design - 1.0) > 0.15
 
 
-def test_inlined_tyres_are_the_tyre_module() -> None:
+def test_plant_tyre_forces_are_the_tyre_module() -> None:
     from cosim.vehicle.tyre import tyre_forces
 
     plant = TwoTrackPlant(VEHICLE, 0.5, vx=20.0, vy=0.4, yaw_rate=0.15)
