@@ -6,7 +6,7 @@ each plant x controller, and the two-track plant alone (no controller) to show
 the split. Target: under 0.2 s of wall time for 10 s simulated on the two-track
 plant, well under the SUMO step cost it runs beside.
 
-The closed loop is compiled (numba, `cosim.vehicle.compiled`): numba's start-up
+The closed loop is compiled (numba, `cosim.compiled`): numba's start-up
 in this process (import, compiler set-up, compiling or loading the cached code)
 is timed first, once, and reported apart; the rows are the steady state.
 """
@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def measure(args: argparse.Namespace) -> dict[str, Any]:
-    from cosim.vehicle.compiled import warm_up
+    from cosim.compiled import warm_up
 
     start = time.perf_counter()
     warm_up()  # numba import + compile, or load from the on-disk cache

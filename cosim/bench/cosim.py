@@ -95,7 +95,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                            duration=float(args.duration))
     paper = load_scenario(_path(args.paper, DEFAULT_PAPER))
     repeats = max(int(args.repeats), 1)
-    from cosim.vehicle.compiled import warm_up
+    from cosim.compiled import warm_up
 
     start = time.perf_counter()
     warm_up()  # numba import + compile, or load from the on-disk cache

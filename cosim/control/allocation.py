@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 
+from cosim.compiled import njit
 from cosim.params import VehicleParams
-from cosim.vehicle.compiled import njit
 
 
 def effectiveness(

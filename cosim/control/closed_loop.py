@@ -42,7 +42,7 @@ is left to the zero dynamics, as in the SISO baseline.
 
 Speed: the substep loop (`advance_core`: projection, laws, allocation, limits,
 anti-windup, plant RK4, finiteness check) is compiled with numba
-(`cosim.vehicle.compiled`) and runs on float arrays: one call per `advance`.
+(`cosim.compiled`) and runs on float arrays: one call per `advance`.
 The Python side builds the records and raises the errors.
 """
 
@@ -53,13 +53,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cosim.compiled import Array, njit
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.vehicle.actuators import ActuatorLimits, steer_core
 from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
 from cosim.vehicle.chassis import ChassisParams
-from cosim.vehicle.compiled import Array, njit
 from cosim.vehicle.plant import Plant, check_finite
 from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 

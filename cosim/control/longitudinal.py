@@ -6,8 +6,8 @@ proportional term absorbs it with a small steady speed error.
 
 from __future__ import annotations
 
+from cosim.compiled import njit
 from cosim.params import ControllerGains, VehicleParams
-from cosim.vehicle.compiled import njit
 
 
 @njit

@@ -15,7 +15,7 @@ the heading minus the path's tangent angle there, KL the path curvature there
 tracks speed in time and the path in space.
 
 Speed: the evaluation, projection and errors are compiled (numba,
-`cosim.vehicle.compiled`) on the path's coefficient array (`ReferencePath.coef`),
+`cosim.compiled`) on the path's coefficient array (`ReferencePath.coef`),
 so the closed loop's compiled substep loop calls them directly; the methods
 wrap the same functions.
 """
@@ -28,12 +28,12 @@ from typing import NamedTuple
 
 import numpy as np
 
+from cosim.compiled import Array, njit
 from cosim.planning.trajectory import (
     LaneChangeTrajectory,
     lateral_coefficients,
     longitudinal_coefficients,
 )
-from cosim.vehicle.compiled import Array, njit
 
 Point = tuple[float, float, float, float, float, float]
 # Layout of the coefficient array: t0, tau, x polynomial (5), y polynomial (6),

@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from cosim.compiled import Array, njit
 from cosim.errors import InputError
 from cosim.params import ControllerGains, VehicleParams
-from cosim.vehicle.compiled import Array, njit
 
 
 def check_gains(gains: ControllerGains, source: str = "controller") -> None:

@@ -1,5 +1,5 @@
 """Importing this module compiles the closed loop's numba functions (or loads them
-from numba's on-disk cache) in the importing process: `cosim.vehicle.compiled.warm_up`.
+from numba's on-disk cache) in the importing process: `cosim.compiled.warm_up`.
 
 For a fork server's preload list (`cosim.batch.PRELOAD`): the server pays numba's
 start-up once (about 1.2 s: import, compiler set-up, cached code) and every run
@@ -9,6 +9,6 @@ paper case 5.1 took 1.45 s without this module in the preload list, 0.28 s with 
 
 from __future__ import annotations
 
-from cosim.vehicle.compiled import warm_up
+from cosim.compiled import warm_up
 
 warm_up()

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from cosim.compiled import njit
 from cosim.errors import InputError
-from cosim.vehicle.compiled import njit
 
 
 @njit

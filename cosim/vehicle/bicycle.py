@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
+from cosim.compiled import Array, njit
 from cosim.params import VehicleParams
-from cosim.vehicle.compiled import Array, njit
 from cosim.vehicle.plant import PlantOutputs
 
 STATE_NAMES = ("x", "y", "heading", "vx", "vy", "yaw_rate")

@@ -6,8 +6,8 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from cosim.compiled import Array
 from cosim.errors import SimulationError
-from cosim.vehicle.compiled import Array
 
 
 @dataclass(frozen=True)

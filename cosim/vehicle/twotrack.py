@@ -24,7 +24,7 @@ highway speed, more at low speed. Against a 0.2 ms reference, a 3 s sine-steer
 and drive/brake manoeuvre at 25 m/s ends within 1e-6 m and 1e-6 rad/s.
 
 Speed: the derivative, the ABS / traction control and the RK4 loop are compiled
-(numba, `cosim.vehicle.compiled`) and work on float arrays in place; the closed
+(numba, `cosim.compiled`) and work on float arrays in place; the closed
 loop calls `twotrack_step` from its own compiled substep loop, the class methods
 wrap the same functions for Python callers.
 """
@@ -35,10 +35,10 @@ import math
 
 import numpy as np
 
+from cosim.compiled import Array, njit
 from cosim.errors import InputError
 from cosim.params import G, VehicleParams
 from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
-from cosim.vehicle.compiled import Array, njit
 from cosim.vehicle.plant import PlantOutputs
 from cosim.vehicle.tyre import magic_formula, peak_slip
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 
-from cosim.vehicle.compiled import njit
+from cosim.compiled import njit
 
 
 @njit

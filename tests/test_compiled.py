@@ -1,4 +1,4 @@
-"""Tests of cosim.vehicle.compiled: numba compiles the hot functions without
+"""Tests of cosim.compiled: numba compiles the hot functions without
 changing their arithmetic, compiled callers call compiled callees, and numba is
 imported only when a compiled function is first called."""
 
@@ -10,9 +10,9 @@ import sys
 
 import numpy as np
 
+from cosim.compiled import warm_up
 from cosim.params import VehicleParams
 from cosim.vehicle import bicycle, twotrack
-from cosim.vehicle.compiled import warm_up
 
 VEHICLE = VehicleParams()
 
