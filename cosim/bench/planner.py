@@ -35,14 +35,10 @@ from numpy.typing import NDArray
 
 from cosim.bench import median_time
 from cosim.params import PlannerConfig, RoadParams, VehicleParams, kmh
-from cosim.planning.collision import (
-    REFINE_SUBSTEPS,
-    overlap_sat,
-    sampling_pad,
-)
+from cosim.planning.collision import REFINE_SUBSTEPS, TVHypotheses, overlap_sat
 from cosim.planning.envelope import MODES
 from cosim.planning.planner import LaneChangePlanner, SVPlanState
-from cosim.planning.prediction import predict
+from cosim.planning.prediction import predict_lazy
 from cosim.planning.trajectory import cluster_derivatives
 from cosim.traffic.v2v import V2VMessage
 
@@ -130,12 +126,12 @@ def _loop_setup(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: i
     cand = np.unique(np.concatenate([taus[stable], extra]))
     tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
     t_rel = planner._time_grid(max(cfg.tau_max, tv_last) + cfg.horizon_extra)
-    futures = predict(messages, t, t_rel, road, veh, taus, envelope=cfg.envelope,
-                      safety_factor=cfg.safety_factor)
+    lazy = predict_lazy(messages, t, t_rel, road, veh, taus, envelope=cfg.envelope,
+                        safety_factor=cfg.safety_factor)
+    futures = lazy.materialise()
     motion = planner._sv_cluster(sv, vxf, width, cand, t_rel)[1]  # the planner's bounds
-    r_sv = 0.5 * math.hypot(veh.length, veh.width)
-    pad = sampling_pad(motion, futures.x, futures.y, futures.heading, r_sv,
-                       0.5 * np.hypot(futures.length, futures.width))
+    # the planner's pads (exact for stored rows, a closed-form bound for the others)
+    pad = TVHypotheses.from_futures(lazy, motion, 0.5 * math.hypot(veh.length, veh.width)).pad
     tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
     return {"vxf": vxf, "width": width, "taus": taus, "stable": stable, "t_rel": t_rel,
             "futures": futures, "pad": pad, "tv_end": tv_end,

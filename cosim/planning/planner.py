@@ -10,11 +10,12 @@ against fresh messages.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,13 +24,10 @@ from cosim.errors import InputError
 from cosim.params import PlannerConfig, RoadParams, VehicleParams
 from cosim.planning.collision import (
     COLLISION_TESTS,
-    ArrayCluster,
     ClusterMotion,
-    PoseFn,
-    StandardCluster,
-    SVCluster,
-    TVClosedForm,
-    check_sv_cluster,
+    SVCandidates,
+    TVHypotheses,
+    check_candidates,
     cluster_motion,
     standard_cluster_motion,
 )
@@ -44,15 +42,11 @@ from cosim.planning.envelope import (
 )
 from cosim.planning.prediction import LazyFutures, TVFutures, predict_lazy
 from cosim.planning.selection import choose, intervals, omega
-from cosim.planning.trajectory import (
-    LaneChangeTrajectory,
-    cluster_derivatives,
-    standard_positions_at,
-    standard_velocities,
-)
+from cosim.planning.trajectory import LaneChangeTrajectory, cluster_derivatives
 from cosim.traffic.v2v import V2VMessage
 
 Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 COLLISION_STEP = 0.05  # s, sample step of the collision check (rectangles padded, see collision.py)
 MAP_WIDTH_TOLERANCE = 0.02  # m, widths this close to a lane width use the tau_min maps
@@ -72,9 +66,8 @@ class SVPlanState:
     lane: int  # SUMO index of the origin lane
 
 
-@dataclass(frozen=True)
-class Rejection:
-    """Why one tau was not taken."""
+class Rejection(NamedTuple):
+    """Why one tau was not taken (a named tuple: a plan holds one per rejected tau)."""
 
     tau: float  # s
     reason: str  # "unstable" | "collision"
@@ -94,19 +87,48 @@ class Plan:
     collision_free: NDArray[np.bool_]  # (n_tau,) stable and collision-free
     tau_min: float  # s, shortest stable tau (nan: none)
     tau_max: float  # s
-    stable_intervals: list[tuple[float, float]]  # s
-    collision_free_intervals: list[tuple[float, float]]  # s
     omega: float  # -, eq. 35 (clipped)
     tau_opt: float  # s, eq. 13 over the collision-free set (nan: empty)
     tau: float | None  # s, chosen; None: keep the lane
     trajectory: LaneChangeTrajectory | None
-    rejections: list[Rejection]
+    hit_vehicle: IntArray  # (n_tau,) index into vehicle_ids of the TV hit first (-1: none)
+    hit_time: Array  # s, (n_tau,) simulation time of that first overlap (nan: none)
     planning_time_s: float  # s, wall time of plan()
     vxf: float = math.nan  # m/s, target speed of the lane change
-    categories: dict[str, str] = field(default_factory=dict)  # TV id -> "C1" | "C2" | "C3"
+    vehicle_ids: tuple[str, ...] = ()  # the TVs planned against
+    tv_categories: tuple[str, ...] = ()  # "C1" | "C2" | "C3" of each
     # the TVs' futures (LazyFutures: arrays x, y, heading computed on first access)
     futures: TVFutures | LazyFutures | None = field(default=None, repr=False, compare=False)
     sv: SVPlanState | None = field(default=None, repr=False, compare=False)  # planned from
+
+    @functools.cached_property
+    def categories(self) -> dict[str, str]:
+        """TV id -> "C1" | "C2" | "C3"."""
+        return dict(zip(self.vehicle_ids, self.tv_categories, strict=True))
+
+    @functools.cached_property
+    def stable_intervals(self) -> list[tuple[float, float]]:
+        """s, the stable set as intervals."""
+        return intervals(self.taus, self.stable)
+
+    @functools.cached_property
+    def collision_free_intervals(self) -> list[tuple[float, float]]:
+        """s, the collision-free set as intervals."""
+        return intervals(self.taus, self.collision_free)
+
+    @functools.cached_property
+    def rejections(self) -> list[Rejection]:
+        """Why each tau not collision-free was rejected, in tau order."""
+        ids = self.vehicle_ids
+        return [
+            Rejection(tau, "unstable") if not stable
+            else Rejection(tau, "collision", ids[v], when)
+            for tau, stable, v, when in zip(
+                self.taus[~self.collision_free].tolist(),
+                self.stable[~self.collision_free].tolist(),
+                self.hit_vehicle[~self.collision_free].tolist(),
+                self.hit_time[~self.collision_free].tolist(), strict=True)
+        ]
 
     @property
     def feasible(self) -> bool:
@@ -247,71 +269,38 @@ class LaneChangePlanner:
 
     def _sv_cluster(
         self, sv: SVPlanState, vxf: float, width: float, taus: Array, t_rel: Array
-    ) -> tuple[SVCluster, ClusterMotion, PoseFn]:
-        """Every candidate's global pose on the time grid (computed where the check asks
-        for it: the cluster of eq. 2 / eq. 4 from rest is never stored whole) and the
-        bounds on its motion per sample step."""
-        kw = {"ax0": sv.ax, "vy0": sv.vy, "ay0": sv.ay}
-        at_rest = abs(sv.ax) < 1e-12 and abs(sv.vy) < 1e-12 and abs(sv.ay) < 1e-12
-
-        def heading(c: NDArray[np.int64], k: NDArray[np.int64]) -> Array:
-            if at_rest:
-                xd, yd = standard_velocities(sv.vx, vxf, width, taus[c], t_rel[k])
-                return np.arctan2(yd, xd)
-            xd, yd = cluster_derivatives(
-                sv.vx, vxf, width, taus[c][:, None], t_rel[k][:, None], (1,), **kw
-            )[1]
-            return np.arctan2(yd[:, 0], xd[:, 0])
-
-        def pose(c: NDArray[np.int64], tt: Array) -> tuple[Array, Array, Array]:
-            if at_rest:  # eq. 2 / eq. 4 in closed form (the same to rounding)
-                tau_c = taus[c][:, None]
-                px, py = standard_positions_at(sv.vx, vxf, width, tau_c, tt)
-                vx, vy = standard_velocities(sv.vx, vxf, width, tau_c, tt)
-                px += sv.x
-                py += sv.y
-                return px, py, np.arctan2(vy, vx)
-            d = cluster_derivatives(sv.vx, vxf, width, taus[c][:, None], tt, (0, 1), **kw)
-            (px, py), (vx, vy) = d[0], d[1]
-            return px + sv.x, py + sv.y, np.arctan2(vy, vx)
-
-        cluster: SVCluster
-        if at_rest and taus.size:  # eq. 2 / eq. 4 as printed: closed forms and bounds
-            cluster = StandardCluster(t_rel, taus, sv.x, sv.y, sv.vx, vxf, width, heading)
-            motion = standard_cluster_motion(sv.vx, vxf, width, float(taus.min()),
-                                             self.collision_step)
-        else:
-            x, y = cluster_derivatives(sv.vx, vxf, width, taus, t_rel, (0,), **kw)[0]
-            motion = cluster_motion(x, y)
-            cluster = ArrayCluster(x + sv.x, y + sv.y, heading)
-        return cluster, motion, pose
+    ) -> tuple[SVCandidates, ClusterMotion]:
+        """Every candidate (eq. 2 / eq. 4, general start; evaluated where the check asks)
+        and the bounds on its motion per sample step."""
+        cands = SVCandidates(taus, sv.vx, vxf, width, sv.x, sv.y, sv.ax, sv.vy, sv.ay)
+        if cands.standard:  # eq. 2 / eq. 4 as printed: bounds in closed form
+            return cands, standard_cluster_motion(sv.vx, vxf, width, float(taus.min()),
+                                                  self.collision_step)
+        x, y = cluster_derivatives(sv.vx, vxf, width, taus, t_rel, (0,), ax0=sv.ax, vy0=sv.vy,
+                                   ay0=sv.ay)[0]
+        return cands, cluster_motion(x, y)
 
     def _collisions(
-        self, t: float, t_rel: Array, cluster: SVCluster, sv_end: Array,
-        futures: LazyFutures, motion: ClusterMotion, pose: PoseFn | None = None,
-    ) -> tuple[NDArray[np.bool_], list[str | None], list[float | None]]:
-        """(collides (n_c,), first TV id, first time) of every SV candidate."""
+        self, t: float, t_rel: Array, sv: SVCandidates, sv_end: Array, futures: LazyFutures,
+        motion: ClusterMotion,
+    ) -> tuple[NDArray[np.bool_], IntArray, Array]:
+        """(collides, index of the TV hit first (-1: none), simulation time of that first
+        overlap (nan: none)) of every SV candidate, each (n_c,)."""
         cfg = self.config
-        n_c = cluster.n_c
+        n_c = sv.n_c
         if futures.n_hypotheses == 0 or n_c == 0:
-            return np.zeros(n_c, dtype=bool), [None] * n_c, [None] * n_c
+            return np.zeros(n_c, dtype=bool), np.full(n_c, -1), np.full(n_c, np.nan)
         r_sv = 0.5 * math.hypot(self.vehicle.length, self.vehicle.width)
         tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
-        hits = check_sv_cluster(
-            t_rel, cluster, self.vehicle.length, self.vehicle.width,
-            sv_end + cfg.horizon_extra, TVClosedForm(futures, motion, r_sv),
-            tv_end + cfg.horizon_extra, margin=cfg.safety_margin, test=cfg.collision_test,
-            sv_max_heading=motion.max_heading, sv_pose=pose,
+        hits = check_candidates(
+            t_rel, sv, self.vehicle.length, self.vehicle.width, sv_end + cfg.horizon_extra,
+            TVHypotheses.from_futures(futures, motion, r_sv), tv_end + cfg.horizon_extra,
+            margin=cfg.safety_margin, test=cfg.collision_test,
+            sv_max_heading=motion.max_heading,
         )
-        ids: list[str | None] = [None] * n_c
-        when: list[float | None] = [None] * n_c
-        cs = np.flatnonzero(hits.collides)  # only to name the culprits
-        owners = futures.owner[hits.first_hypothesis[cs]].tolist()
-        times = (t + t_rel[hits.first_index[cs]]).tolist()
-        for c, o, tc in zip(cs.tolist(), owners, times, strict=True):
-            ids[c] = futures.vehicle_ids[o]
-            when[c] = tc
-        return hits.collides, ids, when
+        c = hits.collides
+        vehicle = np.where(c, futures.owner[np.maximum(hits.first_hypothesis, 0)], -1)
+        return c, vehicle, np.where(c, t + t_rel[hits.first_index], np.nan)
 
     # -- the planner -------------------------------------------------------------
 
@@ -343,24 +332,15 @@ class LaneChangePlanner:
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
         )
-        collides, ids, when = np.zeros(0, dtype=bool), [], []  # no stable tau: nothing to test
-        if cand.size:  # (an empty general-start cluster has no motion bounds)
-            cluster, motion, pose = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
-            collides, ids, when = self._collisions(t, t_rel, cluster, taus[cand], futures,
-                                                   motion, pose)
+        hit_vehicle, hit_time = np.full(taus.size, -1), np.full(taus.size, np.nan)
         free = np.zeros(taus.size, dtype=bool)
-        free[cand[~collides]] = True
+        if cand.size:  # (an empty general-start cluster has no motion bounds)
+            polys, motion = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
+            collides, hit_vehicle[cand], hit_time[cand] = self._collisions(
+                t, t_rel, polys, taus[cand], futures, motion)
+            free[cand[~collides]] = True
         w = omega(occupant, road.mu)
         tau, t_opt = choose(taus, free, w)
-        # one reason per rejected tau, in tau order
-        cand_of = np.full(taus.size, -1)
-        cand_of[cand] = np.arange(cand.size)
-        tau_l, cand_l = taus.tolist(), cand_of.tolist()
-        rejections = [
-            Rejection(tau_l[i], "unstable") if cand_l[i] < 0
-            else Rejection(tau_l[i], "collision", ids[cand_l[i]], when[cand_l[i]])
-            for i in np.flatnonzero(~free).tolist()
-        ]
         trajectory = None
         if tau is not None:
             trajectory = LaneChangeTrajectory(
@@ -369,12 +349,10 @@ class LaneChangePlanner:
             )
         return Plan(
             t=t, origin_lane=sv.lane, target_lane=target_lane, taus=taus, stable=stable,
-            collision_free=free, tau_min=st.tau_min, tau_max=cfg.tau_max,
-            stable_intervals=intervals(taus, stable),
-            collision_free_intervals=intervals(taus, free), omega=w, tau_opt=t_opt,
-            tau=tau, trajectory=trajectory, rejections=rejections,
-            planning_time_s=time.perf_counter() - start, vxf=vxf,
-            categories=dict(zip(futures.vehicle_ids, futures.categories, strict=True)),
+            collision_free=free, tau_min=st.tau_min, tau_max=cfg.tau_max, omega=w,
+            tau_opt=t_opt, tau=tau, trajectory=trajectory, hit_vehicle=hit_vehicle,
+            hit_time=hit_time, planning_time_s=time.perf_counter() - start, vxf=vxf,
+            vehicle_ids=futures.vehicle_ids, tv_categories=futures.categories,
             futures=futures, sv=sv,
         )
 
@@ -392,18 +370,15 @@ class LaneChangePlanner:
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
         )
-        ts = t + t_rel
-        x, y = trajectory.position(ts)
-        h = trajectory.heading(ts)
-
-        def pose(c: NDArray[np.int64], tt: Array) -> tuple[Array, Array, Array]:
-            px, py = trajectory.position(tt)
-            return px, py, trajectory.heading(tt)
-
-        collides, ids, when = self._collisions(
-            t, t_rel, ArrayCluster(x[None, :], y[None, :], h[None, :]), np.array([remaining]),
-            futures, cluster_motion(x[None, :], y[None, :]), pose=pose,
+        tr = trajectory
+        x, y = tr.position(t + t_rel)
+        polys = SVCandidates(np.array([tr.tau]), tr.vx0, tr.vxf, tr.width, tr.x0, tr.y0,
+                             tr.ax0, tr.vy0, tr.ay0, t_shift=t - tr.t0)
+        collides, vehicle, when = self._collisions(
+            t, t_rel, polys, np.array([remaining]), futures,
+            cluster_motion(x[None, :], y[None, :]),
         )
         if not collides[0]:
             return None
-        return Rejection(trajectory.tau, "collision", ids[0], when[0])
+        return Rejection(trajectory.tau, "collision", futures.vehicle_ids[vehicle[0]],
+                         float(when[0]))

@@ -24,7 +24,6 @@ from cosim.params import RoadParams, VehicleParams
 from cosim.planning.envelope import MODES, envelope_margin, paper_map_tau_min
 from cosim.planning.trajectory import (
     cluster_derivatives,
-    standard_positions,
     standard_positions_at,
     standard_velocities,
 )
@@ -106,11 +105,11 @@ StableFn = Callable[[Array, Array, Array, Array], NDArray[np.bool_]]
 
 @dataclass(frozen=True)
 class LazyFutures:
-    """`TVFutures` whose C2 clusters from rest (eq. 2 / eq. 4 in closed form) are kept as
-    parameters and computed where they are asked for (`xy`, `heading`, `rows`): a dense
-    scene holds hundreds of such trajectories, of which the collision check needs a few
-    per cent of the samples. The other hypotheses are stored rows. `x`, `y`, `heading`
-    (and `materialise()`) give the whole arrays, bit for bit those of `predict`."""
+    """`TVFutures` whose lane changes from rest (eq. 2 / eq. 4 in closed form: C2 clusters
+    and C3 quintic broadcasts) are kept as parameters and computed where they are asked
+    for (`xy`, `heading`, `rows`): a dense scene holds hundreds of such trajectories, of
+    which the collision check needs a few per cent of the samples. The other hypotheses
+    are stored rows. `x`, `y`, `heading` (and `materialise()`) give the whole arrays."""
 
     t: Array  # s, absolute simulation times (n_t,)
     rel: Array  # s, t minus the planning instant (the C2 clusters' own time)
@@ -131,7 +130,7 @@ class LazyFutures:
     dy: Array  # m, signed lateral displacement W
     x0: Array  # m, start x
     y0: Array  # m, start y
-    blocks: tuple[tuple[int, int], ...]  # [h0, h1) of each TV's closed-form cluster (tau rising)
+    t_start: Array  # s, start of the manoeuvre, relative to the planning instant
 
     @property
     def n_hypotheses(self) -> int:
@@ -148,7 +147,7 @@ class LazyFutures:
         if (r >= 0).all():
             return self.sx[r, k], self.sy[r, k]
         x, y = standard_positions_at(self.v0[h], self.vxf[h], self.dy[h], self.tau[h],
-                                     self.rel[k])
+                                     self.rel[k] - self.t_start[h])
         x += self.x0[h]
         y += self.y0[h]
         s = np.flatnonzero(r >= 0)
@@ -162,7 +161,7 @@ class LazyFutures:
         if (r >= 0).all():
             return self.sh[r, k]
         xd, yd = standard_velocities(self.v0[h], self.vxf[h], self.dy[h], self.tau[h],
-                                     self.rel[k])
+                                     self.rel[k] - self.t_start[h])
         out = np.arctan2(yd, xd)
         s = np.flatnonzero(r >= 0)
         if s.size:
@@ -179,13 +178,13 @@ class LazyFutures:
         c = np.flatnonzero(~s)
         if c.size:
             hc = h[c]
-            cx, cy = standard_positions(self.v0[hc], self.vxf[hc], self.dy[hc], self.tau[hc],
-                                        self.rel)
-            cx += self.x0[hc][:, None]
-            cy += self.y0[hc][:, None]
-            xd, yd = standard_velocities(self.v0[hc][:, None], self.vxf[hc][:, None],
-                                         self.dy[hc][:, None], self.tau[hc][:, None],
-                                         self.rel[None, :])
+            v0, vxf, dy, tau, x0, y0, t0 = (a[hc][:, None] for a in (
+                self.v0, self.vxf, self.dy, self.tau, self.x0, self.y0, self.t_start))
+            rel = self.rel[None, :] - t0
+            cx, cy = standard_positions_at(v0, vxf, dy, tau, rel)
+            cx += x0
+            cy += y0
+            xd, yd = standard_velocities(v0, vxf, dy, tau, rel)
             x[c], y[c], hd[c] = cx, cy, np.arctan2(yd, xd)
         return x, y, hd
 
@@ -268,9 +267,14 @@ def predict_lazy(
     for i, m in enumerate(messages):
         cat = category(m)
         if cat == "C3":
-            assert m.motion is not None
-            x, y, h = motion_path(m.motion, t)
-            add(i, x, y, h, m.motion.tau, m.motion.t0 + m.motion.tau)
+            mo = m.motion
+            assert mo is not None
+            if mo.profile == "quintic" and mo.t0 <= t_plan:  # eq. 2 / eq. 4 from rest
+                blocks.append(("closed", 1, mo.vx0, mo.vxf, mo.width, mo.x0, mo.y0,
+                               mo.t0 - t_plan))
+                meta(i, 1, mo.tau, mo.t0 + mo.tau)
+            else:
+                add(i, *motion_path(mo, t), mo.tau, mo.t0 + mo.tau)
         elif cat == "C2" and (lanes := c2_lanes(m, road)) is not None:
             c2.append((i, m, *lanes))
         else:
@@ -309,7 +313,7 @@ def predict_lazy(
                 cats[i] = "C1"
                 add_c1(i, m)
             elif still[j]:  # eq. 2 / eq. 4 in closed form, from rest laterally
-                blocks.append(("closed", ok.size, v0[j], vxf[j], width[j], x0[j], m.y))
+                blocks.append(("closed", ok.size, v0[j], vxf[j], width[j], x0[j], m.y, 0.0))
                 meta(i, ok.size, ok, t_plan + ok)
             else:
                 d = cluster_derivatives(v0[j], vxf[j], width[j], ok, rel, (0, 1), vy0=vy0[j])
@@ -321,7 +325,7 @@ def predict_lazy(
         empty = np.zeros((0, n_t))
         noint = np.zeros(0, dtype=np.int64)
         return LazyFutures(t, rel, ids, tuple(cats), noint, none, none, none, none, noint,
-                           noint, empty, empty, empty, none, none, none, none, none, ())
+                           noint, empty, empty, empty, none, none, none, none, none, none)
     c1 = [b[1] for b in blocks if b[0] == "c1"]
     if c1:  # constant_acceleration of every C1 TV (the same operations, one array)
         mt, v, a, mx = (np.array([getattr(m, f) for m in c1]) for f in ("t", "speed", "accel", "x"))
@@ -334,13 +338,12 @@ def predict_lazy(
         blocks = [("rows", x_c1[next(j)][None, :], np.full((1, n_t), b[1].y),
                    np.full((1, n_t), b[1].heading)) if b[0] == "c1" else b for b in blocks]
     n_h = len(owner)
-    params = np.full((5, n_h), np.nan)
+    params = np.full((6, n_h), np.nan)
     row_of = np.full(n_h, -1, dtype=np.int64)
     stored: list[IntArray] = []
     rows_x: list[Array] = []
     rows_y: list[Array] = []
     rows_h: list[Array] = []
-    closed: list[tuple[int, int]] = []
     h0 = 0
     for b in blocks:
         if b[0] == "rows":
@@ -353,7 +356,6 @@ def predict_lazy(
         else:
             k = b[1]
             params[:, h0:h0 + k] = np.array(b[2:])[:, None]
-            closed.append((h0, h0 + k))
         h0 += k
     cat_rows = (lambda a: np.concatenate(a) if a else np.zeros((0, n_t)))  # noqa: E731
     return LazyFutures(
@@ -363,5 +365,5 @@ def predict_lazy(
         stored=np.concatenate(stored) if stored else np.zeros(0, dtype=np.int64),
         row_of=row_of, sx=cat_rows(rows_x), sy=cat_rows(rows_y), sh=cat_rows(rows_h),
         v0=params[0], vxf=params[1], dy=params[2], x0=params[3], y0=params[4],
-        blocks=tuple(closed),
+        t_start=params[5],
     )

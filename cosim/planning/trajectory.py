@@ -64,19 +64,21 @@ def lateral_coefficients(
 
 
 def _poly_derivs(coeffs: list[Array], t: Array, order: int) -> Array:
-    """Evaluate d^order/dt^order of sum_k coeffs[k] t^k (Horner)."""
+    """Evaluate d^order/dt^order of sum_k coeffs[k] t^k (Horner), shaped like t and the
+    coefficients broadcast."""
     n = len(coeffs)
-    shape = np.broadcast_shapes(t.shape, *(np.shape(c) for c in coeffs))
 
     def factor(k: int) -> float:  # k (k-1) ... (k-order+1)
         return float(math.prod(range(k - order + 1, k + 1)))
 
     if order >= n:
-        return np.zeros(shape)
+        return np.zeros(np.broadcast_shapes(t.shape, *(np.shape(c) for c in coeffs)))
     out = factor(n - 1) * coeffs[n - 1]
     for k in range(n - 2, order - 1, -1):
         out = out * t + factor(k) * coeffs[k]
-    return out if out.shape == shape else np.broadcast_to(out, shape).copy()
+    if order < n - 1:  # t took part: out has the broadcast shape already
+        return out
+    return np.broadcast_to(out, np.broadcast_shapes(t.shape, np.shape(out))).copy()
 
 
 def cluster_derivatives(
