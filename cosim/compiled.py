@@ -1,18 +1,19 @@
-"""Compilation of the closed loop's hot functions (numba, cached on disk).
+"""Compilation of the hot loops (numba, cached on disk).
 
 Plant derivatives, RK4, path projection, control laws and allocation run 2000
 times per simulated second (200 Hz controller, 5 ms substeps); in Python they
-cost more than SUMO's own stepping. They are compiled with numba in nopython
-mode and work on float64 arrays in place. `cache=True` keeps the machine code
+cost more than SUMO's own stepping. The planner's collision check loops over
+candidates x samples x TV hypotheses with early exits. Both are compiled with
+numba in nopython mode and work on float64 arrays. `cache=True` keeps the machine code
 in `__pycache__`, so a fresh process loads it instead of compiling again.
 No fastmath: results match the interpreted arithmetic operation by operation
 (IEEE order kept), up to the last bit of libm's sin/cos/atan.
 
 numba itself is imported only when a compiled function is first called (about
 0.4 s to import, 0.7 s to set up its compiler on the first call, then a few ms
-per cached function): commands that never step a vehicle (`cosim plan`,
-`--help`) do not pay for it. Until then `njit` returns a stand-in; the first
-call compiles every function declared so far and puts the compiled functions
+per cached function): what neither plans nor steps a vehicle (`--help`, input
+errors) does not pay for it. Until then `njit` returns a stand-in; the first call
+compiles every function declared so far and puts the compiled functions
 in place of the stand-ins in every loaded `cosim` module, so compiled code
 calling compiled code finds compiled functions. `warm_up` does all of this
 ahead of time (a fork server calls it once for all its children).
@@ -22,7 +23,8 @@ file, so a caller cached before its callee (in another file) changed would keep
 the old callee's code. The cache therefore lives in a directory named after a
 hash of the sources of every module that defines compiled functions
 (`__pycache__/numba/<hash>` beside this package, or under NUMBA_CACHE_DIR):
-any change to one of them starts a fresh cache (about 10 s of compiling once).
+any change to one of them starts a fresh cache (about 10 s of compiling once for
+the closed loop, 12 s for the collision check).
 """
 
 from __future__ import annotations
@@ -45,10 +47,9 @@ F = TypeVar("F", bound=Callable[..., Any])
 class _Deferred:
     """A function to be compiled with numba on first use (see the module docstring)."""
 
-    def __init__(self, fn: Callable[..., Any], inline: bool = False) -> None:
+    def __init__(self, fn: Callable[..., Any]) -> None:
         functools.update_wrapper(self, fn)
         self.py_func = fn
-        self.inline = inline
         self.compiled: Callable[..., Any] | None = None
         _PENDING.append(self)
 
@@ -75,8 +76,7 @@ def _compile_all() -> None:
             if d.compiled is None:
                 # no fastmath; error_model="numpy": x / 0 gives inf or NaN as in numpy,
                 # which the closed loop's finiteness checks catch
-                d.compiled = numba_njit(cache=True, error_model="numpy",
-                                        inline="always" if d.inline else "never")(d.py_func)
+                d.compiled = numba_njit(cache=True, error_model="numpy")(d.py_func)
     finally:
         config.CACHE_DIR = user_dir  # the directory is bound to each function already
     for name, module in list(sys.modules.items()):
@@ -101,15 +101,11 @@ def njit(fn: F) -> F:
     return _Deferred(fn)  # type: ignore[return-value]
 
 
-def njit_inline(fn: F) -> F:
-    """`njit`, inlined into its compiled callers: for small helpers called in hot loops
-    (a call that passes arrays costs reference counting, about 100 ns)."""
-    return _Deferred(fn, inline=True)  # type: ignore[return-value]
-
-
 def warm_up() -> None:
-    """Import numba and compile (or load from the cache) the closed loop's functions
-    now, by running one step of every plant and controller."""
+    """Import numba and compile (or load from the cache) every compiled function now:
+    one step of every plant and controller, one collision check of each kind."""
     from cosim.control.closed_loop import warm_up as loop_warm_up
+    from cosim.planning.collision import warm_up as check_warm_up
 
     loop_warm_up()
+    check_warm_up()

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cosim.compiled import njit, njit_inline
+from cosim.compiled import njit
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -338,11 +338,11 @@ def check_cluster(
 
 
 # -- the compiled loops (numba; no fastmath: IEEE order as in numpy) ------------------------
-# The helpers called in the hot loops take scalars only, or are closures of the kernel:
-# a compiled call that passes arrays costs reference counting (about 100 ns).
+# Helpers called in the hot loops take scalars only: a compiled call that passes arrays
+# costs reference counting (about 100 ns).
 
 
-@njit_inline
+@njit
 def _standard_xy(v0: float, vxf: float, w: float, tau: float, t: float) -> tuple[float, float]:
     """Relative (x, y) of eq. 2 / eq. 4 from rest at time t >= 0 (the operations of
     `trajectory.standard_positions_at`)."""
@@ -354,7 +354,7 @@ def _standard_xy(v0: float, vxf: float, w: float, tau: float, t: float) -> tuple
     return x, y
 
 
-@njit_inline
+@njit
 def _standard_heading(v0: float, vxf: float, w: float, tau: float, t: float) -> float:
     """Heading of eq. 2 / eq. 4 from rest (the operations of
     `trajectory.standard_velocities`)."""
@@ -388,7 +388,7 @@ def _general_pose(cx: Array, cy: Array, c: int, tau: float, vxf: float,
     return x, y, math.atan2(yd, xd)
 
 
-@njit_inline
+@njit
 def _sat(ax: float, ay: float, ca: float, sa: float, hla: float, hwa: float, bx: float,
          by: float, cb: float, sb: float, hlb: float, hwb: float, m: float) -> bool:
     """`overlap_sat` for one pair (cosines and sines given), both grown by m."""
@@ -423,6 +423,54 @@ def _col(ax: float, ay: float, ah: float, al: float, aw: float, bx: float, by: f
         for j in range(4):
             total += abs((ex[j] - px) * (ey[j + 1] - py) - (ey[j] - py) * (ex[j + 1] - px))
         if 0.5 * total - area <= tol:
+            return True
+    return False
+
+
+@njit
+def _refined(par: Array, cx: Array, cy: Array, tau_c: float, c: int, hla: float, hwa: float,
+             rows_x: Array, rows_y: Array, rows_h: Array, row_of: IntArray, closed: Array,
+             h: int, hlb: float, hwb: float, k: int, t: Array, pad_h: float,
+             margin: float) -> bool:
+    """Overlap of candidate c and hypothesis h anywhere in [t_k - dt/2, t_k + dt/2], at
+    REFINE_SUBSTEPS + 1 instants: the SV exact, the TV linear between its samples (its
+    interpolation error bounded from the second differences, added to the margin with
+    the pad / REFINE_SUBSTEPS)."""
+    n_t = t.size
+    last = n_t - 1
+    dt = t[1] - t[0] if n_t > 1 else 0.0
+    kc = min(max(k, 1), max(n_t - 2, 1), last)
+    # the TV at k, k + 1, k - 1 and around kc (for its second differences)
+    idx = (k, min(k + 1, last), max(k - 1, 0), min(kc + 1, last), kc, max(kc - 1, 0))
+    tx, ty, th = np.empty(6), np.empty(6), np.empty(6)
+    r = row_of[h]
+    for i in range(6):
+        if r >= 0:
+            tx[i], ty[i], th[i] = rows_x[r, idx[i]], rows_y[r, idx[i]], rows_h[r, idx[i]]
+        else:
+            v0, vxf, w, tau = closed[0, h], closed[1, h], closed[2, h], closed[3, h]
+            x, y = _standard_xy(v0, vxf, w, tau, t[idx[i]] - closed[6, h])
+            tx[i], ty[i] = x + closed[4, h], y + closed[5, h]
+            th[i] = _standard_heading(v0, vxf, w, tau, t[idx[i]] - closed[6, h])
+    second = (abs(tx[3] - 2 * tx[4] + tx[5]) + abs(ty[3] - 2 * ty[4] + ty[5])
+              + math.hypot(hlb, hwb) * abs(th[3] - 2 * th[4] + th[5]))
+    fine = margin + pad_h / REFINE_SUBSTEPS + 0.25 * second  # >= 2x the dt^2 a / 8 bound
+    for j in range(REFINE_SUBSTEPS + 1):
+        frac = j / REFINE_SUBSTEPS - 0.5  # in steps
+        o = 1 if frac > 0 else 2  # linear towards k + 1 after t_k, from k - 1 before
+        sgn = 1.0 if frac > 0 else -1.0
+        bx = tx[0] + frac * (sgn * (tx[o] - tx[0]))
+        by = ty[0] + frac * (sgn * (ty[o] - ty[0]))
+        bh = th[0] + frac * (sgn * (th[o] - th[0]))
+        sv_t = t[k] + frac * dt + par[5]
+        if cx.shape[0]:  # a general start
+            ax, ay, ah = _general_pose(cx, cy, c, tau_c, par[1], sv_t)
+        else:
+            ax, ay = _standard_xy(par[0], par[1], par[2], tau_c, sv_t)
+            ah = _standard_heading(par[0], par[1], par[2], tau_c, sv_t)
+        ax, ay = ax + par[3], ay + par[4]
+        if _sat(ax, ay, math.cos(ah), math.sin(ah), hla, hwa, bx, by, math.cos(bh),
+                math.sin(bh), hlb, hwb, fine):
             return True
     return False
 
@@ -477,71 +525,9 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
     `check_candidates`."""
     n_c, n_t, n_h = ctau.size, t.size, row_of.size
     n_g = groups.size - 1
-    v0, vxf, w, x0, y0, shift = par[0], par[1], par[2], par[3], par[4], par[5]
     general = cx.shape[0] > 0
-    dt = t[1] - t[0] if n_t > 1 else 0.0
+    v0, vxf, w, x0, y0, shift = par[0], par[1], par[2], par[3], par[4], par[5]
     hla, hwa = 0.5 * sv_l, 0.5 * sv_w
-
-    def sv_xy(c: int, tk: float) -> tuple[float, float]:
-        if general:
-            x, y, _ = _general_pose(cx, cy, c, ctau[c], vxf, tk + shift)
-        else:
-            x, y = _standard_xy(v0, vxf, w, ctau[c], tk + shift)
-        return x + x0, y + y0
-
-    def sv_heading(c: int, tk: float) -> float:
-        if general:
-            return _general_pose(cx, cy, c, ctau[c], vxf, tk + shift)[2]
-        return _standard_heading(v0, vxf, w, ctau[c], tk + shift)
-
-    def tv_xy(h: int, k: int) -> tuple[float, float]:
-        r = row_of[h]
-        if r >= 0:
-            return rows_x[r, k], rows_y[r, k]
-        x, y = _standard_xy(closed[0, h], closed[1, h], closed[2, h], closed[3, h],
-                            t[k] - closed[6, h])
-        return x + closed[4, h], y + closed[5, h]
-
-    def tv_heading(h: int, k: int) -> float:
-        r = row_of[h]
-        if r >= 0:
-            return rows_h[r, k]
-        return _standard_heading(closed[0, h], closed[1, h], closed[2, h], closed[3, h],
-                                 t[k] - closed[6, h])
-
-    def refined(c: int, h: int, k: int) -> bool:
-        """Overlap anywhere in [t_k - dt/2, t_k + dt/2], at REFINE_SUBSTEPS + 1
-        instants: the SV exact, the TV linear between its samples (its interpolation
-        error bounded from the second differences, added to the margin with the pad /
-        REFINE_SUBSTEPS)."""
-        last = n_t - 1
-        kp, km = min(k + 1, last), max(k - 1, 0)
-        kc = min(max(k, 1), max(n_t - 2, 1), last)
-        k2p, k2m = min(kc + 1, last), max(kc - 1, 0)
-        xk, yk = tv_xy(h, k)
-        xp, yp = tv_xy(h, kp)
-        xm, ym = tv_xy(h, km)
-        hk, hp, hm = tv_heading(h, k), tv_heading(h, kp), tv_heading(h, km)
-        x2p, y2p = tv_xy(h, k2p)
-        x2c, y2c = tv_xy(h, kc)
-        x2m, y2m = tv_xy(h, k2m)
-        hlb, hwb = 0.5 * tv_l[h], 0.5 * tv_w[h]
-        second = (abs(x2p - 2 * x2c + x2m) + abs(y2p - 2 * y2c + y2m) + math.hypot(hlb, hwb)
-                  * abs(tv_heading(h, k2p) - 2 * tv_heading(h, kc) + tv_heading(h, k2m)))
-        fine = margin + pad[h] / REFINE_SUBSTEPS + 0.25 * second  # >= 2x the dt^2 a / 8 bound
-        for j in range(REFINE_SUBSTEPS + 1):
-            frac = j / REFINE_SUBSTEPS - 0.5  # in steps
-            if frac > 0:  # linear towards k + 1 after t_k, from k - 1 before
-                bx, by, bh = xk + frac * (xp - xk), yk + frac * (yp - yk), hk + frac * (hp - hk)
-            else:
-                bx, by, bh = xk + frac * (xk - xm), yk + frac * (yk - ym), hk + frac * (hk - hm)
-            ts = t[k] + frac * dt
-            ax, ay = sv_xy(c, ts)
-            ah = sv_heading(c, ts)
-            if _sat(ax, ay, math.cos(ah), math.sin(ah), hla, hwa, bx, by, math.cos(bh),
-                    math.sin(bh), hlb, hwb, fine):
-                return True
-        return False
 
     # per hypothesis: growth, reach (circle) and box half extents, both bodies together
     r_sv = math.hypot(hla, hwa)
@@ -588,7 +574,13 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
 
     def centre(h: int, k: int) -> None:  # hypothesis h's centre at sample k into gx, gy
         if tv_k[h] != k:
-            gx[h], gy[h] = tv_xy(h, k)
+            r = row_of[h]
+            if r >= 0:
+                gx[h], gy[h] = rows_x[r, k], rows_y[r, k]
+            else:
+                x, y = _standard_xy(closed[0, h], closed[1, h], closed[2, h], closed[3, h],
+                                    t[k] - closed[6, h])
+                gx[h], gy[h] = x + closed[4, h], y + closed[5, h]
             tv_k[h] = k
 
     checked = 0
@@ -599,7 +591,11 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
         bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf  # the candidates' box
         for c in range(n_c):
             if alive[c]:
-                px[c], py[c] = sv_xy(c, tk)
+                if general:
+                    x, y, _ = _general_pose(cx, cy, c, ctau[c], vxf, tk + shift)
+                else:
+                    x, y = _standard_xy(v0, vxf, w, ctau[c], tk + shift)
+                px[c], py[c] = x + x0, y + y0
                 bx0, bx1 = min(bx0, px[c]), max(bx1, px[c])
                 by0, by1 = min(by0, py[c]), max(by1, py[c])
         for g in range(n_g):
@@ -662,11 +658,15 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
                             or tk > max(sv_hor[c], tv_hor[h])):
                         continue
                     if sv_k[c] != k:
-                        sh = sv_heading(c, tk)
+                        sh = (_general_pose(cx, cy, c, ctau[c], vxf, tk + shift)[2] if general
+                              else _standard_heading(v0, vxf, w, ctau[c], tk + shift))
                         sv_cs[c, 0], sv_cs[c, 1], sv_cs[c, 2] = math.cos(sh), math.sin(sh), sh
                         sv_k[c] = k
                     if tv_hk[h] != k:
-                        th = tv_heading(h, k)
+                        r = row_of[h]
+                        th = rows_h[r, k] if r >= 0 else _standard_heading(
+                            closed[0, h], closed[1, h], closed[2, h], closed[3, h],
+                            tk - closed[6, h])
                         tv_cs[h, 0], tv_cs[h, 1], tv_cs[h, 2] = math.cos(th), math.sin(th), th
                         tv_hk[h] = k
                     checked += 1
@@ -681,10 +681,31 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
                         if not hit and pad[h] > 0.0 and _sat(
                                 sx, sy, ca, sa, hla, hwa, gx[h], gy[h], cb, sb, hlb, hwb,
                                 margin + pad[h]):
-                            hit = refined(c, h, k)
+                            hit = _refined(par, cx, cy, ctau[c], c, hla, hwa, rows_x, rows_y,
+                                           rows_h, row_of, closed, h, hlb, hwb, k, t, pad[h],
+                                           margin)
                     if hit:
                         first_k[c], first_h[c] = k, h
                         alive[c] = False
                         n_alive -= 1
                         break
     return first_k, first_h, checked
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) the check's compiled functions now: one tiny
+    check of each kind (closed-form and general-start candidates, stored and closed-form
+    hypotheses, the exact test and CoL) and one sampling pad."""
+    t = np.arange(3) * 0.05
+    rows = np.array([[0.0, 1.0, 2.0]])
+    nan = np.nan
+    tv = TVHypotheses(rows, 0.0 * rows, 0.0 * rows, np.array([0, -1]),
+                      np.array([[nan, 20.0], [nan, 20.0], [nan, 3.75], [nan, 2.0], [nan, 0.0],
+                                [nan, 0.0], [nan, 0.0]]),
+                      np.full(2, 4.32), np.full(2, 1.8), np.full(2, 0.1), np.zeros(2),
+                      np.arange(3))
+    for start in ({}, {"vy0": 0.1}):
+        sv = SVCandidates(np.array([2.0]), 20.0, 20.0, 3.75, 0.0, 0.0, **start)
+        for test in COLLISION_TESTS:
+            check_candidates(t, sv, 4.32, 1.8, np.array([2.0]), tv, np.full(2, 2.0), test=test)
+    sampling_pad(ClusterMotion(0.0, 0.0, 0.0, 0.0, 0.0), rows, rows, rows, 2.35, np.ones(1))
