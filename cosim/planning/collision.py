@@ -275,9 +275,10 @@ class TVHypotheses:
         pad, max_heading = _hypothesis_bounds(
             sv.dx_min, sv.dx_max, sv.dy_max, sv.turn, float(sv_radius), dt, f.sx, f.sy, f.sh,
             f.row_of, closed, r_tv)
-        starts = np.flatnonzero(np.diff(f.owner, prepend=-1))
+        n_h = f.owner.size
+        starts = np.flatnonzero(f.owner[1:] != f.owner[:-1]) + 1
         return cls(f.sx, f.sy, f.sh, f.row_of, closed, f.length, f.width, pad, max_heading,
-                   np.append(starts, f.owner.size))
+                   np.concatenate(([0], starts, [n_h])))
 
 
 def check_candidates(
@@ -363,6 +364,37 @@ def _standard_heading(v0: float, vxf: float, w: float, tau: float, t: float) -> 
     yd = (1.0 - s) * s
     yd = yd * yd * (30.0 * w) / tau
     return math.atan2(yd, xd)
+
+
+@njit
+def _closed_xy(closed: Array, h: int, t: float) -> tuple[float, float]:
+    """Centre of closed-form hypothesis h at grid time t."""
+    x, y = _standard_xy(closed[0, h], closed[1, h], closed[2, h], closed[3, h],
+                        t - closed[6, h])
+    return x + closed[4, h], y + closed[5, h]
+
+
+@njit
+def _sorted_range(values: Array, a: int, b: int, lo: float, hi: float) -> tuple[int, int]:
+    """[i, j) within [a, b) of the entries in [lo, hi] of values, monotone on [a, b)
+    (rising or falling; binary searches; bounds widened by _BOX_TOLERANCE for rounding)."""
+    lo, hi = lo - _BOX_TOLERANCE, hi + _BOX_TOLERANCE
+    rising = values[a] <= values[b - 1]
+    i, j = a, b
+    while i < j:  # the first entry past lo (rising) / at or below hi (falling)
+        mid = (i + j) // 2
+        if (values[mid] < lo) if rising else (values[mid] > hi):
+            i = mid + 1
+        else:
+            j = mid
+    start, j = i, b
+    while i < j:  # the first entry past hi (rising) / below lo (falling)
+        mid = (i + j) // 2
+        if (values[mid] <= hi) if rising else (values[mid] >= lo):
+            i = mid + 1
+        else:
+            j = mid
+    return start, i
 
 
 @njit
@@ -455,6 +487,7 @@ def _refined(par: Array, cx: Array, cy: Array, tau_c: float, c: int, hla: float,
     second = (abs(tx[3] - 2 * tx[4] + tx[5]) + abs(ty[3] - 2 * ty[4] + ty[5])
               + math.hypot(hlb, hwb) * abs(th[3] - 2 * th[4] + th[5]))
     fine = margin + pad_h / REFINE_SUBSTEPS + 0.25 * second  # >= 2x the dt^2 a / 8 bound
+    last_bh, cb, sb = np.nan, 0.0, 0.0
     for j in range(REFINE_SUBSTEPS + 1):
         frac = j / REFINE_SUBSTEPS - 0.5  # in steps
         o = 1 if frac > 0 else 2  # linear towards k + 1 after t_k, from k - 1 before
@@ -469,8 +502,9 @@ def _refined(par: Array, cx: Array, cy: Array, tau_c: float, c: int, hla: float,
             ax, ay = _standard_xy(par[0], par[1], par[2], tau_c, sv_t)
             ah = _standard_heading(par[0], par[1], par[2], tau_c, sv_t)
         ax, ay = ax + par[3], ay + par[4]
-        if _sat(ax, ay, math.cos(ah), math.sin(ah), hla, hwa, bx, by, math.cos(bh),
-                math.sin(bh), hlb, hwb, fine):
+        if bh != last_bh:  # (a TV keeping its lane keeps its heading)
+            last_bh, cb, sb = bh, math.cos(bh), math.sin(bh)
+        if _sat(ax, ay, math.cos(ah), math.sin(ah), hla, hwa, bx, by, cb, sb, hlb, hwb, fine):
             return True
     return False
 
@@ -568,63 +602,67 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
     sv_cs = np.empty((n_c, 3))  # cos, sin, heading
     gx = np.empty(n_h)
     gy = np.empty(n_h)
-    tv_k = np.full(n_h, -1, dtype=np.int64)  # the sample whose centre is in gx, gy
     tv_hk = np.full(n_h, -1, dtype=np.int64)  # the sample whose heading is in tv_cs
     tv_cs = np.empty((n_h, 3))
-
-    def centre(h: int, k: int) -> None:  # hypothesis h's centre at sample k into gx, gy
-        if tv_k[h] != k:
-            r = row_of[h]
-            if r >= 0:
-                gx[h], gy[h] = rows_x[r, k], rows_y[r, k]
-            else:
-                x, y = _standard_xy(closed[0, h], closed[1, h], closed[2, h], closed[3, h],
-                                    t[k] - closed[6, h])
-                gx[h], gy[h] = x + closed[4, h], y + closed[5, h]
-            tv_k[h] = k
-
+    # a closed-form cluster is ordered by tau in x and y at every sample (so is the SV's
+    # when it starts from rest): its box comes from its two extreme trajectories and
+    # the members near a point from binary searches
     checked = 0
     for k in range(n_t):
         tk = t[k]
         if n_alive == 0 or tk > last_t:
             break
-        bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf  # the candidates' box
-        for c in range(n_c):
-            if alive[c]:
-                if general:
+        sv_at_k = False  # px, py hold every candidate at sample k
+        if general:  # not ordered: every remaining candidate, and their box
+            bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf
+            for c in range(n_c):
+                if alive[c]:
                     x, y, _ = _general_pose(cx, cy, c, ctau[c], vxf, tk + shift)
-                else:
-                    x, y = _standard_xy(v0, vxf, w, ctau[c], tk + shift)
-                px[c], py[c] = x + x0, y + y0
-                bx0, bx1 = min(bx0, px[c]), max(bx1, px[c])
-                by0, by1 = min(by0, py[c]), max(by1, py[c])
+                    px[c], py[c] = x + x0, y + y0
+                    bx0, bx1 = min(bx0, px[c]), max(bx1, px[c])
+                    by0, by1 = min(by0, py[c]), max(by1, py[c])
+        else:
+            xa, ya = _standard_xy(v0, vxf, w, ctau[0], tk + shift)
+            xb, yb = _standard_xy(v0, vxf, w, ctau[n_c - 1], tk + shift)
+            bx0, bx1 = x0 + min(xa, xb) - _BOX_TOLERANCE, x0 + max(xa, xb) + _BOX_TOLERANCE
+            by0, by1 = y0 + min(ya, yb) - _BOX_TOLERANCE, y0 + max(ya, yb) + _BOX_TOLERANCE
         for g in range(n_g):
             h0, h1 = groups[g], groups[g + 1]
             lx, ly = g_lim_x[g], g_lim_y[g]
             if g_closed[g]:
-                # ordered by tau: the box of the two extreme trajectories; the others are
-                # evaluated when a window reaches them
-                centre(h0, k)
-                centre(h1 - 1, k)
-                xa, ya, xb, yb = gx[h0], gy[h0], gx[h1 - 1], gy[h1 - 1]
+                xa, ya = _closed_xy(closed, h0, tk)
+                xb, yb = _closed_xy(closed, h1 - 1, tk)
                 gx0, gx1 = min(xa, xb) - _BOX_TOLERANCE, max(xa, xb) + _BOX_TOLERANCE
                 gy0, gy1 = min(ya, yb) - _BOX_TOLERANCE, max(ya, yb) + _BOX_TOLERANCE
-                rising = ya <= yb
+                if gx1 < bx0 - lx or gx0 > bx1 + lx or gy1 < by0 - ly or gy0 > by1 + ly:
+                    continue
+                for h in range(h0, h1):
+                    gx[h], gy[h] = _closed_xy(closed, h, tk)
                 ordered = True
             else:
                 gx0, gx1, gy0, gy1 = np.inf, -np.inf, np.inf, -np.inf
                 rising, falling = True, True
                 for h in range(h0, h1):
-                    centre(h, k)
+                    gx[h], gy[h] = rows_x[row_of[h], k], rows_y[row_of[h], k]
                     gx0, gx1 = min(gx0, gx[h]), max(gx1, gx[h])
                     gy0, gy1 = min(gy0, gy[h]), max(gy1, gy[h])
                     if h > h0:
                         rising = rising and gy[h] >= gy[h - 1]
                         falling = falling and gy[h] <= gy[h - 1]
+                if gx1 < bx0 - lx or gx0 > bx1 + lx or gy1 < by0 - ly or gy0 > by1 + ly:
+                    continue
                 ordered = rising or falling
-            if gx1 < bx0 - lx or gx0 > bx1 + lx or gy1 < by0 - ly or gy0 > by1 + ly:
-                continue
-            for c in range(n_c):
+            ca, cb = 0, n_c
+            if not general:  # the candidates near the vehicle's box
+                if not sv_at_k:
+                    for c in range(n_c):
+                        x, y = _standard_xy(v0, vxf, w, ctau[c], tk + shift)
+                        px[c], py[c] = x + x0, y + y0
+                    sv_at_k = True
+                xa, xb = _sorted_range(px, 0, n_c, gx0 - lx, gx1 + lx)
+                ya, yb = _sorted_range(py, 0, n_c, gy0 - ly, gy1 + ly)
+                ca, cb = max(xa, ya), min(xb, yb)
+            for c in range(ca, cb):
                 if not alive[c]:
                     continue
                 sx, sy = px[c], py[c]
@@ -632,27 +670,9 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
                         or tk > max(sv_hor[c], g_hor[g])):
                     continue
                 a, b = h0, h1
-                if h1 - h0 > 8 and ordered:
-                    # the window of hypotheses with y in [lo, hi]: binary searches
-                    lo, hi = sy - ly - _BOX_TOLERANCE, sy + ly + _BOX_TOLERANCE
-                    while a < b:  # first h with y >= lo (rising) / y <= hi (falling)
-                        mid = (a + b) // 2
-                        centre(mid, k)
-                        if (gy[mid] < lo) if rising else (gy[mid] > hi):
-                            a = mid + 1
-                        else:
-                            b = mid
-                    start, b = a, h1
-                    while a < b:  # first h with y > hi (rising) / y < lo (falling)
-                        mid = (a + b) // 2
-                        centre(mid, k)
-                        if (gy[mid] <= hi) if rising else (gy[mid] >= lo):
-                            a = mid + 1
-                        else:
-                            b = mid
-                    a, b = start, a
+                if h1 - h0 > 8 and ordered:  # the hypotheses whose y is near the candidate's
+                    a, b = _sorted_range(gy, h0, h1, sy - ly, sy + ly)
                 for h in range(a, b):
-                    centre(h, k)
                     dx, dy = gx[h] - sx, gy[h] - sy
                     if (abs(dx) > lim_x[h] or abs(dy) > lim_y[h] or dx * dx + dy * dy > reach2[h]
                             or tk > max(sv_hor[c], tv_hor[h])):
@@ -675,11 +695,11 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
                         hit = _col(sx, sy, sv_cs[c, 2], sv_l, sv_w, gx[h], gy[h], tv_cs[h, 2],
                                    tv_l[h], tv_w[h])
                     else:
-                        ca, sa, cb, sb = sv_cs[c, 0], sv_cs[c, 1], tv_cs[h, 0], tv_cs[h, 1]
-                        hit = _sat(sx, sy, ca, sa, hla, hwa, gx[h], gy[h], cb, sb, hlb, hwb,
+                        ca_, sa_, cb_, sb_ = sv_cs[c, 0], sv_cs[c, 1], tv_cs[h, 0], tv_cs[h, 1]
+                        hit = _sat(sx, sy, ca_, sa_, hla, hwa, gx[h], gy[h], cb_, sb_, hlb, hwb,
                                    margin)
                         if not hit and pad[h] > 0.0 and _sat(
-                                sx, sy, ca, sa, hla, hwa, gx[h], gy[h], cb, sb, hlb, hwb,
+                                sx, sy, ca_, sa_, hla, hwa, gx[h], gy[h], cb_, sb_, hlb, hwb,
                                 margin + pad[h]):
                             hit = _refined(par, cx, cy, ctau[c], c, hla, hwa, rows_x, rows_y,
                                            rows_h, row_of, closed, h, hlb, hwb, k, t, pad[h],

@@ -1,4 +1,4 @@
-"""Rectangle overlap: exact separating-axes test, the paper's CoL, the vectorised check."""
+"""Rectangle overlap: exact separating-axes test, the paper's CoL, the compiled check."""
 
 from __future__ import annotations
 
