@@ -302,3 +302,35 @@ def test_lazy_futures_give_their_arrays_pointwise() -> None:
     np.testing.assert_allclose(f.x[c3], px, atol=1e-9)
     np.testing.assert_allclose(f.y[c3], py, atol=1e-9)
     np.testing.assert_allclose(f.heading[c3], ph, atol=1e-12)
+
+
+def test_a_started_manoeuvre_is_checked_at_its_own_time() -> None:
+    """A candidate t_shift into its manoeuvre (a re-check under way) gives what the
+    same candidate from its start gives on the grid shifted by t_shift, padded looks
+    between samples included."""
+    rng = np.random.default_rng(3)
+    shift = 1.3
+    t = np.arange(0.0, 9.0, 0.05)
+    taus = np.linspace(3.0, 8.0, 21)
+    refined, outcomes = 0, []
+    for seed in range(6):
+        start = {} if seed % 2 else {"vy0": 0.2, "ay0": 0.1}
+        tx, ty, th, tl, tw = _target_lane_traffic(rng, t, 2)
+        tx += 22.0 * shift  # around the SV, which is under way
+        pad = np.full(2, 0.3)
+        hor = (taus + 1.0, np.full(2, -np.inf))
+        under_way = SVCandidates(taus, 22.0, 25.0, 3.75, 0.0, 0.0, t_shift=shift, **start)
+        from_start = replace(under_way, t_shift=0.0)
+        a = check_cluster(t, under_way, 4.32, 1.8, hor[0] - shift, tx, ty, th, tl, tw, hor[1],
+                          pad=pad)
+        b = check_cluster(t + shift, from_start, 4.32, 1.8, hor[0], tx, ty, th, tl, tw,
+                          hor[1], pad=pad)
+        for name in ("collides", "first_index", "first_hypothesis"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+        no_pad = check_cluster(t, under_way, 4.32, 1.8, hor[0] - shift, tx, ty, th, tl, tw,
+                               hor[1])
+        refined += int((a.first_index != no_pad.first_index).sum())
+        outcomes.append(a.collides)
+    both = np.concatenate(outcomes)
+    assert 0.05 < both.mean() < 0.95  # both verdicts
+    assert refined > 0  # the pads and the looks between samples took part
