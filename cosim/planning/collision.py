@@ -292,10 +292,11 @@ def check_candidates(
     A pair (candidate c, hypothesis h) is tested at the times t_k <=
     max(sv_horizon[c], tv_horizon[h]). Time runs forwards and a candidate leaves at its
     first overlap (ties at one sample go to the lowest hypothesis). At each sample a
-    vehicle's hypotheses are skipped when their box (for a closed-form cluster, from
-    its two extreme trajectories) is far from the candidates'; a candidate near it
-    meets only the window of hypotheses whose y is near its own (binary searches: a
-    cluster is ordered by tau); then axis-aligned boxes (from bounds on the headings)
+    vehicle's hypotheses are skipped when their box is far from the candidates' box;
+    the candidates near the vehicle's box, and for each the hypotheses whose y is near
+    its own, come from binary searches (a closed-form cluster, the SV's from rest and
+    a C2 TV's, is ordered by tau in x and y at every sample, so its box is that of its
+    two extreme trajectories); then axis-aligned boxes (from bounds on the headings)
     and centre distances; the exact test (or CoL) runs on what is left. The exact
     test grows both rectangles by the hypothesis' sampling pad, so that no overlap
     passes between samples; an overlap that exists only thanks to the pad is looked

@@ -335,9 +335,9 @@ class LaneChangePlanner:
         hit_vehicle, hit_time = np.full(taus.size, -1), np.full(taus.size, np.nan)
         free = np.zeros(taus.size, dtype=bool)
         if cand.size:  # (an empty general-start cluster has no motion bounds)
-            polys, motion = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
+            cands, motion = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
             collides, hit_vehicle[cand], hit_time[cand] = self._collisions(
-                t, t_rel, polys, taus[cand], futures, motion)
+                t, t_rel, cands, taus[cand], futures, motion)
             free[cand[~collides]] = True
         w = omega(occupant, road.mu)
         tau, t_opt = choose(taus, free, w)
@@ -372,10 +372,10 @@ class LaneChangePlanner:
         )
         tr = trajectory
         x, y = tr.position(t + t_rel)
-        polys = SVCandidates(np.array([tr.tau]), tr.vx0, tr.vxf, tr.width, tr.x0, tr.y0,
+        cand = SVCandidates(np.array([tr.tau]), tr.vx0, tr.vxf, tr.width, tr.x0, tr.y0,
                              tr.ax0, tr.vy0, tr.ay0, t_shift=t - tr.t0)
         collides, vehicle, when = self._collisions(
-            t, t_rel, polys, np.array([remaining]), futures,
+            t, t_rel, cand, np.array([remaining]), futures,
             cluster_motion(x[None, :], y[None, :]),
         )
         if not collides[0]:
