@@ -291,7 +291,7 @@ OnRecord = Callable[[dict[str, Any]], None]
 
 # What a run imports, loaded once by the fork server rather than by every run
 # (about 0.4 s a run otherwise). libsumo is imported, never started, before the fork.
-# cosim.control.warm compiles the closed loop's numba code in the server (about
+# cosim.control.warm compiles the numba code (closed loop, collision check) in the server (about
 # 1.2 s a run otherwise).
 PRELOAD = (
     "cosim.batch", "cosim.sim", "cosim.scenario", "cosim.planning.planner",

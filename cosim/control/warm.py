@@ -1,5 +1,6 @@
-"""Importing this module compiles the closed loop's numba functions (or loads them
-from numba's on-disk cache) in the importing process: `cosim.compiled.warm_up`.
+"""Importing this module compiles the closed loop's and the collision check's numba
+functions (or loads them from numba's on-disk cache) in the importing process:
+`cosim.compiled.warm_up`.
 
 For a fork server's preload list (`cosim.batch.PRELOAD`): the server pays numba's
 start-up once (about 1.2 s: import, compiler set-up, cached code) and every run
