@@ -109,7 +109,6 @@ class ClusterHits:
     collides: NDArray[np.bool_]  # (n_c,)
     first_index: IntArray  # (n_c,) time index of the first overlap (-1: none)
     first_hypothesis: IntArray  # (n_c,) the TV hypothesis it overlaps first (-1: none)
-    triplets_checked: int  # -, (candidate, hypothesis, time) triplets given to the exact test
 
 
 @dataclass(frozen=True)
@@ -310,33 +309,18 @@ def check_candidates(
     n_c = sv.n_c
     if tv.n_h == 0 or n_c == 0:
         none = np.full(n_c, -1, dtype=np.int64)
-        return ClusterHits(np.zeros(n_c, dtype=bool), none, none.copy(), 0)
+        return ClusterHits(np.zeros(n_c, dtype=bool), none, none.copy())
     sin_sv = math.sin(min(abs(sv_max_heading), 0.5 * math.pi))
     par, cx, cy, tau = sv._args()
     flt = (lambda a: np.ascontiguousarray(a, dtype=float))  # noqa: E731
-    first_k, first_h, checked = _first_overlaps(
+    first_k, first_h = _first_overlaps(
         flt(t), par, cx, cy, tau, flt(sv_horizon), float(sv_length), float(sv_width), sin_sv,
         flt(tv.rows_x), flt(tv.rows_y), flt(tv.rows_h), tv.row_of.astype(np.int64),
         flt(tv.closed), flt(tv.length), flt(tv.width), flt(tv_horizon), flt(tv.pad),
         np.sin(np.minimum(tv.max_heading, 0.5 * np.pi)), tv.groups.astype(np.int64),
         float(margin), test == "col",
     )
-    return ClusterHits(first_k >= 0, first_k, first_h, int(checked))
-
-
-def check_cluster(
-    t: Array, sv: SVCandidates, sv_length: float, sv_width: float, sv_horizon: Array,
-    tv_x: Array, tv_y: Array, tv_h: Array, tv_length: ArrayLike, tv_width: ArrayLike,
-    tv_horizon: Array, *, margin: float = 0.0, test: str = "exact", pad: ArrayLike | None = None,
-    sv_max_heading: float = 0.5 * np.pi,
-) -> ClusterHits:
-    """`check_candidates` against TV trajectories given as (n_h, n_t) arrays; `pad` (n_h,)
-    grows the rectangles of the exact test (see `sampling_pad`; default none)."""
-    return check_candidates(
-        t, sv, sv_length, sv_width, sv_horizon,
-        TVHypotheses.from_rows(tv_x, tv_y, tv_h, tv_length, tv_width, pad), tv_horizon,
-        margin=margin, test=test, sv_max_heading=sv_max_heading,
-    )
+    return ClusterHits(first_k >= 0, first_k, first_h)
 
 
 # -- the compiled loops (numba; no fastmath: IEEE order as in numpy) ------------------------
@@ -555,8 +539,8 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
                     sv_l: float, sv_w: float, sin_sv: float, rows_x: Array, rows_y: Array,
                     rows_h: Array, row_of: IntArray, closed: Array, tv_l: Array, tv_w: Array,
                     tv_hor: Array, pad: Array, sin_tv: Array, groups: IntArray, margin: float,
-                    col: bool) -> tuple[IntArray, IntArray, int]:
-    """(first sample, first hypothesis, triplets tested) per candidate; see
+                    col: bool) -> tuple[IntArray, IntArray]:
+    """(first sample, first hypothesis) per candidate; see
     `check_candidates`."""
     n_c, n_t, n_h = ctau.size, t.size, row_of.size
     n_g = groups.size - 1
@@ -608,7 +592,6 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
     # a closed-form cluster is ordered by tau in x and y at every sample (so is the SV's
     # when it starts from rest): its box comes from its two extreme trajectories and
     # the members near a point from binary searches
-    checked = 0
     for k in range(n_t):
         tk = t[k]
         if n_alive == 0 or tk > last_t:
@@ -690,7 +673,6 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
                             tk - closed[6, h])
                         tv_cs[h, 0], tv_cs[h, 1], tv_cs[h, 2] = math.cos(th), math.sin(th), th
                         tv_hk[h] = k
-                    checked += 1
                     hlb, hwb = 0.5 * tv_l[h], 0.5 * tv_w[h]
                     if col:
                         hit = _col(sx, sy, sv_cs[c, 2], sv_l, sv_w, gx[h], gy[h], tv_cs[h, 2],
@@ -710,7 +692,7 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
                         alive[c] = False
                         n_alive -= 1
                         break
-    return first_k, first_h, checked
+    return first_k, first_h
 
 
 def warm_up() -> None:

@@ -106,10 +106,10 @@ StableFn = Callable[[Array, Array, Array, Array], NDArray[np.bool_]]
 @dataclass(frozen=True)
 class LazyFutures:
     """`TVFutures` whose lane changes from rest (eq. 2 / eq. 4 in closed form: C2 clusters
-    and C3 quintic broadcasts) are kept as parameters and computed where they are asked
-    for (`xy`, `heading`, `rows`): a dense scene holds hundreds of such trajectories, of
-    which the collision check needs a few per cent of the samples. The other hypotheses
-    are stored rows. `x`, `y`, `heading` (and `materialise()`) give the whole arrays."""
+    and C3 quintic broadcasts) are kept as parameters: a dense scene holds hundreds of
+    such trajectories, of which the collision check evaluates a few per cent of the
+    samples. The other hypotheses are stored rows. `rows(h)`, `x`, `y`, `heading` (and
+    `materialise()`) give whole arrays."""
 
     t: Array  # s, absolute simulation times (n_t,)
     rel: Array  # s, t minus the planning instant (the C2 clusters' own time)
@@ -140,33 +140,6 @@ class LazyFutures:
     def closed(self) -> NDArray[np.bool_]:
         """(n_h,) the hypotheses in closed form."""
         return self.row_of < 0
-
-    def xy(self, h: IntArray, k: IntArray) -> tuple[Array, Array]:
-        """m, centre (x, y) of hypotheses h at time indices k (matching shapes)."""
-        r = self.row_of[h]
-        if (r >= 0).all():
-            return self.sx[r, k], self.sy[r, k]
-        x, y = standard_positions_at(self.v0[h], self.vxf[h], self.dy[h], self.tau[h],
-                                     self.rel[k] - self.t_start[h])
-        x += self.x0[h]
-        y += self.y0[h]
-        s = np.flatnonzero(r >= 0)
-        if s.size:
-            x[s], y[s] = self.sx[r[s], k[s]], self.sy[r[s], k[s]]
-        return x, y
-
-    def heading_at(self, h: IntArray, k: IntArray) -> Array:
-        """rad, heading of hypotheses h at time indices k."""
-        r = self.row_of[h]
-        if (r >= 0).all():
-            return self.sh[r, k]
-        xd, yd = standard_velocities(self.v0[h], self.vxf[h], self.dy[h], self.tau[h],
-                                     self.rel[k] - self.t_start[h])
-        out = np.arctan2(yd, xd)
-        s = np.flatnonzero(r >= 0)
-        if s.size:
-            out[s] = self.sh[r[s], k[s]]
-        return out
 
     def rows(self, h: IntArray) -> tuple[Array, Array, Array]:
         """(x, y, heading) of hypotheses h over the whole grid, each (h.size, n_t)."""

@@ -10,7 +10,6 @@ from cosim.planning.collision import (
     SVCandidates,
     TVHypotheses,
     check_candidates,
-    check_cluster,
     corners,
     overlap_col,
     overlap_sat,
@@ -20,6 +19,12 @@ from cosim.planning.collision import (
 from cosim.planning.trajectory import cluster_derivatives
 
 RNG = np.random.default_rng(7)
+
+
+def check_cluster(t, sv, sl, sw, sv_hor, tx, ty, th, tl, tw, tv_hor, *, pad=None, **kw):  # noqa: ANN001, ANN003, ANN201
+    """`check_candidates` against TV trajectories given as (n_h, n_t) arrays."""
+    return check_candidates(t, sv, sl, sw, sv_hor,
+                            TVHypotheses.from_rows(tx, ty, th, tl, tw, pad), tv_hor, **kw)
 
 
 def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
@@ -272,10 +277,9 @@ def test_closed_form_pad_bound_covers_the_exact_pad() -> None:
         assert (bound[closed] <= 1.5 * exact).all()  # and not far above
 
 
-def test_lazy_futures_give_their_arrays_pointwise() -> None:
-    """Closed-form hypotheses (a C2 cluster, a C3 quintic broadcast started before the
-    plan) evaluated pointwise equal their materialised rows; the C3 one is the path it
-    broadcast (`prediction.motion_path`)."""
+def test_a_broadcast_quintic_is_kept_in_closed_form() -> None:
+    """A C3 quintic broadcast started before the plan is a closed-form hypothesis whose
+    rows are the path it broadcast (`prediction.motion_path`)."""
     from cosim.params import RoadParams, VehicleParams
     from cosim.planning.prediction import motion_path, predict_lazy
     from cosim.traffic.v2v import LateralMotion, V2VMessage
@@ -283,25 +287,17 @@ def test_lazy_futures_give_their_arrays_pointwise() -> None:
     road = RoadParams(mu=0.8)
     t = np.arange(0.0, 12.001, 0.05)
     quintic = LateralMotion(-0.7, 4.0, 590.0, road.lane_center(0), 24.0, 26.0, 3.75)
-    msgs = [V2VMessage("a", 0.0, 480.0, road.lane_center(2), 0.0, 25.0, 0.0, 2, 0.0, 4.32, 1.8,
-                       -1, None),
-            V2VMessage("b", 0.0, 520.0, road.lane_center(0), 0.0, 20.0, 0.5, 0, 0.0, 4.32, 1.8,
+    msgs = [V2VMessage("b", 0.0, 520.0, road.lane_center(0), 0.0, 20.0, 0.5, 0, 0.0, 4.32, 1.8,
                        0, None),
             V2VMessage("c", 0.0, 607.0, road.lane_center(0) + 0.3, 0.0, 24.5, 0.0, 0, 0.0, 4.32,
                        1.8, 1, quintic)]
     f = predict_lazy(msgs, 1.0, t, road, VehicleParams(), np.arange(2.0, 10.001, 0.05))
-    h = RNG.integers(0, f.n_hypotheses, 300)
-    k = RNG.integers(0, t.size, 300)
-    x, y = f.xy(h, k)
-    np.testing.assert_array_equal(x, f.x[h, k])
-    np.testing.assert_array_equal(y, f.y[h, k])
-    np.testing.assert_array_equal(f.heading_at(h, k), f.heading[h, k])
-    c3 = int(np.flatnonzero(f.owner == 2)[0])
-    assert f.row_of[c3] < 0  # in closed form
+    assert f.categories == ("C1", "C3")
+    assert f.row_of.tolist() == [0, -1]  # C1 stored, C3 in closed form
     px, py, ph = motion_path(quintic, f.t)
-    np.testing.assert_allclose(f.x[c3], px, atol=1e-9)
-    np.testing.assert_allclose(f.y[c3], py, atol=1e-9)
-    np.testing.assert_allclose(f.heading[c3], ph, atol=1e-12)
+    np.testing.assert_allclose(f.x[1], px, atol=1e-9)
+    np.testing.assert_allclose(f.y[1], py, atol=1e-9)
+    np.testing.assert_allclose(f.heading[1], ph, atol=1e-12)
 
 
 def test_a_started_manoeuvre_is_checked_at_its_own_time() -> None:
