@@ -30,6 +30,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cosim.compiled import njit
+from cosim.planning.trajectory import (
+    lateral_coefficients,
+    longitudinal_coefficients,
+    standard_velocity,
+    standard_xy,
+)
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -207,13 +213,11 @@ class SVCandidates:
     @property
     def standard(self) -> bool:
         """From rest laterally and with no longitudinal acceleration: eq. 2 / eq. 4 in
-        closed form (`trajectory.standard_positions_at`)."""
+        closed form (`trajectory.standard_xy`)."""
         return self.ax0 == 0.0 and self.vy0 == 0.0 and self.ay0 == 0.0
 
     def _args(self) -> tuple[Array, Array, Array, Array]:
         """(parameters, x and y polynomial coefficients (none when standard), taus)."""
-        from cosim.planning.trajectory import lateral_coefficients, longitudinal_coefficients
-
         par = np.array([self.vx0, self.vxf, self.width, self.x0, self.y0, self.t_shift])
         tau = np.ascontiguousarray(self.taus, dtype=float).reshape(-1)
         if self.standard:
@@ -230,8 +234,8 @@ class SVCandidates:
 @dataclass(frozen=True)
 class TVHypotheses:
     """TV hypotheses as the check reads them: stored rows (n_s, n_t) or lane changes from
-    rest in closed form (eq. 2 / eq. 4 as `trajectory.standard_positions_at` computes
-    them, parameters per hypothesis), grouped by vehicle (contiguous; a closed-form
+    rest in closed form (eq. 2 / eq. 4, `trajectory.standard_xy`, parameters per
+    hypothesis), grouped by vehicle (contiguous; a closed-form
     group ordered by tau), each with its sampling pad."""
 
     rows_x: Array  # m, (n_s, n_t)
@@ -329,32 +333,16 @@ def check_candidates(
 
 
 @njit
-def _standard_xy(v0: float, vxf: float, w: float, tau: float, t: float) -> tuple[float, float]:
-    """Relative (x, y) of eq. 2 / eq. 4 from rest at time t >= 0 (the operations of
-    `trajectory.standard_positions_at`)."""
-    u = t * (1.0 / tau)
-    s = min(u, 1.0)
-    s3 = s * s * s
-    y = ((s * 6.0 - 15.0) * s + 10.0) * s3 * w
-    x = (((s3 * s * 0.5 - s3) + s) * (v0 - vxf) + u * vxf) * tau
-    return x, y
-
-
-@njit
 def _standard_heading(v0: float, vxf: float, w: float, tau: float, t: float) -> float:
-    """Heading of eq. 2 / eq. 4 from rest (the operations of
-    `trajectory.standard_velocities`)."""
-    s = min(t / tau, 1.0)
-    xd = (s * -2.0 + 3.0) * s * s * (vxf - v0) + v0
-    yd = (1.0 - s) * s
-    yd = yd * yd * (30.0 * w) / tau
+    """Heading of eq. 2 / eq. 4 from rest at time t."""
+    xd, yd = standard_velocity(v0, vxf, w, tau, t)
     return math.atan2(yd, xd)
 
 
 @njit
 def _closed_xy(closed: Array, h: int, t: float) -> tuple[float, float]:
     """Centre of closed-form hypothesis h at grid time t."""
-    x, y = _standard_xy(closed[0, h], closed[1, h], closed[2, h], closed[3, h],
+    x, y = standard_xy(closed[0, h], closed[1, h], closed[2, h], closed[3, h],
                         t - closed[6, h])
     return x + closed[4, h], y + closed[5, h]
 
@@ -466,7 +454,7 @@ def _refined(par: Array, cx: Array, cy: Array, tau_c: float, c: int, hla: float,
             tx[i], ty[i], th[i] = rows_x[r, idx[i]], rows_y[r, idx[i]], rows_h[r, idx[i]]
         else:
             v0, vxf, w, tau = closed[0, h], closed[1, h], closed[2, h], closed[3, h]
-            x, y = _standard_xy(v0, vxf, w, tau, t[idx[i]] - closed[6, h])
+            x, y = standard_xy(v0, vxf, w, tau, t[idx[i]] - closed[6, h])
             tx[i], ty[i] = x + closed[4, h], y + closed[5, h]
             th[i] = _standard_heading(v0, vxf, w, tau, t[idx[i]] - closed[6, h])
     second = (abs(tx[3] - 2 * tx[4] + tx[5]) + abs(ty[3] - 2 * ty[4] + ty[5])
@@ -484,7 +472,7 @@ def _refined(par: Array, cx: Array, cy: Array, tau_c: float, c: int, hla: float,
         if cx.shape[0]:  # a general start
             ax, ay, ah = _general_pose(cx, cy, c, tau_c, par[1], sv_t)
         else:
-            ax, ay = _standard_xy(par[0], par[1], par[2], tau_c, sv_t)
+            ax, ay = standard_xy(par[0], par[1], par[2], tau_c, sv_t)
             ah = _standard_heading(par[0], par[1], par[2], tau_c, sv_t)
         ax, ay = ax + par[3], ay + par[4]
         if bh != last_bh:  # (a TV keeping its lane keeps its heading)
@@ -606,8 +594,8 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
                     bx0, bx1 = min(bx0, px[c]), max(bx1, px[c])
                     by0, by1 = min(by0, py[c]), max(by1, py[c])
         else:
-            xa, ya = _standard_xy(v0, vxf, w, ctau[0], tk + shift)
-            xb, yb = _standard_xy(v0, vxf, w, ctau[n_c - 1], tk + shift)
+            xa, ya = standard_xy(v0, vxf, w, ctau[0], tk + shift)
+            xb, yb = standard_xy(v0, vxf, w, ctau[n_c - 1], tk + shift)
             bx0, bx1 = x0 + min(xa, xb) - _BOX_TOLERANCE, x0 + max(xa, xb) + _BOX_TOLERANCE
             by0, by1 = y0 + min(ya, yb) - _BOX_TOLERANCE, y0 + max(ya, yb) + _BOX_TOLERANCE
         for g in range(n_g):
@@ -640,7 +628,7 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
             if not general:  # the candidates near the vehicle's box
                 if not sv_at_k:
                     for c in range(n_c):
-                        x, y = _standard_xy(v0, vxf, w, ctau[c], tk + shift)
+                        x, y = standard_xy(v0, vxf, w, ctau[c], tk + shift)
                         px[c], py[c] = x + x0, y + y0
                     sv_at_k = True
                 xa, xb = _sorted_range(px, 0, n_c, gx0 - lx, gx1 + lx)

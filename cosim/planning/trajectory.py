@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cosim.compiled import njit
+
 Array = NDArray[np.float64]
 
 
@@ -142,51 +144,64 @@ def standard_positions(
 def standard_positions_at(
     vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, tau: ArrayLike, t: ArrayLike
 ) -> tuple[Array, Array]:
-    """`standard_positions` at matching (tau, t) pairs (broadcast elementwise), with the
-    same operations in the same order (so the same numbers to the last bit)."""
-    tau = np.asarray(tau, dtype=float)
-    # in place where possible: fresh (n_tau, n_t) temporaries cost page faults
-    u = np.asarray(t, dtype=float) * (1.0 / tau)
-    s = np.minimum(u, 1.0)
-    s3 = s * s
-    s3 *= s
-    y = s * 6.0
-    y -= 15.0
-    y *= s
-    y += 10.0
-    y *= s3
-    y *= width
-    x = s3 * s  # s^4
-    x *= 0.5
-    x -= s3
-    x += s
-    x *= np.subtract(vx0, vxf)
-    u *= vxf
-    x += u
-    x *= tau
-    return x, y
+    """`standard_positions` at matching (tau, t) pairs (broadcast elementwise):
+    `standard_xy` at each."""
+    return _elementwise(vx0, vxf, width, tau, t, velocity=False)
 
 
 def standard_velocities(
-    vx0: float, vxf: float, width: float, taus: ArrayLike, t: ArrayLike
+    vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, taus: ArrayLike, t: ArrayLike
 ) -> tuple[Array, Array]:
-    """(x', y') of eq. 2 and eq. 4 at matching (tau, t) pairs (same shapes, broadcast):
-    x' = vx0 + (vxf - vx0) (3 s^2 - 2 s^3), y' = 30 W s^2 (1 - s)^2 / tau, s = min(t/tau, 1)."""
-    tau = np.asarray(taus, dtype=float)
-    s = np.asarray(t, dtype=float) / tau
-    np.minimum(s, 1.0, out=s)
-    xd = s * -2.0  # in place: fresh temporaries of a big grid cost page faults
-    xd += 3.0
-    xd *= s
-    xd *= s
-    xd *= np.asarray(vxf) - vx0
-    xd += vx0
-    yd = 1.0 - s
-    yd *= s
-    yd *= yd
-    yd *= 30.0 * np.asarray(width)
-    yd /= tau
-    return xd, yd
+    """(x', y') of eq. 2 and eq. 4 at matching (tau, t) pairs (broadcast elementwise):
+    `standard_velocity` at each."""
+    return _elementwise(vx0, vxf, width, taus, t, velocity=True)
+
+
+def _elementwise(vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, tau: ArrayLike,
+                 t: ArrayLike, *, velocity: bool) -> tuple[Array, Array]:
+    args = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (vx0, vxf, width, tau, t)))
+    shape = args[0].shape
+    a, b = _standard_flat(*(np.ascontiguousarray(x).reshape(-1) for x in args), velocity)
+    return a.reshape(shape), b.reshape(shape)
+
+
+@njit
+def standard_xy(vx0: float, vxf: float, width: float, tau: float,
+                t: float) -> tuple[float, float]:
+    """Relative (x, y) at time t >= 0 of eq. 2 and eq. 4 from rest (no lateral motion, no
+    longitudinal acceleration at the start): with u = t / tau and s = min(u, 1),
+    y = W (10 s^3 - 15 s^4 + 6 s^5), x = tau (vxf u - (vxf - vx0) (s - s^3 + s^4 / 2))
+    (straight at vxf after tau). One formula for the numpy functions above and the
+    collision check (compiled)."""
+    u = t * (1.0 / tau)
+    s = min(u, 1.0)
+    s3 = s * s * s
+    y = ((s * 6.0 - 15.0) * s + 10.0) * s3 * width
+    x = (((s3 * s * 0.5 - s3) + s) * (vx0 - vxf) + u * vxf) * tau
+    return x, y
+
+
+@njit
+def standard_velocity(vx0: float, vxf: float, width: float, tau: float,
+                      t: float) -> tuple[float, float]:
+    """(x', y') of eq. 2 and eq. 4 from rest: x' = vx0 + (vxf - vx0) (3 s^2 - 2 s^3),
+    y' = 30 W s^2 (1 - s)^2 / tau, s = min(t / tau, 1)."""
+    s = min(t / tau, 1.0)
+    xd = (s * -2.0 + 3.0) * s * s * (vxf - vx0) + vx0
+    yd = (1.0 - s) * s
+    return xd, yd * yd * (30.0 * width) / tau
+
+
+@njit
+def _standard_flat(vx0: Array, vxf: Array, width: Array, tau: Array, t: Array,
+                   velocity: bool) -> tuple[Array, Array]:
+    a, b = np.empty(t.size), np.empty(t.size)
+    for i in range(t.size):
+        if velocity:
+            a[i], b[i] = standard_velocity(vx0[i], vxf[i], width[i], tau[i], t[i])
+        else:
+            a[i], b[i] = standard_xy(vx0[i], vxf[i], width[i], tau[i], t[i])
+    return a, b
 
 
 def cluster(
