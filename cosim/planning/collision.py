@@ -33,6 +33,7 @@ from cosim.compiled import njit
 from cosim.planning.trajectory import (
     lateral_coefficients,
     longitudinal_coefficients,
+    standard_bounds,
     standard_velocity,
     standard_xy,
 )
@@ -148,20 +149,11 @@ def standard_cluster_motion(
     vx0: float, vxf: float, width: float, tau_shortest: float, dt: float
 ) -> ClusterMotion:
     """The same bounds in closed form for a cluster of eq. 2 / eq. 4 lane changes
-    (no initial lateral motion or acceleration), from its shortest candidate:
-    x' stays between vx0 and vxf; |y'| <= 1.875 |W| / tau; |y''| <= 5.7736 |W| / tau^2;
-    |x''| <= 1.5 |vxf - vx0| / tau; heading rate <= |y''| / x' + |y'| |x''| / x'^2."""
-    v_lo, v_hi = min(vx0, vxf), max(vx0, vxf)
-    w = abs(width)
-    yd = 1.875 * w / tau_shortest
-    ydd = 5.7736 * w / tau_shortest**2
-    xdd = 1.5 * abs(vxf - vx0) / tau_shortest
-    v_lo = max(v_lo, 1e-3)
-    rate = ydd / v_lo + yd * xdd / v_lo**2
-    return ClusterMotion(
-        dx_min=v_lo * dt, dx_max=v_hi * dt, dy_max=yd * dt, turn=rate * dt,
-        max_heading=float(np.arctan(yd / v_lo)),
-    )
+    (no initial lateral motion or acceleration), from its shortest candidate
+    (`trajectory.standard_bounds`)."""
+    v_min, v_max, yd, rate, heading = standard_bounds(vx0, vxf, width, tau_shortest)
+    return ClusterMotion(dx_min=max(v_min, 1e-3) * dt, dx_max=v_max * dt, dy_max=yd * dt,
+                         turn=rate * dt, max_heading=heading)
 
 
 def sampling_pad(
@@ -487,8 +479,8 @@ def _hypothesis_bounds(dx_min: float, dx_max: float, dy_max: float, turn: float,
                        r_sv: float, dt: float, rows_x: Array, rows_y: Array, rows_h: Array,
                        row_of: IntArray, closed: Array, r_tv: Array) -> tuple[Array, Array]:
     """(sampling pad m, bound on |heading| rad) per hypothesis: from its row (exact), or
-    for a closed-form lane change from rest from the bounds of `standard_cluster_motion`
-    (x' between v0 and vxf, |y'| <= 1.875 |W| / tau, heading rate), a little above."""
+    for a closed-form lane change from rest from `trajectory.standard_bounds`, a little
+    above."""
     n_h = row_of.size
     pad = np.empty(n_h)
     max_heading = np.empty(n_h)
@@ -509,16 +501,12 @@ def _hypothesis_bounds(dx_min: float, dx_max: float, dy_max: float, turn: float,
             pad[h] = 0.25 * (math.hypot(rel_x, rel_y) + r_sv * turn + r_tv[h] * dh)
             max_heading[h] = hd
         else:
-            v0, vxf, w, tau = closed[0, h], closed[1, h], abs(closed[2, h]), closed[3, h]
-            v_min, v_max = min(v0, vxf), max(v0, vxf)
-            v_lo = max(v_min, 1e-3)
-            yd = 1.875 * w / tau
-            rate = 5.7736 * w / tau**2 / v_lo + yd * (1.5 * abs(vxf - v0) / tau) / v_lo**2
+            v_min, v_max, yd, rate, max_heading[h] = standard_bounds(
+                closed[0, h], closed[1, h], closed[2, h], closed[3, h])
             rel_x = max(v_max * dt - dx_min, dx_max - v_min * dt)
             rel_y = yd * dt + dy_max
             rot = r_sv * turn + r_tv[h] * rate * dt
             pad[h] = 0.25 * (math.hypot(rel_x, rel_y) + rot) * (1.0 + 1e-6) + 1e-9
-            max_heading[h] = math.atan(yd / v_lo)
     return pad, max_heading
 
 

@@ -193,6 +193,21 @@ def standard_velocity(vx0: float, vxf: float, width: float, tau: float,
 
 
 @njit
+def standard_bounds(vx0: float, vxf: float, width: float,
+                    tau: float) -> tuple[float, float, float, float, float]:
+    """Bounds over a whole lane change of eq. 2 / eq. 4 from rest: (least x' m/s, most x'
+    m/s, most |y'| m/s, most heading rate rad/s, most |heading| rad). x' stays between vx0
+    and vxf; |y'| <= 1.875 |W| / tau; |y''| <= 5.7736 |W| / tau^2; |x''| <= 1.5 |vxf - vx0|
+    / tau; heading rate <= |y''| / x' + |y'| |x''| / x'^2 (x' taken as at least 1 mm/s)."""
+    v_min, v_max = min(vx0, vxf), max(vx0, vxf)
+    v_lo = max(v_min, 1e-3)
+    w = abs(width)
+    yd = 1.875 * w / tau
+    rate = 5.7736 * w / tau**2 / v_lo + yd * (1.5 * abs(vxf - vx0) / tau) / v_lo**2
+    return v_min, v_max, yd, rate, math.atan(yd / v_lo)
+
+
+@njit
 def _standard_flat(vx0: Array, vxf: Array, width: Array, tau: Array, t: Array,
                    velocity: bool) -> tuple[Array, Array]:
     a, b = np.empty(t.size), np.empty(t.size)
