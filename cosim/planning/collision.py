@@ -31,8 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cosim.compiled import njit
 from cosim.planning.trajectory import (
-    lateral_coefficients,
-    longitudinal_coefficients,
+    polynomial_coefficients,
     standard_bounds,
     standard_velocity,
     standard_xy,
@@ -214,13 +213,9 @@ class SVCandidates:
         tau = np.ascontiguousarray(self.taus, dtype=float).reshape(-1)
         if self.standard:
             return par, np.zeros((0, 5)), np.zeros((0, 6)), tau
-        c3x, c4x = longitudinal_coefficients(self.vx0, self.vxf, tau, self.ax0)
-        c3y, c4y, c5y = lateral_coefficients(self.width, tau, self.vy0, self.ay0)
-        one = np.ones_like(tau)
-        cx = np.stack([0.0 * one, one * self.vx0, one * (self.ax0 / 2.0), c3x, c4x], axis=1)
-        cy = np.stack([0.0 * one, one * self.vy0, one * (self.ay0 / 2.0), c3y, c4y, c5y],
-                      axis=1)
-        return par, cx, cy, tau
+        cx, cy = polynomial_coefficients(self.vx0, self.vxf, self.width, tau, self.ax0,
+                                         self.vy0, self.ay0)
+        return par, np.stack(cx, axis=1), np.stack(cy, axis=1), tau
 
 
 @dataclass(frozen=True)

@@ -65,6 +65,19 @@ def lateral_coefficients(
     return c3, c4, c5
 
 
+def polynomial_coefficients(
+    vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, tau: Array, ax0: ArrayLike = 0.0,
+    vy0: ArrayLike = 0.0, ay0: ArrayLike = 0.0,
+) -> tuple[list[Array], list[Array]]:
+    """Coefficients [c0 .. c4] of x(t) - x0 and [c0 .. c5] of y(t) - y0 (powers of t, on
+    [0, tau]), each shaped like tau (eq. 2, 4 with a general start)."""
+    c3x, c4x = longitudinal_coefficients(vx0, vxf, tau, ax0)
+    c3y, c4y, c5y = lateral_coefficients(width, tau, vy0, ay0)
+    zero = np.zeros_like(tau)
+    return ([zero, zero + vx0, zero + ax0 / 2.0, c3x, c4x],
+            [zero, zero + vy0, zero + ay0 / 2.0, c3y, c4y, c5y])
+
+
 def _poly_derivs(coeffs: list[Array], t: Array, order: int) -> Array:
     """Evaluate d^order/dt^order of sum_k coeffs[k] t^k (Horner), shaped like t and the
     coefficients broadcast."""
@@ -99,11 +112,7 @@ def cluster_derivatives(
     shaped like taus x t broadcast (eq. 2, 4; the coefficients are computed once).
     Past tau the candidate drives straight at vxf."""
     tau, tt = _grid(taus, t)
-    c3x, c4x = longitudinal_coefficients(vx0, vxf, tau, ax0)
-    c3y, c4y, c5y = lateral_coefficients(width, tau, vy0, ay0)
-    zero = np.zeros_like(tau)
-    x_coeffs = [zero, zero + vx0, zero + ax0 / 2.0, c3x, c4x]
-    y_coeffs = [zero, zero + vy0, zero + ay0 / 2.0, c3y, c4y, c5y]
+    x_coeffs, y_coeffs = polynomial_coefficients(vx0, vxf, width, tau, ax0, vy0, ay0)
     ts = np.minimum(np.maximum(tt, 0.0), tau)
     after = tt - ts  # time past the end of the manoeuvre
     ended = after > 0
