@@ -10,6 +10,7 @@ problem; unknown keys are rejected with a "did you mean" suggestion.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 import re
@@ -63,6 +64,11 @@ class Field:
     si_divisor: float = 1.0  # SI value = file value / si_divisor
     parse: Callable[[str, str, Any], Any] | None = None
     describe: str = ""  # what is allowed, for custom `parse` fields
+    doc: str = ""  # what the key means (the key reference's "meaning" column)
+    default_doc: str = ""  # how the reference shows a default that is not a plain value
+    override: str = ""  # short name a batch study may vary it by (cosim.scenario.OVERRIDES)
+    # SI value -> file value for structured keys (lists of tables, sub-tables, paths)
+    export: Callable[[Any], Any] | None = None
 
     @property
     def attr(self) -> str:
@@ -141,11 +147,28 @@ class Field:
         return value
 
     def to_file_units(self, value: Any) -> Any:
-        """The inverse of `convert` for plain numbers (SI -> the file's unit)."""
+        """The inverse of `convert` (SI -> the file's unit and shape)."""
+        if self.export is not None:
+            return self.export(value)
         if self.kind is float and value is not None and self.si_divisor != 1.0:
             # Round away the ulp that m/s -> km/h adds (25.0 m/s -> 90.0, not 90.00000000000001).
             return round(value * self.si_divisor, 9)
         return value
+
+
+def declare(spec: Field, default: Any = dataclasses.MISSING) -> Any:
+    """A dataclass field that carries `spec` (its file key, unit, range, default, doc), so a
+    key is declared once, beside the attribute it fills; `declared_fields` reads them back."""
+    return dataclasses.field(default=default, metadata={"key": spec})
+
+
+def declared_fields(cls: type) -> tuple[Field, ...]:
+    """The `Field`s of a dataclass's `declare`d attributes, in order, named for them."""
+    return tuple(
+        dataclasses.replace(f.metadata["key"], name=f.name)
+        for f in dataclasses.fields(cls)
+        if "key" in f.metadata
+    )
 
 
 def suggest(key: str, known: Sequence[str]) -> str:

@@ -103,17 +103,21 @@ def test_a_changed_network_file_is_read_again(tmp_path: Path) -> None:
 
 
 def test_decision_scenarios_may_start_outside_the_band(tmp_path: Path) -> None:
-    text = MINIMAL.replace("speed_kmh = 80.0", "speed_kmh = 100.0")
+    text = MINIMAL.replace("speed_kmh = 80.0", "speed_kmh = 50.0")
     with pytest.raises(InputError, match="sv.speed_kmh"):
         load_scenario(_write(tmp_path, text))
     s = load_scenario(_write(tmp_path, text.replace("lane = 0", "lane = 0\ndecision = true")))
-    assert s.sv.decision and s.sv.speed == pytest.approx(100 / 3.6)
+    assert s.sv.decision and s.sv.speed == pytest.approx(50 / 3.6)
+    # never above the lane's SUMO limit (90 km/h in lane 0): SUMO would not insert it
+    fast = MINIMAL.replace("speed_kmh = 80.0", "speed_kmh = 100.0")
+    with pytest.raises(InputError, match="lane 0's speed limit in the network, 90 km/h"):
+        load_scenario(_write(tmp_path, fast.replace("lane = 0", "lane = 0\ndecision = true")))
 
 
 def test_tv_changing_lanes_at_t0_may_sit_beside_the_sv(tmp_path: Path) -> None:
     """Case 5.3: TV1 in the target lane 0 m apart is fine; in the SV's own lane it is not."""
     tv = (
-        '[[tv]]\nid = "tv1"\nlane = {lane}\ngap_m = 0.0\nspeed_kmh = 120.0\n'
+        '[[tv]]\nid = "tv1"\nlane = {lane}\ngap_m = 0.0\nspeed_kmh = 108.0\n'
         "[tv.lane_change]\nstart_s = {start}\ntarget_lane = 1\ntau_s = 4.0\n"
     )
     sv = MINIMAL.replace("lane = 0", "lane = 1").replace("80.0", "105.0")
@@ -275,8 +279,10 @@ def test_schema_table_lists_every_key() -> None:
     for name, specs in TABLES.items():
         for f in specs:
             assert f"`{name}.{f.key}`" in text
-    assert "| `road.mu` | a finite number in [0.1, 1.2] | `0.6` |" in text
-    assert "| `sv.decision` | true or false | `false` |" in text
+    assert "| `road.mu` | road friction coefficient | a finite number in [0.1, 1.2] | `0.6` " \
+           "(override `mu`) |" in text
+    assert "| `sv.decision` | change lanes by the traffic rule (leader slower, faster lane " \
+           "free) | true or false | `false` (override `decision`) |" in text
 
 
 def test_every_shipped_scenario_and_study_is_valid() -> None:

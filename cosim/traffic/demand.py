@@ -18,6 +18,7 @@ so it can brake behind its leader and its follower behind it.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,6 +34,8 @@ SPACING_JITTER = 0.25  # -, spacing varies by +-25 % of 1000/density
 START_HEADWAY = 2.0  # s, free road ahead of the SV at t = 0 per m/s of its speed
 TV_MIN_GAP = 2.5  # m, SUMO's default minGap of the TV type (front to rear, standstill)
 TV_HEADWAY = 1.0  # s, SUMO's default tau of the TV type (Krauss safe headway)
+RANDOM_ID_PREFIX = "tv"  # random traffic is tv1, tv2, ... (scenario TV ids may not be)
+RANDOM_ID = re.compile(rf"{RANDOM_ID_PREFIX}\d+")
 
 
 @dataclass
@@ -50,7 +53,7 @@ class Traffic:
 
     def new_id(self) -> str:
         self._count += 1
-        return f"tv{self._count}"
+        return f"{RANDOM_ID_PREFIX}{self._count}"
 
     def spacing(self) -> float:
         """m, one random spacing around 1000/density."""

@@ -13,6 +13,7 @@ The generated file is byte-for-byte reproducible: netconvert's header comment
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 import subprocess
 import sys
@@ -108,27 +109,73 @@ def build_network(directory: Path = NETWORK_DIR, name: str = DEFAULT_NAME) -> Pa
     return out
 
 
+# What the tool can drive on (README "Guarantees"): every other network is refused up front.
+SUPPORTED = (
+    "a SUMO network of one straight edge along +x (two-point lane shapes, constant y), "
+    "its lanes side by side with one width"
+)
+MAX_NETWORK_BYTES = 64 * 2**20  # a highway net is a few kB: refuse bigger files before reading
+
+
 def load_highway(path: Path = DEFAULT_NETWORK) -> Highway:
-    """Read a straight one-edge highway from a .net.xml (sumolib)."""
+    """Read a straight one-edge highway from a .net.xml (sumolib; the project's one parser).
+
+    Raises InputError(path, what, value, allowed) when the file is missing, too big, not a
+    SUMO network or not of the supported shape (`SUPPORTED`). Cached on (path, mtime, size):
+    validation, `cosim plan` and the simulation read a network once per process.
+    """
+    path = Path(path)
+    try:
+        st = path.stat()
+        is_file = path.is_file()
+    except (OSError, ValueError):
+        is_file = False
+    if not is_file:
+        raise InputError(str(path), "network", str(path), "an existing SUMO .net.xml file")
+    if st.st_size > MAX_NETWORK_BYTES:
+        raise InputError(str(path), "size", f"{st.st_size} bytes",
+                         f"a network file of at most {MAX_NETWORK_BYTES // 2**20} MiB")
+    found = _read_highway(str(path), st.st_mtime_ns, st.st_size)
+    if isinstance(found, InputError):
+        raise found
+    return found
+
+
+@functools.lru_cache(maxsize=16)
+def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
+    del mtime_ns, size  # part of the cache key only
     import sumolib
 
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(str(path), "network", str(path), "an existing SUMO .net.xml file")
-    net = sumolib.net.readNet(str(path))
-    edges = [e for e in net.getEdges() if not e.getID().startswith(":")]
+    try:
+        net = sumolib.net.readNet(path)
+    except Exception as exc:  # noqa: BLE001 - sumolib raises whatever its SAX handler meets
+        return InputError(path, "network", f"{type(exc).__name__}: {exc}",
+                          "a readable SUMO .net.xml file")
+    edges = [e for e in net.getEdges() if e.getFunction() in ("", "normal")]
+    if not edges:
+        return InputError(path, "network", "no edge found",
+                          "a SUMO .net.xml file (root <net> with one edge)")
     if len(edges) != 1:
-        raise InputError(str(path), "edges", len(edges), "exactly one straight edge")
+        return InputError(path, "edges", len(edges), SUPPORTED)
     edge = edges[0]
-    lanes = edge.getLanes()
+    lanes = sorted(edge.getLanes(), key=lambda lane: lane.getIndex())
     shapes = [lane.getShape() for lane in lanes]
-    widths = {round(lane.getWidth(), 9) for lane in lanes}
-    (x0, y0), (x1, y1) = shapes[0][0], shapes[0][-1]
-    if len(widths) != 1 or any(len(s) != 2 for s in shapes) or abs(y1 - y0) > 1e-9 or x1 <= x0:
-        raise InputError(str(path), "edge", edge.getID(), "straight along +x, equal lane widths")
+    widths = {round(lane.getWidth(), 6) for lane in lanes}
+    if any(len(s) != 2 for s in shapes):
+        return InputError(path, "edge", edge.getID(), SUPPORTED + " (this one is bent)")
+    (x0, y0), (x1, y1) = shapes[0]
+    if abs(y1 - y0) > 1e-6 or x1 <= x0:
+        return InputError(path, "edge", edge.getID(),
+                          SUPPORTED + f" (this one runs from ({x0:g}, {y0:g}) to ({x1:g}, {y1:g}))")
+    if len(widths) != 1:
+        return InputError(path, "lane widths", sorted(widths), SUPPORTED)
     width = widths.pop()
+    for k, ((a, b), (c, d)) in enumerate(shapes):
+        # lane k's centre line: same x extent, y = y0 + k * width (side by side, no gaps)
+        if max(abs(a - x0), abs(c - x1), abs(b - d), abs(b - (y0 + k * width))) > 1e-3:
+            return InputError(path, f"lane {k}", f"({a:g}, {b:g}) to ({c:g}, {d:g})", SUPPORTED)
     return Highway(
-        path=path,
+        path=Path(path),
         edge_id=edge.getID(),
         x_start=float(x0),
         length=float(lanes[0].getLength()),

@@ -79,7 +79,7 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "step_does_not_divide.toml": ("scenario.duration_s", "10.0"),
     "duration_longer_than_road.toml": ("scenario.duration_s", "1000.0"),
     "tau_max_zero.toml": ("planner.tau_max_s", "0.0"),
-    "gains_unstable.toml": ("controller.kyI", "500.0"),
+    "gains_unstable.toml": ("controller.ky1", "20.0"),
     "sv_lane_unknown.toml": ("sv.lane", "3"),
     "tv_lane_unknown.toml": ("tv[1].lane", "5"),
     "sv_target_not_adjacent.toml": ("sv.lane_changes[0].target_lane", "2"),

@@ -1,0 +1,209 @@
+"""Reading a scenario: the file (bounded in size), its tables, its network (read once,
+through cosim.traffic.network), then the cross-field rules (cosim.scenario.rules)."""
+
+from __future__ import annotations
+
+import copy
+import re
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from cosim.errors import InputError
+from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
+from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS
+from cosim.scenario.model import (
+    NAME_PATTERN,
+    Scenario,
+    SVSpec,
+    TrafficSpec,
+    TVSpec,
+    V2VSpec,
+)
+from cosim.traffic.network import SUPPORTED, Highway, load_highway
+from cosim.validation import (
+    MISSING,
+    check_known_tables,
+    check_table,
+    declared_fields,
+    validate_table,
+)
+
+MAX_FILE_BYTES = 1 * 2**20  # a scenario or study file is a few kB: refuse bigger ones unread
+MAX_TVS = 100  # [[tv]] tables
+# s, continuous TV lane changes (SUMO_NOTES: the default instant change is a 3.5 m jump)
+DEFAULT_LANECHANGE_DURATION = 3.0
+
+
+def project_root() -> Path:
+    """The directory holding pyproject.toml above the package (else the working directory)."""
+    here = Path(__file__).resolve().parent
+    for candidate in (here, *here.parents):
+        if (candidate / "pyproject.toml").is_file():
+            return candidate
+    return Path.cwd()
+
+
+def exists(p: Path, want_file: bool = False) -> bool:
+    """Path.exists / is_file that say False for names the OS refuses (too long, ...)."""
+    try:
+        return p.is_file() if want_file else p.exists()
+    except (OSError, ValueError):
+        return False
+
+
+def _resolve(base_dir: Path, name: str) -> Path:
+    """A path from a scenario file: absolute, else relative to the file's directory,
+    else relative to the project root."""
+    p = Path(name).expanduser()
+    if p.is_absolute():
+        return p
+    first = base_dir / p
+    if exists(first):
+        return first.resolve()
+    second = project_root() / p
+    return second.resolve() if exists(second) else first
+
+
+def read_toml(path: str | Path, what: str = "scenario") -> dict[str, Any]:
+    """A TOML file as a document; InputError (one line) if it is missing, bigger than
+    MAX_FILE_BYTES (checked before reading), not UTF-8, not TOML or nested too deep."""
+    p = Path(path)
+    source = str(p)
+    if not exists(p, want_file=True):
+        raise InputError(source, "file", source, f"an existing {what} file (.toml)")
+    try:
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise InputError(source, "file", f"{size} bytes",
+                             f"a {what} file of at most {MAX_FILE_BYTES // 2**20} MiB")
+        data = p.read_bytes()
+    except OSError as exc:
+        raise InputError(source, "file", source, f"a readable file ({exc.strerror})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(source, "file", f"byte {exc.start}", "UTF-8 text (TOML)") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, "file", str(exc), "valid TOML") from None
+    except (RecursionError, ValueError) as exc:  # pathological nesting
+        what_ = "nesting too deep" if isinstance(exc, RecursionError) else str(exc)
+        raise InputError(source, "file", what_, "valid TOML") from None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file; raise InputError (one line) if anything is wrong."""
+    p = Path(path)
+    return scenario_from_dict(read_toml(p), path=p.resolve(), source=str(p))
+
+
+def parse_tables(source: str, key: str, value: Any, cls: type, many: int) -> Any:
+    """A sub-table of `cls`'s declared keys as a `cls`, or (many > 0) a list of at most
+    `many` of them as a tuple."""
+    specs = declared_fields(cls)
+    if not many:
+        return cls(**validate_table(source, key, value, specs))
+    if not isinstance(value, list) or len(value) > many:
+        raise InputError(source, key, value, f"a list of at most {many} tables")
+    return tuple(cls(**validate_table(source, f"{key}[{i}]", item, specs))
+                 for i, item in enumerate(value))
+
+
+def read_network(source: str, key: str, written: str, path: Path,
+                 base_dir: Path) -> Highway:
+    """The scenario's network as the tool drives on it, or InputError naming the scenario."""
+    if not exists(path, want_file=True):
+        looked = path if Path(written).is_absolute() else (
+            f"{base_dir / written} or {project_root() / written}")
+        raise InputError(source, key, written,
+                         f"an existing SUMO .net.xml file (not found: {looked})")
+    try:
+        return load_highway(path)
+    except InputError as exc:
+        if exc.key in ("network", "size"):  # unreadable or too big: say so as it is
+            raise InputError(source, key, str(path), f"{exc.allowed} ({exc.value})") from None
+        raise InputError(source, key, str(path),
+                         f"{SUPPORTED} (it has {exc.key} = {exc.value})") from None
+
+
+def scenario_from_dict(
+    doc: Mapping[str, Any], path: str | Path = "<scenario>", source: str | None = None
+) -> Scenario:
+    """Validate a scenario document (the parsed TOML, file units) into a Scenario.
+
+    Relative paths in it are resolved against `path`'s directory, then the project root.
+    """
+    from cosim.scenario.rules import check_scenario
+
+    p = Path(path)
+    src = source if source is not None else str(p)
+    check_table(src, "", doc)
+    if "study" in doc:
+        raise InputError(src, "study", "[study]", "a scenario file (this is a study: cosim batch)")
+    check_known_tables(src, doc, list(TABLES))
+    for name in REQUIRED_TABLES:
+        if name not in doc:
+            raise InputError(src, f"[{name}]", MISSING, "required table")
+    tables = {
+        name: validate_table(src, name, doc.get(name, {}), specs)
+        for name, specs in TABLES.items()
+        if name != "tv"
+    }
+    raw_tvs = doc.get("tv", [])
+    if not isinstance(raw_tvs, list) or len(raw_tvs) > MAX_TVS:
+        raise InputError(src, "tv", raw_tvs, f"an array of at most {MAX_TVS} [[tv]] tables")
+    tvs = tuple(TVSpec(**validate_table(src, f"tv[{i}]", t, TV_FIELDS))
+                for i, t in enumerate(raw_tvs))
+
+    sc, rd = tables["scenario"], tables["road"]
+    base_dir = p.parent if p.is_absolute() else Path.cwd() / p.parent
+    network = _resolve(base_dir, rd["network"])
+    highway = read_network(src, "road.network", rd["network"], network, base_dir)
+    # lane geometry has one source: the network (the file may only repeat its width)
+    if rd["lane_width"] is not None and abs(rd["lane_width"] - highway.lane_width) > 1e-3:
+        raise InputError(src, "road.lane_width_m", rd["lane_width"],
+                         f"the network's lane width {highway.lane_width:g} m (or absent)")
+    road = RoadParams(lane_width=highway.lane_width, speed_bands=rd["speed_bands"],
+                      mu=rd["mu"], y_right=highway.y_right)
+    name = sc.pop("name")
+    if name is None:  # the file's stem, held to the rule of a written name
+        name = p.stem or "scenario"
+        if not re.fullmatch(NAME_PATTERN, name):
+            raise InputError(src, "scenario.name", MISSING,
+                             f"a name matching {NAME_PATTERN} (the file's stem {name!r} is not "
+                             "one: it names the output folder)")
+    scenario = Scenario(
+        name=name,
+        **sc,
+        path=p,
+        road=road,
+        network=network,
+        vehicle=VehicleParams(**tables["vehicle"]),
+        gains=ControllerGains(**tables["controller"]),
+        planner=PlannerConfig(**tables["planner"]),
+        sv=SVSpec(**tables["sv"]),
+        tvs=tvs,
+        traffic=_traffic(src, tables["traffic"]),
+        v2v=V2VSpec(**tables["v2v"]),
+        document=copy.deepcopy(dict(doc)),
+    )
+    check_scenario(src, scenario, highway)
+    return scenario
+
+
+def _traffic(src: str, values: dict[str, Any]) -> TrafficSpec:
+    """SUMO cannot combine --lanechange.duration with the sublane model."""
+    duration = values["lanechange_duration"]
+    if values["sublane"] and duration not in (None, 0.0):
+        raise InputError(
+            src,
+            "traffic.lanechange_duration_s",
+            duration,
+            "0 or absent with traffic.sublane = true (SUMO uses one or the other)",
+        )
+    if duration is None:
+        duration = 0.0 if values["sublane"] else DEFAULT_LANECHANGE_DURATION
+    return TrafficSpec(**{**values, "lanechange_duration": duration})

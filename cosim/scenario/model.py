@@ -1,0 +1,250 @@
+"""What a scenario is, in SI units: the frozen dataclasses, each attribute declared once
+with its file key (unit in the name), range, default and meaning (`declare`).
+
+Tables whose parameters live in cosim.params (vehicle, planner, controller, road) are
+declared in cosim.scenario.keys; everything else is declared here, beside its attribute.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
+from cosim.validation import REQUIRED, Field, declare
+
+KMH = 3.6  # si_divisor of a km/h field
+MAX_SPEED_KMH = 250.0  # km/h, the highest speed any scenario may name
+MAX_LANE = 7  # highest lane index a file may name (8 lanes)
+NAME_PATTERN = r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,79}"  # a folder name: no "", ".", "..", "/"
+
+
+def number_key(
+    key: str, unit: str, lo: float | None, hi: float | None, default: Any, doc: str, *,
+    lo_open: bool = False, hi_open: bool = False, si_divisor: float = 1.0, override: str = "",
+    default_doc: str = "",
+) -> Field:
+    """A float key, range-checked in the file's unit."""
+    return Field(key, float, unit=unit, lo=lo, hi=hi, default=default, lo_open=lo_open,
+                 hi_open=hi_open, si_divisor=si_divisor, doc=doc, override=override,
+                 default_doc=default_doc)
+
+
+def speed_key(key: str, default: Any, doc: str, *, lo_open: bool = True, override: str = "",
+          default_doc: str = "") -> Field:
+    """A speed key in km/h (SI inside: m/s)."""
+    return number_key(key, "km/h", 0.0, MAX_SPEED_KMH, default, doc, lo_open=lo_open,
+                  si_divisor=KMH, override=override, default_doc=default_doc)
+
+
+def lane_key(key: str, doc: str, override: str = "") -> Field:
+    return Field(key, int, lo=0, hi=MAX_LANE, default=REQUIRED, doc=doc, override=override)
+
+
+@dataclass(frozen=True)
+class LaneChangeCommand:
+    """A scripted lane-change request for the SV."""
+
+    at: float = declare(number_key("at_s", "s", 0.0, 3600.0, REQUIRED,
+                                   "simulation time of the request"))
+    target_lane: int = declare(lane_key("target_lane",
+                                        "lane to change to, next to the SV's lane then"))
+
+
+@dataclass(frozen=True)
+class TVLaneChange:
+    """A scripted lane change of a traffic vehicle."""
+
+    start: float = declare(number_key(
+        "start_s", "s", -60.0, 3600.0, REQUIRED,
+        "time the change starts (negative: already under way at t = 0)"))
+    target_lane: int = declare(lane_key("target_lane", "lane it changes to, next to its own"))
+    tau: float = declare(number_key("tau_s", "s", 0.0, 60.0, REQUIRED, "duration of the change",
+                                lo_open=True))
+    target_speed: float | None = declare(speed_key(
+        "target_speed_kmh", None, "speed at the end of the change",
+        default_doc="the band rule"))
+    broadcast: str = declare(Field(
+        "broadcast", str, choices=("reference", "intention", "none"), default="reference",
+        doc="what it tells the SV: its reference (C3), its intention (C2), nothing (C1)"))
+
+
+@dataclass(frozen=True)
+class TVBrake:
+    """A scripted braking event of a traffic vehicle in its lane."""
+
+    at: float = declare(number_key("at_s", "s", 0.0, 3600.0, REQUIRED, "time the braking starts"))
+    decel: float = declare(number_key("decel_mps2", "m/s^2", 0.0, 15.0, REQUIRED,
+                                  "deceleration, held until it stands still", lo_open=True))
+
+
+def _export_nested(cls: type) -> Any:
+    def export(value: Any) -> Any:
+        from cosim.scenario.export import table_to_dict
+
+        if value is None:
+            return None
+        if isinstance(value, tuple):
+            return [table_to_dict(cls, v) for v in value]
+        return table_to_dict(cls, value)
+
+    return export
+
+
+def _sub_table(cls: type, key: str, describe: str, doc: str, *, many: int = 0) -> Field:
+    """A key holding a table (or, `many` > 0, a list of at most `many` tables) of `cls`."""
+
+    def parse(source: str, dotted: str, value: Any) -> Any:
+        from cosim.scenario.load import parse_tables
+
+        return parse_tables(source, dotted, value, cls, many)
+
+    return Field(key, list if many else dict, default=() if many else None, parse=parse,
+                 describe=describe, doc=doc, export=_export_nested(cls),
+                 default_doc="`[]`" if many else "")
+
+
+VEHICLE = VehicleParams()
+
+
+@dataclass(frozen=True)
+class SVSpec:
+    """The subject vehicle at t = 0 and what it is asked to do."""
+
+    lane: int = declare(lane_key("lane", "SUMO lane index at t = 0 (0 = rightmost, slowest)",
+                             override="sv_lane"))
+    position: float = declare(number_key(
+        "position_m", "m", 0.0, 1e6, REQUIRED,
+        "distance of the SV's centre from the start of the road (the network's edge) at t = 0",
+        override="sv_position"))
+    speed: float = declare(speed_key("speed_kmh", REQUIRED, "speed at t = 0", override="sv_speed"))
+    occupant: float = declare(number_key(
+        "occupant", "", 0.0, 1.0, 0.5,
+        "occupant type p (0 most conservative, 1 most aggressive)", override="occupant"))
+    plant: str = declare(Field("plant", str, choices=("twotrack", "bicycle"), default="twotrack",
+                               doc="vehicle model", override="plant"))
+    controller: str = declare(Field(
+        "controller", str, choices=("mimo", "siso", "sumo"), default="mimo",
+        doc="mimo / siso: our planner and controller; sumo: SUMO drives the SV",
+        override="controller"))
+    lane_changes: tuple[LaneChangeCommand, ...] = declare(_sub_table(
+        LaneChangeCommand, "lane_changes", "a list of {at_s, target_lane} tables",
+        "scripted lane-change requests, in time order", many=64))
+    decision: bool = declare(Field(
+        "decision", bool, default=False, override="decision",
+        doc="change lanes by the traffic rule (leader slower, faster lane free)"))
+    desired_speed: float | None = declare(speed_key(
+        "desired_speed_kmh", None, "speed the SV wants in traffic", override="desired_speed",
+        default_doc="its lane's maximum"))
+
+
+@dataclass(frozen=True)
+class TVSpec:
+    """A scripted traffic vehicle, placed relative to the SV."""
+
+    id: str = declare(Field("id", str, pattern=r"[A-Za-z0-9_.\-]{1,40}", default=REQUIRED,
+                            doc="SUMO vehicle id (not 'sv'; not tv<number> with random traffic)"))
+    lane: int = declare(lane_key("lane", "SUMO lane index (before any lane change)"))
+    gap: float = declare(number_key("gap_m", "m", -1e5, 1e5, REQUIRED,
+                                "centre-to-centre distance along the road, + ahead of the SV, "
+                                "at t = 0"))
+    speed: float = declare(speed_key("speed_kmh", REQUIRED, "speed (before any lane change)",
+                                 lo_open=False))
+    accel: float = declare(number_key("accel_mps2", "m/s^2", -10.0, 10.0, 0.0, "acceleration"))
+    length: float = declare(number_key("length_m", "m", 1.0, 30.0, VEHICLE.length, "body length"))
+    width: float = declare(number_key("width_m", "m", 0.5, 4.0, VEHICLE.width, "body width"))
+    lane_change: TVLaneChange | None = declare(_sub_table(
+        TVLaneChange, "lane_change", "a table {start_s, target_lane, tau_s, ...}",
+        "its scripted lane change"))
+    brake: TVBrake | None = declare(_sub_table(
+        TVBrake, "brake", "a table {at_s, decel_mps2}", "its scripted hard braking"), None)
+
+
+@dataclass(frozen=True)
+class TrafficSpec:
+    """Random SUMO traffic around the scripted vehicles."""
+
+    density: float = declare(number_key(
+        "density_veh_per_km_lane", "veh/km/lane", 0.0, 150.0, 0.0,
+        "random traffic (0: none)", override="density"))
+    lanechange_duration: float = declare(number_key(
+        "lanechange_duration_s", "s", 0.0, 20.0, None,
+        "SUMO --lanechange.duration of the traffic (0: instant)",
+        override="lanechange_duration", default_doc="`3.0` (`0` with sublane)"))
+    sublane: bool = declare(Field("sublane", bool, default=False, override="sublane",
+                                  doc="SUMO's sublane model (--lateral-resolution) instead"))
+    length: float = declare(number_key(
+        "length_m", "m", 0.0, 1e5, 1000.0,
+        "stretch of road (from its start) the traffic is placed on at t = 0, "
+        "at most the network's length", lo_open=True, override="traffic_length"))
+
+
+@dataclass(frozen=True)
+class V2VSpec:
+    """How TV messages reach the SV."""
+
+    range: float = declare(number_key("range_m", "m", 0.0, 1e4, 300.0,
+                                  "radius within which messages arrive", override="v2v_range"))
+    latency: float = declare(number_key("latency_s", "s", 0.0, 10.0, 0.0, "delay of every message",
+                                    override="latency"))
+    loss: float = declare(number_key("loss", "", 0.0, 1.0, 0.0,
+                                 "probability that a message is lost", override="loss"))
+    mode: str = declare(Field("mode", str, choices=("v2v", "perception"), default="v2v",
+                              doc="messages (v2v) or measured states (perception)",
+                              override="v2v_mode"))
+    noise_position: float = declare(number_key(
+        "noise_position_m", "m", 0.0, 10.0, 0.2, "perception: sd of measured x and y"), 0.2)
+    noise_heading: float = declare(number_key(
+        "noise_heading_rad", "rad", 0.0, 1.0, 0.01, "perception: sd of measured heading"), 0.01)
+    noise_speed: float = declare(number_key(
+        "noise_speed_mps", "m/s", 0.0, 10.0, 0.2, "perception: sd of measured speed"), 0.2)
+    noise_accel: float = declare(number_key(
+        "noise_accel_mps2", "m/s^2", 0.0, 10.0, 0.3,
+        "perception: sd of measured acceleration"), 0.3)
+    noise_lateral_speed: float = declare(number_key(
+        "noise_lateral_speed_mps", "m/s", 0.0, 10.0, 0.1,
+        "perception: sd of measured lateral speed"), 0.1)
+
+
+DEFAULT_STEP = 0.05  # s, SUMO step
+DEFAULT_SUBSTEPS = 10  # plant/controller substeps per SUMO step
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario, SI units throughout. The [scenario] table's keys are declared
+    on its first attributes; the others hold the other tables."""
+
+    name: str = declare(Field("name", str, default=None, pattern=NAME_PATTERN,
+                              doc="names the output folder results/<name>", override="name",
+                              default_doc="the file's stem"))
+    description: str = declare(Field("description", str, default="", doc="free text",
+                                     override="description"))
+    duration: float = declare(number_key("duration_s", "s", 0.0, 3600.0, REQUIRED,
+                                     "simulated time", lo_open=True, override="duration"))
+    step: float = declare(number_key("step_s", "s", 0.001, 1.0, DEFAULT_STEP, "SUMO step",
+                                 override="step"))
+    substeps: int = declare(Field("substeps", int, lo=1, hi=1000, default=DEFAULT_SUBSTEPS,
+                                  doc="plant/controller substeps per SUMO step",
+                                  override="substeps"))
+    seed: int = declare(Field("seed", int, lo=0, hi=2**31 - 1, default=0,
+                              doc="SUMO and traffic seed", override="seed"))
+    path: Path  # the scenario file (absolute)
+    road: RoadParams  # lane width and y from the network, bands and mu from the file
+    network: Path  # .net.xml (absolute)
+    vehicle: VehicleParams
+    gains: ControllerGains
+    planner: PlannerConfig
+    sv: SVSpec
+    tvs: tuple[TVSpec, ...]
+    traffic: TrafficSpec
+    v2v: V2VSpec
+    # The document as read (file units), so overrides re-validate the very same input.
+    document: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def n_steps(self) -> int:
+        """Number of SUMO steps in `duration`."""
+        return int(round(self.duration / self.step))
