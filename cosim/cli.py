@@ -10,11 +10,18 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
 from collections.abc import Sequence
 
 from cosim import __version__
-from cosim.errors import CosimError, InputError
+from cosim.errors import (
+    EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
+    CosimError,
+    InputError,
+    sigterm_as_interrupt,
+)
 
 # Subcommand modules under cosim/commands/, in the order `cosim --help` lists them.
 COMMANDS = ("plan", "track", "run", "batch", "bench")
@@ -42,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    previous = sigterm_as_interrupt()  # SIGTERM unwinds like Ctrl-C (exit 143)
     try:
         return int(args.func(args) or 0)
     except InputError as exc:
@@ -50,13 +58,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CosimError as exc:
         print(f"cosim {args.command}: failed: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"cosim {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        status = getattr(exc, "exit_status", EXIT_INTERRUPTED)
+        what = "terminated (SIGTERM)" if status == EXIT_TERMINATED else "interrupted"
+        print(f"cosim {args.command}: {what}", file=sys.stderr)
+        return status
     except BrokenPipeError:
         # the reader (`| head`) went away: stop quietly, as a Unix filter does
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -4,11 +4,17 @@ Everything a user can cause (a bad scenario, a bad flag, a missing network)
 raises `InputError`; the CLI prints it on one line and exits with status 2.
 Faults found while running (NaN in a plant, SUMO losing a vehicle) raise
 `SimulationError` with the simulation time, the state and the cause.
+SIGTERM is turned into `Terminated`, a KeyboardInterrupt, so it unwinds through the same
+clean-up as Ctrl-C (exit status 130 for Ctrl-C, 143 for SIGTERM).
 """
 
 from __future__ import annotations
 
+import signal
 from typing import Any
+
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT)
+EXIT_TERMINATED = 143  # SIGTERM (128 + SIGTERM)
 
 
 class CosimError(Exception):
@@ -41,3 +47,25 @@ class SimulationError(CosimError):
         if state:
             text += f" (state: {state})"
         super().__init__(" ".join(text.split()))
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where Python next runs, so `finally` blocks and staged output clean
+    up exactly as for Ctrl-C."""
+
+    exit_status = EXIT_TERMINATED
+
+
+def _raise_terminated(signum: int, frame: Any) -> None:
+    del signum, frame
+    raise Terminated("terminated (SIGTERM)")
+
+
+def sigterm_as_interrupt() -> Any:
+    """Make SIGTERM raise `Terminated` (main thread only); returns the previous handler
+    for `signal.signal` to put back (None: nothing was changed)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _raise_terminated)

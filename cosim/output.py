@@ -1,4 +1,5 @@
-"""Atomic output: a file is either absent, or complete.
+"""Atomic output: a file is either absent, or complete; a run's folder holds either its
+complete new result or exactly what it held before.
 
 Every result file is written to a temporary file in the same directory, flushed
 and fsync'ed, then moved over the final name with `os.replace` (atomic on
@@ -6,6 +7,10 @@ POSIX and Windows within one file system). An interrupted run or study leaves
 at most a hidden `.NAME.tmp-*` file behind, never a truncated CSV under its
 final name. Output directories are created only when asked (after the input
 has been validated), and `new_run_dir` picks names parallel runs cannot share.
+
+A run's folder is built whole in a hidden temporary sibling (`staged_dir`) and swapped in
+when complete; names that would escape their folder (`check_name`: "", ".", "..", "../x")
+are refused, and so is replacing a folder that holds anything a run does not write.
 """
 
 from __future__ import annotations
@@ -13,6 +18,8 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
+import shutil
 import tempfile
 import time
 from collections.abc import Iterator
@@ -23,6 +30,13 @@ if TYPE_CHECKING:  # pandas is imported lazily: only CSV writers need it
     import pandas as pd
 
 TEMP_MARK = ".tmp-"  # part of every temporary file's name
+OLD_MARK = ".old-"  # part of the name of a replaced run folder, until it is deleted
+# A name that becomes one folder under results/ (scenario, study, --name): no "", ".",
+# "..", no separator; it starts with a letter, digit or underscore.
+NAME_PATTERN = r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,79}"
+# What a run writes into its folder (CSVs and figures); a folder holding anything else is
+# not replaced by a run.
+RUN_SUFFIXES = (".csv", ".png", ".svg", ".pdf")
 
 
 def _read_umask() -> int:
@@ -115,18 +129,43 @@ def atomic_write_csv(path: str | Path, frame: pd.DataFrame, **to_csv_kwargs: Any
     return Path(path)
 
 
-def check_output_dir(path: str | Path, source: str = "command line", key: str = "--out") -> Path:
+def check_name(source: str, key: str, value: object) -> str:
+    """`value` as a folder name (NAME_PATTERN), or InputError: "", ".", "..", "../x", "a/b"
+    would write into the current folder, its parent or outside results/."""
+    from cosim.errors import InputError
+
+    if not isinstance(value, str) or not re.fullmatch(NAME_PATTERN, value):
+        raise InputError(source, key, value,
+                         f"a folder name matching {NAME_PATTERN} (not '', '.', '..' or a path)")
+    return value
+
+
+def check_output_dir(path: str | Path, source: str = "command line", key: str = "--out",
+                     *, whole: bool = False) -> Path:
     """Check, without creating anything, that `path` can be used as an output folder.
 
     Call it with the other input checks, before a run: a folder that cannot be
     created must be an InputError up front, not a traceback after an hour of
     simulation. It must be a directory we can write into, or not exist yet
-    below a writable directory.
+    below a writable directory; never "" or "." or ".." (the current folder or its
+    parent). `whole`: the folder will be replaced whole (`staged_dir`), so an existing
+    one may hold only what a run writes (RUN_SUFFIXES files), nothing else.
     """
     from cosim.errors import InputError
 
     out = Path(path)
+    if str(path) in ("", ".", "..") or out.name in ("", ".", ".."):
+        raise InputError(source, key, str(path),
+                         "a folder path naming its folder (not '', '.', '..' or a root)")
     try:
+        if whole and out.is_dir():
+            foreign = [p.name for p in out.iterdir()
+                       if not (p.is_file() and p.suffix in RUN_SUFFIXES)]
+            if foreign:
+                raise InputError(
+                    source, key, str(out),
+                    "a new folder, an empty one or a previous run's (a run replaces it whole; "
+                    f"this one holds {sorted(foreign)[:3]}, which a run does not write)")
         if out.exists():
             if not out.is_dir():
                 raise InputError(source, key, str(out), "a folder (this is a file)")
@@ -174,6 +213,58 @@ def new_run_dir(base: str | Path, name: str) -> Path:
             continue
         return candidate
     raise FileExistsError(f"no free run directory for {name!r} under {root}")
+
+
+def _stage_names(final: Path) -> tuple[str, str]:
+    return f".{final.name}{TEMP_MARK}", f".{final.name}{OLD_MARK}"
+
+
+def recover_stale(final: str | Path) -> None:
+    """Clean what a killed `staged_dir` left beside `final`: half-built folders are deleted;
+    a replaced folder whose swap was cut short is put back (or deleted once it is swapped)."""
+    final = Path(final)
+    parent = final.parent
+    if not parent.is_dir():
+        return
+    temp, old = _stage_names(final)
+    for p in sorted(parent.iterdir()):
+        if p.name.startswith(temp):
+            shutil.rmtree(p, ignore_errors=True)
+        elif p.name.startswith(old):
+            if final.exists():
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                os.replace(p, final)
+
+
+@contextlib.contextmanager
+def staged_dir(path: str | Path) -> Iterator[Path]:
+    """Yield a hidden temporary sibling of `path` to build a folder in; on normal exit it
+    replaces `path` (the old folder is renamed aside, the new one renamed in, the old one
+    deleted). On any exception (Ctrl-C, SIGTERM through `Terminated`) the temporary folder
+    is deleted and `path` keeps exactly what it held. A SIGKILL leaves the hidden sibling,
+    which the next `staged_dir` of the same folder cleans (`recover_stale`)."""
+    final = Path(path)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    recover_stale(final)
+    temp, old = _stage_names(final)
+    tmp = Path(tempfile.mkdtemp(prefix=temp, dir=final.parent))
+    aside: Path | None = None
+    try:
+        os.chmod(tmp, 0o777 & ~_read_umask())
+        yield tmp
+        if final.exists():
+            aside = Path(tempfile.mkdtemp(prefix=old, dir=final.parent))
+            os.replace(final, aside)  # an empty directory is replaced by rename(2)
+        os.replace(tmp, final)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if aside is not None and not final.exists():
+            os.replace(aside, final)  # interrupted between the two renames: put it back
+        raise
+    _fsync_dir(final.parent)
+    if aside is not None:
+        shutil.rmtree(aside, ignore_errors=True)
 
 
 def stale_temp_files(directory: str | Path) -> list[Path]:

@@ -34,25 +34,27 @@ def trace_frame(trace: dict[str, Array]) -> Any:
 
 def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                   write_figures: bool = True) -> list[Path]:
-    """trace.csv, plans.csv, metrics.csv, timing.csv and the figures, each atomically."""
+    """trace.csv, plans.csv, metrics.csv, timing.csv and the figures, built in a hidden
+    sibling folder and swapped in whole (cosim.output.staged_dir): `out_dir` holds either
+    this run's complete result or, after an interrupt, exactly what it held before."""
     import pandas as pd
 
-    from cosim.output import atomic_write_csv, make_output_dir
+    from cosim.output import atomic_write_csv, staged_dir
 
-    out = make_output_dir(out_dir)
     written = []
-    if write_trace:
-        written.append(atomic_write_csv(out / "trace.csv", trace_frame(result.trace),
+    with staged_dir(out_dir) as out:
+        if write_trace:
+            written.append(atomic_write_csv(out / "trace.csv", trace_frame(result.trace),
+                                            float_format=CSV_FLOAT))
+            plans = pd.DataFrame(result.plans, columns=list(PLAN_COLUMNS))
+            written.append(atomic_write_csv(out / "plans.csv", plans, float_format=CSV_FLOAT))
+        written.append(atomic_write_csv(out / "metrics.csv", pd.DataFrame([result.metrics]),
                                         float_format=CSV_FLOAT))
-        plans = pd.DataFrame(result.plans, columns=list(PLAN_COLUMNS))
-        written.append(atomic_write_csv(out / "plans.csv", plans, float_format=CSV_FLOAT))
-    written.append(atomic_write_csv(out / "metrics.csv", pd.DataFrame([result.metrics]),
-                                    float_format=CSV_FLOAT))
-    written.append(atomic_write_csv(out / "timing.csv", pd.DataFrame([result.timing]),
-                                    float_format=CSV_FLOAT))
-    if write_figures:
-        written += write_run_figures(result, out)
-    return written
+        written.append(atomic_write_csv(out / "timing.csv", pd.DataFrame([result.timing]),
+                                        float_format=CSV_FLOAT))
+        if write_figures:
+            written += write_run_figures(result, out)
+    return [Path(out_dir) / p.name for p in written]
 
 
 def write_run_figures(result: RunResult, out: Path) -> list[Path]:

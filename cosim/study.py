@@ -27,14 +27,27 @@ flags replace any list.
 from __future__ import annotations
 
 import re
-import tomllib
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
-from cosim.scenario import ROAD_FIELDS, SCENARIO_FIELDS, SV_FIELDS, TRAFFIC_FIELDS
+from cosim.scenario import (
+    NAME_PATTERN,
+    ROAD_FIELDS,
+    SCENARIO_FIELDS,
+    SV_FIELDS,
+    TRAFFIC_FIELDS,
+    Scenario,
+    apply_overrides,
+    load_scenario,
+    override_target,
+    read_toml,
+)
 from cosim.validation import Field, check_known_tables, check_table, validate_table
+
+MAX_RUNS = 100_000  # runs in one study: a bigger grid is refused before it is expanded
+MAX_SEEDS = 100_000  # seeds in one study (seed_count, or a flag's range A-B)
 
 
 def _scenario_field(fields: tuple[Field, ...], key: str) -> Field:
@@ -68,9 +81,24 @@ def _list_of(element: Field) -> Any:
     return parse
 
 
+# Grid dimensions: study attribute -> (override name, file key, flag). A variant may not
+# change one of them (its rows would be labelled with the grid's value, not the run's).
+GRID = {
+    "densities": ("density", "densities_veh_per_km_lane", "--densities"),
+    "seeds": ("seed", "seeds", "--seeds"),
+    "occupants": ("occupant", "occupants", "--occupants"),
+    "mus": ("mu", "mu", "--mu"),
+    "drivers": ("controller", "drivers", "--drivers"),
+    "plants": ("plant", "plants", "--plants"),
+    "duration": ("duration", "duration_s", "--duration"),
+}
+_GRID_KEYS = {override_target(o)[:2]: o for o, _, _ in GRID.values()}
+FLAG_SOURCE = "command line"
+
+
 def _parse_variants(source: str, key: str, value: Any) -> dict[str, dict[str, Any]]:
-    """name -> {override name: value}; the names and values are checked against the
-    base scenario later (`cosim.scenario.with_overrides`)."""
+    """name -> {override name: value}; the names must be scenario overrides that are not
+    grid dimensions; the values are checked against the base scenario by `check_study`."""
     allowed = ("a table of variants, each name = {override = value, ...} "
                "(names of cosim.scenario.OVERRIDES or dotted file keys)")
     if not isinstance(value, dict) or not value:
@@ -82,6 +110,16 @@ def _parse_variants(source: str, key: str, value: Any) -> dict[str, dict[str, An
         for k, v in overrides.items():
             if not isinstance(v, (bool, int, float, str)):
                 raise InputError(source, f"{key}.{name}.{k}", v, "a number, string or boolean")
+            try:
+                target = override_target(k)[:2]
+            except KeyError:
+                continue  # an unknown name: check_study says so, with a suggestion
+            if target in _GRID_KEYS:
+                raise InputError(
+                    source, f"{key}.{name}.{k}", v,
+                    f"an override of something other than a grid dimension ({k} is the "
+                    f"grid's {_GRID_KEYS[target]}: list its values in [study] instead)",
+                )
         out[name] = dict(overrides)
     return out
 
@@ -91,13 +129,13 @@ def _describe(element: Field) -> str:
 
 
 STUDY_FIELDS = (
-    Field("name", str, pattern=r"[A-Za-z0-9_.-]+", default="study"),
+    Field("name", str, pattern=NAME_PATTERN, default="study"),
     Field("description", str, default=""),
     Field("scenario", str),
     Field("densities_veh_per_km_lane", list, name="densities", parse=_list_of(DENSITY),
           describe=_describe(DENSITY)),
     Field("seeds", list, parse=_list_of(SEED), describe=_describe(SEED), default=None),
-    Field("seed_count", int, lo=1, hi=100000, default=None),
+    Field("seed_count", int, lo=1, hi=MAX_SEEDS, default=None),
     Field("occupants", list, parse=_list_of(OCCUPANT), describe=_describe(OCCUPANT), default=None),
     Field("mu", list, name="mus", parse=_list_of(MU), describe=_describe(MU), default=None),
     Field("drivers", list, parse=_list_of(DRIVER), describe=_describe(DRIVER), default=None),
@@ -126,11 +164,21 @@ class Study:
     duration: float | None  # s, simulated time of every run (None: the scenario's)
     traces: bool  # keep each run's trace files
     variants: dict[str, dict[str, Any]] | None = None  # name -> scenario overrides
-
+    # attribute -> (source, key) that set it: error messages name the file key or the flag
+    origins: dict[str, tuple[str, str]] = field(default_factory=dict, compare=False)
 
     def with_flags(self, **changes: Any) -> Study:
-        """The study with the given fields replaced (None values are ignored)."""
-        return replace(self, **{k: v for k, v in changes.items() if v is not None})
+        """The study with the given fields replaced (None values are ignored); the values
+        are the command line's from now on (`--name` is checked here)."""
+        given = {k: v for k, v in changes.items() if v is not None}
+        if "name" in given and not re.fullmatch(NAME_PATTERN, str(given["name"])):
+            raise InputError(FLAG_SOURCE, "--name", given["name"],
+                             f"a folder name matching {NAME_PATTERN}")
+        origins = dict(self.origins)
+        for k in given:
+            if k in GRID:
+                origins[k] = (FLAG_SOURCE, GRID[k][2])
+        return replace(self, **given, origins=origins)
 
     @property
     def size(self) -> int:
@@ -145,12 +193,7 @@ def load_study(path: str | Path) -> Study:
     relative to the study file and must exist."""
     path = Path(path)
     source = str(path)
-    if not path.is_file():
-        raise InputError(source, "file", str(path), "an existing study file (.toml)")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(source, "toml", " ".join(str(exc).split()), "valid TOML") from None
+    doc = read_toml(path, "study")  # bounded in size and nesting, one-line errors
     check_known_tables(source, doc, ["study"])
     if "study" not in doc:
         raise InputError(source, "study", None, "required: a [study] table")
@@ -169,4 +212,52 @@ def load_study(path: str | Path) -> Study:
         scenario = path.parent / scenario
     if not scenario.is_file():
         raise InputError(source, "study.scenario", str(scenario), "an existing scenario file")
-    return Study(path=path, scenario=scenario, **values)
+    origins = {attr: (source, f"study.{GRID[attr][1]}") for attr in GRID
+               if values.get(attr) is not None}
+    if "seed_count" in raw:
+        origins["seeds"] = (source, "study.seed_count")
+    return Study(path=path, scenario=scenario, origins=origins, **values)
+
+
+def check_seed_count(source: str, key: str, value: Any, count: int) -> None:
+    """Refuse more than MAX_SEEDS seeds before any list of them is made."""
+    if count > MAX_SEEDS:
+        raise InputError(source, key, value, f"at most {MAX_SEEDS} seeds ({count} given)")
+
+
+def check_study(study: Study) -> Scenario:
+    """Everything about a study that can be known before it runs; returns the base scenario.
+
+    The grid is bounded (MAX_RUNS) before it is expanded; every grid value and every
+    variant is applied to the base scenario and validated like a file, and an error names
+    where the value came from: the study file's key or the command-line flag."""
+    base = load_scenario(study.scenario)
+    where = str(study.path) if study.path is not None else FLAG_SOURCE
+    if study.size > MAX_RUNS:
+        raise InputError(where, "study", f"{study.size} runs",
+                         f"a grid of at most {MAX_RUNS} runs (fewer seeds or values)")
+
+    def apply(changes: dict[str, Any], source: str, key: str, value: Any) -> None:
+        try:
+            apply_overrides(base, changes, source)
+        except InputError as exc:
+            if exc.source == source and exc.key in changes:  # an unknown override name
+                raise InputError(source, f"{key}.{exc.key}", exc.value, exc.allowed) from None
+            raise InputError(source, key, value,
+                             f"{exc.allowed} (base scenario {study.scenario}: {exc.key} = "
+                             f"{exc.value!r})") from None
+
+    for attr, (override, file_key, _flag) in GRID.items():
+        values = getattr(study, attr)
+        if values is None:
+            continue
+        source, key = study.origins.get(attr, (where, f"study.{file_key}"))
+        if attr == "duration":
+            apply({override: values}, source, key, values)
+            continue
+        for i, value in enumerate(values):
+            apply({override: value}, source, key if key.startswith("--") else f"{key}[{i}]",
+                  value)
+    for name, overrides in (study.variants or {}).items():
+        apply(overrides, where, f"study.variants.{name}", overrides)
+    return base

@@ -1,16 +1,18 @@
 """What `cosim run` promises when things go wrong, checked on the real command:
 
-- killed (SIGKILL) while it writes its outputs: every file under its final name
-  is complete -- byte-identical to an uninterrupted run's -- and the rest are
-  absent (at most hidden temporary files remain);
-- interrupted (Ctrl-C, SIGINT) while it simulates: exit status 130, one line on
-  stderr, nothing written;
+- killed (SIGKILL) while it writes its outputs: the output folder is absent or
+  complete -- byte-identical to an uninterrupted run's -- (at most a hidden
+  temporary sibling remains, which the next run of that folder removes);
+- interrupted (Ctrl-C: exit 130; SIGTERM: exit 143; one line on stderr) while it
+  simulates or while it writes its figures, into a folder holding a previous run:
+  the folder holds exactly what it held before, and nothing temporary remains;
 - a bad scenario: exit status 2, one line, no output folder (tests/bad_inputs
   has the full suite).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -21,7 +23,7 @@ from pathlib import Path
 import pytest
 
 from cosim.cli import main
-from cosim.output import TEMP_MARK, stale_temp_files
+from cosim.output import TEMP_MARK
 from cosim.scenario import load_scenario
 from cosim.sim import run_scenario
 
@@ -71,6 +73,15 @@ def _wait_for(proc: subprocess.Popen[bytes], ready: object, timeout: float = 240
     raise TimeoutError("cosim run did not reach the expected point")
 
 
+def _staging(out: Path) -> list[Path]:
+    """The hidden siblings a run of `out` builds in (or leaves when killed)."""
+    return [p for p in out.parent.iterdir() if p.name.startswith(f".{out.name}.")]
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())} if folder.exists() else {}
+
+
 def test_killed_while_writing_leaves_only_complete_files(tmp_path: Path) -> None:
     scenario = _scenario(tmp_path, 2.0)
     reference = tmp_path / "reference"
@@ -83,23 +94,82 @@ def test_killed_while_writing_leaves_only_complete_files(tmp_path: Path) -> None
         proc = _cosim(["run", str(scenario), "--out", str(out)], tmp_path)
 
         def writing(out: Path = out) -> bool:
-            try:
-                return any(TEMP_MARK in e.name for e in os.scandir(out))
-            except FileNotFoundError:
-                return False
+            return any((s / "metrics.csv").exists() for s in _staging(out))
 
         if _wait_for(proc, writing):
             proc.send_signal(signal.SIGKILL)
             caught_mid_write += 1
         proc.communicate(timeout=60)
-        for path in out.iterdir() if out.exists() else []:
-            if path in stale_temp_files(out) or path.name == "timing.csv":
-                continue
-            assert path.name in expected, path
-            assert path.read_bytes() == expected[path.name], f"{path.name} is incomplete"
+        if out.exists():  # the swap happened before the kill: complete
+            got = {k: v for k, v in _files(out).items() if k != "timing.csv"}
+            assert got == expected
         if caught_mid_write:
+            assert not out.exists() and _staging(out)  # killed mid-write: a hidden sibling
+            # the next run of that folder cleans it and writes the complete result
+            assert main(["run", str(scenario), "--out", str(out), "--no-figures"]) == 0
+            assert not _staging(out) and (out / "metrics.csv").exists()
             break
     assert caught_mid_write > 0, "never caught cosim run writing: the test proved nothing"
+
+
+def _previous_run(tmp_path: Path, scenario: Path) -> Path:
+    """An output folder holding a previous run's result (its metrics marked as old)."""
+    out = tmp_path / "out"
+    run_scenario(load_scenario(scenario), out, write_figures=True)
+    (out / "metrics.csv").write_text("previous,run\n1,2\n")
+    return out
+
+
+@pytest.mark.parametrize(
+    ("sig", "status", "moment"),
+    [
+        (signal.SIGINT, 130, "stepping"),
+        (signal.SIGTERM, 143, "stepping"),
+        (signal.SIGINT, 130, "figures"),
+        (signal.SIGTERM, 143, "figures"),
+    ],
+)
+def test_interrupt_leaves_the_previous_run_untouched(
+    tmp_path: Path, sig: signal.Signals, status: int, moment: str
+) -> None:
+    """Ctrl-C or SIGTERM at two moments of a run into a folder holding a previous run."""
+    scenario = _scenario(tmp_path, 30.0 if moment == "stepping" else 3.0)
+    out = _previous_run(tmp_path, scenario)
+    before = _files(out)
+    proc = _cosim(["run", str(scenario), "--out", str(out)], tmp_path)
+    assert proc.stderr is not None
+    fd = proc.stderr.fileno()
+    os.set_blocking(fd, False)
+    seen = b""
+
+    def ready() -> bool:
+        nonlocal seen
+        with contextlib.suppress(BlockingIOError):
+            seen += os.read(fd, 65536)
+        if moment == "stepping":
+            return b"step" in seen
+        # the CSVs are written and the figures are being drawn, in the staging folder
+        return any((s / "timing.csv").exists() for s in _staging(out))
+
+    assert _wait_for(proc, ready), seen
+    proc.send_signal(sig)
+    proc.wait(timeout=60)
+    while True:
+        try:
+            chunk = os.read(fd, 65536)
+        except BlockingIOError:
+            break
+        if not chunk:
+            break
+        seen += chunk
+    text = seen.decode(errors="replace")
+    assert proc.returncode == status, text
+    last = text.replace("\r", "\n").strip().splitlines()[-1]
+    what = "interrupted" if sig == signal.SIGINT else "terminated (SIGTERM)"
+    assert last == f"cosim run: {what}"
+    assert _files(out) == before  # exactly what it held: no new CSV beside old figures
+    assert not _staging(out)  # nothing temporary remains (no 0-byte PNG, no folder)
+    assert not list(tmp_path.rglob(f"*{TEMP_MARK}*"))
 
 
 def test_ctrl_c_while_simulating_exits_130_and_writes_nothing(tmp_path: Path) -> None:

@@ -18,7 +18,17 @@ from typing import Any
 from cosim.batch import RunSpec, expand, run_study
 from cosim.errors import InputError
 from cosim.output import check_output_dir
-from cosim.study import DENSITY, DRIVER, MU, OCCUPANT, PLANT, SEED, Study, load_study
+from cosim.study import (
+    DENSITY,
+    DRIVER,
+    MU,
+    OCCUPANT,
+    PLANT,
+    SEED,
+    Study,
+    check_seed_count,
+    load_study,
+)
 from cosim.validation import Field
 
 SOURCE = "command line"
@@ -76,6 +86,7 @@ def parse_list(text: str | None, flag: str, element: Field) -> tuple[Any, ...] |
                 raise InputError(SOURCE, flag, text, "integers or ranges A-B") from None
             if b < a:
                 raise InputError(SOURCE, flag, text, "ranges A-B with A <= B")
+            check_seed_count(SOURCE, flag, text, b - a + 1 + len(values))
             values += [element.convert(SOURCE, flag, v) for v in range(a, b + 1)]
             continue
         raw: Any = item
@@ -132,22 +143,13 @@ def specs_of(study: Study) -> list[RunSpec]:
 
     Every distinct grid value is applied to the base scenario once here, so a
     value the scenario rules refuse is an input error before anything runs."""
-    from cosim.scenario import load_scenario, with_overrides
+    from cosim.study import check_study
 
-    base = load_scenario(study.scenario)
+    base = check_study(study)
     occupants = study.occupants or (base.sv.occupant,)
     mus = study.mus or (base.road.mu,)
     drivers = study.drivers or (base.sv.controller,)
     plants = study.plants or (base.sv.plant,)
-    for key, values in (("density", study.densities), ("seed", study.seeds),
-                        ("occupant", occupants), ("mu", mus), ("controller", drivers),
-                        ("plant", plants)):
-        for value in values:
-            with_overrides(base, **{key: value})
-    if study.duration is not None:
-        with_overrides(base, duration=study.duration)
-    for overrides in (study.variants or {}).values():
-        with_overrides(base, **overrides)
     return expand(
         study.scenario, densities=study.densities, seeds=study.seeds, occupants=occupants,
         mus=mus, drivers=drivers, plants=plants, duration=study.duration, traces=study.traces,

@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     if changes:
         scenario = with_overrides(scenario, **changes)
     out = args.out if args.out is not None else project_root() / "results" / scenario.name
-    check_output_dir(out)  # a bad --out is an input error now, not after the run
+    check_output_dir(out, whole=True)  # a bad --out is an input error now, not after the run
     metrics = run_scenario(
         scenario, out, write_trace=True, write_figures=not args.no_figures,
         progress=True, gui=args.gui,
