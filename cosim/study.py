@@ -44,6 +44,7 @@ from cosim.scenario import (
     override_target,
     read_toml,
 )
+from cosim.scenario.load import exists
 from cosim.validation import Field, check_known_tables, check_table, validate_table
 
 MAX_RUNS = 100_000  # runs in one study: a bigger grid is refused before it is expanded
@@ -192,8 +193,13 @@ def load_study(path: str | Path) -> Study:
     """Read and validate a study file; the base scenario path is resolved
     relative to the study file and must exist."""
     path = Path(path)
+    return study_from_dict(read_toml(path, "study"), path)  # bounded in size and nesting
+
+
+def study_from_dict(doc: Any, path: Path) -> Study:
+    """Validate a study document (the parsed TOML) read from `path`."""
     source = str(path)
-    doc = read_toml(path, "study")  # bounded in size and nesting, one-line errors
+    check_table(source, "", doc)
     check_known_tables(source, doc, ["study"])
     if "study" not in doc:
         raise InputError(source, "study", None, "required: a [study] table")
@@ -210,7 +216,7 @@ def load_study(path: str | Path) -> Study:
     scenario = Path(values.pop("scenario"))
     if not scenario.is_absolute():
         scenario = path.parent / scenario
-    if not scenario.is_file():
+    if not exists(scenario, want_file=True):
         raise InputError(source, "study.scenario", str(scenario), "an existing scenario file")
     origins = {attr: (source, f"study.{GRID[attr][1]}") for attr in GRID
                if values.get(attr) is not None}

@@ -21,7 +21,7 @@ from cosim.scenario.model import (
     TVSpec,
     V2VSpec,
 )
-from cosim.traffic.network import SUPPORTED, Highway, load_highway
+from cosim.traffic.network import Highway, load_highway
 from cosim.validation import (
     MISSING,
     check_known_tables,
@@ -125,8 +125,7 @@ def read_network(source: str, key: str, written: str, path: Path,
     except InputError as exc:
         if exc.key in ("network", "size"):  # unreadable or too big: say so as it is
             raise InputError(source, key, str(path), f"{exc.allowed} ({exc.value})") from None
-        raise InputError(source, key, str(path),
-                         f"{SUPPORTED} (it has {exc.key} = {exc.value})") from None
+        raise InputError(source, key, str(path), exc.allowed) from None
 
 
 def scenario_from_dict(

@@ -12,13 +12,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from cosim.output import NAME_PATTERN  # a folder name: no "", ".", "..", "/"
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
 from cosim.validation import REQUIRED, Field, declare
 
 KMH = 3.6  # si_divisor of a km/h field
 MAX_SPEED_KMH = 250.0  # km/h, the highest speed any scenario may name
 MAX_LANE = 7  # highest lane index a file may name (8 lanes)
-NAME_PATTERN = r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,79}"  # a folder name: no "", ".", "..", "/"
 
 
 def number_key(
@@ -218,6 +218,8 @@ class Scenario:
     on its first attributes; the others hold the other tables."""
 
     name: str = declare(Field("name", str, default=None, pattern=NAME_PATTERN,
+                              describe=f"a folder name matching {NAME_PATTERN} (not '', '.', "
+                                       "'..' or a path)",
                               doc="names the output folder results/<name>", override="name",
                               default_doc="the file's stem"))
     description: str = declare(Field("description", str, default="", doc="free text",

@@ -156,24 +156,30 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
         return InputError(path, "network", "no edge found",
                           "a SUMO .net.xml file (root <net> with one edge)")
     if len(edges) != 1:
-        return InputError(path, "edges", len(edges), SUPPORTED)
+        return InputError(path, "edges", len(edges),
+                          SUPPORTED + f" (this one has {len(edges)} edges)")
     edge = edges[0]
     lanes = sorted(edge.getLanes(), key=lambda lane: lane.getIndex())
     shapes = [lane.getShape() for lane in lanes]
     widths = {round(lane.getWidth(), 6) for lane in lanes}
     if any(len(s) != 2 for s in shapes):
-        return InputError(path, "edge", edge.getID(), SUPPORTED + " (this one is bent)")
+        return InputError(path, "edge", edge.getID(),
+                          SUPPORTED + f" (its edge {edge.getID()!r} is bent)")
     (x0, y0), (x1, y1) = shapes[0]
     if abs(y1 - y0) > 1e-6 or x1 <= x0:
         return InputError(path, "edge", edge.getID(),
-                          SUPPORTED + f" (this one runs from ({x0:g}, {y0:g}) to ({x1:g}, {y1:g}))")
+                          SUPPORTED + f" (its edge {edge.getID()!r} runs from ({x0:g}, {y0:g}) "
+                          f"to ({x1:g}, {y1:g}))")
     if len(widths) != 1:
-        return InputError(path, "lane widths", sorted(widths), SUPPORTED)
+        return InputError(path, "lane widths", sorted(widths),
+                          SUPPORTED + f" (its lane widths are {sorted(widths)} m)")
     width = widths.pop()
     for k, ((a, b), (c, d)) in enumerate(shapes):
         # lane k's centre line: same x extent, y = y0 + k * width (side by side, no gaps)
         if max(abs(a - x0), abs(c - x1), abs(b - d), abs(b - (y0 + k * width))) > 1e-3:
-            return InputError(path, f"lane {k}", f"({a:g}, {b:g}) to ({c:g}, {d:g})", SUPPORTED)
+            return InputError(path, f"lane {k}", f"({a:g}, {b:g}) to ({c:g}, {d:g})",
+                              SUPPORTED + f" (its lane {k} runs from ({a:g}, {b:g}) to "
+                              f"({c:g}, {d:g}))")
     return Highway(
         path=Path(path),
         edge_id=edge.getID(),

@@ -111,6 +111,28 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "sublane_with_lanechange_duration.toml": ("traffic.lanechange_duration_s", "2.0"),
     "traffic_density_negative.toml": ("traffic.density_veh_per_km_lane", "-5"),
     "study_given_as_scenario.toml": ("study", "'[study]'"),
+    # issue 13, class 1: what only SUMO found (or nobody) is checked before it starts
+    "tv_speed_above_lane_limit.toml": ("tv[1].speed_kmh", "125.0"),
+    "sv_speed_above_lane_limit.toml": ("sv.speed_kmh", "130.0"),
+    "tv_id_is_sv.toml": ("tv[0].id", "'sv'"),
+    "tv_id_like_random_traffic.toml": ("tv[1].id", "'tv3'"),
+    "traffic_longer_than_network.toml": ("traffic.length_m", "7000.0"),
+    # class 2: valid SUMO networks of a shape the tool cannot drive on
+    "network_two_edges.toml": ("road.network", "two_edges.net.xml"),
+    "network_minus_x.toml": ("road.network", "minus_x.net.xml"),
+    "network_bent.toml": ("road.network", "bent.net.xml"),
+    # class 3: sv.position_m is measured from the road's start
+    "sv_position_negative.toml": ("sv.position_m", "-100.0"),
+    # class 4: impossible starts
+    "tv_mid_change_on_sv.toml": ("tv[0].gap_m", "1.0"),
+    "tvs_on_each_other.toml": ("tv[2].gap_m", "-28.0"),
+    "wide_vehicles_side_by_side.toml": ("tv[1].gap_m", "2.0"),
+    # class 5: names that would escape results/
+    "name_dot.toml": ("scenario.name", "'.'"),
+    "name_dotdot.toml": ("scenario.name", "'..'"),
+    "name_escapes.toml": ("scenario.name", "'../x'"),
+    "name_empty.toml": ("scenario.name", "''"),
+    "name_hidden.toml": ("scenario.name", "'.results'"),
 }
 
 # A few messages must also say what is allowed (the suggestion, the range, the rule).
@@ -124,6 +146,17 @@ ALLOWED_HINTS: dict[str, str] = {
     "sv_speed_outside_band.toml": "[90, 110] km/h",
     "gains_unstable.toml": "eq. 25",
     "network_not_sumo.toml": "root <net>",
+    "tv_speed_above_lane_limit.toml": "lane 2's speed limit in the network, 120 km/h",
+    "sv_speed_above_lane_limit.toml": "lane 1's speed limit in the network, 110 km/h",
+    "tv_id_like_random_traffic.toml": "random traffic",
+    "traffic_longer_than_network.toml": "network's length 6000 m",
+    "network_two_edges.toml": "one straight edge along +x",
+    "network_minus_x.toml": "runs from (6000, 9.375) to (0, 9.375)",
+    "network_bent.toml": "is bent",
+    "tv_mid_change_on_sv.toml": "clear of the SV at t = 0",
+    "tvs_on_each_other.toml": "clear of TV 'lag' at t = 0",
+    "wide_vehicles_side_by_side.toml": "+3.75 m across the road, widths 4 and 3.6 m",
+    "name_dot.toml": "not '', '.', '..' or a path",
 }
 
 
@@ -336,9 +369,60 @@ STUDY_CASES: dict[str, tuple[str, str]] = {
     "duration_not_multiple": (
         '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
         "duration_s = 7.01\n",
-        "scenario.duration_s",
+        "study.duration_s",
+    ),
+    # issue 13, class 5: names that would escape results/batch/
+    **{
+        f"name_{label}": (f'[study]\nname = "{name}"\nscenario = "../base.toml"\n'
+                          "densities_veh_per_km_lane = [5]\nseeds = [1]\n", "study.name")
+        for label, name in (("dot", "."), ("dotdot", ".."), ("escapes", "../x"), ("empty", ""))
+    },
+    # class 6: variants that change a grid dimension would mislabel their rows
+    **{
+        f"variant_changes_{label}": (
+            '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
+            f"[study.variants]\nfast = {{ replanning = true, {override} = {value} }}\n",
+            f"study.variants.fast.{override.strip(chr(34))}",
+        )
+        for label, override, value in (
+            ("driver", "controller", '"siso"'), ("seed", "seed", "3"),
+            ("density", "density", "20"), ("mu", "mu", "0.4"), ("occupant", "occupant", "0.1"),
+            ("plant", "plant", '"bicycle"'), ("duration", "duration", "5.0"),
+            ("driver_by_file_key", '"sv.controller"', '"siso"'),
+        )
+    },
+    # class 7: unbounded work
+    "seed_count_two_billion": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\n'
+        "seed_count = 2000000000\n",
+        "study.seed_count",
+    ),
+    "grid_too_big": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5, 10]\n'
+        "seed_count = 100000\n",
+        "study",
+    ),
+    "nested_thousands_deep": ('[study]\nx = ' + "[" * 5000 + "]" * 5000 + "\n", "file"),
+    # class 8: an override the base scenario refuses is named where it was written
+    "variant_value_refused": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
+        "[study.variants]\nlate = { latency = -1.0 }\n",
+        "study.variants.late",
+    ),
+    "variant_name_unknown": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
+        "[study.variants]\nlate = { latncy = 0.1 }\n",
+        "study.variants.late.latncy",
+    ),
+    "grid_value_refused_by_the_base": (
+        '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
+        "duration_s = 200.0\n",
+        "study.duration_s",
     ),
 }
+# The message names the study file (not "<base scenario> (overrides)"), except where the
+# base scenario itself is wrong.
+STUDY_NAMES_ITSELF = set(STUDY_CASES) - {"base_scenario_bad"}
 
 
 @pytest.mark.parametrize("name", sorted(STUDY_CASES))
@@ -359,6 +443,105 @@ def test_cli_batch_rejects_bad_study_without_output(
     assert len(lines) == 1, err
     assert f"{key} = " in lines[0]
     assert not out.exists()
+
+
+# issue 13's classes through all three commands, into a folder holding a previous result
+ISSUE13_CASES = sorted(
+    name for name in SCENARIO_CASES
+    if name.startswith(("tv_speed_above", "sv_speed_above", "tv_id_", "traffic_longer",
+                        "network_two", "network_minus", "network_bent", "sv_position_neg",
+                        "tv_mid_change", "tvs_on", "wide_vehicles", "name_"))
+)
+
+
+def _argv(command: str, scenario: Path, out: Path) -> list[str]:
+    if command == "batch":
+        return ["batch", "--scenario", str(scenario), "--densities", "0", "--seeds", "1",
+                "--no-progress", "--no-plots", "-o", str(out)]
+    return [command, str(scenario), "--out", str(out)]
+
+
+@pytest.mark.parametrize("command", ["run", "plan", "batch"])
+@pytest.mark.parametrize("name", ISSUE13_CASES)
+def test_refused_before_sumo_in_every_command_with_the_folder_untouched(
+    command: str, name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """run, plan and batch share one validation: the same one line, exit 2, and an
+    existing output folder keeps exactly what it held."""
+    assert len(ISSUE13_CASES) >= 17
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "metrics.csv").write_text("previous,run\n1,2\n")
+    (out / "trajectories.png").write_bytes(b"\x89PNG previous")
+    before = _snapshot(out)
+    status, err = _cli(_argv(command, HERE / name, out), capsys)
+    assert status == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    key, value = SCENARIO_CASES[name]
+    _check_message(lines[0], HERE / name, key, value)
+    assert _snapshot(out) == before
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]  # no staging sibling either
+
+
+def test_position_is_measured_from_the_road_start(tmp_path: Path) -> None:
+    """One meaning for sv.position_m: on a road from x = -5000 m to 1000 m, 300 m puts
+    the SV at x = -4700 m (validator and simulation agree)."""
+    from cosim.sim import run_scenario
+
+    text = BASE.read_text().replace("[road]\n", '[road]\nnetwork = "offset_start.net.xml"\n')
+    path = HERE / "offset_start.net.xml"
+    (tmp_path / path.name).write_bytes(path.read_bytes())
+    scenario = tmp_path / "offset.toml"
+    scenario.write_text(text.replace("duration_s = 10.0", "duration_s = 3.0"))
+    s = load_scenario(scenario)
+    assert s.sv.position == 300.0
+    out = tmp_path / "out"
+    run_scenario(s, out, write_trace=True, write_figures=False, progress=False)
+    import pandas as pd
+
+    trace = pd.read_csv(out / "trace.csv")
+    assert trace["x_m"].iloc[0] == pytest.approx(-4700.0, abs=0.01)
+    # 2000 m from the start is x = -3000 m: on this road (read as a global x, it is not)
+    scenario.write_text(text.replace("position_m = 300.0", "position_m = 2000.0"))
+    assert load_scenario(scenario).sv.position == 2000.0
+    scenario.write_text(text.replace("position_m = 300.0", "position_m = 5999.0"))
+    with pytest.raises(InputError, match=r"sv.position_m = 5999.0: on the road: in \[2.16, "
+                                         r"5997.84\] m from its start"):
+        load_scenario(scenario)
+
+
+def test_sv_id_agrees_with_the_simulation() -> None:
+    from cosim.scenario.rules import SV_ID
+    from cosim.sim import SV_ID as SIM_SV_ID
+
+    assert SV_ID == SIM_SV_ID
+
+
+def test_a_network_too_big_is_refused_before_it_is_read(tmp_path: Path) -> None:
+    from cosim.traffic.network import MAX_NETWORK_BYTES
+
+    net = tmp_path / "huge.net.xml"
+    with open(net, "wb") as fh:  # sparse: no disk used, and never read
+        fh.truncate(MAX_NETWORK_BYTES + 1)
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(BASE.read_text().replace("[road]\n", '[road]\nnetwork = "huge.net.xml"\n'))
+    with pytest.raises(InputError, match="at most 64 MiB") as info:
+        load_scenario(scenario)
+    assert info.value.key == "road.network"
+
+
+@pytest.mark.parametrize("kind", ["scenario", "study"])
+def test_a_file_too_big_is_refused_before_it_is_read(kind: str, tmp_path: Path) -> None:
+    from cosim.scenario import MAX_FILE_BYTES
+    from cosim.study import load_study
+
+    path = tmp_path / "huge.toml"
+    with open(path, "wb") as fh:
+        fh.truncate(3 * 2**30)  # 3 GiB, sparse
+    with pytest.raises(InputError, match=f"at most {MAX_FILE_BYTES // 2**20} MiB") as info:
+        (load_scenario if kind == "scenario" else load_study)(path)
+    assert info.value.key == "file" and "\n" not in str(info.value)
 
 
 @pytest.mark.parametrize("name", ["garbage.toml"])  # one: each start imports the CLI
