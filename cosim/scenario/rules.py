@@ -221,3 +221,17 @@ def _check_positions(src: str, s: Scenario, net: Highway) -> None:
             f"short enough for the SV to stay on the {length:g} m road "
             f"(at {fastest * KMH:g} km/h from {s.sv.position:g} m it reaches {end:g} m)",
         )
+    # a scripted TV moves forward only: where it is at the end is the farthest it gets
+    t_end = s.duration + 2.0 * s.step  # the simulation evaluates scripts a step past the end
+    from cosim.traffic.scripted import kinematics
+
+    for i, tv in enumerate(s.tvs):
+        k = kinematics(tv, np.array([t_end]), s.road, net.x_start + s.sv.position)
+        front = float(k.x[0]) - net.x_start + 0.5 * tv.length
+        if front > length:
+            raise InputError(
+                src, f"tv[{i}].gap_m", tv.gap,
+                f"a gap that keeps the TV on the {length:g} m road until scenario.duration_s = "
+                f"{s.duration:g} s (its script takes its front to {front:.6g} m; SUMO would "
+                "drop it)",
+            )

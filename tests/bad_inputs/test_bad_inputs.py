@@ -117,6 +117,7 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "tv_id_is_sv.toml": ("tv[0].id", "'sv'"),
     "tv_id_like_random_traffic.toml": ("tv[1].id", "'tv3'"),
     "traffic_longer_than_network.toml": ("traffic.length_m", "7000.0"),
+    "tv_runs_off_the_road.toml": ("tv[1].gap_m", "5600.0"),
     # class 2: valid SUMO networks of a shape the tool cannot drive on
     "network_two_edges.toml": ("road.network", "two_edges.net.xml"),
     "network_minus_x.toml": ("road.network", "minus_x.net.xml"),
@@ -150,6 +151,7 @@ ALLOWED_HINTS: dict[str, str] = {
     "sv_speed_above_lane_limit.toml": "lane 1's speed limit in the network, 110 km/h",
     "tv_id_like_random_traffic.toml": "random traffic",
     "traffic_longer_than_network.toml": "network's length 6000 m",
+    "tv_runs_off_the_road.toml": "on the 6000 m road until scenario.duration_s = 10 s",
     "network_two_edges.toml": "one straight edge along +x",
     "network_minus_x.toml": "runs from (6000, 9.375) to (0, 9.375)",
     "network_bent.toml": "is bent",
@@ -448,7 +450,7 @@ def test_cli_batch_rejects_bad_study_without_output(
 # issue 13's classes through all three commands, into a folder holding a previous result
 ISSUE13_CASES = sorted(
     name for name in SCENARIO_CASES
-    if name.startswith(("tv_speed_above", "sv_speed_above", "tv_id_", "traffic_longer",
+    if name.startswith(("tv_speed_above", "sv_speed_above", "tv_id_", "traffic_longer", "tv_runs",
                         "network_two", "network_minus", "network_bent", "sv_position_neg",
                         "tv_mid_change", "tvs_on", "wide_vehicles", "name_"))
 )
@@ -468,7 +470,7 @@ def test_refused_before_sumo_in_every_command_with_the_folder_untouched(
 ) -> None:
     """run, plan and batch share one validation: the same one line, exit 2, and an
     existing output folder keeps exactly what it held."""
-    assert len(ISSUE13_CASES) >= 17
+    assert len(ISSUE13_CASES) >= 18
     out = tmp_path / "out"
     out.mkdir()
     (out / "metrics.csv").write_text("previous,run\n1,2\n")
