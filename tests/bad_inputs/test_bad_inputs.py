@@ -5,7 +5,8 @@ Each file in this folder breaks `base.toml` (a valid scenario) in one way; the
 table below says which key the message must name and what value it must show.
 The CLI is run in-process (`cosim.cli.main`) and, for a few cases, as a
 subprocess. Random documents and random bytes (hypothesis) never raise anything
-but InputError.
+but InputError; nor do random study documents (checked against their base scenario) or
+random `cosim batch` flag values (parsed by the real parser, checked as the command does).
 """
 
 from __future__ import annotations
@@ -27,12 +28,14 @@ from hypothesis import strategies as st
 from cosim.cli import main
 from cosim.errors import InputError
 from cosim.scenario import (
+    OVERRIDES,
     TABLES,
     TV_FIELDS,
     TV_LANE_CHANGE_FIELDS,
     load_scenario,
     scenario_from_dict,
 )
+from cosim.study import STUDY_FIELDS, check_study, study_from_dict
 
 HERE = Path(__file__).resolve().parent
 BASE = HERE / "base.toml"
@@ -663,3 +666,65 @@ def test_nan_and_inf_are_never_accepted() -> None:
         doc = {**_BASE_DOC, "road": {**_BASE_DOC["road"], "mu": value}}
         with pytest.raises(InputError):
             scenario_from_dict(doc, path=BASE)
+
+
+# ------------------------------------------------------------------ random study files and flags
+
+_STUDY_KEYS = [f.key for f in STUDY_FIELDS]
+_override_names = st.sampled_from(sorted(OVERRIDES) + ["sv.speed_kmh", "vehicle.mass_kg", "nope"])
+_variants = st.dictionaries(
+    st.text(max_size=6) | st.sampled_from(["a", "b"]),
+    st.dictionaries(_override_names, _scalars, max_size=3) | _values,
+    max_size=3,
+)
+_study_tables = st.fixed_dictionaries(
+    {"scenario": st.just(str(BASE)) | _values},
+    optional={
+        **{k: _values for k in _STUDY_KEYS if k not in ("scenario", "variants")},
+        "densities_veh_per_km_lane": st.lists(st.floats(-5, 200) | _scalars, max_size=3),
+        "seeds": st.lists(st.integers(-3, 2**40), max_size=3) | _values,
+        "variants": _variants,
+    },
+)
+_study_documents = st.fixed_dictionaries({"study": _study_tables}) | st.dictionaries(
+    st.sampled_from(["study", "studies", "scenario"]), _values | _tables, max_size=3
+)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_study_documents)
+def test_random_study_documents_raise_only_input_error(doc: dict[str, Any]) -> None:
+    """A study file is loaded and checked against its base scenario (everything `cosim
+    batch` does before it writes): success or one InputError line, nothing else."""
+    _loads_or_input_error(lambda: check_study(study_from_dict(doc, HERE / "study.toml")))
+
+
+_flag_text = st.text(max_size=12) | st.sampled_from(
+    ["5", "1-3", "0,10", "1-2000000000", "mimo,sumo", "twotrack", "..", "", "-1", "nan", "1e9"]
+)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.dictionaries(
+        st.sampled_from(["--densities", "--seeds", "--occupants", "--mu", "--drivers",
+                         "--plants", "--name"]),
+        _flag_text, max_size=4,
+    ),
+    st.none() | st.floats(allow_nan=True, allow_infinity=True),
+)
+def test_random_batch_flags_raise_only_input_error(
+    flags: dict[str, str], duration: float | None
+) -> None:
+    """Command-line values, parsed by the real parser and checked as `cosim batch` checks
+    them before writing anything (`study_from_args`, `specs_of`): only InputError."""
+    from cosim.cli import build_parser
+    from cosim.commands.batch import specs_of, study_from_args
+
+    argv = ["batch", "--scenario", str(BASE), "--densities", "0", "--seeds", "1"]
+    for flag, text in flags.items():
+        argv.append(f"{flag}={text}")  # "=": values starting with "-" stay values
+    if duration is not None:
+        argv.append(f"--duration={duration!r}")
+    args = build_parser().parse_args(argv)
+    _loads_or_input_error(lambda: specs_of(study_from_args(args)))
