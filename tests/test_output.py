@@ -1,4 +1,5 @@
-"""Atomic output: a result file is either absent or complete, never truncated."""
+"""Atomic output: a result file is either absent or complete, never truncated; a run's
+folder is replaced whole or not at all; names and paths that escape are refused."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import matplotlib
 import pandas as pd
 import pytest
 
-from cosim.errors import InputError
+from cosim.errors import InputError, Terminated
 from cosim.output import (
     atomic_open,
     atomic_path,
@@ -21,9 +22,12 @@ from cosim.output import (
     atomic_write_csv,
     atomic_write_json,
     atomic_write_text,
+    check_name,
     check_output_dir,
     make_output_dir,
     new_run_dir,
+    recover_stale,
+    staged_dir,
     stale_temp_files,
 )
 
@@ -151,3 +155,81 @@ def test_check_output_dir_refuses_files(tmp_path: Path) -> None:
             check_output_dir(bad, "command line", "--out")
         assert info.value.key == "--out" and str(bad) in str(info.value)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+# ------------------------------------------------------------------ run folders and names
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+def test_staged_dir_swaps_the_complete_folder_in(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "old.png").write_bytes(b"old")
+    with staged_dir(out) as tmp:
+        assert tmp.parent == tmp_path and tmp.name.startswith(".run.tmp-")
+        (tmp / "metrics.csv").write_text("new\n")
+        assert _tree(out) == {"old.png": b"old"}  # untouched until the block completes
+    assert _tree(out) == {"metrics.csv": b"new\n"}  # whole: no old PNG beside the new CSV
+    assert [p.name for p in tmp_path.iterdir()] == ["run"]
+
+
+@pytest.mark.parametrize("error", [KeyboardInterrupt, Terminated, RuntimeError])
+def test_staged_dir_interrupted_keeps_exactly_the_old_folder(
+    tmp_path: Path, error: type[BaseException]
+) -> None:
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "metrics.csv").write_text("old\n")
+    with pytest.raises(error), staged_dir(out) as tmp:
+        (tmp / "metrics.csv").write_text("new\n")
+        (tmp / "trajectories.png").write_bytes(b"")
+        raise error()
+    assert _tree(out) == {"metrics.csv": b"old\n"}
+    assert [p.name for p in tmp_path.iterdir()] == ["run"]
+
+
+def test_a_killed_swap_is_recovered_by_the_next_run(tmp_path: Path) -> None:
+    """What SIGKILL can leave: a half-built folder, or the old folder renamed aside."""
+    out = tmp_path / "run"
+    (tmp_path / ".run.tmp-abc").mkdir()
+    (tmp_path / ".run.tmp-abc" / "trace.csv").write_text("half")
+    (tmp_path / ".run.old-def").mkdir()
+    (tmp_path / ".run.old-def" / "metrics.csv").write_text("old\n")
+    recover_stale(out)
+    assert _tree(out) == {"metrics.csv": b"old\n"}
+    assert [p.name for p in tmp_path.iterdir()] == ["run"]
+
+
+@pytest.mark.parametrize("name", ["", ".", "..", "../x", "a/b", ".hidden", "x" * 81, "a\x00"])
+def test_check_name_refuses_names_that_escape(name: str) -> None:
+    with pytest.raises(InputError) as info:
+        check_name("study.toml", "study.name", name)
+    assert info.value.key == "study.name" and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("name", ["density", "paper_case1", "a.b-c", "_x", "9"])
+def test_check_name_accepts_folder_names(name: str) -> None:
+    assert check_name("s", "k", name) == name
+
+
+@pytest.mark.parametrize("path", ["", ".", "..", "/"])
+def test_check_output_dir_refuses_the_current_folder_and_its_parent(path: str) -> None:
+    with pytest.raises(InputError, match="--out = "):
+        check_output_dir(path)
+    with pytest.raises(InputError):
+        check_output_dir(Path(path))
+
+
+def test_check_output_dir_whole_refuses_folders_a_run_did_not_write(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "metrics.csv").write_text("x\n")
+    (out / "tracking.png").write_bytes(b"png")
+    assert check_output_dir(out, whole=True) == out  # a previous run's: replaced whole
+    (out / "thesis.tex").write_text("mine\n")
+    with pytest.raises(InputError, match="thesis.tex"):
+        check_output_dir(out, whole=True)
+    assert check_output_dir(out) == out  # batch adds files beside its own: no whole rule

@@ -447,7 +447,67 @@ def test_cli_batch_rejects_bad_study_without_output(
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
     assert f"{key} = " in lines[0]
+    if name in STUDY_NAMES_ITSELF:
+        assert lines[0].startswith(f"cosim batch: error: {study}: "), lines[0]
+    assert "(overrides)" not in lines[0]
     assert not out.exists()
+
+
+# Flags: the same checks, and messages that name the flag.
+FLAG_CASES: dict[str, tuple[list[str], str]] = {
+    "seed_range_two_billion": (["--seeds", "1-2000000000"], "--seeds"),
+    "name_dotdot": (["--name", ".."], "--name"),
+    "name_escapes": (["--name", "../x"], "--name"),
+    "name_empty": (["--name", ""], "--name"),
+    "duration_refused_by_the_base": (["--duration", "200"], "--duration"),
+    "density_out_of_range": (["--densities", "5,200"], "--densities"),
+    "out_empty": (["-o", ""], "--out"),
+    "out_dot": (["-o", "."], "--out"),
+    "out_dotdot": (["-o", ".."], "--out"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(FLAG_CASES))
+def test_cli_batch_flags_name_the_flag(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    flags, key = FLAG_CASES[name]
+    argv = ["batch", "--scenario", str(BASE), "--densities", "0", "--seeds", "1",
+            "--no-progress", "--no-plots", "-o", str(tmp_path / "out"), *flags]
+    status, err = _cli(argv, capsys)
+    assert status == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"cosim batch: error: command line: {key} = "), lines[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("out", ["", ".", ".."])
+def test_cli_run_refuses_an_output_path_that_is_no_folder_name(
+    out: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    status, err = _cli(["run", str(BASE), "--out", out], capsys)
+    assert status == 2 and "--out = " in err and len(err.strip().splitlines()) == 1, err
+    assert list(work.iterdir()) == [] and [p.name for p in tmp_path.iterdir()] == ["work"]
+
+
+def test_cli_run_will_not_replace_a_folder_holding_other_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A run replaces its folder whole: pointed at a folder of other things (a source tree,
+    a home folder), it refuses before anything starts."""
+    out = tmp_path / "project"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine\n")
+    (out / "src").mkdir()
+    before = _snapshot(out)
+    status, err = _cli(["run", str(BASE), "--out", str(out)], capsys)
+    assert status == 2 and "--out = " in err and "which a run does not write" in err, err
+    assert _snapshot(out) == before
 
 
 # issue 13's classes through all three commands, into a folder holding a previous result
