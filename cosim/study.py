@@ -26,6 +26,8 @@ flags replace any list.
 
 from __future__ import annotations
 
+import itertools
+import math
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -49,6 +51,7 @@ from cosim.validation import Field, check_known_tables, check_table, validate_ta
 
 MAX_RUNS = 100_000  # runs in one study: a bigger grid is refused before it is expanded
 MAX_SEEDS = 100_000  # seeds in one study (seed_count, or a flag's range A-B)
+MAX_CELLS = 10_000  # combinations of grid values besides the seed (each checked up front)
 
 
 def _scenario_field(fields: tuple[Field, ...], key: str) -> Field:
@@ -266,4 +269,37 @@ def check_study(study: Study) -> Scenario:
                   value)
     for name, overrides in (study.variants or {}).items():
         apply(overrides, where, f"study.variants.{name}", overrides)
+    _check_cells(study, base, where)
     return base
+
+
+def _check_cells(study: Study, base: Scenario, where: str) -> None:
+    """Every combination of grid values (the seed aside: no rule depends on it) and variant,
+    validated like a file: values fine one by one may clash together (a variant's speed
+    and the grid's duration, ...). Bounded by MAX_CELLS."""
+    dims: list[list[tuple[str, Any]]] = []
+    for attr, (override, _, _) in GRID.items():
+        values = getattr(study, attr)
+        if attr == "seeds" or values is None:
+            continue
+        values = (values,) if attr == "duration" else values
+        dims.append([(override, v) for v in values])
+    variants = list((study.variants or {}).items()) or [("", {})]
+    n = len(variants) * math.prod(len(d) for d in dims)
+    if n > MAX_CELLS:
+        raise InputError(where, "study", f"{n} combinations",
+                         f"at most {MAX_CELLS} combinations of grid values besides the seed")
+    for variant, overrides in variants:
+        for cell in itertools.product(*dims):
+            changes = dict(cell)
+            if changes.get("controller") != "sumo":  # the SUMO driver runs no variant
+                changes.update(overrides)
+            try:
+                apply_overrides(base, changes, where)
+            except InputError as exc:
+                what = {k: v for k, v in cell} | ({"variant": variant} if variant else {})
+                raise InputError(
+                    where, "study", what,
+                    f"grid values that go together: this combination breaks the base scenario "
+                    f"{study.scenario} ({exc.key} = {exc.value!r}: {exc.allowed})",
+                ) from None

@@ -112,11 +112,14 @@ def test_killed_while_writing_leaves_only_complete_files(tmp_path: Path) -> None
     assert caught_mid_write > 0, "never caught cosim run writing: the test proved nothing"
 
 
-def _previous_run(tmp_path: Path, scenario: Path) -> Path:
-    """An output folder holding a previous run's result (its metrics marked as old)."""
+def _previous_run(tmp_path: Path) -> Path:
+    """An output folder holding a previous run's files (CSVs and figures, marked as old)."""
     out = tmp_path / "out"
-    run_scenario(load_scenario(scenario), out, write_figures=True)
-    (out / "metrics.csv").write_text("previous,run\n1,2\n")
+    out.mkdir()
+    for name in ("trace.csv", "plans.csv", "metrics.csv", "timing.csv"):
+        (out / name).write_text(f"previous,{name}\n1,2\n")
+    for name in ("trajectories.png", "tracking.png", "tau_sets.png"):
+        (out / name).write_bytes(b"\x89PNG previous " + name.encode())
     return out
 
 
@@ -134,7 +137,7 @@ def test_interrupt_leaves_the_previous_run_untouched(
 ) -> None:
     """Ctrl-C or SIGTERM at two moments of a run into a folder holding a previous run."""
     scenario = _scenario(tmp_path, 30.0 if moment == "stepping" else 3.0)
-    out = _previous_run(tmp_path, scenario)
+    out = _previous_run(tmp_path)
     before = _files(out)
     proc = _cosim(["run", str(scenario), "--out", str(out)], tmp_path)
     assert proc.stderr is not None
