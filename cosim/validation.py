@@ -6,6 +6,8 @@ default, and how to turn the value into SI (`si_divisor`: km/h -> m/s is 3.6).
 `validate_table` checks a whole table against its fields in one pass and
 raises `InputError` (file, key, value, what is allowed: one line) on the first
 problem; unknown keys are rejected with a "did you mean" suggestion.
+`declare` puts a Field on a dataclass attribute, so a key is declared once, beside what
+it fills (`declared_fields` reads the table back).
 """
 
 from __future__ import annotations
