@@ -205,7 +205,7 @@ def _check_positions(src: str, s: Scenario, net: Highway) -> None:
                 f"a gap that puts the TV on the road (x = {x:g} m from the road's start is "
                 f"outside [0, {length:g}] m)",
             )
-    if s.traffic.length > length:
+    if s.traffic.density > 0 and s.traffic.length > length:
         raise InputError(src, "traffic.length_m", s.traffic.length,
                          f"at most the network's length {length:g} m")
     lanes = {s.sv.lane} | {c.target_lane for c in s.sv.lane_changes}
