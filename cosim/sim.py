@@ -395,10 +395,9 @@ class CoSimulation:
         self.sumo.start()
         self.started = True
         hw = self.sumo.highway
-        self.road = RoadParams(lane_width=hw.lane_width, speed_bands=sc.road.speed_bands,
-                               mu=sc.road.mu, y_right=hw.y_right)
+        self.road = sc.road  # lane geometry: the network's, read once by the scenario
         road = self.road
-        x0 = hw.x_start + sc.sv.position
+        x0 = hw.x_start + sc.sv.position  # sv.position_m: from the road's start
         y0 = road.lane_center(sc.sv.lane)
         self.x0 = x0
         if tr.density > 0:
