@@ -55,3 +55,11 @@ def test_a_name_flag_that_escapes_is_refused(tmp_path: Path, name: str) -> None:
     with pytest.raises(InputError) as info:
         load_study(_study(tmp_path)).with_flags(name=name)
     assert info.value.key == "--name"
+
+
+@pytest.mark.parametrize("name", ["study_density.toml", "study_replanning.toml"])
+def test_shipped_studies_pass_every_check(name: str) -> None:
+    from cosim.scenario import project_root
+
+    study = load_study(project_root() / "scenarios" / name)
+    assert check_study(study).path == study.scenario
