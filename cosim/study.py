@@ -21,7 +21,11 @@ replan = { replanning = true, latency = 0.1, loss = 0.1 }
 
 `load_study` validates the whole file (one-line InputError on the first
 problem) before anything is written; `Study.with_flags` lets command-line
-flags replace any list.
+flags replace any list. A variant may not change a grid dimension (`GRID`).
+`check_study` then applies every grid value, every variant and every combination of
+them (the seed aside) to the base scenario, each validated like a file; an error names
+the study file's key or the flag the value came from. Sizes are bounded before anything
+is expanded (MAX_SEEDS, MAX_RUNS, MAX_CELLS).
 """
 
 from __future__ import annotations
