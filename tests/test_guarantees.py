@@ -5,7 +5,8 @@
   temporary sibling remains, which the next run of that folder removes);
 - interrupted (Ctrl-C: exit 130; SIGTERM: exit 143; one line on stderr) while it
   simulates or while it writes its figures, into a folder holding a previous run:
-  the folder holds exactly what it held before, and nothing temporary remains;
+  the folder holds exactly what it held before, and nothing temporary remains (SIGKILL:
+  the folder is untouched too, a hidden sibling remains for the next run to remove);
 - a bad scenario: exit status 2, one line, no output folder (tests/bad_inputs
   has the full suite).
 """
@@ -130,6 +131,7 @@ def _previous_run(tmp_path: Path) -> Path:
         (signal.SIGTERM, 143, "stepping"),
         (signal.SIGINT, 130, "figures"),
         (signal.SIGTERM, 143, "figures"),
+        (signal.SIGKILL, -9, "figures"),  # no clean-up at all: the folder is still untouched
     ],
 )
 def test_interrupt_leaves_the_previous_run_untouched(
@@ -167,10 +169,13 @@ def test_interrupt_leaves_the_previous_run_untouched(
         seen += chunk
     text = seen.decode(errors="replace")
     assert proc.returncode == status, text
+    assert _files(out) == before  # exactly what it held: no new CSV beside old figures
+    if sig == signal.SIGKILL:
+        assert _staging(out)  # the hidden half-built sibling; the next run removes it
+        return
     last = text.replace("\r", "\n").strip().splitlines()[-1]
     what = "interrupted" if sig == signal.SIGINT else "terminated (SIGTERM)"
     assert last == f"cosim run: {what}"
-    assert _files(out) == before  # exactly what it held: no new CSV beside old figures
     assert not _staging(out)  # nothing temporary remains (no 0-byte PNG, no folder)
     assert not list(tmp_path.rglob(f"*{TEMP_MARK}*"))
 
