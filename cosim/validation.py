@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import functools
 import math
 import re
 from collections.abc import Callable, Mapping, Sequence
@@ -164,6 +165,7 @@ def declare(spec: Field, default: Any = dataclasses.MISSING) -> Any:
     return dataclasses.field(default=default, metadata={"key": spec})
 
 
+@functools.cache
 def declared_fields(cls: type) -> tuple[Field, ...]:
     """The `Field`s of a dataclass's `declare`d attributes, in order, named for them."""
     return tuple(
