@@ -34,6 +34,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--gui-speed", type=float, default=1.0, metavar="FACTOR",
                         help="with --gui: simulated seconds per wall second (default 1: "
                         "real time; 0.5: slow motion)")
+    parser.add_argument("--gui-quit", action="store_true",
+                        help="with --gui: close sumo-gui when the run ends")
     parser.add_argument("--seed", type=int, default=None, help="random seed (default: scenario's)")
     parser.add_argument("--no-figures", action="store_true", help="skip the figures")
     add_figure_format(parser)
@@ -46,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from cosim.sim import run_scenario
     from cosim.traffic import gui as sumo_gui
 
-    settings = sumo_gui.GuiSettings(speed=args.gui_speed)
+    settings = sumo_gui.GuiSettings(speed=args.gui_speed, keep_open=not args.gui_quit)
     if args.gui:
         sumo_gui.check_gui(settings)  # no display: one line now, not a traceback later
     scenario = load_scenario(args.scenario)
@@ -63,10 +65,17 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir(out)  # a bad --out is an input error now, not after the run
     if scenario.sv.controller != "sumo":
         compile_first()  # before the progress bar, which then counts steps only
-    metrics = run_scenario(
-        scenario, out, write_trace=True, write_figures=not args.no_figures,
-        progress=True, gui=settings if args.gui else False,
-    )
+    try:
+        metrics = run_scenario(
+            scenario, out, write_trace=True, write_figures=not args.no_figures,
+            progress=True, gui=settings if args.gui else False,
+        )
+    except Exception as exc:
+        if args.gui and type(exc).__name__ == "FatalTraCIError":  # its user closed it
+            print("cosim run: stopped: the sumo-gui window was closed before the run ended",
+                  file=sys.stderr)
+            return 130
+        raise
     keys = ("lane_changes", "collisions", "sumo_collisions", "min_gap_m", "min_ttc_s",
             "tau_first_s", "iae_ye_m_s")
     summary = ", ".join(f"{k} = {metrics[k]:.4g}" if isinstance(metrics[k], float)

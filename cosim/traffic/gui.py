@@ -31,6 +31,8 @@ from typing import Any
 from cosim.errors import InputError
 
 VIEW = "View #0"  # sumo-gui's main view
+SV_COLOUR = (30, 110, 255, 255)  # RGBA, the followed vehicle
+SCHEME = "real world"  # sumo-gui's scheme that draws cars as cars (not triangles)
 SOURCE = "command line"
 
 
@@ -39,7 +41,7 @@ class GuiSettings:
     """How sumo-gui shows a run."""
 
     speed: float = 1.0  # -, simulated seconds per wall-clock second (1: real time)
-    zoom: float = 3000.0  # %, sumo-gui's zoom: about 11 px per m in a 1200 px wide view
+    zoom: float = 6000.0  # %, sumo-gui's zoom: about 12 px per m, 100 m across the view
     keep_open: bool = True  # leave the window open at the end until its user closes it
     window: tuple[int, int] = (1200, 500)  # px, width and height of the window
 
@@ -109,6 +111,8 @@ def start(api: ModuleType, cmd: list[str]) -> None:
 
 def follow(api: ModuleType, vehicle_id: str, settings: GuiSettings) -> None:
     """Keep the main view centred on a vehicle, zoomed in, with real-world colours."""
+    api.gui.setSchema(VIEW, SCHEME)
+    api.vehicle.setColor(vehicle_id, SV_COLOUR)  # drawing only: SUMO's TVs stay yellow
     api.gui.trackVehicle(VIEW, vehicle_id)
     api.gui.setZoom(VIEW, settings.zoom)
 
@@ -126,8 +130,9 @@ def wait_for_windows(out: Any = None) -> None:
     if not _windows:
         return
     print("sumo-gui: the run is over; close its window to exit", file=out or sys.stderr)
-    while _windows:
-        _windows.pop().wait()
+    for window in list(_windows):
+        window.wait()
+    _windows.clear()
 
 
 class Pacer:
