@@ -200,8 +200,12 @@ def test_bad_study_file_is_one_line_error_and_writes_nothing(
 def test_bad_flags_are_input_errors(tmp_path: Path) -> None:
     out = tmp_path / "out"
     for flags in (["--densities", "5,x"], ["--seeds", "3-1"], ["--drivers", "mpc"],
-                  ["--mu", "0.05"], ["--workers", "0"]):
-        assert main(["batch", str(STUDY), "-o", str(out), *flags]) == 2, flags
+                  ["--mu", "0.05"], ["--workers", "0"], ["--sed", "1"]):
+        try:
+            status = main(["batch", str(STUDY), "-o", str(out), *flags])
+        except SystemExit as exc:  # argparse's own checks (types, unknown flags)
+            status = exc.code
+        assert status == 2, flags
     assert main(["batch", "--scenario", str(BASE), "-o", str(out)]) == 2  # no densities
     assert not out.exists()
 
@@ -386,3 +390,29 @@ def test_variants_are_a_grid_dimension_for_our_drivers_only(tmp_path: Path) -> N
     study.write_text(head + "variants = { bad = 3 }\n", encoding="utf-8")
     with pytest.raises(InputError):
         load_study(study)
+
+
+def test_subset_of_a_study_file_gets_its_own_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A study file with grid flags and no -o / --name writes beside the study's
+    folder, never over its summary; the same subset resumes in the same folder."""
+    from cosim.cli import build_parser
+    from cosim.commands.batch import study_from_args, subset_name
+
+    def name(*flags: str) -> str:
+        args = build_parser().parse_args(["batch", str(STUDY), *flags])
+        return subset_name(args, study_from_args(args))
+
+    whole = load_study(STUDY).name
+    assert name() == whole and name("--traces") == whole
+    assert name("--densities", "10", "--seeds", "1") == f"{whole}--densities_10--seeds_1"
+    assert name("--seeds", "1-3", "--name", "mine") == "mine"
+    assert name("--seeds", ",".join(str(k) for k in range(1, 60))).startswith(
+        f"{whole}--subset-")
+    monkeypatch.chdir(tmp_path)
+    flags = ["--densities", "10", "--seeds", "1", "--drivers", "sumo", "--duration", "2",
+             "--no-progress", "--no-plots"]
+    assert main(["batch", str(STUDY), *flags]) == 0
+    folders = sorted(p.name for p in (tmp_path / "results" / "batch").iterdir())
+    assert folders == [f"{whole}--densities_10--seeds_1--drivers_sumo--duration_2.0"]
+    assert (tmp_path / "results" / "batch" / folders[0] / "summary.csv").is_file()
