@@ -20,7 +20,7 @@ from cosim.errors import CosimError, InputError
 from cosim.validation import suggest
 
 # Subcommand modules under cosim/commands/, in the order `cosim --help` lists them.
-COMMANDS = ("plan", "track", "run", "batch", "bench")
+COMMANDS = ("plan", "track", "run", "compare", "batch", "bench", "docs")
 
 
 class Parser(argparse.ArgumentParser):

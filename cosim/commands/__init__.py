@@ -53,31 +53,26 @@ def seconds(key: str, hi: float = 3600.0) -> Callable[[str], Any]:
 
 
 COMPILE_ESTIMATE_S = 25.0  # s, numba compiling every hot loop on a cold cache (2 cores)
-SILENT_LOAD_S = 2.5  # s, longer than loading a warm cache takes (about 1 s)
 
 
 def compile_first(stream: Any = None) -> float:
     """Compile (or load from numba's cache) the hot loops before a progress bar
-    starts, so that the bar measures runs only; when it takes longer than loading
-    a warm cache, say so. Returns the seconds it took."""
+    starts, so that the bar measures runs only; on a cold cache say so first.
+    Returns the seconds it took."""
     import sys
-    import threading
     import time
 
-    from cosim.compiled import warm_up
+    from cosim.compiled import cache_warm, warm_up
 
     out = stream or sys.stderr
-    timer = threading.Timer(SILENT_LOAD_S, lambda: print(
-        f"compiling (once per machine, ~{COMPILE_ESTIMATE_S:.0f} s) ...", file=out, flush=True))
-    timer.daemon = True
+    cold = not cache_warm()
+    if cold:
+        print(f"compiling (once per machine, ~{COMPILE_ESTIMATE_S:.0f} s) ...", file=out,
+              flush=True)
     start = time.perf_counter()
-    timer.start()
-    try:
-        warm_up()
-    finally:
-        timer.cancel()
+    warm_up()
     took = time.perf_counter() - start
-    if took > SILENT_LOAD_S:
+    if cold:
         print(f"compiled in {took:.0f} s (cached in cosim/__pycache__/numba/)", file=out,
               flush=True)
     return took
