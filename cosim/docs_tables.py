@@ -202,10 +202,10 @@ def regenerate(names: list[str], *, check: bool, root: Path = ROOT,
                log: Callable[[str], None] = print) -> list[str]:
     """Recompute the named tables; write them into their files (check=False) or
     compare. Returns the problems found (stale tables, tables marked nowhere)."""
+    stamp = commit()  # before the runs: the code they ran is the code at the start
     made = {name: TABLES[name].make() for name in names}
     problems: list[str] = []
     found: set[str] = set()
-    stamp = commit()
     for doc in DOCS:
         path = root / doc
         if not path.is_file():
