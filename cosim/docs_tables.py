@@ -15,6 +15,7 @@ checked by hand when the table changes.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 import subprocess
@@ -63,8 +64,10 @@ def _intervals(intervals: list[tuple[float, float]]) -> str:
     return " and ".join(f"[{lo:.2f}, {hi:.2f}]" for lo, hi in intervals) or "none"
 
 
-def planning_table() -> str:
-    """README: the tau sets of the three paper cases (`cosim plan`), both collision tests."""
+def planning_table(tests: tuple[tuple[str, str], ...] = (("exact", "ours"), (
+        "col", "ours, paper's CoL test"))) -> str:
+    """README: the tau sets of the three paper cases (`cosim plan`), both collision
+    tests; docs/run_results.md: the exact test's (the co-simulation's first plan)."""
     from cosim.planning.planner import LaneChangePlanner
     from cosim.planning.situation import situation
 
@@ -73,7 +76,7 @@ def planning_table() -> str:
     for name in PAPER_CASES:
         sc = load_scenario(ROOT / "scenarios" / f"{name}.toml")
         lines.append(_row([CASE_LABELS[name], "paper", *PAPER_PLANNING[name]]))
-        for test, label in (("exact", "ours"), ("col", "ours, paper's CoL test")):
+        for test, label in tests:
             si = situation(sc)
             cfg = replace(sc.planner, collision_test=test)
             plan = LaneChangePlanner(sc.vehicle, si.road, cfg).plan(
@@ -107,13 +110,84 @@ def table2() -> str:
     return "\n".join(lines)
 
 
-def _metrics(name: str, **overrides: Any) -> dict[str, Any]:
+@functools.cache
+def _run(name: str, overrides: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
     from cosim.sim import run_scenario
 
     sc = load_scenario(ROOT / "scenarios" / f"{name}.toml")
     if overrides:
-        sc = with_overrides(sc, **overrides)
+        sc = with_overrides(sc, **dict(overrides))
     return run_scenario(sc, None, write_figures=False)
+
+
+def _metrics(name: str, **overrides: Any) -> dict[str, Any]:
+    """metrics.csv's row of one run (each run made once per process: tables share them)."""
+    return _run(name, tuple(sorted(overrides.items())))
+
+
+def track_cases_table() -> str:
+    """docs/control_results.md: the paper's three cases tracked on the two-track plant
+    with the paper's tau_opt (`cosim track --case all --plant twotrack`)."""
+    from cosim.commands.track import CASES, case_reference
+    from cosim.control.closed_loop import YAW_MOMENT_SHARE
+    from cosim.control.tracking import run_tracking
+
+    lines = [_row(["case", "mu", "tau (s)", "ye MIMO / SISO (m s)",
+                   "phi_e MIMO / SISO (deg s)", "delta_f MIMO / SISO (deg s)",
+                   "Fx MIMO / SISO (kN s)"]), "|---" * 7 + "|"]
+    for case in CASES.values():
+        ref, _ = case_reference(case, "paper", None, case.mu)
+        mimo, siso = (run_tracking("twotrack", c, ref, mu=case.mu, duration=10.0,
+                                   yaw_moment_share=YAW_MOMENT_SHARE).iae()
+                      for c in ("mimo", "siso"))
+        target = ref.vxf * 3.6
+        lines.append(_row([
+            f"{case.name}, {case.vx0_kmh:.0f} -> {target:.0f} km/h, lane {case.origin_lane} "
+            f"-> {case.target_lane}", f"{case.mu:g}", f"{ref.tau:.2f}",
+            f"{mimo['ye']:.4f} / {siso['ye']:.4f}",
+            f"{mimo['phi_e_deg']:.3f} / {siso['phi_e_deg']:.3f}",
+            f"{mimo['delta_f_deg']:.2f} / {siso['delta_f_deg']:.2f}",
+            f"{mimo['fx_kn']:.2f} / {siso['fx_kn']:.2f}"]))
+    return "\n".join(lines)
+
+
+def run_iae_table() -> str:
+    """docs/run_results.md: Table 2's IAE columns of the co-simulation runs (metrics.csv)."""
+    from cosim.control.tracking import PAPER_TABLE2
+
+    cols = ("vx", "ye", "phi_e_deg", "delta_f_deg", "fx_kn")
+    lines = [_row(["IAE", "Vx ((m/s) s)", "ye (m s)", "phi_e (deg s)", "delta_f (deg s)",
+                   "Fx (kN s)"]), "|---" * 6 + "|",
+             _row(['paper MIMO (veDYNA, "the single lane change")',
+                   *(f"{PAPER_TABLE2['mimo'][c]:.3f}" for c in cols)]),
+             _row(["paper SISO (veDYNA)", *(f"{PAPER_TABLE2['siso'][c]:.3f}" for c in cols)])]
+    for name in PAPER_CASES:
+        for driver in ("mimo", "siso"):
+            m = _metrics(name, controller=driver)
+            lines.append(_row([
+                f"ours {DRIVER_LABELS[driver]}, case {CASE_LABELS[name].split()[0]}",
+                f"{m['iae_vx_mps_s']:.4f}", f"{m['iae_ye_m_s']:.4f}",
+                f"{m['iae_phie_deg_s']:.3f}", f"{m['iae_deltaf_deg_s']:.3f}",
+                f"{m['iae_fx_kn_s']:.3f}"]))
+    return "\n".join(lines)
+
+
+def run_outcomes_table() -> str:
+    """docs/run_results.md: the paper's cases in SUMO, MIMO against SUMO-native, with jerk."""
+    lines = [_row(["case", "driver", "collisions (ours / SUMO)", "lane change duration (s)",
+                   "min gap (m)", "min TTC (s)", "max \\|ay\\| (m/s^2)",
+                   "max jerk (m/s^3)"]), "|---" * 8 + "|"]
+    for name in PAPER_CASES:
+        for driver in ("mimo", "sumo"):
+            m = _metrics(name, controller=driver)
+            lines.append(_row([
+                CASE_LABELS[name].split()[0], DRIVER_LABELS[driver],
+                f"{m['collisions']} / {m['sumo_collisions']}",
+                _num(m["lane_change_duration_s"], 2), _num(m["min_gap_m"], 2),
+                _num(m["min_ttc_s"], 2), f"{m['max_abs_lat_accel_mps2']:.2f}",
+                f"{m['max_jerk_mps3']:.2g}" if m["max_jerk_mps3"] < 100
+                else f"{m['max_jerk_mps3']:.0f}"]))
+    return "\n".join(lines)
 
 
 def paper_runs_table() -> str:
@@ -169,8 +243,15 @@ TABLES: dict[str, Table] = {
     "planning": Table(planning_table, True, "cosim plan scenarios/paper_case*.toml "
                       "[--collision-test col]"),
     "table2": Table(table2, True, "cosim track --source paper"),
+    "run_planning": Table(lambda: planning_table((("exact", "ours"),)), True,
+                          "cosim plan scenarios/paper_case*.toml"),
     "paper_runs": Table(paper_runs_table, False, "cosim run scenarios/paper_case*.toml "
                         "[--controller siso|sumo]"),
+    "track_cases": Table(track_cases_table, True, "cosim track --case all --plant twotrack"),
+    "run_iae": Table(run_iae_table, False, "cosim run scenarios/paper_case*.toml "
+                     "[--controller siso]"),
+    "run_outcomes": Table(run_outcomes_table, False, "cosim run scenarios/paper_case*.toml "
+                          "[--controller sumo]"),
     "traffic": Table(traffic_table, False, "cosim run scenarios/traffic_*.toml --seed N "
                      "[--controller sumo]"),
 }
