@@ -98,3 +98,16 @@ def test_stale_table_is_found(tmp_path: Path) -> None:
     assert regenerate(["table2"], check=True, root=tmp_path, log=lambda _: None) == []
     text = (tmp_path / "README.md").read_text()
     assert "| paper MIMO (veDYNA) |" in text and "(commit old)" not in text
+
+
+def test_markdown_tables_have_as_many_cells_in_every_row() -> None:
+    """An unescaped `|` in a cell (mimo | siso, |ay|) splits it into a column too many."""
+    for doc in DOCS:
+        columns = None
+        for number, line in enumerate(doc.read_text().splitlines(), 1):
+            if not line.startswith("|"):
+                columns = None
+                continue
+            cells = len(re.findall(r"(?<!\\)\|", line))
+            columns = columns or cells
+            assert cells == columns, f"{doc.name}:{number}: {line[:80]}"
