@@ -444,7 +444,8 @@ def wilson(successes: int, n: int, confidence: float = CONFIDENCE) -> tuple[floa
 
 
 def mean_ci(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[float, float, float]:
-    """Mean and Student-t confidence interval (NaN where undefined)."""
+    """Mean and Student-t confidence interval (NaN where undefined). For quantities
+    that may take either sign; positive ones (durations, TTC) use `median_ci`."""
     values = values[np.isfinite(values)]
     n = len(values)
     if n == 0:
@@ -458,6 +459,32 @@ def mean_ci(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[float, 
     return (mean, mean - half, mean + half)
 
 
+def median_ci(values: np.ndarray, confidence: float = CONFIDENCE
+              ) -> tuple[float, float, float, float]:
+    """Median, a distribution-free confidence interval for it and that interval's
+    coverage: the order statistics (x_(j), x_(n+1-j)) with the largest j whose
+    binomial coverage is at least `confidence`. The bounds are observed values, so
+    a positive quantity (a duration, a TTC) never gets a negative bound, and a
+    skewed one an honest asymmetric interval. Below 6 values no pair reaches 95 %:
+    the interval is then the range, and its coverage (1 - 2 / 2^n) says so.
+    NaN where undefined (no finite value; one value: no interval)."""
+    x = np.sort(values[np.isfinite(values)])
+    n = len(x)
+    if n == 0:
+        return (math.nan, math.nan, math.nan, math.nan)
+    median = float(np.median(x))
+    if n == 1:
+        return (median, math.nan, math.nan, math.nan)
+    from scipy import stats
+
+    # coverage of (x_(j), x_(n+1-j)): P(j <= B < n+1-j), B ~ Binomial(n, 1/2)
+    j = np.arange(1, n // 2 + 1)
+    coverage = stats.binom.cdf(n - j, n, 0.5) - stats.binom.cdf(j - 1, n, 0.5)
+    ok = np.flatnonzero(coverage >= confidence)
+    k = int(ok[-1]) if ok.size else 0
+    return (median, float(x[j[k] - 1]), float(x[n - j[k]]), float(coverage[k]))
+
+
 def _as_bool(column: pd.Series) -> pd.Series:
     if column.dtype == object:
         return column.map(lambda v: str(v).strip().lower() in ("true", "1", "1.0", "yes"))
@@ -467,7 +494,8 @@ def _as_bool(column: pd.Series) -> pd.Series:
 def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     """summary.csv: per grid cell (all parameters but the seed), the number of
     runs, failed runs, success and collision rates with Wilson intervals, and
-    lane-change duration and minimum TTC: mean with a t interval, percentiles.
+    lane-change duration and minimum TTC: mean, percentiles, and the median's
+    distribution-free interval (`median_ci`).
 
     Rates are over the runs that finished (status ok): a failed run is a fault
     of the tool, not an outcome of the manoeuvre, and is counted apart."""
@@ -496,47 +524,54 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
             )
             finite = values[np.isfinite(values)]
             row[f"{name}_n"] = len(finite)
-            row[f"{name}_mean"], row[f"{name}_ci_low"], row[f"{name}_ci_high"] = mean_ci(values)
+            row[f"{name}_mean"] = float(finite.mean()) if len(finite) else math.nan
             for q in PERCENTILES:
                 row[f"{name}_p{q}"] = float(np.percentile(finite, q)) if len(finite) else math.nan
+            # the median and its interval: the statistic of summary.md and the plots
+            (_, row[f"{name}_ci_low"], row[f"{name}_ci_high"],
+             row[f"{name}_ci_coverage"]) = median_ci(values)
         rows.append(row)
     return pd.DataFrame(rows)
 
 
+def interval(low: float, high: float, digits: int = 2, scale: float = 1.0) -> str:
+    """A confidence interval as "[low, high]": no hyphen that could read as a minus."""
+    return f"[{scale * low:.{digits}f}, {scale * high:.{digits}f}]"
+
+
 def summary_markdown(summary: pd.DataFrame) -> str:
-    """The main figures of summary.csv as a Markdown table (for docs and READMEs)."""
+    """The main figures of summary.csv as a Markdown table (for docs and READMEs):
+    rates with Wilson intervals, durations and TTC as medians with the median's
+    distribution-free interval (the statistic the plots show too)."""
 
     def pct(row: pd.Series, name: str) -> str:
         if not math.isfinite(row[f"{name}_rate"]):
             return "-"
-        return (f"{100 * row[f'{name}_rate']:.0f} ({100 * row[f'{name}_ci_low']:.0f}-"
-                f"{100 * row[f'{name}_ci_high']:.0f})")
+        return (f"{100 * row[f'{name}_rate']:.0f} "
+                + interval(row[f"{name}_ci_low"], row[f"{name}_ci_high"], 0, 100.0))
 
-    def mean(row: pd.Series, name: str) -> str:
-        if not math.isfinite(row[f"{name}_mean"]):
+    def median(row: pd.Series, name: str) -> str:
+        if not math.isfinite(row[f"{name}_p50"]):
             return "-"
-        text = f"{row[f'{name}_mean']:.2f}"
+        text = f"{row[f'{name}_p50']:.2f}"
         if math.isfinite(row[f"{name}_ci_low"]):
-            text += f" ({row[f'{name}_ci_low']:.2f}-{row[f'{name}_ci_high']:.2f})"
+            text += " " + interval(row[f"{name}_ci_low"], row[f"{name}_ci_high"])
+            if row[f"{name}_ci_coverage"] < CONFIDENCE:  # too few runs for 95 %
+                text += f" ({100 * row[f'{name}_ci_coverage']:.0f} %)"
         return text
 
     ours = summary[summary["plant"] != NO_PLANT]
     varying = [c for c in ("variant", "plant", "occupant", "mu")
                if (ours if c == "plant" else summary)[c].nunique() > 1]
     head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
-            "success % (95 % CI)", "collision % (95 % CI)", "SV-caused collision % (95 % CI)",
-            "lane-change duration s (95 % CI)",
-            "min TTC s: median (p10-p90)"]
+            "success % [95 % CI]", "collision % [95 % CI]", "SV-caused collision % [95 % CI]",
+            "lane-change duration s: median [95 % CI]", "min TTC s: median [95 % CI]"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for _, row in summary.iterrows():
-        ttc = "-"
-        if math.isfinite(row["min_ttc_s_p50"]):
-            ttc = (f"{row['min_ttc_s_p50']:.2f} "
-                   f"({row['min_ttc_s_p10']:.2f}-{row['min_ttc_s_p90']:.2f})")
         cells = [str(row["driver"]), *(f"{row[c]}" for c in varying), f"{row['density']:g}",
                  f"{row['ok']} / {row['failed']}", pct(row, "success"), pct(row, "collision"),
-                 pct(row, "sv_collision"),
-                 mean(row, "lc_duration_s"), ttc]
+                 pct(row, "sv_collision"), median(row, "lc_duration_s"),
+                 median(row, "min_ttc_s")]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 

@@ -10,9 +10,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import signal
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from cosim import __version__
 from cosim.errors import (
@@ -22,13 +24,48 @@ from cosim.errors import (
     InputError,
     sigterm_as_interrupt,
 )
+from cosim.validation import suggest
 
 # Subcommand modules under cosim/commands/, in the order `cosim --help` lists them.
-COMMANDS = ("plan", "track", "run", "batch", "bench")
+COMMANDS = ("plan", "track", "run", "compare", "batch", "bench", "docs")
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with user errors on one line (`cosim run: error: ...`, exit 2), and
+    a "did you mean" for a misspelt flag, as the scenario files' keys get."""
+
+    def error(self, message: str) -> NoReturn:
+        choice = re.search(r"invalid choice: '(.*)' \(choose from (.*)\)$", message)
+        if choice:  # argparse lists the choices: add the nearest, as for a flag
+            options = re.findall(r"'([^']*)'", choice.group(2))
+            message += suggest(choice.group(1), options)
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
+
+    def parse_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> argparse.Namespace:
+        argv = list(sys.argv[1:] if args is None else args)
+        parsed, extras = self.parse_known_args(argv, namespace)
+        if extras:
+            active = self._active(argv)
+            flag = next((a for a in extras if a.startswith("-")), extras[0])
+            known = [o for a in active._actions for o in a.option_strings]
+            hint = suggest(flag.split("=", 1)[0], known) if flag.startswith("-") else ""
+            active.error(f"unrecognized argument {flag}{hint}")
+        return parsed
+
+    def _active(self, argv: list[str]) -> argparse.ArgumentParser:
+        """The (sub)parser the command line selected: follows subcommand names."""
+        parser: argparse.ArgumentParser = self
+        for token in argv:
+            subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+            if subs and token in subs[0].choices:
+                parser = subs[0].choices[token]
+        return parser
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="cosim",
         description="Lane changes of an automated car through SUMO highway traffic "
         "(Wang et al., IET ITS 2020).",
@@ -49,6 +86,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if getattr(args, "figure_format", None):
+        from cosim.plots import set_format
+
+        set_format(args.figure_format)
     previous = sigterm_as_interrupt()  # SIGTERM unwinds like Ctrl-C (exit 143)
     try:
         return int(args.func(args) or 0)

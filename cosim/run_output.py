@@ -58,38 +58,40 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
 
 
 def write_run_figures(result: RunResult, out: Path) -> list[Path]:
-    """trajectories.png (Fig. 16), tracking.png (Fig. 13-15), tau_sets.png (Fig. 10-12)."""
-    from cosim.output import atomic_path
-    from cosim.plots.run import global_trajectories
+    """trajectories (Fig. 16), gaps (gap and TTC over time), tracking and inputs
+    (Fig. 13-15), tau_sets and planning (Fig. 10-12), in the chosen figure format."""
+    from cosim.plots import figure_path
+    from cosim.plots.run import gap_history, global_trajectories
 
     tr = result.trace
-    paths = []
-    spans = [(lc.t0, lc.t0 + lc.tau) for lc in result.lane_changes]
-    with atomic_path(out / "trajectories.png") as tmp:
-        global_trajectories(tmp, tr["t_s"], tr["x_m"], tr["y_m"], result.tv_tracks, result.road,
-                            highlight=[tv.id for tv in result.scenario.tvs], lane_changes=spans,
-                            title=f"{result.scenario.name}: global trajectories")
-    paths.append(out / "trajectories.png")
     sc = result.scenario
+    spans = [(lc.t0, lc.t0 + lc.tau) for lc in result.lane_changes]
+    paths = [
+        global_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["x_m"], tr["y_m"],
+                            result.tv_tracks, result.road,
+                            highlight=[tv.id for tv in sc.tvs], lane_changes=spans,
+                            title=f"{sc.name}: global trajectories"),
+        gap_history(figure_path(out, "gaps"), tr["t_s"], tr["gap_min_m"], tr["leader_gap_m"],
+                    tr["ttc_min_s"], lane_changes=spans,
+                    title=f"{sc.name}: gaps and time-to-collision"),
+    ]
     if result.records:
         from cosim.control.tracking import TrackingRun
         from cosim.plots.tracking import plot_inputs, plot_states
 
         run = TrackingRun(sc.sv.plant, sc.sv.controller, result.road.mu,
                           tuple(result.records))
-        paths.append(plot_states([run], out / "tracking.png",
+        paths.append(plot_states([run], figure_path(out, "tracking"),
                                  f"{sc.name}: tracking (cf. Fig. 13-15)"))
-        paths.append(plot_inputs([run], out / "inputs.png", f"{sc.name}: inputs"))
+        paths.append(plot_inputs([run], figure_path(out, "inputs"), f"{sc.name}: inputs"))
     plan = result.first_plan
     if plan is not None:
         from cosim.plots.planning import planning_figure, tau_sets
 
-        with atomic_path(out / "tau_sets.png") as tmp:
-            tau_sets(tmp, plan, f"{sc.name}: tau sets of the plan at t = {plan.t:.2f} s "
-                                "(cf. Fig. 10-12 b)")
-        paths.append(out / "tau_sets.png")
-        with atomic_path(out / "planning.png") as tmp:
-            planning_figure(tmp, plan, result.road, sc.vehicle,
-                            f"{sc.name}: plan at t = {plan.t:.2f} s (cf. Fig. 10-12)")
-        paths.append(out / "planning.png")
+        paths.append(tau_sets(figure_path(out, "tau_sets"), plan,
+                              f"{sc.name}: tau sets of the plan at t = {plan.t:.2f} s "
+                              "(cf. Fig. 10-12 b)"))
+        paths.append(planning_figure(figure_path(out, "planning"), plan, result.road,
+                                     sc.vehicle,
+                                     f"{sc.name}: plan at t = {plan.t:.2f} s (cf. Fig. 10-12)"))
     return paths

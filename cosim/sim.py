@@ -388,9 +388,7 @@ class CoSimulation:
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed,
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=self.gui,
-            speed_bands=sc.road.speed_bands,
-            # sumo-gui: one step per step length of wall time (watchable, real time)
-            extra_args=("--delay", f"{1000.0 * sc.step:g}") if self.gui else (),
+            speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
         )
         self.sumo.start()
         self.started = True

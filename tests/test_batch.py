@@ -18,6 +18,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -28,9 +29,11 @@ from cosim.batch import (
     expand,
     is_timing_column,
     mean_ci,
+    median_ci,
     read_record,
     run_study,
     summarize,
+    summary_markdown,
     wilson,
     write_record,
 )
@@ -105,6 +108,59 @@ def test_summary_counts_failed_runs_apart_from_rates() -> None:
     assert row["min_ttc_s_p50"] == 2.0
 
 
+def test_median_interval_respects_positive_quantities() -> None:
+    """Few, spread durations: the old t interval of the mean went below zero
+    ("2.40 (-4.59-9.39)"); the median's interval is made of observed values."""
+    low_values = np.array([0.4, 4.4, np.nan])
+    assert mean_ci(low_values)[1] < 0  # the problem the median interval avoids
+    median, low, high, coverage = median_ci(low_values)
+    assert (median, low, high) == (pytest.approx(2.4), 0.4, 4.4)
+    assert coverage == pytest.approx(0.5)
+    x = np.arange(1.0, 21.0)  # n = 20: (x_(6), x_(15)), coverage 95.9 %
+    median, low, high, coverage = median_ci(x)
+    assert (median, low, high) == (10.5, 6.0, 15.0)
+    assert coverage == pytest.approx(0.9586, abs=1e-4)
+    rng = np.random.default_rng(1)
+    skewed = rng.lognormal(0.0, 1.5, size=40)
+    _, low, high, coverage = median_ci(skewed)
+    assert 0 < low < np.median(skewed) < high and coverage >= 0.95
+    assert all(math.isnan(v) for v in median_ci(np.array([np.inf])))
+
+
+def test_summary_table_and_plot_show_the_median_without_minus_like_hyphens(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    runs = pd.DataFrame({
+        "driver": ["mimo"] * 2, "plant": ["twotrack"] * 2, "occupant": [0.5] * 2,
+        "mu": [0.8] * 2, "density": [10.0] * 2, "seed": [1, 2],
+        "status": [STATUS_OK] * 2, "lane_change_completed": [True, True],
+        "collision": [False, False], "lane_change_duration_s": [0.4, 4.4],
+        "min_ttc_s": [1.0, 61.0],
+    })
+    summary = summarize(runs)
+    row = summary.iloc[0]
+    assert row["min_ttc_s_ci_low"] > 0 and row["lc_duration_s_ci_low"] > 0
+    text = summary_markdown(summary)
+    assert "2.40 [0.40, 4.40] (50 %)" in text and "31.00 [1.00, 61.00] (50 %)" in text
+    assert "100 [34, 100]" in text
+    data_row = text.splitlines()[2]
+    assert "-" not in data_row.replace("| - |", "")  # no hyphen between bounds
+    from cosim.plots import batch as batch_plots
+
+    assert batch_plots.PANELS[2][0] == "lc_duration_s"
+    import matplotlib.axes
+
+    drawn: list[float] = []  # the first point of each panel's line
+    real = matplotlib.axes.Axes.errorbar
+
+    def errorbar(self, x, y, **kw):  # type: ignore[no-untyped-def]
+        drawn.append(float(y[0]))
+        return real(self, x, y, **kw)
+
+    monkeypatch.setattr(matplotlib.axes.Axes, "errorbar", errorbar)
+    batch_plots.plot_summary(summary, tmp_path)
+    assert drawn == pytest.approx([100.0, 0.0, 2.4, 31.0])  # rates, medians as the table
+
+
 def test_records_are_written_whole(tmp_path: Path) -> None:
     record = {"run_id": "abc", "status": STATUS_OK, "x": float("nan")}
     write_record(tmp_path, record)
@@ -144,8 +200,12 @@ def test_bad_study_file_is_one_line_error_and_writes_nothing(
 def test_bad_flags_are_input_errors(tmp_path: Path) -> None:
     out = tmp_path / "out"
     for flags in (["--densities", "5,x"], ["--seeds", "3-1"], ["--drivers", "mpc"],
-                  ["--mu", "0.05"], ["--workers", "0"]):
-        assert main(["batch", str(STUDY), "-o", str(out), *flags]) == 2, flags
+                  ["--mu", "0.05"], ["--workers", "0"], ["--sed", "1"]):
+        try:
+            status = main(["batch", str(STUDY), "-o", str(out), *flags])
+        except SystemExit as exc:  # argparse's own checks (types, unknown flags)
+            status = exc.code
+        assert status == 2, flags
     assert main(["batch", "--scenario", str(BASE), "-o", str(out)]) == 2  # no densities
     assert not out.exists()
 
@@ -330,3 +390,29 @@ def test_variants_are_a_grid_dimension_for_our_drivers_only(tmp_path: Path) -> N
     study.write_text(head + "variants = { bad = 3 }\n", encoding="utf-8")
     with pytest.raises(InputError):
         load_study(study)
+
+
+def test_subset_of_a_study_file_gets_its_own_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A study file with grid flags and no -o / --name writes beside the study's
+    folder, never over its summary; the same subset resumes in the same folder."""
+    from cosim.cli import build_parser
+    from cosim.commands.batch import study_from_args, subset_name
+
+    def name(*flags: str) -> str:
+        args = build_parser().parse_args(["batch", str(STUDY), *flags])
+        return subset_name(args, study_from_args(args))
+
+    whole = load_study(STUDY).name
+    assert name() == whole and name("--traces") == whole
+    assert name("--densities", "10", "--seeds", "1") == f"{whole}--densities_10--seeds_1"
+    assert name("--seeds", "1-3", "--name", "mine") == "mine"
+    assert name("--seeds", ",".join(str(k) for k in range(1, 60))).startswith(
+        f"{whole}--subset-")
+    monkeypatch.chdir(tmp_path)
+    flags = ["--densities", "10", "--seeds", "1", "--drivers", "sumo", "--duration", "2",
+             "--no-progress", "--no-plots"]
+    assert main(["batch", str(STUDY), *flags]) == 0
+    folders = sorted(p.name for p in (tmp_path / "results" / "batch").iterdir())
+    assert folders == [f"{whole}--densities_10--seeds_1--drivers_sumo--duration_2.0"]
+    assert (tmp_path / "results" / "batch" / folders[0] / "summary.csv").is_file()

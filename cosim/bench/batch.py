@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from cosim.batch import expand, run_study, warm_up
+from cosim.commands import count, seconds
 from cosim.scenario import project_root
 
 
@@ -48,12 +49,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=project_root() / "scenarios" / "study_density_base.toml",
                         help="base scenario (default: scenarios/study_density_base.toml)")
     parser.add_argument("--densities", default="10,20", help="veh/km/lane, comma-separated")
-    parser.add_argument("--seeds", type=int, default=8, help="seeds 1..N per density")
+    parser.add_argument("--seeds", type=count("--seeds"), default=8, help="seeds 1..N per density")
     parser.add_argument("--driver", default="mimo", help="mimo, siso or sumo")
-    parser.add_argument("--duration", type=float, default=20.0, help="s, simulated time per run")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 2,
+    parser.add_argument("--duration", type=seconds("--duration"), default=20.0,
+                        help="s, simulated time per run")
+    parser.add_argument("--workers", type=count("--workers"), default=os.cpu_count() or 2,
                         help="workers of the parallel case (default: the machine's cores)")
-    parser.add_argument("--repeats", type=int, default=3, help="repeats of each case")
+    parser.add_argument("--repeats", type=count("--repeats"), default=3,
+                        help="repeats of each case")
 
 
 def measure(args: argparse.Namespace) -> dict[str, Any]:

@@ -19,6 +19,7 @@ import time
 from typing import Any
 
 from cosim.bench import median_time
+from cosim.commands import count, seconds
 from cosim.control.closed_loop import ClosedLoop
 from cosim.params import ControllerGains, VehicleParams, kmh
 from cosim.planning.trajectory import LaneChangeTrajectory
@@ -26,8 +27,10 @@ from cosim.vehicle.twotrack import TwoTrackPlant
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--repeats", type=int, default=7, help="timed repeats (median)")
-    parser.add_argument("--duration", type=float, default=10.0, help="s simulated per repeat")
+    parser.add_argument("--repeats", type=count("--repeats"), default=7,
+                        help="timed repeats (median)")
+    parser.add_argument("--duration", type=seconds("--duration", 600.0), default=10.0,
+                        help="s simulated per repeat")
 
 
 def measure(args: argparse.Namespace) -> dict[str, Any]:

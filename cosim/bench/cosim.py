@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from cosim.commands import count, seconds
 from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
 
 DEFAULT_DENSE = "scenarios/traffic_high.toml"
@@ -38,9 +39,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"dense traffic scenario (default {DEFAULT_DENSE})")
     parser.add_argument("--paper", type=Path, default=None,
                         help=f"paper case for the real-time factor (default {DEFAULT_PAPER})")
-    parser.add_argument("--duration", type=float, default=30.0,
+    parser.add_argument("--duration", type=seconds("--duration"), default=30.0,
                         help="simulated seconds of the dense run (default 30)")
-    parser.add_argument("--repeats", type=int, default=3, help="repeats (median; default 3)")
+    parser.add_argument("--repeats", type=count("--repeats"), default=3,
+                        help="repeats (median; default 3)")
 
 
 def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, float]:

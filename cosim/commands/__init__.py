@@ -1,1 +1,78 @@
-"""One module per CLI subcommand: `add_parser(subparsers)` and `run(args) -> int`."""
+"""One module per CLI subcommand: `add_parser(subparsers)` and `run(args) -> int`.
+
+Flags shared by several commands and flag types checked like scenario keys are here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+from typing import Any
+
+from cosim.errors import InputError
+from cosim.validation import Field
+
+FIGURE_FORMATS = ("png", "svg", "pdf")  # = cosim.plots.FORMATS (not imported: matplotlib)
+
+
+def add_figure_format(parser: argparse.ArgumentParser) -> None:
+    """`--figure-format png|svg|pdf` (default png, 200 dpi), for every command that draws."""
+    parser.add_argument("--figure-format", choices=FIGURE_FORMATS, default="png",
+                        help="format of the figures (default png, 200 dpi)")
+
+
+def flag_type(field: Field) -> Callable[[str], Any]:
+    """An argparse type that checks a flag's value as `field` checks a file's key:
+    an error names the flag, the value and what is allowed (argparse: exit 2)."""
+
+    def convert(text: str) -> Any:
+        try:
+            raw: Any = int(text) if field.kind is int else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r}: {field.allowed()}") from None
+        if isinstance(raw, float) and not math.isfinite(raw):
+            raise argparse.ArgumentTypeError(f"{text!r}: {field.allowed()}")
+        try:
+            return field.convert("command line", field.key, raw)
+        except InputError:
+            raise argparse.ArgumentTypeError(f"{text}: {field.allowed()}") from None
+
+    convert.__name__ = field.kind.__name__  # argparse names the type in some messages
+    return convert
+
+
+def count(key: str, lo: int = 1) -> Callable[[str], Any]:
+    """An integer flag >= lo (repeats, workers, seeds)."""
+    return flag_type(Field(key, int, lo=lo, default=None))
+
+
+def seconds(key: str, hi: float = 3600.0) -> Callable[[str], Any]:
+    """A positive duration flag in (0, hi] s."""
+    return flag_type(Field(key, float, lo=0.0, hi=hi, lo_open=True, unit="s", default=None))
+
+
+COMPILE_ESTIMATE_S = 25.0  # s, numba compiling every hot loop on a cold cache (2 cores)
+
+
+def compile_first(stream: Any = None) -> float:
+    """Compile (or load from numba's cache) the hot loops before a progress bar
+    starts, so that the bar measures runs only; on a cold cache say so first.
+    Returns the seconds it took."""
+    import sys
+    import time
+
+    from cosim.compiled import cache_warm, warm_up
+
+    out = stream or sys.stderr
+    cold = not cache_warm()
+    if cold:
+        print(f"compiling (once per machine, ~{COMPILE_ESTIMATE_S:.0f} s) ...", file=out,
+              flush=True)
+    start = time.perf_counter()
+    warm_up()
+    took = time.perf_counter() - start
+    if cold:
+        print(f"compiled in {took:.0f} s (cached in cosim/__pycache__/numba/)", file=out,
+              flush=True)
+    return took

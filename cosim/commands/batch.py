@@ -4,18 +4,24 @@ processes (default) or a Dask cluster (`--dask ADDRESS` or `--dask local`).
 Writes DIR/runs/<run_id>.json (one per finished run), DIR/runs.csv,
 DIR/summary.csv, DIR/summary.md and DIR/plots/density.png. Running the same command again
 skips the runs already recorded. Everything the user gives is checked before
-anything is written.
+anything is written. DIR is results/batch/<study name>; a study file run with
+grid flags (a subset, or more) and no --out / --name gets its own folder named
+after the flags, so that it never replaces the whole study's summary.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import os
+import re
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from cosim.batch import RunSpec, expand, run_study
+from cosim.commands import add_figure_format, compile_first, count
 from cosim.errors import InputError
 from cosim.output import check_output_dir
 from cosim.study import (
@@ -59,13 +65,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, metavar="S", help="simulated time of each run (s)")
     p.add_argument("--traces", action="store_true", default=None,
                    help="keep each run's trace files in DIR/traces/<run_id>/")
-    p.add_argument("--workers", type=int, metavar="N",
+    p.add_argument("--workers", type=count("--workers"), metavar="N",
                    help="processes (default: the machine's cores)")
     p.add_argument("--dask", metavar="ADDRESS",
                    help="run on a Dask cluster: a scheduler address, or 'local' (LocalCluster)")
     p.add_argument("--retry-failed", action="store_true", help="run failed runs again")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true", help="no figures")
+    add_figure_format(p)
     p.set_defaults(func=run)
 
 
@@ -157,9 +164,40 @@ def specs_of(study: Study) -> list[RunSpec]:
     )
 
 
+# Flags that change which runs a study file's grid holds (--traces changes no result).
+GRID_FLAGS = ("scenario", "densities", "seeds", "occupants", "mu", "drivers", "plants",
+              "duration")
+
+
+def subset_name(args: argparse.Namespace, study: Study) -> str:
+    """The folder name of a study file run with grid flags and no --out / --name:
+    the study's name and the flags ("study_density--densities_10--seeds_1"), so
+    that a subset never replaces the whole study's summary.csv, summary.md and plot
+    (and the same subset resumes in the same folder). The study's own name without
+    such flags."""
+    if args.study is None or args.out is not None or args.name is not None:
+        return study.name
+    parts = []
+    for flag in GRID_FLAGS:
+        value = getattr(args, flag)
+        if value is not None:
+            text = value.stem if isinstance(value, Path) else str(value)
+            parts.append(f"{flag}_{re.sub(r'[^A-Za-z0-9.]+', '.', text).strip('.')}")
+    if not parts:
+        return study.name
+    name = "--".join([study.name, *parts])
+    if len(name) > 80:  # a long list of values: the flags' digest instead
+        digest = hashlib.sha1("--".join(parts).encode()).hexdigest()[:10]
+        name = f"{study.name}--subset-{digest}"
+    return name
+
+
 def run(args: argparse.Namespace) -> int:
     study = study_from_args(args)
     specs = specs_of(study)
+    name = subset_name(args, study)
+    if name != study.name:
+        study = replace(study, name=name)
     out = args.out or Path("results") / "batch" / study.name
     check_output_dir(out)  # a bad --out is an input error now, not after the runs
     workers = args.workers or os.cpu_count() or 1
@@ -169,6 +207,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"cosim batch: {study.name}: {len(specs)} runs ({len(specs) - todo} done before) "
               f"on {where} -> {out}", file=sys.stderr)
 
+    if args.dask is None and any(d != "sumo" for d in {s.driver for s in specs}):
+        compile_first()  # before the progress bar, which then counts runs only
     result = run_study(
         specs, out, workers=workers, dask=args.dask, progress=not args.no_progress,
         retry_failed=args.retry_failed, plots=not args.no_plots, title=study.name,

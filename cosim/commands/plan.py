@@ -17,7 +17,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from cosim.commands import add_figure_format
 from cosim.errors import InputError
+from cosim.params import PlannerConfig
 from cosim.planning.collision import warm_up
 from cosim.planning.planner import LaneChangePlanner, Plan, Rejection
 from cosim.planning.situation import situation
@@ -40,7 +42,25 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         help="override the scenario's [planner] collision_test")
     parser.add_argument("--envelope", choices=("inverse_dynamics", "kinematic", "paper_maps"),
                         default=None, help="override the scenario's [planner] envelope")
+    add_figure_format(parser)
     parser.set_defaults(func=run)
+
+
+COLLISION_TESTS = {"exact": "exact collision test (separating axes)",
+                   "col": "paper's CoL collision test (corners at the samples)"}
+
+
+def figure_stem(name: str, cfg: PlannerConfig) -> str:
+    """The figure's name: the scenario's, plus the collision test and a non-default
+    envelope, so that planning one scenario two ways keeps both figures."""
+    stem = f"{name}_{cfg.collision_test}"
+    return stem if cfg.envelope == PlannerConfig.envelope else f"{stem}_{cfg.envelope}"
+
+
+def describe_method(cfg: PlannerConfig) -> str:
+    """Which collision test and envelope made the plan, for the figure's title."""
+    text = COLLISION_TESTS.get(cfg.collision_test, cfg.collision_test)
+    return text if cfg.envelope == PlannerConfig.envelope else f"{text}, {cfg.envelope} envelope"
 
 
 def rejection_ranges(rejections: list[Rejection]) -> list[dict[str, Any]]:
@@ -108,7 +128,8 @@ def run(args: argparse.Namespace) -> int:
     plan = planner.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
     figure = None
     if not args.no_plot:
-        from cosim.output import atomic_path, make_output_dir
+        from cosim.output import make_output_dir
+        from cosim.plots import figure_path
         from cosim.plots.planning import planning_figure
 
         try:
@@ -116,10 +137,9 @@ def run(args: argparse.Namespace) -> int:
         except OSError as exc:
             raise InputError("cosim plan", "--out", str(args.out),
                              f"a writable folder ({exc})") from None
-        figure = out / f"{sc.name}.png"
-        with atomic_path(figure) as tmp:
-            planning_figure(tmp, plan, si.road, sc.vehicle,
-                            title=f"{sc.name}: planning at t = {si.t:g} s")
+        figure = planning_figure(figure_path(out, figure_stem(sc.name, cfg)), plan, si.road,
+                                 sc.vehicle, title=f"{sc.name}: planning at t = {si.t:g} s, "
+                                 f"{describe_method(cfg)}")
     if args.json:
         d = plan.to_dict()
         d["scenario"] = sc.name

@@ -9,6 +9,9 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
+
+from cosim.commands import add_figure_format, compile_first
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -25,9 +28,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         help="vehicle model (default: the scenario's)")
     parser.add_argument("--controller", choices=("mimo", "siso", "sumo"), default=None,
                         help="mimo / siso: our planner and controller; sumo: SUMO drives the SV")
-    parser.add_argument("--gui", action="store_true", help="show the run in sumo-gui (traci)")
+    parser.add_argument("--gui", action="store_true",
+                        help="show the run in sumo-gui (traci), following the SV, in real "
+                        "time; the window stays open until closed (needs a display)")
+    parser.add_argument("--gui-speed", type=float, default=1.0, metavar="FACTOR",
+                        help="with --gui: simulated seconds per wall second (default 1: "
+                        "real time; 0.5: slow motion)")
+    parser.add_argument("--gui-quit", action="store_true",
+                        help="with --gui: close sumo-gui when the run ends")
     parser.add_argument("--seed", type=int, default=None, help="random seed (default: scenario's)")
-    parser.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--no-figures", action="store_true", help="skip the figures")
+    add_figure_format(parser)
     parser.set_defaults(func=run)
 
 
@@ -35,7 +46,11 @@ def run(args: argparse.Namespace) -> int:
     from cosim.output import check_output_dir
     from cosim.scenario import load_scenario, project_root, with_overrides
     from cosim.sim import run_scenario
+    from cosim.traffic import gui as sumo_gui
 
+    settings = sumo_gui.GuiSettings(speed=args.gui_speed, keep_open=not args.gui_quit)
+    if args.gui:
+        sumo_gui.check_gui(settings)  # no display: one line now, not a traceback later
     scenario = load_scenario(args.scenario)
     changes: dict[str, object] = {}
     if args.plant is not None:
@@ -48,14 +63,38 @@ def run(args: argparse.Namespace) -> int:
         scenario = with_overrides(scenario, **changes)
     out = args.out if args.out is not None else project_root() / "results" / scenario.name
     check_output_dir(out, whole=True)  # a bad --out is an input error now, not after the run
-    metrics = run_scenario(
-        scenario, out, write_trace=True, write_figures=not args.no_figures,
-        progress=True, gui=args.gui,
-    )
+    if scenario.sv.controller != "sumo":
+        compile_first()  # before the progress bar, which then counts steps only
+    try:
+        metrics = run_scenario(
+            scenario, out, write_trace=True, write_figures=not args.no_figures,
+            progress=True, gui=settings if args.gui else False,
+        )
+    except Exception as exc:
+        if args.gui and type(exc).__name__ == "FatalTraCIError":  # its user closed it
+            print("cosim run: stopped: the sumo-gui window was closed before the run ended",
+                  file=sys.stderr)
+            return 130
+        raise
     keys = ("lane_changes", "collisions", "sumo_collisions", "min_gap_m", "min_ttc_s",
             "tau_first_s", "iae_ye_m_s")
     summary = ", ".join(f"{k} = {metrics[k]:.4g}" if isinstance(metrics[k], float)
                         else f"{k} = {metrics[k]}" for k in keys if k in metrics)
     print(f"{scenario.name}: {summary}")
+    note = quiet_sv_note(scenario, metrics)
+    if note:
+        print(note)
     print(f"wrote {out}", file=sys.stderr)
+    sumo_gui.wait_for_windows()
     return 0
+
+
+def quiet_sv_note(scenario: Any, metrics: dict[str, Any]) -> str:
+    """A line when the SUMO-native SV never changed lanes although the decision rule
+    was on: SUMO's own lane-change model found no reason (or no gap) to."""
+    if (scenario.sv.controller == "sumo" and scenario.sv.decision
+            and not metrics.get("lane_changes")):
+        return (f"note: SUMO's own model drove the SV and changed no lane in "
+                f"{metrics.get('duration_s', scenario.duration):g} s (its lane-change "
+                "model saw no advantage worth a change, or no gap)")
+    return ""

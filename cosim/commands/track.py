@@ -16,16 +16,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from cosim.commands import add_figure_format, flag_type
 from cosim.control.closed_loop import YAW_MOMENT_SHARE
 from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, TrackingRun, run_tracking
 from cosim.errors import InputError
 from cosim.params import ControllerGains, RoadParams, VehicleParams, kmh
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.study import MU
 from cosim.vehicle.chassis import ChassisParams
 
 HEADERS = {
@@ -66,11 +67,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         help="the paper's case (default 5.1, the one of Table 2)")
     parser.add_argument("--plant", choices=("twotrack", "bicycle", "both"), default="both",
                         help="vehicle model(s) (default: both)")
-    parser.add_argument("--source", choices=("planner", "paper"), default="planner",
-                        help="case 5.1's reference: our planner's tau, or the paper's 6.25 s")
+    parser.add_argument("--source", choices=("planner", "paper"), default=None,
+                        help="case 5.1's reference: our planner's tau (default for 5.1 "
+                        "alone), or the paper's tau_opt (default for --case all: one "
+                        "source for every case)")
     parser.add_argument("--tau-s", type=float, default=None, help="force this tau (s)")
-    parser.add_argument("--mu", type=float, default=None,
-                        help="road friction (default: the case's, 0.4 / 0.6 / 0.8)")
+    parser.add_argument("--mu", type=flag_type(MU), default=None,
+                        help=f"road friction, {MU.allowed()} as in scenario files "
+                        "(default: the case's, 0.4 / 0.6 / 0.8)")
     parser.add_argument("--duration-s", type=float, default=10.0, help="run length (s)")
     parser.add_argument("--out", type=Path, default=Path("results/track"),
                         help="folder for the figures (default results/track)")
@@ -81,6 +85,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--paper-law", action="store_true",
                         help="no yaw-moment limit: the MIMO law exactly as printed")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    add_figure_format(parser)
     parser.set_defaults(func=run)
 
 
@@ -155,9 +160,21 @@ def table(runs: list[TrackingRun], with_paper: bool) -> str:
     return "\n".join(lines)
 
 
+def source_of(case: str, source: str | None) -> str:
+    """Where the references' tau comes from: one source for all cases shown together
+    (the planner plans case 5.1 only; 5.2 and 5.3 take the paper's tau_opt)."""
+    if source is None:
+        return "planner" if case == "5.1" else "paper"
+    if source == "planner" and case != "5.1":
+        raise InputError("command line", "--source", source,
+                         "'paper' with --case 5.2, 5.3 or all (the planner plans case 5.1 "
+                         "only, and one table must not mix the planner's tau with the "
+                         "paper's)")
+    return source
+
+
 def run(args: argparse.Namespace) -> int:
-    if args.mu is not None and (not math.isfinite(args.mu) or not 0.0 < args.mu <= 1.5):
-        raise InputError("--mu", "mu", args.mu, "road friction in (0, 1.5]")
+    source = source_of(args.case, args.source)
     if not 0.5 <= args.duration_s <= 120.0:
         raise InputError("--duration-s", "duration", args.duration_s, "in [0.5, 120] s")
     if not 0.2 <= args.cornering_scale <= 2.0:
@@ -172,7 +189,7 @@ def run(args: argparse.Namespace) -> int:
     figures: list[str] = []
     for case in cases:
         mu = case.mu if args.mu is None else args.mu
-        ref, origin = case_reference(case, args.source, args.tau_s, mu)
+        ref, origin = case_reference(case, source, args.tau_s, mu)
         runs = [
             run_tracking(p, c, ref, mu=mu, duration=args.duration_s, vehicle=vehicle,
                          gains=gains, chassis=chassis, yaw_moment_share=share)
@@ -183,13 +200,14 @@ def run(args: argparse.Namespace) -> int:
             mimo, siso = (r.iae() for r in runs if r.plant == p)
             verdicts[p] = mimo["phi_e_deg"] < siso["phi_e_deg"]
         if not args.no_plot:
+            from cosim.plots import figure_path
             from cosim.plots.tracking import plot_inputs, plot_states
 
             title = f"case {case.name} lane change, mu {mu:g}, tau {ref.tau:.2f} s"
             suffix = "" if len(cases) == 1 else f"_{case.name}"
             figures += [
-                str(plot_states(runs, args.out / f"tracking_states{suffix}.png", title)),
-                str(plot_inputs(runs, args.out / f"tracking_inputs{suffix}.png", title)),
+                str(plot_states(runs, figure_path(args.out, f"tracking_states{suffix}"), title)),
+                str(plot_inputs(runs, figure_path(args.out, f"tracking_inputs{suffix}"), title)),
             ]
         results.append({"case": case, "mu": mu, "ref": ref, "origin": origin, "runs": runs,
                         "verdicts": verdicts})
@@ -204,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
                          for r in res["runs"]],
                 "mimo_beats_siso_on_heading": res["verdicts"],
             } for res in results],
+            "source": source,
             "duration_s": args.duration_s,
             "cornering_scale": args.cornering_scale,
             "yaw_moment_share": share,

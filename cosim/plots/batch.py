@@ -10,14 +10,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from cosim.output import atomic_path
+from cosim.plots import save_figure
 
 # (summary column prefix, axis label); rates are shown in per cent.
 PANELS = (
     ("success", "lane changes completed (%)"),
     ("collision", "runs with a collision (%)"),
-    ("lc_duration_s", "lane-change duration (s)"),
-    ("min_ttc_s", "minimum TTC (s)"),
+    ("lc_duration_s", "lane-change duration, median (s)"),
+    ("min_ttc_s", "minimum TTC, median (s)"),
 )
 DRIVER_LABELS = {"mimo": "ours, MIMO", "siso": "ours, SISO", "sumo": "SUMO-native"}
 _OTHER = ("variant", "plant", "occupant", "mu")
@@ -60,7 +60,8 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
     for ax, (prefix, ylabel) in zip(axes.flat, PANELS, strict=True):
         scale = 100.0 if prefix in ("success", "collision") else 1.0
-        column = f"{prefix}_rate" if scale != 1.0 else f"{prefix}_mean"
+        # rates, and medians of durations and TTC: the statistics of summary.md
+        column = f"{prefix}_rate" if scale != 1.0 else f"{prefix}_p50"
         for i, (driver, variant) in enumerate(lines):
             j = variants.index(variant)
             cell = summary[(summary["driver"] == driver) & (summary["variant"] == variant)]
@@ -89,13 +90,11 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
     handles, labels = axes[0, 0].get_legend_handles_labels()
     counts = sorted(set(summary["ok"].astype(int)))
     n = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]}-{counts[-1]}"
-    fig.suptitle(f"{title}: means with 95 % confidence intervals ({n} finished runs per point)",
-                 fontsize=11)
+    fig.suptitle(f"{title}: rates and medians with 95 % confidence intervals "
+                 f"({n} finished runs per point)", fontsize=11)
     fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.955),
                ncol=min(len(labels), 4), frameon=False)
     fig.tight_layout(rect=(0, 0, 1, 0.91))
     path = out_dir / "density.png"
-    with atomic_path(path) as tmp:  # an interrupted study never leaves half a PNG
-        fig.savefig(tmp, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path)
     return [path]

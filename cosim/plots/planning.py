@@ -14,14 +14,18 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
 from matplotlib.patches import Polygon
 
 from cosim.params import RoadParams, VehicleParams
 from cosim.planning.collision import corners
 from cosim.planning.planner import Plan
 from cosim.planning.trajectory import cluster_derivatives
+from cosim.plots import save_figure
 
 RECT_TIMES = 1.0  # s, spacing of the rectangles of panel (c)
+MAX_NAMED = 6  # TVs named in a panel; more are drawn without a name each
 
 
 def _lanes(ax: Axes, road: RoadParams) -> None:
@@ -56,15 +60,25 @@ def draw_cluster(ax: Axes, plan: Plan, road: RoadParams) -> None:
             free = plan.collision_free[plan.stable][i]
             ax.plot(x[i], y[i], color=cmap((taus[i] - taus.min()) / span), lw=0.6,
                     alpha=0.9 if free else 0.35, ls="-" if free else ":")
+        bar = plt.colorbar(ScalarMappable(Normalize(float(taus.min()), float(taus.min()) + span),
+                                          cmap), ax=ax, pad=0.01, fraction=0.04)
+        bar.set_label("SV's tau (s)")
     f = plan.futures
     if f is not None:
+        # one legend entry per kind of prediction, not per TV (dense traffic has dozens)
+        labelled: set[str] = set()
         for j, vid in enumerate(f.vehicle_ids):
             rows = np.flatnonzero(f.owner == j)
             step = max(1, rows.size // 15)
-            for n, h in enumerate(rows[::step]):
+            kind = "TV cluster (C2)" if rows.size > 1 else "TV prediction"
+            for h in rows[::step]:
                 ax.plot(f.x[h], f.y[h], color="C3", lw=0.7 if rows.size > 1 else 1.6,
                         alpha=0.5 if rows.size > 1 else 1.0,
-                        label=f"{vid} ({f.categories[j]})" if n == 0 else None)
+                        label=None if kind in labelled else kind)
+                labelled.add(kind)
+            if len(f.vehicle_ids) <= MAX_NAMED:
+                ax.annotate(f"{vid} ({f.categories[j]})", (f.x[rows[0], 0], f.y[rows[0], 0]),
+                            fontsize=6, color="C3", xytext=(0, 4), textcoords="offset points")
     if plan.trajectory is not None:
         tr = plan.trajectory
         ts = plan.t + t_rel[t_rel <= tr.tau + 2.0]
@@ -92,9 +106,18 @@ def draw_tau_sets(ax: Axes, plan: Plan) -> None:
     for r in plan.rejections:
         if r.reason == "collision":
             by_tv.setdefault(str(r.vehicle_id), []).append(r.tau)
-    for k, (vid, tv_taus) in enumerate(sorted(by_tv.items())):
+    # the TVs that reject the most taus by name, the rest together (a short legend)
+    ranked = sorted(by_tv.items(), key=lambda kv: (-len(kv[1]), kv[0]))
+    named, rest = ranked[:MAX_NAMED - 1], ranked[MAX_NAMED - 1:]
+    if len(rest) == 1:
+        named, rest = ranked, []
+    for k, (vid, tv_taus) in enumerate(named):
         ax.plot(tv_taus, np.zeros(len(tv_taus)), "|", color=f"C{(k + 3) % 10}", ms=14,
                 label=f"collides with {vid}")
+    if rest:
+        others = [tau for _, tv_taus in rest for tau in tv_taus]
+        ax.plot(others, np.zeros(len(others)), "|", color="0.3", ms=14,
+                label=f"collides with {len(rest)} other TVs")
     if np.isfinite(plan.tau_opt):
         ax.axvline(plan.tau_opt, color="k", ls="--", lw=1, label=f"tau_opt = {plan.tau_opt:.2f} s")
     if plan.tau is not None:
@@ -156,7 +179,7 @@ def draw_snapshots(ax: Axes, plan: Plan, road: RoadParams, vehicle: VehicleParam
 
 def planning_figure(path: Path, plan: Plan, road: RoadParams, vehicle: VehicleParams,
                     title: str = "") -> Path:
-    """The three panels in one PNG at `path` (written as given; use output.atomic_path)."""
+    """The three panels in one figure at `path` (written atomically)."""
     fig, axes = plt.subplots(3, 1, figsize=(10, 11))
     draw_cluster(axes[0], plan, road)
     draw_tau_sets(axes[1], plan)
@@ -164,9 +187,7 @@ def planning_figure(path: Path, plan: Plan, road: RoadParams, vehicle: VehiclePa
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def tau_sets(path: Path, plan: Plan, title: str = "") -> Path:
@@ -176,6 +197,4 @@ def tau_sets(path: Path, plan: Plan, title: str = "") -> Path:
     if title:
         ax.set_title(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

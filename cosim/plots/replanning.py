@@ -11,14 +11,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from cosim.output import atomic_path
+from cosim.plots import save_figure
 
 # (summary column prefix, axis label, per cent?)
 PANELS = (
     ("success", "lane change completed (%)", True),
     ("manoeuvre_collision", "runs with a collision during the SV's lane change (%)", True),
     ("collision", "runs with any collision of the SV (%)", True),
-    ("lc_duration_s", "lane-change duration (s)", False),
+    ("lc_duration_s", "lane-change duration, median (s)", False),
 )
 STYLE = {  # variant -> (colour, line style, marker)
     "paper": ("C0", "-", "o"),
@@ -52,7 +52,7 @@ def plot_replanning(summary: pd.DataFrame, path: Path, *, title: str) -> Path:
                 lo = 100.0 * cell[f"{prefix}_ci_low"].to_numpy(float)
                 hi = 100.0 * cell[f"{prefix}_ci_high"].to_numpy(float)
             else:
-                y = cell[f"{prefix}_mean"].to_numpy(float)
+                y = cell[f"{prefix}_p50"].to_numpy(float)  # the median, as summary.md
                 lo = cell[f"{prefix}_ci_low"].to_numpy(float)
                 hi = cell[f"{prefix}_ci_high"].to_numpy(float)
             err = np.vstack([np.nan_to_num(y - lo), np.nan_to_num(hi - y)])
@@ -66,9 +66,7 @@ def plot_replanning(summary: pd.DataFrame, path: Path, *, title: str) -> Path:
     axes[0, 0].legend(fontsize=8, loc="best")
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
     return path
 
 

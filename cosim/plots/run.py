@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim.params import RoadParams
+from cosim.plots import save_figure
 
 Array = NDArray[np.float64]
 
@@ -73,10 +74,50 @@ def global_trajectories(
     ax.set_title(title or "global trajectories (dots every 1 s; > start, | end of lane change)")
     ax.legend(loc="upper right", fontsize=8, ncol=4)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
+
+
+def gap_history(
+    path: Path,
+    t: Array,
+    gap: Array,
+    leader_gap: Array,
+    ttc: Array,
+    *,
+    lane_changes: Sequence[tuple[float, float]] = (),
+    title: str = "",
+) -> Path:
+    """Gap and time-to-collision over time (trace.csv's gap_min_m, leader_gap_m,
+    ttc_min_s), lane changes shaded. inf (no one in the SV's strip, or no one
+    closing in) is left as a break in the line and said in the panel."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    for ax in (top, bottom):
+        for start, end in lane_changes:
+            ax.axvspan(start, end, color="0.9", lw=0)
+        ax.grid(alpha=0.3)
+    if t.size:
+        top.set_xlim(float(t[0]), float(t[-1]))
+    finite_gap = np.where(np.isfinite(gap), gap, np.nan)
+    top.plot(t, np.where(np.isfinite(leader_gap), leader_gap, np.nan), color="0.5", lw=1.0,
+             label="gap to the leader in the SV's lane")
+    top.plot(t, finite_gap, color="C0", lw=1.6, label="smallest gap to a TV in the SV's strip")
+    top.set_ylabel("gap (m)")
+    top.set_ylim(bottom=0.0)
+    top.legend(fontsize=8, loc="upper right")
+    finite_ttc = np.where(np.isfinite(ttc), ttc, np.nan)
+    bottom.plot(t, finite_ttc, color="C3", lw=1.6, label="smallest TTC")
+    if np.isfinite(ttc).any():
+        bottom.set_yscale("log")
+        worst = float(np.nanmin(finite_ttc))
+        bottom.set_title(f"minimum {worst:.2f} s; breaks: no one closing in (TTC inf)",
+                         fontsize=8)
+    else:
+        bottom.set_title("no TV ever closing in on the SV (TTC inf throughout)", fontsize=8)
+    bottom.set_ylabel("time-to-collision (s)")
+    bottom.set_xlabel("t (s)  (grey: the SV's lane changes)")
+    fig.suptitle(title or "gaps and time-to-collision", fontsize=10)
+    fig.tight_layout()
+    return save_figure(fig, path)
 
 
 def _every_second(t: Array) -> Array:

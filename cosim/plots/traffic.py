@@ -13,8 +13,8 @@ import matplotlib.pyplot as plt  # Agg: cosim/plots/__init__.py selects it
 import numpy as np
 from matplotlib.patches import Rectangle
 
-from cosim.output import atomic_path
 from cosim.params import RoadParams
+from cosim.plots import save_figure
 from cosim.traffic.demand import LaneSpeeds, sample_lane_speeds
 from cosim.traffic.network import DEFAULT_NETWORK
 from cosim.traffic.sumo import TrafficSnapshot
@@ -51,9 +51,7 @@ def plot_lane_speeds(samples: LaneSpeeds, path: Path) -> Path:
         fontsize=10,
     )
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path)
     return Path(path)
 
 
@@ -91,9 +89,7 @@ def plot_snapshot(
     ax.set_ylabel("y (m)")
     ax.set_title(f"t = {snap.time:.2f} s (numbers: km/h)", fontsize=9)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path)
     return Path(path)
 
 

@@ -49,6 +49,8 @@ import numpy as np
 
 from cosim.errors import InputError, SimulationError
 from cosim.params import RoadParams
+from cosim.traffic import gui as gui_window
+from cosim.traffic.gui import GuiSettings
 from cosim.traffic.network import Highway, load_highway
 
 ROUTE_ID = "highway_route"
@@ -199,7 +201,7 @@ class SumoSim:
         *,
         lanechange_duration: float = 3.0,
         sublane: bool = False,
-        gui: bool = False,
+        gui: bool | GuiSettings = False,
         extra_args: Sequence[str] = (),
         speed_bands: tuple[tuple[float, float], ...] | None = None,
         lateral_resolution: float = 0.8,
@@ -216,6 +218,8 @@ class SumoSim:
         self.lanechange_duration = float(lanechange_duration)
         self.sublane = bool(sublane)
         self.gui = bool(gui)
+        # `gui` may carry how to show the run (cosim.traffic.gui); True: the defaults
+        self.gui_settings = gui if isinstance(gui, GuiSettings) else GuiSettings()
         self.use_traci = bool(traci) or self.gui  # the GUI is only reachable through traci
         self.extra_args = tuple(extra_args)
         self.lateral_resolution = float(lateral_resolution)
@@ -275,7 +279,7 @@ class SumoSim:
         elif self.lanechange_duration > 0:
             options.append(("--lanechange.duration", repr(self.lanechange_duration)))
         if self.gui:
-            options += [("--start", "true"), ("--quit-on-end", "true")]
+            options += gui_window.options(self.gui_settings)
         # SUMO refuses an option given twice: extra_args replace our defaults
         overridden = {a for a in self.extra_args if a.startswith("-")}
         cmd = [binary]
@@ -289,7 +293,11 @@ class SumoSim:
         if _active is not None and _active is not self and _active._api is not None:
             raise SimulationError(0.0, "another SUMO simulation is running in this process")
         self._api = _import_api(self.use_traci)
-        self._api.start(self.command())
+        if self.gui:
+            gui_window.start(self._api, self.command())
+            self.add_hook(gui_window.Pacer(self.gui_settings.speed))
+        else:
+            self._api.start(self.command())
         _active = self
         self._api.route.add(ROUTE_ID, [self.highway.edge_id])
         self._ensure_type(TV_TYPE, TV_LENGTH, TV_WIDTH, traffic=True)
@@ -309,7 +317,10 @@ class SumoSim:
                 self._moved = False
         finally:
             try:
-                api.close()
+                if self.gui:
+                    gui_window.close(api, self.gui_settings)
+                else:
+                    api.close()
             finally:
                 self._api = None
                 _active = None
@@ -490,11 +501,10 @@ class SumoSim:
         vehicle.setMaxSpeed(vehicle_id, desired)
         self._controlled.pop(vehicle_id, None)
 
-    def follow_in_gui(self, vehicle_id: str, zoom: float = 400.0) -> None:
+    def follow_in_gui(self, vehicle_id: str) -> None:
         """sumo-gui only: keep the main view centred on a vehicle (no-op without GUI)."""
         if self.gui:
-            self.api.gui.trackVehicle("View #0", vehicle_id)
-            self.api.gui.setZoom("View #0", zoom)
+            gui_window.follow(self.api, vehicle_id, self.gui_settings)
 
     def change_lane(self, vehicle_id: str, lane: int, duration: float = 30.0) -> None:
         """Ask SUMO to move a vehicle it drives to `lane` (keeps trying for `duration` s)."""

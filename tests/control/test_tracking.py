@@ -91,6 +91,30 @@ def test_track_command_table_and_figures(tmp_path, capsys) -> None:
     assert (tmp_path / "tracking_states.png").stat().st_size > 10_000
 
 
-def test_track_command_rejects_a_bad_mu() -> None:
-    with pytest.raises(InputError, match="mu"):
-        main(["track", "--mu", "0", "--no-plot"])
+@pytest.mark.parametrize("mu", ["0", "5", "1.25", "nan", "x"])
+def test_track_command_mu_range_is_the_scenario_files(
+        mu: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """--mu allows what a scenario file's [road] mu allows (read from its declaration)."""
+    from cosim.cli import main as cosim
+    from cosim.scenario import ROAD_FIELDS
+
+    field = next(f for f in ROAD_FIELDS if f.key == "mu")
+    with pytest.raises(SystemExit) as exc:
+        cosim(["track", "--mu", mu, "--no-plot"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--mu" in err
+    assert f"[{field.lo:g}, {field.hi:g}]" in err
+
+
+def test_track_case_all_takes_one_source(capsys: pytest.CaptureFixture[str]) -> None:
+    """--case all: every case's tau from the paper (the planner plans 5.1 only)."""
+    with pytest.raises(InputError, match="source"):
+        main(["track", "--case", "all", "--source", "planner", "--no-plot"])
+    assert track.source_of("all", None) == "paper"
+    assert track.source_of("5.1", None) == "planner"
+    assert main(["track", "--case", "all", "--plant", "bicycle", "--duration-s", "1",
+                 "--no-plot", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["source"] == "paper"
+    assert [c["reference"]["tau_s"] for c in out["cases"]] == [6.25, 5.56, 7.35]

@@ -31,10 +31,37 @@ def test_text_report_and_figure(capsys: pytest.CaptureFixture[str], tmp_path: Pa
     assert main(["plan", str(case3), "--out", str(tmp_path)]) == 0
     text = capsys.readouterr().out
     assert "collision with tv1" in text and "unstable" in text
-    png = tmp_path / "paper_case3_lane_exchange.png"
+    png = tmp_path / "paper_case3_lane_exchange_exact.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main(["plan", str(case3), "--collision-test", "col", "--no-plot"]) == 0
     assert "chosen tau" in capsys.readouterr().out
+
+
+def test_col_test_keeps_the_exact_figure_and_says_which(tmp_path: Path) -> None:
+    """Planning one scenario with both tests keeps both figures, each titled with its test."""
+    import matplotlib.image as mpimg
+
+    from cosim.commands.plan import describe_method
+    from cosim.params import PlannerConfig
+
+    case3 = ROOT / "scenarios" / "paper_case3_lane_exchange.toml"
+    assert main(["plan", str(case3), "--out", str(tmp_path)]) == 0
+    exact = tmp_path / "paper_case3_lane_exchange_exact.png"
+    before = exact.read_bytes()
+    assert main(["plan", str(case3), "--out", str(tmp_path), "--collision-test", "col"]) == 0
+    col = tmp_path / "paper_case3_lane_exchange_col.png"
+    assert exact.read_bytes() == before and col.is_file()
+    assert not (mpimg.imread(exact).shape == mpimg.imread(col).shape
+                and (mpimg.imread(exact) == mpimg.imread(col)).all())
+    assert "CoL" in describe_method(PlannerConfig(collision_test="col"))
+    assert "exact" in describe_method(PlannerConfig())
+
+
+def test_figure_format_svg(tmp_path: Path) -> None:
+    assert main(["plan", str(CASE1), "--out", str(tmp_path), "--figure-format", "svg"]) == 0
+    svg = tmp_path / "paper_case1_overtaking_exact.svg"
+    assert svg.read_text().lstrip().startswith("<?xml") and "<svg" in svg.read_text()
+    assert not list(tmp_path.glob("*.png"))
 
 
 def test_bad_file_is_one_line_exit_2(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -1,0 +1,40 @@
+"""Run figures: the gap and TTC history among them; compiling announced before a bar."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim.plots.run import gap_history
+
+
+def test_gap_history_handles_inf(tmp_path: Path) -> None:
+    t = np.arange(0.0, 5.0, 0.05)
+    gap = np.where(t < 2.0, 10.0 - t, np.inf)
+    ttc = np.where(t < 1.0, 5.0 - t, np.inf)
+    path = gap_history(tmp_path / "gaps.svg", t, gap, np.full_like(t, np.inf), ttc,
+                       lane_changes=[(1.0, 3.0)], title="t")
+    assert "<svg" in path.read_text()
+    never = gap_history(tmp_path / "none.png", t, gap, gap, np.full_like(t, np.inf))
+    assert never.stat().st_size > 5_000
+
+
+def test_compile_first_says_so_on_a_cold_cache(monkeypatch: pytest.MonkeyPatch,
+                                               tmp_path: Path) -> None:
+    from cosim.commands import compile_first
+    from cosim.compiled import cache_warm
+
+    compile_first(io.StringIO())  # fills the cache if it was cold
+    assert cache_warm()
+    quiet = io.StringIO()
+    compile_first(quiet)
+    assert quiet.getvalue() == ""  # a warm cache: nothing to say
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))  # an empty cache
+    assert not cache_warm()
+    told = io.StringIO()
+    compile_first(told)
+    lines = told.getvalue().splitlines()
+    assert lines[0].startswith("compiling (once per machine, ~") and "compiled in" in lines[1]

@@ -1,0 +1,120 @@
+"""README.md and docs/ as a user reads them: every `cosim` command they show is
+classified (quick, slow or a synopsis with placeholders) and the quick ones run as
+written; the marked result tables that are quick to make still match the code."""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+# Shown commands that take minutes (or a display): named here with the reason, so
+# that a new command in the docs must be classified before the suite passes.
+SLOW = {
+    "cosim batch scenarios/study_density.toml": "150 runs",
+    "cosim batch scenarios/study_replanning.toml": "800 runs",
+    "cosim run scenarios/traffic_medium.toml --gui": "needs a display; waits for its window",
+    "cosim bench planner": "minutes: loop transcriptions",
+    "cosim bench cosim": "three 30 s dense runs and more",
+    "cosim bench batch": "a 16-run study three times",
+    "cosim batch scenarios/study_replanning.toml -o results/batch/study_replanning_fixed":
+        "800 runs",
+    "cosim bench cosim --repeats 5 --duration 30": "ten 30 s dense runs and more",
+}
+# A synopsis: placeholders (FILE, N, ...), alternatives ([...], a|b) or globs.
+# A bare command name that needs an argument is a mention ("`cosim run`'s outputs").
+PLACEHOLDER = re.compile(r"[A-Z]{2,}|\b[A-Z]\b|\.\.\.|[\[\]{}|*<>]|\bS\.toml"
+                         r"|^cosim (plan|run|batch|compare)$")
+
+
+def shown_commands() -> list[tuple[str, str]]:
+    """(file name, command) of every `cosim ...` in a fenced block (continuation
+    lines joined, comments dropped) or an inline code span, in order, once each."""
+    found: dict[str, str] = {}
+    for doc in DOCS:
+        text = doc.read_text()
+        for block in re.findall(r"```[a-z]*\n(.*?)```", text, re.S):
+            for line in block.replace("\\\n", " ").splitlines():
+                line = line.split(" # ")[0].split("  #")[0].strip()
+                for part in line.split("&&"):
+                    part = " ".join(part.split())
+                    if part.startswith("cosim "):
+                        found.setdefault(part, doc.name)
+        prose = re.sub(r"```.*?```", "", text, flags=re.S)
+        for span in re.findall(r"`(cosim [^`]+)`", prose):
+            found.setdefault(" ".join(span.split()), doc.name)
+    return [(doc, cmd) for cmd, doc in found.items()]
+
+
+def rewrites_docs(command: str) -> bool:
+    """`cosim docs` without --check rewrites README and docs/: shown, never run here
+    (test_quick_tables_match_the_code checks what it would write)."""
+    return command.startswith("cosim docs") and "--check" not in command
+
+
+def quick_commands() -> list[str]:
+    return [cmd for _, cmd in shown_commands()
+            if cmd not in SLOW and not PLACEHOLDER.search(cmd) and not rewrites_docs(cmd)]
+
+
+def test_every_shown_command_is_classified() -> None:
+    commands = [cmd for _, cmd in shown_commands()]
+    assert len(commands) > 20  # the parser finds the docs' commands
+    assert all(cmd in commands for cmd in SLOW), [c for c in SLOW if c not in commands]
+    assert "cosim run scenarios/paper_case1_overtaking.toml" in quick_commands()
+    assert "cosim docs --only track_cases" in commands
+    assert not any(cmd.startswith("cosim docs") for cmd in quick_commands())
+
+
+@pytest.mark.parametrize("command", quick_commands())
+def test_quick_command_runs_as_written(command: str) -> None:
+    """Run from the repository root exactly as the docs show it (outputs go where
+    they say, under results/), through this checkout's package."""
+    argv = shlex.split(command)[1:]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-m", "cosim.cli", *argv], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=240)
+    assert done.returncode == 0, f"{command}\n{done.stderr[-2000:]}"
+    assert "Traceback" not in done.stderr
+
+
+def test_quick_tables_match_the_code() -> None:
+    """The README tables `cosim docs --quick` makes (tau sets, Table 2) are the code's."""
+    from cosim.docs_tables import TABLES, regenerate
+
+    quick = [name for name, table in TABLES.items() if table.quick]
+    assert quick and regenerate(quick, check=True, log=lambda _: None) == []
+
+
+def test_stale_table_is_found(tmp_path: Path) -> None:
+    from cosim.docs_tables import regenerate
+
+    (tmp_path / "README.md").write_text(
+        "<!-- cosim docs: table2 (commit old) -->\n| stale |\n<!-- end cosim docs: table2 -->\n")
+    problems = regenerate(["table2"], check=True, root=tmp_path, log=lambda _: None)
+    assert len(problems) == 1 and "stale" in problems[0] and "commit old" in problems[0]
+    assert regenerate(["table2"], check=False, root=tmp_path, log=lambda _: None) == []
+    assert regenerate(["table2"], check=True, root=tmp_path, log=lambda _: None) == []
+    text = (tmp_path / "README.md").read_text()
+    assert "| paper MIMO (veDYNA) |" in text and "(commit old)" not in text
+
+
+def test_markdown_tables_have_as_many_cells_in_every_row() -> None:
+    """An unescaped `|` in a cell (mimo | siso, |ay|) splits it into a column too many."""
+    for doc in DOCS:
+        columns = None
+        for number, line in enumerate(doc.read_text().splitlines(), 1):
+            if not line.startswith("|"):
+                columns = None
+                continue
+            cells = len(re.findall(r"(?<!\\)\|", line))
+            columns = columns or cells
+            assert cells == columns, f"{doc.name}:{number}: {line[:80]}"
