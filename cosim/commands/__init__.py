@@ -76,3 +76,15 @@ def compile_first(stream: Any = None) -> float:
         print(f"compiled in {took:.0f} s (cached in cosim/__pycache__/numba/)", file=out,
               flush=True)
     return took
+
+
+def flag_overrides(scenario: Any, flags: dict[str, tuple[str, Any]]) -> Any:
+    """The scenario with command-line flags applied (`{"--seed": ("seed", 3)}`: flag ->
+    (override name, value); None values skipped), validated like the file; an error
+    names the flag."""
+    from cosim.scenario import apply_overrides
+
+    for flag, (name, value) in flags.items():
+        if value is not None:
+            scenario = apply_overrides(scenario, {name: value}, f"command line {flag}")
+    return scenario

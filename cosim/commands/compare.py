@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from cosim.commands import add_figure_format, compile_first
+from cosim.commands import add_figure_format, compile_first, flag_overrides
 
 DRIVERS = ("mimo", "siso", "sumo")
 SHOWN = ("lane_changes", "collisions", "min_gap_m", "min_ttc_s", "max_abs_lat_accel_mps2",
@@ -41,9 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from cosim.scenario import load_scenario, project_root, with_overrides
     from cosim.sim import simulate
 
-    base = load_scenario(args.scenario)
-    if args.seed is not None:
-        base = with_overrides(base, seed=args.seed)
+    base = flag_overrides(load_scenario(args.scenario), {"--seed": ("seed", args.seed)})
     scenarios = {d: with_overrides(base, controller=d) for d in DRIVERS}  # all checked first
     out = args.out if args.out is not None else project_root() / "results" / "compare" / base.name
     check_output_dir(out)

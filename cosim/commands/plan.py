@@ -128,10 +128,11 @@ def run(args: argparse.Namespace) -> int:
     plan = planner.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
     figure = None
     if not args.no_plot:
-        from cosim.output import make_output_dir
+        from cosim.output import check_output_dir, make_output_dir
         from cosim.plots import figure_path
         from cosim.plots.planning import planning_figure
 
+        check_output_dir(args.out)  # no escaping or empty name
         try:
             out = make_output_dir(args.out)
         except OSError as exc:

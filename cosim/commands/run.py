@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cosim.commands import add_figure_format, compile_first
+from cosim.commands import add_figure_format, compile_first, flag_overrides
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -44,23 +44,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from cosim.output import check_output_dir
-    from cosim.scenario import load_scenario, project_root, with_overrides
+    from cosim.scenario import load_scenario, project_root
     from cosim.sim import run_scenario
     from cosim.traffic import gui as sumo_gui
 
     settings = sumo_gui.GuiSettings(speed=args.gui_speed, keep_open=not args.gui_quit)
     if args.gui:
         sumo_gui.check_gui(settings)  # no display: one line now, not a traceback later
-    scenario = load_scenario(args.scenario)
-    changes: dict[str, object] = {}
-    if args.plant is not None:
-        changes["plant"] = args.plant
-    if args.controller is not None:
-        changes["controller"] = args.controller
-    if args.seed is not None:
-        changes["seed"] = args.seed
-    if changes:
-        scenario = with_overrides(scenario, **changes)
+    scenario = flag_overrides(load_scenario(args.scenario), {
+        "--plant": ("plant", args.plant), "--controller": ("controller", args.controller),
+        "--seed": ("seed", args.seed)})
     out = args.out if args.out is not None else project_root() / "results" / scenario.name
     check_output_dir(out, whole=True)  # a bad --out is an input error now, not after the run
     if scenario.sv.controller != "sumo":
