@@ -129,7 +129,7 @@ class SumoDrivenEgo:
 
     def inserted(self) -> None:
         """From now on SUMO drives it."""
-        self.world.sumo.release(SV_ID)
+        self.world.sumo.controlled.release(SV_ID)
 
     def state(self, everyone: TrafficSnapshot) -> SVState:
         i = everyone.index(SV_ID)

@@ -71,7 +71,7 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
             sim.add_driven(SV_ID, sv.lane, x0, sv.speed, desired, scenario.vehicle.length,
                            scenario.vehicle.width, own_lane_changes=sv.decision)
             sim.step()
-            sim.release(SV_ID)
+            sim.controlled.release(SV_ID)
         for _ in range(scenario.n_steps + (0 if with_sv else 1)):
             sim.step()
     return time.perf_counter() - start, time.process_time() - cpu
