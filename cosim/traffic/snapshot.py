@@ -124,15 +124,17 @@ class SnapshotReader:
             return snap
         return snap.select(np.array([vid not in skip for vid in snap.ids], dtype=bool))
 
-    def snapshot_near(self, center_id: str, radius: float) -> TrafficSnapshot:
+    def snapshot_near(self, center_id: str, radius: float, *, full: bool = True
+                      ) -> TrafficSnapshot:
         """Vehicles whose centre is within `radius` m of vehicle `center_id`'s centre
         (itself included): the cost follows the traffic near it, not the whole road's.
 
         Every NEAR_REFRESH s of simulated time one cheap pass over all positions picks
         the candidates within radius + NEAR_MARGIN along x (no vehicle closes in on
         another by more than NEAR_MARGIN in that time); each call reads the seven
-        values of the candidates only. (A SUMO context subscription does the same
-        selection but costs more inside simulationStep than this whole read.)"""
+        values of the candidates only (five without `full`: no acceleration, NaN,
+        and no signals, 0). (A SUMO context subscription does the same selection but
+        costs more inside simulationStep than this whole read.)"""
         api = self.api
         t = float(api.simulation.getTime())
         present = api.vehicle.getIDList()
@@ -142,31 +144,35 @@ class SnapshotReader:
             get_pos = self.getters[0]
             cx = get_pos(center_id)[0] if center_id in alive else math.nan
             reach = radius + NEAR_MARGIN
-            self.near_candidates = tuple(
-                vid for vid in present if abs(get_pos(vid)[0] - cx) <= reach)
+            self.near_candidates = tuple(sorted(
+                vid for vid in present if abs(get_pos(vid)[0] - cx) <= reach))
             self.near_key = key
             self.near_next = t + NEAR_REFRESH
-        ids = tuple(sorted(vid for vid in self.near_candidates if vid in alive))
-        snap = self.read(ids, t)
+        ids = tuple(vid for vid in self.near_candidates if vid in alive)
+        snap = self.read(ids, t, full=full)
         if center_id not in snap.ids:
             return snap.select(np.zeros(len(snap), dtype=bool))
         i = snap.index(center_id)
         near = np.hypot(snap.x - snap.x[i], snap.y - snap.y[i]) <= radius
         return snap.select(near)
 
-    def read(self, ids: tuple[str, ...], t: float | None = None) -> TrafficSnapshot:
+    def read(self, ids: tuple[str, ...], t: float | None = None, *, full: bool = True
+             ) -> TrafficSnapshot:
         """The snapshot of the vehicles `ids` (all present now), in that order; `t`:
-        SUMO's time if known."""
+        SUMO's time if known; without `full` no acceleration (NaN) and no signals (0)."""
         n = len(ids)
         get_pos, get_angle, get_speed, get_accel, get_lane, get_lat, get_signals = self.getters
         pos = np.array([get_pos(vid) for vid in ids], dtype=float).reshape(n, 2)
         xf, yf = pos[:, 0], pos[:, 1]
         angle = np.fromiter(map(get_angle, ids), float, n)
         speed = np.fromiter(map(get_speed, ids), float, n)
-        accel = np.fromiter(map(get_accel, ids), float, n)
         lane = np.fromiter(map(get_lane, ids), int, n)
         lat = np.fromiter(map(get_lat, ids), float, n)
-        signals = np.fromiter(map(get_signals, ids), int, n)
+        if full:
+            accel = np.fromiter(map(get_accel, ids), float, n)
+            signals = np.fromiter(map(get_signals, ids), int, n)
+        else:
+            accel, signals = np.full(n, np.nan), np.zeros(n, dtype=int)
         dims = self.dims
         size = [dims.get(vid) or self._read_dims(vid) for vid in ids]
         sizes = np.array(size, dtype=float).reshape(n, 2)

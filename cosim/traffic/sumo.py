@@ -43,6 +43,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType, TracebackType
+from typing import Any
 
 from cosim.errors import InputError, SimulationError
 from cosim.params import RoadParams
@@ -429,10 +430,11 @@ class SumoSim:
         """Every vehicle now (except `exclude`), centre poses, in one pass."""
         return self.reader.snapshot(exclude)
 
-    def snapshot_near(self, center_id: str, radius: float) -> TrafficSnapshot:
+    def snapshot_near(self, center_id: str, radius: float, *, full: bool = True
+                      ) -> TrafficSnapshot:
         """Vehicles within `radius` m of vehicle `center_id` (itself included); see
         SnapshotReader.snapshot_near."""
-        return self.reader.snapshot_near(center_id, radius)
+        return self.reader.snapshot_near(center_id, radius, full=full)
 
     def collisions(self) -> list[tuple[str, str]]:
         """(collider, victim) pairs SUMO detected in the last step (cross-check only)."""
@@ -468,6 +470,7 @@ class SpeedBands:
         self.quantile: dict[str, float] = {}  # TV id -> its place in a speed band
         self.lane: dict[str, int] = {}  # TV id -> lane its desired speed was set for
         self.seen: list[set[str]] = [set() for _ in lane_ids]  # each lane's vehicles last step
+        self.seen_ids: list[Any] = [None for _ in lane_ids]  # the lists as SUMO gave them
 
     def speed(self, lane: int, quantile: float) -> float:
         """m/s, the desired speed at `quantile` in [0, 1] of a lane's speed band."""
@@ -491,12 +494,15 @@ class SpeedBands:
         set_max_speed = api.vehicle.setMaxSpeed
         was = self.lane
         for lane, lane_id in enumerate(self.lane_ids):
-            now = set(on_lane(lane_id))
+            ids = on_lane(lane_id)
+            if ids == self.seen_ids[lane]:  # most steps: nobody came or went
+                continue
+            now = set(ids)
             for vid in sorted(now - self.seen[lane]):  # a fixed order of SUMO calls
                 if was.get(vid, lane) != lane:
                     set_max_speed(vid, self.speed(lane, self.quantile[vid]))
                     was[vid] = lane
-            self.seen[lane] = now
+            self.seen[lane], self.seen_ids[lane] = now, ids
 
 
 class ControlledVehicles:
