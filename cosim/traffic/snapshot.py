@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from itertools import compress
+from itertools import chain, compress
 from types import ModuleType
 from typing import Any
 
@@ -162,7 +162,7 @@ class SnapshotReader:
         SUMO's time if known; without `full` no acceleration (NaN) and no signals (0)."""
         n = len(ids)
         get_pos, get_angle, get_speed, get_accel, get_lane, get_lat, get_signals = self.getters
-        pos = np.array([get_pos(vid) for vid in ids], dtype=float).reshape(n, 2)
+        pos = np.fromiter(chain.from_iterable(map(get_pos, ids)), float, 2 * n).reshape(n, 2)
         xf, yf = pos[:, 0], pos[:, 1]
         angle = np.fromiter(map(get_angle, ids), float, n)
         speed = np.fromiter(map(get_speed, ids), float, n)
@@ -174,8 +174,8 @@ class SnapshotReader:
         else:
             accel, signals = np.full(n, np.nan), np.zeros(n, dtype=int)
         dims = self.dims
-        size = [dims.get(vid) or self._read_dims(vid) for vid in ids]
-        sizes = np.array(size, dtype=float).reshape(n, 2)
+        sizes = np.fromiter(chain.from_iterable(dims.get(vid) or self._read_dims(vid)
+                                                for vid in ids), float, 2 * n).reshape(n, 2)
         length, width = sizes[:, 0].copy(), sizes[:, 1].copy()
         lane[xf < INVALID] = -1
         moved = self.lateral_speeds()
