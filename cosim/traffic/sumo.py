@@ -165,7 +165,7 @@ class SumoSim:
         self._tmp: tempfile.TemporaryDirectory[str] | None = None
         self._log_text = ""
         self.controlled = ControlledVehicles(self)
-        self._bands = SpeedBands(self._road.speed_bands,
+        self.bands = SpeedBands(self._road.speed_bands,
                                  tuple(f"{self.highway.edge_id}_{i}"
                                        for i in range(self.highway.n_lanes)))
         self._dims: dict[str, tuple[float, float]] = {}  # vehicle id -> (length, width)
@@ -287,13 +287,13 @@ class SumoSim:
         self.controlled.moved = False
         t = float(api.simulation.getTime())
         for vid in api.simulation.getArrivedIDList():
-            self._bands.forget(vid)
+            self.bands.forget(vid)
             self._dims.pop(vid, None)
         teleported = set(api.simulation.getStartingTeleportIDList())
         for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
         self.reader.cached = None  # read on demand: snapshot() or snapshot_near()
-        self._bands.keep(api)
+        self.bands.keep(api)
         self.controlled.check(t, teleported)
         for hook in self._hooks:
             hook(self)
@@ -324,7 +324,7 @@ class SumoSim:
         """
         if not 0 <= lane < self.highway.n_lanes:
             raise InputError("traffic", "lane", lane, f"0 .. {self.highway.n_lanes - 1}")
-        desired = self._bands.speed(lane, quantile)
+        desired = self.bands.speed(lane, quantile)
         front = x - self.highway.x_start + 0.5 * TV_LENGTH
         self.api.vehicle.add(
             vehicle_id,
@@ -335,7 +335,7 @@ class SumoSim:
             departSpeed="max" if speed is None else repr(float(min(speed, desired))),
         )
         self.api.vehicle.setMaxSpeed(vehicle_id, desired)
-        self._bands.add(vehicle_id, lane, quantile)
+        self.bands.add(vehicle_id, lane, quantile)
         self._dims[vehicle_id] = (TV_LENGTH, TV_WIDTH)
 
     def add_driven(
@@ -417,7 +417,7 @@ class SumoSim:
         """Take a vehicle off the network (controlled or not)."""
         self.api.vehicle.remove(vehicle_id)
         self.controlled.vehicles.pop(vehicle_id, None)
-        self._bands.forget(vehicle_id)
+        self.bands.forget(vehicle_id)
 
     # ------------------------------------------------------------------ reading
     @property

@@ -274,3 +274,23 @@ def test_command_line_of_each_mode() -> None:
     assert "--start" in gui.command()
     custom = make_sim(extra_args=("--time-to-teleport", "5")).command()
     assert custom.count("--time-to-teleport") == 1 and custom[-1] == "5"
+
+
+def test_every_tv_has_its_current_lanes_band_after_every_step() -> None:
+    """SpeedBands sees lane changes through the lanes' vehicle lists: after each step
+    every TV's desired speed is its place in the band of the lane SUMO has it in."""
+    changes = 0
+    with make_sim(11) as sim:
+        road = sim.road()
+        populate(sim, road, 16.0, 11, 2000.0)
+        bands = sim.bands
+        lane_was: dict[str, int] = {}
+        for _ in range(int(40.0 / STEP)):
+            sim.step()
+            for vid in sim.reader.vehicle_ids():
+                lane = sim.reader.lane_index(vid)
+                changes += int(lane_was.get(vid, lane) != lane)
+                lane_was[vid] = lane
+                want = bands.speed(lane, bands.quantile[vid])
+                assert sim.api.vehicle.getMaxSpeed(vid) == pytest.approx(want, abs=1e-9), vid
+    assert changes >= 3  # the test saw TVs change lanes
