@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from cosim import metrics as mx
 from cosim.params import RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.proximity import gap_ttc_min
 from cosim.scenario import Scenario
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import Scene
@@ -327,14 +328,14 @@ class Recorder:
         c, s_ = abs(math.cos(h)), abs(math.sin(h))
         hx = 0.5 * (self.sv_length * c + self.sv_width * s_)
         hy = 0.5 * (self.sv_length * s_ + self.sv_width * c)
-        tv_hx, tv_hy = mx.half_extents(tvs.length, tvs.width, tvs.heading)
         sv_vxg = vx * math.cos(h) - vy * math.sin(h)
-        gap, ttc = mx.gap_ttc(x, y, sv_vxg, hx, hy, tvs.x, tvs.y, scene.tv_vx, tv_hx, tv_hy)
-        row[C["gap_min_m"]] = float(gap.min()) if gap.size else math.inf
-        row[C["ttc_min_s"]] = float(ttc.min()) if ttc.size else math.inf
+        reach = np.empty(len(tvs), dtype=bool)
+        gap, ttc = gap_ttc_min(x, y, sv_vxg, hx, hy, self.sv_diag, tvs.x, tvs.y, scene.tv_vx,
+                               tvs.heading, tvs.length, tvs.width, reach)
+        row[C["gap_min_m"]] = gap
+        row[C["ttc_min_s"]] = ttc
         # exact test only where the bounding circles meet (most steps: nobody)
-        reach = 0.5 * (np.hypot(tvs.length, tvs.width) + self.sv_diag)
-        near = np.flatnonzero(np.hypot(tvs.x - x, tvs.y - y) <= reach)
+        near = np.flatnonzero(reach)
         hits: frozenset[str] = frozenset()
         if near.size:
             hit = overlap_sat(x, y, h, self.sv_length, self.sv_width, tvs.x[near], tvs.y[near],
