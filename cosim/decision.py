@@ -19,7 +19,8 @@ Beyond the paper (which starts every case with "SV decides to change lanes"):
 - After the planner found no collision-free tau the SV keeps its lane and asks
   again `retry_interval` later; after any manoeuvre it waits `cooldown`.
 
-Vehicles are numpy arrays (one entry per TV): no Python loop over vehicles.
+Vehicles are numpy arrays (one entry per TV); the leader / follower search is a
+compiled loop over them (cosim.proximity).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cosim.params import RoadParams
+from cosim.proximity import lane_neighbours
 
 Array = NDArray[np.float64]
 
@@ -93,28 +95,22 @@ def neighbours(
 
     With `tv_lateral_speed` (m/s, + left), a TV whose centre is already in
     another lane and that moves away from `lane` does not count (it is leaving)."""
-    x = np.asarray(tv_x, dtype=float)
-    v = np.asarray(tv_speed, dtype=float)
-    lo, hi = lanes_touched(tv_y, 0.5 * np.asarray(tv_width, dtype=float), road)
-    inside = (lo <= lane) & (hi >= lane)
-    if tv_lateral_speed is not None:
-        centre = np.floor((np.asarray(tv_y, dtype=float) - road.y_right) / road.lane_width)
-        vy = np.asarray(tv_lateral_speed, dtype=float)
-        leaving = ((centre > lane) & (vy > 0.0)) | ((centre < lane) & (vy < 0.0))
-        inside &= ~leaving
-    dx = x - sv_x
-    gap = np.abs(dx) - 0.5 * (sv_length + np.asarray(tv_length, dtype=float))
-    ahead = np.where(inside & (dx >= 0.0), gap, np.inf)
-    behind = np.where(inside & (dx < 0.0), gap, np.inf)
-    i_lead = int(np.argmin(ahead)) if ahead.size and np.isfinite(ahead.min()) else -1
-    i_foll = int(np.argmin(behind)) if behind.size and np.isfinite(behind.min()) else -1
+    def arr(a: ArrayLike) -> Array:
+        return np.ascontiguousarray(a, dtype=float)
+
+    v = arr(tv_speed)
+    use_vy = tv_lateral_speed is not None
+    i_lead, gap_ahead, i_foll, gap_behind = lane_neighbours(
+        int(lane), float(sv_x), float(sv_length), arr(tv_x), arr(tv_y), arr(tv_length),
+        arr(tv_width), float(road.y_right), float(road.lane_width),
+        arr(tv_lateral_speed) if use_vy else np.zeros(0), use_vy)
     return Neighbours(
         lane=lane,
         leader=i_lead,
-        gap_ahead=float(ahead[i_lead]) if i_lead >= 0 else math.inf,
+        gap_ahead=float(gap_ahead),
         leader_speed=float(v[i_lead]) if i_lead >= 0 else math.nan,
         follower=i_foll,
-        gap_behind=float(behind[i_foll]) if i_foll >= 0 else math.inf,
+        gap_behind=float(gap_behind),
         follower_speed=float(v[i_foll]) if i_foll >= 0 else math.nan,
     )
 

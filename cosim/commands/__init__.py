@@ -62,7 +62,10 @@ def compile_first(stream: Any = None) -> float:
     import sys
     import time
 
-    from cosim.compiled import cache_warm, warm_up
+    import cosim.control.closed_loop  # noqa: F401  (the modules cosim.control.warm loads:
+    import cosim.planning.collision  # noqa: F401  declaring their compiled functions names
+    import cosim.proximity  # noqa: F401  the cache's folder)
+    from cosim.compiled import cache_warm
 
     out = stream or sys.stderr
     cold = not cache_warm()
@@ -70,7 +73,8 @@ def compile_first(stream: Any = None) -> float:
         print(f"compiling (once per machine, ~{COMPILE_ESTIMATE_S:.0f} s) ...", file=out,
               flush=True)
     start = time.perf_counter()
-    warm_up()
+    import cosim.control.warm  # noqa: F401  (compiles or loads every compiled function)
+
     took = time.perf_counter() - start
     if cold:
         print(f"compiled in {took:.0f} s (cached in cosim/__pycache__/numba/)", file=out,
