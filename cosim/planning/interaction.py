@@ -15,9 +15,13 @@ Car-following models (SI units, arrays broadcast; no Python loop over vehicles):
   v tau + v^2 / (2 b) = g + v_l^2 / (2 b_l), so
   v_safe = -b tau + sqrt((b tau)^2 + 2 b (g + v_l^2 / (2 b_l))).
   Next speed: min(v_safe, v + a dt, v_max) (no dawdling: sigma only slows the
-  follower further, which opens the gap). SUMO's Euler update takes v_safe at once,
-  so a gap that is not Krauss-safe at entry costs the follower (v - v_safe) / dt in
-  one step, up to its emergency decel.
+  follower further, which opens the gap). Where v_safe asks more than b, SUMO
+  (`MSCFModel::maximumSafeFollowSpeed`) brakes instead at what avoiding the collision
+  needs, times 1.2 (EMERGENCY_DECEL_AMPLIFIER), but at least b and at most what v_safe
+  asked: the needed deceleration is v^2 / (2 (g + v_l^2 / (2 b_l))) if that is at most
+  b_l (it stops behind the braking leader), else (v^2 - v_l^2) / (2 g) (it matches the
+  leader's speed within the gap); all within the emergency decel. A cut-in inside the
+  secure gap therefore costs the follower at least b at once, often more.
 - IDM (Treiber, Hennecke, Helbing 2000), the model MOBIL's safety criterion is
   written in: a = a_max (1 - (v / v0)^delta - (s* / g)^2),
   s* = s0 + v T + v dv / (2 sqrt(a_max b)).
@@ -106,33 +110,15 @@ def secure_gap(follower_speed: ArrayLike, leader_speed: ArrayLike, m: FollowerMo
 def follower_accel(gap: ArrayLike, speed: ArrayLike, leader_speed: ArrayLike,
                    m: FollowerModel, dt: float) -> Array:
     """m/s^2, the follower's acceleration over the next step dt (s) behind a leader at
-    `gap` (bumper to bumper, m; inf: none) by its model, within
+    `gap` (bumper to bumper, m; inf: none) by its model (module docstring), within
     [-emergency_decel, accel]."""
-    g = np.asarray(gap, dtype=float)
-    v = np.maximum(np.asarray(speed, dtype=float), 0.0)
-    vl = np.asarray(leader_speed, dtype=float)
-    if m.model == "krauss":
-        vsafe = np.where(np.isfinite(g), krauss_safe_speed(np.where(np.isfinite(g), g, 0.0),
-                                                           np.nan_to_num(vl), m), np.inf)
-        v_next = np.minimum(np.minimum(vsafe, v + m.accel * dt), m.max_speed)
-        a = (np.maximum(v_next, 0.0) - v) / dt
-    else:
-        a = idm_accel(g, v, vl, m)
-    return np.clip(a, -m.emergency_decel, m.accel)
-
-
-def idm_accel(gap: ArrayLike, speed: ArrayLike, leader_speed: ArrayLike,
-              m: FollowerModel) -> Array:
-    """m/s^2, IDM acceleration (module docstring); gap inf: free road."""
-    g = np.asarray(gap, dtype=float)
-    v = np.maximum(np.asarray(speed, dtype=float), 0.0)
-    dv = v - np.nan_to_num(np.asarray(leader_speed, dtype=float))
-    free = 1.0 - (v / m.max_speed) ** m.delta
-    s_star = m.min_gap + np.maximum(v * m.tau + v * dv / (2.0 * math.sqrt(m.accel * m.decel)),
-                                    0.0)
-    inter = np.where(np.isfinite(g), (s_star / np.maximum(np.where(np.isfinite(g), g, 1.0),
-                                                          0.1)) ** 2, 0.0)
-    return m.accel * (free - inter)
+    g, v, vl = np.broadcast_arrays(np.asarray(gap, dtype=float),
+                                   np.asarray(speed, dtype=float),
+                                   np.asarray(leader_speed, dtype=float))
+    out = np.empty(g.shape)
+    _accel_array(MODELS.index(m.model), _params(m), np.ravel(g), np.ravel(v),
+                 np.ravel(np.nan_to_num(vl)), float(dt), out.reshape(-1))
+    return out
 
 
 def entry_decel(gap: ArrayLike, follower_speed: ArrayLike, sv_speed: ArrayLike,
@@ -143,36 +129,73 @@ def entry_decel(gap: ArrayLike, follower_speed: ArrayLike, sv_speed: ArrayLike,
     return np.maximum(-follower_accel(gap, follower_speed, sv_speed, m, dt), 0.0)
 
 
+def _params(m: FollowerModel) -> Array:
+    """The model's constants for the compiled functions (order of `_accel_core`)."""
+    return np.array([m.accel, m.decel, m.emergency_decel, m.tau, m.min_gap, m.max_speed,
+                     m.delta, m.leader_decel])
+
+
+EMERGENCY_DECEL_AMPLIFIER = 1.2  # -, SUMO's factor on the deceleration a collision needs
+
+
+@njit
+def _accel_core(kind: int, p: Array, g: float, v: float, vl: float, dt: float) -> float:
+    """m/s^2, the follower's acceleration (kind 0 Krauss as SUMO applies it, 1 IDM) at
+    speed v behind a leader at bumper gap g (inf: none) driving vl (module docstring)."""
+    accel, decel, emerg, tau, s0 = p[0], p[1], p[2], p[3], p[4]
+    vmax, delta, bl = p[5], p[6], p[7]
+    v = max(v, 0.0)
+    vl = max(vl, 0.0)
+    if kind == 0:
+        vn = min(v + accel * dt, vmax)
+        if math.isfinite(g):
+            gg = max(g - s0, 0.0)
+            bt = decel * tau
+            vsafe = -bt + math.sqrt(bt * bt + 2.0 * decel * (gg + vl * vl / (2.0 * bl)))
+            asked = (v - vsafe) / dt
+            if asked > decel:  # SUMO's emergency branch: what avoiding the collision needs
+                room = gg + 0.5 * vl * vl / bl
+                b1 = 0.5 * v * v / room if room > 0.0 else emerg
+                if b1 <= bl:
+                    need = b1
+                elif gg > 0.0:
+                    need = 0.5 * (v * v - vl * vl) / gg
+                else:
+                    need = emerg
+                vsafe = v - min(max(EMERGENCY_DECEL_AMPLIFIER * need, decel), asked) * dt
+            vn = min(vn, vsafe)
+        a = (max(vn, 0.0) - v) / dt
+    else:
+        a = accel * (1.0 - (v / vmax) ** delta)
+        if math.isfinite(g):
+            s_star = s0 + max(v * tau + v * (v - vl) / (2.0 * math.sqrt(accel * decel)), 0.0)
+            a -= accel * (s_star / max(g, 0.1)) ** 2
+    return min(max(a, -emerg), accel)
+
+
+@njit
+def _accel_array(kind: int, p: Array, g: Array, v: Array, vl: Array, dt: float,
+                 out: Array) -> None:
+    """`_accel_core` elementwise into out."""
+    for i in range(g.size):
+        out[i] = _accel_core(kind, p, g[i], v[i], vl[i], dt)
+
+
 @njit
 def _follow_core(kind: int, p: Array, t: Array, sv_rear: Array, sv_speed: Array,
                  t_enter: float, x0: float, v0: float, x: Array, v: Array, a: Array) -> None:
     """The follower's Euler recursion on the grid t (SUMO's update: v then x), into
     x (front bumper, m), v (m/s), a (m/s^2, applied over the step that follows)."""
-    accel, decel, emerg, tau, s0, vmax, delta, bl = p[0], p[1], p[2], p[3], p[4], p[5], \
-        p[6], p[7]
     x[0], v[0] = x0, v0
     n = t.size
     for k in range(n - 1):
         dt = t[k + 1] - t[k]
-        vk = v[k]
         if t[k] >= t_enter - 1e-9:
-            g = sv_rear[k] - x[k]
-            vl = max(sv_speed[k], 0.0)
-            if kind == 0:  # Krauss
-                gg = max(g - s0, 0.0)
-                bt = decel * tau
-                vsafe = -bt + math.sqrt(bt * bt + 2.0 * decel * (gg + vl * vl / (2.0 * bl)))
-                vn = min(vsafe, vk + accel * dt, vmax)
-                ak = (max(vn, 0.0) - vk) / dt
-            else:  # IDM
-                s_star = s0 + max(vk * tau + vk * (vk - vl) / (2.0 * math.sqrt(accel * decel)),
-                                  0.0)
-                ak = accel * (1.0 - (vk / vmax) ** delta - (s_star / max(g, 0.1)) ** 2)
-            ak = min(max(ak, -emerg), accel)
+            ak = _accel_core(kind, p, sv_rear[k] - x[k], v[k], sv_speed[k], dt)
         else:
             ak = 0.0  # it cannot see the SV yet: keeps its speed
         a[k] = ak
-        vn = max(vk + ak * dt, 0.0)
+        vn = max(v[k] + ak * dt, 0.0)
         v[k + 1] = vn
         x[k + 1] = x[k] + vn * dt
     a[n - 1] = a[n - 2] if n > 1 else 0.0
@@ -206,10 +229,8 @@ def predict_follower(t: ArrayLike, sv_rear_x: ArrayLike, sv_speed: ArrayLike,
     vs = np.ascontiguousarray(sv_speed, dtype=float)
     if tt.ndim != 1 or tt.size < 2 or rear.shape != tt.shape or vs.shape != tt.shape:
         raise ValueError("t, sv_rear_x and sv_speed must be 1-D arrays of the same length >= 2")
-    p = np.array([m.accel, m.decel, m.emergency_decel, m.tau, m.min_gap, m.max_speed,
-                  m.delta, m.leader_decel])
     x, v, a = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
-    _follow_core(MODELS.index(m.model), p, tt, rear, vs, float(t_enter),
+    _follow_core(MODELS.index(m.model), _params(m), tt, rear, vs, float(t_enter),
                  float(follower_front_x), float(follower_speed), x, v, a)
     after = tt >= t_enter - 1e-9
     max_decel = float(max(np.max(-a[after], initial=0.0), 0.0))
@@ -222,5 +243,6 @@ def warm_up() -> None:
     """Compile (or load) the follower recursion for both models."""
     t = np.linspace(0.0, 1.0, 5)
     for model in MODELS:
-        predict_follower(t, 50.0 + 20.0 * t, np.full(5, 20.0), 0.0, 0.0, 20.0,
-                         FollowerModel(model=model))
+        m = FollowerModel(model=model)
+        predict_follower(t, 50.0 + 20.0 * t, np.full(5, 20.0), 0.0, 0.0, 20.0, m)
+        follower_accel(t, t, t, m, 0.05)

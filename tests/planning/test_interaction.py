@@ -49,10 +49,11 @@ def test_entry_decel_grows_as_the_cut_in_gets_shorter() -> None:
     # 70 m at 30 behind 25 m/s is Krauss-safe (secure gap 63.1 m): no braking at all
     assert d[0] == 0.0
     assert d[-1] == KRAUSS.emergency_decel  # 2 m at 5 m/s closing: everything it has
-    # Krauss takes v_safe at once (SUMO's Euler update): 3 m inside the secure gap
-    # already asks twice b_safe in one step
+    # where v_safe asks more than decel, SUMO brakes at decel at least: 3 m inside the
+    # secure gap already costs the follower 4.5 m/s^2, more than b_safe
     g = float(secure_gap(30.0, 25.0, KRAUSS)) - 3.0
-    assert entry_decel(g, 30.0, 25.0, KRAUSS, DT) > B_SAFE
+    assert entry_decel(g, 30.0, 25.0, KRAUSS, DT) == pytest.approx(KRAUSS.decel)
+    assert KRAUSS.decel > B_SAFE
     # IDM brakes smoothly instead: the same cut-in asks a few m/s^2
     assert 0.0 < entry_decel(g, 30.0, 25.0, IDM, DT) < 4.0
 
