@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cosim.compiled import njit
 from cosim.errors import InputError
+from cosim.planning.trajectory import LaneChangeTrajectory
 
 Array = NDArray[np.float64]
 
@@ -237,6 +238,57 @@ def predict_follower(t: ArrayLike, sv_rear_x: ArrayLike, sv_speed: ArrayLike,
     gaps = (rear - x)[after]
     return FollowerPrediction(t=tt, x=x, speed=v, accel=a, max_decel=max_decel,
                               min_gap=float(gaps.min()) if gaps.size else math.inf)
+
+
+FOLLOW_AFTER = 3.0  # s, the follower is predicted this long after the manoeuvre ends
+
+
+@dataclass(frozen=True)
+class FollowerCheck:
+    """What a planned lane change asks of the new follower in the target lane."""
+
+    follower: int  # index into the TV arrays, -1: none (nothing asked)
+    t_enter: float  # s, when the SV's centre crosses into the target lane (nan: never)
+    prediction: FollowerPrediction | None  # None: no follower
+    safe: bool  # MOBIL: max_decel <= b_safe and no contact
+
+    @property
+    def max_decel(self) -> float:
+        """m/s^2, the follower's largest predicted deceleration (0: none)."""
+        return 0.0 if self.prediction is None else self.prediction.max_decel
+
+
+def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: ArrayLike,
+                   tv_speed: ArrayLike, tv_length: ArrayLike, in_target: ArrayLike,
+                   m: FollowerModel, dt: float = 0.05) -> FollowerCheck:
+    """Predict the new follower of a planned lane change (`trajectory`, from its t0):
+    among the TVs with `in_target` true (centres tv_x at t0, constant speeds until the
+    SV enters), the nearest one behind the SV when the SV's centre crosses the lane line
+    (half the lateral displacement); it then follows the SV's rear by its model until
+    FOLLOW_AFTER after the manoeuvre ends (`predict_follower`)."""
+    tr = trajectory
+    t = tr.t0 + np.arange(0.0, tr.tau + FOLLOW_AFTER + 0.5 * dt, dt)
+    xs, ys = tr.position(t)
+    vx, vy = tr.derivative(t, 1)
+    crossed = np.abs(ys - tr.y0) >= 0.5 * abs(tr.width)
+    if tr.width == 0.0 or not crossed.any():
+        return FollowerCheck(-1, math.nan, None, True)
+    k_in = int(np.argmax(crossed))
+    t_in = float(t[k_in])
+    x = np.asarray(tv_x, dtype=float)
+    v = np.asarray(tv_speed, dtype=float)
+    half = 0.5 * np.asarray(tv_length, dtype=float)
+    front_in = x + half + v * (t_in - tr.t0)  # each TV's front when the SV enters
+    rear_in = float(xs[k_in]) - 0.5 * sv_length
+    behind = np.asarray(in_target, dtype=bool) & (x + v * (t_in - tr.t0) < float(xs[k_in]))
+    if not behind.any():
+        return FollowerCheck(-1, t_in, None, True)
+    gap_in = np.where(behind, rear_in - front_in, np.inf)
+    j = int(np.argmin(gap_in))
+    speed = np.hypot(vx, vy)
+    pred = predict_follower(t, xs - 0.5 * sv_length, speed, t_in, float(x[j] + half[j]),
+                            float(v[j]), m)
+    return FollowerCheck(j, t_in, pred, pred.safe(m))
 
 
 def warm_up() -> None:

@@ -117,3 +117,36 @@ def test_bad_model_is_rejected() -> None:
     FollowerModel().check()
     with pytest.raises(ValueError):
         predict_follower(T, T[:-1], T, 0.0, 0.0, 1.0, KRAUSS)
+
+
+def test_check_follower_of_a_planned_lane_change() -> None:
+    from cosim.planning.interaction import check_follower
+    from cosim.planning.trajectory import LaneChangeTrajectory
+
+    # SV at x = 0 in lane 1 (y = 0) changing left into y = 3.75 over 4 s at 25 m/s;
+    # target-lane TVs (centres): one far behind (index 0), one nearer behind (1), one
+    # ahead (2), one in another lane (3)
+    tr = LaneChangeTrajectory(t0=10.0, tau=4.0, x0=0.0, y0=0.0, vx0=25.0, vxf=25.0,
+                              width=3.75)
+    x = np.array([-150.0, -40.0, 60.0, -10.0])
+    v = np.array([25.0, 28.0, 25.0, 25.0])
+    length = np.full(4, 4.32)
+    target = np.array([True, True, True, False])
+    c = check_follower(tr, 4.32, x, v, length, target, KRAUSS)
+    assert c.follower == 1  # the nearest behind in the target lane, not the one beside
+    assert c.t_enter == pytest.approx(12.0, abs=0.051)  # half way through a symmetric change
+    assert c.prediction is not None
+    # 40 m behind, 3 m/s faster: at entry about 29 m, inside its secure gap (33 m): brakes
+    assert c.max_decel > 0.0
+    assert c.safe == (c.max_decel <= KRAUSS.b_safe)
+    # a faster, closer follower: the MOBIL test fails
+    close = check_follower(tr, 4.32, np.array([-25.0]), np.array([32.0]), length[:1],
+                           np.array([True]), KRAUSS)
+    assert not close.safe and close.max_decel > KRAUSS.b_safe
+    # nobody behind: nothing asked
+    free = check_follower(tr, 4.32, x[2:3], v[2:3], length[:1], np.array([True]), KRAUSS)
+    assert free.follower == -1 and free.safe and free.max_decel == 0.0
+    # a lane keeping "change" (width 0) never enters another lane
+    keep = check_follower(LaneChangeTrajectory(0.0, 1.0, 0.0, 0.0, 20.0, 20.0, 0.0), 4.32,
+                          x, v, length, target, KRAUSS)
+    assert keep.follower == -1 and math.isnan(keep.t_enter)
