@@ -30,7 +30,10 @@ The target speed takes the SV to the aim and brakes it to the gap's speed as it
 arrives: v_g + sign(e) min(|e| / approach_time, sqrt(2 a |e|), max_rel_speed) (near
 the aim a first-order approach, farther the curve along which the relative speed can
 still be braked away at a, far away a bounded relative speed). The gap is
-*reachable* (plan now) when the SV is inside its slot and within `speed_tol` of v_g.
+*reachable* (plan now) when the SV is inside the slot recomputed for the speed it
+will have when it enters the lane (half way from its speed to v_g: the manoeuvre
+changes speed from vx0 to vxf), within `max_speed_change` of v_g: an SV held
+below a faster lane by its own leader can still go when a long enough gap slides by.
 
 Vehicles are arrays (one entry per TV or gap); no Python loop over vehicles.
 """
@@ -57,12 +60,13 @@ class GapConfig:
     approach_accel: float = 1.5  # m/s^2, bound on the relative acceleration of the approach
     approach_time: float = 3.0  # s, time constant of the approach near the aim
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
+    speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
     headway: float = 1.0  # s, the SV's own time headway behind its new leader
     min_gap: float = 2.5  # m, the SV's standstill gap to its new leader
     decel: float = 4.5  # m/s^2, the SV's braking assumed in its secure gap
     margin: float = 2.0  # m, aim this far inside the slot's ends (less if the slot is short)
     entry_delay: float = 2.0  # s, from the start of the change to the SV entering the lane
-    speed_tol: float = 1.0  # m/s, |v_sv - v_g| within which the gap counts as reached
+    max_speed_change: float = 8.0  # m/s, largest |v_sv - v_g| to plan a change from
     horizon: float = 20.0  # s, gaps reached later are not candidates
     min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this
 
@@ -82,6 +86,8 @@ class Gaps:
     v_lo: Array  # m/s, speed of the rear end (the follower's speed)
     v_hi: Array  # m/s, speed of the front end (the leader's speed)
     speed: Array  # m/s, v_g: the gap's speed, the manoeuvre's vxf
+    rear: Array  # m, the follower's front bumper x (-inf: none)
+    front: Array  # m, the leader's rear bumper x (+inf: none)
 
 
 def lane_gaps(sv_length: float, tv_x: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
@@ -101,20 +107,32 @@ def lane_gaps(sv_length: float, tv_x: ArrayLike, tv_speed: ArrayLike, tv_length:
     v_f = np.concatenate([[math.nan], vs])
     v_l = np.concatenate([vs, [math.nan]])
     speed = np.where(np.isnan(v_l), lane_speed, np.minimum(v_l, lane_speed))
-    half = 0.5 * sv_length
-    # the SV's front behind the leader's rear by its own secure gap (at the gap's speed)
-    hi_in = xs - 0.5 * ls - secure_gap(speed[:-1], vs, cfg.sv_model()) - half
-    # the SV's rear ahead of the follower's front by the follower's secure gap, and what
-    # a faster follower closes before the SV is in its lane
-    sg_f = secure_gap(vs, speed[1:], follower)
-    closing = np.maximum(vs - speed[1:], 0.0) * cfg.entry_delay
-    lo_in = xs + 0.5 * ls + sg_f + closing + half
+    lo_in, hi_in = slot_ends(xs + 0.5 * ls, vs, xs - 0.5 * ls, vs, speed[1:], speed[:-1],
+                             sv_length, cfg, follower)
     return Gaps(
+        rear=np.concatenate([[-math.inf], xs + 0.5 * ls]),
+        front=np.concatenate([xs - 0.5 * ls, [math.inf]]),
         follower=fol, leader=lead,
         lo=np.concatenate([[-math.inf], lo_in]), hi=np.concatenate([hi_in, [math.inf]]),
         v_lo=np.where(np.isnan(v_f), speed, v_f), v_hi=np.where(np.isnan(v_l), speed, v_l),
         speed=speed,
     )
+
+
+def slot_ends(rear: ArrayLike, v_f: ArrayLike, front: ArrayLike, v_l: ArrayLike,
+              v_sv_f: ArrayLike, v_sv_l: ArrayLike, sv_length: float, cfg: GapConfig,
+              follower: FollowerModel) -> tuple[Array, Array]:
+    """(lo, hi), m: the SV's centre x at least lo, ahead of a follower whose front is at
+    `rear` driving v_f (its secure gap to the SV at `v_sv_f`, plus what it closes in
+    entry_delay), and at most hi, behind a leader whose rear is at `front` driving v_l
+    (the SV's own secure gap at `v_sv_l`)."""
+    half = 0.5 * sv_length
+    vf = np.asarray(v_f, dtype=float)
+    vsf = np.asarray(v_sv_f, dtype=float)
+    closing = np.maximum(vf - vsf, 0.0) * cfg.entry_delay
+    lo = np.asarray(rear, dtype=float) + secure_gap(vf, vsf, follower) + closing + half
+    hi = np.asarray(front, dtype=float) - secure_gap(v_sv_l, v_l, cfg.sv_model()) - half
+    return lo, hi
 
 
 def reach_time(offset: ArrayLike, rel_speed: ArrayLike, accel: float) -> Array:
@@ -155,8 +173,9 @@ class GapChoice:
     reachable: bool  # inside the slot and at the gap's speed: plan the manoeuvre now
 
 
-def choose_gap(sv_x: float, sv_speed: float, desired_speed: float, gaps: Gaps,
-               cfg: GapConfig, own_limit_x: float = math.inf,
+def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: float,
+               gaps: Gaps, cfg: GapConfig, follower: FollowerModel,
+               own_limit_x: float = math.inf,
                own_limit_speed: float = 0.0) -> GapChoice | None:
     """The gap reached first (module docstring), or None when no gap is a candidate.
     `own_limit_x` (m) moving at `own_limit_speed` (m/s): the farthest the SV's centre
@@ -182,7 +201,11 @@ def choose_gap(sv_x: float, sv_speed: float, desired_speed: float, gaps: Gaps,
     inside = bool(gaps.lo[j] <= sv_x <= gaps.hi[j])
     relation = "alongside" if inside else ("ahead" if e[j] > 0.0 else "behind")
     target = float(approach_speed(e[j], gaps.speed[j], cfg))
-    reachable = inside and abs(sv_speed - float(gaps.speed[j])) <= cfg.speed_tol
+    v_g = float(gaps.speed[j])
+    v_in = 0.5 * (sv_speed + v_g)  # the SV's speed when it enters the lane
+    lo, hi = slot_ends(gaps.rear[j], gaps.v_lo[j], gaps.front[j], gaps.v_hi[j], v_in, v_in,
+                       sv_length, cfg, follower)
+    reachable = bool(lo <= sv_x <= hi) and abs(sv_speed - v_g) <= cfg.max_speed_change
     return GapChoice(
         index=j, follower=int(gaps.follower[j]), leader=int(gaps.leader[j]),
         relation=relation, aim_x=float(aim[j]), offset=float(e[j]),

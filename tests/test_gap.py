@@ -66,19 +66,28 @@ def test_slots_keep_both_secure_gaps() -> None:
 
 def test_alongside_gap_is_reachable_at_its_speed() -> None:
     g = lane([-100.0, 100.0], 25.0)
-    c = choose_gap(0.0, 25.0, 30.0, g, CFG)
+    c = choose_gap(0.0, 25.0, SV_LEN, 30.0, g, CFG, KRAUSS)
     assert c is not None
     assert (c.index, c.relation, c.offset, c.reachable) == (1, "alongside", 0.0, True)
     assert c.speed == 25.0 and c.target_speed == 25.0
-    # alongside but much faster than the gap: not reachable yet, slow down first
-    c_fast = choose_gap(0.0, 29.0, 30.0, g, CFG)
+    # 4 m/s faster: the change ends at 25 m/s, and at 27 m/s on entry the SV is still
+    # 41 m (its secure gap) behind the leader: reachable
+    c_27 = choose_gap(0.0, 29.0, SV_LEN, 30.0, g, CFG, KRAUSS)
+    assert c_27 is not None and c_27.index == 1 and c_27.reachable
+    # more than max_speed_change faster: slow down first
+    c_fast = choose_gap(0.0, 25.0 + CFG.max_speed_change + 1.0, SV_LEN, 30.0, g, CFG, KRAUSS)
     assert c_fast is not None and c_fast.index == 1 and not c_fast.reachable
+    # inside the slot at the gap's speed but too close to the leader at the SV's speed
+    g_near = lane([-100.0, 45.0], 25.0)
+    c_near = choose_gap(0.0, 29.0, SV_LEN, 30.0, g_near, CFG, KRAUSS)
+    assert c_near is not None and c_near.index == 1 and c_near.relation == "alongside"
+    assert not c_near.reachable and c_near.target_speed == 25.0  # slows to the gap first
 
 
 def test_blocked_alongside_faster_sv_goes_ahead_slower_goes_behind() -> None:
     g = lane([-100.0, 0.0, 100.0], 25.0)  # a TV right beside the SV
-    ahead = choose_gap(0.0, 27.0, 30.0, g, CFG)
-    behind = choose_gap(0.0, 23.0, 30.0, g, CFG)
+    ahead = choose_gap(0.0, 27.0, SV_LEN, 30.0, g, CFG, KRAUSS)
+    behind = choose_gap(0.0, 23.0, SV_LEN, 30.0, g, CFG, KRAUSS)
     assert ahead is not None and behind is not None
     assert (ahead.index, ahead.relation) == (2, "ahead")
     assert (behind.index, behind.relation) == (1, "behind")
@@ -91,7 +100,8 @@ def test_blocked_alongside_faster_sv_goes_ahead_slower_goes_behind() -> None:
 def test_own_leader_bars_gaps_beyond_it() -> None:
     g = lane([-100.0, 0.0, 100.0], 25.0)
     # the SV's own leader 20 m ahead at 20 m/s: the gap ahead (aim ~34 m) is out of reach
-    c = choose_gap(0.0, 27.0, 30.0, g, CFG, own_limit_x=20.0 - 0.5 * SV_LEN - 2.5,
+    c = choose_gap(0.0, 27.0, SV_LEN, 30.0, g, CFG, KRAUSS,
+                   own_limit_x=20.0 - 0.5 * SV_LEN - 2.5,
                    own_limit_speed=20.0)
     assert c is not None and c.index == 1 and c.relation == "behind"
 
@@ -102,7 +112,7 @@ def test_short_or_closing_gaps_are_not_candidates() -> None:
     xs = list(np.arange(-400.0, 401.0, 44.32))
     g = lane(xs, 25.0)
     assert np.all(g.hi[1:-1] < g.lo[1:-1])
-    c = choose_gap(0.0, 25.0, 30.0, g, CFG)
+    c = choose_gap(0.0, 25.0, SV_LEN, 30.0, g, CFG, KRAUSS)
     assert c is None or c.index in (0, len(xs))  # only the platoon's ends remain
     assert c is None or c.reach_time <= CFG.horizon
 
@@ -132,7 +142,7 @@ def test_following_the_target_speed_reaches_the_gap() -> None:
     while t < 30.0:
         tv_x = xs + 25.0 * t
         g = lane(list(tv_x), 25.0)
-        c = choose_gap(x, v, 30.0, g, CFG)
+        c = choose_gap(x, v, SV_LEN, 30.0, g, CFG, KRAUSS)
         assert c is not None and c.index == 2  # the choice holds while approaching
         if first is None:
             first = c.reach_time
