@@ -12,11 +12,15 @@ No fastmath: results match the interpreted arithmetic operation by operation
 numba itself is imported only when a compiled function is first called (about
 0.4 s to import, 0.7 s to set up its compiler on the first call, then a few ms
 per cached function): what neither plans nor steps a vehicle (`--help`, input
-errors) does not pay for it. Until then `njit` returns a stand-in; the first call
-compiles every function declared so far and puts the compiled functions
-in place of the stand-ins in every loaded `cosim` module, so compiled code
-calling compiled code finds compiled functions. `warm_up` does all of this
-ahead of time (a fork server calls it once for all its children).
+errors) does not pay for it. Until then `njit` returns a stand-in (`_Deferred`);
+the first call compiles every function declared so far. A stand-in stays where it
+is (no module's names are rebound): numba compiles a copy of each function whose
+globals hold the compiled callees instead of their stand-ins, so compiled code
+calls compiled code directly, and Python callers go through the stand-in.
+Each module with compiled functions registers its own warm-up
+(`register_warm_up`); `warm_up` runs those of the modules loaded so far (import
+`cosim.control.warm` to load and warm them all: a fork server does it once for
+all its children).
 
 Cache invalidation: numba checks only the timestamp of a cached function's own
 file, so a caller cached before its callee (in another file) changed would keep
@@ -32,7 +36,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import inspect
-import sys
+import types
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -59,31 +63,46 @@ class _Deferred:
         assert self.compiled is not None
         return self.compiled(*args)
 
+    @property
+    def signatures(self) -> list[Any]:
+        """The compiled signatures so far (numba's; empty before the first call)."""
+        return [] if self.compiled is None else list(self.compiled.signatures)  # type: ignore[attr-defined]
+
 
 _PENDING: list[_Deferred] = []
+_WARM_UPS: list[Callable[[], None]] = []
 
 
 def _compile_all() -> None:
-    """Wrap every deferred function with numba.njit and rebind the stand-ins in the
-    loaded cosim modules (numba resolves a callee through its caller's globals)."""
+    """Wrap every deferred function with numba.njit. numba resolves a callee through
+    its caller's globals: each function is compiled as a copy whose globals map the
+    stand-ins to their compiled functions (the modules' own names stay as they are)."""
     from numba import njit as numba_njit
     from numba.core import config
 
+    new = [d for d in _PENDING if d.compiled is None]
     user_dir = config.CACHE_DIR
     config.CACHE_DIR = str(_cache_dir(user_dir))
     try:
-        for d in _PENDING:
-            if d.compiled is None:
-                # no fastmath; error_model="numpy": x / 0 gives inf or NaN as in numpy,
-                # which the closed loop's finiteness checks catch
-                d.compiled = numba_njit(cache=True, error_model="numpy")(d.py_func)
+        scopes: list[tuple[dict[str, Any], dict[str, Any]]] = []
+        for d in new:
+            fn = d.py_func
+            scope: dict[str, Any] = {}
+            copy = types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__,
+                                      fn.__closure__)
+            copy.__qualname__ = fn.__qualname__
+            copy.__module__ = fn.__module__
+            copy.__doc__ = fn.__doc__
+            # no fastmath; error_model="numpy": x / 0 gives inf or NaN as in numpy,
+            # which the closed loop's finiteness checks catch
+            d.compiled = numba_njit(cache=True, error_model="numpy")(copy)
+            scopes.append((scope, fn.__globals__))
     finally:
         config.CACHE_DIR = user_dir  # the directory is bound to each function already
-    for name, module in list(sys.modules.items()):
-        if name == "cosim" or name.startswith("cosim."):
-            for attr, value in list(vars(module).items()):
-                if isinstance(value, _Deferred) and value.compiled is not None:
-                    setattr(module, attr, value.compiled)
+    # filled once every stand-in has its dispatcher (numba reads globals at compile time)
+    for scope, module_globals in scopes:
+        scope.update({name: value.compiled if isinstance(value, _Deferred) else value
+                      for name, value in module_globals.items()})
 
 
 def _cache_dir(user_dir: str) -> Path:
@@ -101,11 +120,16 @@ def njit(fn: F) -> F:
     return _Deferred(fn)  # type: ignore[return-value]
 
 
-def warm_up() -> None:
-    """Import numba and compile (or load from the cache) every compiled function now:
-    one step of every plant and controller, one collision check of each kind."""
-    from cosim.control.closed_loop import warm_up as loop_warm_up
-    from cosim.planning.collision import warm_up as check_warm_up
+def register_warm_up(fn: Callable[[], None]) -> Callable[[], None]:
+    """Declare a module's warm-up (a call of each of its compiled functions); returns fn."""
+    if fn not in _WARM_UPS:
+        _WARM_UPS.append(fn)
+    return fn
 
-    loop_warm_up()
-    check_warm_up()
+
+def warm_up() -> None:
+    """Import numba and compile (or load from the cache) the compiled functions now, by
+    the warm-ups registered by the modules loaded so far (`cosim.control.warm` loads
+    the closed loop's and the collision check's)."""
+    for fn in list(_WARM_UPS):
+        fn()

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cosim.sim import PLAN_COLUMNS, TRACE_COLUMNS, RunResult
+from cosim.recorder import PLAN_COLUMNS, TRACE_COLUMNS, RunResult
 
 Array = NDArray[np.float64]
 

@@ -10,7 +10,8 @@ import sys
 
 import numpy as np
 
-from cosim.compiled import warm_up
+from cosim import compiled
+from cosim.control.warm import warm_up
 from cosim.params import VehicleParams
 from cosim.vehicle import bicycle, twotrack
 
@@ -40,10 +41,13 @@ def test_compiled_derivatives_equal_the_interpreted_functions() -> None:
 
 def test_compiled_callers_see_compiled_callees() -> None:
     warm_up()
-    # the stand-ins are replaced in the modules' globals (numba looks callees up there)
-    assert hasattr(twotrack.twotrack_step, "signatures")
+    # numba compiled the caller against the compiled callee (it looks callees up in the
+    # caller's globals: the copy compiled.py gives it), and no module name was rebound
     assert twotrack.twotrack_step.signatures
-    assert hasattr(twotrack.twotrack_derivative, "signatures")
+    assert isinstance(twotrack.twotrack_step, compiled._Deferred)
+    assert twotrack.twotrack_derivative.signatures  # compiled as the step's callee
+    assert twotrack.twotrack_step.compiled.py_func.__globals__["twotrack_derivative"] is (
+        twotrack.twotrack_derivative.compiled)
 
 
 def test_importing_the_closed_loop_does_not_import_numba() -> None:

@@ -13,10 +13,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cosim.observer import uncertain_config
 from cosim.params import RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.policy import reference_state
 from cosim.scenario import load_scenario, with_overrides
-from cosim.sim import reference_state, simulate, uncertain_config
+from cosim.sim import simulate
 
 SCENARIO = Path(__file__).parent / "data" / "tv_brakes_mid_change.toml"
 

@@ -14,8 +14,9 @@ import pytest
 
 from cosim.cli import main
 from cosim.planning.planner import LaneChangePlanner, SVPlanState
+from cosim.recorder import METRIC_DOCS, PLAN_COLUMNS, TRACE_COLUMNS, RunResult
 from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
-from cosim.sim import METRIC_DOCS, PLAN_COLUMNS, TRACE_COLUMNS, RunResult, run_scenario, simulate
+from cosim.sim import run_scenario, simulate
 from cosim.traffic.scripted import ScriptedTV
 
 pytestmark = pytest.mark.sumo
@@ -249,7 +250,7 @@ def test_cli_bad_scenario_exits_2_and_writes_nothing(tmp_path: Path) -> None:
 
 
 def test_docs_describe_every_output_column() -> None:
-    from cosim.sim import TIMING_DOCS
+    from cosim.recorder import TIMING_DOCS
 
     text = (project_root() / "README.md").read_text(encoding="utf-8")
     for columns in (TRACE_COLUMNS, PLAN_COLUMNS, METRIC_DOCS, TIMING_DOCS):

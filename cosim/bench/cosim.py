@@ -47,9 +47,9 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
     """s, wall and CPU time of the scenario's traffic stepped by SumoSim alone, SUMO
     start to close; with_sv: an SV of the scenario's size at its start, driven by
     SUMO's own models (no co-simulation loop at all)."""
-    from cosim.sim import SV_ID, SV_LENGTH_MARGIN
     from cosim.traffic.demand import populate, start_zone
     from cosim.traffic.sumo import SumoSim
+    from cosim.traffic.world import SV_ID, SV_LENGTH_MARGIN
 
     start, cpu = time.perf_counter(), time.process_time()
     tr = scenario.traffic
@@ -95,10 +95,11 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                            duration=float(args.duration))
     paper = load_scenario(_path(args.paper, DEFAULT_PAPER))
     repeats = max(int(args.repeats), 1)
-    from cosim.compiled import warm_up
 
     start = time.perf_counter()
-    warm_up()  # numba import + compile, or load from the on-disk cache
+    from cosim.control.warm import warm_up  # importing it compiles, or loads the cache
+
+    warm_up()
     startup = time.perf_counter() - start
     # warm-up (imports, first libsumo start), then alternate so drift hits both alike
     sumo_alone(with_overrides(dense, duration=1.0), with_sv=True)

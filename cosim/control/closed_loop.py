@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cosim.compiled import Array, njit
+from cosim.compiled import Array, njit, register_warm_up
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
@@ -353,6 +353,7 @@ class ClosedLoop:
         )
 
 
+@register_warm_up
 def warm_up() -> None:
     """Compile (or load from numba's cache) every compiled function, for every plant
     and controller, by calling each entry point once (a function compiled only as the

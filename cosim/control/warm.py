@@ -1,6 +1,7 @@
 """Importing this module compiles the closed loop's and the collision check's numba
-functions (or loads them from numba's on-disk cache) in the importing process:
-`cosim.compiled.warm_up`.
+functions (or loads them from numba's on-disk cache) in the importing process: it
+loads both modules (each registers its warm-up with cosim.compiled) and runs
+`warm_up`.
 
 For a fork server's preload list (`cosim.batch.PRELOAD`): the server pays numba's
 start-up once (about 1.2 s: import, compiler set-up, cached code) and every run
@@ -10,6 +11,10 @@ paper case 5.1 took 1.45 s without this module in the preload list, 0.28 s with 
 
 from __future__ import annotations
 
+import cosim.control.closed_loop  # noqa: F401  (registers its warm-up)
+import cosim.planning.collision  # noqa: F401  (registers its warm-up)
 from cosim.compiled import warm_up
 
 warm_up()
+
+__all__ = ["warm_up"]

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cosim.compiled import njit
+from cosim.compiled import njit, register_warm_up
 from cosim.planning.trajectory import (
     polynomial_coefficients,
     standard_bounds,
@@ -666,6 +666,7 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
     return first_k, first_h
 
 
+@register_warm_up
 def warm_up() -> None:
     """Compile (or load from numba's cache) the check's compiled functions now: one tiny
     check of each kind (closed-form and general-start candidates, stored and closed-form

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from cosim.compiled import warm_up
+from cosim.control.warm import warm_up
 
 
 @pytest.fixture(scope="session", autouse=True)

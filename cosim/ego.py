@@ -1,0 +1,158 @@
+"""The SV as one interface, two implementations.
+
+- `PlannedEgo`: our SV, the plant driven by the controller (cosim.control.closed_loop)
+  tracking the reference the policy hands it; its pose is written to SUMO with
+  moveToXY after each step's `scenario.substeps` substeps.
+- `SumoDrivenEgo`: the baseline (controller "sumo"): an ordinary SUMO vehicle of the
+  SV's size that SUMO's own car-following and lane-change models drive; its state
+  is read from SUMO, and its lateral acceleration and yaw rate, which SUMO does not
+  report, are taken from its recorded path at the end.
+
+Both put the SV into the world, give its state at the top of a step, write their
+own trace columns (cosim.recorder.TRACE_COLUMNS) and advance one step.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.recorder import COLUMN
+from cosim.scenario import Scenario
+from cosim.traffic.sumo import TrafficSnapshot
+from cosim.traffic.world import SV_ID, SVState, World
+
+Array = NDArray[np.float64]
+
+
+class Ego(Protocol):
+    """The SV the loop steps (see the module docstring)."""
+
+    plant: str  # the plant's name in the metrics row ("none": SUMO drives)
+    tracks_reference: bool  # it tracks a reference (the IAE columns mean something)
+    records: list[Any]  # the closed loop's StepRecords (empty when SUMO drives)
+    wall: float  # s, wall time in controller + plant
+
+    def inserted(self) -> None: ...
+    def state(self, everyone: TrafficSnapshot) -> SVState: ...
+    def write_trace(self, row: Array) -> None: ...
+    def advance(self, t: float, dt: float, reference: LaneChangeTrajectory | None) -> None: ...
+    def finish_trace(self, trace: dict[str, Array]) -> None: ...
+
+
+class PlannedEgo:
+    """Our SV: plant + controller (`scenario.sv.plant`, `scenario.sv.controller`)."""
+
+    tracks_reference = True
+
+    def __init__(self, scenario: Scenario, world: World, y0: float,
+                 first_reference: LaneChangeTrajectory) -> None:
+        from cosim.control.closed_loop import ClosedLoop
+
+        sc = scenario
+        x0 = world.sv_start_x
+        self.plant = sc.sv.plant
+        self.substeps = sc.substeps
+        self.world = world
+        self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
+                               sc.road.mu, x0, y0, 0.0, sc.sv.speed)
+        world.sumo.add_controlled(SV_ID, x0, y0, 0.0, sc.sv.speed, sc.vehicle.length,
+                                  sc.vehicle.width, sc.sv.lane)
+        self.loop.set_reference(first_reference)
+        self.record = self.loop.record(0.0)
+        self.records: list[Any] = [self.record]
+        self.wall = 0.0
+
+    def inserted(self) -> None:
+        """Nothing to do: the SV stays under our control."""
+
+    def state(self, everyone: TrafficSnapshot) -> SVState:
+        r = self.record
+        lane = float(everyone.lane[everyone.index(SV_ID)])
+        return SVState(r.x, r.y, r.heading, r.vx, r.vy, lane)
+
+    def write_trace(self, row: Array) -> None:
+        r = self.record
+        C = COLUMN
+        row[C["yaw_rate_degps"]] = math.degrees(r.yaw_rate)
+        row[C["ax_mps2"]] = r.ax
+        row[C["ay_mps2"]] = r.ay
+        row[C["x_ref_m"]] = r.x_ref
+        row[C["y_ref_m"]] = r.y_ref
+        row[C["psi_ref_deg"]] = math.degrees(r.heading - r.phi_e)
+        row[C["vx_ref_mps"]] = r.vx_ref
+        row[C["curvature_ref_1pm"]] = r.kappa_ref
+        row[C["ex_mps"]] = r.ex
+        row[C["ye_m"]] = r.ye
+        row[C["phie_deg"]] = math.degrees(r.phi_e)
+        row[C["delta_f_deg"]] = math.degrees(r.delta_f)
+        row[C["dmz_nm"]] = r.dmz
+        row[C["fa_n"]] = r.fa
+        row[C["fx_fl_n"]], row[C["fx_fr_n"]], row[C["fx_rl_n"]], row[C["fx_rr_n"]] = r.fx
+        row[C["fx_total_n"]] = sum(r.fx)
+
+    def advance(self, t: float, dt: float, reference: LaneChangeTrajectory | None) -> None:
+        """Control + plant from t to t + dt tracking `reference`, then the pose to SUMO."""
+        assert reference is not None, "the planned SV always tracks a reference"
+        w0 = time.perf_counter()
+        r = self.record = self.loop.advance(t, dt, self.substeps, reference)
+        self.records.append(r)
+        self.wall += time.perf_counter() - w0
+        self.world.sumo.move(SV_ID, r.x, r.y, r.heading, r.vx, r.ax)
+
+    def finish_trace(self, trace: dict[str, Array]) -> None:
+        """Nothing to add: every column came from the closed loop."""
+
+
+class SumoDrivenEgo:
+    """The baseline SV (controller "sumo"): SUMO drives it (see the module docstring)."""
+
+    plant = "none"
+    tracks_reference = False
+
+    def __init__(self, scenario: Scenario, world: World) -> None:
+        sc = scenario
+        lane = sc.sv.lane
+        desired = sc.sv.desired_speed or sc.road.speed_bands[lane][1]
+        world.sumo.add_driven(SV_ID, lane, world.sv_start_x, sc.sv.speed, desired,
+                              sc.vehicle.length, sc.vehicle.width,
+                              own_lane_changes=sc.sv.decision)
+        self.world = world
+        self.records: list[Any] = []
+        self.wall = 0.0
+        self.ax = math.nan  # m/s^2, SUMO's longitudinal acceleration of the SV now
+
+    def inserted(self) -> None:
+        """From now on SUMO drives it."""
+        self.world.sumo.release(SV_ID)
+
+    def state(self, everyone: TrafficSnapshot) -> SVState:
+        i = everyone.index(SV_ID)
+        self.ax = float(everyone.accel[i])
+        return SVState(float(everyone.x[i]), float(everyone.y[i]), float(everyone.heading[i]),
+                       float(everyone.speed[i]), float(everyone.lateral_speed[i]),
+                       float(everyone.lane[i]))
+
+    def write_trace(self, row: Array) -> None:
+        row[COLUMN["ax_mps2"]] = self.ax
+
+    def advance(self, t: float, dt: float, reference: LaneChangeTrajectory | None) -> None:
+        """Nothing to do: SUMO moves it in its own step."""
+
+    def finish_trace(self, trace: dict[str, Array]) -> None:
+        """Body lateral acceleration and yaw rate from the path (finite differences of
+        the recorded poses; SUMO does not report lateral acceleration)."""
+        t, x, y = trace["t_s"], trace["x_m"], trace["y_m"]
+        psi = np.radians(trace["psi_deg"])
+        if t.size < 3:
+            return
+        vxg, vyg = np.gradient(x, t), np.gradient(y, t)
+        axg, ayg = np.gradient(vxg, t), np.gradient(vyg, t)
+        c, s = np.cos(psi), np.sin(psi)
+        trace["ay_mps2"] = -axg * s + ayg * c
+        trace["yaw_rate_degps"] = np.degrees(np.gradient(np.unwrap(psi), t))

@@ -1,0 +1,151 @@
+"""What the SV knows of the TVs: the V2V channel (or perception), the scripted TVs'
+own messages, and the safety margin widened for what the channel does not tell
+exactly.
+
+The scripted TVs ([[tv]] in a scenario) are added to SUMO as controlled vehicles
+and moved along their scripts each step; they publish their planned manoeuvre
+(`scripted.ScriptedTV.message`). Every other TV is read from SUMO and sent
+through the channel (range, latency, loss; or measured with noise in the
+"perception" mode, scripted TVs included).
+
+Without latency or loss the messages at a planning call are exactly those
+published then: the channel runs only when the policy reads its `Inbox` (building
+the messages is the costly part); otherwise it runs every step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from cosim.params import PlannerConfig, RoadParams
+from cosim.scenario import Scenario
+from cosim.traffic.sumo import TrafficSnapshot
+from cosim.traffic.world import NEAR_RANGE, SV_ID, Scene, World
+
+UNCERTAIN_CLOSING_SPEED = 5.0  # m/s, closing speed assumed for the V2V latency margin
+
+
+def uncertain_config(scenario: Scenario) -> PlannerConfig:
+    """The planner's settings with the safety margin widened for what V2V does not
+    tell exactly ([planner] uncertainty_margin): latency (and the extra age of lost
+    messages) times an assumed closing speed, plus, without V2V, two standard
+    deviations of the measured position and the speed noise over one second."""
+    cfg, v2v = scenario.planner, scenario.v2v
+    if not cfg.uncertainty_margin:
+        return cfg
+    age = v2v.latency + scenario.step * v2v.loss / max(1.0 - v2v.loss, 1e-3)
+    extra = age * UNCERTAIN_CLOSING_SPEED
+    if v2v.mode == "perception":
+        extra += 2.0 * v2v.noise_position + v2v.noise_speed * 1.0
+    if extra <= 0.0:
+        return cfg
+    return replace(cfg, safety_margin=cfg.safety_margin + extra)
+
+
+class Inbox:
+    """The messages the SV has at one step: the channel's (exchanged on the first
+    read, or at once when the channel must run every step) and the scripted TVs'."""
+
+    def __init__(self, observer: Observer, scene: Scene) -> None:
+        self.observer = observer
+        self.scene = scene
+        self.received: list[Any] | None = None
+        if observer.every_step:
+            self.received = observer.exchange(scene)
+
+    def read(self) -> list[Any]:
+        if self.received is None:
+            self.received = self.observer.exchange(self.scene)
+        return self.received + self.observer.scripted_messages(self.scene.t)
+
+
+class Observer:
+    """The V2V channel and the scripted TVs of one run (see the module docstring).
+
+    `listens` False (the SUMO-driven SV never plans): the channel does not run every
+    step. `radius` (m) is how far around the SV the world is read each step."""
+
+    def __init__(self, scenario: Scenario, road: RoadParams, world: World, *,
+                 listens: bool = True) -> None:
+        from cosim.traffic.v2v import V2VChannel
+
+        sc = scenario
+        self.world = world
+        self.dt = sc.step
+        self.v2v = sc.v2v
+        self.scripted: list[Any] = []
+        self.scripted_ids: tuple[str, ...] = tuple(tv.id for tv in sc.tvs)
+        self.scripted_poses: list[list[tuple[float, ...]]] = []
+        self._start_scripted(sc, road, world.sv_start_x)
+        self.channel = V2VChannel.from_spec(sc.v2v, road, sc.seed)
+        v2v = sc.v2v
+        every_step = v2v.latency > 0 or v2v.loss > 0 or v2v.mode != "v2v"
+        self.every_step = every_step and listens
+        # the per-step read covers what the rule, the records and the collision check
+        # need; a planning call reads everyone in V2V range once more
+        self.radius = (max(NEAR_RANGE, v2v.range) if every_step else NEAR_RANGE) \
+            + 2.0 * sc.vehicle.length
+        self.read_everyone = not every_step and v2v.range > NEAR_RANGE
+
+    def _start_scripted(self, sc: Scenario, road: RoadParams, x_sv: float) -> None:
+        """Add the scenario's [[tv]] vehicles as controlled vehicles on their scripts."""
+        if not sc.tvs:
+            return
+        from cosim.traffic import scripted
+
+        # the scripts are known in advance: evaluate them once for every step time
+        times = sc.step * np.arange(sc.n_steps + 2)
+        for spec in sc.tvs:
+            tv = scripted.ScriptedTV(spec, road, x_sv)
+            k = tv.kinematics(times)
+            poses = list(zip(k.x.tolist(), k.y.tolist(), k.heading.tolist(), k.speed.tolist(),
+                             k.accel.tolist(), strict=True))
+            x, y, h, v, _a = poses[0]
+            self.world.sumo.add_controlled(spec.id, x, y, h, v, spec.length, spec.width,
+                                           spec.lane, vtype="tv_scripted")
+            self.scripted.append(tv)
+            self.scripted_poses.append(poses)
+
+    def move_scripted(self, t: float) -> None:
+        """The scripted TVs to their poses at t (they hold from the next SUMO step)."""
+        k = int(round(t / self.dt))
+        for tv, poses in zip(self.scripted, self.scripted_poses, strict=True):
+            x, y, h, v, a = poses[k]
+            self.world.sumo.move(tv.spec.id, x, y, h, v, a)
+
+    def inbox(self, scene: Scene) -> Inbox:
+        """This step's messages, for the policy."""
+        return Inbox(self, scene)
+
+    def exchange(self, scene: Scene) -> list[Any]:
+        """The channel's messages of the TVs around the SV now."""
+        everyone = scene.everyone
+        if self.read_everyone:
+            everyone = self.world.sumo.snapshot()  # the channel keeps those in range
+        perceived = self.v2v.mode == "perception"  # scripted TVs are measured too
+        public = everyone.select(np.array(
+            [vid != SV_ID and (perceived or vid not in self.scripted_ids)
+             for vid in everyone.ids],
+            dtype=bool))
+        if perceived and self.scripted:
+            public = self._scripted_accel(public, scene.t)
+        return self.channel.exchange(public, scene.sv.x, scene.sv.y)
+
+    def _scripted_accel(self, snap: TrafficSnapshot, t: float) -> TrafficSnapshot:
+        """The snapshot with the scripted TVs' true accelerations: SUMO reports a wrong
+        one for vehicles moved by moveToXY (+4 m/s^2 for a TV braking at 8 m/s^2)."""
+        accel = np.array(snap.accel, dtype=float)
+        k = int(round(t / self.dt))
+        for tv, poses in zip(self.scripted, self.scripted_poses, strict=True):
+            if tv.spec.id in snap.ids:
+                accel[snap.index(tv.spec.id)] = poses[k][4]
+        return replace(snap, accel=accel)
+
+    def scripted_messages(self, t: float) -> list[Any]:
+        """The scripted TVs' own messages (none in the perception mode: measured)."""
+        if self.v2v.mode == "perception":
+            return []
+        return [m for m in (tv.message(t) for tv in self.scripted) if m is not None]

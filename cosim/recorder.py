@@ -1,0 +1,443 @@
+"""What one run records: the trace rows, collision onsets and fault, SUMO's collisions
+of the SV, the plans log, and at the end the metrics row (cosim.run_output writes them).
+
+Per step (`Recorder.record`): the SV's state, the policy's status (target lane,
+changing, leader gap, car-following acceleration), gap / TTC along the lane, our
+exact overlap check of the SV against every TV near it (only where the bounding
+circles meet), SUMO's collisions of the last step; the ego writes its own columns
+(reference, errors, inputs) into the same row. `Recorder.result` turns the trace
+and what the policy and the ego report into the metrics row (cosim.metrics).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cosim import metrics as mx
+from cosim.params import RoadParams
+from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.scenario import Scenario
+from cosim.traffic.sumo import TrafficSnapshot
+from cosim.traffic.world import Scene
+
+Array = NDArray[np.float64]
+
+SETTLE_TOL = 0.1  # m, |y - target lane centre| below which a lane change counts as done
+IAE_WINDOW = 10.0  # s, IAE from the start of the first lane change (cosim track's default)
+
+# ----------------------------------------------------------------------------- columns
+
+TRACE_COLUMNS: dict[str, str] = {
+    "t_s": "simulation time (s)",
+    "x_m": "SV centre (= CG) global x (m)",
+    "y_m": "SV centre global y (m)",
+    "psi_deg": "SV heading, 0 along +x, counter-clockwise positive (deg)",
+    "vx_mps": "SV body longitudinal speed Vx (m/s)",
+    "vy_mps": "SV body lateral speed Vy (m/s)",
+    "yaw_rate_degps": "SV yaw rate Omega_z (deg/s)",
+    "ax_mps2": "SV body longitudinal acceleration (m/s^2)",
+    "ay_mps2": "SV body lateral acceleration (m/s^2)",
+    "x_ref_m": "reference point global x (m); NaN for the SUMO baseline",
+    "y_ref_m": "reference point global y (m)",
+    "psi_ref_deg": "reference path heading (deg)",
+    "vx_ref_mps": "reference speed Vx* (eq. 14) (m/s)",
+    "curvature_ref_1pm": "reference path curvature KL (eq. 15) (1/m)",
+    "ex_mps": "speed error ex = Vx - Vx* (eq. 28) (m/s)",
+    "ye_m": "lateral offset from the reference path ye (eq. 16) (m)",
+    "phie_deg": "heading error phi_e (eq. 16) (deg)",
+    "delta_f_deg": "front road-wheel steering angle delta_f (deg)",
+    "dmz_nm": "yaw moment demand dMz (eq. 22) (N m)",
+    "fa_n": "total longitudinal force demand Fa (eq. 28) (N)",
+    "fx_fl_n": "front-left wheel longitudinal force (eq. 30) (N)",
+    "fx_fr_n": "front-right wheel longitudinal force (N)",
+    "fx_rl_n": "rear-left wheel longitudinal force (N)",
+    "fx_rr_n": "rear-right wheel longitudinal force (N)",
+    "fx_total_n": "sum of the four wheel longitudinal forces (N)",
+    "lane": "lane the SV's centre is in, from its y (SUMO index)",
+    "sumo_lane": "SV's lane index as SUMO has it (-1 off the network)",
+    "target_lane": "lane the SV is heading for (= lane when keeping its lane)",
+    "changing": "1 while a planned lane change is under way, else 0",
+    "leader_gap_m": "bumper-to-bumper gap to the leader in the SV's lane (m; inf: none)",
+    "idm_accel_mps2": "car-following (IDM) acceleration when keeping the lane (m/s^2)",
+    "gap_min_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
+    "ttc_min_s": "smallest along-lane time-to-collision to such a TV (s; inf: none)",
+    "collisions": "number of TVs whose rectangle overlaps the SV's (our exact check)",
+    "sumo_collisions": "number of collisions involving the SV SUMO reported this step",
+    "n_tvs": "number of TVs within 150 m (x) of the SV",
+}
+COLUMN = {name: i for i, name in enumerate(TRACE_COLUMNS)}
+
+PLAN_COLUMNS: dict[str, str] = {
+    "t_s": "simulation time of the planning request (s)",
+    "trigger": "scripted | decision | retry",
+    "origin_lane": "lane the SV is in (SUMO index)",
+    "target_lane": "lane requested (SUMO index)",
+    "vx0_mps": "SV speed at the request (m/s)",
+    "vxf_mps": "target speed at the end of the lane change (band rule) (m/s)",
+    "n_candidates": "number of tau values on the grid",
+    "tau_min_stable_s": "smallest stable tau (handling envelope) (s)",
+    "stable_set_s": "stable tau set as intervals a-b;c-d (s)",
+    "collision_free_set_s": "collision-free tau set (intervals) (s)",
+    "tau_opt_s": "tau_opt of eq. 13 over the collision-free set (s)",
+    "tau_s": "tau chosen (collision-free tau nearest tau_opt) (s; NaN: no plan)",
+    "ok": "1: a plan was adopted, 0: no collision-free tau (the SV keeps its lane)",
+    "rejected_unstable": "candidates rejected by the handling envelope",
+    "rejected_collision": "candidates rejected for a collision",
+    "rejections": "collisions per TV id, id:count;id:count (or why the request was dropped)",
+    "reason": "replan | abort | brake rows: why the plan under way was dropped (the re-check's "
+    "first collision); else empty",
+}
+
+METRIC_DOCS: dict[str, str] = {
+    "scenario": "scenario name",
+    "seed": "random seed (SUMO and traffic)",
+    "controller": "mimo | siso | sumo (SUMO-native baseline)",
+    "plant": "twotrack | bicycle (none for the baseline)",
+    "duration_s": "simulated time (s)",
+    "steps": "number of SUMO steps",
+    "lane_change_requests": "lane changes requested (scripted or by the decision rule; "
+    "for the SUMO baseline with decision = true, also the changes SUMO made on its own)",
+    "plans": "planner calls",
+    "plans_failed": "planner calls that found no collision-free tau",
+    "replans": "plans under way replaced by a new plan to the same target lane (re-check "
+    "found a collision; [planner] replanning)",
+    "aborts": "plans under way given up for a return to the origin lane",
+    "emergency_brakes": "plans under way given up for braking in the nearest lane (neither a "
+    "replan nor an abort was collision-free)",
+    "lane_changes": "lane changes completed (ended within 0.1 m of the target lane centre)",
+    "lane_change_completed": "1 if at least one lane change was requested and all started ones "
+    "completed, else 0",
+    "lane_change_duration_s": "mean duration of the completed lane changes, start to settled "
+    "within 0.1 m of the target lane centre (s; NaN: none)",
+    "lane_change_duration_max_s": "longest such duration (s; NaN: none)",
+    "lane_change_durations_s": "every lane change's duration in order, ';'-separated (s; "
+    "nan: did not settle before the next change or the end)",
+    "tau_first_s": "tau of the first adopted plan (s; NaN: none)",
+    "collisions": "collision events by our exact overlap check (SV against every TV; one "
+    "contact counts once)",
+    "collision": "1 if collisions > 0, else 0",
+    "collisions_sv": "collision events the SV caused: at the onset it was changing lanes "
+    "(a planned manoeuvre under way), or the TV's centre was ahead of the SV's (the SV ran "
+    "into it); the rest are TVs running into a lane-keeping SV from behind or the side",
+    "collisions_manoeuvre": "collision events whose onset fell while the SV was changing lanes "
+    "(a planned manoeuvre under way, replans and aborts included; the SUMO-driven SV: moving "
+    "sideways faster than 0.05 m/s)",
+    "sumo_collisions": "collision events involving the SV reported by SUMO (cross-check)",
+    "min_gap_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
+    "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
+    "max_abs_lat_accel_mps2": "largest |body lateral acceleration| (m/s^2)",
+    "max_abs_long_accel_mps2": "largest |body longitudinal acceleration| (m/s^2)",
+    "max_jerk_mps3": "largest |d(ax, ay)/dt| between steps (m/s^3)",
+    "iae_vx_mps_s": "IAE of ex = Vx - Vx* over the 10 s from the start of the first lane "
+    "change (the whole run without one) (Table 2 column Vx) ((m/s) s)",
+    "iae_ye_m_s": "IAE of ye, same window (Table 2 column ye) (m s)",
+    "iae_phie_deg_s": "IAE of phi_e, same window (Table 2 column phi_e) (deg s)",
+    "iae_deltaf_deg_s": "integral of |delta_f|, same window (Table 2 column delta_f) (deg s)",
+    "iae_fx_kn_s": "integral of the sum of the four wheels' |Fx|, same window (Table 2 "
+    "column Fx) (kN s)",
+    "final_lane": "SV's lane at the end (SUMO index, from y)",
+    "final_offset_m": "SV's y minus its lane centre at the end (m)",
+    "mean_speed_mps": "SV's mean speed (m/s)",
+    "sumo_events": "SUMO teleports / lost vehicles during the run",
+}
+
+TIMING_DOCS: dict[str, str] = {
+    "scenario": "scenario name",
+    "wall_time_s": "wall time of the whole run, SUMO start to close (s)",
+    "wall_sumo_s": "wall time in SUMO stepping and reading (s)",
+    "wall_planning_s": "wall time in the planner (s)",
+    "wall_control_s": "wall time in controller + plant (s)",
+    "wall_realtime_factor": "simulated time / wall time (-)",
+    "cpu_time_s": "CPU time of this process over the run, SUMO included (libsumo runs "
+    "in-process) (s): less sensitive than wall time to other load on the machine",
+}
+
+
+def _fmt_intervals(spans: list[tuple[float, float]]) -> str:
+    return ";".join(f"{a:.2f}-{b:.2f}" for a, b in spans)
+
+
+def plan_row(plan: Any, trigger: str, vx0: float) -> dict[str, Any]:
+    """One plans.csv row of a planner's Plan (see PLAN_COLUMNS)."""
+    per_tv: dict[str, int] = {}
+    n_unstable = 0
+    for rej in plan.rejections:
+        if rej.reason == "unstable":
+            n_unstable += 1
+        else:
+            key = rej.vehicle_id or "?"
+            per_tv[key] = per_tv.get(key, 0) + 1
+    return {
+        "t_s": plan.t,
+        "trigger": trigger,
+        "origin_lane": plan.origin_lane,
+        "target_lane": plan.target_lane,
+        "vx0_mps": vx0,
+        "vxf_mps": plan.vxf,
+        "n_candidates": int(plan.taus.size),
+        "tau_min_stable_s": plan.tau_min,
+        "stable_set_s": _fmt_intervals(plan.stable_intervals),
+        "collision_free_set_s": _fmt_intervals(plan.collision_free_intervals),
+        "tau_opt_s": plan.tau_opt,
+        "tau_s": math.nan if plan.tau is None else float(plan.tau),
+        "ok": int(plan.tau is not None),
+        "rejected_unstable": n_unstable,
+        "rejected_collision": sum(per_tv.values()),
+        "rejections": ";".join(f"{k}:{v}" for k, v in sorted(per_tv.items())),
+        "reason": "",
+    }
+
+
+# ----------------------------------------------------------------------------- records
+
+
+@dataclass
+class LaneChange:
+    """One adopted lane-change plan and how it went."""
+
+    t0: float  # s, start
+    tau: float  # s, planned duration
+    origin_lane: int  # lane the manoeuvre under way leaves (after an abort: the one it aborted)
+    target_lane: int  # lane it heads for (after an abort: the lane it started in)
+    y_target: float  # m, target lane centre
+    trajectory: LaneChangeTrajectory
+    plan: Any  # the planner's Plan (for the tau-set figure)
+    t_next: float = math.inf  # s, when the next manoeuvre started (window end)
+    trigger: str = ""  # what asked for it (scripted | decision | retry)
+    aborted: bool = False  # given up for a return to the origin lane (not a lane change)
+    start_lane: int = -1  # lane it started in
+    wanted_lane: int = -1  # lane first asked for
+
+
+@dataclass
+class RunResult:
+    """Everything one run produced (what run_scenario writes)."""
+
+    scenario: Scenario
+    road: RoadParams
+    trace: dict[str, Array]
+    plans: list[dict[str, Any]]
+    lane_changes: list[LaneChange]
+    tv_tracks: dict[str, tuple[Array, Array, Array]]
+    metrics: dict[str, Any]
+    timing: dict[str, Any]
+    events: list[str] = field(default_factory=list)
+    records: list[Any] = field(default_factory=list)  # closed-loop StepRecords (ours only)
+    first_plan: Any = None  # the planner's first Plan (for the tau-set figure)
+
+
+class Tracks:
+    """TV positions near the SV, appended per step as arrays (for Fig. 16)."""
+
+    def __init__(self) -> None:
+        self.chunks: list[tuple[float, tuple[str, ...], Array, Array]] = []
+
+    def add(self, t: float, snap: TrafficSnapshot) -> None:
+        if len(snap):
+            self.chunks.append((t, snap.ids, snap.x, snap.y))  # snapshots are never modified
+
+    def result(self) -> dict[str, tuple[Array, Array, Array]]:
+        """id -> (t, x, y) arrays in time order."""
+        if not self.chunks:
+            return {}
+        ids = np.array([vid for _, chunk_ids, _, _ in self.chunks for vid in chunk_ids])
+        t = np.concatenate([np.full(len(c[1]), c[0]) for c in self.chunks])
+        x = np.concatenate([c[2] for c in self.chunks])
+        y = np.concatenate([c[3] for c in self.chunks])
+        names, inverse = np.unique(ids, return_inverse=True)
+        order = np.argsort(inverse, kind="stable")  # by vehicle, in time order within
+        bounds = np.searchsorted(inverse[order], np.arange(names.size + 1))
+        return {
+            str(name): (t[order[a:b]], x[order[a:b]], y[order[a:b]])
+            for name, a, b in zip(names, bounds[:-1], bounds[1:], strict=True)
+        }
+
+
+@dataclass(frozen=True)
+class PolicyStatus:
+    """What the recorder reads of the lane-change policy at the top of a step."""
+
+    target_lane: int | None  # lane a planned manoeuvre heads for (None: keeping its lane)
+    changing: bool  # a planned manoeuvre is under way (trace column `changing`)
+    manoeuvring: bool  # a collision onset now is the SV's fault (a lane change under way)
+    leader_gap: float  # m, bumper-to-bumper gap to the leader (inf: none)
+    idm_accel: float  # m/s^2, car-following acceleration (NaN while changing lanes)
+
+
+@dataclass
+class Manoeuvres:
+    """What the policy did over a run, for the metrics row."""
+
+    lane_changes: list[LaneChange]  # adopted plans (empty for the SUMO-driven SV)
+    starts: list[float]  # s, start of each lane change counted
+    targets: list[float]  # m, its target lane centre
+    ends: list[float]  # s, end of its settling window
+    requests: int  # lane changes requested
+    planner_calls: int  # plans.csv rows that are planner calls
+    outcomes: dict[str, int]  # re-check outcomes: replan, abort, brake
+    first_start: float | None  # s, start of the first adopted plan (IAE window); None: none
+    plans: list[dict[str, Any]]  # plans.csv rows
+    first_plan: Any = None  # the planner's first Plan (for the tau-set figure)
+
+
+class Recorder:
+    """Trace rows, collision onsets and fault, SUMO's collisions, the metrics row."""
+
+    def __init__(self, n_steps: int, sv_length: float, sv_width: float, road: RoadParams) -> None:
+        self.data = np.full((n_steps + 1, len(TRACE_COLUMNS)), np.nan)
+        self.tracks = Tracks()
+        self.road = road
+        self.sv_length, self.sv_width = sv_length, sv_width
+        self.sv_diag = math.hypot(sv_length, sv_width)  # m, body diagonal
+        self.collisions = 0  # collision onsets by our exact check
+        self.hits: frozenset[str] = frozenset()  # TVs overlapping the SV at the last row
+        self.sv_fault = 0  # collision onsets the SV caused (see METRIC_DOCS)
+        self.manoeuvre_hits = 0  # collision onsets during a lane change of the SV
+        self.sumo_pairs: set[tuple[str, ...]] = set()
+        self.sumo_new = 0  # SUMO collision events involving the SV (onsets)
+        self.sumo_step_collisions = 0  # SUMO collisions involving the SV in the last step
+
+    def record(self, k: int, scene: Scene, status: PolicyStatus) -> Array:
+        """Row k: what every SV has (the ego adds its own columns); returns the row."""
+        from cosim.planning.collision import overlap_sat
+
+        row = self.data[k]
+        C = COLUMN
+        sv, tvs = scene.sv, scene.tvs
+        x, y, h, vx, vy = sv.x, sv.y, sv.heading, sv.vx, sv.vy
+        row[C["t_s"]] = scene.t
+        row[C["x_m"]] = x
+        row[C["y_m"]] = y
+        row[C["psi_deg"]] = math.degrees(h)
+        row[C["vx_mps"]] = vx
+        row[C["vy_mps"]] = vy
+        lane = self.road.lane_of(y)
+        row[C["lane"]] = lane
+        row[C["sumo_lane"]] = sv.sumo_lane
+        row[C["target_lane"]] = status.target_lane if status.target_lane is not None else lane
+        row[C["changing"]] = 1.0 if status.changing else 0.0
+        row[C["leader_gap_m"]] = status.leader_gap
+        row[C["idm_accel_mps2"]] = status.idm_accel
+        # gap / TTC along the lane, and our exact overlap check against every TV near
+        c, s_ = abs(math.cos(h)), abs(math.sin(h))
+        hx = 0.5 * (self.sv_length * c + self.sv_width * s_)
+        hy = 0.5 * (self.sv_length * s_ + self.sv_width * c)
+        tv_hx, tv_hy = mx.half_extents(tvs.length, tvs.width, tvs.heading)
+        sv_vxg = vx * math.cos(h) - vy * math.sin(h)
+        gap, ttc = mx.gap_ttc(x, y, sv_vxg, hx, hy, tvs.x, tvs.y, scene.tv_vx, tv_hx, tv_hy)
+        row[C["gap_min_m"]] = float(gap.min()) if gap.size else math.inf
+        row[C["ttc_min_s"]] = float(ttc.min()) if ttc.size else math.inf
+        # exact test only where the bounding circles meet (most steps: nobody)
+        reach = 0.5 * (np.hypot(tvs.length, tvs.width) + self.sv_diag)
+        near = np.flatnonzero(np.hypot(tvs.x - x, tvs.y - y) <= reach)
+        hits: frozenset[str] = frozenset()
+        if near.size:
+            hit = overlap_sat(x, y, h, self.sv_length, self.sv_width, tvs.x[near], tvs.y[near],
+                              tvs.heading[near], tvs.length[near], tvs.width[near])
+            hits = frozenset(tvs.ids[i] for i, c in zip(near, hit, strict=True) if c)
+        for vid in hits - self.hits:  # onsets: was the SV at fault? (changing lanes, or hit ahead)
+            if status.manoeuvring or float(tvs.x[tvs.index(vid)]) > x:
+                self.sv_fault += 1
+            self.manoeuvre_hits += int(status.manoeuvring)
+        self.collisions += len(hits - self.hits)
+        self.hits = hits
+        row[C["collisions"]] = len(hits)
+        row[C["sumo_collisions"]] = self.sumo_step_collisions
+        row[C["n_tvs"]] = len(tvs)
+        self.tracks.add(scene.t, tvs)
+        return row
+
+    def sumo_collisions(self, pairs: set[tuple[str, ...]]) -> None:
+        """SUMO's collisions of the last step that involve the SV (cross-check)."""
+        self.sumo_new += len(pairs - self.sumo_pairs)
+        self.sumo_pairs = pairs
+        self.sumo_step_collisions = len(pairs)
+
+    def trace(self) -> dict[str, Array]:
+        """The trace columns as arrays (copies)."""
+        return {name: self.data[:, i].copy() for name, i in COLUMN.items()}
+
+    def metrics(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres, *,
+                plant: str, tracks_reference: bool, n_steps: int, events: int
+                ) -> dict[str, Any]:
+        """The metrics row (METRIC_DOCS) of a run's trace and what the policy did."""
+        t = trace["t_s"]
+        durations = mx.lane_change_durations(t, trace["y_m"], done.starts, done.targets,
+                                             done.ends, SETTLE_TOL)
+        settled = durations[np.isfinite(durations)]
+        ok_plans = [p for p in done.plans if p["ok"] == 1]
+        requests = done.requests
+        y_end = float(trace["y_m"][-1])
+        lane_end = self.road.lane_of(y_end)
+        m: dict[str, Any] = {
+            "scenario": sc.name,
+            "seed": sc.seed,
+            "controller": sc.sv.controller,
+            "plant": plant,
+            "duration_s": float(t[-1]),
+            "steps": n_steps,
+            "lane_change_requests": requests,
+            "plans": done.planner_calls,
+            "plans_failed": sum(1 for p in done.plans if p["ok"] == 0),
+            "replans": done.outcomes["replan"],
+            "aborts": done.outcomes["abort"],
+            "emergency_brakes": done.outcomes["brake"],
+            "lane_changes": int(settled.size),
+            "lane_change_completed": int(requests > 0 and len(done.starts) > 0
+                                         and settled.size == len(done.starts)),
+            "lane_change_duration_s": float(settled.mean()) if settled.size else math.nan,
+            "lane_change_duration_max_s": float(settled.max()) if settled.size else math.nan,
+            "lane_change_durations_s": ";".join(
+                "nan" if not np.isfinite(d) else f"{d:.2f}" for d in durations),
+            "tau_first_s": float(ok_plans[0]["tau_s"]) if ok_plans else math.nan,
+            "collisions": self.collisions,
+            "collision": int(self.collisions > 0),
+            "collisions_sv": self.sv_fault,
+            "collisions_manoeuvre": self.manoeuvre_hits,
+            "sumo_collisions": self.sumo_new,
+            "min_gap_m": float(np.min(trace["gap_min_m"])),
+            "min_ttc_s": float(np.min(trace["ttc_min_s"])),
+            "max_abs_lat_accel_mps2": mx.max_abs(trace["ay_mps2"]),
+            "max_abs_long_accel_mps2": mx.max_abs(trace["ax_mps2"]),
+            "max_jerk_mps3": mx.max_abs(mx.jerk(t, trace["ax_mps2"], trace["ay_mps2"])),
+        }
+        if not tracks_reference:
+            m.update(dict.fromkeys(mx.IAE_COLUMNS, math.nan))
+        else:
+            # over the first lane change (Table 2: "the single lane change"), as long
+            # as `cosim track` runs; the whole run when there is none
+            t0 = done.first_start if done.first_start is not None else 0.0
+            t1 = t0 + IAE_WINDOW if done.first_start is not None else float(t[-1])
+            m.update(mx.iae_row(t, trace, t0, t1))
+        m.update(
+            final_lane=lane_end,
+            final_offset_m=y_end - self.road.lane_center(lane_end),
+            mean_speed_mps=float(np.mean(trace["vx_mps"])),
+            sumo_events=events,
+        )
+        return m
+
+
+def excursions(t: Array, y: Array, road: RoadParams) -> tuple[list[float], list[float],
+                                                              list[float]]:
+    """Lane changes read off a path: each time the SV leaves one lane centre band
+    (|y - centre| < SETTLE_TOL) and next enters another's. Returns starts, target
+    centres and window ends (the run's end)."""
+    centres = np.array([road.lane_center(k) for k in range(road.n_lanes)])
+    dist = np.abs(y[:, None] - centres[None, :])
+    home = np.where(dist.min(axis=1) < SETTLE_TOL, dist.argmin(axis=1), -1)
+    starts: list[float] = []
+    targets: list[float] = []
+    last_home, last_t = -1, 0.0
+    for i in np.flatnonzero(home >= 0):
+        k = int(home[i])
+        if last_home >= 0 and k != last_home:
+            starts.append(last_t)
+            targets.append(float(centres[k]))
+        last_home, last_t = k, float(t[i])
+    return starts, targets, [float(t[-1])] * len(starts)

@@ -1,0 +1,145 @@
+"""The world the SV drives in: SUMO (through SumoSim) started for a scenario, its
+random traffic placed, and at the top of each step the scene around the SV.
+
+`World.start` starts SUMO on the scenario's network and populates the traffic
+(leaving the SV's start free); the loop then adds the scripted TVs (observer)
+and the SV (ego), and `World.step` inserts them all. Each step `World.read`
+reads every vehicle within `radius` of the SV (SumoSim.snapshot_near: the cost
+follows the traffic near the SV, not the whole road's), and `Scene.around`
+keeps the TVs within NEAR_RANGE (x) of the SV, which the policy's decision rule,
+the recorder and the figures use. SUMO's own collisions involving the SV are
+read after each step (a cross-check of our exact overlap test).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cosim.errors import SimulationError
+from cosim.params import RoadParams
+from cosim.scenario import Scenario
+from cosim.traffic.sumo import SumoSim, TrafficSnapshot
+
+Array = NDArray[np.float64]
+
+SV_ID = "sv"
+SV_LENGTH_MARGIN = 2.0  # SV lengths kept free of random traffic around the SV at t = 0
+NEAR_RANGE = 150.0  # m, TVs within this x distance of the SV are recorded for the figures
+
+
+@dataclass(frozen=True)
+class SVState:
+    """The SV at the top of a step, as the policy and the recorder see it (centre of
+    the body, global frame)."""
+
+    x: float  # m
+    y: float  # m
+    heading: float  # rad
+    vx: float  # m/s, body longitudinal speed
+    vy: float  # m/s, body lateral speed
+    sumo_lane: float  # SUMO's lane index of the SV (-1: off the network)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What the loop sees at the top of step k: the SV and the vehicles around it."""
+
+    t: float  # s, simulation time (0 at the first step)
+    sv: SVState
+    everyone: TrafficSnapshot  # every vehicle within the read radius, the SV included
+    tvs: TrafficSnapshot  # TVs on the network within NEAR_RANGE (x) of the SV
+    tv_vx: Array  # m/s, their global x velocities
+
+    @classmethod
+    def around(cls, t: float, sv: SVState, everyone: TrafficSnapshot) -> Scene:
+        """The scene of an SV in a snapshot (the SV's own row is left out of `tvs`)."""
+        near = (np.abs(everyone.x - sv.x) <= NEAR_RANGE) & (everyone.lane >= 0)
+        near[everyone.index(SV_ID)] = False
+        tvs = everyone.select(near)
+        return cls(t, sv, everyone, tvs, tvs.speed * np.cos(tvs.heading))
+
+
+class World:
+    """SUMO with the scenario's traffic, as the loop uses it; `wall` is the wall time
+    spent in SUMO's steps and reads (s)."""
+
+    def __init__(self, scenario: Scenario, *, gui: bool = False) -> None:
+        sc = scenario
+        tr = sc.traffic
+        self.sumo = SumoSim(
+            sc.network, sc.step, sc.seed,
+            lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
+            speed_bands=sc.road.speed_bands,
+            # sumo-gui: one step per step length of wall time (watchable, real time)
+            extra_args=("--delay", f"{1000.0 * sc.step:g}") if gui else (),
+        )
+        self.scenario = sc
+        self.started = False
+        self.wall = 0.0
+        self.t_offset = 0.0  # s, SUMO's clock when the run's t = 0
+
+    def start(self) -> RoadParams:
+        """Start SUMO and place the random traffic around the SV's start; returns the
+        road (lane width and centres from the network, the scenario's bands and mu)."""
+        sc = self.scenario
+        tr = sc.traffic
+        self.sumo.start()
+        self.started = True
+        hw = self.sumo.highway
+        road = RoadParams(lane_width=hw.lane_width, speed_bands=sc.road.speed_bands,
+                          mu=sc.road.mu, y_right=hw.y_right)
+        x0 = self.sv_start_x
+        if tr.density > 0:
+            from cosim.traffic.demand import populate, start_zone
+
+            margin = SV_LENGTH_MARGIN * sc.vehicle.length
+            # in its own lane the SV starts at its scenario speed, often faster than
+            # the queue SUMO inserts: keep room to brake (and for its follower)
+            zone = start_zone(x0, sc.vehicle.length, sc.sv.speed,
+                              road.speed_bands[sc.sv.lane][1])
+            populate(self.sumo, road, tr.density, sc.seed, tr.length,
+                     exclude_zone=(x0 - margin, x0 + margin), lane_zones={sc.sv.lane: zone})
+        return road
+
+    @property
+    def sv_start_x(self) -> float:
+        """m, global x of the SV's centre at t = 0."""
+        return self.sumo.highway.x_start + self.scenario.sv.position
+
+    def insert(self) -> None:
+        """The first step: SUMO inserts every vehicle added so far at its place; the
+        run's clock starts here."""
+        self.sumo.step()
+        self.t_offset = self.sumo.time
+        self.sumo.follow_in_gui(SV_ID)
+
+    def read(self, radius: float) -> TrafficSnapshot:
+        """Every vehicle within `radius` of the SV (the SV included)."""
+        w0 = time.perf_counter()
+        snap = self.sumo.snapshot_near(SV_ID, radius)
+        self.wall += time.perf_counter() - w0
+        if SV_ID not in snap.ids:  # the SUMO-driven SV reached the road's end
+            raise SimulationError(snap.time - self.t_offset,
+                                  "the SV is no longer on the network (end of the road?)")
+        return snap
+
+    def step(self) -> set[tuple[str, ...]]:
+        """SUMO moves its vehicles to the next step; returns SUMO's collisions of that
+        step involving the SV (sorted id pairs)."""
+        w0 = time.perf_counter()
+        self.sumo.step()
+        self.wall += time.perf_counter() - w0
+        return {tuple(sorted(p)) for p in self.sumo.collisions() if SV_ID in p}
+
+    def events(self) -> list[str]:
+        """SUMO's teleports and lost vehicles, one line each, in the run's time."""
+        return [f"{e.time - self.t_offset:.2f} s {e.kind} {e.vehicle_id}: {e.detail}"
+                for e in self.sumo.events]
+
+    def close(self) -> None:
+        if self.started:
+            self.sumo.close()

@@ -1,0 +1,263 @@
+"""The lane-change policy (cosim.policy) on hand-made scenes, without SUMO: the real
+planner plans against hand-made V2V messages; the SV follows its reference exactly.
+
+For the re-check branches a planner that forces the outcome (`Forced`: the check
+reports a collision, chosen targets find no tau) wraps the real one, so that each
+branch of replan / abort / brake runs on the same scene."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from cosim.decision import DecisionConfig
+from cosim.params import RoadParams
+from cosim.planning.planner import LaneChangePlanner, Rejection
+from cosim.policy import (
+    BRAKING,
+    CHANGING,
+    KEEPING,
+    POLICIES,
+    WAITING,
+    PaperPolicy,
+)
+from cosim.scenario import LaneChangeCommand, Scenario, load_scenario, project_root
+from cosim.traffic.sumo import TrafficSnapshot
+from cosim.traffic.v2v import V2VMessage
+from cosim.traffic.world import SV_ID, Scene, SVState
+
+ROAD = RoadParams(mu=0.8)
+CFG = DecisionConfig()
+DT = 0.05
+BASE = load_scenario(project_root() / "scenarios/paper_case1_overtaking.toml")
+X0 = 200.0
+
+
+def scenario(*requests: tuple[float, int], replanning: bool = False) -> Scenario:
+    sv = replace(BASE.sv, lane_changes=tuple(LaneChangeCommand(at=a, target_lane=b)
+                                             for a, b in requests), decision=False, lane=0)
+    return replace(BASE, sv=sv, tvs=(), road=ROAD,
+                   planner=replace(BASE.planner, replanning=replanning, recheck_interval=0.5))
+
+
+def empty_snapshot(t: float) -> TrafficSnapshot:
+    none = np.zeros(0)
+    return TrafficSnapshot(t, (), none, none, none, none, none, np.zeros(0, int), none, none,
+                           none, np.zeros(0, int))
+
+
+def scene_of(t: float, sv: SVState) -> Scene:
+    """A road with no TV near enough for the decision rule (the messages carry them)."""
+    snap = empty_snapshot(t)
+    return Scene(t, sv, snap, snap, np.zeros(0))
+
+
+def tv_message(t: float, x: float, lane: int, speed: float, vid: str = "tv") -> V2VMessage:
+    return V2VMessage(vehicle_id=vid, t=t, x=x, y=ROAD.lane_center(lane), heading=0.0,
+                      speed=speed, accel=0.0, lane=lane, lateral_speed=0.0, length=4.32,
+                      width=1.8, intention=0)
+
+
+@dataclass
+class Inbox:
+    messages: list[Any] = field(default_factory=list)
+    reads: int = 0
+
+    def read(self) -> list[Any]:
+        self.reads += 1
+        return list(self.messages)
+
+
+@dataclass
+class Forced:
+    """The real planner, with forced outcomes: `collide` makes the next re-checks report
+    a collision; a target lane in `no_tau` gets a plan without a trajectory."""
+
+    real: LaneChangePlanner
+    collide: int = 0
+    no_tau: set[int] = field(default_factory=set)
+    calls: list[tuple[str, int]] = field(default_factory=list)
+
+    def plan(self, t: float, state: Any, target: int, messages: list[Any],
+             occupant: float) -> Any:
+        self.calls.append(("plan", target))
+        plan = self.real.plan(t, state, target, messages, occupant)
+        if target in self.no_tau:
+            return replace(plan, tau=None, trajectory=None)
+        return plan
+
+    def check(self, trajectory: Any, t: float, messages: list[Any]) -> Rejection | None:
+        self.calls.append(("check", -1))
+        if self.collide:
+            self.collide -= 1
+            return Rejection(tau=trajectory.tau, reason="collision", vehicle_id="tv", time=t + 1)
+        return None
+
+
+class Drive:
+    """A policy on hand-made scenes; the SV is exactly where its reference says."""
+
+    def __init__(self, sc: Scenario, planner: Any = None) -> None:
+        self.blinks: list[int] = []
+        self.planner = planner or LaneChangePlanner(sc.vehicle, ROAD, sc.planner)
+        self.policy = POLICIES["paper"](sc, ROAD, CFG, self.planner, self.blinks.append)
+        self.sv = SVState(X0, ROAD.lane_center(0), 0.0, sc.sv.speed, 0.0, 0.0)
+        self.inbox = Inbox()
+        self.t = 0.0
+        self.modes: list[str] = []
+
+    def step(self) -> None:
+        t = self.t
+        ref = self.policy.update(t, scene_of(t, self.sv), self.inbox)
+        self.modes.append(self.policy.mode)
+        t1 = t + DT
+        x, y = ref.position(t1)
+        xd, yd = ref.derivative(t1, 1)
+        self.sv = SVState(float(x), float(y), math.atan2(float(yd), float(xd)), float(xd),
+                          0.0, 0.0)
+        self.t = round(t1, 9)
+
+    def run_until(self, t_end: float) -> None:
+        while self.t < t_end - 1e-9:
+            self.step()
+
+
+def test_the_paper_policy_is_registered_by_name() -> None:
+    assert POLICIES["paper"] is PaperPolicy
+    assert PaperPolicy.name == "paper"
+
+
+def test_request_plan_changing_settled() -> None:
+    d = Drive(scenario((0.0, 1)))
+    d.step()
+    pol = d.policy
+    assert pol.mode == CHANGING
+    assert d.blinks == [1]  # left
+    lc = pol.active
+    assert lc is not None and (lc.origin_lane, lc.target_lane, lc.trigger) == (0, 1, "scripted")
+    status = pol.status(d.sv)
+    assert status.changing and status.target_lane == 1 and math.isnan(status.idm_accel)
+    assert [row["trigger"] for row in pol.plans] == ["scripted"] and pol.plans[0]["ok"] == 1
+    assert pol.pending == []  # served
+    d.run_until(lc.t0 + lc.tau + DT)
+    assert pol.mode == KEEPING and pol.active is None
+    assert d.blinks == [1, 0]
+    assert abs(d.sv.y - ROAD.lane_center(1)) < 1e-6  # settled on the target centre
+    assert not pol.status(d.sv).changing
+    t = np.array([0.0, d.t])
+    done = pol.summary(t, np.array([ROAD.lane_center(0), d.sv.y]))
+    assert done.starts == [0.0] and done.targets == [ROAD.lane_center(1)]
+    assert done.requests == 1 and done.planner_calls == 1
+
+
+def test_no_plan_waits_and_retries_after_the_interval() -> None:
+    d = Drive(scenario((0.0, 1)))
+    # a TV beside the SV in the target lane at its speed: no collision-free tau
+    d.inbox.messages = [tv_message(0.0, X0, 1, d.sv.vx)]
+    d.step()
+    pol = d.policy
+    assert pol.mode == WAITING and pol.active is None
+    assert pol.plans[-1]["ok"] == 0 and pol.plans[-1]["trigger"] == "scripted"
+    assert d.blinks == []
+    d.run_until(CFG.retry_interval - DT)
+    assert len(pol.plans) == 1  # not asked again within the interval
+    assert d.modes[-1] == WAITING
+    d.inbox.messages = []  # the target lane is free now
+    d.run_until(CFG.retry_interval + DT)
+    assert [row["trigger"] for row in pol.plans] == ["scripted", "retry"]
+    assert pol.plans[-1]["t_s"] == pytest.approx(CFG.retry_interval)
+    assert pol.mode == CHANGING and pol.requests == 1  # a retry is not a new request
+
+
+def drive_into_recheck(*, collide: int, no_tau: set[int]) -> Drive:
+    sc = scenario((0.0, 1), replanning=True)
+    forced = Forced(LaneChangePlanner(sc.vehicle, ROAD, sc.planner))
+    d = Drive(sc, forced)
+    d.step()  # plan adopted at t = 0
+    forced.calls.clear()
+    forced.collide, forced.no_tau = collide, no_tau
+    d.run_until(0.5 + DT)  # the first re-check is due at recheck_interval
+    return d
+
+
+def test_recheck_collision_replans_to_the_target_lane() -> None:
+    d = drive_into_recheck(collide=1, no_tau=set())
+    pol = d.policy
+    assert d.planner.calls == [("check", -1), ("plan", 1)]
+    assert pol.outcomes == {"replan": 1, "abort": 0, "brake": 0}
+    assert pol.mode == CHANGING and pol.active is not None and pol.active.target_lane == 1
+    assert pol.plans[-1]["trigger"] == "replan"
+    assert pol.plans[-1]["reason"].startswith("re-check: collision with tv")
+    assert pol.next_check == pytest.approx(1.0)
+
+
+def test_recheck_without_a_replan_aborts_to_the_origin_lane() -> None:
+    d = drive_into_recheck(collide=1, no_tau={1})
+    pol = d.policy
+    assert d.planner.calls == [("check", -1), ("plan", 1), ("plan", 0)]
+    assert pol.outcomes == {"replan": 0, "abort": 1, "brake": 0}
+    lc = pol.active
+    assert lc is not None and (lc.origin_lane, lc.target_lane, lc.aborted) == (1, 0, True)
+    assert d.blinks == [1, -1]
+    # the scripted request is asked again once back in the lane
+    assert pol.pending and pol.pending[0].target_lane == 1
+    d.planner.no_tau = set()
+    d.run_until(lc.t0 + lc.tau + 2 * DT)
+    assert pol.plans[-1]["trigger"] in ("scripted", "retry") and pol.plans[-1]["ok"] == 1
+    assert pol.active is not None and pol.active.target_lane == 1
+
+
+def test_recheck_without_replan_or_abort_brakes_and_stops_checking() -> None:
+    d = drive_into_recheck(collide=5, no_tau={0, 1})
+    pol = d.policy
+    assert pol.outcomes == {"replan": 0, "abort": 0, "brake": 1}
+    assert pol.mode == BRAKING and pol.next_check == math.inf
+    row = pol.plans[-1]
+    assert row["trigger"] == "brake" and row["ok"] == 1
+    lc = pol.active
+    assert lc is not None and lc.trajectory.vxf < d.sv.vx  # it brakes
+    calls = len(d.planner.calls)
+    d.run_until(lc.t0 + lc.tau)
+    assert len(d.planner.calls) == calls  # not re-checked into another manoeuvre
+    d.run_until(lc.t0 + lc.tau + DT)
+    assert pol.active is None and d.blinks[-1] == 0  # over: keeping its lane again, or
+    assert pol.mode in (KEEPING, WAITING)  # back in lane 0 and asking again (no tau yet)
+
+
+def test_scripted_requests_are_served_in_order() -> None:
+    # the one for the current lane is dropped, the one two lanes away is logged and
+    # dropped, then 0 -> 1 and later 1 -> 2 in order
+    d = Drive(scenario((0.0, 0), (0.0, 2), (0.0, 1), (8.0, 2)))
+    d.step()
+    pol = d.policy
+    rows = pol.plans
+    assert [(r["target_lane"], r["ok"], r["rejections"]) for r in rows] == [
+        (2, 0, "not an adjacent lane"), (1, 1, rows[1]["rejections"])]
+    assert [c.target_lane for c in pol.pending] == [2]
+    d.run_until(7.95)
+    assert len(pol.plans) == 2  # the next one is not due yet
+    d.run_until(8.05)
+    assert [r["target_lane"] for r in pol.plans] == [2, 1, 2]
+    assert pol.active is not None and (pol.active.origin_lane, pol.active.target_lane) == (1, 2)
+    assert pol.requests == 3
+
+
+def test_messages_are_read_only_when_planning() -> None:
+    d = Drive(scenario((1.0, 1)))
+    d.run_until(1.0)
+    assert d.inbox.reads == 0  # lane keeping reads no message
+    d.step()
+    assert d.inbox.reads == 1
+
+
+def test_the_sv_row_is_not_a_tv_of_the_scene() -> None:
+    snap = TrafficSnapshot(0.0, (SV_ID, "a"), np.array([0.0, 10.0]), np.zeros(2), np.zeros(2),
+                           np.full(2, 20.0), np.zeros(2), np.zeros(2, int), np.zeros(2),
+                           np.full(2, 4.32), np.full(2, 1.8), np.zeros(2, int))
+    scene = Scene.around(0.0, SVState(0.0, 0.0, 0.0, 20.0, 0.0, 0.0), snap)
+    assert scene.tvs.ids == ("a",)
+    np.testing.assert_allclose(scene.tv_vx, [20.0])
