@@ -20,12 +20,15 @@ the gap, arrays over gaps):
   (`interaction.B_SAFE`) holds with room to spare; `interaction.predict_follower`
   checks the planned manoeuvre itself.
 
-Approach: the SV aims at the point of the slot nearest to it (inside by `margin`); the
+Approach: the SV aims at the point of the slot nearest to it, inside by `margin` or
+`margin_share` of the slot's length (a buffer for the planner's tau); the
 relative motion (SV minus gap) is a double integrator, and `reach_time` is its
 time-optimal transfer to rest at the aim under the approach acceleration bound.
 The chosen gap is the one reached first (ties: the one whose speed is nearest the
 SV's desired speed); a gap whose slot is shorter than the SV needs, that closes
-before it is reached, or that lies beyond the SV's own leader is not a candidate.
+before it is reached, that lies beyond the SV's own leader, or whose aim is more
+than `reach` away (the open ends of the lane are open only as far as the SV sees)
+is not a candidate.
 The target speed takes the SV to the aim and brakes it to the gap's speed as it
 arrives: v_g + sign(e) min(|e| / approach_time, sqrt(2 a |e|), max_rel_speed) (near
 the aim a first-order approach, farther the curve along which the relative speed can
@@ -64,10 +67,12 @@ class GapConfig:
     headway: float = 1.0  # s, the SV's own time headway behind its new leader
     min_gap: float = 2.5  # m, the SV's standstill gap to its new leader
     decel: float = 4.5  # m/s^2, the SV's braking assumed in its secure gap
-    margin: float = 2.0  # m, aim this far inside the slot's ends (less if the slot is short)
-    entry_delay: float = 2.0  # s, from the start of the change to the SV entering the lane
+    margin: float = 2.0  # m, aim at least this far inside the slot's ends ...
+    margin_share: float = 0.25  # -, ... or this share of the slot's length (half at most)
+    entry_delay: float = 3.0  # s, from the start of the change to the SV entering the lane
     max_speed_change: float = 8.0  # m/s, largest |v_sv - v_g| to plan a change from
     horizon: float = 20.0  # s, gaps reached later are not candidates
+    reach: float = 80.0  # m, nor gaps whose aim is farther (the lane is seen to ~150 m)
     min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this
 
     def sv_model(self) -> FollowerModel:
@@ -182,7 +187,9 @@ def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: fl
     may get in its own lane (its leader's rear less half the SV and a standstill gap):
     a gap ahead whose aim lies beyond it when reached is not a candidate."""
     length = gaps.hi - gaps.lo
-    margin = np.minimum(cfg.margin, 0.5 * np.maximum(length, 0.0))
+    room = np.maximum(length, 0.0)
+    margin = np.minimum(np.maximum(cfg.margin, cfg.margin_share * np.where(
+        np.isfinite(room), room, 0.0)), 0.5 * room)
     aim = np.clip(sv_x, gaps.lo + margin, gaps.hi - margin)
     e = aim - sv_x
     t = reach_time(e, sv_speed - gaps.speed, cfg.approach_accel)
@@ -190,7 +197,7 @@ def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: fl
     lo_t = gaps.lo + gaps.v_lo * t
     hi_t = gaps.hi + gaps.v_hi * t
     aim_t = aim + gaps.speed * t
-    ok = (length >= 0.0) & (hi_t - lo_t >= 0.0) & (t <= cfg.horizon)
+    ok = (length >= 0.0) & (hi_t - lo_t >= 0.0) & (t <= cfg.horizon) & (np.abs(e) <= cfg.reach)
     ok &= (aim_t >= lo_t - 1e-6) & (aim_t <= hi_t + 1e-6)
     if math.isfinite(own_limit_x):
         ok &= (aim_t <= own_limit_x + own_limit_speed * t) | (e <= 0.0)

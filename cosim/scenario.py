@@ -32,7 +32,13 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
-from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
+from cosim.params import (
+    LANE_CHANGE_POLICIES,
+    ControllerGains,
+    PlannerConfig,
+    RoadParams,
+    VehicleParams,
+)
 from cosim.planning.collision import COLLISION_TESTS  # the planner owns its option names
 from cosim.planning.envelope import ENVELOPES
 from cosim.validation import (
@@ -120,6 +126,9 @@ class TVBrake:
 
     at: float  # s, sim time the braking starts
     decel: float  # m/s^2, > 0, held until the TV stands still
+    hold: float | None = None  # s, at rest before driving off again (None: stays stopped)
+    restart_accel: float | None = None  # m/s^2, driving off (None: scripted.RESTART_ACCEL)
+    restart_speed: float | None = None  # m/s, speed it drives off to (None: its initial)
 
 
 @dataclass(frozen=True)
@@ -321,6 +330,7 @@ PLANNER_FIELDS = (
     _f("recheck_interval_s", "recheck_interval", "s", 0.0, 10.0, _PLAN.recheck_interval,
        lo_open=True),
     Field("uncertainty_margin", bool, default=_PLAN.uncertainty_margin),
+    Field("policy", str, choices=LANE_CHANGE_POLICIES, default=_PLAN.policy),
 )
 
 VEHICLE_FIELDS = (
@@ -377,6 +387,9 @@ TV_FIELDS = (
 TV_BRAKE_FIELDS = (
     _f("at_s", "at", "s", 0.0, 3600.0, REQUIRED),
     _f("decel_mps2", "decel", "m/s^2", 0.0, 15.0, REQUIRED, lo_open=True),
+    _f("hold_s", "hold", "s", 0.0, 3600.0, None),
+    _f("restart_accel_mps2", "restart_accel", "m/s^2", 0.0, 10.0, None, lo_open=True),
+    _speed("restart_speed_kmh", "restart_speed", None),
 )
 
 TV_LANE_CHANGE_FIELDS = (
@@ -907,6 +920,7 @@ OVERRIDES: dict[str, tuple[str, str, float]] = {
     "replanning": ("planner", "replanning", 1.0),
     "recheck_interval": ("planner", "recheck_interval_s", 1.0),
     "uncertainty_margin": ("planner", "uncertainty_margin", 1.0),
+    "policy": ("planner", "policy", 1.0),
 }
 
 
@@ -1012,6 +1026,9 @@ _DEFAULT_NOTES = {
     "sv.lane_changes": "`[]`",
     "traffic.lanechange_duration_s": f"`{DEFAULT_LANECHANGE_DURATION}` (`0` with sublane)",
     "tv.lane_change.target_speed_kmh": "the band rule",
+    "tv.brake.hold_s": "none: it stays stopped",
+    "tv.brake.restart_accel_mps2": "`1.5`",
+    "tv.brake.restart_speed_kmh": "its `speed_kmh`",
 }
 
 

@@ -40,6 +40,7 @@ from typing import Any
 
 from cosim.decision import DecisionConfig
 from cosim.ego import Ego, PlannedEgo, SumoDrivenEgo
+from cosim.gap_policy import GapPolicy
 from cosim.observer import Observer, uncertain_config
 from cosim.policy import POLICIES, LaneChangePolicy, SumoDriverPolicy, lane_keeping_reference
 from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and records)
@@ -57,6 +58,8 @@ from cosim.scenario import Scenario
 from cosim.traffic.world import SV_ID, Scene, World
 
 ProgressFn = Callable[[int], None]
+# [planner] policy -> the lane-change policy of our SV (the paper's, the gap-seeking one)
+DRIVERS = {**POLICIES, GapPolicy.name: GapPolicy}
 
 
 class CoSimulation:
@@ -90,8 +93,9 @@ class CoSimulation:
             ego = PlannedEgo(sc, world, y0, lane_keeping_reference(
                 0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc))
-            policy = POLICIES["paper"](sc, road, self.cfg, planner,
-                                       lambda direction: world.sumo.set_blinker(SV_ID, direction))
+            policy = DRIVERS[sc.planner.policy](
+                sc, road, self.cfg, planner,
+                lambda direction: world.sumo.set_blinker(SV_ID, direction))
         self.ego, self.policy = ego, policy
         self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
         world.insert()

@@ -105,13 +105,12 @@ def kinematics(tv: TVSpec, t: ArrayLike, road: RoadParams, sv_position: float) -
             x2, v2, a2 = _constant_accel(float(xb[0]), float(vb[0]), -br.decel, tt - br.at)
             after = tt >= br.at
             x, v, a = np.where(after, x2, x), np.where(after, v2, v), np.where(after, a2, a)
-            hold = getattr(br, "hold", None)
-            if hold is not None:  # stop-and-go: `hold` s at rest, then off again
-                t_go = br.at + float(vb[0]) / br.decel + hold
+            if br.hold is not None:  # stop-and-go: `hold` s at rest, then off again
+                t_go = br.at + float(vb[0]) / br.decel + br.hold
                 x_stop = float(xb[0]) + float(vb[0]) ** 2 / (2.0 * br.decel)
-                v_top = getattr(br, "restart_speed", None) or tv.speed
-                x3, v3, a3 = _restart(x_stop, getattr(br, "restart_accel", None)
-                                      or RESTART_ACCEL, v_top, tt - t_go)
+                v_top = br.restart_speed if br.restart_speed is not None else tv.speed
+                accel = br.restart_accel if br.restart_accel is not None else RESTART_ACCEL
+                x3, v3, a3 = _restart(x_stop, accel, v_top, tt - t_go)
                 go = tt >= t_go
                 x, v, a = np.where(go, x3, x), np.where(go, v3, v), np.where(go, a3, a)
         return TVKinematics(x, zeros + y_lane, zeros, v, a, zeros)

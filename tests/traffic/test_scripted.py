@@ -89,17 +89,10 @@ def test_scripted_tv_object() -> None:
 
 
 def test_stop_and_go_brake_holds_then_drives_off() -> None:
-    # [tv.brake] with a hold time (the keys hold_s, restart_accel_mps2, restart_speed_kmh
-    # of a stop-and-go queue; a stand-in until scenario.py declares them)
-    from dataclasses import dataclass, replace
+    # [tv.brake] with a hold time (hold_s, restart_accel_mps2, restart_speed_kmh)
+    from dataclasses import replace
 
-    @dataclass(frozen=True)
-    class StopAndGo:
-        at: float
-        decel: float
-        hold: float | None = None
-        restart_accel: float | None = None
-        restart_speed: float | None = None
+    from cosim.scenario import TVBrake as StopAndGo
 
     road = RoadParams()
     tv = replace(spec(speed=20.0, gap=50.0), brake=StopAndGo(at=2.0, decel=4.0, hold=5.0,
