@@ -12,13 +12,14 @@ Where the SV may start its change (its centre x, a *slot* [lo, hi] moving with
 the gap, arrays over gaps):
 - behind the leader: its front at least the SV's secure gap behind the leader's rear
   (Krauss's secure gap, `interaction.secure_gap`, with the SV's own headway),
-- ahead of the follower: its rear at least the follower's secure gap (the follower's
-  model, SUMO's Krauss by default) ahead of the follower's front, plus what a faster
-  follower closes in `entry_delay` (the SV enters the lane about half way through its
-  change; SUMO's follower does not see it before, SUMO_NOTES.md). A follower at its
-  secure gap behind the SV needs no braking at entry, so the MOBIL safe-braking bound
-  (`interaction.B_SAFE`) holds with room to spare; `interaction.predict_follower`
-  checks the planned manoeuvre itself.
+- ahead of the follower: its rear at least the gap at which the follower, by its
+  model (SUMO's Krauss by default), brakes no harder than b_safe when the SV enters
+  (`interaction.accepted_gap`, the MOBIL safety criterion) ahead of the follower's
+  front, plus what a faster follower closes before then: the SV enters the lane
+  about `entry_delay` after the start of its change and SUMO's follower does not see
+  it before (SUMO_NOTES.md), while it slows for its own leader, the gap's: half the
+  speed difference on average. `interaction.check_follower` checks the planned
+  manoeuvre itself.
 
 Approach: the SV aims at the point of the slot nearest to it, inside by `margin` or
 `margin_share` of the slot's length (a buffer for the planner's tau); the
@@ -49,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cosim.planning.interaction import FollowerModel, secure_gap
+from cosim.planning.interaction import FollowerModel, accepted_gap, secure_gap
 
 Array = NDArray[np.float64]
 
@@ -64,7 +65,8 @@ class GapConfig:
     approach_time: float = 3.0  # s, time constant of the approach near the aim
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
     speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
-    headway: float = 1.0  # s, the SV's own time headway behind its new leader
+    headway: float = 0.5  # s, the SV's headway behind its new leader when it goes (its
+    # IDM reopens its own 1.5 s after the change; dense traffic offers no more)
     min_gap: float = 2.5  # m, the SV's standstill gap to its new leader
     decel: float = 4.5  # m/s^2, the SV's braking assumed in its secure gap
     margin: float = 2.0  # m, aim at least this far inside the slot's ends ...
@@ -128,14 +130,14 @@ def slot_ends(rear: ArrayLike, v_f: ArrayLike, front: ArrayLike, v_l: ArrayLike,
               v_sv_f: ArrayLike, v_sv_l: ArrayLike, sv_length: float, cfg: GapConfig,
               follower: FollowerModel) -> tuple[Array, Array]:
     """(lo, hi), m: the SV's centre x at least lo, ahead of a follower whose front is at
-    `rear` driving v_f (its secure gap to the SV at `v_sv_f`, plus what it closes in
-    entry_delay), and at most hi, behind a leader whose rear is at `front` driving v_l
+    `rear` driving v_f (its accepted gap to the SV at `v_sv_f`, plus what it closes
+    before the SV enters), and at most hi, behind a leader whose rear is at `front` driving v_l
     (the SV's own secure gap at `v_sv_l`)."""
     half = 0.5 * sv_length
     vf = np.asarray(v_f, dtype=float)
     vsf = np.asarray(v_sv_f, dtype=float)
-    closing = np.maximum(vf - vsf, 0.0) * cfg.entry_delay
-    lo = np.asarray(rear, dtype=float) + secure_gap(vf, vsf, follower) + closing + half
+    closing = 0.5 * np.maximum(vf - vsf, 0.0) * cfg.entry_delay
+    lo = np.asarray(rear, dtype=float) + accepted_gap(vf, vsf, follower) + closing + half
     hi = np.asarray(front, dtype=float) - secure_gap(v_sv_l, v_l, cfg.sv_model()) - half
     return lo, hi
 

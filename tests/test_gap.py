@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cosim.gap import GapConfig, approach_speed, choose_gap, lane_gaps, reach_time
-from cosim.planning.interaction import FollowerModel, secure_gap
+from cosim.planning.interaction import FollowerModel, accepted_gap, entry_decel, secure_gap
 
 CFG = GapConfig()
 KRAUSS = FollowerModel()
@@ -44,24 +44,29 @@ def test_reach_time_is_the_time_optimal_transfer(offset: float, u: float) -> Non
     assert float(reach_time(10.0, 0.0, 1.0)) == pytest.approx(2.0 * math.sqrt(10.0))
 
 
-def test_slots_keep_both_secure_gaps() -> None:
+def test_slots_keep_the_secure_gap_ahead_and_the_accepted_gap_behind() -> None:
     g = lane([-100.0, 0.0, 100.0], 25.0)
     assert g.follower.tolist() == [-1, 0, 1, 2] and g.leader.tolist() == [0, 1, 2, -1]
     # every gap moves at its leader's speed, the open lane ahead at the band's
     np.testing.assert_allclose(g.speed, [25.0, 25.0, 25.0, 30.0])
-    sg = float(secure_gap(25.0, 25.0, KRAUSS))  # 27.5 m, as SUMO's getSecureGap
-    assert sg == pytest.approx(27.5)
+    sg = float(secure_gap(25.0, 25.0, CFG.sv_model()))  # min gap + v * headway
+    assert sg == pytest.approx(2.5 + 25.0 * CFG.headway)
     half = 0.5 * (SV_LEN + 4.32)
+    # ahead: the SV's own secure gap behind the leader
     np.testing.assert_allclose(g.hi[:3], np.array([-100.0, 0.0, 100.0]) - half - sg)
-    np.testing.assert_allclose(g.lo[1:3], np.array([-100.0, 0.0]) + half + sg)
-    # the open lane ahead runs at 30 m/s: its follower at 25 needs only min_gap
-    assert g.lo[3] == pytest.approx(100.0 + half + KRAUSS.min_gap)
+    # behind: the shortest gap at which the follower brakes no harder than b_safe
+    acc = float(accepted_gap(25.0, 25.0, KRAUSS))
+    assert float(entry_decel(acc, 25.0, 25.0, KRAUSS, 0.05)) <= KRAUSS.b_safe + 1e-9
+    assert float(entry_decel(acc - 0.05, 25.0, 25.0, KRAUSS, 0.05)) > KRAUSS.b_safe
+    assert acc < float(secure_gap(25.0, 25.0, KRAUSS))  # it may brake, within b_safe
+    np.testing.assert_allclose(g.lo[1:3], np.array([-100.0, 0.0]) + half + acc)
     assert g.lo[0] == -math.inf and g.hi[3] == math.inf
-    # the open lane ahead moves at the band's speed; a faster follower needs more room
+    # the open lane ahead moves at the band's speed; a faster follower needs more room:
+    # what it closes before the SV enters (half the speed difference over entry_delay)
     g2 = lane([0.0], 30.0, lane_speed=25.0)
     assert g2.speed[1] == 25.0
-    assert g2.lo[1] == pytest.approx(half + float(secure_gap(30.0, 25.0, KRAUSS))
-                                     + 5.0 * CFG.entry_delay)
+    assert g2.lo[1] == pytest.approx(half + float(accepted_gap(30.0, 25.0, KRAUSS))
+                                     + 0.5 * 5.0 * CFG.entry_delay)
 
 
 def test_alongside_gap_is_reachable_at_its_speed() -> None:
@@ -78,7 +83,7 @@ def test_alongside_gap_is_reachable_at_its_speed() -> None:
     c_fast = choose_gap(0.0, 25.0 + CFG.max_speed_change + 1.0, SV_LEN, 30.0, g, CFG, KRAUSS)
     assert c_fast is not None and c_fast.index == 1 and not c_fast.reachable
     # inside the slot at the gap's speed but too close to the leader at the SV's speed
-    g_near = lane([-100.0, 45.0], 25.0)
+    g_near = lane([-100.0, 30.0], 25.0)
     c_near = choose_gap(0.0, 29.0, SV_LEN, 30.0, g_near, CFG, KRAUSS)
     assert c_near is not None and c_near.index == 1 and c_near.relation == "alongside"
     assert not c_near.reachable and c_near.target_speed < 25.0  # falls back first
@@ -110,9 +115,9 @@ def test_own_leader_bars_gaps_beyond_it() -> None:
 
 
 def test_short_or_closing_gaps_are_not_candidates() -> None:
-    # 40 m between bumpers at 25 m/s: shorter than two secure gaps; no other gap here
-    # is reachable within the horizon because the lane is a long platoon
-    xs = list(np.arange(-400.0, 401.0, 44.32))
+    # 25 m between bumpers at 25 m/s: shorter than the SV and both gaps it needs; no
+    # other gap here is reachable within the horizon because the lane is a long platoon
+    xs = list(np.arange(-400.0, 401.0, 29.32))
     g = lane(xs, 25.0)
     assert np.all(g.hi[1:-1] < g.lo[1:-1])
     c = choose_gap(0.0, 25.0, SV_LEN, 30.0, g, CFG, KRAUSS)

@@ -28,10 +28,14 @@ Car-following models (SI units, arrays broadcast; no Python loop over vehicles):
 
 Safety bound (MOBIL, Kesting, Treiber, Helbing 2007, "General lane-changing model
 MOBIL for car-following models", TRR 1999, eq. 2): after the SV is in its lane the
-new follower's deceleration must not exceed b_safe. Default 4.0 m/s^2, MOBIL's own
-value ("well below the maximum possible deceleration of about 9 m/s^2"); SUMO's
-LC2013 asks a blocking follower for at most its maxDecel x HELP_DECEL_FACTOR
-(4.5 m/s^2 x 1.0 for a passenger car, `MSLCM_LC2013::informFollower`).
+new follower's deceleration must not exceed b_safe. Default 4.5 m/s^2: what SUMO's
+own lane-change model LC2013 asks of a blocking follower at most, its maxDecel x
+HELP_DECEL_FACTOR (4.5 m/s^2 x 1.0 for a passenger car,
+`MSLCM_LC2013::informFollower`), so that our SV asks no more of SUMO's traffic than
+SUMO's own driver does. MOBIL's paper uses 4 m/s^2 ("well below the maximum possible
+deceleration of about 9 m/s^2"); below SUMO's decel (4.5) that would forbid any
+entry inside the follower's Krauss secure gap (module docstring: Krauss then brakes
+at decel at least).
 The defaults of `FollowerModel` are SUMO's passenger-car type (accel 2.6, decel 4.5,
 emergencyDecel 9.0 m/s^2, tau 1.0 s, minGap 2.5 m).
 
@@ -55,7 +59,7 @@ from cosim.planning.trajectory import LaneChangeTrajectory
 Array = NDArray[np.float64]
 
 MODELS = ("krauss", "idm")
-B_SAFE = 4.0  # m/s^2, MOBIL's safe braking limit for the new follower (Kesting et al. 2007)
+B_SAFE = 4.5  # m/s^2, safe braking limit for the new follower (SUMO LC2013's help decel)
 
 
 @dataclass(frozen=True)
@@ -120,6 +124,21 @@ def follower_accel(gap: ArrayLike, speed: ArrayLike, leader_speed: ArrayLike,
     _accel_array(MODELS.index(m.model), _params(m), np.ravel(g), np.ravel(v),
                  np.ravel(np.nan_to_num(vl)), float(dt), out.reshape(-1))
     return out
+
+
+def accepted_gap(follower_speed: ArrayLike, sv_speed: ArrayLike, m: FollowerModel,
+                 dt: float = 0.05, longest: float = 400.0) -> Array:
+    """m, the shortest bumper gap behind the SV at which the follower's entry
+    deceleration (`entry_decel`) is at most b_safe (bisection on the model itself, to
+    1 cm; entry_decel does not grow with the gap)."""
+    v, vs = np.broadcast_arrays(np.asarray(follower_speed, dtype=float),
+                                np.asarray(sv_speed, dtype=float))
+    lo, hi = np.zeros(v.shape), np.full(v.shape, longest)
+    for _ in range(16):  # 400 m / 2^16 < 1 cm; a fixed count of array steps
+        mid = 0.5 * (lo + hi)
+        ok = entry_decel(mid, v, vs, m, dt) <= m.b_safe + 1e-9
+        hi, lo = np.where(ok, mid, hi), np.where(ok, lo, mid)
+    return hi
 
 
 def entry_decel(gap: ArrayLike, follower_speed: ArrayLike, sv_speed: ArrayLike,

@@ -50,12 +50,30 @@ def test_entry_decel_grows_as_the_cut_in_gets_shorter() -> None:
     assert d[0] == 0.0
     assert d[-1] == KRAUSS.emergency_decel  # 2 m at 5 m/s closing: everything it has
     # where v_safe asks more than decel, SUMO brakes at decel at least: 3 m inside the
-    # secure gap already costs the follower 4.5 m/s^2, more than b_safe
+    # secure gap already costs the follower 4.5 m/s^2, SUMO's own help level (b_safe)
     g = float(secure_gap(30.0, 25.0, KRAUSS)) - 3.0
     assert entry_decel(g, 30.0, 25.0, KRAUSS, DT) == pytest.approx(KRAUSS.decel)
-    assert KRAUSS.decel > B_SAFE
+    assert KRAUSS.decel == B_SAFE == 4.5
     # IDM brakes smoothly instead: the same cut-in asks a few m/s^2
     assert 0.0 < entry_decel(g, 30.0, 25.0, IDM, DT) < 4.0
+
+
+def test_accepted_gap_is_the_shortest_within_b_safe() -> None:
+    from cosim.planning.interaction import accepted_gap
+
+    v = np.array([10.0, 20.0, 30.0, 30.0, 25.0])
+    vs = np.array([10.0, 18.0, 25.0, 32.0, 15.0])
+    acc = accepted_gap(v, vs, KRAUSS)
+    assert np.all(entry_decel(acc, v, vs, KRAUSS, DT) <= KRAUSS.b_safe + 1e-9)
+    assert np.all(entry_decel(acc - 0.05, v, vs, KRAUSS, DT) > KRAUSS.b_safe)
+    # shorter than the secure gap (it may brake, up to b_safe), longer with more closing
+    assert np.all(acc <= secure_gap(v, vs, KRAUSS) + 1e-6)
+    assert acc[4] > acc[0]
+    # a stricter b_safe (MOBIL's 4 m/s^2, below Krauss's decel) asks for about the
+    # secure gap (less what 4 m/s^2 over one 0.05 s step recovers)
+    strict = accepted_gap(v, vs, FollowerModel(b_safe=4.0))
+    assert np.all(strict > acc)
+    np.testing.assert_allclose(strict, secure_gap(v, vs, KRAUSS), atol=2.0)
 
 
 @pytest.mark.parametrize("m", [KRAUSS, IDM], ids=["krauss", "idm"])
