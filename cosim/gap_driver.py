@@ -16,8 +16,9 @@ driver instead:
 4. plans the paper's manoeuvre once the gap is reached, at the gap's speed (vxf)
    and only at or above `GapConfig.min_speed`; the planner's collision check and
    the new follower's check (planning.interaction.check_follower) then decide;
-5. names the TV to ask to open the gap (the chosen gap's follower), for the
-   optional cooperative V2V (traffic.cooperation).
+5. names the TV to ask to open the gap (the chosen gap's follower, or without a gap
+   in reach the TV nearest behind the SV in that lane), for the optional cooperative
+   V2V (traffic.cooperation).
 
 Vehicles are arrays (one entry per TV); no Python loop over vehicles.
 """
@@ -96,7 +97,11 @@ def gap_decision(
     choice = choose_gap(sv_x, sv_speed, sv_length, desired_speed, gaps, gap_cfg, follower,
                         own_limit, own_speed)
     if choice is None:
-        return replace(keep, target_lane=target, reason=f"lane {target}: no gap in reach")
+        # none in reach: the TV nearest behind the SV in that lane may be asked to yield
+        behind = np.where(in_target & (x < sv_x), x, -np.inf)
+        ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
+        return replace(keep, target_lane=target, cooperate_with=ask,
+                       reason=f"lane {target}: no gap in reach")
     # toward the approach speed, within the approach acceleration; the own leader still
     # rules (decision.py's IDM, d.accel): the smaller of the two
     a_gap = min(max((choice.target_speed - sv_speed) / gap_cfg.speed_time,

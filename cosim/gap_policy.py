@@ -13,7 +13,7 @@ SUMO's Krauss follows (cosim.planning.interaction.check_follower), brakes no har
 than MOBIL's b_safe, else it counts as a failed plan (retried after
 `retry_interval`, the approach going on). It stops behind a standing leader at
 STOP_GAP (IDM standstill gap), and may ask the chosen gap's follower to open the
-gap (`cooperate(tv_id)`, cooperative V2V; None: never).
+gap (`cooperate(t, tv_id)`, cooperative V2V; None: never).
 """
 
 from __future__ import annotations
@@ -39,13 +39,13 @@ STOP_GAP = 2.5  # m, IDM standstill gap s0 of this driver (SUMO's minGap; >= 2 m
 
 
 class GapPolicy(PaperPolicy):
-    """The module docstring's policy; `cooperate(tv_id)` asks a TV to open a gap."""
+    """The module docstring's policy; `cooperate(t, tv_id)` asks a TV to open a gap."""
 
     name = "gap"
 
     def __init__(self, scenario: Scenario, road: RoadParams, cfg: DecisionConfig,
                  planner: Any, blinker: Callable[[int], None],
-                 cooperate: Callable[[str], None] | None = None,
+                 cooperate: Callable[[float, str], object] | None = None,
                  gap_cfg: GapConfig | None = None,
                  follower: FollowerModel | None = None) -> None:
         super().__init__(scenario, road, replace(cfg, idm_min_gap=max(cfg.idm_min_gap,
@@ -89,7 +89,7 @@ class GapPolicy(PaperPolicy):
         if scripted is None and self.wanted is None and d.target_lane is not None:
             self.wanted = (lane, d.target_lane, t + WANT_HOLD)
         if d.cooperate_with >= 0 and self.cooperate is not None:
-            self.cooperate(str(tvs.ids[d.cooperate_with]))
+            self.cooperate(t, str(tvs.ids[d.cooperate_with]))
         if not d.plan_now or d.target_lane is None:
             return None, ""
         if scripted is not None:

@@ -170,6 +170,10 @@ class V2VSpec:
     noise_speed: float = 0.2  # m/s, perception: sd of measured speed
     noise_accel: float = 0.3  # m/s^2, perception: sd of measured acceleration
     noise_lateral_speed: float = 0.1  # m/s, perception: sd of measured lateral speed
+    # cooperative V2V (gap policy; cosim.traffic.cooperation): the SV asks a TV to yield
+    cooperation: bool = False  # -, the SV sends gap requests
+    cooperation_compliance: float = 1.0  # -, probability that a TV honours one
+    cooperation_latency: float = 0.1  # s, from the request to the TV's reaction
 
 
 @dataclass(frozen=True)
@@ -418,6 +422,9 @@ V2V_FIELDS = (
     _f("noise_speed_mps", "noise_speed", "m/s", 0.0, 10.0, 0.2),
     _f("noise_accel_mps2", "noise_accel", "m/s^2", 0.0, 10.0, 0.3),
     _f("noise_lateral_speed_mps", "noise_lateral_speed", "m/s", 0.0, 10.0, 0.1),
+    Field("cooperation", bool, default=False),
+    _f("cooperation_compliance", "cooperation_compliance", "", 0.0, 1.0, 1.0),
+    _f("cooperation_latency_s", "cooperation_latency", "s", 0.0, 10.0, 0.1),
 )
 
 TABLES: dict[str, tuple[Field, ...]] = {
@@ -910,6 +917,9 @@ OVERRIDES: dict[str, tuple[str, str, float]] = {
     "latency": ("v2v", "latency_s", 1.0),
     "loss": ("v2v", "loss", 1.0),
     "v2v_mode": ("v2v", "mode", 1.0),
+    "cooperation": ("v2v", "cooperation", 1.0),
+    "cooperation_compliance": ("v2v", "cooperation_compliance", 1.0),
+    "cooperation_latency": ("v2v", "cooperation_latency_s", 1.0),
     "tau_max": ("planner", "tau_max_s", 1.0),
     "tau_step": ("planner", "tau_step_s", 1.0),
     "envelope": ("planner", "envelope", 1.0),
