@@ -4,8 +4,8 @@ paper, whose SV starts its change where it is, at the band rule's vxf).
 
 The target lane's vehicles, sorted by x, leave n + 1 gaps: gap j lies between
 vehicle j - 1 (its follower; none for j = 0) and vehicle j (its leader; none for
-j = n). Each gap moves: its speed v_g is its leader's speed capped by the lane's
-band (the band's target speed without a leader): the speed the SV ends its change at
+j = n). Each gap moves: its speed v_g is its leader's speed within the lane's band
+(the band rule's target speed without a leader): the speed the SV ends its change at
 (the manoeuvre's vxf), so it never closes on its new leader.
 
 Where the SV may start its change (its centre x, a *slot* [lo, hi] moving with
@@ -99,9 +99,10 @@ class Gaps:
 
 def lane_gaps(sv_length: float, tv_x: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
               in_lane: ArrayLike, lane_speed: float, cfg: GapConfig,
-              follower: FollowerModel) -> Gaps:
+              follower: FollowerModel, max_speed: float = math.inf) -> Gaps:
     """The gaps between the TVs with `in_lane` true (centres tv_x, m), for an SV of
-    `sv_length` (m); `lane_speed` (m/s) is the target lane's band target speed."""
+    `sv_length` (m); `lane_speed` (m/s) is the speed of the lane open ahead (the band
+    rule's target speed), `max_speed` (m/s) caps the others' (the lane's band)."""
     x = np.asarray(tv_x, dtype=float)
     idx = np.flatnonzero(np.asarray(in_lane, dtype=bool))
     idx = idx[np.argsort(x[idx], kind="stable")]
@@ -113,7 +114,7 @@ def lane_gaps(sv_length: float, tv_x: ArrayLike, tv_speed: ArrayLike, tv_length:
     lead = np.concatenate([idx, none])
     v_f = np.concatenate([[math.nan], vs])
     v_l = np.concatenate([vs, [math.nan]])
-    speed = np.where(np.isnan(v_l), lane_speed, np.minimum(v_l, lane_speed))
+    speed = np.where(np.isnan(v_l), lane_speed, np.minimum(v_l, max(max_speed, lane_speed)))
     lo_in, hi_in = slot_ends(xs + 0.5 * ls, vs, xs - 0.5 * ls, vs, speed[1:], speed[:-1],
                              sv_length, cfg, follower)
     return Gaps(

@@ -85,7 +85,8 @@ def gap_decision(
     lo, hi = lanes_touched(tv_y, 0.5 * np.asarray(tv_width, dtype=float), road)
     in_target = (lo <= target) & (hi >= target)
     gaps = lane_gaps(sv_length, x, tv_speed, tv_length, in_target,
-                     road.target_speed(lane, target), gap_cfg, follower)
+                     road.target_speed(lane, target), gap_cfg, follower,
+                     road.speed_bands[target][1])
     own = neighbours(lane, sv_x, sv_length, x, tv_y, tv_speed, tv_length, tv_width, road,
                      tv_lateral_speed)
     own_limit, own_speed = math.inf, 0.0

@@ -111,6 +111,7 @@ def test_sumo_follower_brakes_as_predicted_when_the_sv_cuts_in() -> None:
     assert sumo_v.min() < v_sv
     sumo_decel = float(np.max(-np.diff(np.concatenate([[v0], sumo_v])) / STEP))
     assert sumo_decel > 4.0
-    # our prediction follows SUMO's speeds closely and gets its hardest braking
-    assert np.max(np.abs(pred.speed[1:] - sumo_v[:-1])) < 1.0
-    assert pred.max_decel == pytest.approx(sumo_decel, rel=0.3)
+    # our prediction follows SUMO's speeds within one step of braking (measured: 0.225
+    # m/s, SUMO sees the move a step later) and gets its hardest braking (9.0 m/s^2)
+    assert np.max(np.abs(pred.speed[1:] - sumo_v[:-1])) < 0.3
+    assert pred.max_decel == pytest.approx(sumo_decel, rel=0.05)
