@@ -129,11 +129,11 @@ class SumoDrivenEgo:
 
     def inserted(self) -> None:
         """From now on SUMO drives it."""
-        self.world.sumo.release(SV_ID)
+        self.world.sumo.controlled.release(SV_ID)
 
     def state(self, everyone: TrafficSnapshot) -> SVState:
         i = everyone.index(SV_ID)
-        self.ax = float(everyone.accel[i])
+        self.ax = float(self.world.sumo.api.vehicle.getAcceleration(SV_ID))  # not in every read
         return SVState(float(everyone.x[i]), float(everyone.y[i]), float(everyone.heading[i]),
                        float(everyone.speed[i]), float(everyone.lateral_speed[i]),
                        float(everyone.lane[i]))

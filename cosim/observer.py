@@ -89,6 +89,8 @@ class Observer:
         self.radius = (max(NEAR_RANGE, v2v.range) if every_step else NEAR_RANGE) \
             + 2.0 * sc.vehicle.length
         self.read_everyone = not every_step and v2v.range > NEAR_RANGE
+        # accelerations and signals each step only when the channel runs each step
+        self.full_scene = self.every_step
 
     def _start_scripted(self, sc: Scenario, road: RoadParams, x_sv: float) -> None:
         """Add the scenario's [[tv]] vehicles as controlled vehicles on their scripts."""
@@ -125,6 +127,8 @@ class Observer:
         everyone = scene.everyone
         if self.read_everyone:
             everyone = self.world.sumo.snapshot()  # the channel keeps those in range
+        elif not self.full_scene:  # the scene's read had no accelerations and signals
+            everyone = self.world.sumo.reader.read(everyone.ids)
         perceived = self.v2v.mode == "perception"  # scripted TVs are measured too
         public = everyone.select(np.array(
             [vid != SV_ID and (perceived or vid not in self.scripted_ids)

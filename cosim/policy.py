@@ -109,9 +109,10 @@ def reference_state(trajectory: LaneChangeTrajectory, t: float, lane: int) -> An
                        vx=float(xd), ax=float(xdd), vy=float(yd), ay=float(ydd), lane=lane)
 
 
-def dropped_request(t: float, origin: int, target: int, vx0: float, ok: int,
+def request_row(t: float, origin: int, target: int, vx0: float, ok: int,
                     why: str = "") -> dict[str, Any]:
-    """A plans.csv row of a request that did not reach the planner."""
+    """A plans.csv row of a scripted request that did not go through the planner (one
+    dropped, or one handed to SUMO's lane-change model)."""
     row = dict.fromkeys(PLAN_COLUMNS, math.nan)
     row.update(t_s=t, trigger="scripted", origin_lane=origin, target_lane=target, vx0_mps=vx0,
                ok=ok, stable_set_s="", collision_free_set_s="", rejections=why)
@@ -263,7 +264,7 @@ class PaperPolicy:
                 continue
             if abs(target - lane) != 1:  # an earlier change never happened: drop it
                 self.pending.pop(0)
-                self.plans.append(dropped_request(t, lane, target, sv.vx, 0,
+                self.plans.append(request_row(t, lane, target, sv.vx, 0,
                                                   "not an adjacent lane"))
                 self.requests += 1
                 continue
@@ -441,7 +442,7 @@ class SumoDriverPolicy:
                 continue
             self.requests += 1
             self.change_lane(target)
-            self.plans.append(dropped_request(t, lane, target, sv.vx, 1))
+            self.plans.append(request_row(t, lane, target, sv.vx, 1))
             break
         # the gap to the leader, for the trace (SUMO's own model follows it)
         self.following.v_ref = sv.vx

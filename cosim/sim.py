@@ -129,7 +129,7 @@ class CoSimulation:
                 self.world, self.ego, self.policy, self.observer, self.recorder)
             for k in range(self.n_steps + 1):
                 t = k * self.dt
-                everyone = world.read(observer.radius)
+                everyone = world.read(observer.radius, full=observer.full_scene)
                 scene = Scene.around(t, ego.state(everyone), everyone)
                 ego.write_trace(recorder.record(k, scene, policy.status(scene.sv)))
                 if k == self.n_steps:

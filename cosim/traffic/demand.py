@@ -69,7 +69,7 @@ class Traffic:
             # front position of the last one inserted; a vehicle still waiting for room
             # reads INVALID (< any gap); one that has left the road raises: insert then
             try:
-                if last and sim.lane_position(last) < self._next_gap[lane]:
+                if last and sim.reader.lane_position(last) < self._next_gap[lane]:
                     continue
             except sim.api.TraCIException:
                 pass

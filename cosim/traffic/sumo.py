@@ -45,19 +45,21 @@ from pathlib import Path
 from types import ModuleType, TracebackType
 from typing import Any
 
-import numpy as np
-
 from cosim.errors import InputError, SimulationError
 from cosim.params import RoadParams
 from cosim.traffic.network import Highway, load_highway
+from cosim.traffic.snapshot import (  # noqa: F401  (TrafficSnapshot: re-exported)
+    INVALID,
+    SIGNAL_BLINKER_LEFT,
+    SIGNAL_BLINKER_RIGHT,
+    SnapshotReader,
+    TrafficSnapshot,
+    centre_from_front,
+    heading_from_angle,
+)
 
 ROUTE_ID = "highway_route"
 TV_TYPE = "tv"
-NEAR_REFRESH = 1.0  # s, how often snapshot_near re-selects its candidates
-NEAR_MARGIN = 60.0  # m, most two vehicles' x distance can shrink in NEAR_REFRESH
-INVALID = -1e9  # m, SUMO reports -1073741824 (INVALID_DOUBLE_VALUE) for vehicles off the network
-SIGNAL_BLINKER_RIGHT = 1  # SUMO signal bits
-SIGNAL_BLINKER_LEFT = 2
 CONTROLLED_MAX_SPEED = 70.0  # m/s, a controlled vehicle's type cap (SUMO warns above it)
 TV_LENGTH = 4.32  # m, traffic vehicles are the Table 1 car (assumption S3: all alike)
 TV_WIDTH = 1.8  # m
@@ -71,22 +73,10 @@ def sumo_angle(heading: float) -> float:
     return (90.0 - math.degrees(heading)) % 360.0
 
 
-def heading_from_angle(angle: float) -> float:
-    """Math heading in radians, in (-pi, pi], of SUMO navigational degrees."""
-    h = math.radians(90.0 - angle)
-    return math.atan2(math.sin(h), math.cos(h))
-
-
 def front_from_centre(x: float, y: float, heading: float, length: float) -> tuple[float, float]:
     """m, the front-bumper centre SUMO uses, of a body rectangle centred on (x, y)."""
     half = 0.5 * length
     return x + half * math.cos(heading), y + half * math.sin(heading)
-
-
-def centre_from_front(xf: float, yf: float, heading: float, length: float) -> tuple[float, float]:
-    """m, the body centre of a vehicle whose front-bumper centre SUMO reports."""
-    half = 0.5 * length
-    return xf - half * math.cos(heading), yf - half * math.sin(heading)
 
 
 @dataclass(frozen=True)
@@ -97,64 +87,6 @@ class TrafficEvent:
     kind: str  # "teleport" | "lost" (a controlled vehicle SUMO dropped)
     vehicle_id: str
     detail: str
-
-
-@dataclass(frozen=True)
-class TrafficSnapshot:
-    """Every vehicle's state at one time, read in one pass; arrays indexed alike.
-
-    x, y are the CENTRE of the body rectangle (global frame, m); heading in rad.
-    """
-
-    time: float  # s
-    ids: tuple[str, ...]
-    x: np.ndarray  # m, centre
-    y: np.ndarray  # m, centre
-    heading: np.ndarray  # rad, math convention
-    speed: np.ndarray  # m/s, along the lane
-    accel: np.ndarray  # m/s^2, longitudinal
-    lane: np.ndarray  # int, SUMO lane index (-1: off the network)
-    lateral_speed: np.ndarray  # m/s, + to the left (non-zero while changing lanes)
-    length: np.ndarray  # m
-    width: np.ndarray  # m
-    signals: np.ndarray  # int, SUMO signal bits (1 right blinker, 2 left blinker)
-
-    @property
-    def intention(self) -> np.ndarray:
-        """int, -1 wants/changes right, +1 left, 0 none (from the blinkers)."""
-        left = (self.signals & SIGNAL_BLINKER_LEFT) != 0
-        right = (self.signals & SIGNAL_BLINKER_RIGHT) != 0
-        return left.astype(int) - right.astype(int)
-
-    @property
-    def changing(self) -> np.ndarray:
-        """bool, the vehicle is moving sideways (a continuous lane change under way)."""
-        return np.abs(self.lateral_speed) > 1e-9
-
-    def __len__(self) -> int:
-        return len(self.ids)
-
-    def index(self, vehicle_id: str) -> int:
-        """Row of a vehicle (ValueError if absent)."""
-        return self.ids.index(vehicle_id)
-
-    def select(self, mask: np.ndarray) -> TrafficSnapshot:
-        """The rows where `mask` is true."""
-        mask = np.asarray(mask, dtype=bool)
-        return TrafficSnapshot(
-            time=self.time,
-            ids=tuple(i for i, keep in zip(self.ids, mask, strict=True) if keep),
-            x=self.x[mask],
-            y=self.y[mask],
-            heading=self.heading[mask],
-            speed=self.speed[mask],
-            accel=self.accel[mask],
-            lane=self.lane[mask],
-            lateral_speed=self.lateral_speed[mask],
-            length=self.length[mask],
-            width=self.width[mask],
-            signals=self.signals[mask],
-        )
 
 
 @dataclass
@@ -232,18 +164,14 @@ class SumoSim:
         self._api: ModuleType | None = None
         self._tmp: tempfile.TemporaryDirectory[str] | None = None
         self._log_text = ""
-        self._controlled: dict[str, _Controlled] = {}
-        self._band_quantile: dict[str, float] = {}  # TV id -> its place in a speed band
-        self._band_lane: dict[str, int] = {}  # TV id -> lane its desired speed was set for
+        self.controlled = ControlledVehicles(self)
+        self.bands = SpeedBands(self._road.speed_bands,
+                                 tuple(f"{self.highway.edge_id}_{i}"
+                                       for i in range(self.highway.n_lanes)))
         self._dims: dict[str, tuple[float, float]] = {}  # vehicle id -> (length, width)
-        self._moved = False  # a moveToXY is pending (must be flushed before close)
         self._hooks: list[Callable[[SumoSim], None]] = []
         self._types: set[str] = set()
-        self._snapshot: TrafficSnapshot | None = None
-        self._near_key: tuple[str, float] | None = None  # (centre id, radius) of the candidates
-        self._near_next = -math.inf  # s, simulation time of the next candidate refresh
-        self._near_candidates: tuple[str, ...] = ()
-        self._release: dict[str, tuple[float, int]] = {}  # add_driven: (desired m/s, lc mode)
+        self._reader: SnapshotReader | None = None  # the reading side, while running
 
     # ------------------------------------------------------------------ lifecycle
     def command(self) -> list[str]:
@@ -291,6 +219,7 @@ class SumoSim:
         self._api = _import_api(self.use_traci)
         self._api.start(self.command())
         _active = self
+        self._reader = SnapshotReader(self._api, self._dims, self.controlled.lateral_speeds)
         self._api.route.add(ROUTE_ID, [self.highway.edge_id])
         self._ensure_type(TV_TYPE, TV_LENGTH, TV_WIDTH, traffic=True)
         return self
@@ -302,11 +231,11 @@ class SumoSim:
         if api is None:
             return
         try:
-            if self._moved:
+            if self.controlled.moved:
                 # closing anyway: only the pending move had to be consumed
                 with contextlib.suppress(api.TraCIException):
                     api.simulationStep()
-                self._moved = False
+                self.controlled.moved = False
         finally:
             try:
                 api.close()
@@ -355,63 +284,19 @@ class SumoSim:
         on demand."""
         api = self.api
         api.simulationStep()
-        self._moved = False
+        self.controlled.moved = False
         t = float(api.simulation.getTime())
         for vid in api.simulation.getArrivedIDList():
-            self._band_quantile.pop(vid, None)
-            self._band_lane.pop(vid, None)
+            self.bands.forget(vid)
             self._dims.pop(vid, None)
         teleported = set(api.simulation.getStartingTeleportIDList())
         for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
-        self._snapshot = None  # read on demand: snapshot() or snapshot_near()
-        self._keep_bands()
-        self._check_controlled(t, teleported)
+        self.reader.cached = None  # read on demand: snapshot() or snapshot_near()
+        self.bands.keep(api)
+        self.controlled.check(t, teleported)
         for hook in self._hooks:
             hook(self)
-
-    def _check_controlled(self, t: float, teleported: set[str]) -> None:
-        """A moveToXY vehicle off the network is dropped silently by SUMO: catch it."""
-        if not self._controlled:
-            return
-        vehicle = self.api.vehicle
-        present = set(vehicle.getIDList()) if len(self._controlled) > 1 else None
-        for vid, ctl in list(self._controlled.items()):
-            try:
-                on_road = (present is None or vid in present) and vehicle.getLaneID(vid) != ""
-            except self.api.TraCIException:  # an unknown vehicle id
-                on_road = False
-            if on_road:
-                ctl.inserted = True
-                continue
-            x, y, h = ctl.last
-            detail = f"{vid} left the network at x = {x:.2f} m, y = {y:.2f} m"
-            if vid in teleported:
-                detail += " (SUMO teleported it: a jam with --time-to-teleport set)"
-            self.events.append(TrafficEvent(t, "lost", vid, detail))
-            del self._controlled[vid]
-            if self.strict:
-                raise SimulationError(t, detail, f"heading {h:.4f} rad")
-
-    def _keep_bands(self) -> None:
-        """A TV whose lane changed gets its desired speed from its new lane's band
-        (one lane-index read per TV and step, ~1 us each with libsumo)."""
-        if not self._band_lane:
-            return
-        vehicle = self.api.vehicle
-        get_lane = self._getters()[4]
-        bands = self._road.speed_bands
-        was = self._band_lane
-        for vid, lane_was in was.items():
-            try:
-                lane = get_lane(vid)
-            except self.api.TraCIException:  # added but not inserted yet
-                continue
-            if lane == lane_was or not 0 <= lane < len(bands):
-                continue
-            lo, hi = bands[lane]
-            vehicle.setMaxSpeed(vid, lo + self._band_quantile[vid] * (hi - lo))
-            was[vid] = lane
 
     # ------------------------------------------------------------------ traffic
     def _ensure_type(self, type_id: str, length: float, width: float, traffic: bool) -> None:
@@ -429,11 +314,6 @@ class SumoSim:
             vt.setMaxSpeed(type_id, CONTROLLED_MAX_SPEED)
         self._types.add(type_id)
 
-    def band_speed(self, lane: int, quantile: float) -> float:
-        """m/s, the desired speed at `quantile` in [0, 1] of a lane's speed band."""
-        lo, hi = self._road.speed_bands[lane]
-        return lo + quantile * (hi - lo)
-
     def add_traffic(
         self, vehicle_id: str, lane: int, x: float, quantile: float, speed: float | None = None
     ) -> None:
@@ -444,7 +324,7 @@ class SumoSim:
         """
         if not 0 <= lane < self.highway.n_lanes:
             raise InputError("traffic", "lane", lane, f"0 .. {self.highway.n_lanes - 1}")
-        desired = self.band_speed(lane, quantile)
+        desired = self.bands.speed(lane, quantile)
         front = x - self.highway.x_start + 0.5 * TV_LENGTH
         self.api.vehicle.add(
             vehicle_id,
@@ -455,8 +335,7 @@ class SumoSim:
             departSpeed="max" if speed is None else repr(float(min(speed, desired))),
         )
         self.api.vehicle.setMaxSpeed(vehicle_id, desired)
-        self._band_quantile[vehicle_id] = float(quantile)
-        self._band_lane[vehicle_id] = lane
+        self.bands.add(vehicle_id, lane, quantile)
         self._dims[vehicle_id] = (TV_LENGTH, TV_WIDTH)
 
     def add_driven(
@@ -468,7 +347,7 @@ class SumoSim:
 
         It is placed like a controlled vehicle (exactly there, whatever the gaps:
         SUMO's own insertion may refuse or delay a car in dense traffic) and handed
-        to SUMO by `release` after the step that inserts it. own_lane_changes False:
+        to SUMO by `controlled.release` after the step that inserts it. own_lane_changes False:
         SUMO makes no lane change of its own (lane-change mode 512: only
         `change_lane` requests, still with SUMO's safety checks).
         """
@@ -478,17 +357,8 @@ class SumoSim:
         self._dims[f"type:{type_id}"] = (length, width)
         self.add_controlled(vehicle_id, x, self._road.lane_center(lane), 0.0, speed, length,
                             width, lane, vtype=type_id)
-        self._release[vehicle_id] = (float(desired_speed), 1621 if own_lane_changes else 512)
-
-    def release(self, vehicle_id: str) -> None:
-        """Hand a vehicle placed by `add_driven` to SUMO (call after it is inserted):
-        SUMO's speed and lane-change models from now on."""
-        desired, lc_mode = self._release.pop(vehicle_id)
-        vehicle = self.api.vehicle
-        vehicle.setSpeedMode(vehicle_id, 31)  # SUMO's default: all safety checks
-        vehicle.setLaneChangeMode(vehicle_id, lc_mode)
-        vehicle.setMaxSpeed(vehicle_id, desired)
-        self._controlled.pop(vehicle_id, None)
+        self.controlled.release_modes[vehicle_id] = (float(desired_speed),
+                                                     1621 if own_lane_changes else 512)
 
     def follow_in_gui(self, vehicle_id: str, zoom: float = 400.0) -> None:
         """sumo-gui only: keep the main view centred on a vehicle (no-op without GUI)."""
@@ -499,18 +369,6 @@ class SumoSim:
     def change_lane(self, vehicle_id: str, lane: int, duration: float = 30.0) -> None:
         """Ask SUMO to move a vehicle it drives to `lane` (keeps trying for `duration` s)."""
         self.api.vehicle.changeLane(vehicle_id, lane, duration)
-
-    def lane_position(self, vehicle_id: str) -> float:
-        """m, distance of the vehicle's front bumper from the start of the road."""
-        return float(self.api.vehicle.getLanePosition(vehicle_id))
-
-    def vehicle_ids(self) -> tuple[str, ...]:
-        """Every vehicle on the network now."""
-        return tuple(self.api.vehicle.getIDList())
-
-    def pending(self) -> tuple[str, ...]:
-        """Vehicles added but not yet inserted (no room at their position yet)."""
-        return tuple(self.api.simulation.getPendingVehicles())
 
     # ------------------------------------------------------------------ controlled vehicles
     def add_controlled(
@@ -538,72 +396,18 @@ class SumoSim:
         if type_id not in self._types:
             self._ensure_type(type_id, length, width, traffic=False)
             self._dims[f"type:{type_id}"] = (length, width)
-        api = self.api
-        front = x - self.highway.x_start + 0.5 * length
-        api.vehicle.add(
-            vehicle_id,
-            ROUTE_ID,
-            typeID=type_id,
-            departLane=str(lane),
-            departPos=repr(float(min(max(front, length), self.highway.length))),
-            departSpeed=repr(float(max(speed, 0.0))),
-        )
-        api.vehicle.setSpeedMode(vehicle_id, 0)
-        api.vehicle.setLaneChangeMode(vehicle_id, 0)
-        self._controlled[vehicle_id] = _Controlled(length, width, (x, y, heading))
+        self.controlled.add(vehicle_id, x, y, heading, speed, length, width, lane, type_id)
         self._dims[vehicle_id] = (length, width)
-        self.move(vehicle_id, x, y, heading, speed)
 
-    def move(
-        self,
-        vehicle_id: str,
-        x: float,
-        y: float,
-        heading: float,
-        speed: float,
-        accel: float | None = None,
-    ) -> None:
-        """Write a controlled vehicle's centre pose (takes effect in the next step).
-
-        Also sets its speed (and acceleration), so the TVs that react to it in
-        the next step see the plant's speed, not last step's displacement.
-        """
-        ctl = self._controlled.get(vehicle_id)
-        if ctl is None:
-            raise SimulationError(self.time, f"{vehicle_id} is not a controlled vehicle")
-        xf, yf = front_from_centre(x, y, heading, ctl.length)
-        lane = self._road.lane_of(yf)
-        vehicle = self.api.vehicle
-        vehicle.moveToXY(
-            vehicle_id, self.highway.edge_id, lane, xf, yf, sumo_angle(heading), keepRoute=2
-        )
-        if ctl.inserted:
-            if accel is None:
-                vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0))
-            else:
-                vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0), float(accel))
-        t = self.time
-        if t > ctl.t_write:  # a new step: the previous write becomes the reference
-            ctl.y_before, t_before = ctl.last[1], ctl.t_write
-            ctl.lateral_speed = 0.0 if t_before < 0 else (y - ctl.y_before) / (t - t_before)
-        elif ctl.y_before is not None:  # written twice in one step: the latest counts
-            ctl.lateral_speed = (y - ctl.y_before) / self.step_length
-        ctl.t_write = t
-        ctl.last = (float(x), float(y), float(heading))
-        if ctl.signals >= 0:  # SUMO resets the signals of a moved vehicle: hold them
-            vehicle.setSignals(vehicle_id, ctl.signals)
-        self._moved = True
+    def move(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
+             accel: float | None = None) -> None:
+        """Write a controlled vehicle's centre pose (takes effect in the next step); see
+        ControlledVehicles.move."""
+        self.controlled.move(vehicle_id, x, y, heading, speed, accel)
 
     def set_blinker(self, vehicle_id: str, direction: int) -> None:
         """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""
-        bits = {-1: SIGNAL_BLINKER_RIGHT, 0: 0, 1: SIGNAL_BLINKER_LEFT}.get(direction)
-        if bits is None:
-            raise InputError("blinker", "direction", direction, "-1, 0 or +1")
-        ctl = self._controlled.get(vehicle_id)
-        if ctl is None:
-            raise SimulationError(self.time, f"{vehicle_id} is not a controlled vehicle")
-        ctl.signals = bits
-        self.api.vehicle.setSignals(vehicle_id, bits)
+        self.controlled.set_blinker(vehicle_id, direction)
 
     # aliases for the scripted-TV code (same operation as for the SV)
     add_vehicle = add_controlled
@@ -612,156 +416,25 @@ class SumoSim:
     def remove(self, vehicle_id: str) -> None:
         """Take a vehicle off the network (controlled or not)."""
         self.api.vehicle.remove(vehicle_id)
-        self._controlled.pop(vehicle_id, None)
-        self._band_quantile.pop(vehicle_id, None)
-        self._band_lane.pop(vehicle_id, None)
-
-    def pose(self, vehicle_id: str) -> tuple[float, float, float]:
-        """(x, y, heading) of a vehicle's centre as SUMO has it now (m, m, rad)."""
-        vehicle = self.api.vehicle
-        xf, yf = vehicle.getPosition(vehicle_id)
-        if xf < INVALID:
-            raise SimulationError(self.time, f"{vehicle_id} is not on the network")
-        h = heading_from_angle(vehicle.getAngle(vehicle_id))
-        length = self._length(vehicle_id)
-        x, y = centre_from_front(xf, yf, h, length)
-        return x, y, h
-
-    def speed(self, vehicle_id: str) -> float:
-        """m/s, SUMO's speed of a vehicle."""
-        return float(self.api.vehicle.getSpeed(vehicle_id))
-
-    def lane_index(self, vehicle_id: str) -> int:
-        """SUMO lane index of a vehicle (-1 off the network)."""
-        if self.api.vehicle.getLaneID(vehicle_id) == "":
-            return -1
-        return int(self.api.vehicle.getLaneIndex(vehicle_id))
-
-    def leader(self, vehicle_id: str, distance: float = 200.0) -> tuple[str, float] | None:
-        """(id, gap in m bumper to bumper) of the leader in the vehicle's lane, or None."""
-        vehicle = self.api.vehicle
-        found = vehicle.getLeader(vehicle_id, distance)
-        if not found or not found[0]:
-            return None
-        # SUMO measures from the follower's front + its minGap: add the minGap back
-        return str(found[0]), float(found[1]) + float(vehicle.getMinGap(vehicle_id))
-
-    def _length(self, vehicle_id: str) -> float:
-        dims = self._dims.get(vehicle_id)
-        if dims is None:
-            vehicle = self.api.vehicle
-            dims = (float(vehicle.getLength(vehicle_id)), float(vehicle.getWidth(vehicle_id)))
-            self._dims[vehicle_id] = dims
-        return dims[0]
+        self.controlled.vehicles.pop(vehicle_id, None)
+        self.bands.forget(vehicle_id)
 
     # ------------------------------------------------------------------ reading
+    @property
+    def reader(self) -> SnapshotReader:
+        if self._reader is None or self._api is None:
+            raise SimulationError(0.0, "SUMO is not running (use SumoSim as a context manager)")
+        return self._reader
+
     def snapshot(self, exclude: Iterable[str] = ()) -> TrafficSnapshot:
         """Every vehicle now (except `exclude`), centre poses, in one pass."""
-        if self._snapshot is None:
-            self._snapshot = self._read_all()
-        snap = self._snapshot
-        skip = set(exclude)
-        if not skip:
-            return snap
-        return snap.select(np.array([vid not in skip for vid in snap.ids], dtype=bool))
+        return self.reader.snapshot(exclude)
 
-    def snapshot_near(self, center_id: str, radius: float) -> TrafficSnapshot:
-        """Vehicles whose centre is within `radius` m of vehicle `center_id`'s centre
-        (itself included): the cost follows the traffic near it, not the whole road's
-        (what the co-simulation's hot path needs).
-
-        Every NEAR_REFRESH s of simulated time one cheap pass over all positions picks
-        the candidates within radius + NEAR_MARGIN along x (no vehicle closes in on
-        another by more than NEAR_MARGIN in that time); each call reads the seven
-        values of the candidates only. (A SUMO context subscription does the same
-        selection but costs more inside simulationStep than this whole read.)"""
-        api = self.api
-        t = float(api.simulation.getTime())
-        present = api.vehicle.getIDList()
-        key = (center_id, float(radius))
-        if self._near_key != key or t >= self._near_next - 1e-9 or center_id not in present:
-            get_pos = self._getters()[0]
-            cx = get_pos(center_id)[0] if center_id in present else math.nan
-            reach = radius + NEAR_MARGIN
-            self._near_candidates = tuple(
-                vid for vid in present if abs(get_pos(vid)[0] - cx) <= reach)
-            self._near_key = key
-            self._near_next = t + NEAR_REFRESH
-        alive = set(present)
-        ids = tuple(sorted(vid for vid in self._near_candidates if vid in alive))
-        snap = self._read(ids)
-        if center_id not in snap.ids:
-            return snap.select(np.zeros(len(snap), dtype=bool))
-        i = snap.index(center_id)
-        near = np.hypot(snap.x - snap.x[i], snap.y - snap.y[i]) <= radius
-        return snap.select(near)
-
-    def _controlled_lateral_speed(self, ids: tuple[str, ...], lat: np.ndarray) -> None:
-        """SUMO reports no sideways speed of a moved vehicle: use dy/dt of its written poses."""
-        if not self._controlled:
-            return
-        rows = {vid: i for i, vid in enumerate(ids)}
-        for vid, ctl in self._controlled.items():
-            if vid in rows:
-                lat[rows[vid]] = ctl.lateral_speed
-
-    def _read_dims(self, vehicle_id: str) -> tuple[float, float]:
-        vehicle = self.api.vehicle
-        dims = (float(vehicle.getLength(vehicle_id)), float(vehicle.getWidth(vehicle_id)))
-        self._dims[vehicle_id] = dims
-        return dims
-
-    def _getters(self) -> tuple[Callable[[str], Any], ...]:
-        """The seven per-vehicle getters of a snapshot. With libsumo, its compiled
-        functions directly: the Python wrappers around them double the read time."""
-        v = self.api.vehicle
-        names = ("getPosition", "getAngle", "getSpeed", "getAcceleration", "getLaneIndex",
-                 "getLateralSpeed", "getSignals")  # fmt: skip
-        raw = getattr(self.api, "_libsumo", None)
-        if raw is not None and all(hasattr(raw, f"vehicle_{n}") for n in names):
-            return tuple(getattr(raw, f"vehicle_{n}") for n in names)
-        return tuple(getattr(v, n) for n in names)
-
-    def _read_all(self) -> TrafficSnapshot:
-        return self._read(tuple(self.api.vehicle.getIDList()))
-
-    def _read(self, ids: tuple[str, ...]) -> TrafficSnapshot:
-        """The snapshot of the vehicles `ids` (all present now), in that order."""
-        api = self.api
-        n = len(ids)
-        get_pos, get_angle, get_speed, get_accel, get_lane, get_lat, get_signals = self._getters()
-        pos = np.array([get_pos(vid) for vid in ids], dtype=float).reshape(n, 2)
-        xf, yf = pos[:, 0], pos[:, 1]
-        angle = np.fromiter(map(get_angle, ids), float, n)
-        speed = np.fromiter(map(get_speed, ids), float, n)
-        accel = np.fromiter(map(get_accel, ids), float, n)
-        lane = np.fromiter(map(get_lane, ids), int, n)
-        lat = np.fromiter(map(get_lat, ids), float, n)
-        signals = np.fromiter(map(get_signals, ids), int, n)
-        dims = [self._dims.get(vid) or self._read_dims(vid) for vid in ids]
-        length = np.fromiter((d[0] for d in dims), float, n)
-        width = np.fromiter((d[1] for d in dims), float, n)
-        off = xf < INVALID
-        lane[off] = -1
-        self._controlled_lateral_speed(ids, lat)
-        h = np.radians(90.0 - angle)
-        h = np.arctan2(np.sin(h), np.cos(h))
-        x = xf - 0.5 * length * np.cos(h)
-        y = yf - 0.5 * length * np.sin(h)
-        return TrafficSnapshot(
-            time=float(api.simulation.getTime()),
-            ids=ids,
-            x=x,
-            y=y,
-            heading=h,
-            speed=speed,
-            accel=accel,
-            lane=lane,
-            lateral_speed=lat,
-            length=length,
-            width=width,
-            signals=signals,
-        )
+    def snapshot_near(self, center_id: str, radius: float, *, full: bool = True
+                      ) -> TrafficSnapshot:
+        """Vehicles within `radius` m of vehicle `center_id` (itself included); see
+        SnapshotReader.snapshot_near."""
+        return self.reader.snapshot_near(center_id, radius, full=full)
 
     def collisions(self) -> list[tuple[str, str]]:
         """(collider, victim) pairs SUMO detected in the last step (cross-check only)."""
@@ -782,3 +455,170 @@ class SumoSim:
         SUMO buffers the file: the list is complete once the simulation is closed.
         """
         return [line for line in self._read_log().splitlines() if line.strip()]
+
+
+class SpeedBands:
+    """Each TV's desired speed from the speed band of the lane it is in (Section 5):
+    a place in [0, 1] within a band per TV, applied whenever its lane changes.
+
+    A lane change is seen as a TV new in a lane's vehicle list (three lists a step,
+    not one lane-index read per TV: the same lanes, measured ~10x cheaper)."""
+
+    def __init__(self, bands: tuple[tuple[float, float], ...], lane_ids: tuple[str, ...]) -> None:
+        self.bands = bands
+        self.lane_ids = lane_ids
+        self.quantile: dict[str, float] = {}  # TV id -> its place in a speed band
+        self.lane: dict[str, int] = {}  # TV id -> lane its desired speed was set for
+        self.seen: list[set[str]] = [set() for _ in lane_ids]  # each lane's vehicles last step
+        self.seen_ids: list[Any] = [None for _ in lane_ids]  # the lists as SUMO gave them
+
+    def speed(self, lane: int, quantile: float) -> float:
+        """m/s, the desired speed at `quantile` in [0, 1] of a lane's speed band."""
+        lo, hi = self.bands[lane]
+        return lo + quantile * (hi - lo)
+
+    def add(self, vehicle_id: str, lane: int, quantile: float) -> None:
+        self.quantile[vehicle_id] = float(quantile)
+        self.lane[vehicle_id] = lane
+
+    def forget(self, vehicle_id: str) -> None:
+        self.quantile.pop(vehicle_id, None)
+        self.lane.pop(vehicle_id, None)
+
+    def keep(self, api: ModuleType) -> None:
+        """After a step: a TV whose lane changed gets its new lane's band."""
+        if not self.lane:
+            return
+        on_lane = getattr(getattr(api, "_libsumo", None), "lane_getLastStepVehicleIDs", None) \
+            or api.lane.getLastStepVehicleIDs
+        set_max_speed = api.vehicle.setMaxSpeed
+        was = self.lane
+        for lane, lane_id in enumerate(self.lane_ids):
+            ids = on_lane(lane_id)
+            if ids == self.seen_ids[lane]:  # most steps: nobody came or went
+                continue
+            now = set(ids)
+            for vid in sorted(now - self.seen[lane]):  # a fixed order of SUMO calls
+                if was.get(vid, lane) != lane:
+                    set_max_speed(vid, self.speed(lane, self.quantile[vid]))
+                    was[vid] = lane
+            self.seen[lane], self.seen_ids[lane] = now, ids
+
+
+class ControlledVehicles:
+    """The vehicles SUMO does not drive (the SV, scripted TVs): added at a centre pose,
+    moved with moveToXY each step, their blinkers held, and caught when SUMO drops
+    one off the network."""
+
+    def __init__(self, sim: SumoSim) -> None:
+        self.sim = sim
+        self.vehicles: dict[str, _Controlled] = {}
+        self.moved = False  # a moveToXY is pending (must be flushed before close)
+        self.release_modes: dict[str, tuple[float, int]] = {}  # add_driven: (desired m/s, lc mode)
+
+    def add(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
+            length: float, width: float, lane: int, type_id: str) -> None:
+        """Insert it (in the next step) with speed mode 0 and lane-change mode 0 (out of
+        SUMO's control), at its pose."""
+        api = self.sim.api
+        front = x - self.sim.highway.x_start + 0.5 * length
+        api.vehicle.add(
+            vehicle_id,
+            ROUTE_ID,
+            typeID=type_id,
+            departLane=str(lane),
+            departPos=repr(float(min(max(front, length), self.sim.highway.length))),
+            departSpeed=repr(float(max(speed, 0.0))),
+        )
+        api.vehicle.setSpeedMode(vehicle_id, 0)
+        api.vehicle.setLaneChangeMode(vehicle_id, 0)
+        self.vehicles[vehicle_id] = _Controlled(length, width, (x, y, heading))
+        self.move(vehicle_id, x, y, heading, speed)
+
+    def move(
+        self,
+        vehicle_id: str,
+        x: float,
+        y: float,
+        heading: float,
+        speed: float,
+        accel: float | None = None,
+    ) -> None:
+        """Write a controlled vehicle's centre pose (takes effect in the next step).
+
+        Also sets its speed (and acceleration), so the TVs that react to it in
+        the next step see the plant's speed, not last step's displacement.
+        """
+        ctl = self.vehicles.get(vehicle_id)
+        if ctl is None:
+            raise SimulationError(self.sim.time, f"{vehicle_id} is not a controlled vehicle")
+        xf, yf = front_from_centre(x, y, heading, ctl.length)
+        lane = self.sim.road().lane_of(yf)
+        vehicle = self.sim.api.vehicle
+        vehicle.moveToXY(
+            vehicle_id, self.sim.highway.edge_id, lane, xf, yf, sumo_angle(heading), keepRoute=2
+        )
+        if ctl.inserted:
+            if accel is None:
+                vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0))
+            else:
+                vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0), float(accel))
+        t = self.sim.time
+        if t > ctl.t_write:  # a new step: the previous write becomes the reference
+            ctl.y_before, t_before = ctl.last[1], ctl.t_write
+            ctl.lateral_speed = 0.0 if t_before < 0 else (y - ctl.y_before) / (t - t_before)
+        elif ctl.y_before is not None:  # written twice in one step: the latest counts
+            ctl.lateral_speed = (y - ctl.y_before) / self.sim.step_length
+        ctl.t_write = t
+        ctl.last = (float(x), float(y), float(heading))
+        if ctl.signals >= 0:  # SUMO resets the signals of a moved vehicle: hold them
+            vehicle.setSignals(vehicle_id, ctl.signals)
+        self.moved = True
+
+    def set_blinker(self, vehicle_id: str, direction: int) -> None:
+        """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""
+        bits = {-1: SIGNAL_BLINKER_RIGHT, 0: 0, 1: SIGNAL_BLINKER_LEFT}.get(direction)
+        if bits is None:
+            raise InputError("blinker", "direction", direction, "-1, 0 or +1")
+        ctl = self.vehicles.get(vehicle_id)
+        if ctl is None:
+            raise SimulationError(self.sim.time, f"{vehicle_id} is not a controlled vehicle")
+        ctl.signals = bits
+        self.sim.api.vehicle.setSignals(vehicle_id, bits)
+
+    def check(self, t: float, teleported: set[str]) -> None:
+        """A moveToXY vehicle off the network is dropped silently by SUMO: catch it."""
+        if not self.vehicles:
+            return
+        vehicle = self.sim.api.vehicle
+        present = set(vehicle.getIDList()) if len(self.vehicles) > 1 else None
+        for vid, ctl in list(self.vehicles.items()):
+            try:
+                on_road = (present is None or vid in present) and vehicle.getLaneID(vid) != ""
+            except self.sim.api.TraCIException:  # an unknown vehicle id
+                on_road = False
+            if on_road:
+                ctl.inserted = True
+                continue
+            x, y, h = ctl.last
+            detail = f"{vid} left the network at x = {x:.2f} m, y = {y:.2f} m"
+            if vid in teleported:
+                detail += " (SUMO teleported it: a jam with --time-to-teleport set)"
+            self.sim.events.append(TrafficEvent(t, "lost", vid, detail))
+            del self.vehicles[vid]
+            if self.sim.strict:
+                raise SimulationError(t, detail, f"heading {h:.4f} rad")
+
+    def release(self, vehicle_id: str) -> None:
+        """Hand a vehicle placed by `add_driven` to SUMO (call after it is inserted):
+        SUMO's speed and lane-change models from now on."""
+        desired, lc_mode = self.release_modes.pop(vehicle_id)
+        vehicle = self.sim.api.vehicle
+        vehicle.setSpeedMode(vehicle_id, 31)  # SUMO's default: all safety checks
+        vehicle.setLaneChangeMode(vehicle_id, lc_mode)
+        vehicle.setMaxSpeed(vehicle_id, desired)
+        self.vehicles.pop(vehicle_id, None)
+
+    def lateral_speeds(self) -> dict[str, float]:
+        """m/s, dy/dt of the poses written to each controlled vehicle."""
+        return {vid: ctl.lateral_speed for vid, ctl in self.vehicles.items()}

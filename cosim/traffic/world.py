@@ -117,10 +117,11 @@ class World:
         self.t_offset = self.sumo.time
         self.sumo.follow_in_gui(SV_ID)
 
-    def read(self, radius: float) -> TrafficSnapshot:
-        """Every vehicle within `radius` of the SV (the SV included)."""
+    def read(self, radius: float, *, full: bool = True) -> TrafficSnapshot:
+        """Every vehicle within `radius` of the SV (the SV included); without `full` no
+        accelerations and signals (only V2V messages need them)."""
         w0 = time.perf_counter()
-        snap = self.sumo.snapshot_near(SV_ID, radius)
+        snap = self.sumo.snapshot_near(SV_ID, radius, full=full)
         self.wall += time.perf_counter() - w0
         if SV_ID not in snap.ids:  # the SUMO-driven SV reached the road's end
             raise SimulationError(snap.time - self.t_offset,

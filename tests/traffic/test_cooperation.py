@@ -37,14 +37,14 @@ def run_side_by_side(cfg: CooperationConfig, seconds: float = 14.0, request_at: 
             t = sim.time
             if abs(t - request_at) < 1e-6:
                 channel.request(t, "tv")
-            channel.deliver(t, sim.api, "sv", set(sim.vehicle_ids()))
+            channel.deliver(t, sim.api, "sv", set(sim.api.vehicle.getIDList()))
             x_sv += V * STEP
             sim.move("sv", x_sv, road.lane_center(1), 0.0, V)
-            if "tv" in sim.vehicle_ids():
+            if "tv" in sim.api.vehicle.getIDList():
                 xf = sim.api.vehicle.getPosition("tv")[0]
                 ts.append(t)
                 gaps.append((x_sv - 0.5 * L) - xf)
-                speeds.append(sim.speed("tv"))
+                speeds.append(sim.api.vehicle.getSpeed("tv"))
         return np.array(ts), np.array(gaps), np.array(speeds), channel.honoured
 
 
@@ -98,10 +98,10 @@ def test_sumo_follower_brakes_as_predicted_when_the_sv_cuts_in() -> None:
             sim.move("sv", x_sv, road.lane_center(0), 0.0, v_sv)
             if k == 0:
                 front0 = sim.api.vehicle.getPosition("tv")[0]
-                v0 = sim.speed("tv")
+                v0 = sim.api.vehicle.getSpeed("tv")
             rear.append(x_sv - 0.5 * L)
             sim.step()
-            speeds.append(sim.speed("tv"))
+            speeds.append(sim.api.vehicle.getSpeed("tv"))
     assert front0 is not None
     t = np.arange(len(rear)) * STEP
     pred = predict_follower(t, np.array(rear), np.full(t.size, v_sv), 0.0, front0, v0,

@@ -27,7 +27,7 @@ def test_traffic_is_placed_along_the_road_at_the_requested_density(density: floa
     with make_sim(3) as sim:
         populate(sim, sim.road(), density, 3, 2000.0)
         sim.step()  # every placed TV is inserted in the first step
-        assert sim.pending() == ()
+        assert sim.reader.pending() == ()
         snap = sim.snapshot()
     for lane in range(3):
         x = snap.x[snap.lane == lane]
@@ -76,7 +76,7 @@ def test_a_car_placed_at_speed_in_its_start_zone_does_not_hit_the_dense_queue(se
                  lane_zones={1: zone})
         sim.add_driven(SV_ID, 1, x0, speed, speed, length, 1.82, own_lane_changes=False)
         sim.step()
-        sim.release(SV_ID)
+        sim.controlled.release(SV_ID)
         hits = 0
         for _ in range(80):  # 4 s: the start-up transient
             sim.step()

@@ -50,7 +50,7 @@ def test_pose_written_is_pose_read_back_to_a_micrometre() -> None:
             xf, yf = front_from_centre(x, y, h, L)
             assert api.vehicle.getPosition("sv") == pytest.approx((xf, yf), abs=1e-6)
             assert api.vehicle.getAngle("sv") == pytest.approx(sumo_angle(h), abs=1e-9)
-            assert sim.pose("sv") == pytest.approx((x, y, h), abs=1e-6)
+            assert sim.reader.pose("sv") == pytest.approx((x, y, h), abs=1e-6)
             snap = sim.snapshot()
             i = snap.index("sv")
             assert (snap.x[i], snap.y[i], snap.heading[i]) == pytest.approx((x, y, h), abs=1e-6)
@@ -58,7 +58,7 @@ def test_pose_written_is_pose_read_back_to_a_micrometre() -> None:
             x, y = x + 30.0 * STEP * math.cos(h), y + 30.0 * STEP * math.sin(h)
             sim.move("sv", x, y, h, 30.0)
         # the speed written is the speed SUMO reports (what following TVs react to)
-        assert sim.speed("sv") == pytest.approx(30.0, abs=0.05)
+        assert sim.reader.speed("sv") == pytest.approx(30.0, abs=0.05)
 
 
 def test_lane_index_follows_the_lateral_position() -> None:
@@ -69,7 +69,7 @@ def test_lane_index_follows_the_lateral_position() -> None:
         seen = set()
         while y < road.lane_center(2):
             sim.step()
-            lane = sim.lane_index("sv")
+            lane = sim.reader.lane_index("sv")
             edge_dist = abs((y - road.y_right) / road.lane_width - round(
                 (y - road.y_right) / road.lane_width)) * road.lane_width
             if edge_dist > 0.05:  # away from a lane line, no ambiguity
@@ -133,7 +133,7 @@ def _blocked_road(sim: SumoSim) -> None:
     sim.add_traffic("tv", 0, 200.0, 0.5)
     for _ in range(int(3.0 / STEP)):
         for k in range(3):
-            if f"block{k}" in sim.vehicle_ids():
+            if f"block{k}" in sim.reader.vehicle_ids():
                 sim.move(f"block{k}", 300.0, road.lane_center(k), 0.0, 0.0)
         sim.step()
 
@@ -142,7 +142,7 @@ def test_teleports_are_recorded_and_off_by_default() -> None:
     with make_sim() as sim:  # --time-to-teleport -1: a standing controlled vehicle stays
         _blocked_road(sim)
         assert sim.events == []
-        assert sim.pose("block0")[0] == pytest.approx(300.0)
+        assert sim.reader.pose("block0")[0] == pytest.approx(300.0)
     with make_sim(strict=False, extra_args=("--time-to-teleport", "1")) as sim:
         _blocked_road(sim)
         kinds = {(e.kind, e.vehicle_id) for e in sim.events}
@@ -158,12 +158,12 @@ def test_forced_overlap_is_reported_by_sumo_with_the_warn_action() -> None:
         sim.add_controlled("sv", 380.0, road.lane_center(1), 0.0, 27.0, L, W, 1)
         sim.step()
         assert sim.collisions() == []
-        x_tv, _, _ = sim.pose("tv")
+        x_tv, _, _ = sim.reader.pose("tv")
         sim.move("sv", x_tv - 1.0, road.lane_center(1), 0.0, 27.0)  # 1 m behind: overlapping
         sim.step()
         pairs = sim.collisions()
         assert pairs and set(pairs[0]) == {"sv", "tv"}
-        assert set(sim.vehicle_ids()) == {"sv", "tv"}  # warn: nobody teleported or removed
+        assert set(sim.reader.vehicle_ids()) == {"sv", "tv"}  # warn: nobody teleported or removed
         assert not [e for e in sim.events if e.kind == "teleport"]
     # SUMO's warning was captured (complete once SUMO has closed its log), not printed
     assert any("collision with vehicle 'tv'" in w for w in sim.warnings())
@@ -176,13 +176,13 @@ def test_leader_is_the_next_vehicle_ahead_in_the_lane() -> None:
         sim.add_traffic("other_lane", 2, 430.0, 0.5)
         sim.add_controlled("sv", 400.0, road.lane_center(1), 0.0, 27.0, L, W, 1)
         sim.step()
-        found = sim.leader("sv")
+        found = sim.reader.leader("sv")
         assert found is not None
         vid, gap = found
-        x_ahead = sim.pose("ahead")[0]
+        x_ahead = sim.reader.pose("ahead")[0]
         assert vid == "ahead"
         assert gap == pytest.approx(x_ahead - 400.0 - L, abs=0.5)  # bumper to bumper
-        assert sim.leader("ahead") is None
+        assert sim.reader.leader("ahead") is None
 
 
 def _run_traffic(seed: int) -> list:
@@ -218,7 +218,7 @@ def test_close_flushes_a_pending_move() -> None:
     with make_sim() as sim:
         sim.add_traffic("sv", 1, 100.0, 0.5)
         sim.step()
-        assert sim.pose("sv")[0] == pytest.approx(100.0, abs=2.0)
+        assert sim.reader.pose("sv")[0] == pytest.approx(100.0, abs=2.0)
         assert sim.time == pytest.approx(STEP)
 
 
@@ -236,7 +236,7 @@ def test_traci_backend_runs_the_same_adapter() -> None:
         for k in range(1, 6):
             sim.step()
             x = 200.0 + 1.5 * (k - 1)
-            assert sim.pose("sv") == pytest.approx((x, 5.625, 0.0), abs=1e-6)
+            assert sim.reader.pose("sv") == pytest.approx((x, 5.625, 0.0), abs=1e-6)
             sim.move("sv", x + 1.5, 5.625, 0.0, 30.0)
         assert len(sim.snapshot(exclude=("sv",))) == 1
 
@@ -274,3 +274,23 @@ def test_command_line_of_each_mode() -> None:
     assert "--start" in gui.command()
     custom = make_sim(extra_args=("--time-to-teleport", "5")).command()
     assert custom.count("--time-to-teleport") == 1 and custom[-1] == "5"
+
+
+def test_every_tv_has_its_current_lanes_band_after_every_step() -> None:
+    """SpeedBands sees lane changes through the lanes' vehicle lists: after each step
+    every TV's desired speed is its place in the band of the lane SUMO has it in."""
+    changes = 0
+    with make_sim(11) as sim:
+        road = sim.road()
+        populate(sim, road, 16.0, 11, 2000.0)
+        bands = sim.bands
+        lane_was: dict[str, int] = {}
+        for _ in range(int(40.0 / STEP)):
+            sim.step()
+            for vid in sim.reader.vehicle_ids():
+                lane = sim.reader.lane_index(vid)
+                changes += int(lane_was.get(vid, lane) != lane)
+                lane_was[vid] = lane
+                want = bands.speed(lane, bands.quantile[vid])
+                assert sim.api.vehicle.getMaxSpeed(vid) == pytest.approx(want, abs=1e-9), vid
+    assert changes >= 3  # the test saw TVs change lanes

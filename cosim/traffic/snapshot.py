@@ -1,0 +1,268 @@
+"""Every vehicle's state at one time, read from SUMO in one pass (numpy arrays).
+
+`SnapshotReader` holds the reading side of the SUMO adapter (cosim.traffic.sumo):
+seven libsumo getters per vehicle (with libsumo, its compiled functions directly:
+the Python wrappers around them double the read time), body sizes cached per
+vehicle, SUMO's front-bumper positions and navigational degrees turned into body
+centres and math radians. Plain and context subscriptions were measured no faster
+than these getters.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from itertools import chain, compress
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from cosim.errors import SimulationError
+
+NEAR_REFRESH = 1.0  # s, how often snapshot_near re-selects its candidates
+NEAR_MARGIN = 60.0  # m, most two vehicles' x distance can shrink in NEAR_REFRESH
+INVALID = -1e9  # m, SUMO reports -1073741824 (INVALID_DOUBLE_VALUE) for vehicles off the network
+SIGNAL_BLINKER_RIGHT = 1  # SUMO signal bits
+SIGNAL_BLINKER_LEFT = 2
+GETTERS = ("getPosition", "getAngle", "getSpeed", "getAcceleration", "getLaneIndex",
+           "getLateralSpeed", "getSignals")  # fmt: skip
+
+
+def getters(api: ModuleType, names: tuple[str, ...] = GETTERS) -> tuple[Callable[[str], Any], ...]:
+    """libsumo's compiled vehicle getters of these names (traci's methods otherwise)."""
+    raw = getattr(api, "_libsumo", None)
+    if raw is not None and all(hasattr(raw, f"vehicle_{n}") for n in names):
+        return tuple(getattr(raw, f"vehicle_{n}") for n in names)
+    return tuple(getattr(api.vehicle, n) for n in names)
+
+
+@dataclass(frozen=True)
+class TrafficSnapshot:
+    """Every vehicle's state at one time, read in one pass; arrays indexed alike.
+
+    x, y are the CENTRE of the body rectangle (global frame, m); heading in rad.
+    """
+
+    time: float  # s
+    ids: tuple[str, ...]
+    x: np.ndarray  # m, centre
+    y: np.ndarray  # m, centre
+    heading: np.ndarray  # rad, math convention
+    speed: np.ndarray  # m/s, along the lane
+    accel: np.ndarray  # m/s^2, longitudinal
+    lane: np.ndarray  # int, SUMO lane index (-1: off the network)
+    lateral_speed: np.ndarray  # m/s, + to the left (non-zero while changing lanes)
+    length: np.ndarray  # m
+    width: np.ndarray  # m
+    signals: np.ndarray  # int, SUMO signal bits (1 right blinker, 2 left blinker)
+
+    @property
+    def intention(self) -> np.ndarray:
+        """int, -1 wants/changes right, +1 left, 0 none (from the blinkers)."""
+        left = (self.signals & SIGNAL_BLINKER_LEFT) != 0
+        right = (self.signals & SIGNAL_BLINKER_RIGHT) != 0
+        return left.astype(int) - right.astype(int)
+
+    @property
+    def changing(self) -> np.ndarray:
+        """bool, the vehicle is moving sideways (a continuous lane change under way)."""
+        return np.abs(self.lateral_speed) > 1e-9
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def index(self, vehicle_id: str) -> int:
+        """Row of a vehicle (ValueError if absent)."""
+        return self.ids.index(vehicle_id)
+
+    def select(self, mask: np.ndarray) -> TrafficSnapshot:
+        """The rows where `mask` is true."""
+        mask = np.asarray(mask, dtype=bool)
+        return TrafficSnapshot(
+            time=self.time,
+            ids=tuple(compress(self.ids, mask.tolist())),
+            x=self.x[mask],
+            y=self.y[mask],
+            heading=self.heading[mask],
+            speed=self.speed[mask],
+            accel=self.accel[mask],
+            lane=self.lane[mask],
+            lateral_speed=self.lateral_speed[mask],
+            length=self.length[mask],
+            width=self.width[mask],
+            signals=self.signals[mask],
+        )
+
+
+class SnapshotReader:
+    """Reads snapshots from a running SUMO (see the module docstring).
+
+    `dims` (vehicle id -> (length, width), m) is shared with the adapter, which knows
+    the sizes of the vehicles it adds; `lateral_speeds()` gives the sideways speeds
+    of the vehicles moved by moveToXY (SUMO reports 0 for them)."""
+
+    def __init__(self, api: ModuleType, dims: dict[str, tuple[float, float]],
+                 lateral_speeds: Callable[[], Mapping[str, float]]) -> None:
+        self.api = api
+        self.dims = dims
+        self.lateral_speeds = lateral_speeds
+        self.getters = getters(api)
+        self.cached: TrafficSnapshot | None = None  # every vehicle, this step
+        self.near_key: tuple[str, float] | None = None  # (centre id, radius) of the candidates
+        self.near_next = -math.inf  # s, simulation time of the next candidate refresh
+        self.near_candidates: tuple[str, ...] = ()
+
+    def snapshot(self, exclude: Iterable[str] = ()) -> TrafficSnapshot:
+        """Every vehicle now (except `exclude`), centre poses, in one pass."""
+        if self.cached is None:
+            self.cached = self.read(tuple(self.api.vehicle.getIDList()))
+        snap = self.cached
+        skip = set(exclude)
+        if not skip:
+            return snap
+        return snap.select(np.array([vid not in skip for vid in snap.ids], dtype=bool))
+
+    def snapshot_near(self, center_id: str, radius: float, *, full: bool = True
+                      ) -> TrafficSnapshot:
+        """Vehicles whose centre is within `radius` m of vehicle `center_id`'s centre
+        (itself included): the cost follows the traffic near it, not the whole road's.
+
+        Every NEAR_REFRESH s of simulated time one cheap pass over all positions picks
+        the candidates within radius + NEAR_MARGIN along x (no vehicle closes in on
+        another by more than NEAR_MARGIN in that time); each call reads the seven
+        values of the candidates only (five without `full`: no acceleration, NaN,
+        and no signals, 0). (A SUMO context subscription does the same selection but
+        costs more inside simulationStep than this whole read.)"""
+        api = self.api
+        t = float(api.simulation.getTime())
+        present = api.vehicle.getIDList()
+        alive = set(present)
+        key = (center_id, float(radius))
+        if self.near_key != key or t >= self.near_next - 1e-9 or center_id not in alive:
+            get_pos = self.getters[0]
+            cx = get_pos(center_id)[0] if center_id in alive else math.nan
+            reach = radius + NEAR_MARGIN
+            self.near_candidates = tuple(sorted(
+                vid for vid in present if abs(get_pos(vid)[0] - cx) <= reach))
+            self.near_key = key
+            self.near_next = t + NEAR_REFRESH
+        ids = tuple(vid for vid in self.near_candidates if vid in alive)
+        snap = self.read(ids, t, full=full)
+        if center_id not in snap.ids:
+            return snap.select(np.zeros(len(snap), dtype=bool))
+        i = snap.index(center_id)
+        near = np.hypot(snap.x - snap.x[i], snap.y - snap.y[i]) <= radius
+        return snap.select(near)
+
+    def read(self, ids: tuple[str, ...], t: float | None = None, *, full: bool = True
+             ) -> TrafficSnapshot:
+        """The snapshot of the vehicles `ids` (all present now), in that order; `t`:
+        SUMO's time if known; without `full` no acceleration (NaN) and no signals (0)."""
+        n = len(ids)
+        get_pos, get_angle, get_speed, get_accel, get_lane, get_lat, get_signals = self.getters
+        pos = np.fromiter(chain.from_iterable(map(get_pos, ids)), float, 2 * n).reshape(n, 2)
+        xf, yf = pos[:, 0], pos[:, 1]
+        angle = np.fromiter(map(get_angle, ids), float, n)
+        speed = np.fromiter(map(get_speed, ids), float, n)
+        lane = np.fromiter(map(get_lane, ids), int, n)
+        lat = np.fromiter(map(get_lat, ids), float, n)
+        if full:
+            accel = np.fromiter(map(get_accel, ids), float, n)
+            signals = np.fromiter(map(get_signals, ids), int, n)
+        else:
+            accel, signals = np.full(n, np.nan), np.zeros(n, dtype=int)
+        dims = self.dims
+        sizes = np.fromiter(chain.from_iterable(dims.get(vid) or self._read_dims(vid)
+                                                for vid in ids), float, 2 * n).reshape(n, 2)
+        length, width = sizes[:, 0].copy(), sizes[:, 1].copy()
+        lane[xf < INVALID] = -1
+        moved = self.lateral_speeds()
+        if moved:  # SUMO reports no sideways speed of a moved vehicle: dy/dt of its poses
+            for i, vid in enumerate(ids):
+                if vid in moved:
+                    lat[i] = moved[vid]
+        h = np.radians(90.0 - angle)
+        h = np.arctan2(np.sin(h), np.cos(h))
+        x = xf - 0.5 * length * np.cos(h)
+        y = yf - 0.5 * length * np.sin(h)
+        return TrafficSnapshot(
+            time=float(self.api.simulation.getTime()) if t is None else t,
+            ids=ids,
+            x=x,
+            y=y,
+            heading=h,
+            speed=speed,
+            accel=accel,
+            lane=lane,
+            lateral_speed=lat,
+            length=length,
+            width=width,
+            signals=signals,
+        )
+
+    # ------------------------------------------------------------------ one vehicle
+    def pose(self, vehicle_id: str) -> tuple[float, float, float]:
+        """(x, y, heading) of a vehicle's centre as SUMO has it now (m, m, rad)."""
+        vehicle = self.api.vehicle
+        xf, yf = vehicle.getPosition(vehicle_id)
+        if xf < INVALID:
+            t = float(self.api.simulation.getTime())
+            raise SimulationError(t, f"{vehicle_id} is not on the network")
+        h = heading_from_angle(vehicle.getAngle(vehicle_id))
+        length = self._length(vehicle_id)
+        x, y = centre_from_front(xf, yf, h, length)
+        return x, y, h
+
+    def speed(self, vehicle_id: str) -> float:
+        """m/s, SUMO's speed of a vehicle."""
+        return float(self.api.vehicle.getSpeed(vehicle_id))
+
+    def lane_index(self, vehicle_id: str) -> int:
+        """SUMO lane index of a vehicle (-1 off the network)."""
+        if self.api.vehicle.getLaneID(vehicle_id) == "":
+            return -1
+        return int(self.api.vehicle.getLaneIndex(vehicle_id))
+
+    def leader(self, vehicle_id: str, distance: float = 200.0) -> tuple[str, float] | None:
+        """(id, gap in m bumper to bumper) of the leader in the vehicle's lane, or None."""
+        vehicle = self.api.vehicle
+        found = vehicle.getLeader(vehicle_id, distance)
+        if not found or not found[0]:
+            return None
+        # SUMO measures from the follower's front + its minGap: add the minGap back
+        return str(found[0]), float(found[1]) + float(vehicle.getMinGap(vehicle_id))
+
+    def _length(self, vehicle_id: str) -> float:
+        return (self.dims.get(vehicle_id) or self._read_dims(vehicle_id))[0]
+
+    def lane_position(self, vehicle_id: str) -> float:
+        """m, distance of the vehicle's front bumper from the start of the road."""
+        return float(self.api.vehicle.getLanePosition(vehicle_id))
+
+    def vehicle_ids(self) -> tuple[str, ...]:
+        """Every vehicle on the network now."""
+        return tuple(self.api.vehicle.getIDList())
+
+    def pending(self) -> tuple[str, ...]:
+        """Vehicles added but not yet inserted (no room at their position yet)."""
+        return tuple(self.api.simulation.getPendingVehicles())
+
+    def _read_dims(self, vehicle_id: str) -> tuple[float, float]:
+        vehicle = self.api.vehicle
+        dims = (float(vehicle.getLength(vehicle_id)), float(vehicle.getWidth(vehicle_id)))
+        self.dims[vehicle_id] = dims
+        return dims
+
+
+def heading_from_angle(angle: float) -> float:
+    """Math heading in radians, in (-pi, pi], of SUMO navigational degrees."""
+    h = math.radians(90.0 - angle)
+    return math.atan2(math.sin(h), math.cos(h))
+
+
+def centre_from_front(xf: float, yf: float, heading: float, length: float) -> tuple[float, float]:
+    """m, the body centre of a vehicle whose front-bumper centre SUMO reports."""
+    half = 0.5 * length
+    return xf - half * math.cos(heading), yf - half * math.sin(heading)

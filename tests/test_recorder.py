@@ -1,0 +1,68 @@
+"""The recorder (cosim.recorder) on hand-made scenes, without SUMO: collision onsets
+counted once, the SV's fault (changing lanes, or the TV ahead), gap and TTC."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cosim.params import RoadParams
+from cosim.recorder import COLUMN, PolicyStatus, Recorder
+from cosim.traffic.sumo import TrafficSnapshot
+from cosim.traffic.world import SV_ID, Scene, SVState
+
+ROAD = RoadParams()
+L, W = 4.32, 1.8
+Y0 = ROAD.lane_center(0)
+KEEPING = PolicyStatus(target_lane=None, changing=False, manoeuvring=False,
+                       leader_gap=math.inf, idm_accel=0.0)
+CHANGING = PolicyStatus(target_lane=1, changing=True, manoeuvring=True,
+                        leader_gap=math.inf, idm_accel=math.nan)
+
+
+def scene(t: float, tvs: list[tuple[str, float, float, float]], sv_x: float = 100.0) -> Scene:
+    """TVs as (id, x, y, speed) around an SV at (sv_x, lane 0 centre) driving 20 m/s."""
+    ids = (SV_ID, *(v[0] for v in tvs))
+    x = np.array([sv_x, *(v[1] for v in tvs)])
+    y = np.array([Y0, *(v[2] for v in tvs)])
+    n = len(ids)
+    snap = TrafficSnapshot(t, ids, x, y, np.zeros(n), np.array([20.0, *(v[3] for v in tvs)]),
+                           np.zeros(n), np.zeros(n, int), np.zeros(n), np.full(n, L),
+                           np.full(n, W), np.zeros(n, int))
+    return Scene.around(t, SVState(sv_x, Y0, 0.0, 20.0, 0.0, 0.0), snap)
+
+
+def test_an_overlap_counts_once_and_a_tv_ahead_is_the_svs_fault() -> None:
+    rec = Recorder(4, L, W, ROAD)
+    rec.record(0, scene(0.0, [("a", 110.0, Y0, 15.0)]), KEEPING)
+    rec.record(1, scene(0.05, [("a", 103.0, Y0, 15.0)]), KEEPING)  # overlaps (ahead)
+    rec.record(2, scene(0.1, [("a", 103.0, Y0, 15.0)]), KEEPING)  # still: same contact
+    row = rec.record(3, scene(0.15, [("a", 110.0, Y0, 15.0)]), KEEPING)
+    assert list(rec.data[:4, COLUMN["collisions"]]) == [0, 1, 1, 0]
+    assert (rec.collisions, rec.sv_fault, rec.manoeuvre_hits) == (1, 1, 0)
+    assert row[COLUMN["gap_min_m"]] == np.float64(110.0 - 100.0 - L)
+    # closing at 5 m/s on a 5.68 m gap
+    assert row[COLUMN["ttc_min_s"]] == np.float64((110.0 - 100.0 - L) / 5.0)
+
+
+def test_a_tv_from_behind_hits_a_lane_keeping_sv_but_not_one_changing_lanes() -> None:
+    rec = Recorder(3, L, W, ROAD)
+    rec.record(0, scene(0.0, [("b", 97.0, Y0, 25.0)]), KEEPING)  # behind, overlapping
+    assert (rec.collisions, rec.sv_fault) == (1, 0)
+    rec.record(1, scene(0.05, [("b", 90.0, Y0, 25.0)]), KEEPING)
+    rec.record(2, scene(0.1, [("b", 97.0, Y0, 25.0)]), CHANGING)  # a new onset, changing
+    assert (rec.collisions, rec.sv_fault, rec.manoeuvre_hits) == (2, 1, 1)
+    assert rec.data[2, COLUMN["target_lane"]] == 1 and rec.data[2, COLUMN["changing"]] == 1
+
+
+def test_tvs_in_another_lane_have_no_gap_and_sumo_onsets_count_once() -> None:
+    rec = Recorder(1, L, W, ROAD)
+    row = rec.record(0, scene(0.0, [("c", 120.0, ROAD.lane_center(1), 10.0)]), KEEPING)
+    assert row[COLUMN["gap_min_m"]] == math.inf and row[COLUMN["ttc_min_s"]] == math.inf
+    assert row[COLUMN["n_tvs"]] == 1 and row[COLUMN["lane"]] == 0
+    rec.sumo_collisions({("c", SV_ID)})
+    rec.sumo_collisions({("c", SV_ID)})
+    rec.sumo_collisions(set())
+    rec.sumo_collisions({("c", SV_ID)})
+    assert rec.sumo_new == 2 and rec.sumo_step_collisions == 1
