@@ -11,7 +11,10 @@ gap and time-to-collision (`gap_ttc`); this module reduces those columns:
 - minimum gap and time-to-collision along the lane between oriented rectangles,
 - max |lateral acceleration|, max jerk,
 - lane-change durations: from the start of a manoeuvre until the SV stays
-  within a tolerance of its target lane's centre.
+  within a tolerance of its target lane's centre,
+- the largest deceleration of the SV's new follower in the target lane, from the
+  moment the SV enters that lane until FOLLOWER_WINDOW after the change settles
+  (`follower_max_decel`; what the manoeuvre asked of the traffic behind it).
 """
 
 from __future__ import annotations
@@ -175,3 +178,36 @@ def iae_row(t: ArrayLike, trace: dict[str, Array], t0: float, t1: float) -> dict
         name: iae(tt[w], np.asarray(cols[col], dtype=float)[w] * scale)
         for name, (col, scale) in IAE_COLUMNS.items()
     }
+
+
+FOLLOWER_WINDOW = 3.0  # s, after the change settles, the new follower is still watched
+
+
+def lane_entry_time(t: ArrayLike, lane: ArrayLike, start: float, target_lane: int,
+                    end: float = math.inf) -> float:
+    """s, the first time in [start, end] at which the SV's lane (the lane its centre is
+    in, per sample) is `target_lane`: when it enters that lane (NaN: never)."""
+    tt = np.asarray(t, dtype=float)
+    inside = (tt >= start) & (tt <= end) & (np.asarray(lane) == target_lane)
+    k = np.flatnonzero(inside)
+    return float(tt[k[0]]) if k.size else math.nan
+
+
+def follower_max_decel(t: ArrayLike, speed: ArrayLike, enter: float, settled: float,
+                       window: float = FOLLOWER_WINDOW) -> float:
+    """m/s^2 (>= 0), the largest deceleration -dv/dt of the new follower between two
+    consecutive samples, both in [enter, settled + window]; `speed` (m/s) is that one
+    vehicle's speed at times t, NaN where it is not known (not yet / no longer in the
+    simulation). NaN: no follower (enter NaN) or fewer than two known samples.
+    An unsettled change (settled NaN) is watched to the end of the record."""
+    if math.isnan(enter):
+        return math.nan
+    tt = np.asarray(t, dtype=float)
+    v = np.asarray(speed, dtype=float)
+    stop = settled + window if math.isfinite(settled) else math.inf
+    inside = (tt >= enter - 1e-9) & (tt <= stop + 1e-9) & np.isfinite(v)
+    pair = inside[1:] & inside[:-1]
+    if not pair.any():
+        return math.nan
+    decel = float((-np.diff(v)[pair] / np.diff(tt)[pair]).max())
+    return decel if decel > 0.0 else 0.0

@@ -41,6 +41,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from cosim.decision import Decision, DecisionConfig, LaneChangeTimer, decide
+from cosim.gap import PLANNER_MIN_SPEED
 from cosim.params import G, RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.recorder import (
@@ -147,13 +148,17 @@ class CarFollowing:
                    tvs.x, tvs.y, scene.tv_vx, tvs.length, tvs.width,
                    road, self.cfg, allow_change=allow_change and self.sv.decision,
                    tv_lateral_speed=tvs.lateral_speed)
-        # a reference the car can follow: braking within the road's grip, and the
-        # acceleration changing at most MAX_FOLLOW_JERK (a new leader cutting in)
-        lo = -min(self.cfg.max_brake, FOLLOW_GRIP * road.mu * G)
-        step = MAX_FOLLOW_JERK * self.dt
-        self.accel = min(max(d.accel, lo, self.accel - step), self.accel + step)
-        self.leader_gap = d.leader_gap
+        self.limit(d.accel, d.leader_gap)
         return d
+
+    def limit(self, accel: float, leader_gap: float) -> None:
+        """Take `accel` (m/s^2) as this step's car-following acceleration, as a reference
+        the car can follow: braking within the road's grip, and the acceleration
+        changing at most MAX_FOLLOW_JERK (a new leader cutting in)."""
+        lo = -min(self.cfg.max_brake, FOLLOW_GRIP * self.road.mu * G)
+        step = MAX_FOLLOW_JERK * self.dt
+        self.accel = min(max(accel, lo, self.accel - step), self.accel + step)
+        self.leader_gap = leader_gap
 
     def reference(self, t: float, sv: SVState) -> LaneChangeTrajectory:
         """The straight lane-keeping reference from t; advances the reference speed."""
@@ -220,7 +225,9 @@ class PaperPolicy:
             self.blinker(0)
         if self.mode == WAITING and self.timer.may_request(t, decision=False):
             self.mode = KEEPING
-        free = self.active is None
+        # no lane change is planned below PLANNER_MIN_SPEED (stop-and-go: the SV keeps
+        # its lane in a queue)
+        free = self.active is None and sv.vx >= PLANNER_MIN_SPEED
         target, trigger = self.request(t, sv, scene,
                                        free and self.timer.may_request(t, decision=False),
                                        free and self.timer.may_request(t))
@@ -239,8 +246,17 @@ class PaperPolicy:
         d = self.following.update(sv, scene, allow_decision)
         if not allow_scripted:
             return None, ""
+        target = self.due_scripted(t, sv)
+        if target is not None:
+            return target, "scripted"
+        if allow_decision and d.target_lane is not None:
+            return d.target_lane, "decision"
+        return None, ""
+
+    def due_scripted(self, t: float, sv: SVState) -> int | None:
+        """The lane of the first due scripted request (in time order; one already
+        satisfied is dropped, one to a lane not adjacent is logged and dropped)."""
         lane = self.road.lane_of(sv.y)
-        # scripted requests first (due, in time order); one already satisfied is dropped
         while self.pending and self.pending[0].at <= t + 1e-9:
             target = self.pending[0].target_lane
             if target == lane:
@@ -252,10 +268,8 @@ class PaperPolicy:
                                                   "not an adjacent lane"))
                 self.requests += 1
                 continue
-            return target, "scripted"
-        if allow_decision and d.target_lane is not None:
-            return d.target_lane, "decision"
-        return None, ""
+            return target
+        return None
 
     def plan(self, t: float, sv: SVState, target: int, trigger: str,
              messages: list[Any]) -> None:
@@ -274,12 +288,15 @@ class PaperPolicy:
         if trigger != "retry":
             self.requests += 1
         w0 = time.perf_counter()
-        plan = self.planner.plan(t, state, target, messages, self.occupant)
+        plan, why = self.call_planner(t, state, target, messages)
         self.wall += time.perf_counter() - w0
-        self.plans.append(plan_row(plan, trigger, state.vx))
+        row = plan_row(plan, trigger, state.vx)
+        if why:
+            row.update(ok=0, rejections=why)
+        self.plans.append(row)
         if self.first_plan is None:
             self.first_plan = plan
-        if plan.trajectory is None:
+        if plan.trajectory is None or why:
             self.timer.planning_failed(t)
             self.last_failed = (lane, target)
             self.mode = WAITING
@@ -296,6 +313,12 @@ class PaperPolicy:
         self.mode = CHANGING
         self.blinker(1 if target > lane else -1)
         self.next_check = t + self.recheck_interval
+
+    def call_planner(self, t: float, state: Any, target: int, messages: list[Any]
+                     ) -> tuple[Any, str]:
+        """The planner's plan for a change to `target` from `state`, and why it is not
+        to be flown although it has a trajectory ("": fly it if it has one)."""
+        return self.planner.plan(t, state, target, messages, self.occupant), ""
 
     # ------------------------------------------------------------------ replanning
     def recheck(self, t: float, messages: list[Any]) -> None:

@@ -131,6 +131,10 @@ METRIC_DOCS: dict[str, str] = {
     "sumo_collisions": "collision events involving the SV reported by SUMO (cross-check)",
     "min_gap_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
     "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
+    "follower_max_decel_mps2": "largest deceleration of the SV's new follower in the target "
+    "lane (the nearest TV behind the SV there when the SV's centre enters that lane; its "
+    "speed from SUMO's positions step to step), from that moment until 3 s after the change "
+    "settles, over all lane changes (m/s^2; NaN: no lane change with a follower)",
     "max_abs_lat_accel_mps2": "largest |body lateral acceleration| (m/s^2)",
     "max_abs_long_accel_mps2": "largest |body longitudinal acceleration| (m/s^2)",
     "max_jerk_mps3": "largest |d(ax, ay)/dt| between steps (m/s^3)",
@@ -359,6 +363,39 @@ class Recorder:
         self.sumo_pairs = pairs
         self.sumo_step_collisions = len(pairs)
 
+    def follower_decel(self, trace: dict[str, Array], starts: list[float],
+                       targets: list[float], ends: list[float], durations: Array) -> float:
+        """m/s^2, `follower_max_decel_mps2` (METRIC_DOCS; metrics.follower_max_decel)
+        over the lane changes starting at `starts` toward the lane centres `targets`."""
+        t = trace["t_s"]
+        chunks = self.tracks.chunks
+        chunk_t = np.array([c[0] for c in chunks])
+        tracks: dict[str, tuple[Array, Array, Array]] | None = None
+        worst = math.nan
+        for s, y_target, e, d in zip(starts, targets, ends, durations, strict=True):
+            lane = self.road.lane_of(y_target)
+            enter = mx.lane_entry_time(t, trace["lane"], s, lane, e)
+            k = int(np.searchsorted(chunk_t, enter - 1e-9)) if math.isfinite(enter) else -1
+            if k < 0 or k >= chunk_t.size or abs(chunk_t[k] - enter) > 1e-9:
+                continue  # never entered, or nobody near then
+            _, ids, x, y = chunks[k]
+            sv_x = float(np.interp(enter, t, trace["x_m"]))
+            tv_lane = np.floor((y - self.road.y_right) / self.road.lane_width)
+            behind = np.where((tv_lane == lane) & (x < sv_x), x, -np.inf)
+            if not np.isfinite(behind.max()):
+                continue  # no follower
+            tracks = tracks if tracks is not None else self.tracks.result()
+            tt, xx, _ = tracks[ids[int(np.argmax(behind))]]
+            dt = np.diff(tt)
+            step = float(np.min(dt)) if dt.size else math.nan
+            # speed over each step (SUMO: x += v dt), only across consecutive samples
+            v = np.where(np.abs(dt - step) < 1e-9, np.diff(xx) / np.where(dt > 0, dt, 1.0),
+                         np.nan)
+            decel = mx.follower_max_decel(tt[1:], v, enter, s + d)
+            if math.isfinite(decel):
+                worst = decel if math.isnan(worst) else max(worst, decel)
+        return worst
+
     def trace(self) -> dict[str, Array]:
         """The trace columns as arrays (copies)."""
         return {name: self.data[:, i].copy() for name, i in COLUMN.items()}
@@ -403,6 +440,8 @@ class Recorder:
             "sumo_collisions": self.sumo_new,
             "min_gap_m": float(np.min(trace["gap_min_m"])),
             "min_ttc_s": float(np.min(trace["ttc_min_s"])),
+            "follower_max_decel_mps2": self.follower_decel(
+                trace, done.starts, done.targets, done.ends, durations),
             "max_abs_lat_accel_mps2": mx.max_abs(trace["ay_mps2"]),
             "max_abs_long_accel_mps2": mx.max_abs(trace["ax_mps2"]),
             "max_jerk_mps3": mx.max_abs(mx.jerk(t, trace["ax_mps2"], trace["ay_mps2"])),

@@ -38,8 +38,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from cosim.decision import DecisionConfig
 from cosim.ego import Ego, PlannedEgo, SumoDrivenEgo
+from cosim.gap_policy import GapPolicy
 from cosim.observer import Observer, uncertain_config
 from cosim.policy import POLICIES, LaneChangePolicy, SumoDriverPolicy, lane_keeping_reference
 from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and records)
@@ -54,10 +57,24 @@ from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and 
     plan_row,
 )
 from cosim.scenario import Scenario
+from cosim.traffic.cooperation import CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.world import SV_ID, Scene, World
 
 ProgressFn = Callable[[int], None]
+# [planner] policy -> the lane-change policy of our SV (the paper's, the gap-seeking one)
+DRIVERS = {**POLICIES, GapPolicy.name: GapPolicy}
+COOPERATION_STREAM = 16  # -, second seed word of the gap requests' generator
+
+
+def cooperation_channel(sc: Scenario) -> CooperationChannel | None:
+    """The gap requests' channel of a run with `[v2v] cooperation` (None: off); its
+    draws come from a generator of their own, seeded by the scenario's seed."""
+    if not sc.v2v.cooperation:
+        return None
+    cfg = CooperationConfig(enabled=True, compliance=sc.v2v.cooperation_compliance,
+                            latency=sc.v2v.cooperation_latency)
+    return CooperationChannel(cfg, np.random.default_rng([sc.seed, COOPERATION_STREAM]))
 
 
 class CoSimulation:
@@ -70,6 +87,7 @@ class CoSimulation:
         self.dt = scenario.step
         self.n_steps = scenario.n_steps
         self.world = World(scenario, gui=gui)
+        self.cooperation: CooperationChannel | None = None  # cooperative V2V (gap policy)
 
     def _start(self) -> None:
         """SUMO with its traffic, the scripted TVs, the SV, then the first step that
@@ -91,8 +109,13 @@ class CoSimulation:
             ego = PlannedEgo(sc, world, y0, lane_keeping_reference(
                 0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc))
-            policy = POLICIES["paper"](sc, road, self.cfg, planner,
-                                       lambda direction: world.sumo.set_blinker(SV_ID, direction))
+            blinker = lambda direction: world.sumo.set_blinker(SV_ID, direction)  # noqa: E731
+            if sc.planner.policy == GapPolicy.name:
+                self.cooperation = cooperation_channel(sc)
+                policy = GapPolicy(sc, road, self.cfg, planner, blinker, None
+                                   if self.cooperation is None else self.cooperation.request)
+            else:
+                policy = DRIVERS[sc.planner.policy](sc, road, self.cfg, planner, blinker)
         self.ego, self.policy = ego, policy
         self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
         world.insert()
@@ -113,6 +136,8 @@ class CoSimulation:
                 if k == self.n_steps:
                     break
                 reference = policy.update(t, scene, observer.inbox(scene))
+                if self.cooperation is not None:  # gap requests due reach their TVs
+                    self.cooperation.deliver(t, world.sumo.api, SV_ID, set(scene.tvs.ids))
                 ego.advance(t, self.dt, reference)
                 observer.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())

@@ -110,3 +110,49 @@ def test_iae_row_uses_the_window_and_kilonewtons() -> None:
     assert row["iae_ye_m_s"] == pytest.approx(2.0)
     # sum of the wheels' |Fx|: 2 kN for 2 s (a braking wheel counts as much as a driving one)
     assert row["iae_fx_kn_s"] == pytest.approx(4.0)
+
+
+# ---------------------------------------------------------------- follower_max_decel
+
+def test_lane_entry_time_is_when_the_centre_crosses() -> None:
+    from cosim.metrics import lane_entry_time
+
+    t = np.arange(0.0, 10.0, 0.5)
+    lane = np.where(t < 4.0, 1, 2)
+    assert lane_entry_time(t, lane, 1.0, 2) == 4.0
+    assert np.isnan(lane_entry_time(t, lane, 1.0, 0))  # never in lane 0
+    assert np.isnan(lane_entry_time(t, lane, 1.0, 2, end=3.0))  # not within the window
+
+
+def test_follower_max_decel_window_and_nan() -> None:
+    from cosim.metrics import FOLLOWER_WINDOW, follower_max_decel
+
+    dt = 0.1
+    t = np.arange(0.0, 20.0 + 1e-9, dt)
+    # the follower brakes at 2 m/s^2 from 5 to 6 s, at 5 m/s^2 from 12 to 12.5 s and
+    # at 8 m/s^2 from 17 to 17.5 s
+    a = np.where((t >= 5.0) & (t < 6.0), -2.0, 0.0)
+    a = np.where((t >= 12.0) & (t < 12.5), -5.0, a)
+    a = np.where((t >= 17.0) & (t < 17.5), -8.0, a)
+    v = 30.0 + np.concatenate([[0.0], np.cumsum(a[:-1] * dt)])
+    # entered at 4 s, settled at 8 s: window to 11 s sees the 2 m/s^2 only
+    assert follower_max_decel(t, v, 4.0, 8.0) == pytest.approx(2.0)
+    # settled at 10 s: the window reaches 13 s and the 5 m/s^2 braking
+    assert follower_max_decel(t, v, 4.0, 10.0) == pytest.approx(5.0)
+    assert FOLLOWER_WINDOW == 3.0
+    # unsettled: watched to the end
+    assert follower_max_decel(t, v, 4.0, np.nan) == pytest.approx(8.0)
+    # entered after all the braking: it never brakes, 0 (not negative)
+    assert follower_max_decel(t, v + 0.1 * t, 18.0, 18.5) == 0.0
+    # no follower / unknown speeds: NaN
+    assert np.isnan(follower_max_decel(t, v, np.nan, 8.0))
+    assert np.isnan(follower_max_decel(t, np.full(t.size, np.nan), 4.0, 8.0))
+    # a sample gap (vehicle briefly unknown) does not make a pair across it
+    v_gap = v.copy()
+    v_gap[(t > 5.35) & (t < 5.65)] = np.nan
+    assert follower_max_decel(t, v_gap, 4.0, 8.0) == pytest.approx(2.0)
+    v_gap[(t > 4.95) & (t < 6.05)] = np.nan  # the braking unseen: 5.0 -> 6.0 is no pair
+    assert follower_max_decel(t, v_gap, 4.0, 8.0) == 0.0
+    v_odd = v.copy()
+    v_odd[::2] = np.nan  # no two consecutive known samples
+    assert np.isnan(follower_max_decel(t, v_odd, 4.0, 8.0))

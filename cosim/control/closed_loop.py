@@ -13,7 +13,10 @@ proportional loop on speed, stable only for kx1 T < 2; at 100 Hz (T = 10 ms,
 kx1 T = 2) the speed error after a step keeps oscillating at +-0.03 m/s, at
 67 Hz it grows until the wheel forces saturate.
 
-Guards: the controller divides by max(vx, speed_floor); the yaw moment is
+Guards: the controller divides by max(vx, speed_floor); below speed_floor (stop-and-go)
+the integrators run over distance (ye * h * vx / speed_floor: they hold at a standstill,
+where the errors cannot change) and dMz fades in proportion (a yaw moment at rest only
+pivots the car); the reference's own low-speed form is in `reference`; the yaw moment is
 limited to what the wheels can give without eating the lateral grip the
 planner counts on (`yaw_moment_share`, below); an integrator stops while its
 actuator saturates in the direction its error pushes (conditional integration,
@@ -126,8 +129,12 @@ def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: floa
         coef, t, s[0], s[1], s[2], s[3], s[4], s[5], cs[0])
     cs[0] = sproj
     vx = max(s[3], cp[CP_FLOOR])
+    # below the floor the lateral errors barely move: integrate over distance, not time,
+    # and fade the yaw moment (at rest it would only pivot the car); 1 above the floor
+    slow = min(max(s[3] / cp[CP_FLOOR], 0.0), 1.0)
     if cp[CP_MIMO] != 0.0:
         delta_cmd, dmz = mimo_core(lp, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, cs[1], cs[2])
+        dmz *= slow
     else:
         delta_cmd = siso_core(lp, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, cs[1])
         dmz = 0.0
@@ -155,9 +162,9 @@ def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: floa
     # the wheel forces (on dMz with the sign of -phi_e). Freezing regardless can
     # hold a saturated demand for ever.
     if not (steer_sat and ye * delta_cmd < 0.0):
-        cs[1] += ye * h_ctrl
+        cs[1] += ye * (h_ctrl * slow)
     if not ((yaw_sat or force_sat) and phi_e * dmz_cmd < 0.0):
-        cs[2] += phi_e * h_ctrl
+        cs[2] += phi_e * (h_ctrl * slow)
     cs[3], cs[4], cs[5] = delta, dmz, fa
     cs[6], cs[7], cs[8], cs[9] = f1, f2, f3, f4
     return OK

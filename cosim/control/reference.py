@@ -14,6 +14,15 @@ the heading minus the path's tangent angle there, KL the path curvature there
 (eq. 15). Vx* (eq. 14) and dVx*/dt are taken at the current time: the paper
 tracks speed in time and the path in space.
 
+Low speed (stop-and-go): the path is parameterised by time, so where the reference
+stands still (x' -> 0) its tangent, curvature and the projection's Gauss-Newton step
+would divide by zero. The geometry therefore uses the along-road speed floored at
+PATH_SPEED_FLOOR (every path here runs along +x, eq. 2: x is the along-road
+coordinate): a reference at rest points along the road, the projection stops where
+the path does not move, Vx* is the path's speed (never negative: the car does not
+reverse) and dVx*/dt its along-path acceleration, so a reference starting from rest
+carries its feed-forward. Above the floor nothing changes, operation by operation.
+
 Speed: the evaluation, projection and errors are compiled (numba,
 `cosim.compiled`) on the path's coefficient array (`ReferencePath.coef`),
 so the closed loop's compiled substep loop calls them directly; the methods
@@ -39,6 +48,7 @@ Point = tuple[float, float, float, float, float, float]
 # Layout of the coefficient array: t0, tau, x polynomial (5), y polynomial (6),
 # the path at t0 + tau (x, y, x', y', x'', y''), vxf.
 N_COEF = 20
+PATH_SPEED_FLOOR = 0.1  # m/s, along-road path speed below which the geometry uses this
 
 
 class PathErrors(NamedTuple):
@@ -97,11 +107,14 @@ def path_project(c: Array, x: float, y: float, guess: float) -> tuple[float, Poi
     """(s, point(s)): the path parameter (absolute time) of the point closest to (x, y),
     by Gauss-Newton from `guess` (the last projection),
     s += (P - p(s)) . p'(s) / |p'(s)|^2, stopped when the step is below 1e-7 s
-    (a few micrometres at highway speed)."""
+    (a few micrometres at highway speed); where the path's along-road speed is below
+PATH_SPEED_FLOOR the point does not move with s and the search stops."""
     s = guess
     for _ in range(8):
         pt = path_point(c, s)
         px, py, dx, dy = pt[0], pt[1], pt[2], pt[3]
+        if dx < PATH_SPEED_FLOOR:  # the path stands (nearly) still here: s is as good as any
+            return s, pt
         ds = ((x - px) * dx + (y - py) * dy) / (dx * dx + dy * dy)
         if abs(ds) < 1e-7:
             return s, pt
@@ -116,6 +129,7 @@ def path_errors(
 ) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
     """The fields of `PathErrors` (in order) for a CG state at time t."""
     s, (px, py, dx, dy, ddx, ddy) = path_project(c, x, y, guess)
+    dx = max(dx, PATH_SPEED_FLOOR)  # at rest the path points along the road (docstring)
     v2 = dx * dx + dy * dy
     v = math.sqrt(v2)
     cth, sth = dx / v, dy / v
@@ -128,10 +142,14 @@ def path_errors(
     path_rate = (vx * cp - vy * sp) / (1.0 - kappa * ye)
     phi_e_dot = yaw_rate - kappa * path_rate
     rx, ry, rdx, rdy, rddx, rddy = path_point(c, t)
+    vx_ref = math.sqrt(rdx * rdx + rdy * rdy)
+    if rdx < PATH_SPEED_FLOOR:  # at (or near) rest: the speed along the road, not below 0
+        vx_ref = max(rdx, 0.0)
+        rdx = PATH_SPEED_FLOOR
     rv = math.sqrt(rdx * rdx + rdy * rdy)
     along = ((x - rx) * rdx + (y - ry) * rdy) / rv
     return (ye, phi_e, ye_dot, phi_e_dot, kappa, s,
-            rv, (rdx * rddx + rdy * rddy) / rv, rx, ry, along)
+            vx_ref, (rdx * rddx + rdy * rddy) / rv, rx, ry, along)
 
 
 @functools.lru_cache(maxsize=256)
@@ -171,10 +189,10 @@ class ReferencePath:
         return path_point(self.coef, float(t))
 
     def speed(self, t: float) -> tuple[float, float]:
-        """(Vx*, dVx*/dt) at absolute time t (eq. 14)."""
-        _, _, dx, dy, ddx, ddy = self.point(t)
-        v = math.hypot(dx, dy)
-        return v, (dx * ddx + dy * ddy) / v
+        """(Vx*, dVx*/dt) at absolute time t (eq. 14), as the controller takes them
+        (`path_errors`, low-speed form included)."""
+        e = path_errors(self.coef, float(t), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, float(t))
+        return e[6], e[7]
 
     def project(self, x: float, y: float, guess: float) -> tuple[float, Point]:
         """(s, point(s)): the path parameter (absolute time) of the point closest to

@@ -306,13 +306,15 @@ class LaneChangePlanner:
 
     def plan(
         self, t: float, sv: SVPlanState, target_lane: int, messages: Sequence[V2VMessage],
-        occupant: float,
+        occupant: float, vxf: float | None = None,
     ) -> Plan:
-        """Plan a lane change from sv.lane to `target_lane` at simulation time t."""
+        """Plan a lane change from sv.lane to `target_lane` at simulation time t, ending
+        at `vxf` (m/s; None: the band rule's target speed)."""
         start = time.perf_counter()
         self._validate(sv, target_lane, occupant)
         cfg, road = self.config, self.road
-        vxf = road.target_speed(sv.lane, target_lane)
+        if vxf is None:
+            vxf = road.target_speed(sv.lane, target_lane)
         width = road.lane_center(target_lane) - sv.y
         st = self._stable_set(sv.vx, vxf, width, sv.ax, sv.vy, sv.ay,
                               MODES.get((sv.lane, target_lane)))

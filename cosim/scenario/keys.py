@@ -13,7 +13,13 @@ from dataclasses import replace
 from typing import Any
 
 from cosim.errors import InputError
-from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
+from cosim.params import (
+    LANE_CHANGE_POLICIES,
+    ControllerGains,
+    PlannerConfig,
+    RoadParams,
+    VehicleParams,
+)
 from cosim.planning.collision import COLLISION_TESTS  # the planner owns its option names
 from cosim.planning.envelope import ENVELOPES
 from cosim.scenario.model import (
@@ -121,6 +127,8 @@ PLANNER_FIELDS = (
     Field("uncertainty_margin", bool, default=_PLAN.uncertainty_margin,
           override="uncertainty_margin",
           doc="widen safety_margin by V2V latency, loss and noise"),
+    Field("policy", str, choices=LANE_CHANGE_POLICIES, default=_PLAN.policy, override="policy",
+          doc="lane-change driver: paper (the paper's method) or gap (choose a gap, reach it)"),
 )
 # attribute names: the key without its unit suffix
 PLANNER_FIELDS = tuple(

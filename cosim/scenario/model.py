@@ -78,6 +78,15 @@ class TVBrake:
     at: float = declare(number_key("at_s", "s", 0.0, 3600.0, REQUIRED, "time the braking starts"))
     decel: float = declare(number_key("decel_mps2", "m/s^2", 0.0, 15.0, REQUIRED,
                                   "deceleration, held until it stands still", lo_open=True))
+    hold: float | None = declare(number_key(
+        "hold_s", "s", 0.0, 3600.0, None, "time at rest before driving off again",
+        default_doc="none: it stays stopped"), None)
+    restart_accel: float | None = declare(number_key(
+        "restart_accel_mps2", "m/s^2", 0.0, 10.0, None, "acceleration when driving off",
+        lo_open=True, default_doc="`1.5`"), None)
+    restart_speed: float | None = declare(speed_key(
+        "restart_speed_kmh", None, "speed it drives off to",
+        default_doc="its `speed_kmh`"), None)
 
 
 def _export_nested(cls: type) -> Any:
@@ -206,6 +215,16 @@ class V2VSpec:
     noise_lateral_speed: float = declare(number_key(
         "noise_lateral_speed_mps", "m/s", 0.0, 10.0, 0.1,
         "perception: sd of measured lateral speed"), 0.1)
+    # cooperative V2V (gap policy; cosim.traffic.cooperation): the SV asks a TV to yield
+    cooperation: bool = declare(Field(
+        "cooperation", bool, default=False, override="cooperation",
+        doc="the SV sends gap requests to target-lane TVs (gap policy)"), False)
+    cooperation_compliance: float = declare(number_key(
+        "cooperation_compliance", "", 0.0, 1.0, 1.0,
+        "probability that a TV honours a gap request", override="cooperation_compliance"), 1.0)
+    cooperation_latency: float = declare(number_key(
+        "cooperation_latency_s", "s", 0.0, 10.0, 0.1,
+        "from a gap request to the TV's reaction", override="cooperation_latency"), 0.1)
 
 
 DEFAULT_STEP = 0.05  # s, SUMO step

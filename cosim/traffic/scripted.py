@@ -1,12 +1,14 @@
 """Scripted traffic vehicles: the exact kinematics of a scenario's [[tv]] entries.
 
-A scripted TV drives at constant acceleration in its lane (speed clipped at 0)
-and, if it has a lane change, follows the paper's min-jerk lane change (eq. 2, 4)
-from its state at the start: vx0 its speed then, vxf the given target speed or
-the band rule, width the distance between the two lane centres; afterwards it
-keeps vxf in the target lane. A start before 0 means the change is already under
-way at t = 0: the TV's `speed` is its speed when the change started, and its
-`gap` is where it is at t = 0.
+A scripted TV drives at constant acceleration in its lane (speed clipped at 0);
+a [tv.brake] brakes it to a standstill, and with a hold time it drives off again
+that long after stopping (stop-and-go: `restart_accel` up to `restart_speed`, its
+initial speed by default); or, if it has a lane change, follows the paper's
+min-jerk lane change (eq. 2, 4) from its state at the start: vx0 its speed then,
+vxf the given target speed or the band rule, width the distance between the two
+lane centres; afterwards it keeps vxf in the target lane. A start before 0 means
+the change is already under way at t = 0: the TV's `speed` is its speed when the
+change started, and its `gap` is where it is at t = 0.
 
 The co-simulation drives scripted TVs in SUMO with exactly these kinematics, and
 `cosim plan` builds its situation from them. What they broadcast (`message`):
@@ -32,6 +34,8 @@ if TYPE_CHECKING:
 
 Array = NDArray[np.float64]
 
+RESTART_ACCEL = 1.5  # m/s^2, a stopped scripted TV's default acceleration when it drives off
+
 
 @dataclass(frozen=True)
 class TVKinematics:
@@ -52,6 +56,16 @@ def _constant_accel(x0: float, v0: float, a: float, t: Array) -> tuple[Array, Ar
         tt = np.minimum(t, v0 / -a)
     moving = (v0 + a * t > 0.0) | (a >= 0.0)
     return x0 + v0 * tt + 0.5 * a * tt * tt, np.maximum(v0 + a * t, 0.0), np.where(moving, a, 0.0)
+
+
+def _restart(x0: float, a: float, v_max: float, t: Array) -> tuple[Array, Array, Array]:
+    """(x, v, a) of a TV starting from rest at x0 at t = 0 (nothing before): `a` up to
+    `v_max`, then steady."""
+    tt = np.maximum(t, 0.0)
+    t_top = v_max / a
+    ta = np.minimum(tt, t_top)
+    x = x0 + 0.5 * a * ta * ta + v_max * (tt - ta)
+    return x, np.minimum(a * tt, v_max), np.where((t >= 0.0) & (tt < t_top), a, 0.0)
 
 
 def lane_change_trajectory(
@@ -91,6 +105,14 @@ def kinematics(tv: TVSpec, t: ArrayLike, road: RoadParams, sv_position: float) -
             x2, v2, a2 = _constant_accel(float(xb[0]), float(vb[0]), -br.decel, tt - br.at)
             after = tt >= br.at
             x, v, a = np.where(after, x2, x), np.where(after, v2, v), np.where(after, a2, a)
+            if br.hold is not None:  # stop-and-go: `hold` s at rest, then off again
+                t_go = br.at + float(vb[0]) / br.decel + br.hold
+                x_stop = float(xb[0]) + float(vb[0]) ** 2 / (2.0 * br.decel)
+                v_top = br.restart_speed if br.restart_speed is not None else tv.speed
+                accel = br.restart_accel if br.restart_accel is not None else RESTART_ACCEL
+                x3, v3, a3 = _restart(x_stop, accel, v_top, tt - t_go)
+                go = tt >= t_go
+                x, v, a = np.where(go, x3, x), np.where(go, v3, v), np.where(go, a3, a)
         return TVKinematics(x, zeros + y_lane, zeros, v, a, zeros)
     before = tt < traj.t0
     if traj.t0 <= 0.0:  # before a change under way at 0: steady at its start speed

@@ -86,3 +86,33 @@ def test_scripted_tv_object() -> None:
     x, y, h, v, a = tv.state(1.0)
     assert (x, y, h, v, a) == pytest.approx((150.0, ROAD.lane_center(0), 0.0, 20.0, 0.0))
     assert tv.message(1.0).vehicle_id == "tv"
+
+
+def test_stop_and_go_brake_holds_then_drives_off() -> None:
+    # [tv.brake] with a hold time (hold_s, restart_accel_mps2, restart_speed_kmh)
+    from dataclasses import replace
+
+    from cosim.scenario import TVBrake as StopAndGo
+
+    road = RoadParams()
+    tv = replace(spec(speed=20.0, gap=50.0), brake=StopAndGo(at=2.0, decel=4.0, hold=5.0,
+                                                             restart_accel=2.0))
+    t = np.arange(0.0, 30.0 + 1e-9, 0.01)
+    k = scripted.kinematics(tv, t, road, 0.0)
+    # 20 m/s until 2 s, stops at 7 s after 50 m of braking, stands 5 s, 2 m/s^2 to 20 m/s
+    assert np.allclose(k.speed[t <= 2.0], 20.0)
+    rest = (t >= 7.0) & (t <= 12.0)
+    assert np.allclose(k.speed[rest], 0.0) and np.ptp(k.x[rest]) < 1e-9
+    assert k.x[rest][0] == pytest.approx(50.0 + 40.0 + 50.0)
+    assert k.speed[np.searchsorted(t, 17.0)] == pytest.approx(10.0, abs=1e-6)
+    assert np.allclose(k.speed[t >= 22.0], 20.0)
+    assert np.allclose(np.diff(k.x) / 0.01, k.speed[1:], atol=0.03)  # x and v agree
+    np.testing.assert_allclose(k.accel[(t > 12.0) & (t < 22.0)], 2.0)
+    # without a hold time it stays stopped (the key's old meaning)
+    still = scripted.kinematics(replace(tv, brake=StopAndGo(at=2.0, decel=4.0)), t, road, 0.0)
+    assert np.allclose(still.speed[t >= 7.0], 0.0)
+    # restart speed defaults to the TV's initial speed; another one is kept to
+    other = scripted.kinematics(replace(tv, brake=StopAndGo(2.0, 4.0, 5.0, None, 10.0)), t,
+                                road, 0.0)
+    assert np.allclose(other.speed[t >= 20.0], 10.0)
+    assert np.allclose(other.accel[(t > 12.0) & (t < 18.6)], scripted.RESTART_ACCEL)

@@ -1,0 +1,224 @@
+"""Which gap in the target lane the SV aims for, the speed that takes it there, and
+when it is reached so that the paper's manoeuvre can be planned into it (beyond the
+paper, whose SV starts its change where it is, at the band rule's vxf).
+
+The target lane's vehicles, sorted by x, leave n + 1 gaps: gap j lies between
+vehicle j - 1 (its follower; none for j = 0) and vehicle j (its leader; none for
+j = n). Each gap moves: its speed v_g is its leader's speed within the lane's band
+(the band rule's target speed without a leader): the speed the SV ends its change at
+(the manoeuvre's vxf), so it never closes on its new leader.
+
+Where the SV may start its change (its centre x, a *slot* [lo, hi] moving with
+the gap, arrays over gaps):
+- behind the leader: its front at least the SV's secure gap behind the leader's rear
+  (Krauss's secure gap, `interaction.secure_gap`, with the SV's own headway),
+- ahead of the follower: its rear at least the gap at which the follower, by its
+  model (SUMO's Krauss by default), brakes no harder than b_safe when the SV enters
+  (`interaction.accepted_gap`, the MOBIL safety criterion) ahead of the follower's
+  front, plus what a faster follower closes before then: the SV enters the lane
+  about `entry_delay` after the start of its change and SUMO's follower does not see
+  it before (SUMO_NOTES.md), while it slows for its own leader, the gap's: half the
+  speed difference on average. `interaction.check_follower` checks the planned
+  manoeuvre itself.
+
+Approach: the SV aims at the point of the slot nearest to it, inside by `margin` or
+`margin_share` of the slot's length (a buffer for the planner's tau); the
+relative motion (SV minus gap) is a double integrator, and `reach_time` is its
+time-optimal transfer to rest at the aim under the approach acceleration bound.
+The chosen gap is the one reached first (ties: the one whose speed is nearest the
+SV's desired speed); a gap whose slot is shorter than the SV needs, that closes
+before it is reached, that lies beyond the SV's own leader, or whose aim is more
+than `reach` away (the open ends of the lane are open only as far as the SV sees)
+is not a candidate.
+The target speed takes the SV to the aim and brakes it to the gap's speed as it
+arrives: v_g + sign(e) min(|e| / approach_time, sqrt(2 a |e|), max_rel_speed) (near
+the aim a first-order approach, farther the curve along which the relative speed can
+still be braked away at a, far away a bounded relative speed). The gap is
+*reachable* (plan now) when the SV is inside the slot recomputed for the speed it
+will have when it enters the lane (half way from its speed to v_g: the manoeuvre
+changes speed from vx0 to vxf), within `max_speed_change` of v_g: an SV held
+below a faster lane by its own leader can still go when a long enough gap slides by.
+
+Vehicles are arrays (one entry per TV or gap); no Python loop over vehicles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cosim.planning.interaction import FollowerModel, accepted_gap, secure_gap
+
+Array = NDArray[np.float64]
+
+PLANNER_MIN_SPEED = 5.0  # m/s (18 km/h): below it the SV keeps its lane (module docstring)
+
+
+@dataclass(frozen=True)
+class GapConfig:
+    """Gap choice and approach settings (SI units)."""
+
+    approach_accel: float = 1.5  # m/s^2, bound on the relative acceleration of the approach
+    approach_time: float = 3.0  # s, time constant of the approach near the aim
+    max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
+    speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
+    headway: float = 0.5  # s, the SV's headway behind its new leader when it goes (its
+    # IDM reopens its own 1.5 s after the change; dense traffic offers no more)
+    min_gap: float = 2.5  # m, the SV's standstill gap to its new leader
+    decel: float = 4.5  # m/s^2, the SV's braking assumed in its secure gap
+    margin: float = 2.0  # m, aim at least this far inside the slot's ends ...
+    margin_share: float = 0.25  # -, ... or this share of the slot's length (half at most)
+    entry_delay: float = 3.0  # s, from the start of the change to the SV entering the lane
+    max_speed_change: float = 8.0  # m/s, largest |v_sv - v_g| to plan a change from
+    horizon: float = 20.0  # s, gaps reached later are not candidates
+    reach: float = 80.0  # m, nor gaps whose aim is farther (the lane is seen to ~150 m)
+    min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this
+
+    def sv_model(self) -> FollowerModel:
+        """The SV as a Krauss follower of its new leader (for its secure gap)."""
+        return FollowerModel(decel=self.decel, tau=self.headway, min_gap=self.min_gap)
+
+
+@dataclass(frozen=True)
+class Gaps:
+    """The target lane's gaps at the current time (arrays over the n + 1 gaps)."""
+
+    follower: NDArray[np.int64]  # index into the caller's TV arrays, -1: none
+    leader: NDArray[np.int64]  # index, -1: none
+    lo: Array  # m, the slot's rear end (the SV's centre x), -inf: no follower
+    hi: Array  # m, the slot's front end, +inf: no leader
+    v_lo: Array  # m/s, speed of the rear end (the follower's speed)
+    v_hi: Array  # m/s, speed of the front end (the leader's speed)
+    speed: Array  # m/s, v_g: the gap's speed, the manoeuvre's vxf
+    rear: Array  # m, the follower's front bumper x (-inf: none)
+    front: Array  # m, the leader's rear bumper x (+inf: none)
+
+
+def lane_gaps(sv_length: float, tv_x: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
+              in_lane: ArrayLike, lane_speed: float, cfg: GapConfig,
+              follower: FollowerModel, max_speed: float = math.inf) -> Gaps:
+    """The gaps between the TVs with `in_lane` true (centres tv_x, m), for an SV of
+    `sv_length` (m); `lane_speed` (m/s) is the speed of the lane open ahead (the band
+    rule's target speed), `max_speed` (m/s) caps the others' (the lane's band)."""
+    x = np.asarray(tv_x, dtype=float)
+    idx = np.flatnonzero(np.asarray(in_lane, dtype=bool))
+    idx = idx[np.argsort(x[idx], kind="stable")]
+    xs = x[idx]
+    vs = np.asarray(tv_speed, dtype=float)[idx]
+    ls = np.asarray(tv_length, dtype=float)[idx]
+    none = np.array([-1])
+    fol = np.concatenate([none, idx])
+    lead = np.concatenate([idx, none])
+    v_f = np.concatenate([[math.nan], vs])
+    v_l = np.concatenate([vs, [math.nan]])
+    speed = np.where(np.isnan(v_l), lane_speed, np.minimum(v_l, max(max_speed, lane_speed)))
+    lo_in, hi_in = slot_ends(xs + 0.5 * ls, vs, xs - 0.5 * ls, vs, speed[1:], speed[:-1],
+                             sv_length, cfg, follower)
+    return Gaps(
+        rear=np.concatenate([[-math.inf], xs + 0.5 * ls]),
+        front=np.concatenate([xs - 0.5 * ls, [math.inf]]),
+        follower=fol, leader=lead,
+        lo=np.concatenate([[-math.inf], lo_in]), hi=np.concatenate([hi_in, [math.inf]]),
+        v_lo=np.where(np.isnan(v_f), speed, v_f), v_hi=np.where(np.isnan(v_l), speed, v_l),
+        speed=speed,
+    )
+
+
+def slot_ends(rear: ArrayLike, v_f: ArrayLike, front: ArrayLike, v_l: ArrayLike,
+              v_sv_f: ArrayLike, v_sv_l: ArrayLike, sv_length: float, cfg: GapConfig,
+              follower: FollowerModel) -> tuple[Array, Array]:
+    """(lo, hi), m: the SV's centre x at least lo, ahead of a follower whose front is at
+    `rear` driving v_f (its accepted gap to the SV at `v_sv_f`, plus what it closes
+    before the SV enters), and at most hi, behind a leader whose rear is at `front` driving v_l
+    (the SV's own secure gap at `v_sv_l`)."""
+    half = 0.5 * sv_length
+    vf = np.asarray(v_f, dtype=float)
+    vsf = np.asarray(v_sv_f, dtype=float)
+    closing = 0.5 * np.maximum(vf - vsf, 0.0) * cfg.entry_delay
+    lo = np.asarray(rear, dtype=float) + accepted_gap(vf, vsf, follower) + closing + half
+    hi = np.asarray(front, dtype=float) - secure_gap(v_sv_l, v_l, cfg.sv_model()) - half
+    return lo, hi
+
+
+def reach_time(offset: ArrayLike, rel_speed: ArrayLike, accel: float) -> Array:
+    """s, the shortest time to move a double integrator by `offset` (m, + ahead) from
+    relative speed `rel_speed` (m/s) to rest, with |acceleration| <= accel (bang-bang:
+    one switch on the parabola p = -u |u| / (2 a))."""
+    e = np.asarray(offset, dtype=float)
+    u = np.asarray(rel_speed, dtype=float)
+    p = -e  # position relative to the aim
+    s = p + u * np.abs(u) / (2.0 * accel)  # > 0: above the switching curve, brake first
+    above = np.sqrt(np.maximum(accel * p + 0.5 * u * u, 0.0))
+    below = np.sqrt(np.maximum(-accel * p + 0.5 * u * u, 0.0))
+    return np.where(s > 0.0, (u + 2.0 * above) / accel, (-u + 2.0 * below) / accel)
+
+
+def approach_speed(offset: ArrayLike, gap_speed: ArrayLike, cfg: GapConfig) -> Array:
+    """m/s (>= 0), the SV's target speed toward an aim `offset` (m, + ahead) in a gap
+    moving at `gap_speed` (module docstring)."""
+    e = np.asarray(offset, dtype=float)
+    dv = np.minimum(np.minimum(np.sqrt(2.0 * cfg.approach_accel * np.abs(e)),
+                               np.abs(e) / cfg.approach_time), cfg.max_rel_speed)
+    return np.maximum(np.asarray(gap_speed, dtype=float) + np.sign(e) * dv, 0.0)
+
+
+@dataclass(frozen=True)
+class GapChoice:
+    """The gap the SV aims for now."""
+
+    index: int  # gap index (0: behind every target-lane TV)
+    follower: int  # index into the caller's TV arrays, -1: none
+    leader: int  # index, -1: none
+    relation: str  # "ahead" | "alongside" | "behind": where the slot is relative to the SV
+    aim_x: float  # m, the SV's centre x to start the change from (moves at `speed`)
+    offset: float  # m, aim_x - sv_x
+    speed: float  # m/s, the gap's speed: vxf of the manoeuvre
+    reach_time: float  # s, time-optimal estimate
+    target_speed: float  # m/s, what the SV should drive now to get there
+    reachable: bool  # inside the slot and at the gap's speed: plan the manoeuvre now
+
+
+def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: float,
+               gaps: Gaps, cfg: GapConfig, follower: FollowerModel,
+               own_limit_x: float = math.inf,
+               own_limit_speed: float = 0.0) -> GapChoice | None:
+    """The gap reached first (module docstring), or None when no gap is a candidate.
+    `own_limit_x` (m) moving at `own_limit_speed` (m/s): the farthest the SV's centre
+    may get in its own lane (its leader's rear less half the SV and a standstill gap):
+    a gap ahead whose aim lies beyond it when reached is not a candidate."""
+    length = gaps.hi - gaps.lo
+    room = np.maximum(length, 0.0)
+    margin = np.minimum(np.maximum(cfg.margin, cfg.margin_share * np.where(
+        np.isfinite(room), room, 0.0)), 0.5 * room)
+    aim = np.clip(sv_x, gaps.lo + margin, gaps.hi - margin)
+    e = aim - sv_x
+    t = reach_time(e, sv_speed - gaps.speed, cfg.approach_accel)
+    # the slot when the SV gets there: its ends move at the follower's / leader's speed
+    lo_t = gaps.lo + gaps.v_lo * t
+    hi_t = gaps.hi + gaps.v_hi * t
+    aim_t = aim + gaps.speed * t
+    ok = (length >= 0.0) & (hi_t - lo_t >= 0.0) & (t <= cfg.horizon) & (np.abs(e) <= cfg.reach)
+    ok &= (aim_t >= lo_t - 1e-6) & (aim_t <= hi_t + 1e-6)
+    if math.isfinite(own_limit_x):
+        ok &= (aim_t <= own_limit_x + own_limit_speed * t) | (e <= 0.0)
+    if not ok.any():
+        return None
+    cost = np.where(ok, t + 1e-3 * np.abs(gaps.speed - desired_speed), np.inf)
+    j = int(np.argmin(cost))
+    inside = bool(gaps.lo[j] <= sv_x <= gaps.hi[j])
+    relation = "alongside" if inside else ("ahead" if e[j] > 0.0 else "behind")
+    target = float(approach_speed(e[j], gaps.speed[j], cfg))
+    v_g = float(gaps.speed[j])
+    v_in = 0.5 * (sv_speed + v_g)  # the SV's speed when it enters the lane
+    lo, hi = slot_ends(gaps.rear[j], gaps.v_lo[j], gaps.front[j], gaps.v_hi[j], v_in, v_in,
+                       sv_length, cfg, follower)
+    reachable = bool(lo <= sv_x <= hi) and abs(sv_speed - v_g) <= cfg.max_speed_change
+    return GapChoice(
+        index=j, follower=int(gaps.follower[j]), leader=int(gaps.leader[j]),
+        relation=relation, aim_x=float(aim[j]), offset=float(e[j]),
+        speed=float(gaps.speed[j]), reach_time=float(t[j]), target_speed=target,
+        reachable=reachable and sv_speed >= cfg.min_speed,
+    )

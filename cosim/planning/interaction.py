@@ -1,0 +1,319 @@
+"""How the SV's new follower in the target lane reacts to the SV (beyond the paper).
+
+The paper's prediction (S1-S3) lets every TV keep its motion. SUMO's vehicles do
+not: a vehicle does not see the SV until the SV's centre crosses into its lane
+(SUMO_NOTES.md), then treats it as its leader and brakes for it with its
+car-following model. This module predicts that follower and bounds what the
+manoeuvre may ask of it.
+
+Car-following models (SI units, arrays broadcast; no Python loop over vehicles):
+
+- Krauss (SUMO's default, `MSCFModel_Krauss` / `MSCFModel::maximumSafeFollowSpeed`,
+  Krauss 1998): the safe speed v_safe is the largest speed from which the follower,
+  reacting after its headway tau and braking at its `decel` b, stops within the gap
+  plus the leader's own braking distance at the leader's decel b_l:
+  v tau + v^2 / (2 b) = g + v_l^2 / (2 b_l), so
+  v_safe = -b tau + sqrt((b tau)^2 + 2 b (g + v_l^2 / (2 b_l))).
+  Next speed: min(v_safe, v + a dt, v_max) (no dawdling: sigma only slows the
+  follower further, which opens the gap). Where v_safe asks more than b, SUMO
+  (`MSCFModel::maximumSafeFollowSpeed`) brakes instead at what avoiding the collision
+  needs, times 1.2 (EMERGENCY_DECEL_AMPLIFIER), but at least b and at most what v_safe
+  asked: the needed deceleration is v^2 / (2 (g + v_l^2 / (2 b_l))) if that is at most
+  b_l (it stops behind the braking leader), else (v^2 - v_l^2) / (2 g) (it matches the
+  leader's speed within the gap); all within the emergency decel. A cut-in inside the
+  secure gap therefore costs the follower at least b at once, often more.
+- IDM (Treiber, Hennecke, Helbing 2000), the model MOBIL's safety criterion is
+  written in: a = a_max (1 - (v / v0)^delta - (s* / g)^2),
+  s* = s0 + v T + v dv / (2 sqrt(a_max b)).
+
+Safety bound (MOBIL, Kesting, Treiber, Helbing 2007, "General lane-changing model
+MOBIL for car-following models", TRR 1999, eq. 2): after the SV is in its lane the
+new follower's deceleration must not exceed b_safe. Default 4.5 m/s^2: what SUMO's
+own lane-change model LC2013 asks of a blocking follower at most, its maxDecel x
+HELP_DECEL_FACTOR (4.5 m/s^2 x 1.0 for a passenger car,
+`MSLCM_LC2013::informFollower`), so that our SV asks no more of SUMO's traffic than
+SUMO's own driver does. MOBIL's paper uses 4 m/s^2 ("well below the maximum possible
+deceleration of about 9 m/s^2"); below SUMO's decel (4.5) that would forbid any
+entry inside the follower's Krauss secure gap (module docstring: Krauss then brakes
+at decel at least).
+The defaults of `FollowerModel` are SUMO's passenger-car type (accel 2.6, decel 4.5,
+emergencyDecel 9.0 m/s^2, tau 1.0 s, minGap 2.5 m).
+
+`predict_follower` runs the follower's recursion over a time grid, compiled (numba):
+before the SV enters the lane the follower keeps its speed (it cannot see the SV),
+afterwards it follows the SV's rear by the model.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cosim.compiled import njit
+from cosim.errors import InputError
+from cosim.planning.trajectory import LaneChangeTrajectory
+
+Array = NDArray[np.float64]
+
+MODELS = ("krauss", "idm")
+B_SAFE = 4.5  # m/s^2, safe braking limit for the new follower (SUMO LC2013's help decel)
+
+
+@dataclass(frozen=True)
+class FollowerModel:
+    """A TV's car-following model as the SV predicts it (defaults: SUMO's passenger car)."""
+
+    model: str = "krauss"  # "krauss" (SUMO's default) or "idm"
+    accel: float = 2.6  # m/s^2, maximum acceleration a
+    decel: float = 4.5  # m/s^2, Krauss decel b / IDM comfortable deceleration b
+    emergency_decel: float = 9.0  # m/s^2, the hardest the follower can brake
+    tau: float = 1.0  # s, Krauss reaction time / IDM desired time headway T
+    min_gap: float = 2.5  # m, standstill gap s0 (SUMO minGap)
+    max_speed: float = 70.0  # m/s, desired speed v0 (IDM free term) / speed cap
+    delta: float = 4.0  # -, IDM acceleration exponent
+    leader_decel: float = 4.5  # m/s^2, the decel the follower assumes of its leader (Krauss)
+    b_safe: float = B_SAFE  # m/s^2, MOBIL safe-braking limit the manoeuvre may ask
+
+    def check(self, source: str = "follower model") -> None:
+        """Raise InputError naming the first bad field."""
+        if self.model not in MODELS:
+            raise InputError(source, "model", self.model, f"one of {', '.join(MODELS)}")
+        for name in ("accel", "decel", "emergency_decel", "tau", "max_speed", "delta",
+                     "leader_decel", "b_safe"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise InputError(source, name, value, "a finite number > 0")
+        if not (math.isfinite(self.min_gap) and self.min_gap >= 0.0):
+            raise InputError(source, "min_gap", self.min_gap, "a finite number >= 0 m")
+        if self.emergency_decel < self.decel:
+            raise InputError(source, "emergency_decel", self.emergency_decel,
+                             f">= decel = {self.decel:g} m/s^2")
+
+
+def krauss_safe_speed(gap: ArrayLike, leader_speed: ArrayLike, m: FollowerModel) -> Array:
+    """m/s, Krauss's v_safe (module docstring) for a bumper-to-bumper gap (m) beyond the
+    follower's min_gap; 0 where that gap is used up."""
+    g = np.maximum(np.asarray(gap, dtype=float) - m.min_gap, 0.0)
+    vl = np.maximum(np.asarray(leader_speed, dtype=float), 0.0)
+    bt = m.decel * m.tau
+    return -bt + np.sqrt(bt * bt + 2.0 * m.decel * (g + vl * vl / (2.0 * m.leader_decel)))
+
+
+def secure_gap(follower_speed: ArrayLike, leader_speed: ArrayLike, m: FollowerModel) -> Array:
+    """m, the smallest bumper-to-bumper gap at which a follower at `follower_speed` is
+    Krauss-safe behind a leader at `leader_speed` (v_safe >= v): min_gap +
+    v tau + v^2 / (2 b) - v_l^2 / (2 b_l), at least min_gap (SUMO's getSecureGap)."""
+    v = np.maximum(np.asarray(follower_speed, dtype=float), 0.0)
+    vl = np.maximum(np.asarray(leader_speed, dtype=float), 0.0)
+    need = v * m.tau + v * v / (2.0 * m.decel) - vl * vl / (2.0 * m.leader_decel)
+    return m.min_gap + np.maximum(need, 0.0)
+
+
+def follower_accel(gap: ArrayLike, speed: ArrayLike, leader_speed: ArrayLike,
+                   m: FollowerModel, dt: float) -> Array:
+    """m/s^2, the follower's acceleration over the next step dt (s) behind a leader at
+    `gap` (bumper to bumper, m; inf: none) by its model (module docstring), within
+    [-emergency_decel, accel]."""
+    g, v, vl = np.broadcast_arrays(np.asarray(gap, dtype=float),
+                                   np.asarray(speed, dtype=float),
+                                   np.asarray(leader_speed, dtype=float))
+    out = np.empty(g.shape)
+    _accel_array(MODELS.index(m.model), _params(m), np.ravel(g), np.ravel(v),
+                 np.ravel(np.nan_to_num(vl)), float(dt), out.reshape(-1))
+    return out
+
+
+def accepted_gap(follower_speed: ArrayLike, sv_speed: ArrayLike, m: FollowerModel,
+                 dt: float = 0.05, longest: float = 400.0) -> Array:
+    """m, the shortest bumper gap behind the SV at which the follower's entry
+    deceleration (`entry_decel`) is at most b_safe (bisection on the model itself, to
+    1 cm; entry_decel does not grow with the gap)."""
+    v, vs = np.broadcast_arrays(np.asarray(follower_speed, dtype=float),
+                                np.asarray(sv_speed, dtype=float))
+    lo, hi = np.zeros(v.shape), np.full(v.shape, longest)
+    for _ in range(16):  # 400 m / 2^16 < 1 cm; a fixed count of array steps
+        mid = 0.5 * (lo + hi)
+        ok = entry_decel(mid, v, vs, m, dt) <= m.b_safe + 1e-9
+        hi, lo = np.where(ok, mid, hi), np.where(ok, lo, mid)
+    return hi
+
+
+def entry_decel(gap: ArrayLike, follower_speed: ArrayLike, sv_speed: ArrayLike,
+                m: FollowerModel, dt: float) -> Array:
+    """m/s^2 (>= 0), what the SV's entry asks of the new follower at once: minus its
+    acceleration behind the SV at `gap` (the MOBIL safety test is entry_decel <=
+    b_safe). Vectorised over candidate gaps / times of entry."""
+    return np.maximum(-follower_accel(gap, follower_speed, sv_speed, m, dt), 0.0)
+
+
+def _params(m: FollowerModel) -> Array:
+    """The model's constants for the compiled functions (order of `_accel_core`)."""
+    return np.array([m.accel, m.decel, m.emergency_decel, m.tau, m.min_gap, m.max_speed,
+                     m.delta, m.leader_decel])
+
+
+EMERGENCY_DECEL_AMPLIFIER = 1.2  # -, SUMO's factor on the deceleration a collision needs
+
+
+@njit
+def _accel_core(kind: int, p: Array, g: float, v: float, vl: float, dt: float) -> float:
+    """m/s^2, the follower's acceleration (kind 0 Krauss as SUMO applies it, 1 IDM) at
+    speed v behind a leader at bumper gap g (inf: none) driving vl (module docstring)."""
+    accel, decel, emerg, tau, s0 = p[0], p[1], p[2], p[3], p[4]
+    vmax, delta, bl = p[5], p[6], p[7]
+    v = max(v, 0.0)
+    vl = max(vl, 0.0)
+    if kind == 0:
+        vn = min(v + accel * dt, vmax)
+        if math.isfinite(g):
+            gg = max(g - s0, 0.0)
+            bt = decel * tau
+            vsafe = -bt + math.sqrt(bt * bt + 2.0 * decel * (gg + vl * vl / (2.0 * bl)))
+            asked = (v - vsafe) / dt
+            if asked > decel:  # SUMO's emergency branch: what avoiding the collision needs
+                room = gg + 0.5 * vl * vl / bl
+                b1 = 0.5 * v * v / room if room > 0.0 else emerg
+                if b1 <= bl:
+                    need = b1
+                elif gg > 0.0:
+                    need = 0.5 * (v * v - vl * vl) / gg
+                else:
+                    need = emerg
+                vsafe = v - min(max(EMERGENCY_DECEL_AMPLIFIER * need, decel), asked) * dt
+            vn = min(vn, vsafe)
+        a = (max(vn, 0.0) - v) / dt
+    else:
+        a = accel * (1.0 - (v / vmax) ** delta)
+        if math.isfinite(g):
+            s_star = s0 + max(v * tau + v * (v - vl) / (2.0 * math.sqrt(accel * decel)), 0.0)
+            a -= accel * (s_star / max(g, 0.1)) ** 2
+    return min(max(a, -emerg), accel)
+
+
+@njit
+def _accel_array(kind: int, p: Array, g: Array, v: Array, vl: Array, dt: float,
+                 out: Array) -> None:
+    """`_accel_core` elementwise into out."""
+    for i in range(g.size):
+        out[i] = _accel_core(kind, p, g[i], v[i], vl[i], dt)
+
+
+@njit
+def _follow_core(kind: int, p: Array, t: Array, sv_rear: Array, sv_speed: Array,
+                 t_enter: float, x0: float, v0: float, x: Array, v: Array, a: Array) -> None:
+    """The follower's Euler recursion on the grid t (SUMO's update: v then x), into
+    x (front bumper, m), v (m/s), a (m/s^2, applied over the step that follows)."""
+    x[0], v[0] = x0, v0
+    n = t.size
+    for k in range(n - 1):
+        dt = t[k + 1] - t[k]
+        if t[k] >= t_enter - 1e-9:
+            ak = _accel_core(kind, p, sv_rear[k] - x[k], v[k], sv_speed[k], dt)
+        else:
+            ak = 0.0  # it cannot see the SV yet: keeps its speed
+        a[k] = ak
+        vn = max(v[k] + ak * dt, 0.0)
+        v[k + 1] = vn
+        x[k + 1] = x[k] + vn * dt
+    a[n - 1] = a[n - 2] if n > 1 else 0.0
+
+
+@dataclass(frozen=True)
+class FollowerPrediction:
+    """The new follower on the time grid `t` (s) under its model."""
+
+    t: Array  # s
+    x: Array  # m, front bumper global x
+    speed: Array  # m/s
+    accel: Array  # m/s^2, over the step that follows each time
+    max_decel: float  # m/s^2 (>= 0), the largest deceleration from entry on
+    min_gap: float  # m, smallest gap follower front -> SV rear from entry on (inf: none)
+
+    def safe(self, m: FollowerModel) -> bool:
+        """The MOBIL criterion over the whole prediction: max_decel <= b_safe and the
+        follower never reaches the SV."""
+        return bool(self.max_decel <= m.b_safe + 1e-9 and self.min_gap > 0.0)
+
+
+def predict_follower(t: ArrayLike, sv_rear_x: ArrayLike, sv_speed: ArrayLike,
+                     t_enter: float, follower_front_x: float, follower_speed: float,
+                     m: FollowerModel) -> FollowerPrediction:
+    """Predict the new follower: it keeps its speed until the SV enters its lane at
+    `t_enter` (s; the SV's centre crosses the lane line), then follows the SV's rear
+    (x of the rear bumper and speed on the grid t) by its model."""
+    tt = np.ascontiguousarray(t, dtype=float)
+    rear = np.ascontiguousarray(sv_rear_x, dtype=float)
+    vs = np.ascontiguousarray(sv_speed, dtype=float)
+    if tt.ndim != 1 or tt.size < 2 or rear.shape != tt.shape or vs.shape != tt.shape:
+        raise ValueError("t, sv_rear_x and sv_speed must be 1-D arrays of the same length >= 2")
+    x, v, a = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
+    _follow_core(MODELS.index(m.model), _params(m), tt, rear, vs, float(t_enter),
+                 float(follower_front_x), float(follower_speed), x, v, a)
+    after = tt >= t_enter - 1e-9
+    max_decel = float(max(np.max(-a[after], initial=0.0), 0.0))
+    gaps = (rear - x)[after]
+    return FollowerPrediction(t=tt, x=x, speed=v, accel=a, max_decel=max_decel,
+                              min_gap=float(gaps.min()) if gaps.size else math.inf)
+
+
+FOLLOW_AFTER = 3.0  # s, the follower is predicted this long after the manoeuvre ends
+
+
+@dataclass(frozen=True)
+class FollowerCheck:
+    """What a planned lane change asks of the new follower in the target lane."""
+
+    follower: int  # index into the TV arrays, -1: none (nothing asked)
+    t_enter: float  # s, when the SV's centre crosses into the target lane (nan: never)
+    prediction: FollowerPrediction | None  # None: no follower
+    safe: bool  # MOBIL: max_decel <= b_safe and no contact
+
+    @property
+    def max_decel(self) -> float:
+        """m/s^2, the follower's largest predicted deceleration (0: none)."""
+        return 0.0 if self.prediction is None else self.prediction.max_decel
+
+
+def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: ArrayLike,
+                   tv_speed: ArrayLike, tv_length: ArrayLike, in_target: ArrayLike,
+                   m: FollowerModel, dt: float = 0.05) -> FollowerCheck:
+    """Predict the new follower of a planned lane change (`trajectory`, from its t0):
+    among the TVs with `in_target` true (centres tv_x at t0, constant speeds until the
+    SV enters), the nearest one behind the SV when the SV's centre crosses the lane line
+    (half the lateral displacement); it then follows the SV's rear by its model until
+    FOLLOW_AFTER after the manoeuvre ends (`predict_follower`)."""
+    tr = trajectory
+    t = tr.t0 + np.arange(0.0, tr.tau + FOLLOW_AFTER + 0.5 * dt, dt)
+    xs, ys = tr.position(t)
+    vx, vy = tr.derivative(t, 1)
+    crossed = np.abs(ys - tr.y0) >= 0.5 * abs(tr.width)
+    if tr.width == 0.0 or not crossed.any():
+        return FollowerCheck(-1, math.nan, None, True)
+    k_in = int(np.argmax(crossed))
+    t_in = float(t[k_in])
+    x = np.asarray(tv_x, dtype=float)
+    v = np.asarray(tv_speed, dtype=float)
+    half = 0.5 * np.asarray(tv_length, dtype=float)
+    front_in = x + half + v * (t_in - tr.t0)  # each TV's front when the SV enters
+    rear_in = float(xs[k_in]) - 0.5 * sv_length
+    behind = np.asarray(in_target, dtype=bool) & (x + v * (t_in - tr.t0) < float(xs[k_in]))
+    if not behind.any():
+        return FollowerCheck(-1, t_in, None, True)
+    gap_in = np.where(behind, rear_in - front_in, np.inf)
+    j = int(np.argmin(gap_in))
+    speed = np.hypot(vx, vy)
+    pred = predict_follower(t, xs - 0.5 * sv_length, speed, t_in, float(x[j] + half[j]),
+                            float(v[j]), m)
+    return FollowerCheck(j, t_in, pred, pred.safe(m))
+
+
+def warm_up() -> None:
+    """Compile (or load) the follower recursion for both models."""
+    t = np.linspace(0.0, 1.0, 5)
+    for model in MODELS:
+        m = FollowerModel(model=model)
+        predict_follower(t, 50.0 + 20.0 * t, np.full(5, 20.0), 0.0, 0.0, 20.0, m)
+        follower_accel(t, t, t, m, 0.05)

@@ -1,0 +1,107 @@
+"""Cooperative V2V (optional, off by default): the SV asks a TV in its target lane to
+open a gap; a TV that receives the request yields through SUMO.
+
+The request goes through a channel of its own: each request is honoured with
+probability `compliance` (drawn once, when it is sent, from the run's seeded
+generator: runs stay reproducible) and reaches the TV `latency` later. A TV that
+honours it calls SUMO's `vehicle.openGap` with the SV as reference vehicle: SUMO's
+car-following then treats the SV as its leader while it raises its time headway to
+`time_headway` and its standstill gap to `space_headway` (the change spread at
+`change_rate`, braking at most `max_decel`) and keeps them for `duration` after
+reaching them (TraCI's openGap; SUMO_NOTES.md "Cooperation"). This only changes how
+the TV follows; who goes where is still the planner's decision.
+
+The API handle is the SUMO adapter's (`SumoSim.api`): this module does not import
+libsumo itself.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from types import ModuleType
+
+import numpy as np
+
+from cosim.errors import InputError
+
+
+@dataclass(frozen=True)
+class CooperationConfig:
+    """What a yielding TV does, and the request channel (SI units)."""
+
+    enabled: bool = False  # the SV sends requests at all
+    compliance: float = 1.0  # -, probability that a TV honours a request
+    latency: float = 0.1  # s, from the request to the TV's reaction
+    time_headway: float = 2.0  # s, the headway the TV opens to the SV
+    space_headway: float = 5.0  # m, the standstill gap it opens
+    duration: float = 10.0  # s, how long it holds the gap once open
+    change_rate: float = 0.5  # 1/s, SUMO's openGap rate of change (fraction per second)
+    max_decel: float = 2.0  # m/s^2, the hardest it brakes to open the gap (below b_safe)
+
+    def check(self, source: str = "cooperation") -> None:
+        """Raise InputError naming the first bad field."""
+        if not 0.0 <= self.compliance <= 1.0:
+            raise InputError(source, "compliance", self.compliance, "a number in [0, 1]")
+        for name in ("latency",):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0.0):
+                raise InputError(source, name, v, "a finite number >= 0 s")
+        for name in ("time_headway", "space_headway", "duration", "change_rate", "max_decel"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0.0):
+                raise InputError(source, name, v, "a finite number > 0")
+
+
+def open_gap(api: ModuleType, tv_id: str, sv_id: str, cfg: CooperationConfig) -> None:
+    """Make `tv_id` open a gap behind `sv_id` (SUMO's openGap, the SV as reference)."""
+    api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration,
+                        cfg.change_rate, cfg.max_decel, sv_id)
+
+
+@dataclass
+class _Request:
+    due: float  # s, when it reaches the TV
+    tv_id: str
+    honoured: bool
+
+
+@dataclass
+class CooperationChannel:
+    """Requests in flight: `request` sends one, `deliver` applies those that are due."""
+
+    cfg: CooperationConfig
+    rng: np.random.Generator
+    sent: int = 0
+    honoured: int = 0
+    _queue: list[_Request] = field(default_factory=list)
+    _asked: set[str] = field(default_factory=set)
+
+    def request(self, t: float, tv_id: str) -> bool:
+        """Send a request to `tv_id` at time t (once per TV: a repeated request is not
+        sent). Returns whether it was sent."""
+        if not self.cfg.enabled or tv_id in self._asked:
+            return False
+        self._asked.add(tv_id)
+        honoured = bool(self.rng.random() < self.cfg.compliance)
+        self._queue.append(_Request(t + self.cfg.latency, tv_id, honoured))
+        self.sent += 1
+        return True
+
+    def deliver(self, t: float, api: ModuleType, sv_id: str,
+                present: set[str] | frozenset[str] | None = None) -> list[str]:
+        """Apply the requests due by time t (a TV no longer in `present`, if given, is
+        skipped); returns the ids of the TVs that now yield."""
+        due = [r for r in self._queue if r.due <= t + 1e-9]
+        self._queue = [r for r in self._queue if r.due > t + 1e-9]
+        yielding = []
+        for r in due:  # a handful of requests per run, not a loop over traffic
+            if r.honoured and (present is None or r.tv_id in present):
+                open_gap(api, r.tv_id, sv_id, self.cfg)
+                yielding.append(r.tv_id)
+        self.honoured += len(yielding)
+        return yielding
+
+    def forget(self, tv_id: str) -> None:
+        """Allow a new request to `tv_id` (after the lane change it was for)."""
+        self._asked.discard(tv_id)

@@ -1,0 +1,127 @@
+"""The gap-seeking driver (cosim.gap_driver) on hand-made scenes, without SUMO."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cosim.decision import DecisionConfig
+from cosim.gap import GapConfig
+from cosim.gap_driver import gap_decision
+from cosim.params import RoadParams
+from cosim.planning.interaction import FollowerModel
+
+ROAD = RoadParams()  # lanes 0 / 1 / 2 at y = 1.875 / 5.625 / 9.375
+CFG = DecisionConfig()
+GAP = GapConfig()
+KRAUSS = FollowerModel()
+L = 4.32
+
+
+def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> dict[str, np.ndarray]:
+    n = len(xs)
+    return {"tv_x": np.array(xs, dtype=float),
+            "tv_y": np.array([ROAD.lane_center(k) for k in lanes]),
+            "tv_speed": np.array(speeds, dtype=float), "tv_length": np.full(n, L),
+            "tv_width": np.full(n, 1.8)}
+
+
+def drive(sv_x: float, sv_speed: float, tvs: dict[str, np.ndarray], **kw: object):
+    return gap_decision(sv_x, ROAD.lane_center(1), sv_speed, L, 30.0, **tvs, road=ROAD,
+                        cfg=CFG, gap_cfg=GAP, follower=KRAUSS, **kw)
+
+
+def test_free_road_keeps_the_lane() -> None:
+    d = drive(0.0, 28.0, scene([300.0], [1], [28.0]))
+    assert d.target_lane is None and not d.plan_now and d.gap is None
+    assert d.accel > 0.0  # IDM toward the desired 30 m/s
+
+
+def test_slow_leader_and_a_blocked_faster_lane_approaches_a_gap() -> None:
+    # a slow leader 30 m ahead in lane 1; lane 2 has a TV right beside the SV and
+    # others 100 m before and after it: the old rule's free-lane filter says no;
+    # the gap driver aims at a gap and adjusts its speed
+    tvs = scene([30.0, -100.0, 0.0, 100.0], [1, 2, 2, 2], [22.0, 28.0, 28.0, 28.0])
+    d = drive(0.0, 25.0, tvs)
+    assert d.target_lane == 2
+    assert d.gap is not None and d.gap.relation == "behind"  # slower than lane 2: behind
+    assert d.gap.follower == 1 and d.gap.leader == 2
+    assert not d.plan_now
+    assert d.cooperate_with == 1  # the follower of the chosen gap may be asked to yield
+    assert d.vxf == 28.0  # the gap's speed, not the band rule's 30.6
+    assert d.accel < 0.0  # it falls back toward the gap
+
+
+def test_gap_reached_plans_at_the_gap_speed() -> None:
+    # the SV already sits in the middle of a 200 m gap in lane 2 at its speed
+    tvs = scene([40.0, -100.0, 100.0], [1, 2, 2], [22.0, 28.0, 28.0])
+    d = drive(0.0, 28.0, tvs)
+    assert d.target_lane == 2 and d.gap is not None
+    assert d.gap.relation == "alongside" and d.plan_now and d.vxf == 28.0
+
+
+def test_no_plan_below_the_planner_speed() -> None:
+    # a queue: everybody at 3 m/s; a wide gap beside the SV, and a slow leader
+    tvs = scene([12.0, -100.0, 100.0], [1, 2, 2], [1.0, 3.0, 3.0])
+    d = drive(0.0, 3.0, tvs)
+    assert d.gap is not None and d.gap.relation == "alongside"
+    assert not d.plan_now  # 3 m/s < GapConfig.min_speed (5 m/s)
+    assert GAP.min_speed == 5.0
+    d_fast = drive(0.0, 3.0, tvs, wanted_lane=2)
+    assert d_fast.target_lane == 2 and not d_fast.plan_now
+
+
+def test_own_leader_caps_the_approach() -> None:
+    # the gap is ahead (the SV is faster than lane 2), but the own leader is close:
+    # never accelerate into it
+    tvs = scene([8.0, -100.0, 0.0, 100.0], [1, 2, 2, 2], [20.0, 25.0, 25.0, 25.0])
+    d = drive(0.0, 27.0, tvs)
+    assert d.accel < 0.0  # IDM brakes for the leader 8 m ahead, whatever the gap wants
+    assert d.gap is None or d.gap.relation != "ahead"
+
+
+def test_scripted_request_is_followed_without_a_slow_leader() -> None:
+    tvs = scene([-100.0, 100.0], [0, 0], [25.0, 25.0])
+    d = drive(0.0, 25.0, tvs, wanted_lane=0)
+    assert d.target_lane == 0 and d.gap is not None and d.plan_now
+    assert d.vxf == 25.0
+    # no change allowed: car-following only
+    d2 = drive(0.0, 25.0, tvs, wanted_lane=0, allow_change=False)
+    assert d2.target_lane is None and math.isnan(d2.vxf)
+
+
+def test_approach_by_the_driver_reaches_the_gap() -> None:
+    # a kinematic SV driven by the decisions (TVs at constant speed) ends up planning
+    x, v, t, dt = 0.0, 25.0, 0.0, 0.05
+    base = np.array([30.0, -100.0, 0.0, 100.0])
+    speeds = np.array([22.0, 28.0, 28.0, 28.0])
+    planned = None
+    while t < 40.0:
+        tvs = scene(list(base + speeds * t), [1, 2, 2, 2], list(speeds))
+        d = drive(x, v, tvs, wanted_lane=2)
+        if d.plan_now:
+            planned = d
+            break
+        v = max(v + d.accel * dt, 0.0)
+        x += v * dt
+        t += dt
+    assert planned is not None and planned.gap is not None
+    assert planned.gap.index in (1, 2)
+    assert abs(v - planned.vxf) <= GAP.max_speed_change
+    # the paper's manoeuvre from there (4 s, to the gap's speed) asks the new follower
+    # for no more than b_safe and comes no closer to the new leader than its min gap
+    from cosim.planning.interaction import check_follower
+    from cosim.planning.trajectory import LaneChangeTrajectory
+
+    tr = LaneChangeTrajectory(t0=t, tau=4.0, x0=x, y0=ROAD.lane_center(1), vx0=v,
+                              vxf=planned.vxf, width=ROAD.lane_width)
+    tv_now = base + speeds * t
+    in_2 = np.array([False, True, True, True])
+    check = check_follower(tr, L, tv_now, speeds, np.full(4, L), in_2, KRAUSS)
+    assert check.follower == planned.gap.follower and check.safe
+    tt = t + np.arange(0.0, 7.0, 0.05)
+    sv_x, _ = tr.position(tt)
+    lead = planned.gap.leader
+    lead_rear = tv_now[lead] + speeds[lead] * (tt - t) - 0.5 * L
+    assert np.min(lead_rear - (sv_x + 0.5 * L)) > KRAUSS.min_gap

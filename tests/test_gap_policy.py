@@ -1,0 +1,137 @@
+"""The gap-seeking policy (cosim.gap_policy) on hand-made scenes, without SUMO: the
+real planner, TVs in the target lane at constant speed (given both as the scene and
+as V2V messages); the SV follows its reference exactly."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from cosim.decision import DecisionConfig
+from cosim.gap_policy import STOP_GAP, GapPolicy
+from cosim.params import RoadParams
+from cosim.planning.planner import LaneChangePlanner
+from cosim.policy import CHANGING, KEEPING, WAITING
+from cosim.scenario import LaneChangeCommand, load_scenario, project_root
+from cosim.traffic.sumo import TrafficSnapshot
+from cosim.traffic.v2v import V2VMessage
+from cosim.traffic.world import Scene, SVState
+
+ROAD = RoadParams(mu=0.8)
+DT = 0.05
+BASE = load_scenario(project_root() / "scenarios/paper_case1_overtaking.toml")
+V = 25.0  # m/s, everybody's speed
+
+
+def snapshot(t: float, xs: np.ndarray, lane: int) -> TrafficSnapshot:
+    n = xs.size
+    z = np.zeros(n)
+    return TrafficSnapshot(t, tuple(f"tv{i}" for i in range(n)), xs,
+                           np.full(n, ROAD.lane_center(lane)), z, np.full(n, V), z,
+                           np.full(n, lane), z, np.full(n, 4.32), np.full(n, 1.8),
+                           np.zeros(n, int))
+
+
+class Inbox:
+    def __init__(self) -> None:
+        self.messages: list[V2VMessage] = []
+
+    def read(self) -> list[V2VMessage]:
+        return list(self.messages)
+
+
+class Drive:
+    """The policy with a scripted request 0 -> 1 at t = 0; lane 1 holds TVs at x0 + V t."""
+
+    def __init__(self, x0: list[float], asked: list[tuple[float, str]] | None = None) -> None:
+        sv = replace(BASE.sv, lane_changes=(LaneChangeCommand(at=0.0, target_lane=1),),
+                     decision=False, lane=0, speed=V, desired_speed=V)
+        sc = replace(BASE, sv=sv, tvs=(), road=ROAD)
+        planner = LaneChangePlanner(sc.vehicle, ROAD, sc.planner)
+        self.asked = asked
+        self.policy = GapPolicy(sc, ROAD, DecisionConfig(), planner, lambda d: None,
+                                None if asked is None else
+                                (lambda t, tv: asked.append((t, tv))))
+        self.x0 = np.array(x0)
+        self.sv = SVState(0.0, ROAD.lane_center(0), 0.0, V, 0.0, 0.0)
+        self.inbox = Inbox()
+        self.t = 0.0
+
+    def step(self) -> None:
+        t = self.t
+        snap = snapshot(t, self.x0 + V * t, 1)
+        self.inbox.messages = [
+            V2VMessage(vehicle_id=snap.ids[i], t=t, x=float(snap.x[i]),
+                       y=float(snap.y[i]), heading=0.0, speed=V, accel=0.0, lane=1,
+                       lateral_speed=0.0, length=4.32, width=1.8, intention=0)
+            for i in range(len(snap))]
+        ref = self.policy.update(t, Scene(t, self.sv, snap, snap, np.full(len(snap), V)),
+                                 self.inbox)
+        t1 = t + DT
+        x, y = ref.position(t1)
+        xd, yd = ref.derivative(t1, 1)
+        self.sv = SVState(float(x), float(y), math.atan2(float(yd), float(xd)), float(xd),
+                          0.0, 0.0)
+        self.t = round(t1, 9)
+
+
+def test_a_free_gap_beside_is_planned_at_once_at_the_gap_speed() -> None:
+    d = Drive([-120.0, 120.0])
+    d.step()
+    pol = d.policy
+    assert pol.mode == CHANGING
+    assert len(pol.plans) == 1 and pol.plans[0]["ok"] == 1
+    assert pol.plans[0]["vxf_mps"] == V  # the gap's speed, not the band rule's
+
+
+def test_blocked_beside_it_approaches_a_gap_then_plans() -> None:
+    # a TV right beside the SV, the next ones 100 m behind and ahead: no plan at first
+    d = Drive([-100.0, 0.0, 100.0])
+    pol = d.policy
+    d.step()
+    assert pol.mode == KEEPING and pol.plans == []
+    assert pol.last is not None and pol.last.gap is not None
+    assert pol.last.gap.relation in ("ahead", "behind") and not pol.last.plan_now
+    speeds = []
+    while pol.mode == KEEPING and d.t < 30.0:
+        d.step()
+        speeds.append(d.sv.vx)
+    # it changed its speed to get there, then asked the planner once, successfully
+    assert pol.mode == CHANGING and d.t < 30.0
+    assert max(abs(v - V) for v in speeds) > 1.0
+    assert len(pol.plans) == 1 and pol.plans[0]["ok"] == 1
+    lc = pol.active
+    assert lc is not None and lc.target_lane == 1
+
+
+def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
+    d = Drive([-120.0, 120.0])
+    pol = d.policy
+    d.step()
+    assert pol.mode == CHANGING
+    # the same request with a TV in the target lane 40 m behind, 5 m/s faster
+    e = Drive([-120.0, 120.0])
+    snap = snapshot(0.0, np.array([-40.0, 120.0]), 1)
+    scene = Scene(0.0, e.sv, snap, snap, np.array([V + 5.0, V]))
+    e.policy.scene = scene
+    e.policy.last = pol.last
+    from cosim.planning.planner import SVPlanState
+
+    state = SVPlanState(x=0.0, y=ROAD.lane_center(0), heading=0.0, vx=V, ax=0.0, vy=0.0,
+                        ay=0.0, lane=0)
+    plan, why = e.policy.call_planner(0.0, state, 1, [])
+    assert plan.trajectory is not None  # the paper's planner (no messages) would fly it
+    assert why.startswith("follower tv0 would brake") and "> b_safe 4.5" in why
+
+
+def test_cooperation_asks_the_gap_follower_once_per_step_and_stop_gap() -> None:
+    asked: list[tuple[float, str]] = []
+    d = Drive([-100.0, 0.0, 100.0], asked)
+    d.step()
+    assert d.policy.last is not None and d.policy.last.gap is not None
+    if d.policy.last.gap.relation == "behind":
+        assert asked and asked[0][1] == "tv0"
+    assert d.policy.following.cfg.idm_min_gap == STOP_GAP >= 2.0
+    assert d.policy.mode in (KEEPING, WAITING)
