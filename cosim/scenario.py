@@ -32,7 +32,14 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
-from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
+from cosim.params import (
+    VEHICLE_PRESETS,
+    ControllerGains,
+    PlannerConfig,
+    RoadParams,
+    VehicleParams,
+    vehicle_from_table,
+)
 from cosim.planning.collision import COLLISION_TESTS  # the planner owns its option names
 from cosim.planning.envelope import ENVELOPES
 from cosim.validation import (
@@ -324,6 +331,8 @@ PLANNER_FIELDS = (
 )
 
 VEHICLE_FIELDS = (
+    # a known car (cosim.params.VEHICLE_PRESETS); the keys below the file gives override it
+    Field("preset", str, choices=tuple(VEHICLE_PRESETS), default="table1"),
     _f("mass_kg", "mass", "kg", 100.0, 1e5, _VEH.mass),
     _f("yaw_inertia_kg_m2", "yaw_inertia", "kg m^2", 10.0, 1e6, _VEH.yaw_inertia),
     _f("lf_m", "lf", "m", 0.1, 10.0, _VEH.lf),
@@ -600,7 +609,8 @@ def scenario_from_dict(
         seed=sc["seed"],
         road=road,
         network=network,
-        vehicle=VehicleParams(**tables["vehicle"]),
+        vehicle=vehicle_from_table(tables["vehicle"], {
+            f.attr for f in VEHICLE_FIELDS if f.key in doc.get("vehicle", {})}),
         gains=ControllerGains(**tables["controller"]),
         planner=PlannerConfig(**tables["planner"]),
         sv=sv,

@@ -35,6 +35,7 @@ def run(args: argparse.Namespace) -> int:
     from cosim.output import check_output_dir
     from cosim.scenario import load_scenario, project_root, with_overrides
     from cosim.sim import run_scenario
+    from cosim.vehicle.bicycle import warn_near_critical_speed
 
     scenario = load_scenario(args.scenario)
     changes: dict[str, object] = {}
@@ -46,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
         changes["seed"] = args.seed
     if changes:
         scenario = with_overrides(scenario, **changes)
+    warn_near_critical_speed(scenario)  # one line on stderr if the SV may get near it
     out = args.out if args.out is not None else project_root() / "results" / scenario.name
     check_output_dir(out)  # a bad --out is an input error now, not after the run
     metrics = run_scenario(

@@ -60,3 +60,22 @@ def test_wheel_forces_enter_through_eq_20_and_27() -> None:
     by_hand = -0.71 * 300 * math.cos(delta) + 1.45 * 300 * math.sin(delta)
     by_hand += -100 * (0.71 * math.cos(delta) + 1.45 * math.sin(delta)) + 0.71 * (50 - 250)
     assert dmz == pytest.approx(by_hand)
+
+
+def test_brake_to_a_stop_hold_and_drive_off() -> None:
+    """Vx -> 0 and back on the 2-DOF model: braking at 3 m/s^2 with the wheel turned, 2 s
+    standing on the brake, then driving off: finite throughout, no reversing, standing
+    still on the brake (slip angles divide by max(vx, 1 m/s), RK4 steps shorten)."""
+    plant = BicyclePlant(VEHICLE, vx=10.0)
+    brake, drive = (-3.0 * VEHICLE.mass / 4,) * 4, (1.0 * VEHICLE.mass / 4,) * 4
+    vxs = []
+    for k in range(int(8.0 / 0.005)):
+        t = k * 0.005
+        plant.step(0.005, 0.05, brake if t < 5.5 else drive)
+        assert all(math.isfinite(v) for v in plant.state)
+        vxs.append(plant.state[3])
+    stop = next(k for k, v in enumerate(vxs) if v < 1e-3)
+    assert stop * 0.005 == pytest.approx(10.0 / 3.0, abs=0.2)
+    assert min(vxs) > -1e-6
+    assert max(abs(v) for v in vxs[stop + 20:int(5.5 / 0.005)]) < 1e-6
+    assert plant.state[3] == pytest.approx(2.5, rel=0.1)  # 1 m/s^2 for 2.5 s
