@@ -79,3 +79,33 @@ def test_brake_to_a_stop_hold_and_drive_off() -> None:
     assert min(vxs) > -1e-6
     assert max(abs(v) for v in vxs[stop + 20:int(5.5 / 0.005)]) < 1e-6
     assert plant.state[3] == pytest.approx(2.5, rel=0.1)  # 1 m/s^2 for 2.5 s
+
+
+def test_critical_speed_warning_within_10_percent() -> None:
+    """Table 1's car: critical speed 144 km/h; `cosim run` warns from 129.6 km/h on."""
+    from cosim.params import VEHICLE_PRESETS
+    from cosim.vehicle.bicycle import critical_speed, critical_speed_warning
+
+    vc = critical_speed(VEHICLE)
+    assert vc is not None and vc * 3.6 == pytest.approx(143.6, abs=0.1)
+    assert critical_speed_warning(VEHICLE, 0.89 * vc) is None
+    message = critical_speed_warning(VEHICLE, 0.91 * vc)
+    assert message is not None and "144 km/h" in message and "\n" not in message
+    neutral = VEHICLE_PRESETS["commonroad_vehicle2"]  # Cf lf = Cr lr: no critical speed
+    assert critical_speed(neutral) is None
+    assert critical_speed_warning(neutral, 70.0) is None
+
+
+def test_cosim_run_warns_on_stderr_near_the_critical_speed(tmp_path, capsys) -> None:
+    from types import SimpleNamespace
+
+    from cosim.params import RoadParams
+    from cosim.vehicle.bicycle import warn_near_critical_speed
+
+    sv = SimpleNamespace(speed=30.0, desired_speed=None)
+    fast = RoadParams(speed_bands=((60 / 3.6, 90 / 3.6), (110 / 3.6, 135 / 3.6)))
+    warn_near_critical_speed(SimpleNamespace(vehicle=VEHICLE, sv=sv, road=fast))
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "critical speed 144 km/h" in err
+    warn_near_critical_speed(SimpleNamespace(vehicle=VEHICLE, sv=sv, road=RoadParams()))
+    assert capsys.readouterr().err == ""
