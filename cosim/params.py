@@ -1,12 +1,15 @@
 """Parameters as frozen dataclasses, SI units, with the unit beside each field.
 
 Defaults are the paper's Table 1 (its lM/wM columns are swapped there: the car
-is 4.32 m long and 1.8 m wide) and Section 5.
+is 4.32 m long and 1.8 m wide) and Section 5. Beside Table 1's car, known cars
+are presets (`VEHICLE_PRESETS`): CommonRoad's vehicle1/2/3 (`COMMONROAD_CARS`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, replace
+from typing import Any
 
 G = 9.81  # m/s^2, gravity
 
@@ -30,6 +33,9 @@ class VehicleParams:
     cr: float = 146000.0  # N/rad, rear axle cornering stiffness Cr
     length: float = 4.32  # m, body length (collision rectangle)
     width: float = 1.8  # m, body width (collision rectangle)
+    # the preset these values started from (VEHICLE_PRESETS); it also picks the two-track
+    # plant's chassis and tyres (cosim.vehicle.chassis.chassis_for)
+    preset: str = "table1"
 
     @property
     def wheelbase(self) -> float:
@@ -113,3 +119,102 @@ class ControllerGains:
     kphi1: float = 20.0  # 1/s
     kx1: float = 200.0  # 1/s, longitudinal speed-error gain (eq. 28)
     allocation_eps: float = 1e-6  # -, eps of the least-squares allocation (eq. 30)
+
+
+# ---------------------------------------------------------------- known cars
+
+
+@dataclass(frozen=True)
+class CommonRoadCar:
+    """A CommonRoad parameter set (PyPI commonroad-vehicle-models 3.0.2, module
+    vehiclemodels, parameters/parameters_vehicleN.yaml; Althoff and Wuersching,
+    "CommonRoad: Vehicle Models", 2020, Tab. 6), the entries our presets use.
+    tests/vehicle/test_commonroad.py checks each against the package."""
+
+    name: str  # CommonRoad's: vehicle1 (Ford Escort), vehicle2 (BMW 320i), vehicle3 (VW Vanagon)
+    l: float  # m, body length
+    w: float  # m, body width
+    m: float  # kg, total mass
+    m_s: float  # kg, sprung mass
+    m_uf: float  # kg, unsprung mass front
+    m_ur: float  # kg, unsprung mass rear
+    a: float  # m, sprung-mass CG to front axle
+    b: float  # m, sprung-mass CG to rear axle
+    I_z: float  # kg m^2, yaw inertia
+    T_f: float  # m, front track
+    T_r: float  # m, rear track
+    h_cg: float  # m, CG height of the total mass
+    h_s: float  # m, sprung-mass CG height
+    R_w: float  # m, wheel radius
+    I_y_w: float  # kg m^2, wheel spin inertia
+    K_sf: float  # N/m, suspension spring rate front (per wheel)
+    K_sr: float  # N/m, suspension spring rate rear
+    K_tsf: float  # N m/rad, auxiliary torsion roll stiffness front (per axle)
+    K_tsr: float  # N m/rad, auxiliary torsion roll stiffness rear
+    T_sb: float  # -, brake torque share of the front axle
+    T_se: float  # -, drive torque share of the front axle
+
+
+COMMONROAD_CARS = {
+    "vehicle1": CommonRoadCar(
+        "vehicle1", 4.298, 1.674, 1225.8878467253344, 1094.542720290477, 65.67256321742863,
+        65.67256321742863, 0.88392, 1.50876, 1538.8533713561394, 1.389888, 1.423416,
+        0.5577840000000001, 0.59436, 0.344, 1.7, 21898.332429625985, 21898.332429625985,
+        -12880.270509148304, 0.0, 0.76, 1.0),
+    "vehicle2": CommonRoadCar(
+        "vehicle2", 4.508, 1.61, 1093.2952334674046, 965.7108098804363, 63.7921826056784,
+        63.7921826056784, 1.1561957064, 1.4227170936, 1791.5995300122856, 1.38684, 1.36398,
+        0.5748689544000001, 0.61373004, 0.344, 1.7, 24453.137879749014, 19635.504745231297,
+        -6914.881688272133, -2643.6009520155308, 0.66, 0.0),
+    "vehicle3": CommonRoadCar(
+        "vehicle3", 4.569, 1.844, 1478.8979637767998, 1316.6086552490374, 81.14428941630796,
+        81.14428941630796, 1.1507916024, 1.3211363976000001, 2473.1176915564442, 1.574292,
+        1.5438120000000002, 0.7478167416, 0.804490644, 0.344, 1.7, 33577.44305875984,
+        39125.020607598424, -33948.217142834066, -7731.374238208578, 0.64, 0.0),
+}
+
+# CommonRoad's one tyre (parameters/parameters_tire.yaml, from the ADAMS handbook), the
+# Magic Formula coefficients our plant uses. Its multi-body model takes the lateral
+# stiffness as K_y = p_ky1 Fz ("simplify K_y0 to p_ky1*F_z", utils/tire_model.py) and its
+# single-track model the same through C_S = -p_ky1 / p_dy1 times mu = p_dy1: so a wheel's
+# cornering stiffness per unit load is |p_ky1| = 21.92 /rad and an axle's is 21.92 x its load.
+COMMONROAD_TYRE = {
+    "p_cx1": 1.6411, "p_dx1": 1.1739, "p_ex1": 0.46403, "p_kx1": 22.303,
+    "p_cy1": 1.3507, "p_dy1": 1.0489, "p_ey1": -0.0074722, "p_ky1": -21.92,
+    "r_bx1": 13.276, "r_bx2": -13.778, "r_cx1": 1.2568, "r_ex1": 0.65225,
+    "r_by1": 7.1433, "r_by2": 9.1916, "r_cy1": 1.0719, "r_ey1": -0.27572,
+}
+
+
+def commonroad_vehicle(car: CommonRoadCar) -> VehicleParams:
+    """Our single-track parameters of a CommonRoad car: lf = a, lr = b, half track the
+    mean of both, no aerodynamic drag (CommonRoad has none), and axle cornering
+    stiffnesses |p_ky1| x static axle load (see COMMONROAD_TYRE)."""
+    per_load = -COMMONROAD_TYRE["p_ky1"]  # 1/rad
+    weight = car.m * G
+    wheelbase = car.a + car.b
+    return VehicleParams(
+        mass=car.m, yaw_inertia=car.I_z, lf=car.a, lr=car.b,
+        half_track=(car.T_f + car.T_r) / 4.0, drag=0.0,
+        cf=per_load * weight * car.b / wheelbase, cr=per_load * weight * car.a / wheelbase,
+        length=car.l, width=car.w, preset=f"commonroad_{car.name}",
+    )
+
+
+VEHICLE_PRESETS: dict[str, VehicleParams] = {
+    "table1": VehicleParams(),
+    **{f"commonroad_{name}": commonroad_vehicle(car) for name, car in COMMONROAD_CARS.items()},
+}
+
+
+def vehicle_preset(name: str, **changes: float) -> VehicleParams:
+    """A preset with some fields changed (SI, VehicleParams' field names)."""
+    return replace(VEHICLE_PRESETS[name], **changes)
+
+
+def vehicle_from_table(values: Mapping[str, Any], given: Iterable[str]) -> VehicleParams:
+    """A scenario's validated [vehicle] table (SI, field names, defaults filled in): the
+    preset `values["preset"]`, with the fields named in `given` (those the file sets)
+    taken from the table."""
+    return vehicle_preset(values["preset"],
+                          **{k: values[k] for k in given if k != "preset"})

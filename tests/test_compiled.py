@@ -23,9 +23,10 @@ def test_compiled_derivatives_equal_the_interpreted_functions() -> None:
     plant = twotrack.TwoTrackPlant(VEHICLE, 0.6, vx=25.0)
     rng = np.random.default_rng(3)
     for _ in range(50):
-        s = plant.state + rng.normal(0.0, 0.05, 12) * np.abs(plant.state + 1.0)
+        n = plant.state.size
+        s = plant.state + rng.normal(0.0, 0.05, n) * np.abs(plant.state + 1.0)
         inputs = np.array([math.cos(0.02), math.sin(0.02), *rng.normal(0.0, 300.0, 4)])
-        out_c, out_p = np.empty(12), np.empty(12)
+        out_c, out_p = np.empty(n), np.empty(n)
         forces_c, forces_p = np.zeros(14), np.zeros(14)
         twotrack.twotrack_derivative(s, plant._const, inputs, forces_c, out_c)
         twotrack.twotrack_derivative.py_func(s, plant._const, inputs, forces_p, out_p)

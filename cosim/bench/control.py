@@ -98,8 +98,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         },
         "targets": {"twotrack_mimo_wall_s": "< 0.2 s for 10 s simulated"},
         "notes": [
-            "controller every substep (200 Hz); two-track RK4 steps <= 2x the wheel-spin "
-            "time constant and <= 5 ms",
+            "controller every substep (200 Hz); two-track RK4 steps <= 2.4 / the fastest "
+            "tyre rate (wheel spin on the tyre, relaxation) and <= 5 ms",
             f"compiled with numba; start-up in this process {startup:.2f} s (import, compiler "
             "set-up, compile or cached load: about 10 s the first time on a machine, about "
             "1 s in a fresh process with the cache), not in the rows",

@@ -47,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from cosim.scenario import load_scenario, project_root
     from cosim.sim import run_scenario
     from cosim.traffic import gui as sumo_gui
+    from cosim.vehicle.bicycle import warn_near_critical_speed
 
     settings = sumo_gui.GuiSettings(speed=args.gui_speed, keep_open=not args.gui_quit)
     if args.gui:
@@ -54,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = flag_overrides(load_scenario(args.scenario), {
         "--plant": ("plant", args.plant), "--controller": ("controller", args.controller),
         "--seed": ("seed", args.seed)})
+    warn_near_critical_speed(scenario)  # one line on stderr if the SV may get near it
     out = args.out if args.out is not None else project_root() / "results" / scenario.name
     check_output_dir(out, whole=True)  # a bad --out is an input error now, not after the run
     if scenario.sv.controller != "sumo":

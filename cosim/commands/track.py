@@ -15,6 +15,7 @@ forces any tau. `--case all` runs the three, as the paper's Fig. 13-15 show them
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,10 +25,11 @@ from cosim.commands import add_figure_format, flag_type
 from cosim.control.closed_loop import YAW_MOMENT_SHARE
 from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, TrackingRun, run_tracking
 from cosim.errors import InputError
-from cosim.params import ControllerGains, RoadParams, VehicleParams, kmh
+from cosim.params import VEHICLE_PRESETS, ControllerGains, RoadParams, VehicleParams, kmh
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.study import MU
-from cosim.vehicle.chassis import ChassisParams
+from cosim.vehicle.bicycle import critical_speed, handling, understeer_gradient
+from cosim.vehicle.chassis import chassis_for
 
 HEADERS = {
     "vx": "Vx (m/s s)", "ye": "ye (m s)", "phi_e_deg": "phi_e (deg s)",
@@ -82,6 +84,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--cornering-scale", type=float, default=1.0,
                         help="two-track tyres' true cornering stiffness / Table 1's "
                         "(model mismatch; default 1)")
+    parser.add_argument("--vehicle", choices=tuple(VEHICLE_PRESETS), default="table1",
+                        help="the car (default: Table 1's; CommonRoad's vehicle1/2/3)")
     parser.add_argument("--paper-law", action="store_true",
                         help="no yaw-moment limit: the MIMO law exactly as printed")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -180,10 +184,11 @@ def run(args: argparse.Namespace) -> int:
     if not 0.2 <= args.cornering_scale <= 2.0:
         raise InputError("--cornering-scale", "cornering_scale", args.cornering_scale,
                          "in [0.2, 2]")
-    chassis = ChassisParams(cornering_scale=args.cornering_scale)
+    vehicle = VEHICLE_PRESETS[args.vehicle]
+    chassis = dataclasses.replace(chassis_for(vehicle), cornering_scale=args.cornering_scale)
     share = None if args.paper_law else YAW_MOMENT_SHARE
     plants = ("twotrack", "bicycle") if args.plant == "both" else (args.plant,)
-    gains, vehicle = ControllerGains(), VehicleParams()
+    gains = ControllerGains()
     cases = list(CASES.values()) if args.case == "all" else [CASES[args.case]]
     results: list[dict[str, Any]] = []
     figures: list[str] = []
@@ -211,6 +216,7 @@ def run(args: argparse.Namespace) -> int:
             ]
         results.append({"case": case, "mu": mu, "ref": ref, "origin": origin, "runs": runs,
                         "verdicts": verdicts})
+    vc = critical_speed(vehicle)
     if args.json:
         out: dict[str, Any] = {
             "cases": [{
@@ -225,6 +231,11 @@ def run(args: argparse.Namespace) -> int:
             "source": source,
             "duration_s": args.duration_s,
             "cornering_scale": args.cornering_scale,
+            "vehicle": {
+                "preset": vehicle.preset,
+                "understeer_gradient_rad_per_mps2": understeer_gradient(vehicle),
+                "critical_speed_kmh": None if vc is None else vc * 3.6,
+            },
             "yaw_moment_share": share,
             "paper_table2_case_5_1": PAPER_TABLE2,
             "figures": figures,
@@ -235,6 +246,7 @@ def run(args: argparse.Namespace) -> int:
            else f"MIMO yaw moment limited to {YAW_MOMENT_SHARE:g} mu M g ls")
     print(f"{law}; two-track cornering stiffness x {args.cornering_scale:g}; "
           f"{args.duration_s:g} s runs")
+    print(f"car {vehicle.preset}: {handling(vehicle)}")
     for res in results:
         case, ref = res["case"], res["ref"]
         print()

@@ -62,7 +62,7 @@ from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.vehicle.actuators import ActuatorLimits, steer_core
 from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
-from cosim.vehicle.chassis import ChassisParams
+from cosim.vehicle.chassis import ChassisParams, chassis_for
 from cosim.vehicle.plant import Plant, check_finite
 from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
@@ -247,7 +247,7 @@ class ClosedLoop:
             math.inf if yaw_moment_share is None
             else yaw_moment_share * mu * vehicle.mass * G * vehicle.half_track
         )
-        ch = chassis or ChassisParams()
+        ch = chassis or chassis_for(vehicle)
         self.plant: Plant
         if plant == "twotrack":
             self.plant = TwoTrackPlant(vehicle, mu, x, y, heading, speed, chassis=ch)

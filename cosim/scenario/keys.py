@@ -15,6 +15,7 @@ from typing import Any
 from cosim.errors import InputError
 from cosim.params import (
     LANE_CHANGE_POLICIES,
+    VEHICLE_PRESETS,
     ControllerGains,
     PlannerConfig,
     RoadParams,
@@ -135,7 +136,11 @@ PLANNER_FIELDS = tuple(
     replace(f, name=f.key.removesuffix("_s").removesuffix("_m")) for f in PLANNER_FIELDS
 )
 
-VEHICLE_FIELDS = tuple(
+VEHICLE_FIELDS = (
+    Field("preset", str, choices=tuple(VEHICLE_PRESETS), default=_VEH.preset,
+          doc="a known car (cosim.params.VEHICLE_PRESETS: the paper's Table 1 or CommonRoad's "
+              "vehicle1/2/3); the keys below that the file gives override it"),
+) + tuple(
     replace(number_key(key, unit, lo, hi, getattr(_VEH, attr), doc), name=attr)
     for key, attr, unit, lo, hi, doc in (
         ("mass_kg", "mass", "kg", 100.0, 1e5, "mass M"),

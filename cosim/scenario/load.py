@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
-from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
-from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS
+from cosim.params import ControllerGains, PlannerConfig, RoadParams, vehicle_from_table
+from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS, VEHICLE_FIELDS
 from cosim.scenario.model import (
     NAME_PATTERN,
     Scenario,
@@ -180,7 +180,8 @@ def scenario_from_dict(
         path=p,
         road=road,
         network=network,
-        vehicle=VehicleParams(**tables["vehicle"]),
+        vehicle=vehicle_from_table(tables["vehicle"], {  # a preset, then the file's keys
+            f.attr for f in VEHICLE_FIELDS if f.key in doc.get("vehicle", {})}),
         gains=ControllerGains(**tables["controller"]),
         planner=PlannerConfig(**tables["planner"]),
         sv=SVSpec(**tables["sv"]),

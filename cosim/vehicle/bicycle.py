@@ -4,11 +4,18 @@ longitudinal dynamics of eq. 26 and the yaw moment dMz as an input.
 Wheel force demands enter through eq. 27 (Fa) and eq. 20 (dMz), so the plant
 sees what the allocation (eq. 30) actually delivers. Tyres are linear and never
 saturate: mu does not enter this model.
+
+Down to a standstill (beyond the paper): slip angles divide by max(vx, speed_floor),
+so they never blow up; a negative Fa is a brake, which opposes the motion and holds
+a stopped car (it never drives it backwards); RK4 takes shorter steps when the
+lateral modes, of rate ~ (Cf + Cr) / (M vx), get fast at low speed.
 """
 
 from __future__ import annotations
 
 import math
+import sys
+from typing import Any
 
 import numpy as np
 
@@ -31,6 +38,20 @@ def bicycle_lateral_forces(s: Array, c: Array, inputs: Array) -> tuple[float, fl
 
 
 @njit
+def bicycle_fa(s: Array, c: Array, inputs: Array) -> float:
+    """N, the longitudinal force eq. 26 gets: Fa as held if >= 0 (drive); if < 0, a brake
+    of size |Fa|: the force that would stop the car within 1 / c[11] seconds, at most
+    |Fa| either way (so it holds a stopped car and never drives it backwards)."""
+    fa = inputs[1]
+    if fa >= 0.0:
+        return fa
+    m, drag = c[0], c[6]
+    vx = s[3]
+    needed = -m * (vx * c[11] + s[4] * s[5]) + drag * vx * abs(vx)
+    return min(max(needed, fa), -fa)
+
+
+@njit
 def bicycle_derivative(s: Array, c: Array, inputs: Array, out: Array) -> None:
     """ds/dt into `out`: eq. 19 (lateral, yaw), eq. 26 (longitudinal), planar kinematics."""
     m, iz, lf, lr, drag = c[0], c[1], c[2], c[3], c[6]
@@ -40,7 +61,7 @@ def bicycle_derivative(s: Array, c: Array, inputs: Array, out: Array) -> None:
     out[0] = vx * cs - vy * sn
     out[1] = vx * sn + vy * cs
     out[2] = r
-    out[3] = vy * r + (inputs[1] - drag * vx * abs(vx)) / m
+    out[3] = vy * r + (bicycle_fa(s, c, inputs) - drag * vx * abs(vx)) / m
     out[4] = -vx * r + (fyf + fyr) / m
     out[5] = (lf * fyf - lr * fyr + inputs[2]) / iz
 
@@ -61,9 +82,13 @@ def bicycle_set_inputs(c: Array, inputs: Array, delta: float,
 def bicycle_step(s: Array, c: Array, inputs: Array, h: float, delta: float,
                  f1: float, f2: float, f3: float, f4: float) -> None:
     """Integrate state s (in place) h seconds with held inputs (RK4, steps no longer
-    than max_step)."""
+    than max_step nor 2 / the lateral modes' rate bound c[10] / max(|vx|, floor))."""
     bicycle_set_inputs(c, inputs, delta, f1, f2, f3, f4)
-    n = max(1, math.ceil(h / c[9] - 1e-9))
+    vx = abs(s[3])
+    limit = 2.0 * (vx if vx > c[8] else c[8]) / c[10]
+    if limit > c[9]:
+        limit = c[9]
+    n = max(1, math.ceil(h / limit - 1e-9))
     hi = h / n
     half = 0.5 * hi
     sixth = hi / 6.0
@@ -107,8 +132,13 @@ class BicyclePlant:
         self.speed_floor = speed_floor
         self.max_step = max_step
         v = vehicle
+        # 10: bound on the lateral modes' rate times vx (trace of eq. 19's matrix times vx),
+        # 11: 1 / the brake's hold time (max_step / 2: RK4-stable)
         self._const = np.array([v.mass, v.yaw_inertia, v.lf, v.lr, v.cf, v.cr, v.drag,
-                                v.half_track, speed_floor, max_step])
+                                v.half_track, speed_floor, max_step,
+                                (v.cf + v.cr) / v.mass
+                                + (v.lf**2 * v.cf + v.lr**2 * v.cr) / v.yaw_inertia,
+                                2.0 / max_step])
         # held inputs: delta (rad), Fa (N), dMz (N m), four wheel forces (N)
         self._inputs = np.zeros(7)
 
@@ -135,14 +165,12 @@ class BicyclePlant:
         """Body accelerations (eq. 19, 26) and the held wheel forces."""
         v = self.vehicle
         vx = float(self.state[3])
-        fyf, fyr = self.lateral_forces(self.state)
-        _, fa, _, f1, f2, f3, f4 = self._inputs.tolist()
+        fyf, fyr = bicycle_lateral_forces(self.state, self._const, self._inputs)
+        fa = bicycle_fa(self.state, self._const, self._inputs)
+        _, _, _, f1, f2, f3, f4 = self._inputs.tolist()
         return PlantOutputs(
-            ax=(fa - v.drag * vx * abs(vx)) / v.mass,
-            ay=(fyf + fyr) / v.mass,
-            fx=(f1, f2, f3, f4),
-            fy=(fyf / 2.0, fyf / 2.0, fyr / 2.0, fyr / 2.0),
-            fz=None,
+            (fa - v.drag * vx * abs(vx)) / v.mass, (fyf + fyr) / v.mass, (f1, f2, f3, f4),
+            (fyf / 2.0, fyf / 2.0, fyr / 2.0, fyr / 2.0), None,
         )
 
 
@@ -170,3 +198,53 @@ def understeer_gradient(vehicle: VehicleParams) -> float:
     """
     v = vehicle
     return v.mass * (v.lr * v.cr - v.lf * v.cf) / (v.wheelbase * v.cf * v.cr)
+
+
+NEUTRAL_GRADIENT = 1e-9  # s^2/m, |K| below this is neutral steer (rounding of Cf lr = Cr lf)
+
+
+def critical_speed(vehicle: VehicleParams) -> float | None:
+    """m/s at which an oversteering car's yaw gain V / (L + K V^2) becomes infinite
+    (sqrt(-L / K)); None if it understeers or is neutral (no critical speed)."""
+    k = understeer_gradient(vehicle)
+    return math.sqrt(-vehicle.wheelbase / k) if k < -NEUTRAL_GRADIENT else None
+
+
+def handling(vehicle: VehicleParams) -> str:
+    """One line: the understeer gradient, what it means and the critical speed."""
+    k = understeer_gradient(vehicle)
+    vc = critical_speed(vehicle)
+    if vc is not None:
+        return (f"understeer gradient K = {k:.3g} rad/(m/s^2): the car oversteers, critical "
+                f"speed {vc * 3.6:.0f} km/h (yaw gain V / (L + K V^2) unbounded there)")
+    if k > NEUTRAL_GRADIENT:
+        return (f"understeer gradient K = {k:.3g} rad/(m/s^2): the car understeers, "
+                f"characteristic speed {math.sqrt(vehicle.wheelbase / k) * 3.6:.0f} km/h, "
+                "no critical speed")
+    return "understeer gradient K = 0: neutral steer (lf Cf = lr Cr), no critical speed"
+
+
+def critical_speed_warning(vehicle: VehicleParams, speed: float, margin: float = 0.1
+                           ) -> str | None:
+    """The warning `cosim run` prints when a speed (m/s) the SV may drive comes within
+    `margin` (10 %) of the car's critical speed; None when it does not."""
+    vc = critical_speed(vehicle)
+    if vc is None or speed < (1.0 - margin) * vc:
+        return None
+    return (f"warning: the SV may drive {speed * 3.6:.0f} km/h, within {margin:.0%} of its "
+            f"car's critical speed {vc * 3.6:.0f} km/h (it oversteers: understeer gradient "
+            f"{understeer_gradient(vehicle):.3g} rad/(m/s^2)); its yaw response grows without "
+            "bound there")
+
+
+def warn_near_critical_speed(scenario: Any) -> None:
+    """Print `critical_speed_warning` (one line, stderr) for the highest speed a scenario
+    lets its SV drive: its start speed, its desired speed, and the top of every lane's
+    speed band (the planner's target speeds)."""
+    sv = scenario.sv
+    speeds = [sv.speed, *(hi for _, hi in scenario.road.speed_bands)]
+    if sv.desired_speed is not None:
+        speeds.append(sv.desired_speed)
+    message = critical_speed_warning(scenario.vehicle, max(speeds))
+    if message is not None:
+        print(message, file=sys.stderr)

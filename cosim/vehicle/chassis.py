@@ -2,18 +2,20 @@
 
 Table 1 gives mass, yaw inertia, axle positions, half track, drag and axle
 cornering stiffnesses. A four-wheel model also needs the CG height, the wheels'
-radius and spin inertia, the tyres' longitudinal slip stiffness and saturation
-shape, and how load transfer is split and delayed. The defaults are plausible
-values for a mid-size sedan with in-wheel motors (the paper's Remark 5: the yaw
-moment is made by differential in-wheel motor torque).
+radius and spin inertia, the tyres (`cosim.vehicle.tyre.TyreParams`), and how load
+transfer is split and delayed. The defaults are plausible values for a mid-size
+sedan with in-wheel motors (the paper's Remark 5: the yaw moment is made by
+differential in-wheel motor torque). A preset car (`cosim.params.VEHICLE_PRESETS`)
+brings its own chassis (`chassis_for`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from cosim.errors import InputError
-from cosim.params import G, VehicleParams
+from cosim.params import COMMONROAD_CARS, COMMONROAD_TYRE, CommonRoadCar, G, VehicleParams
+from cosim.vehicle.tyre import TyreParams
 
 
 @dataclass(frozen=True)
@@ -23,14 +25,14 @@ class ChassisParams:
     cg_height: float = 0.55  # m, CG above ground (sedan: 0.5-0.6)
     wheel_radius: float = 0.31  # m, rolling radius (205/55 R16: 0.316)
     wheel_inertia: float = 1.2  # kg m^2, wheel + tyre + in-wheel motor rotor, per wheel
-    slip_stiffness: float = 20.0  # 1 per unit slip, longitudinal slip stiffness / Fz (15-25)
-    shape: float = 1.4  # -, magic-formula shape factor C (> 1: a peak, then a slide)
     roll_share_front: float = 0.55  # -, share of lateral load transfer taken by the front axle
     load_lag: float = 0.08  # s, first-order lag of load transfer (pitch/roll of the body)
-    slip_speed_floor: float = 1.0  # m/s, slip denominators never below this (standstill guard)
+    slip_speed_floor: float = 1.0  # m/s, the ABS / traction control's slip reference floor
+    anti_lock: bool = True  # -, ABS / traction control cut the torque of a wheel past its peak
     # -, true tyre cornering stiffness / Table 1's Cf, Cr: 1 makes the design model exact at
     # small slip; below 1 models a plant that differs from what the controller assumes
     cornering_scale: float = 1.0
+    tyre: TyreParams = field(default_factory=TyreParams)
 
     def check(self) -> None:
         """Raise InputError for a value no physical chassis has."""
@@ -38,7 +40,6 @@ class ChassisParams:
             "cg_height": self.cg_height,
             "wheel_radius": self.wheel_radius,
             "wheel_inertia": self.wheel_inertia,
-            "slip_stiffness": self.slip_stiffness,
             "load_lag": self.load_lag,
             "slip_speed_floor": self.slip_speed_floor,
             "cornering_scale": self.cornering_scale,
@@ -46,10 +47,9 @@ class ChassisParams:
         for key, value in positive.items():
             if not value > 0.0:
                 raise InputError("chassis", key, value, "must be > 0")
-        if not 1.0 < self.shape < 2.0:
-            raise InputError("chassis", "shape", self.shape, "magic-formula C in (1, 2)")
         if not 0.0 <= self.roll_share_front <= 1.0:
             raise InputError("chassis", "roll_share_front", self.roll_share_front, "in [0, 1]")
+        self.tyre.check()
 
 
 def static_wheel_loads(vehicle: VehicleParams) -> tuple[float, float]:
@@ -58,3 +58,51 @@ def static_wheel_loads(vehicle: VehicleParams) -> tuple[float, float]:
     return weight * vehicle.lr / (2.0 * vehicle.wheelbase), weight * vehicle.lf / (
         2.0 * vehicle.wheelbase
     )
+
+
+def commonroad_roll_share(car: CommonRoadCar) -> float:
+    """-, front share of the steady lateral load transfer of CommonRoad's multi-body model
+    with this car's parameters: its roll axis is on the ground (h_raf = h_rar = 0), so the
+    sprung mass's roll moment m_s h_s ay goes through the suspensions in the ratio of their
+    roll stiffnesses (springs K_s T^2 / 2 plus the torsion bar K_ts per axle), and each
+    unsprung mass moves its own m_u R_w ay across its own track."""
+    roll_f = car.K_sf * car.T_f**2 / 2.0 + car.K_tsf
+    roll_r = car.K_sr * car.T_r**2 / 2.0 + car.K_tsr
+    front = car.m_s * car.h_s * roll_f / (roll_f + roll_r) + car.m_uf * car.R_w
+    rear = car.m_s * car.h_s * roll_r / (roll_f + roll_r) + car.m_ur * car.R_w
+    return front / (front + rear)
+
+
+def commonroad_tyre(**changes: float) -> TyreParams:
+    """CommonRoad's tyre (COMMONROAD_TYRE) in our Magic Formula: shapes, curvatures, slip
+    stiffness, mu_x / mu_y and the combined-slip weights as its multi-body model has them;
+    no load sensitivity (its K_y = p_ky1 Fz and D = p_d1 Fz are proportional to load);
+    our relaxation lengths and low-speed damping (it has none: it switches to a kinematic
+    model below 0.1 m/s)."""
+    t = COMMONROAD_TYRE
+    base = TyreParams(
+        shape_lat=t["p_cy1"], shape_long=t["p_cx1"], curvature_lat=t["p_ey1"],
+        curvature_long=t["p_ex1"], slip_stiffness=t["p_kx1"],
+        friction_long_ratio=t["p_dx1"] / t["p_dy1"], friction_load=0.0,
+        cornering_peak_load=float("inf"), r_bx1=t["r_bx1"], r_bx2=t["r_bx2"],
+        r_cx1=t["r_cx1"], r_by1=t["r_by1"], r_by2=t["r_by2"], r_cy1=t["r_cy1"],
+        r_ex1=t["r_ex1"], r_ey1=t["r_ey1"],
+    )
+    return TyreParams(**{**base.__dict__, **changes})
+
+
+def commonroad_chassis(car: CommonRoadCar) -> ChassisParams:
+    """Our chassis of a CommonRoad car: its CG height, wheel radius and inertia, roll split
+    (`commonroad_roll_share`) and tyre (`commonroad_tyre`)."""
+    return ChassisParams(
+        cg_height=car.h_cg, wheel_radius=car.R_w, wheel_inertia=car.I_y_w,
+        roll_share_front=commonroad_roll_share(car), tyre=commonroad_tyre(),
+    )
+
+
+def chassis_for(vehicle: VehicleParams) -> ChassisParams:
+    """The chassis of the vehicle's preset (Table 1's car: `ChassisParams()`)."""
+    prefix = "commonroad_"
+    if vehicle.preset.startswith(prefix):
+        return commonroad_chassis(COMMONROAD_CARS[vehicle.preset[len(prefix):]])
+    return ChassisParams()

@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 from cosim.compiled import Array
 from cosim.errors import SimulationError
 
 
-@dataclass(frozen=True)
-class PlantOutputs:
-    """Accelerations and tyre forces at one state (body frame, wheels FL, FR, RL, RR)."""
+class PlantOutputs(NamedTuple):
+    """Accelerations and tyre forces at one state (body frame, wheels FL, FR, RL, RR).
+
+    A named tuple, not a dataclass: the closed loop builds one per record (200 per
+    simulated second), and a frozen dataclass costs 1.7 us to build, a tuple 0.3 us."""
 
     ax: float  # m/s^2, body longitudinal acceleration of the CG
     ay: float  # m/s^2, body lateral acceleration of the CG

@@ -1,27 +1,42 @@
 """Two-track validation plant (beyond the paper, which used veDYNA).
 
-Four wheels with their own spin, nonlinear combined-slip tyres saturating at
-mu Fz (`cosim.vehicle.tyre`), static and dynamic load transfer, aerodynamic drag
-(Table 1's Ca), active front steering (both front wheels at delta) and one
-torque per wheel (in-wheel motors / brakes). Wheels: 1 FL, 2 FR, 3 RL, 4 RR.
+Four wheels with their own spin, Magic Formula tyres with combined slip, load
+sensitivity and relaxation lengths (`cosim.vehicle.tyre`), static and dynamic load
+transfer, aerodynamic drag (Table 1's Ca), active front steering (both front wheels
+at delta) and one torque per wheel (in-wheel motors / brakes). Wheels: 1 FL, 2 FR,
+3 RL, 4 RR.
 
-State (12): x, y, heading, vx, vy, yaw_rate, omega_1..4 (rad/s), and the body
-accelerations ax_load, ay_load (m/s^2) that set the load transfer. They follow
-the real accelerations through a first-order lag (`ChassisParams.load_lag`),
-which stands for the body's pitch and roll and breaks the algebraic loop
-between loads and forces.
+State (20): x, y, heading, vx, vy, yaw_rate, omega_1..4 (rad/s), the body
+accelerations ax_load, ay_load (m/s^2) that set the load transfer, and the tyres'
+relaxed slips kappa_1..4 (-) and alpha_1..4 (tangent of the slip angle). The load
+accelerations follow the real ones through a first-order lag
+(`ChassisParams.load_lag`), which stands for the body's pitch and roll and breaks
+the algebraic loop between loads and forces.
 
-The tyres' cornering stiffness is chosen per unit load so that each axle has
-Table 1's Cf or Cr at the static load: at small slip this plant and the 2-DOF
-model agree (tested through the steady-state yaw-rate gain).
+Relaxation (Pacejka, 3rd ed., sec. 7.2): sigma dkappa'/dt + |u| kappa' = omega R - u,
+sigma dalpha'/dt + |u| alpha' = -v (u, v: the wheel centre's velocity along and
+across the wheel). At speed kappa', alpha' follow the kinematic slips
+(omega R - u) / |u| and -v / |u| with the lag sigma / |u|; nothing divides by the
+speed, so the plant runs through a standstill. Below `TyreParams.low_speed` the
+slips get Pacejka's low-speed damping k_Vlow (slip speed) / K, faded in by
+(1 + cos(pi |u| / V_low)) / 2, which damps the tyre-spring modes of a stopped car.
 
-Integration: fixed-step RK4. The wheel-spin mode is the stiff one, with time
-constant Iw v / (C_kappa R^2) (about 2.7 ms at 25 m/s with the largest load
-expected), so `step` splits a substep into RK4 steps no longer than
-`step_factor` (2, inside RK4's real-axis stability limit 2.78) times that
-constant and no longer than `max_step` (5 ms): one RK4 step per 5 ms substep at
-highway speed, more at low speed. Against a 0.2 ms reference, a 3 s sine-steer
-and drive/brake manoeuvre at 25 m/s ends within 1e-6 m and 1e-6 rad/s.
+Torques: a positive wheel torque drives (in-wheel motor), a negative one brakes: a
+friction brake opposes the wheel's spin and holds a stopped wheel (it never spins it
+backwards), so the car stops and stays stopped under a held brake; it does not
+reverse. ABS / traction control cut a torque whose wheel is past the tyre's peak
+slip (`twotrack_slip_limit`).
+
+The tyres' cornering stiffness is chosen so that each axle has Table 1's Cf or Cr
+at the static load: at small slip this plant and the 2-DOF model agree (tested
+through the steady-state yaw-rate gain and the tyre's slope at zero slip).
+
+Integration: fixed-step RK4. The stiff modes are the wheel spin on its tyre
+(longitudinal relaxation: rate sqrt(R^2 K_kappa / (Iw sigma_kappa)), or |u| /
+sigma_kappa when larger) and the low-speed damping, so `step` splits a substep into
+RK4 steps no longer than `step_factor` (2.4: RK4 is stable for |h lambda| up to
+2.62 at the worst angle, 2.78 on the real axis) over the fastest rate, and no
+longer than `max_step` (5 ms): one RK4 step per 5 ms substep at highway speed.
 
 Speed: the derivative, the ABS / traction control and the RK4 loop are compiled
 (numba, `cosim.compiled`) and work on float arrays in place; the closed
@@ -38,33 +53,44 @@ import numpy as np
 from cosim.compiled import Array, njit
 from cosim.errors import InputError
 from cosim.params import G, VehicleParams
-from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
+from cosim.vehicle.chassis import ChassisParams, chassis_for, static_wheel_loads
 from cosim.vehicle.plant import PlantOutputs
-from cosim.vehicle.tyre import magic_formula, peak_slip
+from cosim.vehicle.tyre import N_TYRE, combined_forces, peak_slip
 
 STATE_NAMES = (
     "x", "y", "heading", "vx", "vy", "yaw_rate",
     "omega_fl", "omega_fr", "omega_rl", "omega_rr", "ax_load", "ay_load",
+    "kappa_fl", "kappa_fr", "kappa_rl", "kappa_rr",
+    "alpha_fl", "alpha_fr", "alpha_rl", "alpha_rr",
 )
-N_CONST = 30  # length of the constants array (layout: `TwoTrackPlant.__init__`)
+N_STATE = len(STATE_NAMES)
+BRAKE_HOLD = 0.0025  # s, time in which a brake stops a slow wheel (a stiff friction model)
+N_FORCES = 14  # ax, ay, Fx1..4, Fy1..4, Fz1..4 at the head of the forces array
+# Layout of the constants array (values: `TwoTrackPlant.__init__`); the tyre's
+# coefficients (`TyreParams.array`) follow at C_TYRE.
+(C_INV_MASS, C_INV_IZ, C_LF, C_LR, C_LS, C_RAD, C_FLOOR, C_MU, C_DRAG, C_INV_IW, C_INV_LAG,
+ C_KD_LONG, C_KD_LAT_F, C_KD_LAT_R, C_FZ0F, C_FZ0R, C_KAF, C_KAR, C_PEAK, C_FZ_MAX, C_K_LONG,
+ C_K_LAT, C_STIFF, C_INV_SIG_K, C_INV_SIG_A, C_VLOW, C_DAMP_X_F, C_DAMP_X_R, C_DAMP_Y_F, C_DAMP_Y_R,
+ C_INV_HOLD, C_DAMP_RATE, C_MAX_STEP, C_STEP_FACTOR, C_TYRE) = range(35)
+N_CONST = C_TYRE + N_TYRE
 
 
 @njit
 def twotrack_derivative(s: Array, c: Array, inputs: Array, forces: Array, out: Array) -> None:
     """ds/dt at state s into `out`; inputs = (cos delta, sin delta, four wheel torques);
     the accelerations and wheel forces (ax, ay, Fx1..4, Fy1..4, Fz1..4) into `forces`."""
-    m, iz, lf, lr, ls, rad, floor = c[0], c[1], c[2], c[3], c[4], c[5], c[6]
-    shape, inv_shape, ckm, mu, drag, iw, lag = c[7], c[8], c[9], c[10], c[11], c[12], c[13]
-    kd_long, kd_lat_f, kd_lat_r, fz0f, fz0r, cafm, carm = (
-        c[14], c[15], c[16], c[17], c[18], c[19], c[20])
+    inv_m, inv_iz, lf, lr, ls, rad = (c[C_INV_MASS], c[C_INV_IZ], c[C_LF], c[C_LR], c[C_LS],
+                                      c[C_RAD])
+    mu, drag, inv_iw, inv_lag = c[C_MU], c[C_DRAG], c[C_INV_IW], c[C_INV_LAG]
+    fz0f, fz0r, kaf, kar = c[C_FZ0F], c[C_FZ0R], c[C_KAF], c[C_KAR]
     psi, vx, vy, r = s[2], s[3], s[4], s[5]
-    w1, w2, w3, w4, axl, ayl = s[6], s[7], s[8], s[9], s[10], s[11]
+    axl, ayl = s[10], s[11]
     cd, sd = inputs[0], inputs[1]
 
     # vertical loads: static + longitudinal (pitch) + lateral (roll) transfer
-    dlong = kd_long * axl
-    dlat_f = kd_lat_f * ayl
-    dlat_r = kd_lat_r * ayl
+    dlong = c[C_KD_LONG] * axl
+    dlat_f = c[C_KD_LAT_F] * ayl
+    dlat_r = c[C_KD_LAT_R] * ayl
     fz1 = fz0f - dlong - dlat_f
     fz2 = fz0f - dlong + dlat_f
     fz3 = fz0r + dlong - dlat_r
@@ -85,19 +111,40 @@ def twotrack_derivative(s: Array, c: Array, inputs: Array, forces: Array, out: A
     u2 = vr * cd + vyf * sd
     l2 = -vr * sd + vyf * cd
 
-    # tyres: normalised slips (stiffness / mu over the slip reference speed)
-    ref = u1 if u1 > floor else (-u1 if -u1 > floor else floor)
-    fx1, fy1 = magic_formula(ckm * (w1 * rad - u1) / ref, -cafm * l1 / ref, fz1, mu, shape,
-                             inv_shape)
-    ref = u2 if u2 > floor else (-u2 if -u2 > floor else floor)
-    fx2, fy2 = magic_formula(ckm * (w2 * rad - u2) / ref, -cafm * l2 / ref, fz2, mu, shape,
-                             inv_shape)
-    ref = vl if vl > floor else (-vl if -vl > floor else floor)
-    fx3, fy3 = magic_formula(ckm * (w3 * rad - vl) / ref, -carm * vyr / ref, fz3, mu, shape,
-                             inv_shape)
-    ref = vr if vr > floor else (-vr if -vr > floor else floor)
-    fx4, fy4 = magic_formula(ckm * (w4 * rad - vr) / ref, -carm * vyr / ref, fz4, mu, shape,
-                             inv_shape)
+    # relaxed slips (first-order, no division by speed), then the low-speed damping
+    isk, isa = c[C_INV_SIG_K], c[C_INV_SIG_A]
+    sx1, sx2, sx3, sx4 = s[6] * rad - u1, s[7] * rad - u2, s[8] * rad - vl, s[9] * rad - vr
+    k1, k2, k3, k4 = s[12], s[13], s[14], s[15]
+    a1, a2, a3, a4 = s[16], s[17], s[18], s[19]
+    au1, au2, au3, au4 = abs(u1), abs(u2), abs(vl), abs(vr)
+    out[12] = (sx1 - au1 * k1) * isk
+    out[13] = (sx2 - au2 * k2) * isk
+    out[14] = (sx3 - au3 * k3) * isk
+    out[15] = (sx4 - au4 * k4) * isk
+    out[16] = (-l1 - au1 * a1) * isa
+    out[17] = (-l2 - au2 * a2) * isa
+    out[18] = (-vyr - au3 * a3) * isa
+    out[19] = (-vyr - au4 * a4) * isa
+    vlow = c[C_VLOW]
+    if min(au1, au2, au3, au4) < vlow:
+        w = 0.5 * (1.0 + math.cos(math.pi * min(au1 / vlow, 1.0)))
+        k1 += w * c[C_DAMP_X_F] * sx1
+        a1 -= w * c[C_DAMP_Y_F] * l1
+        w = 0.5 * (1.0 + math.cos(math.pi * min(au2 / vlow, 1.0)))
+        k2 += w * c[C_DAMP_X_F] * sx2
+        a2 -= w * c[C_DAMP_Y_F] * l2
+        w = 0.5 * (1.0 + math.cos(math.pi * min(au3 / vlow, 1.0)))
+        k3 += w * c[C_DAMP_X_R] * sx3
+        a3 -= w * c[C_DAMP_Y_R] * vyr
+        w = 0.5 * (1.0 + math.cos(math.pi * min(au4 / vlow, 1.0)))
+        k4 += w * c[C_DAMP_X_R] * sx4
+        a4 -= w * c[C_DAMP_Y_R] * vyr
+
+    ifz0f, ifz0r = 1.0 / fz0f, 1.0 / fz0r
+    fx1, fy1 = combined_forces(k1, a1, fz1, ifz0f, kaf, mu, c, C_TYRE)
+    fx2, fy2 = combined_forces(k2, a2, fz2, ifz0f, kaf, mu, c, C_TYRE)
+    fx3, fy3 = combined_forces(k3, a3, fz3, ifz0r, kar, mu, c, C_TYRE)
+    fx4, fy4 = combined_forces(k4, a4, fz4, ifz0r, kar, mu, c, C_TYRE)
 
     # front forces into the body frame
     fxf = fx1 + fx2
@@ -111,8 +158,8 @@ def twotrack_derivative(s: Array, c: Array, inputs: Array, forces: Array, out: A
         - lr * (fy3 + fy4)
         + ls * (bx2 - bx1 + fx4 - fx3)
     )
-    ax = (fx_body - drag * vx * abs(vx)) / m
-    ay = fy_body / m
+    ax = (fx_body - drag * vx * abs(vx)) * inv_m
+    ay = fy_body * inv_m
     forces[0], forces[1] = ax, ay
     forces[2], forces[3], forces[4], forces[5] = fx1, fx2, fx3, fx4
     forces[6], forces[7], forces[8], forces[9] = fy1, fy2, fy3, fy4
@@ -123,23 +170,51 @@ def twotrack_derivative(s: Array, c: Array, inputs: Array, forces: Array, out: A
     out[2] = r
     out[3] = ax + vy * r
     out[4] = ay - vx * r
-    out[5] = mz / iz
-    out[6] = (inputs[2] - rad * fx1) / iw
-    out[7] = (inputs[3] - rad * fx2) / iw
-    out[8] = (inputs[4] - rad * fx3) / iw
-    out[9] = (inputs[5] - rad * fx4) / iw
-    out[10] = (ax - axl) / lag
-    out[11] = (ay - ayl) / lag
+    out[5] = mz * inv_iz
+    inv_hold = c[C_INV_HOLD]
+    out[6] = wheel_acceleration(inputs[2], rad * fx1, s[6], inv_iw, inv_hold)
+    out[7] = wheel_acceleration(inputs[3], rad * fx2, s[7], inv_iw, inv_hold)
+    out[8] = wheel_acceleration(inputs[4], rad * fx3, s[8], inv_iw, inv_hold)
+    out[9] = wheel_acceleration(inputs[5], rad * fx4, s[9], inv_iw, inv_hold)
+    out[10] = (ax - axl) * inv_lag
+    out[11] = (ay - ayl) * inv_lag
 
 
 @njit
-def twotrack_time_constant(s: Array, c: Array) -> float:
-    """s, fastest wheel-spin time constant Iw v / (C_kappa Fz R^2) at state s, with 20 %
-    margin on the largest wheel load (loads move within a substep)."""
-    half_track, floor, fz_max0, k_long, k_lat, scale = c[22], c[23], c[24], c[25], c[26], c[27]
-    v = abs(s[3]) - half_track * abs(s[5])
-    fz_max = fz_max0 + k_long * abs(s[10]) + k_lat * abs(s[11])
-    return scale * (v if v > floor else floor) / fz_max
+def wheel_acceleration(torque: float, tyre_torque: float, omega: float, inv_iw: float,
+                       inv_hold: float) -> float:
+    """rad/s^2 of one wheel (inv_iw: 1 / its spin inertia): a torque >= 0 drives; a
+    torque < 0 is a friction brake of that size, which opposes the spin: it gives the
+    torque that would stop the wheel within 1 / inv_hold seconds, at most |torque| (so
+    it holds a stopped wheel and never spins it backwards)."""
+    if torque >= 0.0:
+        return (torque - tyre_torque) * inv_iw
+    net = -tyre_torque
+    brake = -(omega * inv_hold / inv_iw + net)
+    limit = -torque
+    brake = brake if brake < limit else limit
+    brake = brake if brake > -limit else -limit
+    return (net + brake) * inv_iw
+
+
+@njit
+def twotrack_stiff_rate(s: Array, c: Array) -> float:
+    """1/s, the fastest rate of the wheel-spin / tyre modes at state s (RK4's step limit):
+    a bound on the largest |eigenvalue| of a wheel's 2x2 (relaxed slip, spin) system,
+    max(trace, sqrt(det)), or the lateral relaxation's |u| / sigma_alpha if larger, with
+    20 % margin on the largest wheel load (loads move within a substep)."""
+    v = abs(s[3]) + c[C_LS] * abs(s[5])
+    fz_max = c[C_FZ_MAX] + c[C_K_LONG] * abs(s[10]) + c[C_K_LAT] * abs(s[11])
+    trace = v * c[C_INV_SIG_K]
+    if abs(s[3]) < 2.0 * c[C_VLOW]:  # the low-speed damping acts on some wheel
+        trace += c[C_DAMP_RATE] * fz_max
+    det = c[C_STIFF] * fz_max
+    # complex pair: |lambda| = sqrt(det); real pair: at most the trace (past the tyre's peak
+    # the slope, hence det, turns slightly negative: step_factor keeps room for that)
+    rate = math.sqrt(det)
+    rate = trace if trace > rate else rate
+    lateral = v * c[C_INV_SIG_A]  # the lateral relaxation's own rate |u| / sigma_alpha
+    return lateral if lateral > rate else rate
 
 
 @njit
@@ -150,7 +225,7 @@ def twotrack_slip_limit(s: Array, c: Array, inputs: Array, forces: Array) -> Non
     neither locks nor spins up. Slips are those of state s, forces those of the last
     derivative; inputs[0:2] = cos, sin of the steering angle."""
     vx, vy, r = s[3], s[4], s[5]
-    ls, lf, rad, floor, peak = c[4], c[2], c[5], c[6], c[21]
+    ls, lf, rad, floor, peak = c[C_LS], c[C_LF], c[C_RAD], c[C_FLOOR], c[C_PEAK]
     cd, sd = inputs[0], inputs[1]
     vyf = vy + r * lf
     vl, vr = vx - r * ls, vx + r * ls
@@ -175,39 +250,43 @@ def twotrack_slip_limit(s: Array, c: Array, inputs: Array, forces: Array) -> Non
 def twotrack_step(s: Array, c: Array, inputs: Array, forces: Array, h: float, delta: float,
                   f1: float, f2: float, f3: float, f4: float) -> None:
     """Integrate state s (in place) h seconds: steering delta (rad), wheel torques R * f
-    (N m) cut by `twotrack_slip_limit`; RK4 steps no longer than step_factor x the
-    wheel-spin time constant and max_step."""
-    rad = c[5]
+    (N m) cut by `twotrack_slip_limit`; RK4 steps no longer than step_factor over the
+    fastest tyre rate and max_step."""
+    rad = c[C_RAD]
     inputs[0], inputs[1] = math.cos(delta), math.sin(delta)
     inputs[2], inputs[3], inputs[4], inputs[5] = rad * f1, rad * f2, rad * f3, rad * f4
     twotrack_slip_limit(s, c, inputs, forces)
-    max_step, step_factor = c[28], c[29]
-    limit = step_factor * twotrack_time_constant(s, c)
-    if limit > max_step:
-        limit = max_step
+    limit = c[C_STEP_FACTOR] / twotrack_stiff_rate(s, c)
+    if limit > c[C_MAX_STEP]:
+        limit = c[C_MAX_STEP]
     n = max(1, math.ceil(h / limit - 1e-9))
     hi = h / n
     half = 0.5 * hi
     sixth = hi / 6.0
-    k1, k2, k3, k4 = np.empty(12), np.empty(12), np.empty(12), np.empty(12)
-    tmp = np.empty(12)
+    # RK4 stages and the trial state live in `forces` past its first N_FORCES entries
+    # (views, no allocation per call: a substep is about 1 us)
+    k1 = forces[N_FORCES:N_FORCES + N_STATE]
+    k2 = forces[N_FORCES + N_STATE:N_FORCES + 2 * N_STATE]
+    k3 = forces[N_FORCES + 2 * N_STATE:N_FORCES + 3 * N_STATE]
+    k4 = forces[N_FORCES + 3 * N_STATE:N_FORCES + 4 * N_STATE]
+    tmp = forces[N_FORCES + 4 * N_STATE:N_FORCES + 5 * N_STATE]
     for _ in range(n):
         twotrack_derivative(s, c, inputs, forces, k1)
-        for j in range(12):
+        for j in range(N_STATE):
             tmp[j] = s[j] + half * k1[j]
         twotrack_derivative(tmp, c, inputs, forces, k2)
-        for j in range(12):
+        for j in range(N_STATE):
             tmp[j] = s[j] + half * k2[j]
         twotrack_derivative(tmp, c, inputs, forces, k3)
-        for j in range(12):
+        for j in range(N_STATE):
             tmp[j] = s[j] + hi * k3[j]
         twotrack_derivative(tmp, c, inputs, forces, k4)
-        for j in range(12):
+        for j in range(N_STATE):
             s[j] = s[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
 
 
 class TwoTrackPlant:
-    """Four-wheel planar vehicle with wheel spin, combined-slip tyres and load transfer."""
+    """Four-wheel planar vehicle with wheel spin, Magic Formula tyres and load transfer."""
 
     kind = "twotrack"
     state_names = STATE_NAMES
@@ -225,66 +304,93 @@ class TwoTrackPlant:
         *,
         chassis: ChassisParams | None = None,
         max_step: float = 0.005,  # s, longest RK4 step
-        step_factor: float = 2.0,  # -, RK4 step / wheel-spin time constant (RK4 stable to 2.78)
+        step_factor: float = 2.4,  # -, RK4 step x fastest rate (RK4 stable to 2.62 or more)
     ) -> None:
         if not 0.0 < mu <= 1.5:
             raise InputError("twotrack", "mu", mu, "road friction in (0, 1.5]")
         self.vehicle = vehicle
-        self.chassis = chassis or ChassisParams()
+        self.chassis = chassis or chassis_for(vehicle)
         self.chassis.check()
         self.mu = mu
         self.max_step = max_step
         self.step_factor = step_factor
         ch = self.chassis
+        ty = ch.tyre
         self.wheel_radius = ch.wheel_radius
         self.fz0_front, self.fz0_rear = static_wheel_loads(vehicle)
-        # cornering stiffness per unit load: the axle has Cf (Cr) at its static load
+        # cornering stiffness of one wheel at its static load: the axle has Cf (Cr) there
         # (times cornering_scale, 1 by default)
-        self.c_alpha_front = ch.cornering_scale * vehicle.cf / (2.0 * self.fz0_front)
-        self.c_alpha_rear = ch.cornering_scale * vehicle.cr / (2.0 * self.fz0_rear)
+        self.k_alpha_front = ch.cornering_scale * vehicle.cf / 2.0
+        self.k_alpha_rear = ch.cornering_scale * vehicle.cr / 2.0
         dlat = vehicle.mass * ch.cg_height / (2.0 * vehicle.half_track)  # N per m/s^2
-        # constants of the compiled functions (stiffnesses over mu: the normalised slips
-        # of `cosim.vehicle.tyre`), then the ABS threshold and `twotrack_time_constant`'s
-        self._const = np.array([
-            vehicle.mass, vehicle.yaw_inertia, vehicle.lf, vehicle.lr, vehicle.half_track,
-            ch.wheel_radius, ch.slip_speed_floor, ch.shape, 1.0 / ch.shape,
-            ch.slip_stiffness / mu, mu, vehicle.drag, ch.wheel_inertia, ch.load_lag,
-            vehicle.mass * ch.cg_height / (2.0 * vehicle.wheelbase),
-            dlat * ch.roll_share_front, dlat * (1.0 - ch.roll_share_front),
-            self.fz0_front, self.fz0_rear, self.c_alpha_front / mu, self.c_alpha_rear / mu,
-            # 21: longitudinal slip at the peak of the pure-slip tyre curve (ABS / TCS)
-            peak_slip(ch.shape) * mu / ch.slip_stiffness,
-            # 22-27: wheel-spin time constant, loads with 20 % margin
-            vehicle.half_track, ch.slip_speed_floor,
-            1.2 * max(self.fz0_front, self.fz0_rear),
-            1.2 * vehicle.mass * ch.cg_height / (2.0 * vehicle.wheelbase),
-            1.2 * vehicle.mass * ch.cg_height / (2.0 * vehicle.half_track),
-            ch.wheel_inertia / (ch.slip_stiffness * ch.wheel_radius**2),
-            # 28, 29: RK4 step limits
-            max_step, step_factor,
-        ])
+        dlong = vehicle.mass * ch.cg_height / (2.0 * vehicle.wheelbase)  # N per m/s^2
+        fz_max = 1.2 * max(self.fz0_front, self.fz0_rear)
+        # low-speed damping as slip per slip speed (k_Vlow / K at the static load)
+        ck = ty.slip_stiffness
+        # longitudinal slip at the peak of the pure-slip curve (ABS / TCS): B kappa = peak
+        peak = peak_slip(ty.shape_long, ty.curvature_long) * ty.shape_long * mu \
+            * ty.friction_long_ratio / ck
+        const = [0.0] * C_TYRE
+        const[C_INV_MASS], const[C_INV_IZ], const[C_LF], const[C_LR] = (
+            1.0 / vehicle.mass, 1.0 / vehicle.yaw_inertia, vehicle.lf, vehicle.lr)
+        const[C_LS], const[C_RAD], const[C_FLOOR], const[C_MU] = (
+            vehicle.half_track, ch.wheel_radius, ch.slip_speed_floor, mu)
+        const[C_DRAG], const[C_INV_IW], const[C_INV_LAG] = (
+            vehicle.drag, 1.0 / ch.wheel_inertia, 1.0 / ch.load_lag)
+        const[C_KD_LONG] = dlong
+        const[C_KD_LAT_F] = dlat * ch.roll_share_front
+        const[C_KD_LAT_R] = dlat * (1.0 - ch.roll_share_front)
+        const[C_FZ0F], const[C_FZ0R] = self.fz0_front, self.fz0_rear
+        const[C_KAF], const[C_KAR] = self.k_alpha_front, self.k_alpha_rear
+        const[C_PEAK] = peak if ch.anti_lock else math.inf  # inf: the limit never acts
+        const[C_FZ_MAX], const[C_K_LONG], const[C_K_LAT] = fz_max, 1.2 * dlong, 1.2 * dlat
+        # wheel spin on the tyre: det = R^2 ck Fz / (Iw sigma_k) per N of load
+        const[C_STIFF] = ch.wheel_radius**2 * ck / (ch.wheel_inertia * ty.relaxation_long)
+        const[C_INV_SIG_K], const[C_INV_SIG_A] = 1.0 / ty.relaxation_long, 1.0 / ty.relaxation_lat
+        const[C_VLOW] = ty.low_speed
+        const[C_DAMP_X_F] = ty.damping_long / (ck * self.fz0_front)
+        const[C_DAMP_X_R] = ty.damping_long / (ck * self.fz0_rear)
+        const[C_DAMP_Y_F] = ty.damping_lat / self.k_alpha_front
+        const[C_DAMP_Y_R] = ty.damping_lat / self.k_alpha_rear
+        # the brake stops a slow wheel within BRAKE_HOLD (RK4-stable: rate 1 / hold at most
+        # step_factor / max_step)
+        const[C_INV_HOLD] = 1.0 / max(BRAKE_HOLD, max_step / step_factor)
+        # low-speed damping's rate on the wheel spin per N of load: k R^2 / Iw (upper bound)
+        const[C_DAMP_RATE] = ty.damping_long * ch.wheel_radius**2 / (
+            ch.wheel_inertia * min(self.fz0_front, self.fz0_rear))
+        const[C_MAX_STEP], const[C_STEP_FACTOR] = max_step, step_factor
+        self._const = np.array(const + ty.array())
         assert self._const.size == N_CONST
         w0 = vx / ch.wheel_radius
-        self.state = np.array([x, y, heading, vx, vy, yaw_rate, w0, w0, w0, w0, 0.0, 0.0],
-                              dtype=float)
+        self.state = np.zeros(N_STATE)
+        self.state[:10] = [x, y, heading, vx, vy, yaw_rate, w0, w0, w0, w0]
+        # relaxed lateral slips start at their kinematic values (no transient at t = 0)
+        for i, (px, py) in enumerate(((vehicle.lf, vehicle.half_track),
+                                      (vehicle.lf, -vehicle.half_track),
+                                      (-vehicle.lr, vehicle.half_track),
+                                      (-vehicle.lr, -vehicle.half_track))):
+            u, lat = vx - yaw_rate * py, vy + yaw_rate * px
+            self.state[16 + i] = -lat / abs(u) if abs(u) > ch.slip_speed_floor else 0.0
         self._delta = 0.0
         # held inputs: cos delta, sin delta, four wheel torques (N m)
         self._inputs = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-        # ax, ay, Fx1..4, Fy1..4, Fz1..4 at the last derivative evaluation
-        self._forces = np.zeros(14)
+        # ax, ay, Fx1..4, Fy1..4, Fz1..4 at the last derivative evaluation, then the RK4
+        # work space of `twotrack_step`
+        self._forces = np.zeros(N_FORCES + 5 * N_STATE)
+        self._scratch = np.empty(N_STATE)  # the derivative `outputs` does not need
 
     # -- dynamics --------------------------------------------------------------
     def derivative(self, s: list[float] | Array) -> list[float]:
         """ds/dt at state s with the held steering angle and wheel torques."""
-        out = np.empty(12)
+        out = np.empty(N_STATE)
         twotrack_derivative(np.asarray(s, dtype=float), self._const, self._inputs,
                             self._forces, out)
         return out.tolist()
 
     def wheel_time_constant(self) -> float:
-        """s, fastest wheel-spin time constant Iw v / (C_kappa Fz R^2) at the current state,
-        with 20 % margin on the largest wheel load (loads move within a substep)."""
-        return float(twotrack_time_constant(self.state, self._const))
+        """s, the fastest wheel-spin / tyre time constant at the current state (RK4's step
+        is at most step_factor times it)."""
+        return 1.0 / float(twotrack_stiff_rate(self.state, self._const))
 
     def step(self, h: float, delta: float, fx_cmd: tuple[float, float, float, float]) -> None:
         """Integrate h seconds: steering delta (rad), wheel torques R * fx_cmd (N m), cut
@@ -296,14 +402,10 @@ class TwoTrackPlant:
 
     def outputs(self) -> PlantOutputs:
         """Accelerations and tyre forces at the current state."""
-        self.derivative(self.state)
-        f = self._forces.tolist()
-        return PlantOutputs(
-            ax=f[0], ay=f[1], fx=(f[2], f[3], f[4], f[5]), fy=(f[6], f[7], f[8], f[9]),
-            fz=(f[10], f[11], f[12], f[13]),
-        )
+        twotrack_derivative(self.state, self._const, self._inputs, self._forces, self._scratch)
+        ax, ay, f1, f2, f3, f4, y1, y2, y3, y4, z1, z2, z3, z4 = self._forces[:N_FORCES].tolist()
+        return PlantOutputs(ax, ay, (f1, f2, f3, f4), (y1, y2, y3, y4), (z1, z2, z3, z4))
 
     def max_lateral_acceleration(self) -> float:
         """m/s^2, the friction limit mu g."""
         return self.mu * G
-

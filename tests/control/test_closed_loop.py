@@ -143,10 +143,11 @@ def test_bad_configuration_is_an_input_error(plant: str, controller: str, gains)
 
 
 def test_yaw_moment_limit_keeps_the_two_track_on_the_path_where_the_printed_law_spins() -> None:
-    """mu = 0.4, case 5.1 speeds, tau = 3.5 s: the printed MIMO law's zero-sideslip yaw
+    """mu = 0.4, case 5.1 speeds, tau = 2.5 s: the printed MIMO law's zero-sideslip yaw
     moment overruns the wheels' friction and the yaw loop ends in a growing oscillation;
-    limited to 0.2 mu M g ls it tracks."""
-    ref = LaneChangeTrajectory(t0=0.0, tau=3.5, x0=0.0, y0=0.0, vx0=80 / 3.6, vxf=90 / 3.6,
+    limited to 0.2 mu M g ls it tracks. (With the Magic Formula tyres of issue 15 the
+    printed law still tracks at tau = 3.5 s: 0.05 m; at 2.5 s it spins.)"""
+    ref = LaneChangeTrajectory(t0=0.0, tau=2.5, x0=0.0, y0=0.0, vx0=80 / 3.6, vxf=90 / 3.6,
                                width=3.75)
     worst = {}
     for share in (None, 0.2):
@@ -157,7 +158,7 @@ def test_yaw_moment_limit_keeps_the_two_track_on_the_path_where_the_printed_law_
         if share is not None:
             assert max(abs(r.dmz) for r in records) <= 0.2 * 0.4 * VEHICLE.mass * 9.81 * 0.71 + 1e-9
     assert worst[None] > 1.0
-    assert worst[0.2] < 0.05
+    assert worst[0.2] < 0.15
 
 
 def test_a_speed_step_during_a_lane_change_on_low_friction_stays_on_the_path() -> None:
