@@ -22,7 +22,8 @@ from cosim.errors import (
     EXIT_TERMINATED,
     CosimError,
     InputError,
-    sigterm_as_interrupt,
+    interrupted_status,
+    signals_as_interrupts,
 )
 from cosim.validation import suggest
 
@@ -90,7 +91,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         from cosim.plots import set_format
 
         set_format(args.figure_format)
-    previous = sigterm_as_interrupt()  # SIGTERM unwinds like Ctrl-C (exit 143)
+    previous = signals_as_interrupts()  # SIGTERM unwinds like Ctrl-C (exit 143)
     try:
         return int(args.func(args) or 0)
     except InputError as exc:
@@ -100,17 +101,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"cosim {args.command}: failed: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt as exc:
-        status = getattr(exc, "exit_status", EXIT_INTERRUPTED)
-        what = "terminated (SIGTERM)" if status == EXIT_TERMINATED else "interrupted"
-        print(f"cosim {args.command}: {what}", file=sys.stderr)
-        return status
+        return _interrupted(args.command, getattr(exc, "exit_status", EXIT_INTERRUPTED))
     except BrokenPipeError:
         # the reader (`| head`) went away: stop quietly, as a Unix filter does
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except Exception:
+        status = interrupted_status()  # e.g. Ctrl-C inside matplotlib's C import: ImportError
+        if status is None:
+            raise
+        return _interrupted(args.command, status)
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _interrupted(command: str, status: int) -> int:
+    what = "terminated (SIGTERM)" if status == EXIT_TERMINATED else "interrupted"
+    print(f"cosim {command}: {what}", file=sys.stderr)
+    return status
 
 
 if __name__ == "__main__":

@@ -56,16 +56,35 @@ class Terminated(KeyboardInterrupt):
     exit_status = EXIT_TERMINATED
 
 
+_RECEIVED: list[int] = []  # exit statuses of the signals this process received, in order
+
+
+def _raise_interrupted(signum: int, frame: Any) -> None:
+    del signum, frame
+    _RECEIVED.append(EXIT_INTERRUPTED)
+    raise KeyboardInterrupt
+
+
 def _raise_terminated(signum: int, frame: Any) -> None:
     del signum, frame
+    _RECEIVED.append(EXIT_TERMINATED)
     raise Terminated("terminated (SIGTERM)")
 
 
-def sigterm_as_interrupt() -> Any:
-    """Make SIGTERM raise `Terminated` (main thread only); returns the previous handler
-    for `signal.signal` to put back (None: nothing was changed)."""
+def signals_as_interrupts() -> dict[int, Any]:
+    """Make SIGINT raise KeyboardInterrupt and SIGTERM `Terminated` (main thread only),
+    each remembered (`interrupted_status`); returns the previous handlers, by signal, for
+    `signal.signal` to put back (empty: nothing was changed)."""
     import threading
 
     if threading.current_thread() is not threading.main_thread():
-        return None
-    return signal.signal(signal.SIGTERM, _raise_terminated)
+        return {}
+    return {signum: signal.signal(signum, handler) for signum, handler in
+            ((signal.SIGINT, _raise_interrupted), (signal.SIGTERM, _raise_terminated))}
+
+
+def interrupted_status() -> int | None:
+    """The exit status of the last signal that interrupted this process (None: none).
+    An interrupt raised inside a C extension's import (matplotlib's, say) reaches Python
+    as an ImportError, not as KeyboardInterrupt: the caller asks this to tell."""
+    return _RECEIVED[-1] if _RECEIVED else None

@@ -219,6 +219,21 @@ def _stage_names(final: Path) -> tuple[str, str]:
     return f".{final.name}{TEMP_MARK}", f".{final.name}{OLD_MARK}"
 
 
+def _owner_alive(name: str, prefix: str) -> bool:
+    """Whether the process that made the staging folder `name` (`<prefix><pid>-...`)
+    still runs: a run into the same folder must not delete another live run's stage."""
+    pid_text = name[len(prefix):].split("-", 1)[0]
+    if not pid_text.isdigit():
+        return False
+    try:
+        os.kill(int(pid_text), 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process: alive
+        return True
+    return True
+
+
 def recover_stale(final: str | Path) -> None:
     """Clean what a killed `staged_dir` left beside `final`: half-built folders are deleted;
     a replaced folder whose swap was cut short is put back (or deleted once it is swapped)."""
@@ -229,8 +244,9 @@ def recover_stale(final: str | Path) -> None:
     temp, old = _stage_names(final)
     for p in sorted(parent.iterdir()):
         if p.name.startswith(temp):
-            shutil.rmtree(p, ignore_errors=True)
-        elif p.name.startswith(old):
+            if not _owner_alive(p.name, temp):
+                shutil.rmtree(p, ignore_errors=True)
+        elif p.name.startswith(old) and not _owner_alive(p.name, old):
             if final.exists():
                 shutil.rmtree(p, ignore_errors=True)
             else:
@@ -243,18 +259,20 @@ def staged_dir(path: str | Path) -> Iterator[Path]:
     replaces `path` (the old folder is renamed aside, the new one renamed in, the old one
     deleted). On any exception (Ctrl-C, SIGTERM through `Terminated`) the temporary folder
     is deleted and `path` keeps exactly what it held. A SIGKILL leaves the hidden sibling,
-    which the next `staged_dir` of the same folder cleans (`recover_stale`)."""
+    which the next `staged_dir` of the same folder cleans (`recover_stale`; the names
+    carry the owner's process id, so a concurrent run's stage is left alone)."""
     final = Path(path)
     final.parent.mkdir(parents=True, exist_ok=True)
     recover_stale(final)
     temp, old = _stage_names(final)
-    tmp = Path(tempfile.mkdtemp(prefix=temp, dir=final.parent))
+    pid = f"{os.getpid()}-"  # the owner, for recover_stale
+    tmp = Path(tempfile.mkdtemp(prefix=temp + pid, dir=final.parent))
     aside: Path | None = None
     try:
         os.chmod(tmp, 0o777 & ~_read_umask())
         yield tmp
         if final.exists():
-            aside = Path(tempfile.mkdtemp(prefix=old, dir=final.parent))
+            aside = Path(tempfile.mkdtemp(prefix=old + pid, dir=final.parent))
             os.replace(final, aside)  # an empty directory is replaced by rename(2)
         os.replace(tmp, final)
     except BaseException:

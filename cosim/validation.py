@@ -229,3 +229,29 @@ def check_known_tables(source: str, doc: Mapping[str, Any], known: Sequence[str]
                 value,
                 f"unknown table{suggest(key, known)}; allowed: {', '.join(known)}",
             )
+
+
+def parse_tables(source: str, key: str, value: Any, cls: type, many: int) -> Any:
+    """A sub-table of `cls`'s declared keys as a `cls`, or (many > 0) a list of at most
+    `many` of them as a tuple."""
+    specs = declared_fields(cls)
+    if not many:
+        return cls(**validate_table(source, key, value, specs))
+    if not isinstance(value, list) or len(value) > many:
+        raise InputError(source, key, value, f"a list of at most {many} tables")
+    return tuple(cls(**validate_table(source, f"{key}[{i}]", item, specs))
+                 for i, item in enumerate(value))
+
+
+def table_to_dict(specs: Sequence[Field] | type, obj: Any) -> dict[str, Any]:
+    """One table in file units: `specs` (or a dataclass's declared keys) read from `obj`
+    (attributes or a mapping); absent optional keys (None) are left out."""
+    if isinstance(specs, type):
+        specs = declared_fields(specs)
+    out: dict[str, Any] = {}
+    for f in specs:
+        value = obj[f.attr] if isinstance(obj, Mapping) else getattr(obj, f.attr)
+        if value is None:
+            continue  # absent optional key (TOML has no null)
+        out[f.key] = f.to_file_units(value)
+    return out

@@ -203,6 +203,20 @@ def test_a_killed_swap_is_recovered_by_the_next_run(tmp_path: Path) -> None:
     assert [p.name for p in tmp_path.iterdir()] == ["run"]
 
 
+def test_a_live_runs_stage_is_left_alone(tmp_path: Path) -> None:
+    """Two runs into one folder: the second must not delete the first's stage (its
+    owner, this process, still runs), only a dead owner's."""
+    out = tmp_path / "run"
+    live = tmp_path / f".run.tmp-{os.getpid()}-abc"
+    live.mkdir()
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    (tmp_path / f".run.tmp-{dead}-def").mkdir()
+    with staged_dir(out) as tmp:
+        (tmp / "metrics.csv").write_text("new\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["run", live.name])
+
+
 @pytest.mark.parametrize("name", ["", ".", "..", "../x", "a/b", ".hidden", "x" * 81, "a\x00"])
 def test_check_name_refuses_names_that_escape(name: str) -> None:
     with pytest.raises(InputError) as info:

@@ -23,7 +23,6 @@ from cosim.scenario.export import (
     override_target,
     scenario_to_dict,
     schema_markdown,
-    table_to_dict,
     with_overrides,
 )
 from cosim.scenario.keys import (
@@ -68,7 +67,7 @@ from cosim.scenario.model import (
     TVSpec,
     V2VSpec,
 )
-from cosim.validation import Field, validate_table
+from cosim.validation import Field, table_to_dict, validate_table
 
 __all__ = [
     "CONTROLLER_FIELDS", "DEFAULT_LANECHANGE_DURATION", "DEFAULT_NETWORK", "DEFAULT_STEP",

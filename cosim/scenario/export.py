@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import copy
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 from cosim.errors import InputError
 from cosim.scenario.keys import NESTED, OVERRIDES, TABLES
 from cosim.scenario.load import scenario_from_dict
 from cosim.scenario.model import Scenario
-from cosim.validation import REQUIRED, Field, declared_fields, suggest
+from cosim.validation import REQUIRED, Field, suggest, table_to_dict
 
 
 def override_target(name: str) -> tuple[str, str, Field | None]:
@@ -64,20 +64,6 @@ def with_overrides(scenario: Scenario, **changes: Any) -> Scenario:
     removes the key (back to its default).
     """
     return apply_overrides(scenario, changes, f"{scenario.path} (overrides)")
-
-
-def table_to_dict(specs: Sequence[Field] | type, obj: Any) -> dict[str, Any]:
-    """One table in file units: `specs` (or a dataclass's declared keys) read from `obj`
-    (attributes or a mapping); absent optional keys (None) are left out."""
-    if isinstance(specs, type):
-        specs = declared_fields(specs)
-    out: dict[str, Any] = {}
-    for f in specs:
-        value = obj[f.attr] if isinstance(obj, Mapping) else getattr(obj, f.attr)
-        if value is None:
-            continue  # absent optional key (TOML has no null)
-        out[f.key] = f.to_file_units(value)
-    return out
 
 
 def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:

@@ -26,7 +26,6 @@ from cosim.validation import (
     MISSING,
     check_known_tables,
     check_table,
-    declared_fields,
     validate_table,
 )
 
@@ -98,18 +97,6 @@ def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario file; raise InputError (one line) if anything is wrong."""
     p = Path(path)
     return scenario_from_dict(read_toml(p), path=p.resolve(), source=str(p))
-
-
-def parse_tables(source: str, key: str, value: Any, cls: type, many: int) -> Any:
-    """A sub-table of `cls`'s declared keys as a `cls`, or (many > 0) a list of at most
-    `many` of them as a tuple."""
-    specs = declared_fields(cls)
-    if not many:
-        return cls(**validate_table(source, key, value, specs))
-    if not isinstance(value, list) or len(value) > many:
-        raise InputError(source, key, value, f"a list of at most {many} tables")
-    return tuple(cls(**validate_table(source, f"{key}[{i}]", item, specs))
-                 for i, item in enumerate(value))
 
 
 def read_network(source: str, key: str, written: str, path: Path,

@@ -14,7 +14,7 @@ from typing import Any
 
 from cosim.output import NAME_PATTERN  # a folder name: no "", ".", "..", "/"
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
-from cosim.validation import REQUIRED, Field, declare
+from cosim.validation import REQUIRED, Field, declare, parse_tables, table_to_dict
 
 KMH = 3.6  # si_divisor of a km/h field
 MAX_SPEED_KMH = 250.0  # km/h, the highest speed any scenario may name
@@ -91,8 +91,6 @@ class TVBrake:
 
 def _export_nested(cls: type) -> Any:
     def export(value: Any) -> Any:
-        from cosim.scenario.export import table_to_dict
-
         if value is None:
             return None
         if isinstance(value, tuple):
@@ -106,8 +104,6 @@ def _sub_table(cls: type, key: str, describe: str, doc: str, *, many: int = 0) -
     """A key holding a table (or, `many` > 0, a list of at most `many` tables) of `cls`."""
 
     def parse(source: str, dotted: str, value: Any) -> Any:
-        from cosim.scenario.load import parse_tables
-
         return parse_tables(source, dotted, value, cls, many)
 
     return Field(key, list if many else dict, default=() if many else None, parse=parse,

@@ -30,7 +30,7 @@ from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.v2v import LateralMotion, V2VMessage
 
 if TYPE_CHECKING:
-    from cosim.scenario import TVSpec
+    from cosim.scenario.model import TVSpec
 
 Array = NDArray[np.float64]
 

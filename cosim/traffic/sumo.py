@@ -118,10 +118,9 @@ class SumoSim:
 
     `lanechange_duration` (s) makes traffic lane changes continuous (constant
     lateral speed for that long); `sublane` uses SUMO's sublane model instead
-    (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci.
-    `speed_bands` (m/s per lane) set each TV's desired speed in the lane it is in.
-    `traci` runs the headless binary through traci (what `gui` does, minus the
-    window). `strict`: a controlled vehicle leaving the network raises
+    (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci; `traci`
+    the headless binary so. `speed_bands` (m/s per lane) set each TV's desired speed
+    in the lane it is in. `strict`: a controlled vehicle leaving the network raises
     SimulationError (else it is only recorded in `events`).
     """
 
@@ -149,10 +148,9 @@ class SumoSim:
         self.seed = int(seed)
         self.lanechange_duration = float(lanechange_duration)
         self.sublane = bool(sublane)
-        self.gui = bool(gui)
-        # `gui` may carry how to show the run (cosim.traffic.gui); True: the defaults
-        self.gui_settings = gui if isinstance(gui, GuiSettings) else GuiSettings()
-        self.use_traci = bool(traci) or self.gui  # the GUI is only reachable through traci
+        # how sumo-gui shows the run (cosim.traffic.gui; `gui` True: the defaults); None: no GUI
+        self.gui = (gui if isinstance(gui, GuiSettings) else GuiSettings()) if gui else None
+        self.use_traci = bool(traci) or self.gui is not None  # the GUI is only reachable by traci
         self.extra_args = tuple(extra_args)
         self.lateral_resolution = float(lateral_resolution)
         self.strict = bool(strict)
@@ -207,7 +205,7 @@ class SumoSim:
         elif self.lanechange_duration > 0:
             options.append(("--lanechange.duration", repr(self.lanechange_duration)))
         if self.gui:
-            options += gui_window.options(self.gui_settings)
+            options += gui_window.options(self.gui)
         # SUMO refuses an option given twice: extra_args replace our defaults
         overridden = {a for a in self.extra_args if a.startswith("-")}
         cmd = [binary]
@@ -223,7 +221,7 @@ class SumoSim:
         self._api = _import_api(self.use_traci)
         if self.gui:
             gui_window.start(self._api, self.command())
-            self.add_hook(gui_window.Pacer(self.gui_settings.speed))
+            self.add_hook(gui_window.Pacer(self.gui.speed))
         else:
             self._api.start(self.command())
         _active = self
@@ -247,7 +245,7 @@ class SumoSim:
         finally:
             try:
                 if self.gui:
-                    gui_window.close(api, self.gui_settings)
+                    gui_window.close(api, self.gui)
                 else:
                     api.close()
             finally:
@@ -374,7 +372,7 @@ class SumoSim:
     def follow_in_gui(self, vehicle_id: str) -> None:
         """sumo-gui only: keep the main view centred on a vehicle (no-op without GUI)."""
         if self.gui:
-            gui_window.follow(self.api, vehicle_id, self.gui_settings)
+            gui_window.follow(self.api, vehicle_id, self.gui)
 
     def change_lane(self, vehicle_id: str, lane: int, duration: float = 30.0) -> None:
         """Ask SUMO to move a vehicle it drives to `lane` (keeps trying for `duration` s)."""
