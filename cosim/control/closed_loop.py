@@ -30,15 +30,17 @@ Table 1 car this grows with lateral acceleration as KL (L lr Cr - lf M Vx^2)
 (about 2 kN m at 1.8 m/s^2 and 80 km/h), made by differential wheel forces;
 on mu = 0.4 those forces plus the cornering forces overrun the inner wheels'
 friction circles (the allocation, eq. 30, ignores wheel loads): on the
-two-track car the yaw loop ends in a growing oscillation (3 m off the path at
-tau = 3.5 s, a spin at 2.78 s). So |dMz| is limited to
+two-track car the yaw loop ends in a growing oscillation (with the Magic Formula
+tyres of issue 15: a spin at tau = 2.5 s; it still tracks at 3.5 s, 0.05 m off;
+tests/control/test_closed_loop.py). So |dMz| is limited to
 share * mu * M * g * ls: every wheel's differential force then stays below
 `share` of its static friction limit; with the planner's lateral use of
 f = 0.8, sqrt(0.2^2 + 0.8^2) = 0.82 leaves room for the load the inner wheels
 lose in the turn. The share trades path for heading: on mu = 0.4 at case 5.1
-speeds and tau = 2.78 s, shares 0.1 / 0.2 / 0.3 give a largest |ye| of
+speeds and tau = 2.78 s, shares 0.1 / 0.2 / 0.3 gave a largest |ye| of
 0.03 / 0.08 / 0.12 m and a phi_e IAE of 1.01 / 0.75 / 0.69 deg s (SISO: 0.025 m,
-1.26 deg s); the default 0.2 sits between. None: no limit, the paper's law as
+1.26 deg s; measured with the friction-circle tyres before issue 15); the default
+0.2 sits between. None: no limit, the paper's law as
 printed. The steering law does not use dMz (B's
 first row), so while the limit is active ye is still regulated and only phi_e
 is left to the zero dynamics, as in the SISO baseline.

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cosim.compiled import njit
+from cosim.compiled import njit, register_warm_up
 from cosim.errors import InputError
 from cosim.planning.trajectory import LaneChangeTrajectory
 
@@ -310,6 +310,7 @@ def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: Arr
     return FollowerCheck(j, t_in, pred, pred.safe(m))
 
 
+@register_warm_up
 def warm_up() -> None:
     """Compile (or load) the follower recursion for both models."""
     t = np.linspace(0.0, 1.0, 5)
