@@ -17,11 +17,12 @@ def test_compare_writes_one_row_per_driver_and_a_figure(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["compare", str(CASE1), "--out", str(tmp_path), "--figure-format", "pdf"]) == 0
     table = pd.read_csv(tmp_path / "compare.csv")
-    assert list(table["controller"]) == ["mimo", "siso", "sumo"]
+    assert list(table["driver"]) == ["mimo", "siso", "mimo_gap", "sumo"]  # the file: paper
+    assert list(table["controller"]) == ["mimo", "siso", "mimo", "sumo"]
     assert set(table["seed"]) == {1} and set(table["scenario"]) == {"paper_case1_overtaking"}
     assert (table["lane_changes"] == 1).all()
     # SUMO's own model: a velocity step sideways, far harder than the planned change
-    mimo, sumo = table.iloc[0], table.iloc[2]
+    mimo, sumo = table.iloc[0], table.iloc[3]
     assert sumo["max_abs_lat_accel_mps2"] > 5 * mimo["max_abs_lat_accel_mps2"]
     assert (tmp_path / "compare.pdf").read_bytes()[:5] == b"%PDF-"
     assert "mimo" in capsys.readouterr().out

@@ -1,7 +1,10 @@
 """`cosim compare SCENARIO.toml [--out DIR] [--seed N]`: the same scenario and seed
-driven by MIMO, SISO and SUMO-native, side by side.
+driven by MIMO and SISO (with the scenario's lane-change policy), MIMO with the other
+policy (`[planner] policy`: the paper's method or the gap-seeking driver) and
+SUMO-native, side by side.
 
-Writes DIR/compare.csv (one row of metrics.csv's columns per driver) and
+Writes DIR/compare.csv (a `driver` column, then metrics.csv's columns; one row per
+driver) and
 DIR/compare.<format> (SV trajectories, lateral acceleration, gap and TTC over
 time); default DIR results/compare/<scenario name>/.
 """
@@ -14,14 +17,25 @@ from pathlib import Path
 
 from cosim.commands import add_figure_format, compile_first, flag_overrides
 
-DRIVERS = ("mimo", "siso", "sumo")
+
+def drivers(policy: str) -> dict[str, dict[str, str]]:
+    """driver name -> the overrides that make it, for a scenario whose policy is `policy`:
+    mimo and siso with it, mimo_<other> with each other policy, sumo."""
+    from cosim.params import LANE_CHANGE_POLICIES
+
+    runs = {"mimo": {"controller": "mimo"}, "siso": {"controller": "siso"}}
+    runs |= {f"mimo_{p}": {"controller": "mimo", "policy": p}
+             for p in LANE_CHANGE_POLICIES if p != policy}
+    return runs | {"sumo": {"controller": "sumo"}}
+
 SHOWN = ("lane_changes", "collisions", "min_gap_m", "min_ttc_s", "max_abs_lat_accel_mps2",
          "max_jerk_mps3", "lane_change_duration_s")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
-        "compare", help="one scenario and seed driven by MIMO, SISO and SUMO-native",
+        "compare", help="one scenario and seed driven by MIMO, SISO, the other lane-change "
+        "policy and SUMO-native",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
@@ -42,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     from cosim.sim import simulate
 
     base = flag_overrides(load_scenario(args.scenario), {"--seed": ("seed", args.seed)})
-    scenarios = {d: with_overrides(base, controller=d) for d in DRIVERS}  # all checked first
+    scenarios = {d: with_overrides(base, **changes)  # all checked first
+                 for d, changes in drivers(base.planner.policy).items()}
     out = args.out if args.out is not None else project_root() / "results" / "compare" / base.name
     check_output_dir(out)
     compile_first()
@@ -51,10 +66,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"cosim compare: {base.name}, seed {base.seed}: {driver}", file=sys.stderr)
         results[driver] = simulate(scenario)
     make_output_dir(out)
-    table = pd.DataFrame([r.metrics for r in results.values()])
+    table = pd.DataFrame([{"driver": d, **r.metrics} for d, r in results.items()])
     csv = atomic_write_csv(out / "compare.csv", table, float_format="%.9g")
     figure = compare_figure(figure_path(out, "compare"), results,
-                            title=f"{base.name}, seed {base.seed}: MIMO, SISO and SUMO-native")
-    print(table[["controller", *SHOWN]].to_string(index=False, float_format="%.3g"))
+                            title=f"{base.name}, seed {base.seed}: our drivers and SUMO-native")
+    print(table[["driver", *SHOWN]].to_string(index=False, float_format="%.3g"))
     print(f"wrote {csv}\nwrote {figure}", file=sys.stderr)
     return 0

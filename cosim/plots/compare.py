@@ -11,8 +11,10 @@ import numpy as np
 
 from cosim.plots import save_figure
 
-LABELS = {"mimo": "ours, MIMO", "siso": "ours, SISO", "sumo": "SUMO-native"}
-STYLES = {"mimo": ("C0", "-"), "siso": ("C1", "--"), "sumo": ("C2", "-")}
+LABELS = {"mimo": "ours, MIMO", "siso": "ours, SISO", "mimo_paper": "ours, MIMO, paper's method",
+          "mimo_gap": "ours, MIMO, gap driver", "sumo": "SUMO-native"}
+STYLES = {"mimo": ("C0", "-"), "siso": ("C1", "--"), "mimo_paper": ("C3", ":"),
+          "mimo_gap": ("C3", ":"), "sumo": ("C2", "-")}
 
 
 def compare_figure(path: Path, results: Mapping[str, Any], *, title: str) -> Path:
