@@ -122,7 +122,8 @@ def _loop_setup(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: i
     t_rel, follow = planner._horizon(t, 0.0, sv.x, min(sv.vx, vxf), target, messages)
     lazy = predict_lazy(messages, t, t_rel, road, veh, taus, envelope=cfg.envelope,
                         safety_factor=cfg.safety_factor,
-                        stable_fn=planner._tv_stable if planner.use_maps else None)
+                        stable_fn=planner._tv_stable if planner.use_maps else None,
+                        cells=cfg.collision_test == "exact")
     futures = lazy.materialise()
     tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
     tv_hor = np.maximum(tv_end + cfg.horizon_extra, follow[futures.owner])

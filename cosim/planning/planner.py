@@ -211,10 +211,11 @@ class LaneChangePlanner:
         return self._maps[key]
 
     def _map_tau_min(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
-                     ay0: float, *, lower: bool = False) -> float:
+                     ay0: float, *, lower: bool = False, value: bool = False) -> float:
         """tau_min from a map: an upper bound (the SV's own: every duration it takes is
         stable) or with `lower` a lower bound (a C2 TV's: it may take any stable one),
-        `TauMinMap.bounds`; nan where the map does not apply: a start that is not at
+        `TauMinMap.bounds`; `value`: the map's interpolated value; nan where the map does
+        not apply: a start that is not at
         rest laterally, or a width more than MAP_WIDTH_TOLERANCE off a lane width
         (within it, tau_min is scaled by sqrt(|width| / lane width): the lateral
         acceleration goes as W / tau^2)."""
@@ -222,13 +223,16 @@ class LaneChangePlanner:
         if not (self.use_maps and abs(ax0) < 1e-9 and abs(vy0) < 1e-9 and abs(ay0) < 1e-9
                 and abs(abs(width) - lane) <= MAP_WIDTH_TOLERANCE):
             return math.nan
-        lo, hi = self.tau_min_map(vxf, math.copysign(lane, width)).bounds(vx0)
-        return float(lo if lower else hi) * math.sqrt(abs(width) / lane)
+        fmap = self.tau_min_map(vxf, math.copysign(lane, width))
+        lo, hi = fmap.bounds(vx0)
+        tau_min = fmap(vx0) if value else lo if lower else hi
+        return float(tau_min) * math.sqrt(abs(width) / lane)
 
     def _stable_set(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
                     ay0: float, mode: int | None) -> StableSet:
         cfg = self.config
-        tau_min = self._map_tau_min(vx0, vxf, width, ax0, vy0, ay0)
+        tau_min = self._map_tau_min(vx0, vxf, width, ax0, vy0, ay0,
+                                    value=cfg.collision_test == "col")
         if math.isfinite(tau_min):
             stable = self.grid >= tau_min - 1e-12
             return StableSet(self.grid, np.where(stable, 0.0, np.inf), stable, tau_min)
@@ -242,10 +246,13 @@ class LaneChangePlanner:
                    vy0: Array) -> tuple[NDArray[np.bool_], Array]:
         """(n_tv, n_tau) stable masks of C2 TVs' clusters (S3: built like the SV) and a
         lower bound of each one's tau_min (nan: none known): from the maps where they
-        apply, the rest in one batched envelope call."""
+        apply, the rest in one batched envelope call. (The paper's CoL test takes the
+        map's own value, as the paper takes its maps'.)"""
         n, grid = vx0.size, self.grid
+        lower = self.config.collision_test == "exact"
         tau_min = np.array([self._map_tau_min(float(vx0[i]), float(vxf[i]), float(width[i]),
-                                              0.0, float(vy0[i]), 0.0, lower=True)
+                                              0.0, float(vy0[i]), 0.0, lower=lower,
+                                              value=not lower)
                             for i in range(n)])
         out = grid[None, :] >= tau_min[:, None] - 1e-12
         rest = np.flatnonzero(~np.isfinite(tau_min))
@@ -373,6 +380,7 @@ class LaneChangePlanner:
             messages, t, t_rel, road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
+            cells=cfg.collision_test == "exact",
         )
         hit_vehicle, hit_time = np.full(taus.size, -1), np.full(taus.size, np.nan)
         free = np.zeros(taus.size, dtype=bool)
@@ -414,6 +422,7 @@ class LaneChangePlanner:
             messages, t, t_rel, self.road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
+            cells=cfg.collision_test == "exact",
         )
         cand = SVCandidates(np.array([tr.tau]), tr.vx0, tr.vxf, tr.width, tr.x0, tr.y0,
                              tr.ax0, tr.vy0, tr.ay0, t_shift=t - tr.t0)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -205,16 +206,19 @@ def predict(
 def predict_lazy(
     messages: Sequence[V2VMessage], t_plan: float, t_rel: Array, road: RoadParams,
     vehicle: VehicleParams, taus: Array, *, envelope: str = "inverse_dynamics",
-    safety_factor: float = 0.8, stable_fn: StableFn | None = None,
+    safety_factor: float = 0.8, stable_fn: StableFn | None = None, cells: bool = True,
 ) -> LazyFutures:
-    """`predict`, with the C2 clusters from rest left in closed form (`LazyFutures`)."""
+    """`predict`, with the C2 clusters from rest left in closed form (`LazyFutures`).
+    `cells` False: a C2 cluster is its stable grid points only, no lower bound of its
+    tau_min and no cells between them (the paper's procedure, for its CoL test)."""
     t = t_plan + np.asarray(t_rel, dtype=float)
     rel = t - t_plan
     n_t = t.size
     ids = tuple(m.vehicle_id for m in messages)
     cats: list[str] = []
-    # blocks of hypotheses in order: ("rows", x, y, h) or ("closed", params...)
-    blocks: list[tuple] = []
+    # blocks of hypotheses in order: stored rows, C1 TVs (rows, computed together) or
+    # lane changes from rest in closed form
+    blocks: list[_Rows | _C1 | _Closed] = []
     # per hypothesis, as plain lists (one array each at the end)
     owner: list[int] = []
     tau_h: list[float] = []
@@ -234,11 +238,11 @@ def predict_lazy(
         """One block of hypotheses of TV i: x, y, h shaped (k, n_t) or (n_t,)."""
         x2 = np.atleast_2d(x)
         k = x2.shape[0]
-        blocks.append(("rows", x2, np.broadcast_to(y, (k, n_t)), np.broadcast_to(h, (k, n_t))))
+        blocks.append(_Rows(x2, np.broadcast_to(y, (k, n_t)), np.broadcast_to(h, (k, n_t))))
         meta(i, k, tau, end)
 
     def add_c1(i: int, m: V2VMessage) -> None:
-        blocks.append(("c1", m))  # computed below, all C1 TVs at once
+        blocks.append(_C1(m))  # computed below, all C1 TVs at once
         meta(i, 1, np.nan, -np.inf)
 
     for i, m in enumerate(messages):
@@ -247,8 +251,8 @@ def predict_lazy(
             mo = m.motion
             assert mo is not None
             if mo.profile == "quintic" and mo.t0 <= t_plan:  # eq. 2 / eq. 4 from rest
-                blocks.append(("closed", np.array([mo.tau]), mo.vx0, mo.vxf, mo.width,
-                               mo.x0, mo.y0, mo.t0 - t_plan))
+                blocks.append(_Closed(np.array([mo.tau]), False, mo.vx0, mo.vxf, mo.width,
+                                      mo.x0, mo.y0, mo.t0 - t_plan))
                 meta(i, 1, mo.tau, mo.t0 + mo.tau)
             else:
                 add(i, *motion_path(mo, t), mo.tau, mo.t0 + mo.tau)
@@ -292,8 +296,9 @@ def predict_lazy(
                 cats[i] = "C1"
                 add_c1(i, m)
             elif still[j]:  # eq. 2 / eq. 4 in closed form, from rest laterally
-                ok = _from_lower_bound(taus, stable[j], float(tau_lo[j]))
-                blocks.append(("closed", ok, v0[j], vxf[j], width[j], x0[j], m.y, 0.0))
+                if cells:
+                    ok = _from_lower_bound(taus, stable[j], float(tau_lo[j]))
+                blocks.append(_Closed(ok, cells, v0[j], vxf[j], width[j], x0[j], m.y, 0.0))
                 meta(i, ok.size, ok, t_plan + ok)
             else:
                 d = cluster_derivatives(v0[j], vxf[j], width[j], ok, rel, (0, 1), vy0=vy0[j])
@@ -307,7 +312,7 @@ def predict_lazy(
         return LazyFutures(t, rel, ids, tuple(cats), noint, none, none, none, none, noint,
                            noint, empty, empty, empty, np.zeros(0, dtype=LANE_CHANGE),
                            np.zeros(0, dtype=bool))
-    c1 = [b[1] for b in blocks if b[0] == "c1"]
+    c1 = [b.message for b in blocks if isinstance(b, _C1)]
     if c1:  # constant_acceleration of every C1 TV (the same operations, one array)
         mt, v, a, mx = (np.array([getattr(m, f) for m in c1]) for f in ("t", "speed", "accel", "x"))
         dt = t[None, :] - mt[:, None]
@@ -316,8 +321,9 @@ def predict_lazy(
             dt[neg] = np.minimum(dt[neg], (v[neg] / -a[neg])[:, None])
         x_c1 = mx[:, None] + v[:, None] * dt + 0.5 * a[:, None] * dt * dt
         j = iter(range(len(c1)))
-        blocks = [("rows", x_c1[next(j)][None, :], np.full((1, n_t), b[1].y),
-                   np.full((1, n_t), b[1].heading)) if b[0] == "c1" else b for b in blocks]
+        blocks = [_Rows(x_c1[next(j)][None, :], np.full((1, n_t), b.message.y),
+                        np.full((1, n_t), b.message.heading)) if isinstance(b, _C1) else b
+                  for b in blocks]
     n_h = len(owner)
     lc = np.full(n_h, np.nan, dtype=LANE_CHANGE)
     cell = np.zeros(n_h, dtype=bool)
@@ -328,22 +334,20 @@ def predict_lazy(
     rows_h: list[Array] = []
     h0 = 0
     for b in blocks:
-        if b[0] == "rows":
-            k = b[1].shape[0]
+        if isinstance(b, _Rows):
+            k = b.x.shape[0]
             row_of[h0:h0 + k] = sum(r.shape[0] for r in rows_x) + np.arange(k)
             stored.append(np.arange(h0, h0 + k))
-            rows_x.append(b[1])
-            rows_y.append(b[2])
-            rows_h.append(b[3])
-        else:
-            durations = b[1]
-            k = durations.size
-            v0_, vxf_, w_, x0_, y0_, start = b[2:]
+            rows_x.append(b.x)
+            rows_y.append(b.y)
+            rows_h.append(b.heading)
+        elif isinstance(b, _Closed):
+            k = b.durations.size
             block = lc[h0:h0 + k]
-            for name, value in zip(LANE_CHANGE.names, (v0_, vxf_, w_, durations, x0_, y0_, start),
-                                   strict=True):
+            for name, value in zip(LANE_CHANGE.names, (b.v0, b.vxf, b.width, b.durations,
+                                                       b.x0, b.y0, b.start), strict=True):
                 block[name] = value
-            cell[h0:h0 + k - 1] = True  # a C2 cluster's durations (a C3 has one)
+            cell[h0:h0 + k - 1] = b.cells  # a C2 cluster's neighbouring durations
         h0 += k
     cat_rows = (lambda a: np.concatenate(a) if a else np.zeros((0, n_t)))  # noqa: E731
     return LazyFutures(
@@ -354,6 +358,33 @@ def predict_lazy(
         row_of=row_of, sx=cat_rows(rows_x), sy=cat_rows(rows_y), sh=cat_rows(rows_h),
         lc=lc, cell=cell,
     )
+
+
+class _Rows(NamedTuple):
+    """Hypotheses stored as rows on the grid, each (k, n_t)."""
+
+    x: Array  # m
+    y: Array  # m
+    heading: Array  # rad
+
+
+class _C1(NamedTuple):
+    """A C1 TV, its row computed with the others."""
+
+    message: V2VMessage
+
+
+class _Closed(NamedTuple):
+    """Lane changes from rest (eq. 2 / eq. 4), one per duration."""
+
+    durations: Array  # s
+    cells: bool  # neighbouring durations bound cells (a C2 cluster)
+    v0: float  # m/s
+    vxf: float  # m/s
+    width: float  # m
+    x0: float  # m
+    y0: float  # m
+    start: float  # s, relative to the planning instant
 
 
 def _from_lower_bound(taus: Array, stable: NDArray[np.bool_], tau_lo: float) -> Array:
