@@ -294,8 +294,9 @@ def check_candidates(
     headings) and centre distances. The exact test ("exact") then covers, continuously,
     the times within half a step of t_k and every duration between h and the next
     listed one of its cluster (see the module's docstring; an overlap reported at
-    t_k lies in that cell); "col" is the paper's CoL at the samples and the listed
-    durations only. The loops run compiled (numba).
+    t_k lies in that cell, or, when the cell would need a closer look and the next
+    sample overlaps outright, at that sample); "col" is the paper's CoL at the samples
+    and the listed durations only. The loops run compiled (numba).
     """
     if test not in COLLISION_TESTS:
         raise ValueError(f"collision test {test!r}: one of {COLLISION_TESTS}")
@@ -513,6 +514,23 @@ def _row_bounds(tv: TVSide, h: int, k: int) -> tuple[float, float, float, float,
                   + abs(y[r, kc + 1] - 2 * y[r, kc] + y[r, kc - 1])
                   + rad * abs(hd[r, kc + 1] - 2 * hd[r, kc] + hd[r, kc - 1]))
     return x_lo, x_hi, yd, rate, 0.5 * second
+
+
+@njit
+def _overlaps_at(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, t: float,
+                 margin: float) -> bool:
+    """Candidate c and hypothesis h overlap at time t, at duration tau_a or tau_b."""
+    ax, ay, ah, _, _ = _sv_state(sv, c, t)
+    ca, sa = math.cos(ah), math.sin(ah)
+    hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
+    bx, by, bh, _, _ = _tv_state(tv, h, tau_a, t)
+    if _sat(ax, ay, ca, sa, hla, hwa, bx, by, math.cos(bh), math.sin(bh), hlb, hwb, margin):
+        return True
+    if tau_b > tau_a:
+        bx, by, bh, _, _ = _tv_state(tv, h, tau_b, t)
+        return _sat(ax, ay, ca, sa, hla, hwa, bx, by, math.cos(bh), math.sin(bh), hlb, hwb,
+                    margin)
+    return False
 
 
 @njit
@@ -825,6 +843,16 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             if ex * ex + ey * ey <= reach * reach and _sat_moved(
                                     sx, sy, ca_, sa_, hla, hwa, bx, by, cb_, sb_, hlb, hwb,
                                     margin, mx, my, turn):
+                                # a real overlap at the next sample ends the candidate as
+                                # surely, and is cheaper to find than one inside this cell
+                                if (k + 1 < n_t
+                                        and t[k + 1] <= max(sv.horizon[c], tv.horizon[h])
+                                        and _overlaps_at(sv, c, tv, h, tau_a, tau_b, t[k + 1],
+                                                         margin)):
+                                    first_k[c], first_h[c] = k + 1, h
+                                    alive[c] = False
+                                    n_alive -= 1
+                                    break
                                 hit = _refine(sv, c, tv, h, tau_a, tau_b, w_lo, p_hi, margin,
                                               sv_b[c, 4] + tv_b[h, 5],
                                               r_sv * sv_b[c, 3] + r_tv * rate, tv_b[h, 6],
