@@ -221,9 +221,9 @@ class TauMinMap:
 
     Built once: a bisection over tau run for all speeds of a grid at once (it
     assumes what eq. 7-8 assume, a stable set [tau_min, tau_max]), with the envelope
-    sampled at 64 instants. The sampled envelope is second order in its step: on a
-    coarser speed grid the bisection runs again at 128 and 256 instants and the
-    difference, extrapolated (Richardson, 1.5 times), estimates the sampling error.
+    sampled at 64 instants. The sampled envelope converges with its step: the
+    bisection runs again at 128 and 256 instants and the difference, extrapolated,
+    estimates the sampling error.
     Queried by linear interpolation in vx0 (`__call__`, as before), or as bounds of
     the converged envelope's tau_min (`bounds`): the lower one for the durations a C2
     TV may take, the upper one for the SV's own. Covers starts from rest laterally
@@ -234,7 +234,7 @@ class TauMinMap:
         self, vxf: float, width: float, mu: float, vehicle: VehicleParams, *,
         tau_lo: float, tau_hi: float, safety_factor: float = 0.8,
         yaw_model: str = "inverse_dynamics", v_lo: float = 1.0, v_hi: float = 50.0,
-        v_step: float = 0.5, tol: float = 1e-4, fine_step: float = 2.5,
+        v_step: float = 0.5, tol: float = 1e-4, fine_step: float = 0.5,
     ) -> None:
         self.speeds = np.arange(v_lo, v_hi + 1e-9, v_step)
 
@@ -268,7 +268,11 @@ class TauMinMap:
             _, t128 = bisect(v, np.maximum(b - 0.05, tau_lo), np.minimum(b + 0.01, tau_hi), 128)
             _, t256 = bisect(v, np.maximum(t128 - 0.01, tau_lo),
                              np.minimum(t128 + 0.003, tau_hi), 256)
-            est = t256 - 1.5 * (t128 - t256) / 3.0  # converged tau_min, extrapolated
+            # converged tau_min, extrapolated: the error goes down about as the step
+            # squared where the margin's maximum stays between samples, slower where it
+            # jumps (measured 3.7, 0.48, 0.32 ms from 64 to 1024); half the last
+            # difference, with the interpolation's allowance below, covered both
+            est = t256 - 0.5 * (t128 - t256)
             err[ok] = np.nan_to_num(b - est)
         self._err_v, self._err = fine_v, err
         # linear interpolation's error per speed interval: twice the h^2 f'' / 8 estimate

@@ -123,7 +123,8 @@ class Reference:
                     self.rows.append((f.x[0], f.y[0], f.heading[0], m.length, m.width,
                                       follow[j]))
                     continue
-                taus = np.arange(tau_min, cfg.tau_max + 0.5 * TAU_STEP, TAU_STEP)
+                taus = np.append(np.arange(tau_min, cfg.tau_max - 0.5 * TAU_STEP, TAU_STEP),
+                                 cfg.tau_max)
                 self.clusters.append((v0_, vxf_, w_, x0, m.y, taus, m.length, m.width,
                                       follow[j], self._coarse(v0_, vxf_, w_, x0, m.y, taus)))
 
@@ -137,7 +138,7 @@ class Reference:
         sh = np.arctan2(d[1][1][0], d[1][0][0])
         sl, sw = self.veh.length + 2 * m, self.veh.width + 2 * m
         for x, y, h, tl, tw, hor in self.rows:
-            k = self.t <= max(tau + cfg.horizon_extra, hor)
+            k = self.t <= max(tau + cfg.horizon_extra, hor) + 1e-9  # (the grid's rounding)
             near = k & _boxes_meet(sx, sy, sh, sl, sw, x, y, h, tl + 2 * m, tw + 2 * m, 0.0)
             if _touch(sx[near], sy[near], sh[near], sl, sw, x[near], y[near], h[near],
                       tl + 2 * m, tw + 2 * m):
@@ -174,7 +175,7 @@ class Reference:
         ahx, ahy = 0.5 * (sl * ac + sw * as_), 0.5 * (sl * as_ + sw * ac)
         near = ((np.abs(cx - sx[kc]) <= ahx + 0.5 * (tl * cc + tw * cs) + 2 * slack)
                 & (np.abs(cy - sy[kc]) <= ahy + 0.5 * (tl * cs + tw * cc) + 2 * slack)
-                & (tc[None, :] <= hor[:, None]))
+                & (tc[None, :] <= hor[:, None] + 1e-9))
         ii, kk = np.nonzero(near)
         if ii.size == 0:
             return False
@@ -186,7 +187,7 @@ class Reference:
         ti, ui = np.broadcast_arrays(ti, ui)
         ti, ui = ti.ravel(), ui.ravel()
         tt, fine = self.t[ti], taus[ui]
-        ok = tt <= np.maximum(np.maximum(tau, fine) + extra, follow)
+        ok = tt <= np.maximum(np.maximum(tau, fine) + extra, follow) + 1e-9
         ti, tt, fine = ti[ok], tt[ok], fine[ok]
         dd = cluster_derivatives(v0, vxf, w, fine[:, None], tt[:, None], (0, 1))
         tx, ty = dd[0][0][:, 0] + x0, dd[0][1][:, 0] + y0
