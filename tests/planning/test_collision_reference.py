@@ -151,7 +151,8 @@ class Reference:
 
     def _coarse(self, v0, vxf, w, x0, y0, taus):  # noqa: ANN001, ANN202
         """A cluster on the 10 ms x 20 ms grid: centres, |cos|, |sin| of the heading."""
-        d = cluster_derivatives(v0, vxf, w, taus[::STRIDE], self.t[::COARSE], (0, 1))
+        d = cluster_derivatives(v0, vxf, w, taus[_coarse_index(taus.size)], self.t[::COARSE],
+                                (0, 1))
         h = np.arctan2(d[1][1], d[1][0])
         return d[0][0] + x0, d[0][1] + y0, np.abs(np.cos(h)), np.abs(np.sin(h))
 
@@ -164,7 +165,8 @@ class Reference:
         kc = np.arange(0, self.t.size, COARSE)
         tc = self.t[kc]
         stride = STRIDE
-        tau_c = taus[::stride]
+        ci = _coarse_index(taus.size)
+        tau_c = taus[ci]
         cx, cy, cc, cs = coarse
         # relative motion within 5 ms (< 20 m/s) and within 10 ms of duration (< 1.1 W /
         # tau), turning (< 0.5 rad/s, 0.2 rad/s per s of duration) at 3 m from the centre
@@ -183,7 +185,7 @@ class Reference:
         dk = np.arange(-half, half + 1)
         di = np.arange(-(stride // 2), stride // 2 + 1)
         ti = np.clip(kc[kk][:, None, None] + dk[None, None, :], 0, self.t.size - 1)
-        ui = np.clip(ii[:, None, None] * stride + di[None, :, None], 0, taus.size - 1)
+        ui = np.clip(ci[ii][:, None, None] + di[None, :, None], 0, taus.size - 1)
         ti, ui = np.broadcast_arrays(ti, ui)
         ti, ui = ti.ravel(), ui.ravel()
         tt, fine = self.t[ti], taus[ui]
@@ -193,6 +195,11 @@ class Reference:
         tx, ty = dd[0][0][:, 0] + x0, dd[0][1][:, 0] + y0
         th = np.arctan2(dd[1][1][:, 0], dd[1][0][:, 0])
         return _touch(sx[ti], sy[ti], sh[ti], sl, sw, tx, ty, th, tl, tw)
+
+
+def _coarse_index(n: int) -> np.ndarray:
+    """Every STRIDE-th duration, and the last (tau_max)."""
+    return np.unique(np.append(np.arange(0, n, STRIDE), n - 1))
 
 
 def _boxes_meet(ax, ay, ah, al, aw, bx, by, bh, bl, bw, slack):  # noqa: ANN001, ANN202
