@@ -95,7 +95,9 @@ class PlannerConfig:
     envelope: str = "inverse_dynamics"  # "inverse_dynamics" (default) | "paper_maps" (eq. 31-34)
     safety_factor: float = 0.8  # -, f in the envelope |Omega_z| <= f sqrt((mu g)^2 - Ax^2)/Vx
     collision_test: str = "exact"  # "exact" (separating axes) | "col" (paper, Appendix 9.2)
-    safety_margin: float = 0.0  # m, added around every rectangle by the exact test
+    # m, added around every rectangle by the exact test: the plant's own tracking error
+    # (`cosim bench tracking`, docs/planning_results.md); 0 reproduces the paper
+    safety_margin: float = 0.02
     horizon_extra: float = 2.0  # s, collision horizon past the end of the manoeuvre
     tau_min_floor: float = 1.0  # s, shortest tau ever put on the grid
     # beyond the paper (S2): re-check the plan under way, replan / abort (cosim.sim)

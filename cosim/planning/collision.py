@@ -9,30 +9,40 @@ Two tests:
   projections on one of the four edge normals are disjoint). Optional margin.
 - `overlap_col`: the paper's CoL (Appendix 9.2): a vertex of the SV is inside a TV
   rectangle when the four triangles it spans with the TV's edges add up to the
-  TV's area. It misses two rectangles that cross without a vertex inside.
+  TV's area. It misses two rectangles that cross without a vertex inside. Run as
+  the paper does: at the samples, against the listed durations only.
 
 `check_candidates` runs one of them over SV candidates x time x TV hypotheses:
 compiled loops (numba) that evaluate the trajectories where they are needed,
 skip what cheap boxes and distances rule out, and stop a candidate at its first
-overlap. Every rectangle is grown by the most the relative pose can change in
-half a sample step, so no overlap can pass between two samples (beyond the
-paper); an overlap found only thanks to that growth is looked at again between
-the samples.
+overlap. The exact test is continuous (beyond the paper): each sample stands for
+the cell of times within half a step of it and, for a C2 cluster, of every
+duration between two neighbouring listed ones (the first listed one a lower
+bound of the TV's tau_min). A pair is tested exactly at the sample; then once
+more with both rectangles grown by half the most its relative pose can move
+within the cell (from the polynomials' own derivative bounds, per pair); only if
+that grown test overlaps is the cell split in time or duration, and tested again,
+until a real overlap is found (at an instant and a duration inside the cell) or
+the grown test clears every piece (`RESOLUTION`).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cosim.compiled import njit, register_warm_up
 from cosim.planning.trajectory import (
+    LANE_CHANGE,
+    cluster_derivatives,
+    lane_change_state,
     polynomial_coefficients,
     standard_bounds,
+    standard_tau_sensitivity,
     standard_velocity,
     standard_xy,
 )
@@ -41,6 +51,11 @@ Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 COLLISION_TESTS = ("exact", "col")
+# m, a grown test still overlapping when the cell's motion bound is below this counts
+# as an overlap (the cell is not split further)
+RESOLUTION = 1e-4
+_BOX_TOLERANCE = 1e-6  # m, a closed-form cluster's box from its two extreme trajectories
+_STACK = 96  # cells a refinement holds at once (depth-first: about two per level)
 
 
 def corners(x: ArrayLike, y: ArrayLike, heading: ArrayLike, length: ArrayLike,
@@ -118,68 +133,6 @@ class ClusterHits:
 
 
 @dataclass(frozen=True)
-class ClusterMotion:
-    """Bounds on how the SV cluster moves between two samples (from its positions)."""
-
-    dx_min: float  # m, least x travel of any candidate in one step
-    dx_max: float  # m, most x travel in one step
-    dy_max: float  # m, most |y| travel in one step
-    turn: float  # rad, most heading change in one step
-    max_heading: float  # rad, most |heading| anywhere
-
-
-def cluster_motion(sv_x: Array, sv_y: Array) -> ClusterMotion:
-    """Step bounds of a cluster (n_c, n_t) from its chords: the heading is within one
-    chord-angle change of the chord's direction (the path turns by less than twice that
-    per step; |d atan(s)| <= |ds| bounds the chord-angle change by the slope change)."""
-    if sv_x.shape[1] < 3:
-        return ClusterMotion(0.0, 0.0, 0.0, 0.0, 0.5 * np.pi)
-    ddx = np.diff(sv_x, axis=1)
-    ddy = np.diff(sv_y, axis=1)
-    slope = ddy / np.maximum(ddx, 1e-9)  # the SV drives forwards
-    turn = 2.0 * float(np.abs(np.diff(slope, axis=1)).max())
-    return ClusterMotion(
-        dx_min=float(ddx.min()), dx_max=float(ddx.max()), dy_max=float(np.abs(ddy).max()),
-        turn=turn, max_heading=float(np.arctan(np.abs(slope).max())) + turn,
-    )
-
-
-def standard_cluster_motion(
-    vx0: float, vxf: float, width: float, tau_shortest: float, dt: float
-) -> ClusterMotion:
-    """The same bounds in closed form for a cluster of eq. 2 / eq. 4 lane changes
-    (no initial lateral motion or acceleration), from its shortest candidate
-    (`trajectory.standard_bounds`)."""
-    v_min, v_max, yd, rate, heading = standard_bounds(vx0, vxf, width, tau_shortest)
-    return ClusterMotion(dx_min=max(v_min, 1e-3) * dt, dx_max=v_max * dt, dy_max=yd * dt,
-                         turn=rate * dt, max_heading=heading)
-
-
-def sampling_pad(
-    sv: ClusterMotion, tv_x: Array, tv_y: Array, tv_h: Array, sv_radius: float,
-    tv_radius: Array,
-) -> Array:
-    """m, per TV trajectory (n_h,) given as rows (n_h, n_t): how much each rectangle must
-    grow so that an overlap at any time between two samples shows at the nearest sample.
-
-    Between samples the relative pose changes by at most D (relative centre travel
-    plus each body's radius times its heading change, per step); at the nearest
-    sample (<= half a step away) the bodies are apart by at most D/2, so growing
-    each by D/4 keeps the overlap.
-    """
-    n_h = tv_x.shape[0]
-    return _hypothesis_bounds(
-        sv.dx_min, sv.dx_max, sv.dy_max, sv.turn, float(sv_radius), 0.0,
-        *(np.ascontiguousarray(a, dtype=float) for a in (tv_x, tv_y, tv_h)),
-        np.arange(n_h), np.full((7, n_h), np.nan),
-        np.ascontiguousarray(np.broadcast_to(tv_radius, (n_h,)), dtype=float))[0]
-
-
-REFINE_SUBSTEPS = 8  # -, instants per sample step where a padded overlap is looked at again
-_BOX_TOLERANCE = 1e-6  # m, a closed-form cluster's box from its two extreme trajectories
-
-
-@dataclass(frozen=True)
 class SVCandidates:
     """The SV's candidate lane changes, one per tau (eq. 2 and eq. 4; with an initial
     longitudinal acceleration, lateral speed or acceleration: the general start of
@@ -207,34 +160,89 @@ class SVCandidates:
         closed form (`trajectory.standard_xy`)."""
         return self.ax0 == 0.0 and self.vy0 == 0.0 and self.ay0 == 0.0
 
-    def _args(self) -> tuple[Array, Array, Array, Array]:
-        """(parameters, x and y polynomial coefficients (none when standard), taus)."""
+    def side(self, t: Array, length: float, width: float, horizon: Array) -> SVSide:
+        """The candidates as the compiled check reads them, on the time grid t. A general
+        start's motion bounds (`SVSide.bounds`) come from its derivatives on t, widened
+        by the next derivative over half a step; from rest they are in closed form."""
         par = np.array([self.vx0, self.vxf, self.width, self.x0, self.y0, self.t_shift])
         tau = np.ascontiguousarray(self.taus, dtype=float).reshape(-1)
         if self.standard:
-            return par, np.zeros((0, 5)), np.zeros((0, 6)), tau
-        cx, cy = polynomial_coefficients(self.vx0, self.vxf, self.width, tau, self.ax0,
-                                         self.vy0, self.ay0)
-        return par, np.stack(cx, axis=1), np.stack(cy, axis=1), tau
+            cx, cy, bounds = np.zeros((0, 5)), np.zeros((0, 6)), np.zeros((0, 6))
+        else:
+            c_x, c_y = polynomial_coefficients(self.vx0, self.vxf, self.width, tau, self.ax0,
+                                               self.vy0, self.ay0)
+            cx, cy = np.stack(c_x, axis=1), np.stack(c_y, axis=1)
+            bounds = _sampled_bounds(self, tau, np.asarray(t, dtype=float) + self.t_shift)
+        return SVSide(par, cx, cy, tau, np.ascontiguousarray(horizon, dtype=float), bounds,
+                      0.5 * float(length), 0.5 * float(width))
+
+
+def _sampled_bounds(sv: SVCandidates, tau: Array, s: Array) -> Array:
+    """(n_c, 6) least x', most x', most |y'| (m/s), most heading rate (rad/s), most
+    |heading| (rad), most |acceleration| (m/s^2) of general-start candidates at manoeuvre
+    times s, each widened by 1.5 times the next derivative's sampled extreme over half a
+    step."""
+    d = cluster_derivatives(sv.vx0, sv.vxf, sv.width, tau, np.maximum(s, 0.0), (1, 2, 3),
+                            ax0=sv.ax0, vy0=sv.vy0, ay0=sv.ay0)
+    (xd, yd), (xdd, ydd), (x3, y3) = d[1], d[2], d[3]
+    h = 0.75 * (float(s[1] - s[0]) if s.size > 1 else 0.0)
+    xd_lo = np.maximum(xd.min(axis=1) - h * np.abs(xdd).max(axis=1), 1e-3)
+    ay = np.abs(ydd).max(axis=1) + h * np.abs(y3).max(axis=1)
+    ax = np.abs(xdd).max(axis=1) + h * np.abs(x3).max(axis=1)
+    yd_hi = np.abs(yd).max(axis=1) + h * ay
+    rate = ay / xd_lo + yd_hi * ax / xd_lo**2
+    heading = np.abs(np.arctan2(yd, xd)).max(axis=1) + h * rate
+    return np.stack([xd_lo, xd.max(axis=1) + h * ax, yd_hi, rate, heading, np.hypot(ax, ay)],
+                    axis=1)
+
+
+class SVSide(NamedTuple):
+    """The SV candidates in the compiled check."""
+
+    par: Array  # (6,) vx0 m/s, vxf m/s, W m, x0 m, y0 m, t_shift s
+    cx: Array  # (n_c, 5) x coefficients of a general start (none: from rest, closed form)
+    cy: Array  # (n_c, 6) y coefficients
+    tau: Array  # s, (n_c,) ordered
+    horizon: Array  # s, (n_c,) tested up to here
+    bounds: Array  # (n_c, 6) general start: `_sampled_bounds` (from rest: none, closed form)
+    half_l: float  # m
+    half_w: float  # m
+
+
+class TVSide(NamedTuple):
+    """The TV hypotheses in the compiled check (see `TVHypotheses`)."""
+
+    rows_x: Array  # m, (n_s, n_t) on the check's grid
+    rows_y: Array  # m
+    rows_h: Array  # rad
+    row_of: IntArray  # (n_h,) stored row (-1: closed form in `lc`)
+    lc: Any  # (n_h,) LANE_CHANGE records (nan: a stored row)
+    cell: NDArray[np.bool_]  # (n_h,) h and h + 1 bound one continuous range of durations
+    half_l: Array  # m, (n_h,)
+    half_w: Array  # m, (n_h,)
+    horizon: Array  # s, (n_h,)
+    groups: IntArray  # (n_g + 1,) hypotheses of vehicle g: groups[g] .. groups[g + 1]
+    t0: float  # s, first time of the grid the rows are on
+    dt: float  # s, its step
 
 
 @dataclass(frozen=True)
 class TVHypotheses:
-    """TV hypotheses as the check reads them: stored rows (n_s, n_t) or lane changes from
-    rest in closed form (eq. 2 / eq. 4, `trajectory.standard_xy`, parameters per
-    hypothesis), grouped by vehicle (contiguous; a closed-form
-    group ordered by tau), each with its sampling pad."""
+    """TV hypotheses as the check reads them: stored rows (n_s, n_t) on the check's grid,
+    or lane changes from rest in closed form (`trajectory.LANE_CHANGE` records), grouped
+    by vehicle (contiguous; a closed-form group ordered by duration). `cell[h]`: h and
+    h + 1 are neighbouring durations of one C2 cluster, every duration between them
+    stable too (the check covers them all)."""
 
     rows_x: Array  # m, (n_s, n_t)
     rows_y: Array  # m
     rows_h: Array  # rad
     row_of: IntArray  # (n_h,) stored row of each hypothesis (-1: closed form)
-    closed: Array  # (7, n_h): v0 m/s, vxf m/s, W m, tau s, x0 m, y0 m, start s (nan: row)
+    lc: NDArray[np.void]  # (n_h,) LANE_CHANGE (nan fields: a stored row)
+    cell: NDArray[np.bool_]  # (n_h,)
     length: Array  # m, (n_h,)
     width: Array  # m, (n_h,)
-    pad: Array  # m, (n_h,) growth that keeps overlaps between samples (`sampling_pad`)
-    max_heading: Array  # rad, (n_h,) a bound on |heading|
-    groups: IntArray  # (n_g + 1,) hypotheses of vehicle g: groups[g] .. groups[g + 1]
+    groups: IntArray  # (n_g + 1,)
 
     @property
     def n_h(self) -> int:
@@ -242,42 +250,38 @@ class TVHypotheses:
 
     @classmethod
     def from_rows(cls, x: Array, y: Array, heading: Array, length: ArrayLike,
-                  width: ArrayLike, pad: ArrayLike | None = None) -> TVHypotheses:
-        """Hypotheses given as (n_h, n_t) arrays, each its own group; no pad: none."""
+                  width: ArrayLike) -> TVHypotheses:
+        """Hypotheses given as (n_h, n_t) arrays, each its own group."""
         n_h = x.shape[0]
-        return cls(
-            x, y, heading, np.arange(n_h), np.full((7, n_h), np.nan),
-            np.broadcast_to(np.asarray(length, dtype=float), (n_h,)),
-            np.broadcast_to(np.asarray(width, dtype=float), (n_h,)),
-            np.zeros(n_h) if pad is None else np.asarray(pad, dtype=float),
-            np.abs(heading).max(axis=1, initial=0.0), np.arange(n_h + 1),
-        )
+        lc = np.full(n_h, np.nan, dtype=LANE_CHANGE)
+        return cls(x, y, heading, np.arange(n_h), lc, np.zeros(n_h, dtype=bool),
+                   np.broadcast_to(np.asarray(length, dtype=float), (n_h,)),
+                   np.broadcast_to(np.asarray(width, dtype=float), (n_h,)), np.arange(n_h + 1))
 
     @classmethod
-    def from_futures(cls, futures: Any, sv: ClusterMotion, sv_radius: float) -> TVHypotheses:
-        """The hypotheses of `prediction.LazyFutures`, with their pads against an SV
-        cluster moving within `sv`: exact (`sampling_pad`) for stored rows, a closed-form
-        bound of it for lane changes from rest (no need to evaluate them whole)."""
+    def from_futures(cls, futures: Any) -> TVHypotheses:
+        """The hypotheses of `prediction.LazyFutures`."""
         f = futures
-        closed = np.stack([f.v0, f.vxf, f.dy, f.tau, f.x0, f.y0, f.t_start])
-        r_tv = 0.5 * np.hypot(f.length, f.width)
-        dt = float(f.rel[1] - f.rel[0]) if f.rel.size > 1 else 0.0
-        pad, max_heading = _hypothesis_bounds(
-            sv.dx_min, sv.dx_max, sv.dy_max, sv.turn, float(sv_radius), dt, f.sx, f.sy, f.sh,
-            f.row_of, closed, r_tv)
         n_h = f.owner.size
         starts = np.flatnonzero(f.owner[1:] != f.owner[:-1]) + 1
-        return cls(f.sx, f.sy, f.sh, f.row_of, closed, f.length, f.width, pad, max_heading,
+        return cls(f.sx, f.sy, f.sh, f.row_of, f.lc, f.cell, f.length, f.width,
                    np.concatenate(([0], starts, [n_h])))
+
+    def side(self, horizon: Array, t0: float, dt: float) -> TVSide:
+        flt = (lambda a: np.ascontiguousarray(a, dtype=float))  # noqa: E731
+        return TVSide(flt(self.rows_x), flt(self.rows_y), flt(self.rows_h),
+                      self.row_of.astype(np.int64), np.ascontiguousarray(self.lc),
+                      np.ascontiguousarray(self.cell, dtype=np.bool_), 0.5 * flt(self.length),
+                      0.5 * flt(self.width), flt(horizon), self.groups.astype(np.int64),
+                      float(t0), float(dt))
 
 
 def check_candidates(
     t: Array, sv: SVCandidates, sv_length: float, sv_width: float, sv_horizon: Array,
     tv: TVHypotheses, tv_horizon: Array, *, margin: float = 0.0, test: str = "exact",
-    sv_max_heading: float = 0.5 * np.pi,
 ) -> ClusterHits:
     """First overlap of every SV candidate (n_c) with any TV hypothesis (n_h) on the
-    time grid t (eq. 10-11).
+    uniform time grid t (eq. 10-11).
 
     A pair (candidate c, hypothesis h) is tested at the times t_k <=
     max(sv_horizon[c], tv_horizon[h]). Time runs forwards and a candidate leaves at its
@@ -285,15 +289,14 @@ def check_candidates(
     vehicle's hypotheses are skipped when their box is far from the candidates' box;
     the candidates near the vehicle's box, and for each the hypotheses whose y is near
     its own, come from binary searches (a closed-form cluster, the SV's from rest and
-    a C2 TV's, is ordered by tau in x and y at every sample, so its box is that of its
-    two extreme trajectories); then axis-aligned boxes (from bounds on the headings)
-    and centre distances; the exact test (or CoL) runs on what is left. The exact
-    test grows both rectangles by the hypothesis' sampling pad, so that no overlap
-    passes between samples; an overlap that exists only thanks to the pad is looked
-    at again at REFINE_SUBSTEPS + 1 instants of [t_k - dt/2, t_k + dt/2] with the SV
-    exact, the TV linear between samples (its error bounded by its second
-    differences) and a pad that many times smaller: still conservative, nearly
-    exact. The loops run compiled (numba); trajectories are evaluated where needed.
+    a C2 TV's, is ordered by duration in x and y at every time, so its box is that of
+    its two extreme trajectories); then axis-aligned boxes (from bounds on the
+    headings) and centre distances. The exact test ("exact") then covers, continuously,
+    the times within half a step of t_k and every duration between h and the next
+    listed one of its cluster (see the module's docstring; an overlap reported at
+    t_k lies in that cell, or, when the cell would need a closer look and the next
+    sample overlaps outright, at that sample); "col" is the paper's CoL at the samples
+    and the listed durations only. The loops run compiled (numba).
     """
     if test not in COLLISION_TESTS:
         raise ValueError(f"collision test {test!r}: one of {COLLISION_TESTS}")
@@ -301,16 +304,11 @@ def check_candidates(
     if tv.n_h == 0 or n_c == 0:
         none = np.full(n_c, -1, dtype=np.int64)
         return ClusterHits(np.zeros(n_c, dtype=bool), none, none.copy())
-    sin_sv = math.sin(min(abs(sv_max_heading), 0.5 * math.pi))
-    par, cx, cy, tau = sv._args()
-    flt = (lambda a: np.ascontiguousarray(a, dtype=float))  # noqa: E731
-    first_k, first_h = _first_overlaps(
-        flt(t), par, cx, cy, tau, flt(sv_horizon), float(sv_length), float(sv_width), sin_sv,
-        flt(tv.rows_x), flt(tv.rows_y), flt(tv.rows_h), tv.row_of.astype(np.int64),
-        flt(tv.closed), flt(tv.length), flt(tv.width), flt(tv_horizon), flt(tv.pad),
-        np.sin(np.minimum(tv.max_heading, 0.5 * np.pi)), tv.groups.astype(np.int64),
-        float(margin), test == "col",
-    )
+    t = np.ascontiguousarray(t, dtype=float)
+    dt = float(t[1] - t[0]) if t.size > 1 else 0.0
+    first_k, first_h = _first_overlaps(t, sv.side(t, sv_length, sv_width, sv_horizon),
+                                       tv.side(tv_horizon, float(t[0]), dt), float(margin),
+                                       test == "col")
     return ClusterHits(first_k >= 0, first_k, first_h)
 
 
@@ -327,11 +325,11 @@ def _standard_heading(v0: float, vxf: float, w: float, tau: float, t: float) -> 
 
 
 @njit
-def _closed_xy(closed: Array, h: int, t: float) -> tuple[float, float]:
+def _closed_xy(lc: Any, h: int, t: float) -> tuple[float, float]:
     """Centre of closed-form hypothesis h at grid time t."""
-    x, y = standard_xy(closed[0, h], closed[1, h], closed[2, h], closed[3, h],
-                        t - closed[6, h])
-    return x + closed[4, h], y + closed[5, h]
+    r = lc[h]
+    x, y = standard_xy(r["v0"], r["vxf"], r["width"], r["tau"], t - r["start"])
+    return x + r["x0"], y + r["y0"]
 
 
 @njit
@@ -360,7 +358,15 @@ def _sorted_range(values: Array, a: int, b: int, lo: float, hi: float) -> tuple[
 @njit
 def _general_pose(cx: Array, cy: Array, c: int, tau: float, vxf: float,
                   s: float) -> tuple[float, float, float]:
-    """Relative (x, y, heading) of a general-start candidate c at manoeuvre time s (the
+    """Relative (x, y, heading) of a general-start candidate c at manoeuvre time s."""
+    x, y, xd, yd = _general_state(cx, cy, c, tau, vxf, s)
+    return x, y, math.atan2(yd, xd)
+
+
+@njit
+def _general_state(cx: Array, cy: Array, c: int, tau: float, vxf: float,
+                   s: float) -> tuple[float, float, float, float]:
+    """Relative (x, y, x', y') of a general-start candidate c at manoeuvre time s (the
     Horner sums of `trajectory.cluster_derivatives`; straight at vxf after tau)."""
     ts = min(max(s, 0.0), tau)
     x = cx[c, 4]
@@ -370,14 +376,14 @@ def _general_pose(cx: Array, cy: Array, c: int, tau: float, vxf: float,
     for j in range(4, -1, -1):
         y = y * ts + cy[c, j]
     if s > tau:
-        return x + vxf * (s - ts), y, math.atan2(0.0, vxf)
+        return x + vxf * (s - ts), y, vxf, 0.0
     xd = 4.0 * cx[c, 4]
     for j in range(3, 0, -1):
         xd = xd * ts + j * cx[c, j]
     yd = 5.0 * cy[c, 5]
     for j in range(4, 0, -1):
         yd = yd * ts + j * cy[c, j]
-    return x, y, math.atan2(yd, xd)
+    return x, y, xd, yd
 
 
 @njit
@@ -391,6 +397,17 @@ def _sat(ax: float, ay: float, ca: float, sa: float, hla: float, hwa: float, bx:
                 or abs(-dx * sa + dy * ca) > hwa + ss * hlb + cc * hwb
                 or abs(dx * cb + dy * sb) > hlb + cc * hla + ss * hwa
                 or abs(-dx * sb + dy * cb) > hwb + ss * hla + cc * hwa)
+
+
+@njit
+def _sat_moved(ax: float, ay: float, ca: float, sa: float, hla: float, hwa: float, bx: float,
+               by: float, cb: float, sb: float, hlb: float, hwb: float, m: float, mx: float,
+               my: float, turn: float) -> bool:
+    """`_sat` with B also grown to cover moving by up to mx along x and my along y (m,
+    world axes) and any point of it by up to `turn` more (m, turning of either body)."""
+    acb, asb = abs(cb), abs(sb)
+    return _sat(ax, ay, ca, sa, hla + m, hwa + m, bx, by, cb, sb,
+                hlb + m + mx * acb + my * asb + turn, hwb + m + mx * asb + my * acb + turn, 0.0)
 
 
 @njit
@@ -420,117 +437,257 @@ def _col(ax: float, ay: float, ah: float, al: float, aw: float, bx: float, by: f
 
 
 @njit
-def _refined(par: Array, cx: Array, cy: Array, tau_c: float, c: int, hla: float, hwa: float,
-             rows_x: Array, rows_y: Array, rows_h: Array, row_of: IntArray, closed: Array,
-             h: int, hlb: float, hwb: float, k: int, t: Array, pad_h: float,
-             margin: float) -> bool:
-    """Overlap of candidate c and hypothesis h anywhere in [t_k - dt/2, t_k + dt/2], at
-    REFINE_SUBSTEPS + 1 instants: the SV exact, the TV linear between its samples (its
-    interpolation error bounded from the second differences, added to the margin with
-    the pad / REFINE_SUBSTEPS)."""
-    n_t = t.size
-    last = n_t - 1
-    dt = t[1] - t[0] if n_t > 1 else 0.0
-    kc = min(max(k, 1), max(n_t - 2, 1), last)
-    # the TV at k, k + 1, k - 1 and around kc (for its second differences)
-    idx = (k, min(k + 1, last), max(k - 1, 0), min(kc + 1, last), kc, max(kc - 1, 0))
-    tx, ty, th = np.empty(6), np.empty(6), np.empty(6)
-    r = row_of[h]
-    for i in range(6):
-        if r >= 0:
-            tx[i], ty[i], th[i] = rows_x[r, idx[i]], rows_y[r, idx[i]], rows_h[r, idx[i]]
-        else:
-            v0, vxf, w, tau = closed[0, h], closed[1, h], closed[2, h], closed[3, h]
-            x, y = standard_xy(v0, vxf, w, tau, t[idx[i]] - closed[6, h])
-            tx[i], ty[i] = x + closed[4, h], y + closed[5, h]
-            th[i] = _standard_heading(v0, vxf, w, tau, t[idx[i]] - closed[6, h])
-    second = (abs(tx[3] - 2 * tx[4] + tx[5]) + abs(ty[3] - 2 * ty[4] + ty[5])
-              + math.hypot(hlb, hwb) * abs(th[3] - 2 * th[4] + th[5]))
-    fine = margin + pad_h / REFINE_SUBSTEPS + 0.25 * second  # >= 2x the dt^2 a / 8 bound
-    last_bh, cb, sb = np.nan, 0.0, 0.0
-    for j in range(REFINE_SUBSTEPS + 1):
-        frac = j / REFINE_SUBSTEPS - 0.5  # in steps
-        o = 1 if frac > 0 else 2  # linear towards k + 1 after t_k, from k - 1 before
-        sgn = 1.0 if frac > 0 else -1.0
-        bx = tx[0] + frac * (sgn * (tx[o] - tx[0]))
-        by = ty[0] + frac * (sgn * (ty[o] - ty[0]))
-        bh = th[0] + frac * (sgn * (th[o] - th[0]))
-        sv_t = t[k] + frac * dt + par[5]
-        if cx.shape[0]:  # a general start
-            ax, ay, ah = _general_pose(cx, cy, c, tau_c, par[1], sv_t)
-        else:
-            ax, ay = standard_xy(par[0], par[1], par[2], tau_c, sv_t)
-            ah = _standard_heading(par[0], par[1], par[2], tau_c, sv_t)
-        ax, ay = ax + par[3], ay + par[4]
-        if bh != last_bh:  # (a TV keeping its lane keeps its heading)
-            last_bh, cb, sb = bh, math.cos(bh), math.sin(bh)
-        if _sat(ax, ay, math.cos(ah), math.sin(ah), hla, hwa, bx, by, cb, sb, hlb, hwb, fine):
-            return True
+def _sv_state(sv: SVSide, c: int, t: float) -> tuple[float, float, float, float, float]:
+    """Global (x, y, heading, x', y') of candidate c at grid time t."""
+    p = sv.par
+    if sv.cx.shape[0]:
+        x, y, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], p[1], t + p[5])
+    else:
+        x, y = standard_xy(p[0], p[1], p[2], sv.tau[c], t + p[5])
+        xd, yd = standard_velocity(p[0], p[1], p[2], sv.tau[c], t + p[5])
+    return x + p[3], y + p[4], math.atan2(yd, xd), xd, yd
+
+
+@njit
+def _standard_accel(vx0: float, vxf: float, width: float, tau: float) -> float:
+    """m/s^2, a bound on |(x'', y'')| of eq. 2 / eq. 4 from rest (`standard_bounds`)."""
+    return math.hypot(1.5 * abs(vxf - vx0) / tau, 5.7736 * abs(width) / (tau * tau))
+
+
+@njit
+def _sv_bounds(sv: SVSide, c: int) -> tuple[float, float, float, float, float, float]:
+    """(least x', most x', most |y'| m/s, most heading rate rad/s, most |heading| rad,
+    most |acceleration| m/s^2) of candidate c over its whole manoeuvre."""
+    if sv.cx.shape[0]:
+        b = sv.bounds
+        return b[c, 0], b[c, 1], b[c, 2], b[c, 3], b[c, 4], b[c, 5]
+    p = sv.par
+    v_lo, v_hi, yd, rate, head = standard_bounds(p[0], p[1], p[2], sv.tau[c])
+    return v_lo, v_hi, yd, rate, head, _standard_accel(p[0], p[1], p[2], sv.tau[c])
+
+
+@njit
+def _tv_state(tv: TVSide, h: int, tau: float, t: float) -> tuple[float, float, float, float,
+                                                                  float]:
+    """Global (x, y, heading, x', y') of hypothesis h at time t: a closed form with
+    duration tau, or its stored row, linear between samples."""
+    r = tv.row_of[h]
+    if r < 0:
+        q = tv.lc[h]
+        return lane_change_state(q["v0"], q["vxf"], q["width"], tau, q["x0"], q["y0"],
+                                 q["start"], t)
+    n_t = tv.rows_x.shape[1]
+    u = (t - tv.t0) / tv.dt if tv.dt > 0.0 else 0.0
+    j = min(max(int(math.floor(u)), 0), max(n_t - 2, 0))
+    f = u - j if n_t > 1 else 0.0
+    j1 = min(j + 1, n_t - 1)
+    dx, dy = tv.rows_x[r, j1] - tv.rows_x[r, j], tv.rows_y[r, j1] - tv.rows_y[r, j]
+    inv = 1.0 / tv.dt if tv.dt > 0.0 else 0.0
+    return (tv.rows_x[r, j] + f * dx, tv.rows_y[r, j] + f * dy,
+            tv.rows_h[r, j] + f * (tv.rows_h[r, j1] - tv.rows_h[r, j]), dx * inv, dy * inv)
+
+
+@njit
+def _row_bounds(tv: TVSide, h: int, k: int) -> tuple[float, float, float, float, float]:
+    """A stored row's motion around sample k, as it is between samples k - 1 and k + 1
+    (linear): (least x', most x', most |y'| m/s, most heading rate rad/s) and how far
+    the linear pieces may be from the trajectory (m: half the second difference of the
+    corners around k, four times the dt^2 a / 8 bound of linear interpolation)."""
+    r = tv.row_of[h]
+    n_t = tv.rows_x.shape[1]
+    if n_t < 2:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    a, b = max(k - 1, 0), min(k + 1, n_t - 1)
+    x, y, hd = tv.rows_x, tv.rows_y, tv.rows_h
+    dt = tv.dt
+    x_lo, x_hi, yd, rate = np.inf, -np.inf, 0.0, 0.0
+    for j in range(a, b):
+        vx = (x[r, j + 1] - x[r, j]) / dt
+        x_lo, x_hi = min(x_lo, vx), max(x_hi, vx)
+        yd = max(yd, abs(y[r, j + 1] - y[r, j]) / dt)
+        rate = max(rate, abs(hd[r, j + 1] - hd[r, j]) / dt)
+    kc = min(max(k, 1), n_t - 2) if n_t > 2 else 0
+    second = 0.0
+    if n_t > 2:
+        rad = math.hypot(tv.half_l[h], tv.half_w[h])
+        second = (abs(x[r, kc + 1] - 2 * x[r, kc] + x[r, kc - 1])
+                  + abs(y[r, kc + 1] - 2 * y[r, kc] + y[r, kc - 1])
+                  + rad * abs(hd[r, kc + 1] - 2 * hd[r, kc] + hd[r, kc - 1]))
+    return x_lo, x_hi, yd, rate, 0.5 * second
+
+
+@njit
+def _overlaps_at(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, t: float,
+                 margin: float) -> bool:
+    """Candidate c and hypothesis h overlap at time t, at duration tau_a or tau_b."""
+    ax, ay, ah, _, _ = _sv_state(sv, c, t)
+    ca, sa = math.cos(ah), math.sin(ah)
+    hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
+    bx, by, bh, _, _ = _tv_state(tv, h, tau_a, t)
+    if _sat(ax, ay, ca, sa, hla, hwa, bx, by, math.cos(bh), math.sin(bh), hlb, hwb, margin):
+        return True
+    if tau_b > tau_a:
+        bx, by, bh, _, _ = _tv_state(tv, h, tau_b, t)
+        return _sat(ax, ay, ca, sa, hla, hwa, bx, by, math.cos(bh), math.sin(bh), hlb, hwb,
+                    margin)
     return False
 
 
 @njit
-def _hypothesis_bounds(dx_min: float, dx_max: float, dy_max: float, turn: float,
-                       r_sv: float, dt: float, rows_x: Array, rows_y: Array, rows_h: Array,
-                       row_of: IntArray, closed: Array, r_tv: Array) -> tuple[Array, Array]:
-    """(sampling pad m, bound on |heading| rad) per hypothesis: from its row (exact), or
-    for a closed-form lane change from rest from `trajectory.standard_bounds`, a little
-    above."""
-    n_h = row_of.size
-    pad = np.empty(n_h)
-    max_heading = np.empty(n_h)
-    for h in range(n_h):
-        r = row_of[h]
-        if r >= 0:
-            n_t = rows_x.shape[1]
-            ddx_lo, ddx_hi, ddy, dh, hd = np.inf, -np.inf, 0.0, 0.0, 0.0
-            for k in range(n_t - 1):
-                ddx = rows_x[r, k + 1] - rows_x[r, k]
-                ddx_lo, ddx_hi = min(ddx_lo, ddx), max(ddx_hi, ddx)
-                ddy = max(ddy, abs(rows_y[r, k + 1] - rows_y[r, k]))
-                dh = max(dh, abs(rows_h[r, k + 1] - rows_h[r, k]))
-            for k in range(n_t):
-                hd = max(hd, abs(rows_h[r, k]))
-            rel_x = max(ddx_hi - dx_min, dx_max - ddx_lo) if n_t > 1 else 0.0
-            rel_y = ddy + dy_max
-            pad[h] = 0.25 * (math.hypot(rel_x, rel_y) + r_sv * turn + r_tv[h] * dh)
-            max_heading[h] = hd
+def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, lo: float,
+            hi: float, margin: float, acc: float, rot: float, vtau: float, tau_rate: float,
+            vjump: float, extra: float) -> bool:
+    """Whether candidate c overlaps hypothesis h at some time in [lo, hi] and duration in
+    [tau_a, tau_b] (nan: a stored row; equal: that duration only).
+
+    Depth first over cells (a duration range x a time range), each judged at its
+    centre time tm: the rectangles are tested exactly at both end durations, then
+    grown by half of how far any corner of the TV can be from the reference rectangle,
+    relative to the SV: over the durations, half the distance of the two ends' centres
+    (every centre lies between them) plus `tau_rate` (m/s, the corners' turning per
+    second of duration) times the range; over the times within d of tm, d times the
+    relative speed at tm (widened by `vtau` (m/s per s of duration) times the range,
+    and by `vjump`, m/s, a row's change of slope at a sample) and `rot` (m/s, both
+    bodies' corners turning), plus acc d^2 / 2 (acc: m/s^2, both accelerations); and
+    `extra`, m, how far a stored row may be from its linear pieces. A cell whose grown
+    test overlaps is split in the dimension that moves more, until a real overlap
+    (True) or every piece clears (False); a piece whose bound is below RESOLUTION and
+    still overlaps counts as an overlap."""
+    hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
+    stack = np.empty((_STACK, 4))
+    stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3] = tau_a, tau_b, lo, hi
+    n = 1
+    while n > 0:
+        n -= 1
+        ta, tb, t0, t1 = stack[n, 0], stack[n, 1], stack[n, 2], stack[n, 3]
+        tm = 0.5 * (t0 + t1)
+        ax, ay, ah, avx, avy = _sv_state(sv, c, tm)
+        ca, sa = math.cos(ah), math.sin(ah)
+        bx, by, bh, bvx, bvy = _tv_state(tv, h, ta, tm)
+        cb, sb = math.cos(bh), math.sin(bh)
+        if _sat(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin):
+            return True
+        span = 0.0
+        tx, ty, t_turn = 0.0, 0.0, 0.0  # the durations' part
+        if tb > ta:
+            span = tb - ta
+            ex, ey, eh, _, _ = _tv_state(tv, h, tb, tm)
+            if _sat(ax, ay, ca, sa, hla, hwa, ex, ey, math.cos(eh), math.sin(eh), hlb, hwb,
+                    margin):
+                return True
+            tx, ty, t_turn = 0.5 * abs(ex - bx), 0.5 * abs(ey - by), tau_rate * span
+            bx, by = 0.5 * (bx + ex), 0.5 * (by + ey)  # between them lies every centre
+        half = 0.5 * (t1 - t0)
+        widen = vtau * span + vjump
+        curve = 0.5 * acc * half * half
+        mx = half * (abs(bvx - avx) + widen) + curve  # the times' part
+        my = half * (abs(bvy - avy) + widen) + curve
+        m_turn = half * rot
+        if not _sat_moved(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin,
+                          tx + mx, ty + my, t_turn + m_turn + extra):
+            continue
+        d_tau = max(tx, ty) + t_turn
+        d_time = max(mx, my) + m_turn
+        if d_tau + d_time < RESOLUTION or n + 2 > _STACK:
+            return True
+        if d_tau > d_time:
+            mid = 0.5 * (ta + tb)
+            stack[n, 0], stack[n, 1], stack[n, 2], stack[n, 3] = mid, tb, t0, t1
+            stack[n + 1, 0], stack[n + 1, 1], stack[n + 1, 2], stack[n + 1, 3] = ta, mid, t0, t1
         else:
-            v_min, v_max, yd, rate, max_heading[h] = standard_bounds(
-                closed[0, h], closed[1, h], closed[2, h], closed[3, h])
-            rel_x = max(v_max * dt - dx_min, dx_max - v_min * dt)
-            rel_y = yd * dt + dy_max
-            rot = r_sv * turn + r_tv[h] * rate * dt
-            pad[h] = 0.25 * (math.hypot(rel_x, rel_y) + rot) * (1.0 + 1e-6) + 1e-9
-    return pad, max_heading
+            stack[n, 0], stack[n, 1], stack[n, 2], stack[n, 3] = ta, tb, tm, t1
+            stack[n + 1, 0], stack[n + 1, 1], stack[n + 1, 2], stack[n + 1, 3] = ta, tb, t0, tm
+        n += 2
+    return False
 
 
 @njit
-def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_hor: Array,
-                    sv_l: float, sv_w: float, sin_sv: float, rows_x: Array, rows_y: Array,
-                    rows_h: Array, row_of: IntArray, closed: Array, tv_l: Array, tv_w: Array,
-                    tv_hor: Array, pad: Array, sin_tv: Array, groups: IntArray, margin: float,
-                    col: bool) -> tuple[IntArray, IntArray]:
-    """(first sample, first hypothesis) per candidate; see
-    `check_candidates`."""
-    n_c, n_t, n_h = ctau.size, t.size, row_of.size
-    n_g = groups.size - 1
-    general = cx.shape[0] > 0
-    v0, vxf, w, x0, y0, shift = par[0], par[1], par[2], par[3], par[4], par[5]
-    hla, hwa = 0.5 * sv_l, 0.5 * sv_w
+def _tv_static(tv: TVSide, h: int) -> tuple[float, float, float, float, float, float, float,
+                                             float]:
+    """Over the whole horizon, for hypothesis h: (least x', most x', most |y'| m/s, most
+    heading rate rad/s, most |heading| rad; for a closed form, how fast its centre and
+    its corners' turning move with the duration (m/s, for every duration >= its own);
+    for a stored row, the most its linear pieces may be off (m, `_row_bounds`))."""
+    r = tv.row_of[h]
+    r_tv = math.hypot(tv.half_l[h], tv.half_w[h])
+    if r < 0:
+        q = tv.lc[h]
+        v_lo, v_hi, yd, rate, head = standard_bounds(q["v0"], q["vxf"], q["width"], q["tau"])
+        sx, sy, srot = standard_tau_sensitivity(q["v0"], q["vxf"], q["width"], q["tau"])
+        return v_lo, v_hi, yd, rate, head, math.hypot(sx, sy), r_tv * srot, 0.0
+    x, y, hd = tv.rows_x, tv.rows_y, tv.rows_h
+    n_t = x.shape[1]
+    x_lo, x_hi, yd, rate, head, second = np.inf, -np.inf, 0.0, 0.0, 0.0, 0.0
+    for k in range(n_t - 1):
+        vx = (x[r, k + 1] - x[r, k]) / tv.dt
+        x_lo, x_hi = min(x_lo, vx), max(x_hi, vx)
+        yd = max(yd, abs(y[r, k + 1] - y[r, k]) / tv.dt)
+        rate = max(rate, abs(hd[r, k + 1] - hd[r, k]) / tv.dt)
+    for k in range(n_t):
+        head = max(head, abs(hd[r, k]))
+    for k in range(1, n_t - 1):
+        second = max(second, abs(x[r, k + 1] - 2 * x[r, k] + x[r, k - 1])
+                     + abs(y[r, k + 1] - 2 * y[r, k] + y[r, k - 1])
+                     + r_tv * abs(hd[r, k + 1] - 2 * hd[r, k] + hd[r, k - 1]))
+    if n_t < 2:
+        x_lo, x_hi = 0.0, 0.0
+    return x_lo, x_hi, yd, rate, head, 0.0, 0.0, 0.5 * second
 
-    # per hypothesis: growth, reach (circle) and box half extents, both bodies together
+
+@njit
+def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
+                    col: bool) -> tuple[IntArray, IntArray]:
+    """(first sample, first hypothesis) per candidate; see `check_candidates`."""
+    n_c, n_t, n_h = sv.tau.size, t.size, tv.row_of.size
+    n_g = tv.groups.size - 1
+    groups, row_of, lc, cell = tv.groups, tv.row_of, tv.lc, tv.cell
+    general = sv.cx.shape[0] > 0
+    p = sv.par
+    v0, vxf, w, x0, y0, shift = p[0], p[1], p[2], p[3], p[4], p[5]
+    hla, hwa = sv.half_l, sv.half_w
+    dt = tv.dt
+    half = 0.5 * dt
+
+    # the SV cluster's bounds, each candidate's and over all
+    sv_b = np.empty((n_c, 5))  # x' least, most, |y'|, heading rate, |acceleration|
+    s_lo, s_hi, s_yd, s_rate, s_head = np.inf, -np.inf, 0.0, 0.0, 0.0
+    for c in range(n_c):
+        a0, a1, a2, a3, a4, a5 = _sv_bounds(sv, c)
+        sv_b[c, 0], sv_b[c, 1], sv_b[c, 2], sv_b[c, 3], sv_b[c, 4] = a0, a1, a2, a3, a5
+        s_lo, s_hi = min(s_lo, a0), max(s_hi, a1)
+        s_yd, s_rate, s_head = max(s_yd, a2), max(s_rate, a3), max(s_head, a4)
+    sin_sv = math.sin(min(s_head, 0.5 * math.pi))
     r_sv = math.hypot(hla, hwa)
     sv_hx, sv_hy = hla + hwa * sin_sv, hla * sin_sv + hwa
+
+    # per hypothesis: motion bounds, the most a cell can grow both rectangles by, the
+    # reach (circle) and box half extents of both bodies together
+    tv_b = np.empty((n_h, 7))
     reach2 = np.empty(n_h)
     lim_x = np.empty(n_h)
     lim_y = np.empty(n_h)
     for h in range(n_h):
-        g = (0.0 if col else margin + pad[h]) * 2.0 * math.sqrt(2.0)
-        r = r_sv + math.hypot(0.5 * tv_l[h], 0.5 * tv_w[h]) + g
-        reach2[h] = r * r
-        lim_x[h] = sv_hx + 0.5 * tv_l[h] + 0.5 * tv_w[h] * sin_tv[h] + g
-        lim_y[h] = sv_hy + 0.5 * tv_l[h] * sin_tv[h] + 0.5 * tv_w[h] + g
+        v_lo, v_hi, yd, rate, head, centre_tau, turn_tau, extra = _tv_static(tv, h)
+        r_tv = math.hypot(tv.half_l[h], tv.half_w[h])
+        tv_b[h, 0], tv_b[h, 1], tv_b[h, 2], tv_b[h, 3], tv_b[h, 4] = v_lo, v_hi, yd, rate, turn_tau
+        if row_of[h] < 0:  # |acceleration| and how fast the velocity moves with the duration
+            q = lc[h]
+            tv_b[h, 5] = _standard_accel(q["v0"], q["vxf"], q["width"], q["tau"])
+            tv_b[h, 6] = math.hypot(0.8889 * abs(q["vxf"] - q["v0"]) / q["tau"],
+                                    4.0673 * abs(q["width"]) / (q["tau"] * q["tau"]))
+        else:
+            tv_b[h, 5], tv_b[h, 6] = 0.0, 0.0
+        # a cell's durations, seen from its h end
+        d_tau = (centre_tau + turn_tau) * (lc[h + 1]["tau"] - lc[h]["tau"]) if cell[h] else 0.0
+        speed = (math.hypot(max(s_hi - v_lo, v_hi - s_lo, 0.0), s_yd + yd)
+                 + r_sv * s_rate + r_tv * rate)
+        grow = 0.0 if col else margin + 0.5 * (half * speed + d_tau + extra)
+        g = grow * 2.0 * math.sqrt(2.0)
+        sin_tv = math.sin(min(head, 0.5 * math.pi))
+        rr = r_sv + r_tv + g
+        reach2[h] = rr * rr
+        lim_x[h] = sv_hx + tv.half_l[h] + tv.half_w[h] * sin_tv + g
+        lim_y[h] = sv_hy + tv.half_l[h] * sin_tv + tv.half_w[h] + g
     # per vehicle: the widest limits, the latest horizon, whether in closed form
     g_lim_x = np.zeros(n_g)
     g_lim_y = np.zeros(n_g)
@@ -540,11 +697,11 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
         for h in range(groups[g], groups[g + 1]):
             g_lim_x[g] = max(g_lim_x[g], lim_x[h])
             g_lim_y[g] = max(g_lim_y[g], lim_y[h])
-            g_hor[g] = max(g_hor[g], tv_hor[h])
+            g_hor[g] = max(g_hor[g], tv.horizon[h])
             g_closed[g] = g_closed[g] and row_of[h] < 0
     last_t = -np.inf  # no pair is tested after this
     for c in range(n_c):
-        last_t = max(last_t, sv_hor[c])
+        last_t = max(last_t, sv.horizon[c])
     for g in range(n_g):
         last_t = max(last_t, g_hor[g])
 
@@ -560,45 +717,44 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
     gy = np.empty(n_h)
     tv_hk = np.full(n_h, -1, dtype=np.int64)  # the sample whose heading is in tv_cs
     tv_cs = np.empty((n_h, 3))
-    # a closed-form cluster is ordered by tau in x and y at every sample (so is the SV's
-    # when it starts from rest): its box comes from its two extreme trajectories and
-    # the members near a point from binary searches
     for k in range(n_t):
         tk = t[k]
         if n_alive == 0 or tk > last_t:
             break
+        # the cell of times of sample k (within the grid)
+        w_lo, w_hi = max(tk - half, t[0]), min(tk + half, t[n_t - 1])
         sv_at_k = False  # px, py hold every candidate at sample k
         if general:  # not ordered: every remaining candidate, and their box
             bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf
             for c in range(n_c):
                 if alive[c]:
-                    x, y, _ = _general_pose(cx, cy, c, ctau[c], vxf, tk + shift)
+                    x, y, _ = _general_pose(sv.cx, sv.cy, c, sv.tau[c], vxf, tk + shift)
                     px[c], py[c] = x + x0, y + y0
                     bx0, bx1 = min(bx0, px[c]), max(bx1, px[c])
                     by0, by1 = min(by0, py[c]), max(by1, py[c])
         else:
-            xa, ya = standard_xy(v0, vxf, w, ctau[0], tk + shift)
-            xb, yb = standard_xy(v0, vxf, w, ctau[n_c - 1], tk + shift)
+            xa, ya = standard_xy(v0, vxf, w, sv.tau[0], tk + shift)
+            xb, yb = standard_xy(v0, vxf, w, sv.tau[n_c - 1], tk + shift)
             bx0, bx1 = x0 + min(xa, xb) - _BOX_TOLERANCE, x0 + max(xa, xb) + _BOX_TOLERANCE
             by0, by1 = y0 + min(ya, yb) - _BOX_TOLERANCE, y0 + max(ya, yb) + _BOX_TOLERANCE
         for g in range(n_g):
             h0, h1 = groups[g], groups[g + 1]
             lx, ly = g_lim_x[g], g_lim_y[g]
             if g_closed[g]:
-                xa, ya = _closed_xy(closed, h0, tk)
-                xb, yb = _closed_xy(closed, h1 - 1, tk)
+                xa, ya = _closed_xy(lc, h0, tk)
+                xb, yb = _closed_xy(lc, h1 - 1, tk)
                 gx0, gx1 = min(xa, xb) - _BOX_TOLERANCE, max(xa, xb) + _BOX_TOLERANCE
                 gy0, gy1 = min(ya, yb) - _BOX_TOLERANCE, max(ya, yb) + _BOX_TOLERANCE
                 if gx1 < bx0 - lx or gx0 > bx1 + lx or gy1 < by0 - ly or gy0 > by1 + ly:
                     continue
                 for h in range(h0, h1):
-                    gx[h], gy[h] = _closed_xy(closed, h, tk)
+                    gx[h], gy[h] = _closed_xy(lc, h, tk)
                 ordered = True
             else:
                 gx0, gx1, gy0, gy1 = np.inf, -np.inf, np.inf, -np.inf
                 rising, falling = True, True
                 for h in range(h0, h1):
-                    gx[h], gy[h] = rows_x[row_of[h], k], rows_y[row_of[h], k]
+                    gx[h], gy[h] = tv.rows_x[row_of[h], k], tv.rows_y[row_of[h], k]
                     gx0, gx1 = min(gx0, gx[h]), max(gx1, gx[h])
                     gy0, gy1 = min(gy0, gy[h]), max(gy1, gy[h])
                     if h > h0:
@@ -611,53 +767,96 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
             if not general:  # the candidates near the vehicle's box
                 if not sv_at_k:
                     for c in range(n_c):
-                        x, y = standard_xy(v0, vxf, w, ctau[c], tk + shift)
+                        x, y = standard_xy(v0, vxf, w, sv.tau[c], tk + shift)
                         px[c], py[c] = x + x0, y + y0
                     sv_at_k = True
-                xa, xb = _sorted_range(px, 0, n_c, gx0 - lx, gx1 + lx)
-                ya, yb = _sorted_range(py, 0, n_c, gy0 - ly, gy1 + ly)
-                ca, cb = max(xa, ya), min(xb, yb)
+                xa_, xb_ = _sorted_range(px, 0, n_c, gx0 - lx, gx1 + lx)
+                ya_, yb_ = _sorted_range(py, 0, n_c, gy0 - ly, gy1 + ly)
+                ca, cb = max(xa_, ya_), min(xb_, yb_)
             for c in range(ca, cb):
                 if not alive[c]:
                     continue
                 sx, sy = px[c], py[c]
                 if (sx < gx0 - lx or sx > gx1 + lx or sy < gy0 - ly or sy > gy1 + ly
-                        or tk > max(sv_hor[c], g_hor[g])):
+                        or tk > max(sv.horizon[c], g_hor[g])):
                     continue
                 a, b = h0, h1
                 if h1 - h0 > 8 and ordered:  # the hypotheses whose y is near the candidate's
                     a, b = _sorted_range(gy, h0, h1, sy - ly, sy + ly)
+                    if not col and a > h0 and cell[a - 1]:
+                        a -= 1  # the durations between a - 1 and a may come nearer
                 for h in range(a, b):
+                    nxt = h + 1 if (cell[h] and not col) else -1
                     dx, dy = gx[h] - sx, gy[h] - sy
                     if (abs(dx) > lim_x[h] or abs(dy) > lim_y[h] or dx * dx + dy * dy > reach2[h]
-                            or tk > max(sv_hor[c], tv_hor[h])):
+                            or tk > max(sv.horizon[c], tv.horizon[h])):
                         continue
                     if sv_k[c] != k:
-                        sh = (_general_pose(cx, cy, c, ctau[c], vxf, tk + shift)[2] if general
-                              else _standard_heading(v0, vxf, w, ctau[c], tk + shift))
+                        sh = (_general_pose(sv.cx, sv.cy, c, sv.tau[c], vxf, tk + shift)[2]
+                              if general else _standard_heading(v0, vxf, w, sv.tau[c], tk + shift))
                         sv_cs[c, 0], sv_cs[c, 1], sv_cs[c, 2] = math.cos(sh), math.sin(sh), sh
                         sv_k[c] = k
                     if tv_hk[h] != k:
                         r = row_of[h]
-                        th = rows_h[r, k] if r >= 0 else _standard_heading(
-                            closed[0, h], closed[1, h], closed[2, h], closed[3, h],
-                            tk - closed[6, h])
+                        q = lc[h]
+                        th = tv.rows_h[r, k] if r >= 0 else _standard_heading(
+                            q["v0"], q["vxf"], q["width"], q["tau"], tk - q["start"])
                         tv_cs[h, 0], tv_cs[h, 1], tv_cs[h, 2] = math.cos(th), math.sin(th), th
                         tv_hk[h] = k
-                    hlb, hwb = 0.5 * tv_l[h], 0.5 * tv_w[h]
+                    hlb, hwb = tv.half_l[h], tv.half_w[h]
                     if col:
-                        hit = _col(sx, sy, sv_cs[c, 2], sv_l, sv_w, gx[h], gy[h], tv_cs[h, 2],
-                                   tv_l[h], tv_w[h])
+                        hit = _col(sx, sy, sv_cs[c, 2], 2 * hla, 2 * hwa, gx[h], gy[h],
+                                   tv_cs[h, 2], 2 * hlb, 2 * hwb)
                     else:
                         ca_, sa_, cb_, sb_ = sv_cs[c, 0], sv_cs[c, 1], tv_cs[h, 0], tv_cs[h, 1]
                         hit = _sat(sx, sy, ca_, sa_, hla, hwa, gx[h], gy[h], cb_, sb_, hlb, hwb,
                                    margin)
-                        if not hit and pad[h] > 0.0 and _sat(
-                                sx, sy, ca_, sa_, hla, hwa, gx[h], gy[h], cb_, sb_, hlb, hwb,
-                                margin + pad[h]):
-                            hit = _refined(par, cx, cy, ctau[c], c, hla, hwa, rows_x, rows_y,
-                                           rows_h, row_of, closed, h, hlb, hwb, k, t, pad[h],
-                                           margin)
+                        if not hit:  # the cell: times within half a step, durations to h + 1
+                            r_tv = math.hypot(hlb, hwb)
+                            if row_of[h] >= 0:
+                                v_lo, v_hi, yd, rate, extra = _row_bounds(tv, h, k)
+                            else:
+                                v_lo, v_hi = tv_b[h, 0], tv_b[h, 1]
+                                yd, rate = tv_b[h, 2], tv_b[h, 3]
+                                extra = 0.0
+                            # relative motion over the cell, along x and y, and turning
+                            p_hi = min(w_hi, max(sv.horizon[c], tv.horizon[h]))  # (the pair's)
+                            far = max(tk - w_lo, p_hi - tk)  # (at the ends: not centred)
+                            mx = far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
+                            my = far * (sv_b[c, 2] + yd)
+                            turn = far * (r_sv * sv_b[c, 3] + r_tv * rate) + extra
+                            bx, by = gx[h], gy[h]
+                            tau_a, tau_b, tau_rate, vjump = np.nan, np.nan, 0.0, 0.0
+                            if row_of[h] >= 0 and extra > 0.0:
+                                vjump = 2.0 * extra / dt  # the second difference per step
+                            if row_of[h] < 0:
+                                tau_a = tau_b = lc[h]["tau"]
+                            if nxt >= 0:  # every centre between those of h and h + 1
+                                tau_b = lc[nxt]["tau"]
+                                tau_rate = tv_b[h, 4]
+                                mx += 0.5 * abs(gx[nxt] - bx)
+                                my += 0.5 * abs(gy[nxt] - by)
+                                turn += tau_rate * (tau_b - tau_a)
+                                bx, by = 0.5 * (bx + gx[nxt]), 0.5 * (by + gy[nxt])
+                            reach = r_sv + r_tv + 2.0 * (margin + mx + my + turn)
+                            ex, ey = bx - sx, by - sy
+                            if ex * ex + ey * ey <= reach * reach and _sat_moved(
+                                    sx, sy, ca_, sa_, hla, hwa, bx, by, cb_, sb_, hlb, hwb,
+                                    margin, mx, my, turn):
+                                # a real overlap at the next sample ends the candidate as
+                                # surely, and is cheaper to find than one inside this cell
+                                if (k + 1 < n_t
+                                        and t[k + 1] <= max(sv.horizon[c], tv.horizon[h])
+                                        and _overlaps_at(sv, c, tv, h, tau_a, tau_b, t[k + 1],
+                                                         margin)):
+                                    first_k[c], first_h[c] = k + 1, h
+                                    alive[c] = False
+                                    n_alive -= 1
+                                    break
+                                hit = _refine(sv, c, tv, h, tau_a, tau_b, w_lo, p_hi, margin,
+                                              sv_b[c, 4] + tv_b[h, 5],
+                                              r_sv * sv_b[c, 3] + r_tv * rate, tv_b[h, 6],
+                                              tau_rate, vjump, extra)
                     if hit:
                         first_k[c], first_h[c] = k, h
                         alive[c] = False
@@ -670,17 +869,16 @@ def _first_overlaps(t: Array, par: Array, cx: Array, cy: Array, ctau: Array, sv_
 def warm_up() -> None:
     """Compile (or load from numba's cache) the check's compiled functions now: one tiny
     check of each kind (closed-form and general-start candidates, stored and closed-form
-    hypotheses, the exact test and CoL) and one sampling pad."""
+    hypotheses, the exact test and CoL)."""
     t = np.arange(3) * 0.05
     rows = np.array([[0.0, 1.0, 2.0]])
-    nan = np.nan
-    tv = TVHypotheses(rows, 0.0 * rows, 0.0 * rows, np.array([0, -1]),
-                      np.array([[nan, 20.0], [nan, 20.0], [nan, 3.75], [nan, 2.0], [nan, 0.0],
-                                [nan, 0.0], [nan, 0.0]]),
-                      np.full(2, 4.32), np.full(2, 1.8), np.full(2, 0.1), np.zeros(2),
-                      np.arange(3))
+    lc = np.full(3, np.nan, dtype=LANE_CHANGE)
+    for i, tau in ((1, 2.0), (2, 2.5)):
+        lc[i] = (20.0, 20.0, 3.75, tau, 0.0, 0.0, 0.0)
+    tv = TVHypotheses(rows, 0.0 * rows, 0.0 * rows, np.array([0, -1, -1]), lc,
+                      np.array([False, True, False]), np.full(3, 4.32), np.full(3, 1.8),
+                      np.array([0, 1, 3]))
     for start in ({}, {"vy0": 0.1}):
         sv = SVCandidates(np.array([2.0]), 20.0, 20.0, 3.75, 0.0, 0.0, **start)
         for test in COLLISION_TESTS:
-            check_candidates(t, sv, 4.32, 1.8, np.array([2.0]), tv, np.full(2, 2.0), test=test)
-    sampling_pad(ClusterMotion(0.0, 0.0, 0.0, 0.0, 0.0), rows, rows, rows, 2.35, np.ones(1))
+            check_candidates(t, sv, 4.32, 1.8, np.array([2.0]), tv, np.full(3, 2.0), test=test)

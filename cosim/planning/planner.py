@@ -21,15 +21,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim.errors import InputError
-from cosim.params import PlannerConfig, RoadParams, VehicleParams
+from cosim.params import G, PlannerConfig, RoadParams, VehicleParams
 from cosim.planning.collision import (
     COLLISION_TESTS,
-    ClusterMotion,
     SVCandidates,
     TVHypotheses,
     check_candidates,
-    cluster_motion,
-    standard_cluster_motion,
 )
 from cosim.planning.envelope import (
     ENVELOPES,
@@ -40,16 +37,21 @@ from cosim.planning.envelope import (
     envelope_margin,
     stable_set,
 )
-from cosim.planning.prediction import LazyFutures, TVFutures, predict_lazy
+from cosim.planning.prediction import LazyFutures, TVFutures, c2_lanes, predict_lazy
 from cosim.planning.selection import choose, intervals, omega
-from cosim.planning.trajectory import LaneChangeTrajectory, cluster_derivatives
+from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.v2v import V2VMessage
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-COLLISION_STEP = 0.05  # s, sample step of the collision check (rectangles padded, see collision.py)
+COLLISION_STEP = 0.05  # s, sample step of the collision check (continuous: see collision.py)
 MAP_WIDTH_TOLERANCE = 0.02  # m, widths this close to a lane width use the tau_min maps
+# how long a slower vehicle ahead in the target lane is looked at (`_follow_horizon`)
+FOLLOW_STANDSTILL_M = 2.0  # m, gap kept at standstill
+FOLLOW_HEADWAY_S = 1.0  # s, time gap kept behind it
+FOLLOW_DECEL_G = 0.3  # -, share of mu g the SV brakes with to fall in behind it
+HORIZON_CAP_S = 30.0  # s, at most this much past the usual horizon
 
 
 @dataclass(frozen=True)
@@ -209,22 +211,28 @@ class LaneChangePlanner:
         return self._maps[key]
 
     def _map_tau_min(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
-                     ay0: float) -> float:
-        """tau_min from a map, or nan where the map does not apply: a start that is not
-        at rest laterally, or a width more than MAP_WIDTH_TOLERANCE off a lane width
+                     ay0: float, *, lower: bool = False, value: bool = False) -> float:
+        """tau_min from a map: an upper bound (the SV's own: every duration it takes is
+        stable) or with `lower` a lower bound (a C2 TV's: it may take any stable one),
+        `TauMinMap.bounds`; `value`: the map's interpolated value; nan where the map does
+        not apply: a start that is not at
+        rest laterally, or a width more than MAP_WIDTH_TOLERANCE off a lane width
         (within it, tau_min is scaled by sqrt(|width| / lane width): the lateral
         acceleration goes as W / tau^2)."""
         lane = self.road.lane_width
         if not (self.use_maps and abs(ax0) < 1e-9 and abs(vy0) < 1e-9 and abs(ay0) < 1e-9
                 and abs(abs(width) - lane) <= MAP_WIDTH_TOLERANCE):
             return math.nan
-        tau_min = float(self.tau_min_map(vxf, math.copysign(lane, width))(vx0))
-        return tau_min * math.sqrt(abs(width) / lane)
+        fmap = self.tau_min_map(vxf, math.copysign(lane, width))
+        lo, hi = fmap.bounds(vx0)
+        tau_min = fmap(vx0) if value else lo if lower else hi
+        return float(tau_min) * math.sqrt(abs(width) / lane)
 
     def _stable_set(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
                     ay0: float, mode: int | None) -> StableSet:
         cfg = self.config
-        tau_min = self._map_tau_min(vx0, vxf, width, ax0, vy0, ay0)
+        tau_min = self._map_tau_min(vx0, vxf, width, ax0, vy0, ay0,
+                                    value=cfg.collision_test == "col")
         if math.isfinite(tau_min):
             stable = self.grid >= tau_min - 1e-12
             return StableSet(self.grid, np.where(stable, 0.0, np.inf), stable, tau_min)
@@ -234,12 +242,18 @@ class LaneChangePlanner:
             tau_floor=cfg.tau_min_floor,
         )
 
-    def _tv_stable(self, vx0: Array, vxf: Array, width: Array, vy0: Array) -> NDArray[np.bool_]:
-        """(n_tv, n_tau) stable masks of C2 TVs' clusters (S3: built like the SV): from
-        the maps where they apply, the rest in one batched envelope call."""
+    def _tv_stable(self, vx0: Array, vxf: Array, width: Array,
+                   vy0: Array) -> tuple[NDArray[np.bool_], Array]:
+        """(n_tv, n_tau) stable masks of C2 TVs' clusters (S3: built like the SV) and a
+        lower bound of each one's tau_min (nan: none known): from the maps where they
+        apply, the rest in one batched envelope call. (The paper's CoL test takes the
+        map's own value, as the paper takes its maps'.)"""
         n, grid = vx0.size, self.grid
+        lower = self.config.collision_test == "exact"
         tau_min = np.array([self._map_tau_min(float(vx0[i]), float(vxf[i]), float(width[i]),
-                                              0.0, float(vy0[i]), 0.0) for i in range(n)])
+                                              0.0, float(vy0[i]), 0.0, lower=lower,
+                                              value=not lower)
+                            for i in range(n)])
         out = grid[None, :] >= tau_min[:, None] - 1e-12
         rest = np.flatnonzero(~np.isfinite(tau_min))
         if rest.size:
@@ -252,7 +266,7 @@ class LaneChangePlanner:
                 vy0=np.repeat(vy0[rest], k),
             )
             out[rest] = (margin <= 1.0).reshape(rest.size, k)
-        return out
+        return out, tau_min
 
     def _validate(self, sv: SVPlanState, target_lane: int, occupant: float) -> None:
         if not 0 <= target_lane < self.road.n_lanes or abs(target_lane - sv.lane) != 1:
@@ -267,40 +281,76 @@ class LaneChangePlanner:
         n = int(math.ceil(horizon / self.collision_step))
         return self.collision_step * np.arange(n + 1)
 
-    def _sv_cluster(
-        self, sv: SVPlanState, vxf: float, width: float, taus: Array, t_rel: Array
-    ) -> tuple[SVCandidates, ClusterMotion]:
-        """Every candidate (eq. 2 / eq. 4, general start; evaluated where the check asks)
-        and the bounds on its motion per sample step."""
-        cands = SVCandidates(taus, sv.vx, vxf, width, sv.x, sv.y, sv.ax, sv.vy, sv.ay)
-        if cands.standard:  # eq. 2 / eq. 4 as printed: bounds in closed form
-            return cands, standard_cluster_motion(sv.vx, vxf, width, float(taus.min()),
-                                                  self.collision_step)
-        x, y = cluster_derivatives(sv.vx, vxf, width, taus, t_rel, (0,), ax0=sv.ax, vy0=sv.vy,
-                                   ay0=sv.ay)[0]
-        return cands, cluster_motion(x, y)
+    def _follow_horizon(self, t: float, sv_x: float, sv_speed: float, target_lane: int,
+                        messages: Sequence[V2VMessage], base: float) -> Array:
+        """s after t, per TV: how long the check must look at it (0: no longer than
+        `base`). A TV ahead of the SV that is, or is heading for, the target lane and
+        slower than the SV is looked at until the SV, at `sv_speed` (its slower end
+        speed: the latest arrival), has closed to the gap from which it can still
+        follow it: FOLLOW_STANDSTILL_M + FOLLOW_HEADWAY_S v_tv + (closing speed)^2 /
+        (2 FOLLOW_DECEL_G mu g), at most HORIZON_CAP_S past `base`. Until then the
+        planned SV keeps its target speed (after that the car following takes over)."""
+        road = self.road
+        out = np.zeros(len(messages))
+        for j, m in enumerate(messages):
+            x = m.x + m.speed * (t - m.t)
+            if x <= sv_x:
+                continue
+            if m.motion is not None:
+                lane = road.lane_of(m.motion.y0 + m.motion.width)
+            elif m.intention != 0 and (lanes := c2_lanes(m, road)) is not None:
+                lane = lanes[1]
+            else:
+                lane = road.lane_of(m.y)
+            if lane != target_lane:
+                continue
+            v_tv = max(m.speed + min(m.accel, 0.0) * base, 0.0)  # a braking TV: slower
+            closing = sv_speed - v_tv
+            if closing <= 0.0:
+                continue
+            gap = x - sv_x - 0.5 * (m.length + self.vehicle.length)
+            follow = (FOLLOW_STANDSTILL_M + FOLLOW_HEADWAY_S * v_tv
+                      + closing**2 / (2.0 * FOLLOW_DECEL_G * road.mu * G))
+            out[j] = min(max(gap - follow, 0.0) / closing, base + HORIZON_CAP_S)
+        return out
+
+    def _sv_candidates(self, sv: SVPlanState, vxf: float, width: float,
+                       taus: Array) -> SVCandidates:
+        """Every candidate (eq. 2 / eq. 4, general start; evaluated where the check asks)."""
+        return SVCandidates(taus, sv.vx, vxf, width, sv.x, sv.y, sv.ax, sv.vy, sv.ay)
 
     def _collisions(
         self, t: float, t_rel: Array, sv: SVCandidates, sv_end: Array, futures: LazyFutures,
-        motion: ClusterMotion,
+        follow: Array,
     ) -> tuple[NDArray[np.bool_], IntArray, Array]:
         """(collides, index of the TV hit first (-1: none), simulation time of that first
-        overlap (nan: none)) of every SV candidate, each (n_c,)."""
+        overlap (nan: none)) of every SV candidate, each (n_c,). `follow`: s, per TV,
+        `_follow_horizon`."""
         cfg = self.config
         n_c = sv.n_c
         if futures.n_hypotheses == 0 or n_c == 0:
             return np.zeros(n_c, dtype=bool), np.full(n_c, -1), np.full(n_c, np.nan)
-        r_sv = 0.5 * math.hypot(self.vehicle.length, self.vehicle.width)
         tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
+        tv_hor = np.maximum(tv_end + cfg.horizon_extra, follow[futures.owner])
         hits = check_candidates(
             t_rel, sv, self.vehicle.length, self.vehicle.width, sv_end + cfg.horizon_extra,
-            TVHypotheses.from_futures(futures, motion, r_sv), tv_end + cfg.horizon_extra,
-            margin=cfg.safety_margin, test=cfg.collision_test,
-            sv_max_heading=motion.max_heading,
+            TVHypotheses.from_futures(futures), tv_hor, margin=cfg.safety_margin,
+            test=cfg.collision_test,
         )
         c = hits.collides
         vehicle = np.where(c, futures.owner[np.maximum(hits.first_hypothesis, 0)], -1)
         return c, vehicle, np.where(c, t + t_rel[hits.first_index], np.nan)
+
+    def _horizon(self, t: float, remaining: float, sv_x: float, sv_speed: float,
+                 target_lane: int, messages: Sequence[V2VMessage]) -> tuple[Array, Array]:
+        """(the check's time grid, `_follow_horizon` per TV): up to max(tau_max, the SV's
+        remaining manoeuvre, the TVs' broadcast manoeuvres) + horizon_extra, or longer
+        for a slower vehicle ahead in the target lane."""
+        cfg = self.config
+        tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
+        base = max(cfg.tau_max, remaining, tv_last) + cfg.horizon_extra
+        follow = self._follow_horizon(t, sv_x, sv_speed, target_lane, messages, base)
+        return self._time_grid(max(base, float(follow.max(initial=0.0)))), follow
 
     # -- the planner -------------------------------------------------------------
 
@@ -327,19 +377,19 @@ class LaneChangePlanner:
             taus = np.concatenate((taus[:at], [st.tau_min], taus[at:]))
             stable = np.concatenate((stable[:at], [True], stable[at:]))
         cand = np.flatnonzero(stable)
-        tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
-        t_rel = self._time_grid(max(cfg.tau_max, tv_last) + cfg.horizon_extra)
+        t_rel, follow = self._horizon(t, 0.0, sv.x, min(sv.vx, vxf), target_lane, messages)
         futures = predict_lazy(
             messages, t, t_rel, road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
+            cells=cfg.collision_test == "exact",
         )
         hit_vehicle, hit_time = np.full(taus.size, -1), np.full(taus.size, np.nan)
         free = np.zeros(taus.size, dtype=bool)
         if cand.size:  # (an empty general-start cluster has no motion bounds)
-            cands, motion = self._sv_cluster(sv, vxf, width, taus[cand], t_rel)
             collides, hit_vehicle[cand], hit_time[cand] = self._collisions(
-                t, t_rel, cands, taus[cand], futures, motion)
+                t, t_rel, self._sv_candidates(sv, vxf, width, taus[cand]), taus[cand],
+                futures, follow)
             free[cand[~collides]] = True
         w = omega(occupant, road.mu)
         tau, t_opt = choose(taus, free, w)
@@ -365,21 +415,21 @@ class LaneChangePlanner:
         the first collision it would now have, or None."""
         cfg = self.config
         remaining = max(trajectory.t_end - t, 0.0)
-        tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
-        t_rel = self._time_grid(max(remaining, tv_last, cfg.tau_max) + cfg.horizon_extra)
+        tr = trajectory
+        x_now = float(tr.position(t)[0])
+        target = self.road.lane_of(tr.y_final)
+        t_rel, follow = self._horizon(t, remaining, x_now, min(tr.vx0, tr.vxf), target,
+                                      messages)
         futures = predict_lazy(
             messages, t, t_rel, self.road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
+            cells=cfg.collision_test == "exact",
         )
-        tr = trajectory
-        x, y = tr.position(t + t_rel)
         cand = SVCandidates(np.array([tr.tau]), tr.vx0, tr.vxf, tr.width, tr.x0, tr.y0,
                              tr.ax0, tr.vy0, tr.ay0, t_shift=t - tr.t0)
         collides, vehicle, when = self._collisions(
-            t, t_rel, cand, np.array([remaining]), futures,
-            cluster_motion(x[None, :], y[None, :]),
-        )
+            t, t_rel, cand, np.array([remaining]), futures, follow)
         if not collides[0]:
             return None
         return Rejection(trajectory.tau, "collision", futures.vehicle_ids[vehicle[0]],

@@ -4,7 +4,10 @@
 - C2, intention +-1 and no motion yet: every trajectory of the TV's own stable
   cluster (S3: the TVs are built like the SV, same envelope) to the adjacent lane
   in that direction, with the band-rule target speed, starting at the planning
-  instant. The SV must be safe against all of them: one hypothesis per stable tau.
+  instant. The SV must be safe against all of them: one hypothesis per listed
+  duration, the first a lower bound of the TV's tau_min, then the stable grid
+  points; from rest, neighbouring ones bound a cell (`LazyFutures.cell`) that the
+  collision check covers for every duration in between.
 - C3, motion broadcast: the reference it sends (quintic min-jerk, eq. 2 and 4, or
   SUMO's linear lateral motion).
 
@@ -16,6 +19,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +27,7 @@ from numpy.typing import NDArray
 from cosim.params import RoadParams, VehicleParams
 from cosim.planning.envelope import MODES, envelope_margin, paper_map_tau_min
 from cosim.planning.trajectory import (
+    LANE_CHANGE,
     cluster_derivatives,
     standard_positions_at,
     standard_velocities,
@@ -100,7 +105,9 @@ def motion_path(m: LateralMotion, t: Array) -> tuple[Array, Array, Array]:
     return x[0] + m.x0, y[0] + m.y0, np.arctan2(yd[0], xd[0])
 
 
-StableFn = Callable[[Array, Array, Array, Array], NDArray[np.bool_]]
+# (vx0, vxf, width, vy0) of n C2 TVs -> (stable (n, n_tau) on the grid, a lower bound of
+# each one's shortest stable duration (n,), nan: none known)
+StableFn = Callable[[Array, Array, Array, Array], tuple[NDArray[np.bool_], Array]]
 
 
 @dataclass(frozen=True)
@@ -125,12 +132,10 @@ class LazyFutures:
     sx: Array  # m, (n_s, n_t) stored rows
     sy: Array  # m
     sh: Array  # rad
-    v0: Array  # m/s, (n_h,) closed-form hypotheses: start speed (nan: stored)
-    vxf: Array  # m/s, target speed
-    dy: Array  # m, signed lateral displacement W
-    x0: Array  # m, start x
-    y0: Array  # m, start y
-    t_start: Array  # s, start of the manoeuvre, relative to the planning instant
+    # (n_h,) closed-form hypotheses (`trajectory.LANE_CHANGE`, start relative to the
+    # planning instant; nan: stored)
+    lc: NDArray[np.void]
+    cell: NDArray[np.bool_]  # (n_h,) h and h + 1: neighbouring durations of one C2 cluster
 
     @property
     def n_hypotheses(self) -> int:
@@ -150,9 +155,9 @@ class LazyFutures:
         x[s], y[s], hd[s] = self.sx[r[s]], self.sy[r[s]], self.sh[r[s]]
         c = np.flatnonzero(~s)
         if c.size:
-            hc = h[c]
-            v0, vxf, dy, tau, x0, y0, t0 = (a[hc][:, None] for a in (
-                self.v0, self.vxf, self.dy, self.tau, self.x0, self.y0, self.t_start))
+            q = self.lc[h[c]]
+            v0, vxf, dy, tau, x0, y0, t0 = (q[f][:, None] for f in (
+                "v0", "vxf", "width", "tau", "x0", "y0", "start"))
             rel = self.rel[None, :] - t0
             cx, cy = standard_positions_at(v0, vxf, dy, tau, rel)
             cx += x0
@@ -201,16 +206,19 @@ def predict(
 def predict_lazy(
     messages: Sequence[V2VMessage], t_plan: float, t_rel: Array, road: RoadParams,
     vehicle: VehicleParams, taus: Array, *, envelope: str = "inverse_dynamics",
-    safety_factor: float = 0.8, stable_fn: StableFn | None = None,
+    safety_factor: float = 0.8, stable_fn: StableFn | None = None, cells: bool = True,
 ) -> LazyFutures:
-    """`predict`, with the C2 clusters from rest left in closed form (`LazyFutures`)."""
+    """`predict`, with the C2 clusters from rest left in closed form (`LazyFutures`).
+    `cells` False: a C2 cluster is its stable grid points only, no lower bound of its
+    tau_min and no cells between them (the paper's procedure, for its CoL test)."""
     t = t_plan + np.asarray(t_rel, dtype=float)
     rel = t - t_plan
     n_t = t.size
     ids = tuple(m.vehicle_id for m in messages)
     cats: list[str] = []
-    # blocks of hypotheses in order: ("rows", x, y, h) or ("closed", params...)
-    blocks: list[tuple] = []
+    # blocks of hypotheses in order: stored rows, C1 TVs (rows, computed together) or
+    # lane changes from rest in closed form
+    blocks: list[_Rows | _C1 | _Closed] = []
     # per hypothesis, as plain lists (one array each at the end)
     owner: list[int] = []
     tau_h: list[float] = []
@@ -230,11 +238,11 @@ def predict_lazy(
         """One block of hypotheses of TV i: x, y, h shaped (k, n_t) or (n_t,)."""
         x2 = np.atleast_2d(x)
         k = x2.shape[0]
-        blocks.append(("rows", x2, np.broadcast_to(y, (k, n_t)), np.broadcast_to(h, (k, n_t))))
+        blocks.append(_Rows(x2, np.broadcast_to(y, (k, n_t)), np.broadcast_to(h, (k, n_t))))
         meta(i, k, tau, end)
 
     def add_c1(i: int, m: V2VMessage) -> None:
-        blocks.append(("c1", m))  # computed below, all C1 TVs at once
+        blocks.append(_C1(m))  # computed below, all C1 TVs at once
         meta(i, 1, np.nan, -np.inf)
 
     for i, m in enumerate(messages):
@@ -243,8 +251,8 @@ def predict_lazy(
             mo = m.motion
             assert mo is not None
             if mo.profile == "quintic" and mo.t0 <= t_plan:  # eq. 2 / eq. 4 from rest
-                blocks.append(("closed", 1, mo.vx0, mo.vxf, mo.width, mo.x0, mo.y0,
-                               mo.t0 - t_plan))
+                blocks.append(_Closed(np.array([mo.tau]), False, mo.vx0, mo.vxf, mo.width,
+                                      mo.x0, mo.y0, mo.t0 - t_plan))
                 meta(i, 1, mo.tau, mo.t0 + mo.tau)
             else:
                 add(i, *motion_path(mo, t), mo.tau, mo.t0 + mo.tau)
@@ -264,14 +272,16 @@ def predict_lazy(
         width = np.array([road.lane_center(g) - m.y for _, m, _, g in c2])
         vy0 = np.array([m.lateral_speed for _, m, _, _ in c2])
         n_tau = taus.size
+        tau_lo = np.full(len(c2), np.nan)
         if stable_fn is not None:
-            stable = stable_fn(v0, vxf, width, vy0)
+            stable, tau_lo = stable_fn(v0, vxf, width, vy0)
         elif envelope == "paper_maps":
             tmin = np.array([
                 paper_map_tau_min(MODES.get((o, g), 1), v, road.mu)
                 for (_, _, o, g), v in zip(c2, v0, strict=True)
             ])
             stable = taus[None, :] >= tmin[:, None]
+            tau_lo = tmin
         else:
             margin = envelope_margin(
                 np.repeat(v0, n_tau), np.repeat(vxf, n_tau), np.repeat(width, n_tau),
@@ -286,7 +296,9 @@ def predict_lazy(
                 cats[i] = "C1"
                 add_c1(i, m)
             elif still[j]:  # eq. 2 / eq. 4 in closed form, from rest laterally
-                blocks.append(("closed", ok.size, v0[j], vxf[j], width[j], x0[j], m.y, 0.0))
+                if cells:
+                    ok = _from_lower_bound(taus, stable[j], float(tau_lo[j]))
+                blocks.append(_Closed(ok, cells, v0[j], vxf[j], width[j], x0[j], m.y, 0.0))
                 meta(i, ok.size, ok, t_plan + ok)
             else:
                 d = cluster_derivatives(v0[j], vxf[j], width[j], ok, rel, (0, 1), vy0=vy0[j])
@@ -298,8 +310,9 @@ def predict_lazy(
         empty = np.zeros((0, n_t))
         noint = np.zeros(0, dtype=np.int64)
         return LazyFutures(t, rel, ids, tuple(cats), noint, none, none, none, none, noint,
-                           noint, empty, empty, empty, none, none, none, none, none, none)
-    c1 = [b[1] for b in blocks if b[0] == "c1"]
+                           noint, empty, empty, empty, np.zeros(0, dtype=LANE_CHANGE),
+                           np.zeros(0, dtype=bool))
+    c1 = [b.message for b in blocks if isinstance(b, _C1)]
     if c1:  # constant_acceleration of every C1 TV (the same operations, one array)
         mt, v, a, mx = (np.array([getattr(m, f) for m in c1]) for f in ("t", "speed", "accel", "x"))
         dt = t[None, :] - mt[:, None]
@@ -308,10 +321,12 @@ def predict_lazy(
             dt[neg] = np.minimum(dt[neg], (v[neg] / -a[neg])[:, None])
         x_c1 = mx[:, None] + v[:, None] * dt + 0.5 * a[:, None] * dt * dt
         j = iter(range(len(c1)))
-        blocks = [("rows", x_c1[next(j)][None, :], np.full((1, n_t), b[1].y),
-                   np.full((1, n_t), b[1].heading)) if b[0] == "c1" else b for b in blocks]
+        blocks = [_Rows(x_c1[next(j)][None, :], np.full((1, n_t), b.message.y),
+                        np.full((1, n_t), b.message.heading)) if isinstance(b, _C1) else b
+                  for b in blocks]
     n_h = len(owner)
-    params = np.full((6, n_h), np.nan)
+    lc = np.full(n_h, np.nan, dtype=LANE_CHANGE)
+    cell = np.zeros(n_h, dtype=bool)
     row_of = np.full(n_h, -1, dtype=np.int64)
     stored: list[IntArray] = []
     rows_x: list[Array] = []
@@ -319,16 +334,20 @@ def predict_lazy(
     rows_h: list[Array] = []
     h0 = 0
     for b in blocks:
-        if b[0] == "rows":
-            k = b[1].shape[0]
+        if isinstance(b, _Rows):
+            k = b.x.shape[0]
             row_of[h0:h0 + k] = sum(r.shape[0] for r in rows_x) + np.arange(k)
             stored.append(np.arange(h0, h0 + k))
-            rows_x.append(b[1])
-            rows_y.append(b[2])
-            rows_h.append(b[3])
-        else:
-            k = b[1]
-            params[:, h0:h0 + k] = np.array(b[2:])[:, None]
+            rows_x.append(b.x)
+            rows_y.append(b.y)
+            rows_h.append(b.heading)
+        elif isinstance(b, _Closed):
+            k = b.durations.size
+            block = lc[h0:h0 + k]
+            for name, value in zip(LANE_CHANGE.names, (b.v0, b.vxf, b.width, b.durations,
+                                                       b.x0, b.y0, b.start), strict=True):
+                block[name] = value
+            cell[h0:h0 + k - 1] = b.cells  # a C2 cluster's neighbouring durations
         h0 += k
     cat_rows = (lambda a: np.concatenate(a) if a else np.zeros((0, n_t)))  # noqa: E731
     return LazyFutures(
@@ -337,6 +356,43 @@ def predict_lazy(
         length=np.array(lengths), width=np.array(widths),
         stored=np.concatenate(stored) if stored else np.zeros(0, dtype=np.int64),
         row_of=row_of, sx=cat_rows(rows_x), sy=cat_rows(rows_y), sh=cat_rows(rows_h),
-        v0=params[0], vxf=params[1], dy=params[2], x0=params[3], y0=params[4],
-        t_start=params[5],
+        lc=lc, cell=cell,
     )
+
+
+class _Rows(NamedTuple):
+    """Hypotheses stored as rows on the grid, each (k, n_t)."""
+
+    x: Array  # m
+    y: Array  # m
+    heading: Array  # rad
+
+
+class _C1(NamedTuple):
+    """A C1 TV, its row computed with the others."""
+
+    message: V2VMessage
+
+
+class _Closed(NamedTuple):
+    """Lane changes from rest (eq. 2 / eq. 4), one per duration."""
+
+    durations: Array  # s
+    cells: bool  # neighbouring durations bound cells (a C2 cluster)
+    v0: float  # m/s
+    vxf: float  # m/s
+    width: float  # m
+    x0: float  # m
+    y0: float  # m
+    start: float  # s, relative to the planning instant
+
+
+def _from_lower_bound(taus: Array, stable: NDArray[np.bool_], tau_lo: float) -> Array:
+    """s, the durations listed for a C2 cluster from rest: a lower bound of its tau_min
+    (given, or the grid point below its first stable one), then its stable grid points
+    above it. The check covers every duration between neighbours."""
+    ok = taus[stable]
+    if not np.isfinite(tau_lo):
+        first = int(np.flatnonzero(stable)[0])
+        tau_lo = float(taus[max(first - 1, 0)])
+    return np.concatenate(([tau_lo], ok[ok > tau_lo + 1e-9]))

@@ -216,6 +216,47 @@ def standard_bounds(vx0: float, vxf: float, width: float,
     return v_min, v_max, yd, rate, math.atan(yd / v_lo)
 
 
+# A lane change from rest (eq. 2 / eq. 4) in closed form, placed in the world: what the
+# prediction hands the collision check for every C2 duration and C3 quintic broadcast.
+LANE_CHANGE = np.dtype([
+    ("v0", np.float64),  # m/s, longitudinal speed at the start
+    ("vxf", np.float64),  # m/s, target speed
+    ("width", np.float64),  # m, signed lateral displacement W
+    ("tau", np.float64),  # s, duration
+    ("x0", np.float64),  # m, global x at the start
+    ("y0", np.float64),  # m, global y at the start
+    ("start", np.float64),  # s, start time on the clock of the check (<= 0: under way)
+])
+
+
+@njit
+def lane_change_state(v0: float, vxf: float, width: float, tau: float, x0: float, y0: float,
+                      start: float, t: float) -> tuple[float, float, float, float, float]:
+    """Global (x m, y m, heading rad, x' m/s, y' m/s) at time t of the lane change from
+    rest (eq. 2 / eq. 4) of duration tau that starts at (x0, y0) at time `start`: the one
+    closed form of a C2 / C3 trajectory (the fields of `LANE_CHANGE`)."""
+    s = t - start
+    x, y = standard_xy(v0, vxf, width, tau, s)
+    xd, yd = standard_velocity(v0, vxf, width, tau, s)
+    return x + x0, y + y0, math.atan2(yd, xd), xd, yd
+
+
+@njit
+def standard_tau_sensitivity(vx0: float, vxf: float, width: float,
+                             tau: float) -> tuple[float, float, float]:
+    """Bounds, over all times and every duration >= tau, of how the pose of eq. 2 / eq. 4
+    from rest moves with the duration: (|dx/dtau| m/s, |dy/dtau| m/s, |dheading/dtau|
+    rad/s). With s = t / tau: dx/dtau = (vx0 - vxf) s^3 (2 - 1.5 s) (<= 0.5 |vxf - vx0|),
+    dy/dtau = -30 W s^3 (1 - s)^2 / tau (<= 1.0368 |W| / tau), dx'/dtau <= 0.8889
+    |vxf - vx0| / tau (m/s^2), dy'/dtau <= 4.0673 |W| / tau^2; heading = atan2(y', x') moves by
+    at most |dy'| / x' + |y'| |dx'| / x'^2. Each decreases with tau."""
+    v_lo = max(min(vx0, vxf), 1e-3)
+    w, dv = abs(width), abs(vxf - vx0)
+    yd = 1.875 * w / tau
+    rate = 4.0673 * w / (tau * tau) / v_lo + yd * (0.8889 * dv / tau) / (v_lo * v_lo)
+    return 0.5 * dv, 1.0368 * w / tau, rate * (1.0 + 1e-9)
+
+
 @njit
 def _standard_flat(vx0: Array, vxf: Array, width: Array, tau: Array, t: Array,
                    velocity: bool) -> tuple[Array, Array]:

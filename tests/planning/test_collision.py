@@ -13,18 +13,22 @@ from cosim.planning.collision import (
     corners,
     overlap_col,
     overlap_sat,
-    sampling_pad,
-    standard_cluster_motion,
 )
-from cosim.planning.trajectory import cluster_derivatives
+from cosim.planning.trajectory import (
+    cluster_derivatives,
+    standard_bounds,
+    standard_positions,
+    standard_tau_sensitivity,
+    standard_velocities,
+)
 
 RNG = np.random.default_rng(7)
 
 
-def check_cluster(t, sv, sl, sw, sv_hor, tx, ty, th, tl, tw, tv_hor, *, pad=None, **kw):  # noqa: ANN001, ANN003, ANN201
+def check_cluster(t, sv, sl, sw, sv_hor, tx, ty, th, tl, tw, tv_hor, **kw):  # noqa: ANN001, ANN003, ANN201
     """`check_candidates` against TV trajectories given as (n_h, n_t) arrays."""
     return check_candidates(t, sv, sl, sw, sv_hor,
-                            TVHypotheses.from_rows(tx, ty, th, tl, tw, pad), tv_hor, **kw)
+                            TVHypotheses.from_rows(tx, ty, th, tl, tw), tv_hor, **kw)
 
 
 def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
@@ -141,10 +145,26 @@ def _target_lane_traffic(rng: np.random.Generator, t: np.ndarray, n_h: int) -> t
     return tx, ty, np.zeros_like(tx), np.full(n_h, 4.32), np.full(n_h, 1.8)
 
 
+def _between_samples(t, sv, c, k, tx, ty, th, tl, tw, n=50):  # noqa: ANN001, ANN202
+    """Candidate c against the (linear) rows at n + 1 instants of [t_k - dt/2, t_k + dt/2]."""
+    dt = t[1] - t[0]
+    tt = np.clip(t[k] + np.linspace(-0.5, 0.5, n + 1) * dt, t[0], t[-1])
+    kw = {"ax0": sv.ax0, "vy0": sv.vy0, "ay0": sv.ay0}
+    d = cluster_derivatives(sv.vx0, sv.vxf, sv.width, sv.taus[c:c + 1], tt + sv.t_shift, (0, 1),
+                            **kw)
+    sx, sy, sh = d[0][0][0] + sv.x0, d[0][1][0] + sv.y0, np.arctan2(d[1][1][0], d[1][0][0])
+    lerp = [np.array([np.interp(tt, t, row) for row in a]) for a in (tx, ty, th)]
+    return overlap_sat(sx[None, :], sy[None, :], sh[None, :], 4.32, 1.8, *lerp,
+                       tl[:, None], tw[:, None]).any()
+
+
 def test_check_matches_a_dense_check() -> None:
-    """Standard and general-start candidates, exact test and CoL: the first overlap of
-    each candidate is the one a test of every (candidate, TV, sample) finds."""
-    outcomes = []
+    """Standard and general-start candidates, exact test and CoL. CoL (at the samples,
+    as the paper): the first overlap of each candidate is the one a test of every
+    (candidate, TV, sample) finds. Exact (continuous in time): it finds every overlap
+    at the samples, at the same sample or before; one found earlier is a real overlap
+    within half a step of its sample."""
+    outcomes, between = [], 0
     for seed in range(8):
         rng = np.random.default_rng(seed)
         n_c, n_h = 12, 3
@@ -157,8 +177,14 @@ def test_check_matches_a_dense_check() -> None:
         for test in ("exact", "col"):
             fast = check_cluster(t, sv, 4.32, 1.8, sv_hor, tx, ty, th, tl, tw, tv_hor, test=test)
             ref = _dense_reference(t, sv, 4.32, 1.8, sv_hor, tx, ty, th, tl, tw, tv_hor, test)
-            np.testing.assert_array_equal(fast.first_index, ref)
-            np.testing.assert_array_equal(fast.collides, ref >= 0)
+            if test == "col":
+                np.testing.assert_array_equal(fast.first_index, ref)
+            else:
+                assert (fast.collides >= (ref >= 0)).all()
+                assert (fast.first_index[ref >= 0] <= ref[ref >= 0]).all()
+                for c in np.flatnonzero(fast.first_index != ref):
+                    assert _between_samples(t, sv, c, fast.first_index[c], tx, ty, th, tl, tw)
+                    between += 1
             outcomes.append(fast.collides)
     both = np.concatenate(outcomes)
     assert 0.1 < both.mean() < 0.9  # the check saw both verdicts
@@ -168,58 +194,69 @@ def _stationary_sv() -> SVCandidates:
     return SVCandidates(np.array([1.0]), 0.0, 0.0, 0.0, 0.0, 0.0)  # at the origin, heading 0
 
 
-def test_padding_catches_an_overlap_between_samples() -> None:
-    """A TV crossing the SV's path at 80 m/s sideways overlaps it only between samples."""
+def test_an_overlap_between_samples_is_caught() -> None:
+    """A TV crossing the SV's path at 80 m/s sideways overlaps it only between samples:
+    the exact test catches it, CoL (at the samples, as the paper) does not."""
     t = np.array([0.0, 0.05])
     tx = np.zeros((1, 2))
     ty = np.array([[-1.9, 2.1]])  # |y| > 1.8 at both samples: no overlap at the samples
     th = np.zeros((1, 2))
     args = (t, _stationary_sv(), 4.32, 1.8, np.array([1.0]), tx, ty, th, np.array([4.32]),
             np.array([1.8]), np.array([1.0]))
-    assert not check_cluster(*args).collides[0]
-    pad = np.array([0.25 * 4.0])  # D/4 with D = 4 m of relative travel per step
-    assert check_cluster(*args, pad=pad).collides[0]
+    assert check_cluster(*args).collides[0]
+    assert not check_cluster(*args, test="col").collides[0]
 
 
-def test_refinement_keeps_real_overlaps_and_drops_pad_only_ones() -> None:
-    """Between-sample look: a real crossing between samples stays a collision, a near
-    miss that only the pad turned into an overlap does not."""
+def test_a_near_miss_between_samples_is_not_an_overlap() -> None:
+    """A real crossing between samples stays a collision; a pass 15 cm to the side at
+    30 m/s relative, whose motion bound overlaps at the samples near the pass, does not."""
     t = np.arange(0.0, 0.5001, 0.05)
     n_t = t.size
 
-    def run(ty: np.ndarray, tx: np.ndarray, pad: float) -> bool:
+    def run(ty: np.ndarray, tx: np.ndarray, margin: float = 0.0) -> bool:
         return bool(check_cluster(
             t, _stationary_sv(), 4.32, 1.8, np.array([1.0]), tx[None, :], ty[None, :],
             np.zeros((1, n_t)), np.array([4.32]), np.array([1.8]), np.array([1.0]),
-            pad=np.array([pad]),
-        ).collides[0])
+            margin=margin).collides[0])
 
-    # crossing sideways at 80 m/s: overlaps only between t = 0.2 and 0.25
-    ty = -1.9 + 80.0 * (t - 0.2)
-    assert run(ty, np.zeros(n_t), 1.0)
-    # passing 1.95 m to the side (15 cm clear) at 30 m/s relative: never overlaps,
-    # though the pad alone makes it an overlap at the samples near the pass
+    ty = -1.9 + 80.0 * (t - 0.2)  # overlaps only between t = 0.2 and 0.25
+    assert run(ty, np.zeros(n_t))
     tx = -5.0 + 30.0 * t
     side = np.full(n_t, 1.95)
     assert overlap_sat(0.0, 0.0, 0.0, 4.32, 1.8, tx, side, 0.0, 4.32, 1.8, margin=0.4).any()
-    assert not run(side, tx, 0.4)
+    assert not run(side, tx)
+    assert not run(side, tx, margin=0.07)  # 15 cm apart: clear with 7 cm on each
+    assert run(side, tx, margin=0.08)  # and not with 8 cm
 
 
 def test_closed_form_bounds_cover_the_sampled_motion() -> None:
+    """`standard_bounds` (in time) and `standard_tau_sensitivity` (in the duration) hold
+    on a fine grid of times and durations."""
     rng = np.random.default_rng(11)
     for _ in range(20):
         vx0, vxf = rng.uniform(10, 35, 2)
         W = rng.choice([-1, 1]) * rng.uniform(2, 4)
-        taus = np.arange(rng.uniform(1.5, 4.0), 10.0, 0.05)
+        tau0 = rng.uniform(1.5, 4.0)
+        taus = np.arange(tau0, 10.0, 0.01)
         t = np.arange(0.0, 12.001, 0.01)  # fine: the true derivatives, not chords
         d = cluster_derivatives(vx0, vxf, W, taus, t, (1, 2))
         (xd, yd), (xdd, ydd) = d[1], d[2]
         rate = np.abs((xd * ydd - yd * xdd) / (xd**2 + yd**2))
-        b = standard_cluster_motion(vx0, vxf, W, float(taus.min()), 1.0)
-        assert b.dx_min <= xd.min() + 1e-9 and b.dx_max >= xd.max() - 1e-9
-        assert b.dy_max >= np.abs(yd).max() - 1e-9
-        assert b.turn >= rate.max() - 1e-9
-        assert b.max_heading >= np.abs(np.arctan2(yd, xd)).max() - 1e-9
+        v_lo, v_hi, yd_max, rate_max, head = standard_bounds(vx0, vxf, W, tau0)
+        assert v_lo <= xd.min() + 1e-9 and v_hi >= xd.max() - 1e-9
+        assert yd_max >= np.abs(yd).max() - 1e-9
+        assert rate_max >= rate.max() - 1e-9
+        assert head >= np.abs(np.arctan2(yd, xd)).max() - 1e-9
+        sx, sy, srot = standard_tau_sensitivity(vx0, vxf, W, tau0)
+        x, y = standard_positions(vx0, vxf, W, taus, t)
+        vx, vy = standard_velocities(vx0, vxf, W, taus[:, None], t[None, :])
+        dtau = np.diff(taus)[:, None]
+        assert (np.abs(np.diff(x, axis=0)) / dtau).max() <= sx + 1e-9
+        assert (np.abs(np.diff(y, axis=0)) / dtau).max() <= sy + 1e-9
+        assert (np.abs(np.diff(np.arctan2(vy, vx), axis=0)) / dtau).max() <= srot + 1e-9
+        # ordered by the duration at every time: the box of two durations holds the others
+        assert ((np.diff(y, axis=0) * np.sign(W)) <= 1e-12).all()
+        assert ((np.diff(x, axis=0) * np.sign(vx0 - vxf)) >= -1e-12).all()
 
 
 def _c2_scene(rng: np.random.Generator, t: np.ndarray):  # noqa: ANN202
@@ -237,44 +274,29 @@ def _c2_scene(rng: np.random.Generator, t: np.ndarray):  # noqa: ANN202
 
 def test_closed_form_hypotheses_give_what_their_rows_give() -> None:
     """C2 clusters left in closed form (evaluated where needed, windows by binary search)
-    give the hits of their materialised rows, grouped by vehicle or each alone."""
+    give the verdicts of their materialised rows at the listed durations; with their
+    cells (every duration between neighbours) they reject at least as much."""
     rng = np.random.default_rng(4)
     t = np.arange(0.0, 12.001, 0.05)
     grid = np.arange(2.0, 10.001, 0.05)
-    hits = 0
+    hits, more = 0, 0
     for margin in (0.0, 0.1, 0.1, 0.3):
         road, f = _c2_scene(rng, t)
         assert (f.row_of < 0).sum() > 100  # C2 clusters in closed form
         sv = SVCandidates(grid, 27.0, 30.0, 3.75, 500.0, road.lane_center(1))
-        motion = standard_cluster_motion(27.0, 30.0, 3.75, float(grid.min()), 0.05)
-        closed = TVHypotheses.from_futures(f, motion, 2.35)
-        rows = TVHypotheses.from_rows(f.x, f.y, f.heading, f.length, f.width, closed.pad)
-        grouped = replace(rows, groups=closed.groups)
-        kw = {"margin": margin, "sv_max_heading": motion.max_heading}
+        cells = TVHypotheses.from_futures(f)
+        listed = replace(cells, cell=np.zeros_like(cells.cell))
+        rows = replace(TVHypotheses.from_rows(f.x, f.y, f.heading, f.length, f.width),
+                       groups=cells.groups)
         sv_hor = grid + 2.0
         tv_hor = np.where(np.isfinite(f.t_end), f.t_end, -np.inf) + 2.0
-        a, b, c = (check_candidates(t, sv, 4.32, 1.8, sv_hor, tv, tv_hor, **kw)
-                   for tv in (closed, rows, grouped))
-        for name in ("collides", "first_index", "first_hypothesis"):
-            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-            np.testing.assert_array_equal(getattr(a, name), getattr(c, name))
+        a, b, c = (check_candidates(t, sv, 4.32, 1.8, sv_hor, tv, tv_hor, margin=margin)
+                   for tv in (listed, rows, cells))
+        np.testing.assert_array_equal(a.collides, b.collides)
+        assert (c.collides >= a.collides).all()
         hits += int(a.collides.sum())
+        more += int((c.collides & ~a.collides).sum())
     assert 0 < hits < 4 * grid.size
-
-
-def test_closed_form_pad_bound_covers_the_exact_pad() -> None:
-    rng = np.random.default_rng(2)
-    t = np.arange(0.0, 12.001, 0.05)
-    for _ in range(5):
-        _, f = _c2_scene(rng, t)
-        motion = standard_cluster_motion(float(rng.uniform(20, 30)), 27.0, 3.75, 2.5, 0.05)
-        bound = TVHypotheses.from_futures(f, motion, 2.35).pad
-        closed = np.flatnonzero(f.row_of < 0)
-        assert closed.size > 100
-        exact = sampling_pad(motion, f.x[closed], f.y[closed], f.heading[closed], 2.35,
-                             0.5 * np.hypot(f.length[closed], f.width[closed]))
-        assert (bound[closed] >= exact).all()
-        assert (bound[closed] <= 1.5 * exact).all()  # and not far above
 
 
 def test_a_broadcast_quintic_is_kept_in_closed_form() -> None:
@@ -302,7 +324,7 @@ def test_a_broadcast_quintic_is_kept_in_closed_form() -> None:
 
 def test_a_started_manoeuvre_is_checked_at_its_own_time() -> None:
     """A candidate t_shift into its manoeuvre (a re-check under way) gives what the
-    same candidate from its start gives on the grid shifted by t_shift, padded looks
+    same candidate from its start gives on the grid shifted by t_shift, the looks
     between samples included."""
     rng = np.random.default_rng(3)
     shift = 1.3
@@ -313,20 +335,19 @@ def test_a_started_manoeuvre_is_checked_at_its_own_time() -> None:
         start = {} if seed % 2 else {"vy0": 0.2, "ay0": 0.1}
         tx, ty, th, tl, tw = _target_lane_traffic(rng, t, 2)
         tx += 22.0 * shift  # around the SV, which is under way
-        pad = np.full(2, 0.3)
         hor = (taus + 1.0, np.full(2, -np.inf))
         under_way = SVCandidates(taus, 22.0, 25.0, 3.75, 0.0, 0.0, t_shift=shift, **start)
         from_start = replace(under_way, t_shift=0.0)
         a = check_cluster(t, under_way, 4.32, 1.8, hor[0] - shift, tx, ty, th, tl, tw, hor[1],
-                          pad=pad)
+                          margin=0.3)
         b = check_cluster(t + shift, from_start, 4.32, 1.8, hor[0], tx, ty, th, tl, tw,
-                          hor[1], pad=pad)
+                          hor[1], margin=0.3)
         for name in ("collides", "first_index", "first_hypothesis"):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-        no_pad = check_cluster(t, under_way, 4.32, 1.8, hor[0] - shift, tx, ty, th, tl, tw,
-                               hor[1])
-        refined += int((a.first_index != no_pad.first_index).sum())
+        samples = check_cluster(t, under_way, 4.32, 1.8, hor[0] - shift, tx, ty, th, tl, tw,
+                                hor[1], margin=0.3, test="col")
+        refined += int((a.first_index != samples.first_index).sum())
         outcomes.append(a.collides)
     both = np.concatenate(outcomes)
     assert 0.05 < both.mean() < 0.95  # both verdicts
-    assert refined > 0  # the pads and the looks between samples took part
+    assert refined > 0  # the looks between samples took part

@@ -7,7 +7,7 @@ import pytest
 
 from cosim.params import RoadParams, VehicleParams, kmh
 from cosim.planning.envelope import stable_set
-from cosim.planning.prediction import c2_lanes, category, predict
+from cosim.planning.prediction import c2_lanes, category, predict, predict_lazy
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.v2v import LateralMotion, V2VMessage
 
@@ -46,8 +46,13 @@ def test_c2_is_the_tvs_whole_stable_cluster() -> None:
     f = predict([m], 0.0, T_REL, ROAD, VEH, GRID)
     assert f.categories == ("C2",)
     st = stable_set(kmh(120), kmh(110), -ROAD.lane_width, GRID, ROAD.mu, VEH)
-    np.testing.assert_allclose(f.tau, GRID[st.stable])  # one hypothesis per stable tau
-    assert f.n_hypotheses == st.stable.sum() > 100
+    # one hypothesis per stable grid point, after a lower bound of tau_min (without the
+    # planner's maps: the grid point below the first stable one); all bound cells
+    np.testing.assert_allclose(f.tau[1:], GRID[st.stable])
+    assert f.tau[0] == GRID[np.flatnonzero(st.stable)[0] - 1] < st.tau_min
+    assert f.n_hypotheses == st.stable.sum() + 1 > 100
+    cell = predict_lazy([m], 0.0, T_REL, ROAD, VEH, GRID).cell
+    assert cell[:-1].all() and not cell[-1]
     np.testing.assert_allclose(f.x[:, 0], 50.0)
     np.testing.assert_allclose(f.y[:, -1], ROAD.lane_center(1), atol=1e-9)  # all end in lane 1
     # the band rule: a decelerating change ends at the target lane's maximum, 110 km/h
