@@ -113,6 +113,9 @@ class SnapshotReader:
         self.near_key: tuple[str, float] | None = None  # (centre id, radius) of the candidates
         self.near_next = -math.inf  # s, simulation time of the next candidate refresh
         self.near_candidates: tuple[str, ...] = ()
+        # candidates gone since the refresh (arrived); None: not tracked (a teleport or
+        # a removal), then each call asks SUMO who is present
+        self.near_gone: set[str] | None = None
 
     def snapshot(self, exclude: Iterable[str] = ()) -> TrafficSnapshot:
         """Every vehicle now (except `exclude`), centre poses, in one pass."""
@@ -137,10 +140,22 @@ class SnapshotReader:
         costs more inside simulationStep than this whole read.)"""
         api = self.api
         t = float(api.simulation.getTime())
-        present = api.vehicle.getIDList()
-        alive = set(present)
         key = (center_id, float(radius))
-        if self.near_key != key or t >= self.near_next - 1e-9 or center_id not in alive:
+        refresh = self.near_key != key or t >= self.near_next - 1e-9
+        alive: set[str] | None = None
+        gone = self.near_gone
+        if not refresh and gone is not None:  # who left is known: no ID list to read
+            refresh = center_id in gone
+            ids = tuple(vid for vid in self.near_candidates if vid not in gone) if gone \
+                else self.near_candidates
+        else:
+            present = api.vehicle.getIDList()
+            alive = set(present)
+            refresh = refresh or center_id not in alive
+        if refresh:
+            if alive is None:
+                present = api.vehicle.getIDList()
+                alive = set(present)
             get_pos = self.getters[0]
             cx = get_pos(center_id)[0] if center_id in alive else math.nan
             reach = radius + NEAR_MARGIN
@@ -148,13 +163,26 @@ class SnapshotReader:
                 vid for vid in present if abs(get_pos(vid)[0] - cx) <= reach))
             self.near_key = key
             self.near_next = t + NEAR_REFRESH
-        ids = tuple(vid for vid in self.near_candidates if vid in alive)
+            self.near_gone = set()
+        if alive is not None:
+            ids = tuple(vid for vid in self.near_candidates if vid in alive)
         snap = self.read(ids, t, full=full)
         if center_id not in snap.ids:
             return snap.select(np.zeros(len(snap), dtype=bool))
         i = snap.index(center_id)
         near = np.hypot(snap.x - snap.x[i], snap.y - snap.y[i]) <= radius
         return snap.select(near)
+
+    def left(self, vehicle_ids: Iterable[str]) -> None:
+        """Vehicles that left the network in the last step (arrived): snapshot_near
+        drops them from its candidates without reading SUMO's ID list."""
+        if self.near_gone is not None:
+            self.near_gone.update(vehicle_ids)
+
+    def untracked(self) -> None:
+        """A vehicle may have left other than by arriving (teleport, removal, a lost
+        controlled vehicle): snapshot_near reads the ID list until its next refresh."""
+        self.near_gone = None
 
     def read(self, ids: tuple[str, ...], t: float | None = None, *, full: bool = True
              ) -> TrafficSnapshot:

@@ -297,10 +297,14 @@ class SumoSim:
         api.simulationStep()
         self.controlled.moved = False
         t = float(api.simulation.getTime())
-        for vid in api.simulation.getArrivedIDList():
+        arrived = api.simulation.getArrivedIDList()
+        for vid in arrived:
             self.bands.forget(vid)
             self._dims.pop(vid, None)
+        self.reader.left(arrived)
         teleported = set(api.simulation.getStartingTeleportIDList())
+        if teleported:
+            self.reader.untracked()
         for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
         self.reader.cached = None  # read on demand: snapshot() or snapshot_near()
@@ -426,6 +430,7 @@ class SumoSim:
     def remove(self, vehicle_id: str) -> None:
         """Take a vehicle off the network (controlled or not)."""
         self.api.vehicle.remove(vehicle_id)
+        self.reader.untracked()
         self.controlled.vehicles.pop(vehicle_id, None)
         self.bands.forget(vehicle_id)
 
@@ -615,6 +620,7 @@ class ControlledVehicles:
             if vid in teleported:
                 detail += " (SUMO teleported it: a jam with --time-to-teleport set)"
             self.sim.events.append(TrafficEvent(t, "lost", vid, detail))
+            self.sim.reader.untracked()
             del self.vehicles[vid]
             if self.sim.strict:
                 raise SimulationError(t, detail, f"heading {h:.4f} rad")
