@@ -168,10 +168,13 @@ class SnapshotReader:
             ids = tuple(vid for vid in self.near_candidates if vid in alive)
         return self.read(ids, t, full=full, near=(center_id, float(radius)))
 
-    def left(self, vehicle_ids: Iterable[str]) -> None:
+    def left(self, vehicle_ids: Iterable[str], *, untracked: bool = False) -> None:
         """Vehicles that left the network in the last step (arrived): snapshot_near
-        drops them from its candidates without reading SUMO's ID list."""
-        if self.near_gone is not None:
+        drops them from its candidates without reading SUMO's ID list; `untracked`:
+        others may have left too (teleports), see `untracked`."""
+        if untracked:
+            self.untracked()
+        elif self.near_gone is not None:
             self.near_gone.update(vehicle_ids)
 
     def untracked(self) -> None:

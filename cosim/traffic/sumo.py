@@ -126,19 +126,11 @@ class SumoSim:
     """
 
     def __init__(
-        self,
-        network: Path,
-        step: float,
-        seed: int,
-        *,
-        lanechange_duration: float = 3.0,
-        sublane: bool = False,
-        gui: bool | GuiSettings = False,
-        extra_args: Sequence[str] = (),
+        self, network: Path, step: float, seed: int, *,
+        lanechange_duration: float = 3.0, sublane: bool = False,
+        gui: bool | GuiSettings = False, extra_args: Sequence[str] = (),
         speed_bands: tuple[tuple[float, float], ...] | None = None,
-        lateral_resolution: float = 0.8,
-        strict: bool = True,
-        traci: bool = False,
+        lateral_resolution: float = 0.8, strict: bool = True, traci: bool = False,
     ) -> None:
         if step <= 0:
             raise InputError("SumoSim", "step", step, "a positive step length in s")
@@ -301,10 +293,8 @@ class SumoSim:
         for vid in arrived:
             self.bands.forget(vid)
             self._dims.pop(vid, None)
-        self.reader.left(arrived)
         teleported = set(api.simulation.getStartingTeleportIDList())
-        if teleported:
-            self.reader.untracked()
+        self.reader.left(arrived, untracked=bool(teleported))
         for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
         self.reader.cached = None  # read on demand: snapshot() or snapshot_near()
