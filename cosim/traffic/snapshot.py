@@ -113,6 +113,9 @@ class SnapshotReader:
         self.near_key: tuple[str, float] | None = None  # (centre id, radius) of the candidates
         self.near_next = -math.inf  # s, simulation time of the next candidate refresh
         self.near_candidates: tuple[str, ...] = ()
+        # candidates gone since the refresh (arrived); None: not tracked (a teleport or
+        # a removal), then each call asks SUMO who is present
+        self.near_gone: set[str] | None = None
 
     def snapshot(self, exclude: Iterable[str] = ()) -> TrafficSnapshot:
         """Every vehicle now (except `exclude`), centre poses, in one pass."""
@@ -137,10 +140,22 @@ class SnapshotReader:
         costs more inside simulationStep than this whole read.)"""
         api = self.api
         t = float(api.simulation.getTime())
-        present = api.vehicle.getIDList()
-        alive = set(present)
         key = (center_id, float(radius))
-        if self.near_key != key or t >= self.near_next - 1e-9 or center_id not in alive:
+        refresh = self.near_key != key or t >= self.near_next - 1e-9
+        alive: set[str] | None = None
+        gone = self.near_gone
+        if not refresh and gone is not None:  # who left is known: no ID list to read
+            refresh = center_id in gone
+            ids = tuple(vid for vid in self.near_candidates if vid not in gone) if gone \
+                else self.near_candidates
+        else:
+            present = api.vehicle.getIDList()
+            alive = set(present)
+            refresh = refresh or center_id not in alive
+        if refresh:
+            if alive is None:
+                present = api.vehicle.getIDList()
+                alive = set(present)
             get_pos = self.getters[0]
             cx = get_pos(center_id)[0] if center_id in alive else math.nan
             reach = radius + NEAR_MARGIN
@@ -148,23 +163,55 @@ class SnapshotReader:
                 vid for vid in present if abs(get_pos(vid)[0] - cx) <= reach))
             self.near_key = key
             self.near_next = t + NEAR_REFRESH
-        ids = tuple(vid for vid in self.near_candidates if vid in alive)
-        snap = self.read(ids, t, full=full)
-        if center_id not in snap.ids:
-            return snap.select(np.zeros(len(snap), dtype=bool))
-        i = snap.index(center_id)
-        near = np.hypot(snap.x - snap.x[i], snap.y - snap.y[i]) <= radius
-        return snap.select(near)
+            self.near_gone = set()
+        if alive is not None:
+            ids = tuple(vid for vid in self.near_candidates if vid in alive)
+        return self.read(ids, t, full=full, near=(center_id, float(radius)))
 
-    def read(self, ids: tuple[str, ...], t: float | None = None, *, full: bool = True
-             ) -> TrafficSnapshot:
+    def left(self, vehicle_ids: Iterable[str], *, untracked: bool = False) -> None:
+        """Vehicles that left the network in the last step (arrived): snapshot_near
+        drops them from its candidates without reading SUMO's ID list; `untracked`:
+        others may have left too (teleports), see `untracked`."""
+        if untracked:
+            self.untracked()
+        elif self.near_gone is not None:
+            self.near_gone.update(vehicle_ids)
+
+    def untracked(self) -> None:
+        """A vehicle may have left other than by arriving (teleport, removal, a lost
+        controlled vehicle): snapshot_near reads the ID list until its next refresh."""
+        self.near_gone = None
+
+    def read(self, ids: tuple[str, ...], t: float | None = None, *, full: bool = True,
+             near: tuple[str, float] | None = None) -> TrafficSnapshot:
         """The snapshot of the vehicles `ids` (all present now), in that order; `t`:
-        SUMO's time if known; without `full` no acceleration (NaN) and no signals (0)."""
+        SUMO's time if known; without `full` no acceleration (NaN) and no signals (0);
+        `near` (id, radius in m): only those whose centre is within radius of that
+        vehicle's (none if it is not in `ids`); their other values are read after the
+        poses, for them alone."""
         n = len(ids)
         get_pos, get_angle, get_speed, get_accel, get_lane, get_lat, get_signals = self.getters
         pos = np.fromiter(chain.from_iterable(map(get_pos, ids)), float, 2 * n).reshape(n, 2)
         xf, yf = pos[:, 0], pos[:, 1]
         angle = np.fromiter(map(get_angle, ids), float, n)
+        dims = self.dims
+        sizes = np.fromiter(chain.from_iterable(dims.get(vid) or self._read_dims(vid)
+                                                for vid in ids), float, 2 * n).reshape(n, 2)
+        length, width = sizes[:, 0].copy(), sizes[:, 1].copy()
+        h = np.radians(90.0 - angle)
+        h = np.arctan2(np.sin(h), np.cos(h))
+        x = xf - 0.5 * length * np.cos(h)
+        y = yf - 0.5 * length * np.sin(h)
+        if near is not None:
+            center_id, radius = near
+            if center_id in ids:
+                i = ids.index(center_id)
+                keep = np.hypot(x - x[i], y - y[i]) <= radius
+            else:
+                keep = np.zeros(n, dtype=bool)
+            ids = tuple(compress(ids, keep.tolist()))
+            xf, x, y, h, length, width = (a[keep] for a in (xf, x, y, h, length, width))
+            n = len(ids)
         speed = np.fromiter(map(get_speed, ids), float, n)
         lane = np.fromiter(map(get_lane, ids), int, n)
         lat = np.fromiter(map(get_lat, ids), float, n)
@@ -173,20 +220,12 @@ class SnapshotReader:
             signals = np.fromiter(map(get_signals, ids), int, n)
         else:
             accel, signals = np.full(n, np.nan), np.zeros(n, dtype=int)
-        dims = self.dims
-        sizes = np.fromiter(chain.from_iterable(dims.get(vid) or self._read_dims(vid)
-                                                for vid in ids), float, 2 * n).reshape(n, 2)
-        length, width = sizes[:, 0].copy(), sizes[:, 1].copy()
         lane[xf < INVALID] = -1
         moved = self.lateral_speeds()
         if moved:  # SUMO reports no sideways speed of a moved vehicle: dy/dt of its poses
             for i, vid in enumerate(ids):
                 if vid in moved:
                     lat[i] = moved[vid]
-        h = np.radians(90.0 - angle)
-        h = np.arctan2(np.sin(h), np.cos(h))
-        x = xf - 0.5 * length * np.cos(h)
-        y = yf - 0.5 * length * np.sin(h)
         return TrafficSnapshot(
             time=float(self.api.simulation.getTime()) if t is None else t,
             ids=ids,

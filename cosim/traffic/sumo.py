@@ -125,19 +125,11 @@ class SumoSim:
     """
 
     def __init__(
-        self,
-        network: Path,
-        step: float,
-        seed: int,
-        *,
-        lanechange_duration: float = 3.0,
-        sublane: bool = False,
-        gui: bool | GuiSettings = False,
-        extra_args: Sequence[str] = (),
+        self, network: Path, step: float, seed: int, *,
+        lanechange_duration: float = 3.0, sublane: bool = False,
+        gui: bool | GuiSettings = False, extra_args: Sequence[str] = (),
         speed_bands: tuple[tuple[float, float], ...] | None = None,
-        lateral_resolution: float = 0.8,
-        strict: bool = True,
-        traci: bool = False,
+        lateral_resolution: float = 0.8, strict: bool = True, traci: bool = False,
     ) -> None:
         if step <= 0:
             raise InputError("SumoSim", "step", step, "a positive step length in s")
@@ -295,10 +287,12 @@ class SumoSim:
         api.simulationStep()
         self.controlled.moved = False
         t = float(api.simulation.getTime())
-        for vid in api.simulation.getArrivedIDList():
+        arrived = api.simulation.getArrivedIDList()
+        for vid in arrived:
             self.bands.forget(vid)
             self._dims.pop(vid, None)
         teleported = set(api.simulation.getStartingTeleportIDList())
+        self.reader.left(arrived, untracked=bool(teleported))
         for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
         self.reader.cached = None  # read on demand: snapshot() or snapshot_near()
@@ -424,6 +418,7 @@ class SumoSim:
     def remove(self, vehicle_id: str) -> None:
         """Take a vehicle off the network (controlled or not)."""
         self.api.vehicle.remove(vehicle_id)
+        self.reader.untracked()
         self.controlled.vehicles.pop(vehicle_id, None)
         self.bands.forget(vehicle_id)
 
@@ -613,6 +608,7 @@ class ControlledVehicles:
             if vid in teleported:
                 detail += " (SUMO teleported it: a jam with --time-to-teleport set)"
             self.sim.events.append(TrafficEvent(t, "lost", vid, detail))
+            self.sim.reader.untracked()
             del self.vehicles[vid]
             if self.sim.strict:
                 raise SimulationError(t, detail, f"heading {h:.4f} rad")

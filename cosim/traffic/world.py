@@ -66,7 +66,7 @@ class Scene:
 
 class World:
     """SUMO with the scenario's traffic, as the loop uses it; `wall` is the wall time
-    spent in SUMO's steps and reads (s)."""
+    spent in SUMO's steps and reads (s), `wall_read` the reads' part of it."""
 
     def __init__(self, scenario: Scenario, *, gui: bool | GuiSettings = False) -> None:
         sc = scenario
@@ -79,6 +79,7 @@ class World:
         self.scenario = sc
         self.started = False
         self.wall = 0.0
+        self.wall_read = 0.0
         self.t_offset = 0.0  # s, SUMO's clock when the run's t = 0
 
     def start(self) -> RoadParams:
@@ -119,7 +120,9 @@ class World:
         accelerations and signals (only V2V messages need them)."""
         w0 = time.perf_counter()
         snap = self.sumo.snapshot_near(SV_ID, radius, full=full)
-        self.wall += time.perf_counter() - w0
+        dt = time.perf_counter() - w0
+        self.wall += dt
+        self.wall_read += dt
         if SV_ID not in snap.ids:  # the SUMO-driven SV reached the road's end
             raise SimulationError(snap.time - self.t_offset,
                                   "the SV is no longer on the network (end of the road?)")

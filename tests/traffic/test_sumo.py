@@ -294,3 +294,29 @@ def test_every_tv_has_its_current_lanes_band_after_every_step() -> None:
                 want = bands.speed(lane, bands.quantile[vid])
                 assert sim.api.vehicle.getMaxSpeed(vid) == pytest.approx(want, abs=1e-9), vid
     assert changes >= 3  # the test saw TVs change lanes
+
+
+def test_snapshot_near_drops_vehicles_that_arrive_between_refreshes() -> None:
+    """snapshot_near reads SUMO's ID list only at its refreshes: vehicles that reach the
+    road's end in between must leave its answer the step they go, as a full read says."""
+    with make_sim() as sim:
+        end = sim.highway.x_end
+        for i, x in enumerate(np.arange(end - 190.0, end - 20.0, 25.0)):
+            sim.add_traffic(f"tv{i}", (0, 2)[i % 2], float(x), 1.0, speed=30.0)
+        x_sv = end - 150.0
+        sim.add_controlled("sv", x_sv, 5.625, 0.0, 5.0, L, W, 1)
+        sim.step()
+        assert not sim.reader.pending()  # every vehicle is a candidate from the first read on
+        sim.snapshot_near("sv", 150.0)
+        arrived = 0
+        for _ in range(1, 80):
+            x_sv += 5.0 * STEP
+            sim.move("sv", x_sv, 5.625, 0.0, 5.0)
+            sim.step()
+            arrived += len(sim.api.simulation.getArrivedIDList())
+            near = sim.snapshot_near("sv", 150.0)
+            full = sim.snapshot()
+            i = full.index("sv")
+            inside = np.hypot(full.x - full.x[i], full.y - full.y[i]) <= 150.0
+            assert set(near.ids) == {v for v, m in zip(full.ids, inside, strict=True) if m}
+        assert arrived >= 4  # the road's end took vehicles while the candidates stood
