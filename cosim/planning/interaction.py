@@ -130,15 +130,15 @@ def accepted_gap(follower_speed: ArrayLike, sv_speed: ArrayLike, m: FollowerMode
                  dt: float = 0.05, longest: float = 400.0) -> Array:
     """m, the shortest bumper gap behind the SV at which the follower's entry
     deceleration (`entry_decel`) is at most b_safe (bisection on the model itself, to
-    1 cm; entry_decel does not grow with the gap)."""
+    1 cm; entry_decel does not grow with the gap). Compiled: the gap driver asks this
+    every step."""
     v, vs = np.broadcast_arrays(np.asarray(follower_speed, dtype=float),
                                 np.asarray(sv_speed, dtype=float))
-    lo, hi = np.zeros(v.shape), np.full(v.shape, longest)
-    for _ in range(16):  # 400 m / 2^16 < 1 cm; a fixed count of array steps
-        mid = 0.5 * (lo + hi)
-        ok = entry_decel(mid, v, vs, m, dt) <= m.b_safe + 1e-9
-        hi, lo = np.where(ok, mid, hi), np.where(ok, lo, mid)
-    return hi
+    out = np.empty(v.shape)
+    _accepted_gap_array(MODELS.index(m.model), _params(m), np.ravel(v),
+                        np.ravel(np.nan_to_num(vs)), float(dt), m.b_safe + 1e-9,
+                        float(longest), out.reshape(-1))
+    return out
 
 
 def entry_decel(gap: ArrayLike, follower_speed: ArrayLike, sv_speed: ArrayLike,
@@ -199,6 +199,23 @@ def _accel_array(kind: int, p: Array, g: Array, v: Array, vl: Array, dt: float,
     """`_accel_core` elementwise into out."""
     for i in range(g.size):
         out[i] = _accel_core(kind, p, g[i], v[i], vl[i], dt)
+
+
+@njit
+def _accepted_gap_array(kind: int, p: Array, v: Array, vs: Array, dt: float,
+                        threshold: float, longest: float, out: Array) -> None:
+    """`accepted_gap` elementwise into out: 16 bisection steps on [0, longest]
+    (400 m / 2^16 < 1 cm), a gap accepted when -accel <= threshold (NaN: not)."""
+    for i in range(v.size):
+        lo = 0.0
+        hi = longest
+        for _ in range(16):
+            mid = 0.5 * (lo + hi)
+            if -_accel_core(kind, p, mid, v[i], vs[i], dt) <= threshold:
+                hi = mid
+            else:
+                lo = mid
+        out[i] = hi
 
 
 @njit
@@ -318,3 +335,4 @@ def warm_up() -> None:
         m = FollowerModel(model=model)
         predict_follower(t, 50.0 + 20.0 * t, np.full(5, 20.0), 0.0, 0.0, 20.0, m)
         follower_accel(t, t, t, m, 0.05)
+        accepted_gap(t, t, m)

@@ -77,6 +77,23 @@ def test_accepted_gap_is_the_shortest_within_b_safe() -> None:
 
 
 @pytest.mark.parametrize("m", [KRAUSS, IDM], ids=["krauss", "idm"])
+def test_compiled_accepted_gap_equals_the_array_bisection(m: FollowerModel) -> None:
+    """The compiled bisection gives, value for value, the numpy bisection it replaced
+    (16 halvings of [0, 400] m on entry_decel), NaN and inf speeds included."""
+    from cosim.planning.interaction import accepted_gap
+
+    rng = np.random.default_rng(3)
+    v = np.concatenate([rng.uniform(0.0, 40.0, 200), [30.0, 30.0, 0.0]])
+    vs = np.concatenate([rng.uniform(0.0, 40.0, 200), [np.nan, np.inf, 0.0]])
+    lo, hi = np.zeros(v.shape), np.full(v.shape, 400.0)
+    for _ in range(16):
+        mid = 0.5 * (lo + hi)
+        ok = entry_decel(mid, v, vs, m, DT) <= m.b_safe + 1e-9
+        hi, lo = np.where(ok, mid, hi), np.where(ok, lo, mid)
+    np.testing.assert_array_equal(accepted_gap(v, vs, m, DT), hi)
+
+
+@pytest.mark.parametrize("m", [KRAUSS, IDM], ids=["krauss", "idm"])
 def test_follower_keeps_its_speed_until_the_sv_enters(m: FollowerModel) -> None:
     # SV 25 m ahead of the follower's front, slower (25 vs 30 m/s), enters at 3 s
     rear = 25.0 + 25.0 * T
