@@ -50,7 +50,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cosim.planning.interaction import FollowerModel, accepted_gap, secure_gap
+from cosim.planning.interaction import (
+    FollowerModel,
+    accepted_gap,
+    krauss_safe_speed,
+    secure_gap,
+)
 
 Array = NDArray[np.float64]
 
@@ -76,6 +81,14 @@ class GapConfig:
     horizon: float = 20.0  # s, gaps reached later are not candidates
     reach: float = 80.0  # m, nor gaps whose aim is farther (the lane is seen to ~150 m)
     min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this
+    follow_tau: float = 1.0  # s, the SV's Krauss headway behind its own leader while seeking
+    # (SUMO's tau: SUMO's own SV closes up this far before it changes lanes)
+    follow_decel: float = 4.5  # m/s^2, the braking assumed of the SV and its own leader then
+
+    def follow_model(self) -> FollowerModel:
+        """The SV as a Krauss follower of its own leader while it seeks a gap."""
+        return FollowerModel(decel=self.follow_decel, tau=self.follow_tau,
+                             min_gap=self.min_gap, leader_decel=self.follow_decel)
 
     def sv_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its new leader (for its secure gap)."""
@@ -154,6 +167,24 @@ def reach_time(offset: ArrayLike, rel_speed: ArrayLike, accel: float) -> Array:
     above = np.sqrt(np.maximum(accel * p + 0.5 * u * u, 0.0))
     below = np.sqrt(np.maximum(-accel * p + 0.5 * u * u, 0.0))
     return np.where(s > 0.0, (u + 2.0 * above) / accel, (-u + 2.0 * below) / accel)
+
+
+def seeking_accel(sv_speed: float, target_speed: float, max_speed: float,
+                  leader_gap: float, leader_speed: float, cfg: GapConfig) -> float:
+    """m/s^2, the SV's acceleration while it seeks a gap: toward `target_speed` (the
+    approach speed, m/s) but no faster than `max_speed` (its own lane's limit) and
+    than Krauss's safe speed behind its own leader (bumper gap `leader_gap`, m, inf:
+    none; SUMO's tau and decel, `GapConfig.follow_model`), within the approach
+    acceleration and the follower model's decel. As SUMO's own SV does (LC2013 drives
+    at its lane's speed behind its leader, Krauss-safe, before it changes), it closes
+    up to its leader to reach the faster lane's speed instead of keeping its IDM's
+    1.5 s time gap, which holds it below the target lane."""
+    v = max(sv_speed, 0.0)
+    want = min(target_speed, max_speed)
+    if math.isfinite(leader_gap):
+        v_safe = float(krauss_safe_speed(leader_gap, leader_speed, cfg.follow_model()))
+        want = min(want, v_safe)
+    return min(max((want - v) / cfg.speed_time, -cfg.follow_decel), cfg.approach_accel)
 
 
 def approach_speed(offset: ArrayLike, gap_speed: ArrayLike, cfg: GapConfig) -> Array:

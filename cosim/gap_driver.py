@@ -37,7 +37,7 @@ from cosim.decision import (
     lanes_touched,
     neighbours,
 )
-from cosim.gap import GapChoice, GapConfig, choose_gap, lane_gaps
+from cosim.gap import GapChoice, GapConfig, choose_gap, lane_gaps, seeking_accel
 from cosim.params import RoadParams
 from cosim.planning.interaction import FollowerModel
 
@@ -97,17 +97,22 @@ def gap_decision(
         own_speed = own.leader_speed
     choice = choose_gap(sv_x, sv_speed, sv_length, desired_speed, gaps, gap_cfg, follower,
                         own_limit, own_speed)
+    # seeking: up to its lane's limit, Krauss-safe behind its own leader (gap.seeking_accel)
+    lane_max = road.speed_bands[lane][1]
+    leader_speed = own.leader_speed if own.leader >= 0 else math.inf
     if choice is None:
-        # none in reach: the TV nearest behind the SV in that lane may be asked to yield
+        # none in reach: toward the target lane's speed (its gaps come by faster when it
+        # is slower, and are judged at a smaller speed difference when it is faster);
+        # the TV nearest behind the SV in that lane may be asked to yield
+        accel = seeking_accel(sv_speed, road.target_speed(lane, target), lane_max,
+                              own.gap_ahead, leader_speed, gap_cfg)
         behind = np.where(in_target & (x < sv_x), x, -np.inf)
         ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
-        return replace(keep, target_lane=target, cooperate_with=ask,
+        return replace(keep, target_lane=target, accel=float(accel), cooperate_with=ask,
                        reason=f"lane {target}: no gap in reach")
-    # toward the approach speed, within the approach acceleration; the own leader still
-    # rules (decision.py's IDM, d.accel): the smaller of the two
-    a_gap = min(max((choice.target_speed - sv_speed) / gap_cfg.speed_time,
-                    -gap_cfg.approach_accel), gap_cfg.approach_accel)
-    accel = min(a_gap, d.accel)
+    # toward the approach speed, within the approach acceleration
+    accel = seeking_accel(sv_speed, choice.target_speed, lane_max, own.gap_ahead,
+                          leader_speed, gap_cfg)
     plan_now = choice.reachable and sv_speed >= gap_cfg.min_speed
     coop = choice.follower if choice.relation in ("alongside", "behind") else -1
     return GapDecision(

@@ -161,3 +161,23 @@ def test_following_the_target_speed_reaches_the_gap() -> None:
         t += dt
     assert c.reachable
     assert first is not None and t < 2.0 * first + 3.0
+
+
+def test_seeking_closes_up_to_the_krauss_safe_speed_behind_its_leader() -> None:
+    from cosim.gap import seeking_accel
+    from cosim.planning.interaction import krauss_safe_speed
+
+    cfg = GapConfig()
+    # far behind a slower leader: toward the target speed at the approach acceleration
+    assert seeking_accel(27.0, 31.0, 30.6, 200.0, 26.0, cfg) == cfg.approach_accel
+    # no leader: up to the lane's limit, not beyond it
+    assert seeking_accel(30.6, 35.0, 30.6, math.inf, math.inf, cfg) == 0.0
+    assert seeking_accel(31.6, 35.0, 30.6, math.inf, math.inf, cfg) < 0.0
+    # a leader 60 m ahead at 26.5 m/s: Krauss (SUMO's tau 1 s, decel 4.5) allows ~30.8 m/s
+    v_safe = float(krauss_safe_speed(60.0, 26.5, cfg.follow_model()))
+    assert 30.0 < v_safe < 31.5
+    assert seeking_accel(v_safe - 1.0, 33.0, 40.0, 60.0, 26.5, cfg) > 0.0
+    assert seeking_accel(v_safe + 0.5, 33.0, 40.0, 60.0, 26.5, cfg) < 0.0
+    # close behind it: brakes, within the follow decel
+    a = seeking_accel(30.0, 33.0, 40.0, 5.0, 20.0, cfg)
+    assert a == -cfg.follow_decel

@@ -125,3 +125,23 @@ def test_approach_by_the_driver_reaches_the_gap() -> None:
     lead = planned.gap.leader
     lead_rear = tv_now[lead] + speeds[lead] * (tt - t) - 0.5 * L
     assert np.min(lead_rear - (sv_x + 0.5 * L)) > KRAUSS.min_gap
+
+
+def test_seeking_a_faster_lane_closes_up_to_the_own_leader() -> None:
+    # the own leader 60 m ahead at 26.5 m/s holds the IDM (1.5 s time gap) below it;
+    # lane 2 runs at 31.4 m/s, packed behind the SV (40 m apart), a gap ahead beyond
+    # the own leader: seeking, the SV accelerates toward the lane's speed as SUMO's own
+    # SV does (Krauss-safe behind its leader, up to its lane's limit)
+    tvs = scene([62.0, -135.0, -95.0, -55.0, -15.0, 58.0], [1, 2, 2, 2, 2, 2],
+                [26.5, 31.4, 31.4, 31.4, 31.4, 31.4])
+    keep = drive(0.0, 27.0, tvs, wanted_lane=2, allow_change=False)
+    assert keep.accel < 0.2  # the IDM alone barely moves toward the faster lane
+    d = drive(0.0, 27.0, tvs, wanted_lane=2)
+    assert d.target_lane == 2 and not d.plan_now
+    assert d.accel == GAP.approach_accel
+    # at the lane's limit it accelerates no more
+    d_max = drive(0.0, ROAD.speed_bands[1][1], tvs, wanted_lane=2)
+    assert d_max.accel <= 1e-9
+    # 20 m behind its leader it brakes, whatever the target lane runs
+    d_close = drive(42.0, 29.0, tvs, wanted_lane=2)
+    assert d_close.accel < 0.0

@@ -37,7 +37,10 @@ class CooperationConfig:
     space_headway: float = 5.0  # m, the standstill gap it opens
     duration: float = 10.0  # s, how long it holds the gap once open
     change_rate: float = 0.5  # 1/s, SUMO's openGap rate of change (fraction per second)
-    max_decel: float = 2.0  # m/s^2, the hardest it brakes to open the gap (below b_safe)
+    max_decel: float = 0.3  # m/s^2, the hardest it brakes to open the gap: gently, so
+    # that its braking stays near what SUMO's own SV asks of its followers (sample of
+    # study_gap: 2.0 gave a follower_max_decel of ~2.5 m/s^2, 0.3 about 0.8, 0.15 about
+    # 0.66 but 10/12 lane changes instead of 12/12; docs/gap_driver.md)
 
     def check(self, source: str = "cooperation") -> None:
         """Raise InputError naming the first bad field."""
