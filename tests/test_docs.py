@@ -29,7 +29,6 @@ SLOW = {
     "cosim batch scenarios/study_replanning.toml -o results/batch/study_replanning_fixed":
         "800 runs",
     "cosim bench cosim --repeats 5 --duration 30": "ten 30 s dense runs and more",
-    "cosim batch scenarios/study_gap.toml": "the issue-16 density study, 960 runs",
 }
 # A synopsis: placeholders (FILE, N, ...), alternatives ([...], a|b) or globs.
 # A bare command name that needs an argument is a mention ("`cosim run`'s outputs").
