@@ -204,10 +204,9 @@ class LaneChangePlanner:
         key = (round(vxf, 9), round(width, 9))
         if key not in self._maps:
             cfg = self.config
-            self._maps[key] = TauMinMap(
-                vxf, width, self.road.mu, self.vehicle, tau_lo=cfg.tau_min_floor,
-                tau_hi=cfg.tau_max, safety_factor=cfg.safety_factor, yaw_model=cfg.envelope,
-            )
+            self._maps[key] = _built_tau_min_map(
+                vxf, width, self.road.mu, self.vehicle, cfg.tau_min_floor, cfg.tau_max,
+                cfg.safety_factor, cfg.envelope)
         return self._maps[key]
 
     def _map_tau_min(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
@@ -434,3 +433,14 @@ class LaneChangePlanner:
             return None
         return Rejection(trajectory.tau, "collision", futures.vehicle_ids[vehicle[0]],
                          float(when[0]))
+
+
+@functools.lru_cache(maxsize=64)
+def _built_tau_min_map(vxf: float, width: float, mu: float, vehicle: VehicleParams,
+                       tau_lo: float, tau_hi: float, safety_factor: float,
+                       yaw_model: str) -> TauMinMap:
+    """A TauMinMap, built once per process for exactly these inputs (0.3-0.6 s each:
+    runs, re-plans and benches in one process share it; the same inputs give the same
+    map, so a run's results do not depend on what ran before it)."""
+    return TauMinMap(vxf, width, mu, vehicle, tau_lo=tau_lo, tau_hi=tau_hi,
+                     safety_factor=safety_factor, yaw_model=yaw_model)

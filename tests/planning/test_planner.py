@@ -176,3 +176,21 @@ def test_refinement_between_samples_is_nearly_exact() -> None:
             si.t, si.sv, si.target_lane, si.messages, si.occupant)
         ends.append(p.collision_free_intervals[-1][1])
     assert 6.75 <= ends[0] <= ends[1] <= 6.9
+
+
+def test_tau_min_maps_are_built_once_per_process_and_plans_do_not_depend_on_it() -> None:
+    """Two planners with the same car, road and settings share one built map (0.3-0.6 s
+    each); a plan made after other maps were built equals one made first."""
+    sc = load_scenario(ROOT / "scenarios" / "paper_case3_lane_exchange.toml")
+    si = situation(sc)
+    a = LaneChangePlanner(sc.vehicle, si.road, sc.planner)
+    b = LaneChangePlanner(sc.vehicle, si.road, sc.planner)
+    assert a.tau_min_map(25.0, 3.75) is b.tau_min_map(25.0, 3.75)
+    other = LaneChangePlanner(sc.vehicle, si.road, replace(sc.planner, safety_factor=0.7))
+    assert other.tau_min_map(25.0, 3.75) is not a.tau_min_map(25.0, 3.75)
+    first = b.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
+    again = LaneChangePlanner(sc.vehicle, si.road, sc.planner).plan(
+        si.t, si.sv, si.target_lane, si.messages, si.occupant)
+    assert first.tau == again.tau
+    np.testing.assert_array_equal(first.taus, again.taus)
+    assert first.collision_free_intervals == again.collision_free_intervals
