@@ -120,7 +120,7 @@ def _loop_setup(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: i
     st = planner._stable_set(sv.vx, vxf, width, sv.ax, sv.vy, sv.ay,
                              MODES.get((sv.lane, target)))
     taus, stable = planner.grid, st.stable
-    t_rel, follow = planner._horizon(t, 0.0, sv.x, min(sv.vx, vxf), target, messages)
+    t_rel, follow = planner._horizon(t, 0.0, sv.x, sv.vx, vxf, target, messages)
     lazy = predict_lazy(messages, t, t_rel, road, veh, taus, envelope=cfg.envelope,
                         safety_factor=cfg.safety_factor,
                         stable_fn=planner._tv_stable if planner.use_maps else None,

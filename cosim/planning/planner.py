@@ -37,7 +37,13 @@ from cosim.planning.envelope import (
     envelope_margin,
     stable_set,
 )
-from cosim.planning.prediction import LazyFutures, TVFutures, c2_lanes, predict_lazy
+from cosim.planning.prediction import (
+    LazyFutures,
+    TVFutures,
+    c2_lanes,
+    constant_acceleration,
+    predict_lazy,
+)
 from cosim.planning.selection import choose, intervals, omega
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.v2v import V2VMessage
@@ -280,20 +286,25 @@ class LaneChangePlanner:
         n = int(math.ceil(horizon / self.collision_step))
         return self.collision_step * np.arange(n + 1)
 
-    def _follow_horizon(self, t: float, sv_x: float, sv_speed: float, target_lane: int,
-                        messages: Sequence[V2VMessage], base: float) -> Array:
+    def _follow_horizon(self, t: float, sv_x: float, v_start: float, v_end: float,
+                        manoeuvre: float, target_lane: int, messages: Sequence[V2VMessage],
+                        base: float) -> Array:
         """s after t, per TV: how long the check must look at it (0: no longer than
-        `base`). A TV ahead of the SV that is, or is heading for, the target lane and
-        slower than the SV is looked at until the SV, at `sv_speed` (its slower end
-        speed: the latest arrival), has closed to the gap from which it can still
-        follow it: FOLLOW_STANDSTILL_M + FOLLOW_HEADWAY_S v_tv + (closing speed)^2 /
-        (2 FOLLOW_DECEL_G mu g), at most HORIZON_CAP_S past `base`. Until then the
-        planned SV keeps its target speed (after that the car following takes over)."""
+        `base`). A TV ahead of the SV that is, or is heading for, the target lane is
+        looked at until the SV has closed to the gap from which it can still follow
+        it: FOLLOW_STANDSTILL_M + FOLLOW_HEADWAY_S v_tv + (closing speed)^2 /
+        (2 FOLLOW_DECEL_G mu g). The TV moves as the check predicts it (C1: constant
+        acceleration, speed clipped at 0); the SV as the farthest any candidate gets:
+        at max(v_start, v_end) for `manoeuvre` s (its speed lies between the two while it
+        changes lanes), at v_end after; at most HORIZON_CAP_S past `base`. Up to there
+        the planned SV keeps its target speed and no candidate is closer than it can
+        follow from (after it the car following takes over): the check sees the
+        approach without blaming a candidate for what the car following would avoid."""
         road = self.road
         out = np.zeros(len(messages))
-        for j, m in enumerate(messages):
-            x = m.x + m.speed * (t - m.t)
-            if x <= sv_x:
+        ahead: list[int] = []
+        for j, m in enumerate(messages):  # a lane per message, as the prediction reads it
+            if m.x + m.speed * (t - m.t) <= sv_x:
                 continue
             if m.motion is not None:
                 lane = road.lane_of(m.motion.y0 + m.motion.width)
@@ -301,16 +312,27 @@ class LaneChangePlanner:
                 lane = lanes[1]
             else:
                 lane = road.lane_of(m.y)
-            if lane != target_lane:
-                continue
-            v_tv = max(m.speed + min(m.accel, 0.0) * base, 0.0)  # a braking TV: slower
-            closing = sv_speed - v_tv
-            if closing <= 0.0:
-                continue
-            gap = x - sv_x - 0.5 * (m.length + self.vehicle.length)
-            follow = (FOLLOW_STANDSTILL_M + FOLLOW_HEADWAY_S * v_tv
-                      + closing**2 / (2.0 * FOLLOW_DECEL_G * road.mu * G))
-            out[j] = min(max(gap - follow, 0.0) / closing, base + HORIZON_CAP_S)
+            if lane == target_lane:
+                ahead.append(j)
+        if not ahead:
+            return out
+        cap = base + HORIZON_CAP_S
+        s = self._time_grid(cap)
+        tv_x, tv_v = (np.array(a) for a in zip(
+            *(constant_acceleration(messages[j], t + s) for j in ahead), strict=True))
+        half = 0.5 * (np.array([messages[j].length for j in ahead]) + self.vehicle.length)
+        fast = max(v_start, v_end)
+        sv_speed = np.where(s < manoeuvre, fast, v_end)
+        sv_at = sv_x + fast * np.minimum(s, manoeuvre) + v_end * np.maximum(s - manoeuvre, 0.0)
+        gap = tv_x - sv_at - half[:, None]
+        closing = np.maximum(sv_speed - tv_v, 0.0)
+        need = (FOLLOW_STANDSTILL_M + FOLLOW_HEADWAY_S * tv_v
+                + closing**2 / (2.0 * FOLLOW_DECEL_G * road.mu * G))
+        short = gap < need
+        # the first time the SV is closer than it can follow from; never (within the
+        # cap): it never closes in, no longer look needed
+        first = np.where(short.any(axis=1), s[np.argmax(short, axis=1)], 0.0)
+        out[ahead] = np.where(first > base, first, 0.0)
         return out
 
     def _sv_candidates(self, sv: SVPlanState, vxf: float, width: float,
@@ -340,7 +362,7 @@ class LaneChangePlanner:
         vehicle = np.where(c, futures.owner[np.maximum(hits.first_hypothesis, 0)], -1)
         return c, vehicle, np.where(c, t + t_rel[hits.first_index], np.nan)
 
-    def _horizon(self, t: float, remaining: float, sv_x: float, sv_speed: float,
+    def _horizon(self, t: float, remaining: float, sv_x: float, v_start: float, v_end: float,
                  target_lane: int, messages: Sequence[V2VMessage]) -> tuple[Array, Array]:
         """(the check's time grid, `_follow_horizon` per TV): up to max(tau_max, the SV's
         remaining manoeuvre, the TVs' broadcast manoeuvres) + horizon_extra, or longer
@@ -348,7 +370,11 @@ class LaneChangePlanner:
         cfg = self.config
         tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
         base = max(cfg.tau_max, remaining, tv_last) + cfg.horizon_extra
-        follow = self._follow_horizon(t, sv_x, sv_speed, target_lane, messages, base)
+        # the SV's speed lies between v_start and v_end for the longest candidate (plan) or
+        # what is left of the committed one (re-check)
+        follow = self._follow_horizon(t, sv_x, v_start, v_end,
+                                      remaining if remaining > 0.0 else cfg.tau_max,
+                                      target_lane, messages, base)
         return self._time_grid(max(base, float(follow.max(initial=0.0)))), follow
 
     # -- the planner -------------------------------------------------------------
@@ -376,7 +402,7 @@ class LaneChangePlanner:
             taus = np.concatenate((taus[:at], [st.tau_min], taus[at:]))
             stable = np.concatenate((stable[:at], [True], stable[at:]))
         cand = np.flatnonzero(stable)
-        t_rel, follow = self._horizon(t, 0.0, sv.x, min(sv.vx, vxf), target_lane, messages)
+        t_rel, follow = self._horizon(t, 0.0, sv.x, sv.vx, vxf, target_lane, messages)
         futures = predict_lazy(
             messages, t, t_rel, road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
@@ -417,7 +443,7 @@ class LaneChangePlanner:
         tr = trajectory
         x_now = float(tr.position(t)[0])
         target = self.road.lane_of(tr.y_final)
-        t_rel, follow = self._horizon(t, remaining, x_now, min(tr.vx0, tr.vxf), target,
+        t_rel, follow = self._horizon(t, remaining, x_now, tr.vx0, tr.vxf, target,
                                       messages)
         futures = predict_lazy(
             messages, t, t_rel, self.road, self.vehicle, self.grid,

@@ -96,7 +96,7 @@ class Reference:
         self.planner, self.sv, self.cfg, self.veh = planner, sv, cfg, veh
         self.vxf = road.target_speed(sv.lane, target)
         self.width = road.lane_center(target) - sv.y
-        grid, follow = planner._horizon(t, 0.0, sv.x, min(sv.vx, self.vxf), target, messages)
+        grid, follow = planner._horizon(t, 0.0, sv.x, sv.vx, self.vxf, target, messages)
         self.t = np.arange(0.0, grid[-1] + 0.5 * DT, DT)
         self.rows: list[tuple] = []  # (x, y, h, length, width, horizon)
         self.clusters: list[tuple] = []  # (v0, vxf, W, x0, y0, taus, length, width, follow)

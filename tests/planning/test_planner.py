@@ -194,3 +194,36 @@ def test_tau_min_maps_are_built_once_per_process_and_plans_do_not_depend_on_it()
     assert first.tau == again.tau
     np.testing.assert_array_equal(first.taus, again.taus)
     assert first.collision_free_intervals == again.collision_free_intervals
+
+
+def test_gently_braking_traffic_ahead_does_not_block_a_change_it_can_be_followed_in() -> None:
+    """Dense traffic at ~10 m/s (density study, 60 veh/km/lane): the SV speeds up from
+    8 to 9.8 m/s into a gap 9.5 m behind its new leader; a TV 76 m ahead in the target
+    lane brakes at 0.34 m/s^2. The look further ahead (`_follow_horizon`) ends where the
+    farthest candidate could still follow the TV as predicted, so nothing is rejected
+    for it (the first version drove the SV at its end speed into the stopped TV)."""
+    road = RoadParams(mu=0.8)
+    planner = LaneChangePlanner(VEH, road, PlannerConfig())
+    sv = SVPlanState(745.4, road.lane_center(1), 0.0, 8.0, 0.0, 0.0, 0.0, 1)
+
+    def msg(vid: str, dx: float, speed: float, accel: float) -> V2VMessage:
+        return V2VMessage(vehicle_id=vid, t=0.0, x=sv.x + dx, y=road.lane_center(2),
+                          heading=0.0, speed=speed, accel=accel, lane=2, lateral_speed=0.0,
+                          length=4.32, width=1.8, intention=0)
+
+    leader = msg("leader", 9.5, 9.8, 0.0)
+    braking = msg("braking", 76.1, 9.86, -0.336)
+    p = planner.plan(0.0, sv, 2, [leader, braking], 0.5, vxf=9.8)
+    assert p.feasible and p.collision_free_intervals
+    assert not [r for r in p.rejections if r.vehicle_id == "braking"]
+    # its horizon: the farthest SV (9.8 m/s) reaches the gap it can follow from
+    _, follow = planner._horizon(0.0, 0.0, sv.x, 8.0, 9.8, 2, [leader, braking])
+    s = follow[1]
+    assert s > planner.config.tau_max + planner.config.horizon_extra
+
+    def short(s: float) -> bool:  # closer than it can follow from, at time s
+        v_tv = 9.86 - 0.336 * s
+        gap = braking.x + 9.86 * s - 0.168 * s * s - (sv.x + 9.8 * s) - 0.5 * (4.32 + VEH.length)
+        return gap < 2.0 + v_tv + (9.8 - v_tv) ** 2 / (2 * 0.3 * 0.8 * 9.81)
+
+    assert short(s) and not short(s - planner.collision_step)
