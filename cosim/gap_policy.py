@@ -12,8 +12,9 @@ the gap's speed as vxf; a plan is flown only if its new follower, predicted as
 SUMO's Krauss follows (cosim.planning.interaction.check_follower), brakes no harder
 than MOBIL's b_safe, else it counts as a failed plan (retried after
 `retry_interval`, the approach going on). It stops behind a standing leader at
-STOP_GAP (IDM standstill gap), and may ask the chosen gap's follower to open the
-gap (`cooperate(t, tv_id)`, cooperative V2V; None: never).
+STOP_GAP (IDM standstill gap). It signals while it seeks a gap, and asks the chosen
+gap's follower to open the gap (`cooperate(t, tv_id)`: the traffic's courtesy and
+cooperative V2V, cosim.traffic.cooperation; None: never).
 """
 
 from __future__ import annotations
@@ -50,7 +51,9 @@ class GapPolicy(PaperPolicy):
                  follower: FollowerModel | None = None) -> None:
         super().__init__(scenario, road, replace(cfg, idm_min_gap=max(cfg.idm_min_gap,
                                                                       STOP_GAP)),
-                         planner, blinker)
+                         planner, self._signal)
+        self._blinker = blinker
+        self.signal = 0  # the SV's blinker now: -1 right, 0 off, +1 left
         self.gap_cfg = gap_cfg or GapConfig()
         self.follower = follower or FollowerModel()
         self.cooperate = cooperate
@@ -59,6 +62,12 @@ class GapPolicy(PaperPolicy):
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision
         self.scene: Scene | None = None
+
+    def _signal(self, direction: int) -> None:
+        """The blinker, set in SUMO only when it changes."""
+        if direction != self.signal:
+            self.signal = direction
+            self._blinker(direction)
 
     def update(self, t: float, scene: Scene, messages: Any) -> Any:
         self.scene = scene
@@ -88,6 +97,9 @@ class GapPolicy(PaperPolicy):
         self.last = d
         if scripted is None and self.wanted is None and d.target_lane is not None:
             self.wanted = (lane, d.target_lane, t + WANT_HOLD)
+        # it signals while it seeks a gap, as SUMO's drivers do while they wait for one:
+        # what the traffic's courtesy answers (cosim.traffic.cooperation)
+        self._signal(0 if d.target_lane is None else (1 if d.target_lane > lane else -1))
         if d.cooperate_with >= 0 and self.cooperate is not None:
             self.cooperate(t, str(tvs.ids[d.cooperate_with]))
         if not d.plan_now or d.target_lane is None:

@@ -57,24 +57,30 @@ from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and 
     plan_row,
 )
 from cosim.scenario import Scenario
-from cosim.traffic.cooperation import CooperationChannel, CooperationConfig
+from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.world import SV_ID, Scene, World
 
 ProgressFn = Callable[[int], None]
 # [planner] policy -> the lane-change policy of our SV (the paper's, the gap-seeking one)
 DRIVERS = {**POLICIES, GapPolicy.name: GapPolicy}
-COOPERATION_STREAM = 16  # -, second seed word of the gap requests' generator
+COOPERATION_STREAM = 16  # -, second seed word of the V2V gap requests' generator
+COURTESY_STREAM = 17  # -, the same for the traffic's courtesy
 
 
-def cooperation_channel(sc: Scenario) -> CooperationChannel | None:
-    """The gap requests' channel of a run with `[v2v] cooperation` (None: off); its
-    draws come from a generator of their own, seeded by the scenario's seed."""
-    if not sc.v2v.cooperation:
-        return None
-    cfg = CooperationConfig(enabled=True, compliance=sc.v2v.cooperation_compliance,
-                            latency=sc.v2v.cooperation_latency)
-    return CooperationChannel(cfg, np.random.default_rng([sc.seed, COOPERATION_STREAM]))
+def cooperation_channels(sc: Scenario) -> list[CooperationChannel]:
+    """The gap requests' channels of a run (cosim.traffic.cooperation): the traffic's
+    courtesy (`[traffic] courtesy`) and cooperative V2V (`[v2v] cooperation`); each
+    draws from a generator of its own, seeded by the scenario's seed."""
+    configs = []
+    if sc.traffic.courtesy:
+        configs.append((COURTESY_STREAM, COURTESY))
+    if sc.v2v.cooperation:
+        configs.append((COOPERATION_STREAM, CooperationConfig(
+            enabled=True, compliance=sc.v2v.cooperation_compliance,
+            latency=sc.v2v.cooperation_latency)))
+    return [CooperationChannel(cfg, np.random.default_rng([sc.seed, stream]))
+            for stream, cfg in configs]
 
 
 class CoSimulation:
@@ -87,7 +93,7 @@ class CoSimulation:
         self.dt = scenario.step
         self.n_steps = scenario.n_steps
         self.world = World(scenario, gui=gui)
-        self.cooperation: CooperationChannel | None = None  # cooperative V2V (gap policy)
+        self.cooperation: list[CooperationChannel] = []  # gap requests (gap policy)
 
     def _start(self) -> None:
         """SUMO with its traffic, the scripted TVs, the SV, then the first step that
@@ -111,9 +117,10 @@ class CoSimulation:
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc))
             blinker = lambda direction: world.sumo.set_blinker(SV_ID, direction)  # noqa: E731
             if sc.planner.policy == GapPolicy.name:
-                self.cooperation = cooperation_channel(sc)
-                policy = GapPolicy(sc, road, self.cfg, planner, blinker, None
-                                   if self.cooperation is None else self.cooperation.request)
+                channels = self.cooperation = cooperation_channels(sc)
+                policy = GapPolicy(sc, road, self.cfg, planner, blinker, (
+                    lambda t, tv_id: [c.request(t, tv_id) for c in channels]) if channels
+                    else None)
             else:
                 policy = DRIVERS[sc.planner.policy](sc, road, self.cfg, planner, blinker)
         self.ego, self.policy = ego, policy
@@ -136,8 +143,8 @@ class CoSimulation:
                 if k == self.n_steps:
                     break
                 reference = policy.update(t, scene, observer.inbox(scene))
-                if self.cooperation is not None:  # gap requests due reach their TVs
-                    self.cooperation.deliver(t, world.sumo.api, SV_ID, set(scene.tvs.ids))
+                for channel in self.cooperation:  # gap requests due reach their TVs
+                    channel.deliver(t, world.sumo.api, SV_ID, set(scene.tvs.ids))
                 ego.advance(t, self.dt, reference)
                 observer.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())

@@ -184,6 +184,10 @@ class TrafficSpec:
         "length_m", "m", 0.0, 1e5, 1000.0,
         "stretch of road (from its start) the traffic is placed on at t = 0, "
         "at most the network's length", lo_open=True, override="traffic_length"))
+    courtesy: bool = declare(Field(
+        "courtesy", bool, default=True, override="courtesy",
+        doc="target-lane TVs make room for the signalling SV of the gap policy, as SUMO's "
+            "traffic does for its own lane changers (cosim.traffic.cooperation)"), True)
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,17 @@
-"""Cooperative V2V (optional, off by default): the SV asks a TV in its target lane to
-open a gap; a TV that receives the request yields through SUMO.
+"""Gap requests from the SV to a TV in its target lane, and the TV yielding through SUMO.
+
+Two channels carry them (both used by the gap policy only; cosim.sim builds them):
+- courtesy (`[traffic] courtesy`, on by default): the traffic's courtesy to a lane
+  changer that signals. SUMO's own lane changers get it from SUMO: LC2013's
+  `informFollower` asks the blocking follower in the target lane to let them in, and
+  the follower's lane-change model honours it (`lcCooperative`, 1 for our TV type,
+  SUMO's default). That request travels between SUMO's lane-change models and never
+  leaves SUMO for a vehicle moved by moveToXY, so our SV would be the only driver on
+  the road nobody makes room for. `COURTESY` restores it: the TV the SV signals to
+  is asked at once, always (lcCooperative 1), through the same openGap. No radio:
+  it holds with perception only.
+- cooperative V2V (`[v2v] cooperation`, optional, off by default): a request sent by
+  radio, with its own compliance and latency.
 
 The request goes through a channel of its own: each request is honoured with
 probability `compliance` (drawn once, when it is sent, from the run's seeded
@@ -60,6 +72,10 @@ def open_gap(api: ModuleType, tv_id: str, sv_id: str, cfg: CooperationConfig) ->
     """Make `tv_id` open a gap behind `sv_id` (SUMO's openGap, the SV as reference)."""
     api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration,
                         cfg.change_rate, cfg.max_decel, sv_id)
+
+
+# the traffic's courtesy to the SV's blinker (module docstring): at once, always honoured
+COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0)
 
 
 @dataclass
