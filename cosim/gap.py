@@ -13,8 +13,9 @@ the gap, arrays over gaps):
 - behind the leader: its front at least the SV's secure gap behind the leader's rear
   (Krauss's secure gap, `interaction.secure_gap`, with the SV's own headway),
 - ahead of the follower: its rear at least the gap at which the follower, by its
-  model (SUMO's Krauss by default), brakes no harder than b_safe when the SV enters
-  (`interaction.accepted_gap`, the MOBIL safety criterion) ahead of the follower's
+  model (SUMO's Krauss by default), brakes no harder than `entry_decel` (0.5 m/s^2,
+  about its own dawdling) when the SV enters (`interaction.accepted_gap`; the plan's
+  check keeps MOBIL's b_safe as the hard limit) ahead of the follower's
   front, plus what a faster follower closes before then: the SV enters the lane
   about `entry_delay` after the start of its change and SUMO's follower does not see
   it before (SUMO_NOTES.md), while it slows for its own leader, the gap's: half the
@@ -45,7 +46,7 @@ Vehicles are arrays (one entry per TV or gap); no Python loop over vehicles.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -84,6 +85,9 @@ class GapConfig:
     follow_tau: float = 1.0  # s, the SV's Krauss headway behind its own leader while seeking
     # (SUMO's tau: SUMO's own SV closes up this far before it changes lanes)
     follow_decel: float = 4.5  # m/s^2, the braking assumed of the SV and its own leader then
+    entry_decel: float = 0.5  # m/s^2, the most a slot lets the SV's entry ask of its new
+    # follower (SUMO's own changer waits for the follower's secure gap: none); the plan's
+    # check keeps MOBIL's b_safe as the hard limit
 
     def follow_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its own leader while it seeks a gap."""
@@ -148,10 +152,11 @@ def slot_ends(rear: ArrayLike, v_f: ArrayLike, front: ArrayLike, v_l: ArrayLike,
     before the SV enters), and at most hi, behind a leader whose rear is at `front` driving v_l
     (the SV's own secure gap at `v_sv_l`)."""
     half = 0.5 * sv_length
+    slot_follower = replace(follower, b_safe=min(follower.b_safe, cfg.entry_decel))
     vf = np.asarray(v_f, dtype=float)
     vsf = np.asarray(v_sv_f, dtype=float)
     closing = 0.5 * np.maximum(vf - vsf, 0.0) * cfg.entry_delay
-    lo = np.asarray(rear, dtype=float) + accepted_gap(vf, vsf, follower) + closing + half
+    lo = np.asarray(rear, dtype=float) + accepted_gap(vf, vsf, slot_follower) + closing + half
     hi = np.asarray(front, dtype=float) - secure_gap(v_sv_l, v_l, cfg.sv_model()) - half
     return lo, hi
 

@@ -16,8 +16,9 @@ driver instead:
 4. plans the paper's manoeuvre once the gap is reached, at the gap's speed (vxf)
    and only at or above `GapConfig.min_speed`; the planner's collision check and
    the new follower's check (planning.interaction.check_follower) then decide;
-5. names the TV to ask to open the gap (the chosen gap's follower, or without a gap
-   in reach the TV nearest behind the SV in that lane), for the optional cooperative
+5. names the TV to ask to open the gap while it blocks it (the chosen gap's
+   follower until the SV is inside the gap's slot, or without a gap in reach the TV
+   nearest behind the SV in that lane), for the traffic's courtesy and cooperative
    V2V (traffic.cooperation).
 
 Vehicles are arrays (one entry per TV); no Python loop over vehicles.
@@ -114,7 +115,10 @@ def gap_decision(
     accel = seeking_accel(sv_speed, choice.target_speed, lane_max, own.gap_ahead,
                           leader_speed, gap_cfg)
     plan_now = choice.reachable and sv_speed >= gap_cfg.min_speed
-    coop = choice.follower if choice.relation in ("alongside", "behind") else -1
+    # only a follower that blocks the gap is asked (SUMO's LC2013 informs the blocking
+    # follower only): one the SV is not yet clear of
+    coop = choice.follower if (choice.relation in ("alongside", "behind")
+                               and not choice.reachable) else -1
     return GapDecision(
         target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=plan_now,
         vxf=choice.speed, gap=choice, cooperate_with=coop,

@@ -124,5 +124,7 @@ class GapPolicy(PaperPolicy):
                                tvs.length, in_target, self.follower)
         if check.safe:
             return plan, ""
+        if self.cooperate is not None:  # the follower that would brake too hard blocks
+            self.cooperate(t, str(tvs.ids[check.follower]))
         return plan, (f"follower {tvs.ids[check.follower]} would brake "
                       f"{check.max_decel:.2f} m/s^2 > b_safe {self.follower.b_safe:g}")

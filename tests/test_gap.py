@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -54,18 +55,21 @@ def test_slots_keep_the_secure_gap_ahead_and_the_accepted_gap_behind() -> None:
     half = 0.5 * (SV_LEN + 4.32)
     # ahead: the SV's own secure gap behind the leader
     np.testing.assert_allclose(g.hi[:3], np.array([-100.0, 0.0, 100.0]) - half - sg)
-    # behind: the shortest gap at which the follower brakes no harder than b_safe
-    acc = float(accepted_gap(25.0, 25.0, KRAUSS))
-    assert float(entry_decel(acc, 25.0, 25.0, KRAUSS, 0.05)) <= KRAUSS.b_safe + 1e-9
-    assert float(entry_decel(acc - 0.05, 25.0, 25.0, KRAUSS, 0.05)) > KRAUSS.b_safe
-    assert acc < float(secure_gap(25.0, 25.0, KRAUSS))  # it may brake, within b_safe
+    # behind: the shortest gap at which the follower brakes no harder than the slot's
+    # entry_decel (the plan's check allows up to b_safe)
+    slot = replace(KRAUSS, b_safe=CFG.entry_decel)
+    acc = float(accepted_gap(25.0, 25.0, slot))
+    assert float(entry_decel(acc, 25.0, 25.0, KRAUSS, 0.05)) <= CFG.entry_decel + 1e-9
+    assert float(entry_decel(acc - 0.05, 25.0, 25.0, KRAUSS, 0.05)) > CFG.entry_decel
+    assert float(accepted_gap(25.0, 25.0, KRAUSS)) < acc  # b_safe would let it closer
+    assert acc < float(secure_gap(25.0, 25.0, KRAUSS))  # it may brake a little
     np.testing.assert_allclose(g.lo[1:3], np.array([-100.0, 0.0]) + half + acc)
     assert g.lo[0] == -math.inf and g.hi[3] == math.inf
     # the open lane ahead moves at the band's speed; a faster follower needs more room:
     # what it closes before the SV enters (half the speed difference over entry_delay)
     g2 = lane([0.0], 30.0, lane_speed=25.0)
     assert g2.speed[1] == 25.0
-    assert g2.lo[1] == pytest.approx(half + float(accepted_gap(30.0, 25.0, KRAUSS))
+    assert g2.lo[1] == pytest.approx(half + float(accepted_gap(30.0, 25.0, slot))
                                      + 0.5 * 5.0 * CFG.entry_delay)
 
 

@@ -407,7 +407,7 @@ class LaneChangePlanner:
             messages, t, t_rel, road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
-            cells=cfg.collision_test == "exact",
+            cells=cfg.collision_test == "exact", gap_end_speed=cfg.policy == "gap",
         )
         hit_vehicle, hit_time = np.full(taus.size, -1), np.full(taus.size, np.nan)
         free = np.zeros(taus.size, dtype=bool)
@@ -449,7 +449,7 @@ class LaneChangePlanner:
             messages, t, t_rel, self.road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
-            cells=cfg.collision_test == "exact",
+            cells=cfg.collision_test == "exact", gap_end_speed=cfg.policy == "gap",
         )
         cand = SVCandidates(np.array([tr.tau]), tr.vx0, tr.vxf, tr.width, tr.x0, tr.y0,
                              tr.ax0, tr.vy0, tr.ay0, t_shift=t - tr.t0)

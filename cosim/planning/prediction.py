@@ -92,6 +92,25 @@ def constant_acceleration(msg: V2VMessage, t: Array) -> tuple[Array, Array]:
     return msg.x + v * dt + 0.5 * a * dt * dt, np.maximum(v + a * dt, 0.0)
 
 
+TV_LEADER_RANGE = 150.0  # m, a C2 TV's leader in its target lane is looked for this far
+
+
+def target_leader_speed(messages: Sequence[V2VMessage], t_plan: float,
+                        c2: Sequence[tuple[int, V2VMessage, int, int]], x0: Array) -> Array:
+    """m/s per C2 TV (index, message, origin, target; centre x0 at t_plan): the speed
+    of the nearest vehicle ahead of it in its target lane within TV_LEADER_RANGE
+    (inf: none). Arrays over TVs."""
+    x = np.array([m.x + m.speed * (t_plan - m.t) for m in messages])
+    v = np.array([m.speed for m in messages])
+    lane = np.array([m.lane for m in messages])
+    target = np.array([g for _, _, _, g in c2])
+    ahead = x[None, :] - np.asarray(x0)[:, None]
+    ok = (lane[None, :] == target[:, None]) & (ahead > 0.0) & (ahead <= TV_LEADER_RANGE)
+    dist = np.where(ok, ahead, np.inf)
+    nearest = np.argmin(dist, axis=1)
+    return np.where(np.isfinite(dist.min(axis=1)), v[nearest], np.inf)
+
+
 def motion_path(m: LateralMotion, t: Array) -> tuple[Array, Array, Array]:
     """(x, y, heading) of a broadcast lane change (C3) at absolute times t."""
     rel = t - m.t0
@@ -207,10 +226,14 @@ def predict_lazy(
     messages: Sequence[V2VMessage], t_plan: float, t_rel: Array, road: RoadParams,
     vehicle: VehicleParams, taus: Array, *, envelope: str = "inverse_dynamics",
     safety_factor: float = 0.8, stable_fn: StableFn | None = None, cells: bool = True,
+    gap_end_speed: bool = False,
 ) -> LazyFutures:
     """`predict`, with the C2 clusters from rest left in closed form (`LazyFutures`).
     `cells` False: a C2 cluster is its stable grid points only, no lower bound of its
-    tau_min and no cells between them (the paper's procedure, for its CoL test)."""
+    tau_min and no cells between them (the paper's procedure, for its CoL test).
+    `gap_end_speed` (the gap policy): a C2 TV ends its change no faster than its
+    leader in the target lane (`target_leader_speed`), as the gap policy's SV does:
+    S3, all vehicles alike; False: at the band rule's speed, as the paper's SV."""
     t = t_plan + np.asarray(t_rel, dtype=float)
     rel = t - t_plan
     n_t = t.size
@@ -269,6 +292,8 @@ def predict_lazy(
         x0 = np.array([s[0][0] for s in starts])
         v0 = np.array([s[1][0] for s in starts])
         vxf = np.array([road.target_speed(o, g) for _, _, o, g in c2])
+        if gap_end_speed:
+            vxf = np.minimum(vxf, target_leader_speed(messages, t_plan, c2, x0))
         width = np.array([road.lane_center(g) - m.y for _, m, _, g in c2])
         vy0 = np.array([m.lateral_speed for _, m, _, _ in c2])
         n_tau = taus.size

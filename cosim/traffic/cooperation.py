@@ -95,6 +95,7 @@ class CooperationChannel:
     honoured: int = 0
     _queue: list[_Request] = field(default_factory=list)
     _asked: set[str] = field(default_factory=set)
+    _yielding: set[str] = field(default_factory=set)
 
     def request(self, t: float, tv_id: str) -> bool:
         """Send a request to `tv_id` at time t (once per TV: a repeated request is not
@@ -119,7 +120,18 @@ class CooperationChannel:
                 open_gap(api, r.tv_id, sv_id, self.cfg)
                 yielding.append(r.tv_id)
         self.honoured += len(yielding)
+        self._yielding.update(yielding)
         return yielding
+
+    def release(self, api: ModuleType, ahead: set[str]) -> None:
+        """End the yielding of the TVs now ahead of the SV (`ahead`: ids of the TVs
+        ahead of it, present in SUMO): openGap keeps the SV as their leader, and a TV
+        that has got ahead of it would otherwise stop and wait for it, for good (it never
+        reaches the gap it is told to open)."""
+        done = self._yielding & ahead
+        for tv_id in sorted(done):  # sorted: the same order every run
+            api.vehicle.deactivateGapControl(tv_id)
+        self._yielding -= done
 
     def forget(self, tv_id: str) -> None:
         """Allow a new request to `tv_id` (after the lane change it was for)."""
