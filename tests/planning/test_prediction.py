@@ -100,3 +100,22 @@ def test_categories() -> None:
     assert category(msg(intention=-1)) == "C2"
     mo = LateralMotion(0, 3, 0, 0, 20, 20, 3.75)
     assert category(msg(intention=1, motion=mo)) == "C3"
+
+
+def test_c2_under_the_gap_policy_ends_no_faster_than_its_target_lane_leader() -> None:
+    """S3 with the gap policy: a C2 TV plans as our SV does, into a gap at its leader's
+    speed; the paper's band rule would take it from 10 to 31 m/s inside a 10 m/s queue."""
+    tv = msg("tv", x=50.0, lane=1, speed=10.0, intention=1)
+    ahead = msg("ahead", x=90.0, lane=2, speed=12.0)
+    far = msg("far", x=500.0, lane=2, speed=5.0)  # beyond TV_LEADER_RANGE
+    own = msg("own", x=60.0, lane=1, speed=3.0)  # its own lane's leader does not count
+
+    def end_speed(messages: list[V2VMessage], gap: bool) -> np.ndarray:
+        f = predict_lazy(messages, 0.0, T_REL, ROAD, VEH, GRID, gap_end_speed=gap).materialise()
+        rows = f.owner == 0
+        return (f.x[rows, -1] - f.x[rows, -2]) / (T_REL[-1] - T_REL[-2])
+
+    np.testing.assert_allclose(end_speed([tv, ahead, far, own], True), 12.0, rtol=1e-9)
+    np.testing.assert_allclose(end_speed([tv, far, own], True), ROAD.target_speed(1, 2), rtol=1e-9)
+    np.testing.assert_allclose(end_speed([tv, ahead, far, own], False), ROAD.target_speed(1, 2),
+                               rtol=1e-9)

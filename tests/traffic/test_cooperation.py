@@ -115,3 +115,46 @@ def test_sumo_follower_brakes_as_predicted_when_the_sv_cuts_in() -> None:
     # m/s, SUMO sees the move a step later) and gets its hardest braking (9.0 m/s^2)
     assert np.max(np.abs(pred.speed[1:] - sumo_v[:-1])) < 0.3
     assert pred.max_decel == pytest.approx(sumo_decel, rel=0.05)
+
+
+def run_passing(release: bool, seconds: float = 16.0) -> tuple[np.ndarray, np.ndarray]:
+    """The TV alongside is asked to yield at 1 s (courtesy: at once); from 3 s the SV
+    slows to a crawl, so the TV passes it. Returns t and the TV's speed."""
+    with SumoSim(DEFAULT_NETWORK, STEP, 1, lanechange_duration=3.0) as sim:
+        road = sim.road()
+        sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
+        x_sv, v_sv = 600.0, V
+        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, V, L, W, 1)
+        sim.add_traffic("tv", 0, x_sv - 2.0, 1.0, speed=V)
+        sim.api.vehicle.setMaxSpeed("tv", V)
+        sim.api.vehicle.setLaneChangeMode("tv", 0)
+        channel = CooperationChannel(CooperationConfig(enabled=True, latency=0.0),
+                                     np.random.default_rng(7))
+        ts, speeds = [], []
+        t = 0.0
+        while t < seconds:
+            sim.step()
+            t = sim.time
+            if abs(t - 1.0) < 1e-6:
+                channel.request(t, "tv")
+            channel.deliver(t, sim.api, "sv", {"tv"})
+            x_tv = sim.api.vehicle.getPosition("tv")[0] - 0.5 * L  # centre
+            if release:
+                channel.release(sim.api, {"tv"} if x_tv > x_sv else set())
+            if t >= 3.0:
+                v_sv = max(v_sv - 4.0 * STEP, 2.0)
+            x_sv += v_sv * STEP
+            sim.move("sv", x_sv, road.lane_center(1), 0.0, v_sv)
+            ts.append(t)
+            speeds.append(sim.api.vehicle.getSpeed("tv"))
+        return np.array(ts), np.array(speeds)
+
+
+def test_a_yielding_tv_that_passes_the_sv_is_released() -> None:
+    """openGap keeps the SV as the TV's leader: once ahead of it, the TV would stop and
+    wait for it for good (a deadlock in traffic_jam.toml); `release` ends it."""
+    t, v = run_passing(release=True)
+    assert v[-1] > V - 0.5  # back to its own speed, the SV far behind
+    t, v_held = run_passing(release=False)
+    # SUMO without it: still slowing down for the SV far behind it
+    assert v_held[-1] < V - 5.0 and np.all(np.diff(v_held[t > 8.0]) <= 1e-9)
