@@ -116,9 +116,10 @@ def gap_decision(
                           leader_speed, gap_cfg)
     plan_now = choice.reachable and sv_speed >= gap_cfg.min_speed
     # only a follower that blocks the gap is asked (SUMO's LC2013 informs the blocking
-    # follower only): one the SV is not yet clear of
-    coop = choice.follower if (choice.relation in ("alongside", "behind")
-                               and not choice.reachable) else -1
+    # follower only): one behind the SV that it is not yet clear of (a gap's follower
+    # ahead of the SV would have to brake for a car behind it)
+    f = choice.follower
+    coop = f if f >= 0 and not choice.reachable and x[f] < sv_x else -1
     return GapDecision(
         target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=plan_now,
         vxf=choice.speed, gap=choice, cooperate_with=coop,

@@ -8,6 +8,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from cosim.decision import DecisionConfig
 from cosim.gap_policy import STOP_GAP, GapPolicy
@@ -126,12 +127,17 @@ def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
     assert why.startswith("follower tv0 would brake") and "> b_safe 4.5" in why
 
 
-def test_cooperation_asks_the_gap_follower_once_per_step_and_stop_gap() -> None:
+@pytest.mark.parametrize(("xs", "asked_tv"), [
+    ([-120.0, 120.0], None),  # a free gap beside: it goes, nobody is asked
+    ([-100.0, 0.0, 100.0], "tv0"),  # a TV beside: the follower of the gap behind it
+    ([-8.0, 60.0], "tv0"),  # just ahead of a TV, too close: that TV blocks
+    ([20.0, 100.0], None),  # the gap's follower is ahead of the SV: it is not asked to brake
+])
+def test_only_a_follower_behind_the_sv_that_blocks_the_gap_is_asked(
+        xs: list[float], asked_tv: str | None) -> None:
     asked: list[tuple[float, str]] = []
-    d = Drive([-100.0, 0.0, 100.0], asked)
+    d = Drive(xs, asked)
     d.step()
-    assert d.policy.last is not None and d.policy.last.gap is not None
-    if d.policy.last.gap.relation == "behind":
-        assert asked and asked[0][1] == "tv0"
+    assert [tv for _, tv in asked] == ([] if asked_tv is None else [asked_tv])
+    assert d.policy.signal == 1  # it signals for lane 1 (left) while it seeks a gap
     assert d.policy.following.cfg.idm_min_gap == STOP_GAP >= 2.0
-    assert d.policy.mode in (KEEPING, WAITING)
