@@ -78,7 +78,9 @@ SV_COLLISION_METRIC = "collisions_sv"  # count: collisions the SV caused (cosim.
 MANOEUVRE_COLLISION_METRIC = "collisions_manoeuvre"  # count: ... while changing lanes
 DURATION_METRIC = "lane_change_duration_s"  # s
 TTC_METRIC = "min_ttc_s"  # s
+FOLLOWER_METRIC = "follower_max_decel_mps2"  # m/s^2, the SV's new follower (issue 16)
 PERCENTILES = (10, 50, 90)
+FOLLOWER_PERCENTILE = 95  # the statistic issue 16 compares with SUMO's driver
 # Record keys kept in DIR/runs/<run_id>.json but not in runs.csv.
 RECORD_ONLY = ("traceback", "code")
 CONFIDENCE = 0.95
@@ -495,7 +497,8 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     """summary.csv: per grid cell (all parameters but the seed), the number of
     runs, failed runs, success and collision rates with Wilson intervals, and
     lane-change duration and minimum TTC: mean, percentiles, and the median's
-    distribution-free interval (`median_ci`).
+    distribution-free interval (`median_ci`); the new follower's largest deceleration:
+    count, 95th percentile and maximum.
 
     Rates are over the runs that finished (status ok): a failed run is a fault
     of the tool, not an outcome of the manoeuvre, and is counted apart."""
@@ -530,6 +533,13 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
             # the median and its interval: the statistic of summary.md and the plots
             (_, row[f"{name}_ci_low"], row[f"{name}_ci_high"],
              row[f"{name}_ci_coverage"]) = median_ci(values)
+        decel = (pd.to_numeric(ok[FOLLOWER_METRIC], errors="coerce").to_numpy(float)
+                 if FOLLOWER_METRIC in ok else np.empty(0))
+        decel = decel[np.isfinite(decel)]
+        row["follower_decel_mps2_n"] = len(decel)
+        row[f"follower_decel_mps2_p{FOLLOWER_PERCENTILE}"] = (
+            float(np.percentile(decel, FOLLOWER_PERCENTILE)) if len(decel) else math.nan)
+        row["follower_decel_mps2_max"] = float(decel.max()) if len(decel) else math.nan
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -560,18 +570,25 @@ def summary_markdown(summary: pd.DataFrame) -> str:
                 text += f" ({100 * row[f'{name}_ci_coverage']:.0f} %)"
         return text
 
+    def follower(row: pd.Series) -> str:
+        p95 = row.get(f"follower_decel_mps2_p{FOLLOWER_PERCENTILE}", math.nan)
+        if not math.isfinite(p95):
+            return "-"
+        return f"{p95:.2f} / {row['follower_decel_mps2_max']:.2f}"
+
     ours = summary[summary["plant"] != NO_PLANT]
     varying = [c for c in ("variant", "plant", "occupant", "mu")
                if (ours if c == "plant" else summary)[c].nunique() > 1]
     head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
             "success % [95 % CI]", "collision % [95 % CI]", "SV-caused collision % [95 % CI]",
-            "lane-change duration s: median [95 % CI]", "min TTC s: median [95 % CI]"]
+            "lane-change duration s: median [95 % CI]", "min TTC s: median [95 % CI]",
+            "new follower's max decel m/s^2: p95 / max"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for _, row in summary.iterrows():
         cells = [str(row["driver"]), *(f"{row[c]}" for c in varying), f"{row['density']:g}",
                  f"{row['ok']} / {row['failed']}", pct(row, "success"), pct(row, "collision"),
                  pct(row, "sv_collision"), median(row, "lc_duration_s"),
-                 median(row, "min_ttc_s")]
+                 median(row, "min_ttc_s"), follower(row)]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 

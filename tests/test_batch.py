@@ -134,7 +134,8 @@ def test_summary_table_and_plot_show_the_median_without_minus_like_hyphens(
         "mu": [0.8] * 2, "density": [10.0] * 2, "seed": [1, 2],
         "status": [STATUS_OK] * 2, "lane_change_completed": [True, True],
         "collision": [False, False], "lane_change_duration_s": [0.4, 4.4],
-        "min_ttc_s": [1.0, 61.0],
+        "min_ttc_s": [1.0, 61.0], "collisions_sv": [0, 0],
+        "follower_max_decel_mps2": [0.5, 1.5],
     })
     summary = summarize(runs)
     row = summary.iloc[0]
@@ -142,11 +143,14 @@ def test_summary_table_and_plot_show_the_median_without_minus_like_hyphens(
     text = summary_markdown(summary)
     assert "2.40 [0.40, 4.40] (50 %)" in text and "31.00 [1.00, 61.00] (50 %)" in text
     assert "100 [34, 100]" in text
+    assert "| 1.45 / 1.50 |" in text  # the new follower's decel: p95 / max
     data_row = text.splitlines()[2]
     assert "-" not in data_row.replace("| - |", "")  # no hyphen between bounds
     from cosim.plots import batch as batch_plots
 
-    assert batch_plots.PANELS[2][0] == "lc_duration_s"
+    assert [p for p, _ in batch_plots.PANELS] == [
+        "success", "collision", "sv_collision", "follower_decel_mps2", "lc_duration_s",
+        "min_ttc_s"]
     import matplotlib.axes
 
     drawn: list[float] = []  # the first point of each panel's line
@@ -158,7 +162,8 @@ def test_summary_table_and_plot_show_the_median_without_minus_like_hyphens(
 
     monkeypatch.setattr(matplotlib.axes.Axes, "errorbar", errorbar)
     batch_plots.plot_summary(summary, tmp_path)
-    assert drawn == pytest.approx([100.0, 0.0, 2.4, 31.0])  # rates, medians as the table
+    # rates, p95 and medians as the table
+    assert drawn == pytest.approx([100.0, 0.0, 0.0, 1.45, 2.4, 31.0])
 
 
 def test_records_are_written_whole(tmp_path: Path) -> None:

@@ -14,7 +14,7 @@ from cosim.decision import DecisionConfig
 from cosim.gap_policy import STOP_GAP, GapPolicy
 from cosim.params import RoadParams
 from cosim.planning.planner import LaneChangePlanner
-from cosim.policy import CHANGING, KEEPING, WAITING
+from cosim.policy import CHANGING, KEEPING
 from cosim.scenario import LaneChangeCommand, load_scenario, project_root
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.v2v import V2VMessage

@@ -16,9 +16,12 @@ from cosim.plots import save_figure
 PANELS = (
     ("success", "lane changes completed (%)"),
     ("collision", "runs with a collision (%)"),
+    ("sv_collision", "runs with an SV-caused collision (%)"),
+    ("follower_decel_mps2", "new follower's max decel, p95 (m/s^2)"),
     ("lc_duration_s", "lane-change duration, median (s)"),
     ("min_ttc_s", "minimum TTC, median (s)"),
 )
+RATES = ("success", "collision", "sv_collision")
 DRIVER_LABELS = {"mimo": "ours, MIMO", "siso": "ours, SISO", "sumo": "SUMO-native"}
 _OTHER = ("variant", "plant", "occupant", "mu")
 
@@ -40,7 +43,8 @@ def _variant(row: pd.Series, varying: list[str]) -> str:
 
 
 def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") -> list[Path]:
-    """Write `density.png` (2 x 2 panels) into `out_dir`; return the paths written."""
+    """Write `density.png` (2 x 3 panels) into `out_dir`; return the paths written.
+    One colour per line (driver and variant), one line style per driver."""
     out_dir.mkdir(parents=True, exist_ok=True)
     summary = summary.copy()
     if "variant" not in summary:
@@ -54,30 +58,37 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
     variants = sorted(set(summary["variant"]))
     lines = [(d, v) for d in drivers for v in variants
              if ((summary["driver"] == d) & (summary["variant"] == v)).any()]
-    colours = {d: f"C{i}" for i, d in enumerate(drivers)}
-    styles = ["-", "--", ":", "-."]
-    markers = ["o", "s", "^", "D", "v", "P"]
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
+    palette = plt.get_cmap("tab10" if len(lines) <= 10 else "tab20")
+    styles = {d: s for d, s in zip(drivers, ["-", "--", ":", "-."] * 4, strict=False)}
+    markers = ["o", "s", "^", "D", "v", "P", "X", "*", "<", ">"]
+    fig, axes = plt.subplots(2, 3, figsize=(15, 7.5), sharex=True)
     for ax, (prefix, ylabel) in zip(axes.flat, PANELS, strict=True):
-        scale = 100.0 if prefix in ("success", "collision") else 1.0
-        # rates, and medians of durations and TTC: the statistics of summary.md
-        column = f"{prefix}_rate" if scale != 1.0 else f"{prefix}_p50"
+        scale = 100.0 if prefix in RATES else 1.0
+        # rates, medians of durations and TTC, the follower's p95: summary.md's statistics
+        column = (f"{prefix}_rate" if scale != 1.0 else
+                  "follower_decel_mps2_p95" if prefix == "follower_decel_mps2" else
+                  f"{prefix}_p50")
+        if column not in summary:
+            continue
         for i, (driver, variant) in enumerate(lines):
-            j = variants.index(variant)
             cell = summary[(summary["driver"] == driver) & (summary["variant"] == variant)]
             cell = cell.sort_values("density")
             x = cell["density"].to_numpy(float)
             # Dodge the lines sideways a little so error bars do not hide each other.
             dx = (i - (len(lines) - 1) / 2) * 0.012 * (np.ptp(x) or 1.0)
             y = cell[column].to_numpy(float) * scale
-            low = cell[f"{prefix}_ci_low"].to_numpy(float) * scale
-            high = cell[f"{prefix}_ci_high"].to_numpy(float) * scale
-            # clip: a Wilson bound equals the rate up to rounding at 0 % and 100 %
-            err = np.clip(np.vstack([np.nan_to_num(y - low), np.nan_to_num(high - y)]), 0, None)
+            err = None
+            if f"{prefix}_ci_low" in cell:  # the p95 has no interval here
+                low = cell[f"{prefix}_ci_low"].to_numpy(float) * scale
+                high = cell[f"{prefix}_ci_high"].to_numpy(float) * scale
+                # clip: a Wilson bound equals the rate up to rounding at 0 % and 100 %
+                err = np.clip(np.vstack([np.nan_to_num(y - low), np.nan_to_num(high - y)]),
+                              0, None)
             label = ", ".join(filter(None, [DRIVER_LABELS.get(driver, driver), variant]))
             ax.errorbar(
-                x + dx, y, yerr=err, color=colours[driver], linestyle=styles[j % 4],
-                marker=markers[j % 6], markersize=4, capsize=3, linewidth=1.4, label=label,
+                x + dx, y, yerr=err, color=palette(i % palette.N), linestyle=styles[driver],
+                marker=markers[i % len(markers)], markersize=4, capsize=3, linewidth=1.4,
+                label=label,
             )
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
@@ -87,13 +98,15 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
             ax.set_ylim(0.0, ax.get_ylim()[1] * 1.08)
     for ax in axes[1]:
         ax.set_xlabel("traffic density (veh/km/lane)")
+    for ax in axes.flat:
+        ax.tick_params(labelbottom=True)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     counts = sorted(set(summary["ok"].astype(int)))
     n = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]}-{counts[-1]}"
     fig.suptitle(f"{title}: rates and medians with 95 % confidence intervals "
                  f"({n} finished runs per point)", fontsize=11)
     fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.955),
-               ncol=min(len(labels), 4), frameon=False)
+               ncol=min(len(labels), 5), frameon=False)
     fig.tight_layout(rect=(0, 0, 1, 0.91))
     path = out_dir / "density.png"
     save_figure(fig, path)
