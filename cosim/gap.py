@@ -88,6 +88,8 @@ class GapConfig:
     entry_decel: float = 0.5  # m/s^2, the most a slot lets the SV's entry ask of its new
     # follower (SUMO's own changer waits for the follower's secure gap: none); the plan's
     # check keeps MOBIL's b_safe as the hard limit
+    plan_decel: float = 1.0  # m/s^2, the most a flown plan may ask of its new follower as
+    # predicted (within b_safe)
 
     def follow_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its own leader while it seeks a gap."""

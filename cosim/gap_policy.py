@@ -56,6 +56,9 @@ class GapPolicy(PaperPolicy):
         self.signal = 0  # the SV's blinker now: -1 right, 0 off, +1 left
         self.gap_cfg = gap_cfg or GapConfig()
         self.follower = follower or FollowerModel()
+        # what a flown plan may ask of its new follower: the driver's own limit within b_safe
+        self.plan_follower = replace(self.follower, b_safe=min(
+            self.follower.b_safe, self.gap_cfg.plan_decel))
         self.cooperate = cooperate
         self.sv_length = scenario.vehicle.length
         self.decision = scenario.sv.decision
@@ -121,10 +124,10 @@ class GapPolicy(PaperPolicy):
         lo, hi = lanes_touched(tvs.y, 0.5 * np.asarray(tvs.width, dtype=float), self.road)
         in_target = (lo <= target) & (hi >= target)
         check = check_follower(plan.trajectory, self.sv_length, tvs.x, self.scene.tv_vx,
-                               tvs.length, in_target, self.follower)
+                               tvs.length, in_target, self.plan_follower)
         if check.safe:
             return plan, ""
         if self.cooperate is not None:  # the follower that would brake too hard blocks
             self.cooperate(t, str(tvs.ids[check.follower]))
         return plan, (f"follower {tvs.ids[check.follower]} would brake "
-                      f"{check.max_decel:.2f} m/s^2 > b_safe {self.follower.b_safe:g}")
+                      f"{check.max_decel:.2f} m/s^2 > {self.plan_follower.b_safe:g}")

@@ -74,8 +74,12 @@ def open_gap(api: ModuleType, tv_id: str, sv_id: str, cfg: CooperationConfig) ->
                         cfg.change_rate, cfg.max_decel, sv_id)
 
 
-# the traffic's courtesy to the SV's blinker (module docstring): at once, always honoured
-COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0)
+# the traffic's courtesy to the SV's blinker (module docstring): at once, always honoured,
+# braking at most 0.1 m/s^2 on top of the TV's own dawdling (SUMO's Krauss, sigma 0.2 x
+# accel 2.6 = up to 0.52 m/s^2 a step): sample of study_gap (densities 10-60, 6 seeds),
+# measured p95 of the new follower's braking / lane changes of 30: 0.3 -> 0.82 / 29,
+# 0.1 -> 0.62 / 29, 0.02 -> 0.54 / 27 (SUMO's own driver: 0.36-1.02 / 30)
+COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0, max_decel=0.1)
 
 
 @dataclass
