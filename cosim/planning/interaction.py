@@ -47,7 +47,7 @@ afterwards it follows the SV's rear by the model.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -322,6 +322,10 @@ def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: Arr
     gap_in = np.where(behind, rear_in - front_in, np.inf)
     j = int(np.argmin(gap_in))
     speed = np.hypot(vx, vy)
+    # its desired speed: what it drives now (SUMO's TVs cruise at their band's speed when
+    # free), not the model's cap: a free follower predicted to accelerate at `accel` up to
+    # 70 m/s was then predicted to brake for an SV 100 m ahead of it
+    m = replace(m, max_speed=min(m.max_speed, max(float(v[j]), 0.1)))
     pred = predict_follower(t, xs - 0.5 * sv_length, speed, t_in, float(x[j] + half[j]),
                             float(v[j]), m)
     return FollowerCheck(j, t_in, pred, pred.safe(m))

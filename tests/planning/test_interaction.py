@@ -178,6 +178,12 @@ def test_check_follower_of_a_planned_lane_change() -> None:
     close = check_follower(tr, 4.32, np.array([-25.0]), np.array([32.0]), length[:1],
                            np.array([True]), KRAUSS)
     assert not close.safe and close.max_decel > KRAUSS.b_safe
+    # far behind at the same speed: it cruises at the speed it drives (its desired
+    # speed), it does not speed up to the model's cap and then brake for the SV
+    far = check_follower(tr, 4.32, np.array([-120.0]), np.array([25.0]), length[:1],
+                         np.array([True]), KRAUSS)
+    assert far.follower == 0 and far.max_decel == 0.0 and far.prediction is not None
+    np.testing.assert_allclose(far.prediction.speed, 25.0)
     # nobody behind: nothing asked
     free = check_follower(tr, 4.32, x[2:3], v[2:3], length[:1], np.array([True]), KRAUSS)
     assert free.follower == -1 and free.safe and free.max_decel == 0.0
