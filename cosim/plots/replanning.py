@@ -27,6 +27,7 @@ STYLE = {  # variant -> (colour, line style, marker)
     "replan_lossy": ("C1", "--", "s"),
     "paper_perception": ("C0", ":", "o"),
     "replan_perception": ("C1", ":", "s"),
+    "replan_margin": ("C3", "-.", "D"),
 }
 
 
