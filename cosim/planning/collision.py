@@ -356,6 +356,39 @@ def _sorted_range(values: Array, a: int, b: int, lo: float, hi: float) -> tuple[
 
 
 @njit
+def _closed_range(lc: Any, a: int, b: int, t: float, lo: float, hi: float) -> tuple[int, int]:
+    """`_sorted_range` over the y of closed-form hypotheses [a, b) at grid time t (one
+    cluster: ordered by duration), each evaluated only where the search looks."""
+    lo, hi = lo - _BOX_TOLERANCE, hi + _BOX_TOLERANCE
+    rising = _closed_xy(lc, a, t)[1] <= _closed_xy(lc, b - 1, t)[1]
+    i, j = a, b
+    while i < j:
+        mid = (i + j) // 2
+        v = _closed_xy(lc, mid, t)[1]
+        if (v < lo) if rising else (v > hi):
+            i = mid + 1
+        else:
+            j = mid
+    start, j = i, b
+    while i < j:
+        mid = (i + j) // 2
+        v = _closed_xy(lc, mid, t)[1]
+        if (v <= hi) if rising else (v >= lo):
+            i = mid + 1
+        else:
+            j = mid
+    return start, i
+
+
+@njit
+def _general_xy(cx: Array, cy: Array, c: int, tau: float, vxf: float,
+                s: float) -> tuple[float, float]:
+    """Relative (x, y) of a general-start candidate c at manoeuvre time s."""
+    x, y, _, _ = _general_state(cx, cy, c, tau, vxf, s)
+    return x, y
+
+
+@njit
 def _general_pose(cx: Array, cy: Array, c: int, tau: float, vxf: float,
                   s: float) -> tuple[float, float, float]:
     """Relative (x, y, heading) of a general-start candidate c at manoeuvre time s."""
@@ -658,17 +691,20 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
         s_yd, s_rate, s_head = max(s_yd, a2), max(s_rate, a3), max(s_head, a4)
     sin_sv = math.sin(min(s_head, 0.5 * math.pi))
     r_sv = math.hypot(hla, hwa)
+    r_sv_m = math.hypot(hla + margin, hwa + margin)  # grown by the margin
     sv_hx, sv_hy = hla + hwa * sin_sv, hla * sin_sv + hwa
 
     # per hypothesis: motion bounds, the most a cell can grow both rectangles by, the
     # reach (circle) and box half extents of both bodies together
     tv_b = np.empty((n_h, 7))
+    rad = np.empty((n_h, 2))  # m, circumradius, and grown by the margin
     reach2 = np.empty(n_h)
     lim_x = np.empty(n_h)
     lim_y = np.empty(n_h)
     for h in range(n_h):
         v_lo, v_hi, yd, rate, head, centre_tau, turn_tau, extra = _tv_static(tv, h)
         r_tv = math.hypot(tv.half_l[h], tv.half_w[h])
+        rad[h, 0], rad[h, 1] = r_tv, math.hypot(tv.half_l[h] + margin, tv.half_w[h] + margin)
         tv_b[h, 0], tv_b[h, 1], tv_b[h, 2], tv_b[h, 3], tv_b[h, 4] = v_lo, v_hi, yd, rate, turn_tau
         if row_of[h] < 0:  # |acceleration| and how fast the velocity moves with the duration
             q = lc[h]
@@ -709,52 +745,63 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
     first_h = np.full(n_c, -1, dtype=np.int64)
     alive = np.ones(n_c, dtype=np.bool_)
     n_alive = n_c
-    px = np.empty(n_c)
+    live = np.arange(n_c)  # the candidates alive when the sample began, in order
+    n_live = n_c
+    px = np.empty(n_c)  # the centre of live[i] at the sample (evaluated when needed)
     py = np.empty(n_c)
     sv_k = np.full(n_c, -1, dtype=np.int64)  # the sample whose heading is in sv_cs
     sv_cs = np.empty((n_c, 3))  # cos, sin, heading
     gx = np.empty(n_h)
     gy = np.empty(n_h)
+    tv_xk = np.full(n_h, -1, dtype=np.int64)  # the sample whose centre is in gx, gy
     tv_hk = np.full(n_h, -1, dtype=np.int64)  # the sample whose heading is in tv_cs
     tv_cs = np.empty((n_h, 3))
     for k in range(n_t):
         tk = t[k]
         if n_alive == 0 or tk > last_t:
             break
+        if n_live > n_alive:  # drop the candidates that left (only the live are evaluated)
+            j = 0
+            for i in range(n_live):
+                if alive[live[i]]:
+                    live[j] = live[i]
+                    j += 1
+            n_live = j
         # the cell of times of sample k (within the grid)
         w_lo, w_hi = max(tk - half, t[0]), min(tk + half, t[n_t - 1])
-        sv_at_k = False  # px, py hold every candidate at sample k
-        if general:  # not ordered: every remaining candidate, and their box
+        sv_at_k = False  # px, py hold every live candidate at sample k
+        if general:  # not ordered: every live candidate, and their box
             bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf
-            for c in range(n_c):
-                if alive[c]:
-                    x, y, _ = _general_pose(sv.cx, sv.cy, c, sv.tau[c], vxf, tk + shift)
-                    px[c], py[c] = x + x0, y + y0
-                    bx0, bx1 = min(bx0, px[c]), max(bx1, px[c])
-                    by0, by1 = min(by0, py[c]), max(by1, py[c])
-        else:
-            xa, ya = standard_xy(v0, vxf, w, sv.tau[0], tk + shift)
-            xb, yb = standard_xy(v0, vxf, w, sv.tau[n_c - 1], tk + shift)
+            for i in range(n_live):
+                c = live[i]
+                x, y = _general_xy(sv.cx, sv.cy, c, sv.tau[c], vxf, tk + shift)
+                px[i], py[i] = x + x0, y + y0
+                bx0, bx1 = min(bx0, px[i]), max(bx1, px[i])
+                by0, by1 = min(by0, py[i]), max(by1, py[i])
+        else:  # ordered: the box of the first and last live ones
+            xa, ya = standard_xy(v0, vxf, w, sv.tau[live[0]], tk + shift)
+            xb, yb = standard_xy(v0, vxf, w, sv.tau[live[n_live - 1]], tk + shift)
             bx0, bx1 = x0 + min(xa, xb) - _BOX_TOLERANCE, x0 + max(xa, xb) + _BOX_TOLERANCE
             by0, by1 = y0 + min(ya, yb) - _BOX_TOLERANCE, y0 + max(ya, yb) + _BOX_TOLERANCE
         for g in range(n_g):
             h0, h1 = groups[g], groups[g + 1]
             lx, ly = g_lim_x[g], g_lim_y[g]
-            if g_closed[g]:
+            if g_closed[g]:  # ordered: the box of the extremes; the rest when needed
                 xa, ya = _closed_xy(lc, h0, tk)
                 xb, yb = _closed_xy(lc, h1 - 1, tk)
                 gx0, gx1 = min(xa, xb) - _BOX_TOLERANCE, max(xa, xb) + _BOX_TOLERANCE
                 gy0, gy1 = min(ya, yb) - _BOX_TOLERANCE, max(ya, yb) + _BOX_TOLERANCE
                 if gx1 < bx0 - lx or gx0 > bx1 + lx or gy1 < by0 - ly or gy0 > by1 + ly:
                     continue
-                for h in range(h0, h1):
-                    gx[h], gy[h] = _closed_xy(lc, h, tk)
+                gx[h0], gy[h0], gx[h1 - 1], gy[h1 - 1] = xa, ya, xb, yb
+                tv_xk[h0], tv_xk[h1 - 1] = k, k
                 ordered = True
             else:
                 gx0, gx1, gy0, gy1 = np.inf, -np.inf, np.inf, -np.inf
                 rising, falling = True, True
                 for h in range(h0, h1):
                     gx[h], gy[h] = tv.rows_x[row_of[h], k], tv.rows_y[row_of[h], k]
+                    tv_xk[h] = k
                     gx0, gx1 = min(gx0, gx[h]), max(gx1, gx[h])
                     gy0, gy1 = min(gy0, gy[h]), max(gy1, gy[h])
                     if h > h0:
@@ -763,30 +810,35 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                 if gx1 < bx0 - lx or gx0 > bx1 + lx or gy1 < by0 - ly or gy0 > by1 + ly:
                     continue
                 ordered = rising or falling
-            ca, cb = 0, n_c
+            ca, cb = 0, n_live
             if not general:  # the candidates near the vehicle's box
                 if not sv_at_k:
-                    for c in range(n_c):
-                        x, y = standard_xy(v0, vxf, w, sv.tau[c], tk + shift)
-                        px[c], py[c] = x + x0, y + y0
+                    for i in range(n_live):
+                        x, y = standard_xy(v0, vxf, w, sv.tau[live[i]], tk + shift)
+                        px[i], py[i] = x + x0, y + y0
                     sv_at_k = True
-                xa_, xb_ = _sorted_range(px, 0, n_c, gx0 - lx, gx1 + lx)
-                ya_, yb_ = _sorted_range(py, 0, n_c, gy0 - ly, gy1 + ly)
+                xa_, xb_ = _sorted_range(px, 0, n_live, gx0 - lx, gx1 + lx)
+                ya_, yb_ = _sorted_range(py, 0, n_live, gy0 - ly, gy1 + ly)
                 ca, cb = max(xa_, ya_), min(xb_, yb_)
-            for c in range(ca, cb):
+            for i in range(ca, cb):
+                c = live[i]
                 if not alive[c]:
                     continue
-                sx, sy = px[c], py[c]
+                sx, sy = px[i], py[i]
                 if (sx < gx0 - lx or sx > gx1 + lx or sy < gy0 - ly or sy > gy1 + ly
                         or tk > max(sv.horizon[c], g_hor[g])):
                     continue
                 a, b = h0, h1
                 if h1 - h0 > 8 and ordered:  # the hypotheses whose y is near the candidate's
-                    a, b = _sorted_range(gy, h0, h1, sy - ly, sy + ly)
+                    a, b = (_closed_range(lc, h0, h1, tk, sy - ly, sy + ly) if g_closed[g]
+                            else _sorted_range(gy, h0, h1, sy - ly, sy + ly))
                     if not col and a > h0 and cell[a - 1]:
                         a -= 1  # the durations between a - 1 and a may come nearer
                 for h in range(a, b):
                     nxt = h + 1 if (cell[h] and not col) else -1
+                    if tv_xk[h] != k:
+                        gx[h], gy[h] = _closed_xy(lc, h, tk)
+                        tv_xk[h] = k
                     dx, dy = gx[h] - sx, gy[h] - sy
                     if (abs(dx) > lim_x[h] or abs(dy) > lim_y[h] or dx * dx + dy * dy > reach2[h]
                             or tk > max(sv.horizon[c], tv.horizon[h])):
@@ -812,7 +864,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                         hit = _sat(sx, sy, ca_, sa_, hla, hwa, gx[h], gy[h], cb_, sb_, hlb, hwb,
                                    margin)
                         if not hit:  # the cell: times within half a step, durations to h + 1
-                            r_tv = math.hypot(hlb, hwb)
+                            r_tv = rad[h, 0]
                             if row_of[h] >= 0:
                                 v_lo, v_hi, yd, rate, extra = _row_bounds(tv, h, k)
                             else:
@@ -832,13 +884,19 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             if row_of[h] < 0:
                                 tau_a = tau_b = lc[h]["tau"]
                             if nxt >= 0:  # every centre between those of h and h + 1
+                                if tv_xk[nxt] != k:
+                                    gx[nxt], gy[nxt] = _closed_xy(lc, nxt, tk)
+                                    tv_xk[nxt] = k
                                 tau_b = lc[nxt]["tau"]
                                 tau_rate = tv_b[h, 4]
                                 mx += 0.5 * abs(gx[nxt] - bx)
                                 my += 0.5 * abs(gy[nxt] - by)
                                 turn += tau_rate * (tau_b - tau_a)
                                 bx, by = 0.5 * (bx + gx[nxt]), 0.5 * (by + gy[nxt])
-                            reach = r_sv + r_tv + 2.0 * (margin + mx + my + turn)
+                            # the circumcircles of `_sat_moved`'s rectangles (each corner
+                            # of B moves by at most mx + my, and sqrt(2) turn)
+                            reach = (r_sv_m + rad[h, 1] + mx + my + math.sqrt(2.0) * turn
+                                     + _BOX_TOLERANCE)
                             ex, ey = bx - sx, by - sy
                             if ex * ex + ey * ey <= reach * reach and _sat_moved(
                                     sx, sy, ca_, sa_, hla, hwa, bx, by, cb_, sb_, hlb, hwb,
