@@ -56,6 +56,7 @@ COLLISION_TESTS = ("exact", "col")
 RESOLUTION = 1e-4
 _BOX_TOLERANCE = 1e-6  # m, a closed-form cluster's box from its two extreme trajectories
 _STACK = 96  # cells a refinement holds at once (depth-first: about two per level)
+_RUN = 4  # neighbouring durations of a C2 cluster given one grown test first
 
 
 def corners(x: ArrayLike, y: ArrayLike, heading: ArrayLike, length: ArrayLike,
@@ -322,6 +323,16 @@ def _standard_heading(v0: float, vxf: float, w: float, tau: float, t: float) -> 
     """Heading of eq. 2 / eq. 4 from rest at time t."""
     xd, yd = standard_velocity(v0, vxf, w, tau, t)
     return math.atan2(yd, xd)
+
+
+@njit
+def _direction(xd: float, yd: float) -> tuple[float, float]:
+    """(cos, sin) of the heading atan2(yd, xd) of velocity (xd, yd), without
+    trigonometry ((1, 0) at rest, as atan2(0, 0) = 0)."""
+    n = math.sqrt(xd * xd + yd * yd)
+    if n == 0.0:
+        return 1.0, 0.0
+    return xd / n, yd / n
 
 
 @njit
@@ -834,7 +845,60 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             else _sorted_range(gy, h0, h1, sy - ly, sy + ly))
                     if not col and a > h0 and cell[a - 1]:
                         a -= 1  # the durations between a - 1 and a may come nearer
+                skip = a
                 for h in range(a, b):
+                    if h < skip:
+                        continue
+                    if not col and g_closed[g] and (h - a) % _RUN == 0 and min(h + _RUN, b) - h > 2:
+                        ra, stop = h, min(h + _RUN, b)
+                        # one grown test for a run of _RUN durations first (the rectangle of
+                        # ra grown to hold every duration from ra to e at every time of the
+                        # cell): when clear, nothing in the run's cells overlaps, so its
+                        # pairs are skipped
+                        e = stop if (stop < h1 and cell[stop - 1]) else stop - 1
+                        for hh in (ra, e):
+                            if tv_xk[hh] != k:
+                                gx[hh], gy[hh] = _closed_xy(lc, hh, tk)
+                                tv_xk[hh] = k
+                        if tv_hk[ra] != k:
+                            q = lc[ra]
+                            xd, yd = standard_velocity(q["v0"], q["vxf"], q["width"], q["tau"],
+                                                       tk - q["start"])
+                            tv_cs[ra, 0], tv_cs[ra, 1] = _direction(xd, yd)
+                            tv_cs[ra, 2] = 0.0
+                            tv_hk[ra] = k
+                        if sv_k[c] != k:
+                            if general:
+                                _, _, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], vxf,
+                                                              tk + shift)
+                            else:
+                                xd, yd = standard_velocity(v0, vxf, w, sv.tau[c], tk + shift)
+                            sv_cs[c, 0], sv_cs[c, 1] = _direction(xd, yd)
+                            sv_cs[c, 2] = 0.0
+                            sv_k[c] = k
+                        # the cluster's bounds over the run (each holds for its own duration)
+                        v_lo, v_hi, yd, rate, tau_rate = np.inf, -np.inf, 0.0, 0.0, 0.0
+                        for hh in range(ra, e + 1):
+                            v_lo, v_hi = min(v_lo, tv_b[hh, 0]), max(v_hi, tv_b[hh, 1])
+                            yd, rate = max(yd, tv_b[hh, 2]), max(rate, tv_b[hh, 3])
+                            tau_rate = max(tau_rate, tv_b[hh, 4])
+                        far = max(tk - w_lo, w_hi - tk)
+                        # centres: between those of ra and e (ordered by duration in x and y)
+                        mx = (far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
+                              + 0.5 * abs(gx[e] - gx[ra]) + _BOX_TOLERANCE)
+                        my = far * (sv_b[c, 2] + yd) + 0.5 * abs(gy[e] - gy[ra]) + _BOX_TOLERANCE
+                        turn = (far * (r_sv * sv_b[c, 3] + rad[ra, 0] * rate)
+                                + tau_rate * (lc[e]["tau"] - lc[ra]["tau"]))
+                        bx, by = 0.5 * (gx[ra] + gx[e]), 0.5 * (gy[ra] + gy[e])
+                        reach = (r_sv_m + rad[ra, 1] + mx + my + math.sqrt(2.0) * turn
+                                 + _BOX_TOLERANCE)
+                        ex, ey = bx - sx, by - sy
+                        clear = ex * ex + ey * ey > reach * reach or not _sat_moved(
+                                sx, sy, sv_cs[c, 0], sv_cs[c, 1], hla, hwa, bx, by, tv_cs[ra, 0],
+                                tv_cs[ra, 1], tv.half_l[ra], tv.half_w[ra], margin, mx, my, turn)
+                        if clear:
+                            skip = stop
+                            continue
                     nxt = h + 1 if (cell[h] and not col) else -1
                     if tv_xk[h] != k:
                         gx[h], gy[h] = _closed_xy(lc, h, tk)
@@ -843,17 +907,26 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                     if (abs(dx) > lim_x[h] or abs(dy) > lim_y[h] or dx * dx + dy * dy > reach2[h]
                             or tk > max(sv.horizon[c], tv.horizon[h])):
                         continue
-                    if sv_k[c] != k:
-                        sh = (_general_pose(sv.cx, sv.cy, c, sv.tau[c], vxf, tk + shift)[2]
-                              if general else _standard_heading(v0, vxf, w, sv.tau[c], tk + shift))
-                        sv_cs[c, 0], sv_cs[c, 1], sv_cs[c, 2] = math.cos(sh), math.sin(sh), sh
+                    if sv_k[c] != k:  # cos, sin from the velocity (no trigonometry)
+                        if general:
+                            _, _, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], vxf,
+                                                          tk + shift)
+                        else:
+                            xd, yd = standard_velocity(v0, vxf, w, sv.tau[c], tk + shift)
+                        sv_cs[c, 0], sv_cs[c, 1] = _direction(xd, yd)
+                        sv_cs[c, 2] = math.atan2(yd, xd) if col else 0.0
                         sv_k[c] = k
                     if tv_hk[h] != k:
                         r = row_of[h]
-                        q = lc[h]
-                        th = tv.rows_h[r, k] if r >= 0 else _standard_heading(
-                            q["v0"], q["vxf"], q["width"], q["tau"], tk - q["start"])
-                        tv_cs[h, 0], tv_cs[h, 1], tv_cs[h, 2] = math.cos(th), math.sin(th), th
+                        if r >= 0:
+                            th = tv.rows_h[r, k]
+                            tv_cs[h, 0], tv_cs[h, 1], tv_cs[h, 2] = math.cos(th), math.sin(th), th
+                        else:
+                            q = lc[h]
+                            xd, yd = standard_velocity(q["v0"], q["vxf"], q["width"], q["tau"],
+                                                       tk - q["start"])
+                            tv_cs[h, 0], tv_cs[h, 1] = _direction(xd, yd)
+                            tv_cs[h, 2] = math.atan2(yd, xd) if col else 0.0
                         tv_hk[h] = k
                     hlb, hwb = tv.half_l[h], tv.half_w[h]
                     if col:
