@@ -336,6 +336,17 @@ def _direction(xd: float, yd: float) -> tuple[float, float]:
 
 
 @njit
+def _closed_pose(v0: float, vxf: float, w: float, tau: float, x0: float, y0: float,
+                 s: float) -> tuple[float, float, float, float, float, float]:
+    """Global (x, y, cos and sin of the heading, x', y') of eq. 2 / eq. 4 from rest
+    placed at (x0, y0), s after its start."""
+    x, y = standard_xy(v0, vxf, w, tau, s)
+    xd, yd = standard_velocity(v0, vxf, w, tau, s)
+    c, sn = _direction(xd, yd)
+    return x + x0, y + y0, c, sn, xd, yd
+
+
+@njit
 def _closed_xy(lc: Any, h: int, t: float) -> tuple[float, float]:
     """Centre of closed-form hypothesis h at grid time t."""
     r = lc[h]
@@ -481,18 +492,6 @@ def _col(ax: float, ay: float, ah: float, al: float, aw: float, bx: float, by: f
 
 
 @njit
-def _sv_state(sv: SVSide, c: int, t: float) -> tuple[float, float, float, float, float]:
-    """Global (x, y, heading, x', y') of candidate c at grid time t."""
-    p = sv.par
-    if sv.cx.shape[0]:
-        x, y, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], p[1], t + p[5])
-    else:
-        x, y = standard_xy(p[0], p[1], p[2], sv.tau[c], t + p[5])
-        xd, yd = standard_velocity(p[0], p[1], p[2], sv.tau[c], t + p[5])
-    return x + p[3], y + p[4], math.atan2(yd, xd), xd, yd
-
-
-@njit
 def _standard_accel(vx0: float, vxf: float, width: float, tau: float) -> float:
     """m/s^2, a bound on |(x'', y'')| of eq. 2 / eq. 4 from rest (`standard_bounds`)."""
     return math.hypot(1.5 * abs(vxf - vx0) / tau, 5.7736 * abs(width) / (tau * tau))
@@ -564,16 +563,26 @@ def _row_bounds(tv: TVSide, h: int, k: int) -> tuple[float, float, float, float,
 def _overlaps_at(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, t: float,
                  margin: float) -> bool:
     """Candidate c and hypothesis h overlap at time t, at duration tau_a or tau_b."""
-    ax, ay, ah, _, _ = _sv_state(sv, c, t)
-    ca, sa = math.cos(ah), math.sin(ah)
+    p = sv.par
+    if sv.cx.shape[0]:
+        ax, ay, avx, avy = _general_state(sv.cx, sv.cy, c, sv.tau[c], p[1], t + p[5])
+        ax, ay = ax + p[3], ay + p[4]
+        ca, sa = _direction(avx, avy)
+    else:
+        ax, ay, ca, sa, _, _ = _closed_pose(p[0], p[1], p[2], sv.tau[c], p[3], p[4], t + p[5])
     hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
-    bx, by, bh, _, _ = _tv_state(tv, h, tau_a, t)
-    if _sat(ax, ay, ca, sa, hla, hwa, bx, by, math.cos(bh), math.sin(bh), hlb, hwb, margin):
-        return True
-    if tau_b > tau_a:
-        bx, by, bh, _, _ = _tv_state(tv, h, tau_b, t)
+    if tv.row_of[h] >= 0:
+        bx, by, bh, _, _ = _tv_state(tv, h, tau_a, t)
         return _sat(ax, ay, ca, sa, hla, hwa, bx, by, math.cos(bh), math.sin(bh), hlb, hwb,
                     margin)
+    q = tv.lc[h]
+    v0, vxf, w, x0, y0, s = q["v0"], q["vxf"], q["width"], q["x0"], q["y0"], t - q["start"]
+    bx, by, cb, sb, _, _ = _closed_pose(v0, vxf, w, tau_a, x0, y0, s)
+    if _sat(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin):
+        return True
+    if tau_b > tau_a:
+        bx, by, cb, sb, _, _ = _closed_pose(v0, vxf, w, tau_b, x0, y0, s)
+        return _sat(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin)
     return False
 
 
@@ -598,6 +607,12 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
     (True) or every piece clears (False); a piece whose bound is below RESOLUTION and
     still overlaps counts as an overlap."""
     hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
+    # (closed forms evaluated from scalars: no arrays passed in the loop)
+    p = sv.par
+    general, tau_c = sv.cx.shape[0] > 0, sv.tau[c]
+    closed = tv.row_of[h] < 0
+    q = tv.lc[h]
+    v0, vxf, w, x0, y0, start = q["v0"], q["vxf"], q["width"], q["x0"], q["y0"], q["start"]
     stack = np.empty((_STACK, 4))
     stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3] = tau_a, tau_b, lo, hi
     n = 1
@@ -605,19 +620,26 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
         n -= 1
         ta, tb, t0, t1 = stack[n, 0], stack[n, 1], stack[n, 2], stack[n, 3]
         tm = 0.5 * (t0 + t1)
-        ax, ay, ah, avx, avy = _sv_state(sv, c, tm)
-        ca, sa = math.cos(ah), math.sin(ah)
-        bx, by, bh, bvx, bvy = _tv_state(tv, h, ta, tm)
-        cb, sb = math.cos(bh), math.sin(bh)
+        if general:
+            ax, ay, avx, avy = _general_state(sv.cx, sv.cy, c, tau_c, p[1], tm + p[5])
+            ax, ay = ax + p[3], ay + p[4]
+            ca, sa = _direction(avx, avy)
+        else:
+            ax, ay, ca, sa, avx, avy = _closed_pose(p[0], p[1], p[2], tau_c, p[3], p[4],
+                                                    tm + p[5])
+        if closed:
+            bx, by, cb, sb, bvx, bvy = _closed_pose(v0, vxf, w, ta, x0, y0, tm - start)
+        else:
+            bx, by, bh, bvx, bvy = _tv_state(tv, h, ta, tm)
+            cb, sb = math.cos(bh), math.sin(bh)
         if _sat(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin):
             return True
         span = 0.0
         tx, ty, t_turn = 0.0, 0.0, 0.0  # the durations' part
-        if tb > ta:
+        if tb > ta:  # (a closed form)
             span = tb - ta
-            ex, ey, eh, _, _ = _tv_state(tv, h, tb, tm)
-            if _sat(ax, ay, ca, sa, hla, hwa, ex, ey, math.cos(eh), math.sin(eh), hlb, hwb,
-                    margin):
+            ex, ey, ce, se, _, _ = _closed_pose(v0, vxf, w, tb, x0, y0, tm - start)
+            if _sat(ax, ay, ca, sa, hla, hwa, ex, ey, ce, se, hlb, hwb, margin):
                 return True
             tx, ty, t_turn = 0.5 * abs(ex - bx), 0.5 * abs(ey - by), tau_rate * span
             bx, by = 0.5 * (bx + ex), 0.5 * (by + ey)  # between them lies every centre
