@@ -285,7 +285,8 @@ def check_candidates(
     uniform time grid t (eq. 10-11).
 
     A pair (candidate c, hypothesis h) is tested at the times t_k <=
-    max(sv_horizon[c], tv_horizon[h]). Time runs forwards and a candidate leaves at its
+    max(sv_horizon[c], tv_horizon[h]) (the exact test: the cell of the last one reaches
+    that horizon, the times up to it all covered). Time runs forwards and a candidate leaves at its
     first overlap (ties at one sample go to the lowest hypothesis). At each sample a
     vehicle's hypotheses are skipped when their box is far from the candidates' box;
     the candidates near the vehicle's box, and for each the hypotheses whose y is near
@@ -333,6 +334,14 @@ def _direction(xd: float, yd: float) -> tuple[float, float]:
     if n == 0.0:
         return 1.0, 0.0
     return xd / n, yd / n
+
+
+@njit
+def _cell_end(w_hi: float, t_next: float, horizon: float) -> float:
+    """s, where the cell of a sample ends for a pair tested up to `horizon` (the sample
+    at or before it): half a step on, or the horizon if that comes first; the pair's last
+    sample (the next one past the horizon) reaches to the horizon."""
+    return horizon if t_next > horizon else min(w_hi, horizon)
 
 
 @njit
@@ -802,6 +811,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
             n_live = j
         # the cell of times of sample k (within the grid)
         w_lo, w_hi = max(tk - half, t[0]), min(tk + half, t[n_t - 1])
+        t_next = t[k + 1] if k + 1 < n_t else tk  # (a pair's last sample: up to its horizon)
         sv_at_k = False  # px, py hold every live candidate at sample k
         if general:  # not ordered: every live candidate, and their box
             bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf
@@ -899,12 +909,16 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             sv_cs[c, 2] = 0.0
                             sv_k[c] = k
                         # the cluster's bounds over the run (each holds for its own duration)
+                        # and the latest end of its pairs' cells
                         v_lo, v_hi, yd, rate, tau_rate = np.inf, -np.inf, 0.0, 0.0, 0.0
+                        p_hi = w_hi
                         for hh in range(ra, e + 1):
                             v_lo, v_hi = min(v_lo, tv_b[hh, 0]), max(v_hi, tv_b[hh, 1])
                             yd, rate = max(yd, tv_b[hh, 2]), max(rate, tv_b[hh, 3])
                             tau_rate = max(tau_rate, tv_b[hh, 4])
-                        far = max(tk - w_lo, w_hi - tk)
+                            p_hi = max(p_hi, _cell_end(w_hi, t_next,
+                                                       max(sv.horizon[c], tv.horizon[hh])))
+                        far = max(tk - w_lo, p_hi - tk)
                         # centres: between those of ra and e (ordered by duration in x and y)
                         mx = (far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
                               + 0.5 * abs(gx[e] - gx[ra]) + _BOX_TOLERANCE)
@@ -967,7 +981,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                                 yd, rate = tv_b[h, 2], tv_b[h, 3]
                                 extra = 0.0
                             # relative motion over the cell, along x and y, and turning
-                            p_hi = min(w_hi, max(sv.horizon[c], tv.horizon[h]))  # (the pair's)
+                            p_hi = _cell_end(w_hi, t_next, max(sv.horizon[c], tv.horizon[h]))
                             far = max(tk - w_lo, p_hi - tk)  # (at the ends: not centred)
                             mx = far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
                             my = far * (sv_b[c, 2] + yd)

@@ -12,7 +12,7 @@ Checked: no tau the planner accepts overlaps anything (sound), and each bound of
 its collision-free set lies within one tau step of the reference's (tight): the
 candidate two steps outside a bound is rejected by the reference too.
 
-The random dense situations: 3 by default; the full 200 with COSIM_REFERENCE_FULL=1
+The random dense situations: 4 by default; the full 200 with COSIM_REFERENCE_FULL=1
 (about 20 minutes), which also judges every accepted tau of the dense scenes (by
 default every 4th and the ends of each interval).
 """
@@ -47,7 +47,9 @@ STRIDE = 20  # steps of TAU_STEP per duration of the pruning pass
 MID_STEPS, MID_STRIDE = 2, 4  # the second pass: every 2 ms and 4 ms of duration
 CHUNK = 20000  # points of the first pass refined at once
 FULL = bool(os.environ.get("COSIM_REFERENCE_FULL"))
-N_RANDOM = 200 if FULL else 3
+# seed 98: an overlap in the last half step before a pair's horizon, when the next sample
+# lies past it (found by the full run; the last sample's cell now reaches the horizon)
+SEEDS = range(200) if FULL else (0, 1, 2, 98)
 # the dense scenes' accepted taus judged: all (full), else every 4th and both ends of
 # every interval
 EVERY = 1 if FULL else 4
@@ -338,7 +340,7 @@ def random_situation(seed: int) -> tuple:
     return planner, 0.0, sv, target, messages, float(rng.uniform(0, 1))
 
 
-@pytest.mark.parametrize("seed", range(N_RANDOM))
+@pytest.mark.parametrize("seed", SEEDS)
 def test_random_dense_situations_against_the_reference(seed: int) -> None:
     planner, t, sv, target, messages, occupant = random_situation(seed)
     assert {category(m) for m in messages} == {"C1", "C2", "C3"}
