@@ -286,7 +286,8 @@ def check_candidates(
 
     A pair (candidate c, hypothesis h) is tested at the times t_k <=
     max(sv_horizon[c], tv_horizon[h]) (the exact test: the cell of the last one reaches
-    that horizon, the times up to it all covered). Time runs forwards and a candidate leaves at its
+    that horizon, the times up to it all covered; a C2 cell's durations, h to h + 1,
+    are looked at up to the horizon of h + 1, the later one). Time runs forwards and a candidate leaves at its
     first overlap (ties at one sample go to the lowest hypothesis). At each sample a
     vehicle's hypotheses are skipped when their box is far from the candidates' box;
     the candidates near the vehicle's box, and for each the hypotheses whose y is near
@@ -936,12 +937,14 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             skip = stop
                             continue
                     nxt = h + 1 if (cell[h] and not col) else -1
+                    # the pair's horizon: a cell's durations reach that of h + 1 (later)
+                    hor = max(sv.horizon[c], tv.horizon[nxt] if nxt >= 0 else tv.horizon[h])
                     if tv_xk[h] != k:
                         gx[h], gy[h] = _closed_xy(lc, h, tk)
                         tv_xk[h] = k
                     dx, dy = gx[h] - sx, gy[h] - sy
                     if (abs(dx) > lim_x[h] or abs(dy) > lim_y[h] or dx * dx + dy * dy > reach2[h]
-                            or tk > max(sv.horizon[c], tv.horizon[h])):
+                            or tk > hor):
                         continue
                     if sv_k[c] != k:  # cos, sin from the velocity (no trigonometry)
                         if general:
@@ -981,7 +984,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                                 yd, rate = tv_b[h, 2], tv_b[h, 3]
                                 extra = 0.0
                             # relative motion over the cell, along x and y, and turning
-                            p_hi = _cell_end(w_hi, t_next, max(sv.horizon[c], tv.horizon[h]))
+                            p_hi = _cell_end(w_hi, t_next, hor)
                             far = max(tk - w_lo, p_hi - tk)  # (at the ends: not centred)
                             mx = far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
                             my = far * (sv_b[c, 2] + yd)
@@ -1013,7 +1016,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                                 # a real overlap at the next sample ends the candidate as
                                 # surely, and is cheaper to find than one inside this cell
                                 if (k + 1 < n_t
-                                        and t[k + 1] <= max(sv.horizon[c], tv.horizon[h])
+                                        and t[k + 1] <= hor
                                         and _overlaps_at(sv, c, tv, h, tau_a, tau_b, t[k + 1],
                                                          margin)):
                                     first_k[c], first_h[c] = k + 1, h
