@@ -56,6 +56,7 @@ COLLISION_TESTS = ("exact", "col")
 RESOLUTION = 1e-4
 _BOX_TOLERANCE = 1e-6  # m, a closed-form cluster's box from its two extreme trajectories
 _STACK = 96  # cells a refinement holds at once (depth-first: about two per level)
+_RUN = 4  # neighbouring durations of a C2 cluster given one grown test first
 
 
 def corners(x: ArrayLike, y: ArrayLike, heading: ArrayLike, length: ArrayLike,
@@ -284,7 +285,9 @@ def check_candidates(
     uniform time grid t (eq. 10-11).
 
     A pair (candidate c, hypothesis h) is tested at the times t_k <=
-    max(sv_horizon[c], tv_horizon[h]). Time runs forwards and a candidate leaves at its
+    max(sv_horizon[c], tv_horizon[h]) (the exact test: the cell of the last one reaches
+    that horizon, the times up to it all covered; a C2 cell's durations, h to h + 1,
+    are looked at up to the horizon of h + 1, the later one). Time runs forwards and a candidate leaves at its
     first overlap (ties at one sample go to the lowest hypothesis). At each sample a
     vehicle's hypotheses are skipped when their box is far from the candidates' box;
     the candidates near the vehicle's box, and for each the hypotheses whose y is near
@@ -325,6 +328,35 @@ def _standard_heading(v0: float, vxf: float, w: float, tau: float, t: float) -> 
 
 
 @njit
+def _direction(xd: float, yd: float) -> tuple[float, float]:
+    """(cos, sin) of the heading atan2(yd, xd) of velocity (xd, yd), without
+    trigonometry ((1, 0) at rest, as atan2(0, 0) = 0)."""
+    n = math.sqrt(xd * xd + yd * yd)
+    if n == 0.0:
+        return 1.0, 0.0
+    return xd / n, yd / n
+
+
+@njit
+def _cell_end(w_hi: float, t_next: float, horizon: float) -> float:
+    """s, where the cell of a sample ends for a pair tested up to `horizon` (the sample
+    at or before it): half a step on, or the horizon if that comes first; the pair's last
+    sample (the next one past the horizon) reaches to the horizon."""
+    return horizon if t_next > horizon else min(w_hi, horizon)
+
+
+@njit
+def _closed_pose(v0: float, vxf: float, w: float, tau: float, x0: float, y0: float,
+                 s: float) -> tuple[float, float, float, float, float, float]:
+    """Global (x, y, cos and sin of the heading, x', y') of eq. 2 / eq. 4 from rest
+    placed at (x0, y0), s after its start."""
+    x, y = standard_xy(v0, vxf, w, tau, s)
+    xd, yd = standard_velocity(v0, vxf, w, tau, s)
+    c, sn = _direction(xd, yd)
+    return x + x0, y + y0, c, sn, xd, yd
+
+
+@njit
 def _closed_xy(lc: Any, h: int, t: float) -> tuple[float, float]:
     """Centre of closed-form hypothesis h at grid time t."""
     r = lc[h]
@@ -353,6 +385,39 @@ def _sorted_range(values: Array, a: int, b: int, lo: float, hi: float) -> tuple[
         else:
             j = mid
     return start, i
+
+
+@njit
+def _closed_range(lc: Any, a: int, b: int, t: float, lo: float, hi: float) -> tuple[int, int]:
+    """`_sorted_range` over the y of closed-form hypotheses [a, b) at grid time t (one
+    cluster: ordered by duration), each evaluated only where the search looks."""
+    lo, hi = lo - _BOX_TOLERANCE, hi + _BOX_TOLERANCE
+    rising = _closed_xy(lc, a, t)[1] <= _closed_xy(lc, b - 1, t)[1]
+    i, j = a, b
+    while i < j:
+        mid = (i + j) // 2
+        v = _closed_xy(lc, mid, t)[1]
+        if (v < lo) if rising else (v > hi):
+            i = mid + 1
+        else:
+            j = mid
+    start, j = i, b
+    while i < j:
+        mid = (i + j) // 2
+        v = _closed_xy(lc, mid, t)[1]
+        if (v <= hi) if rising else (v >= lo):
+            i = mid + 1
+        else:
+            j = mid
+    return start, i
+
+
+@njit
+def _general_xy(cx: Array, cy: Array, c: int, tau: float, vxf: float,
+                s: float) -> tuple[float, float]:
+    """Relative (x, y) of a general-start candidate c at manoeuvre time s."""
+    x, y, _, _ = _general_state(cx, cy, c, tau, vxf, s)
+    return x, y
 
 
 @njit
@@ -437,18 +502,6 @@ def _col(ax: float, ay: float, ah: float, al: float, aw: float, bx: float, by: f
 
 
 @njit
-def _sv_state(sv: SVSide, c: int, t: float) -> tuple[float, float, float, float, float]:
-    """Global (x, y, heading, x', y') of candidate c at grid time t."""
-    p = sv.par
-    if sv.cx.shape[0]:
-        x, y, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], p[1], t + p[5])
-    else:
-        x, y = standard_xy(p[0], p[1], p[2], sv.tau[c], t + p[5])
-        xd, yd = standard_velocity(p[0], p[1], p[2], sv.tau[c], t + p[5])
-    return x + p[3], y + p[4], math.atan2(yd, xd), xd, yd
-
-
-@njit
 def _standard_accel(vx0: float, vxf: float, width: float, tau: float) -> float:
     """m/s^2, a bound on |(x'', y'')| of eq. 2 / eq. 4 from rest (`standard_bounds`)."""
     return math.hypot(1.5 * abs(vxf - vx0) / tau, 5.7736 * abs(width) / (tau * tau))
@@ -520,16 +573,26 @@ def _row_bounds(tv: TVSide, h: int, k: int) -> tuple[float, float, float, float,
 def _overlaps_at(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, t: float,
                  margin: float) -> bool:
     """Candidate c and hypothesis h overlap at time t, at duration tau_a or tau_b."""
-    ax, ay, ah, _, _ = _sv_state(sv, c, t)
-    ca, sa = math.cos(ah), math.sin(ah)
+    p = sv.par
+    if sv.cx.shape[0]:
+        ax, ay, avx, avy = _general_state(sv.cx, sv.cy, c, sv.tau[c], p[1], t + p[5])
+        ax, ay = ax + p[3], ay + p[4]
+        ca, sa = _direction(avx, avy)
+    else:
+        ax, ay, ca, sa, _, _ = _closed_pose(p[0], p[1], p[2], sv.tau[c], p[3], p[4], t + p[5])
     hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
-    bx, by, bh, _, _ = _tv_state(tv, h, tau_a, t)
-    if _sat(ax, ay, ca, sa, hla, hwa, bx, by, math.cos(bh), math.sin(bh), hlb, hwb, margin):
-        return True
-    if tau_b > tau_a:
-        bx, by, bh, _, _ = _tv_state(tv, h, tau_b, t)
+    if tv.row_of[h] >= 0:
+        bx, by, bh, _, _ = _tv_state(tv, h, tau_a, t)
         return _sat(ax, ay, ca, sa, hla, hwa, bx, by, math.cos(bh), math.sin(bh), hlb, hwb,
                     margin)
+    q = tv.lc[h]
+    v0, vxf, w, x0, y0, s = q["v0"], q["vxf"], q["width"], q["x0"], q["y0"], t - q["start"]
+    bx, by, cb, sb, _, _ = _closed_pose(v0, vxf, w, tau_a, x0, y0, s)
+    if _sat(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin):
+        return True
+    if tau_b > tau_a:
+        bx, by, cb, sb, _, _ = _closed_pose(v0, vxf, w, tau_b, x0, y0, s)
+        return _sat(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin)
     return False
 
 
@@ -554,6 +617,12 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
     (True) or every piece clears (False); a piece whose bound is below RESOLUTION and
     still overlaps counts as an overlap."""
     hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
+    # (closed forms evaluated from scalars: no arrays passed in the loop)
+    p = sv.par
+    general, tau_c = sv.cx.shape[0] > 0, sv.tau[c]
+    closed = tv.row_of[h] < 0
+    q = tv.lc[h]
+    v0, vxf, w, x0, y0, start = q["v0"], q["vxf"], q["width"], q["x0"], q["y0"], q["start"]
     stack = np.empty((_STACK, 4))
     stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3] = tau_a, tau_b, lo, hi
     n = 1
@@ -561,19 +630,26 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
         n -= 1
         ta, tb, t0, t1 = stack[n, 0], stack[n, 1], stack[n, 2], stack[n, 3]
         tm = 0.5 * (t0 + t1)
-        ax, ay, ah, avx, avy = _sv_state(sv, c, tm)
-        ca, sa = math.cos(ah), math.sin(ah)
-        bx, by, bh, bvx, bvy = _tv_state(tv, h, ta, tm)
-        cb, sb = math.cos(bh), math.sin(bh)
+        if general:
+            ax, ay, avx, avy = _general_state(sv.cx, sv.cy, c, tau_c, p[1], tm + p[5])
+            ax, ay = ax + p[3], ay + p[4]
+            ca, sa = _direction(avx, avy)
+        else:
+            ax, ay, ca, sa, avx, avy = _closed_pose(p[0], p[1], p[2], tau_c, p[3], p[4],
+                                                    tm + p[5])
+        if closed:
+            bx, by, cb, sb, bvx, bvy = _closed_pose(v0, vxf, w, ta, x0, y0, tm - start)
+        else:
+            bx, by, bh, bvx, bvy = _tv_state(tv, h, ta, tm)
+            cb, sb = math.cos(bh), math.sin(bh)
         if _sat(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin):
             return True
         span = 0.0
         tx, ty, t_turn = 0.0, 0.0, 0.0  # the durations' part
-        if tb > ta:
+        if tb > ta:  # (a closed form)
             span = tb - ta
-            ex, ey, eh, _, _ = _tv_state(tv, h, tb, tm)
-            if _sat(ax, ay, ca, sa, hla, hwa, ex, ey, math.cos(eh), math.sin(eh), hlb, hwb,
-                    margin):
+            ex, ey, ce, se, _, _ = _closed_pose(v0, vxf, w, tb, x0, y0, tm - start)
+            if _sat(ax, ay, ca, sa, hla, hwa, ex, ey, ce, se, hlb, hwb, margin):
                 return True
             tx, ty, t_turn = 0.5 * abs(ex - bx), 0.5 * abs(ey - by), tau_rate * span
             bx, by = 0.5 * (bx + ex), 0.5 * (by + ey)  # between them lies every centre
@@ -658,17 +734,20 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
         s_yd, s_rate, s_head = max(s_yd, a2), max(s_rate, a3), max(s_head, a4)
     sin_sv = math.sin(min(s_head, 0.5 * math.pi))
     r_sv = math.hypot(hla, hwa)
+    r_sv_m = math.hypot(hla + margin, hwa + margin)  # grown by the margin
     sv_hx, sv_hy = hla + hwa * sin_sv, hla * sin_sv + hwa
 
     # per hypothesis: motion bounds, the most a cell can grow both rectangles by, the
     # reach (circle) and box half extents of both bodies together
     tv_b = np.empty((n_h, 7))
+    rad = np.empty((n_h, 2))  # m, circumradius, and grown by the margin
     reach2 = np.empty(n_h)
     lim_x = np.empty(n_h)
     lim_y = np.empty(n_h)
     for h in range(n_h):
         v_lo, v_hi, yd, rate, head, centre_tau, turn_tau, extra = _tv_static(tv, h)
         r_tv = math.hypot(tv.half_l[h], tv.half_w[h])
+        rad[h, 0], rad[h, 1] = r_tv, math.hypot(tv.half_l[h] + margin, tv.half_w[h] + margin)
         tv_b[h, 0], tv_b[h, 1], tv_b[h, 2], tv_b[h, 3], tv_b[h, 4] = v_lo, v_hi, yd, rate, turn_tau
         if row_of[h] < 0:  # |acceleration| and how fast the velocity moves with the duration
             q = lc[h]
@@ -709,52 +788,64 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
     first_h = np.full(n_c, -1, dtype=np.int64)
     alive = np.ones(n_c, dtype=np.bool_)
     n_alive = n_c
-    px = np.empty(n_c)
+    live = np.arange(n_c)  # the candidates alive when the sample began, in order
+    n_live = n_c
+    px = np.empty(n_c)  # the centre of live[i] at the sample (evaluated when needed)
     py = np.empty(n_c)
     sv_k = np.full(n_c, -1, dtype=np.int64)  # the sample whose heading is in sv_cs
     sv_cs = np.empty((n_c, 3))  # cos, sin, heading
     gx = np.empty(n_h)
     gy = np.empty(n_h)
+    tv_xk = np.full(n_h, -1, dtype=np.int64)  # the sample whose centre is in gx, gy
     tv_hk = np.full(n_h, -1, dtype=np.int64)  # the sample whose heading is in tv_cs
     tv_cs = np.empty((n_h, 3))
     for k in range(n_t):
         tk = t[k]
         if n_alive == 0 or tk > last_t:
             break
+        if n_live > n_alive:  # drop the candidates that left (only the live are evaluated)
+            j = 0
+            for i in range(n_live):
+                if alive[live[i]]:
+                    live[j] = live[i]
+                    j += 1
+            n_live = j
         # the cell of times of sample k (within the grid)
         w_lo, w_hi = max(tk - half, t[0]), min(tk + half, t[n_t - 1])
-        sv_at_k = False  # px, py hold every candidate at sample k
-        if general:  # not ordered: every remaining candidate, and their box
+        t_next = t[k + 1] if k + 1 < n_t else tk  # (a pair's last sample: up to its horizon)
+        sv_at_k = False  # px, py hold every live candidate at sample k
+        if general:  # not ordered: every live candidate, and their box
             bx0, bx1, by0, by1 = np.inf, -np.inf, np.inf, -np.inf
-            for c in range(n_c):
-                if alive[c]:
-                    x, y, _ = _general_pose(sv.cx, sv.cy, c, sv.tau[c], vxf, tk + shift)
-                    px[c], py[c] = x + x0, y + y0
-                    bx0, bx1 = min(bx0, px[c]), max(bx1, px[c])
-                    by0, by1 = min(by0, py[c]), max(by1, py[c])
-        else:
-            xa, ya = standard_xy(v0, vxf, w, sv.tau[0], tk + shift)
-            xb, yb = standard_xy(v0, vxf, w, sv.tau[n_c - 1], tk + shift)
+            for i in range(n_live):
+                c = live[i]
+                x, y = _general_xy(sv.cx, sv.cy, c, sv.tau[c], vxf, tk + shift)
+                px[i], py[i] = x + x0, y + y0
+                bx0, bx1 = min(bx0, px[i]), max(bx1, px[i])
+                by0, by1 = min(by0, py[i]), max(by1, py[i])
+        else:  # ordered: the box of the first and last live ones
+            xa, ya = standard_xy(v0, vxf, w, sv.tau[live[0]], tk + shift)
+            xb, yb = standard_xy(v0, vxf, w, sv.tau[live[n_live - 1]], tk + shift)
             bx0, bx1 = x0 + min(xa, xb) - _BOX_TOLERANCE, x0 + max(xa, xb) + _BOX_TOLERANCE
             by0, by1 = y0 + min(ya, yb) - _BOX_TOLERANCE, y0 + max(ya, yb) + _BOX_TOLERANCE
         for g in range(n_g):
             h0, h1 = groups[g], groups[g + 1]
             lx, ly = g_lim_x[g], g_lim_y[g]
-            if g_closed[g]:
+            if g_closed[g]:  # ordered: the box of the extremes; the rest when needed
                 xa, ya = _closed_xy(lc, h0, tk)
                 xb, yb = _closed_xy(lc, h1 - 1, tk)
                 gx0, gx1 = min(xa, xb) - _BOX_TOLERANCE, max(xa, xb) + _BOX_TOLERANCE
                 gy0, gy1 = min(ya, yb) - _BOX_TOLERANCE, max(ya, yb) + _BOX_TOLERANCE
                 if gx1 < bx0 - lx or gx0 > bx1 + lx or gy1 < by0 - ly or gy0 > by1 + ly:
                     continue
-                for h in range(h0, h1):
-                    gx[h], gy[h] = _closed_xy(lc, h, tk)
+                gx[h0], gy[h0], gx[h1 - 1], gy[h1 - 1] = xa, ya, xb, yb
+                tv_xk[h0], tv_xk[h1 - 1] = k, k
                 ordered = True
             else:
                 gx0, gx1, gy0, gy1 = np.inf, -np.inf, np.inf, -np.inf
                 rising, falling = True, True
                 for h in range(h0, h1):
                     gx[h], gy[h] = tv.rows_x[row_of[h], k], tv.rows_y[row_of[h], k]
+                    tv_xk[h] = k
                     gx0, gx1 = min(gx0, gx[h]), max(gx1, gx[h])
                     gy0, gy1 = min(gy0, gy[h]), max(gy1, gy[h])
                     if h > h0:
@@ -763,45 +854,118 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                 if gx1 < bx0 - lx or gx0 > bx1 + lx or gy1 < by0 - ly or gy0 > by1 + ly:
                     continue
                 ordered = rising or falling
-            ca, cb = 0, n_c
+            ca, cb = 0, n_live
             if not general:  # the candidates near the vehicle's box
                 if not sv_at_k:
-                    for c in range(n_c):
-                        x, y = standard_xy(v0, vxf, w, sv.tau[c], tk + shift)
-                        px[c], py[c] = x + x0, y + y0
+                    for i in range(n_live):
+                        x, y = standard_xy(v0, vxf, w, sv.tau[live[i]], tk + shift)
+                        px[i], py[i] = x + x0, y + y0
                     sv_at_k = True
-                xa_, xb_ = _sorted_range(px, 0, n_c, gx0 - lx, gx1 + lx)
-                ya_, yb_ = _sorted_range(py, 0, n_c, gy0 - ly, gy1 + ly)
+                xa_, xb_ = _sorted_range(px, 0, n_live, gx0 - lx, gx1 + lx)
+                ya_, yb_ = _sorted_range(py, 0, n_live, gy0 - ly, gy1 + ly)
                 ca, cb = max(xa_, ya_), min(xb_, yb_)
-            for c in range(ca, cb):
+            for i in range(ca, cb):
+                c = live[i]
                 if not alive[c]:
                     continue
-                sx, sy = px[c], py[c]
+                sx, sy = px[i], py[i]
                 if (sx < gx0 - lx or sx > gx1 + lx or sy < gy0 - ly or sy > gy1 + ly
                         or tk > max(sv.horizon[c], g_hor[g])):
                     continue
                 a, b = h0, h1
                 if h1 - h0 > 8 and ordered:  # the hypotheses whose y is near the candidate's
-                    a, b = _sorted_range(gy, h0, h1, sy - ly, sy + ly)
+                    a, b = (_closed_range(lc, h0, h1, tk, sy - ly, sy + ly) if g_closed[g]
+                            else _sorted_range(gy, h0, h1, sy - ly, sy + ly))
                     if not col and a > h0 and cell[a - 1]:
                         a -= 1  # the durations between a - 1 and a may come nearer
+                skip = a
                 for h in range(a, b):
+                    if h < skip:
+                        continue
+                    if not col and g_closed[g] and (h - a) % _RUN == 0 and min(h + _RUN, b) - h > 2:
+                        ra, stop = h, min(h + _RUN, b)
+                        # one grown test for a run of _RUN durations first (the rectangle of
+                        # ra grown to hold every duration from ra to e at every time of the
+                        # cell): when clear, nothing in the run's cells overlaps, so its
+                        # pairs are skipped
+                        e = stop if (stop < h1 and cell[stop - 1]) else stop - 1
+                        for hh in (ra, e):
+                            if tv_xk[hh] != k:
+                                gx[hh], gy[hh] = _closed_xy(lc, hh, tk)
+                                tv_xk[hh] = k
+                        if tv_hk[ra] != k:
+                            q = lc[ra]
+                            xd, yd = standard_velocity(q["v0"], q["vxf"], q["width"], q["tau"],
+                                                       tk - q["start"])
+                            tv_cs[ra, 0], tv_cs[ra, 1] = _direction(xd, yd)
+                            tv_cs[ra, 2] = 0.0
+                            tv_hk[ra] = k
+                        if sv_k[c] != k:
+                            if general:
+                                _, _, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], vxf,
+                                                              tk + shift)
+                            else:
+                                xd, yd = standard_velocity(v0, vxf, w, sv.tau[c], tk + shift)
+                            sv_cs[c, 0], sv_cs[c, 1] = _direction(xd, yd)
+                            sv_cs[c, 2] = 0.0
+                            sv_k[c] = k
+                        # the cluster's bounds over the run (each holds for its own duration)
+                        # and the latest end of its pairs' cells
+                        v_lo, v_hi, yd, rate, tau_rate = np.inf, -np.inf, 0.0, 0.0, 0.0
+                        p_hi = w_hi
+                        for hh in range(ra, e + 1):
+                            v_lo, v_hi = min(v_lo, tv_b[hh, 0]), max(v_hi, tv_b[hh, 1])
+                            yd, rate = max(yd, tv_b[hh, 2]), max(rate, tv_b[hh, 3])
+                            tau_rate = max(tau_rate, tv_b[hh, 4])
+                            p_hi = max(p_hi, _cell_end(w_hi, t_next,
+                                                       max(sv.horizon[c], tv.horizon[hh])))
+                        far = max(tk - w_lo, p_hi - tk)
+                        # centres: between those of ra and e (ordered by duration in x and y)
+                        mx = (far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
+                              + 0.5 * abs(gx[e] - gx[ra]) + _BOX_TOLERANCE)
+                        my = far * (sv_b[c, 2] + yd) + 0.5 * abs(gy[e] - gy[ra]) + _BOX_TOLERANCE
+                        turn = (far * (r_sv * sv_b[c, 3] + rad[ra, 0] * rate)
+                                + tau_rate * (lc[e]["tau"] - lc[ra]["tau"]))
+                        bx, by = 0.5 * (gx[ra] + gx[e]), 0.5 * (gy[ra] + gy[e])
+                        reach = (r_sv_m + rad[ra, 1] + mx + my + math.sqrt(2.0) * turn
+                                 + _BOX_TOLERANCE)
+                        ex, ey = bx - sx, by - sy
+                        clear = ex * ex + ey * ey > reach * reach or not _sat_moved(
+                                sx, sy, sv_cs[c, 0], sv_cs[c, 1], hla, hwa, bx, by, tv_cs[ra, 0],
+                                tv_cs[ra, 1], tv.half_l[ra], tv.half_w[ra], margin, mx, my, turn)
+                        if clear:
+                            skip = stop
+                            continue
                     nxt = h + 1 if (cell[h] and not col) else -1
+                    # the pair's horizon: a cell's durations reach that of h + 1 (later)
+                    hor = max(sv.horizon[c], tv.horizon[nxt] if nxt >= 0 else tv.horizon[h])
+                    if tv_xk[h] != k:
+                        gx[h], gy[h] = _closed_xy(lc, h, tk)
+                        tv_xk[h] = k
                     dx, dy = gx[h] - sx, gy[h] - sy
                     if (abs(dx) > lim_x[h] or abs(dy) > lim_y[h] or dx * dx + dy * dy > reach2[h]
-                            or tk > max(sv.horizon[c], tv.horizon[h])):
+                            or tk > hor):
                         continue
-                    if sv_k[c] != k:
-                        sh = (_general_pose(sv.cx, sv.cy, c, sv.tau[c], vxf, tk + shift)[2]
-                              if general else _standard_heading(v0, vxf, w, sv.tau[c], tk + shift))
-                        sv_cs[c, 0], sv_cs[c, 1], sv_cs[c, 2] = math.cos(sh), math.sin(sh), sh
+                    if sv_k[c] != k:  # cos, sin from the velocity (no trigonometry)
+                        if general:
+                            _, _, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], vxf,
+                                                          tk + shift)
+                        else:
+                            xd, yd = standard_velocity(v0, vxf, w, sv.tau[c], tk + shift)
+                        sv_cs[c, 0], sv_cs[c, 1] = _direction(xd, yd)
+                        sv_cs[c, 2] = math.atan2(yd, xd) if col else 0.0
                         sv_k[c] = k
                     if tv_hk[h] != k:
                         r = row_of[h]
-                        q = lc[h]
-                        th = tv.rows_h[r, k] if r >= 0 else _standard_heading(
-                            q["v0"], q["vxf"], q["width"], q["tau"], tk - q["start"])
-                        tv_cs[h, 0], tv_cs[h, 1], tv_cs[h, 2] = math.cos(th), math.sin(th), th
+                        if r >= 0:
+                            th = tv.rows_h[r, k]
+                            tv_cs[h, 0], tv_cs[h, 1], tv_cs[h, 2] = math.cos(th), math.sin(th), th
+                        else:
+                            q = lc[h]
+                            xd, yd = standard_velocity(q["v0"], q["vxf"], q["width"], q["tau"],
+                                                       tk - q["start"])
+                            tv_cs[h, 0], tv_cs[h, 1] = _direction(xd, yd)
+                            tv_cs[h, 2] = math.atan2(yd, xd) if col else 0.0
                         tv_hk[h] = k
                     hlb, hwb = tv.half_l[h], tv.half_w[h]
                     if col:
@@ -812,7 +976,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                         hit = _sat(sx, sy, ca_, sa_, hla, hwa, gx[h], gy[h], cb_, sb_, hlb, hwb,
                                    margin)
                         if not hit:  # the cell: times within half a step, durations to h + 1
-                            r_tv = math.hypot(hlb, hwb)
+                            r_tv = rad[h, 0]
                             if row_of[h] >= 0:
                                 v_lo, v_hi, yd, rate, extra = _row_bounds(tv, h, k)
                             else:
@@ -820,7 +984,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                                 yd, rate = tv_b[h, 2], tv_b[h, 3]
                                 extra = 0.0
                             # relative motion over the cell, along x and y, and turning
-                            p_hi = min(w_hi, max(sv.horizon[c], tv.horizon[h]))  # (the pair's)
+                            p_hi = _cell_end(w_hi, t_next, hor)
                             far = max(tk - w_lo, p_hi - tk)  # (at the ends: not centred)
                             mx = far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
                             my = far * (sv_b[c, 2] + yd)
@@ -832,13 +996,19 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             if row_of[h] < 0:
                                 tau_a = tau_b = lc[h]["tau"]
                             if nxt >= 0:  # every centre between those of h and h + 1
+                                if tv_xk[nxt] != k:
+                                    gx[nxt], gy[nxt] = _closed_xy(lc, nxt, tk)
+                                    tv_xk[nxt] = k
                                 tau_b = lc[nxt]["tau"]
                                 tau_rate = tv_b[h, 4]
                                 mx += 0.5 * abs(gx[nxt] - bx)
                                 my += 0.5 * abs(gy[nxt] - by)
                                 turn += tau_rate * (tau_b - tau_a)
                                 bx, by = 0.5 * (bx + gx[nxt]), 0.5 * (by + gy[nxt])
-                            reach = r_sv + r_tv + 2.0 * (margin + mx + my + turn)
+                            # the circumcircles of `_sat_moved`'s rectangles (each corner
+                            # of B moves by at most mx + my, and sqrt(2) turn)
+                            reach = (r_sv_m + rad[h, 1] + mx + my + math.sqrt(2.0) * turn
+                                     + _BOX_TOLERANCE)
                             ex, ey = bx - sx, by - sy
                             if ex * ex + ey * ey <= reach * reach and _sat_moved(
                                     sx, sy, ca_, sa_, hla, hwa, bx, by, cb_, sb_, hlb, hwb,
@@ -846,7 +1016,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                                 # a real overlap at the next sample ends the candidate as
                                 # surely, and is cheaper to find than one inside this cell
                                 if (k + 1 < n_t
-                                        and t[k + 1] <= max(sv.horizon[c], tv.horizon[h])
+                                        and t[k + 1] <= hor
                                         and _overlaps_at(sv, c, tv, h, tau_a, tau_b, t[k + 1],
                                                          margin)):
                                     first_k[c], first_h[c] = k + 1, h

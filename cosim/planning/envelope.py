@@ -26,6 +26,8 @@ candidates at a time (trapezoidal rule: A-stable, second order).
 
 from __future__ import annotations
 
+import bisect
+import math
 import warnings
 from dataclasses import dataclass
 
@@ -280,10 +282,19 @@ class TauMinMap:
         second = np.zeros(n)
         second[1:-1] = np.abs(np.diff(np.nan_to_num(self.tau_min), 2))
         self._interp_err = 0.25 * np.maximum(second[:-1], second[1:]) + tol
+        # the same as plain floats: one speed is queried per plan (see `_interp_scalar`)
+        self._lists = tuple(a.tolist() for a in (self.speeds, self.tau_min, self._below,
+                                                  self._err_v, self._err, self._interp_err))
 
     def __call__(self, vx0: ArrayLike) -> Array:
         """s, tau_min at the initial speed(s) vx0 (nan: no stable tau up to tau_hi,
         or outside the map's speed range)."""
+        if isinstance(vx0, float | int):
+            speeds, tau_min = self._lists[0], self._lists[1]
+            v = float(vx0)
+            if not speeds[0] <= v <= speeds[-1]:
+                return math.nan  # type: ignore[return-value]
+            return _interp_scalar(v, speeds, tau_min)  # type: ignore[return-value]
         v = np.asarray(vx0, dtype=float)
         out = np.interp(v, self.speeds, self.tau_min)
         return np.where((v < self.speeds[0]) | (v > self.speeds[-1]), np.nan, out)
@@ -292,6 +303,16 @@ class TauMinMap:
         """s, (lower, upper) bounds of the converged envelope's tau_min at vx0 (nan as
         `__call__`): the map's bisection bracket, the sampling error's estimate and the
         interpolation's error."""
+        if isinstance(vx0, float | int):  # the same arithmetic on floats
+            speeds, _, below, err_v, err_, interp_err = self._lists
+            v = float(vx0)
+            hi = self(v)
+            lo = _interp_scalar(v, speeds, below)
+            err = _interp_scalar(v, err_v, err_)
+            e = interp_err[min(max(bisect.bisect_left(speeds, v) - 1, 0), len(speeds) - 2)]
+            lower = min(lo, lo - err) - e
+            upper = max(hi, hi - err) + e
+            return (lower if math.isfinite(hi) else math.nan), upper  # type: ignore[return-value]
         v = np.asarray(vx0, dtype=float)
         hi = self(v)
         lo = np.interp(v, self.speeds, self._below)
@@ -301,3 +322,25 @@ class TauMinMap:
         lower = np.minimum(lo, lo - err) - e
         upper = np.maximum(hi, hi - err) + e
         return np.where(np.isfinite(hi), lower, np.nan), upper
+
+
+def _interp_scalar(x: float, xp: list[float], fp: list[float]) -> float:
+    """`np.interp(x, xp, fp)` for one float, operation for operation as numpy does it
+    (the same value, without numpy's per-call cost): the end values outside xp, fp[j]
+    at a grid point, else slope (x - xp[j]) + fp[j], from the other end when nan."""
+    if x != x:
+        return math.nan
+    if x <= xp[0]:
+        return fp[0]
+    if x >= xp[-1]:
+        return fp[-1]
+    j = bisect.bisect_right(xp, x) - 1
+    if xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    out = slope * (x - xp[j]) + fp[j]
+    if out != out:
+        out = slope * (x - xp[j + 1]) + fp[j + 1]
+        if out != out and fp[j] == fp[j + 1]:
+            out = fp[j]
+    return out

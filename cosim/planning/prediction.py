@@ -288,9 +288,9 @@ def predict_lazy(
 
     if c2:
         # the TVs' state at the planning instant (they start when the SV does)
-        starts = [constant_acceleration(m, np.array([t_plan])) for _, m, _, _ in c2]
-        x0 = np.array([s[0][0] for s in starts])
-        v0 = np.array([s[1][0] for s in starts])
+        starts = [constant_acceleration(m, t_plan) for _, m, _, _ in c2]  # type: ignore[arg-type]
+        x0 = np.array([s[0] for s in starts])
+        v0 = np.array([s[1] for s in starts])
         vxf = np.array([road.target_speed(o, g) for _, _, o, g in c2])
         if gap_end_speed:
             vxf = np.minimum(vxf, target_leader_speed(messages, t_plan, c2, x0))
@@ -337,50 +337,51 @@ def predict_lazy(
         return LazyFutures(t, rel, ids, tuple(cats), noint, none, none, none, none, noint,
                            noint, empty, empty, empty, np.zeros(0, dtype=LANE_CHANGE),
                            np.zeros(0, dtype=bool))
-    c1 = [b.message for b in blocks if isinstance(b, _C1)]
-    if c1:  # constant_acceleration of every C1 TV (the same operations, one array)
-        mt, v, a, mx = (np.array([getattr(m, f) for m in c1]) for f in ("t", "speed", "accel", "x"))
-        dt = t[None, :] - mt[:, None]
-        neg = np.flatnonzero(a < 0.0)
-        if neg.size:  # stopped: stays
-            dt[neg] = np.minimum(dt[neg], (v[neg] / -a[neg])[:, None])
-        x_c1 = mx[:, None] + v[:, None] * dt + 0.5 * a[:, None] * dt * dt
-        j = iter(range(len(c1)))
-        blocks = [_Rows(x_c1[next(j)][None, :], np.full((1, n_t), b.message.y),
-                        np.full((1, n_t), b.message.heading)) if isinstance(b, _C1) else b
-                  for b in blocks]
     n_h = len(owner)
-    lc = np.full(n_h, np.nan, dtype=LANE_CHANGE)
+    lc = np.empty(n_h, dtype=LANE_CHANGE)
+    lc.view(np.float64).fill(np.nan)  # (every field nan: np.full's structured fill is slow)
     cell = np.zeros(n_h, dtype=bool)
     row_of = np.full(n_h, -1, dtype=np.int64)
-    stored: list[IntArray] = []
-    rows_x: list[Array] = []
-    rows_y: list[Array] = []
-    rows_h: list[Array] = []
+    stored: list[int] = []
+    at_row: list[tuple[int, _Rows]] = []  # stored blocks: first row, rows
+    c1: list[tuple[int, V2VMessage]] = []  # C1 TVs: row, message
     h0 = 0
     for b in blocks:
-        if isinstance(b, _Rows):
-            k = b.x.shape[0]
-            row_of[h0:h0 + k] = sum(r.shape[0] for r in rows_x) + np.arange(k)
-            stored.append(np.arange(h0, h0 + k))
-            rows_x.append(b.x)
-            rows_y.append(b.y)
-            rows_h.append(b.heading)
-        elif isinstance(b, _Closed):
+        if isinstance(b, _Closed):
             k = b.durations.size
             block = lc[h0:h0 + k]
             for name, value in zip(LANE_CHANGE.names, (b.v0, b.vxf, b.width, b.durations,
                                                        b.x0, b.y0, b.start), strict=True):
                 block[name] = value
             cell[h0:h0 + k - 1] = b.cells  # a C2 cluster's neighbouring durations
+        else:
+            k = 1 if isinstance(b, _C1) else b.x.shape[0]
+            row_of[h0:h0 + k] = range(len(stored), len(stored) + k)
+            if isinstance(b, _C1):
+                c1.append((len(stored), b.message))
+            else:
+                at_row.append((len(stored), b))
+            stored.extend(range(h0, h0 + k))
         h0 += k
-    cat_rows = (lambda a: np.concatenate(a) if a else np.zeros((0, n_t)))  # noqa: E731
+    sx, sy, sh = (np.empty((len(stored), n_t)) for _ in range(3))
+    for r, b in at_row:
+        k = b.x.shape[0]
+        sx[r:r + k], sy[r:r + k], sh[r:r + k] = b.x, b.y, b.heading
+    if c1:  # constant_acceleration of every C1 TV (the same operations, one array)
+        rows = np.array([r for r, _ in c1])
+        mt, v, a, mx, my, mh = (np.array([getattr(m, f) for _, m in c1])
+                                for f in ("t", "speed", "accel", "x", "y", "heading"))
+        dt = t[None, :] - mt[:, None]
+        neg = np.flatnonzero(a < 0.0)
+        if neg.size:  # stopped: stays
+            dt[neg] = np.minimum(dt[neg], (v[neg] / -a[neg])[:, None])
+        sx[rows] = mx[:, None] + v[:, None] * dt + 0.5 * a[:, None] * dt * dt
+        sy[rows], sh[rows] = my[:, None], mh[:, None]
     return LazyFutures(
         t=t, rel=rel, vehicle_ids=ids, categories=tuple(cats),
         owner=np.array(owner, dtype=np.int64), tau=np.array(tau_h), t_end=np.array(t_end),
         length=np.array(lengths), width=np.array(widths),
-        stored=np.concatenate(stored) if stored else np.zeros(0, dtype=np.int64),
-        row_of=row_of, sx=cat_rows(rows_x), sy=cat_rows(rows_y), sh=cat_rows(rows_h),
+        stored=np.array(stored, dtype=np.int64), row_of=row_of, sx=sx, sy=sy, sh=sh,
         lc=lc, cell=cell,
     )
 

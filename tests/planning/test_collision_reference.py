@@ -12,7 +12,7 @@ Checked: no tau the planner accepts overlaps anything (sound), and each bound of
 its collision-free set lies within one tau step of the reference's (tight): the
 candidate two steps outside a bound is rejected by the reference too.
 
-The random dense situations: 3 by default; the full 200 with COSIM_REFERENCE_FULL=1
+The random dense situations: 4 by default; the full 200 with COSIM_REFERENCE_FULL=1
 (about 20 minutes), which also judges every accepted tau of the dense scenes (by
 default every 4th and the ends of each interval).
 """
@@ -44,8 +44,12 @@ DT = 0.001  # s, the reference's time step
 COARSE = 10  # steps of DT per sample of the first, pruning pass
 TAU_STEP = 0.001  # s, the reference's step over a C2 TV's durations
 STRIDE = 20  # steps of TAU_STEP per duration of the pruning pass
+MID_STEPS, MID_STRIDE = 2, 4  # the second pass: every 2 ms and 4 ms of duration
+CHUNK = 20000  # points of the first pass refined at once
 FULL = bool(os.environ.get("COSIM_REFERENCE_FULL"))
-N_RANDOM = 200 if FULL else 3
+# seed 98: an overlap in the last half step before a pair's horizon, when the next sample
+# lies past it (found by the full run; the last sample's cell now reaches the horizon)
+SEEDS = range(200) if FULL else (0, 1, 2, 98)
 # the dense scenes' accepted taus judged: all (full), else every 4th and both ends of
 # every interval
 EVERY = 1 if FULL else 4
@@ -158,43 +162,81 @@ class Reference:
 
     def _cluster_collides(self, tau, sx, sy, sh, sl, sw, v0, vxf, w, x0, y0, taus, tl, tw,  # noqa: ANN001, PLR0913
                           follow, coarse) -> bool:
-        """Any of the cluster's durations: first on a 10 ms x 20 ms grid, axis-aligned
-        boxes widened by how far a corner can move between its points, then exactly at
-        1 ms x 1 ms around every point that came near (all at once)."""
+        """Any of the cluster's durations: first on a 10 ms x 20 ms grid, then on a 2 ms x
+        4 ms grid around every point that came near, axis-aligned boxes widened by how far
+        a corner can move between the points of each grid; then exactly at 1 ms x 1 ms
+        around every point still near (in pieces)."""
         extra = self.cfg.horizon_extra
         kc = np.arange(0, self.t.size, COARSE)
         tc = self.t[kc]
-        stride = STRIDE
         ci = _coarse_index(taus.size)
         tau_c = taus[ci]
         cx, cy, cc, cs = coarse
-        # relative motion within 5 ms (< 20 m/s) and within 10 ms of duration (< 1.1 W /
-        # tau), turning (< 0.5 rad/s, 0.2 rad/s per s of duration) at 3 m from the centre
-        slack = (20.0 * COARSE * DT / 2 + 1.1 * abs(w) / taus[0] * stride * TAU_STEP / 2
-                 + 3.0 * (0.5 * COARSE * DT / 2 + 0.2 * stride * TAU_STEP / 2) + 0.02)
-        hor = np.maximum(np.maximum(tau, tau_c) + extra, follow)
+
+        def slack(steps: int, stride: int) -> float:
+            """m, a corner's motion within half a cell of `steps` x DT and `stride` x
+            TAU_STEP: relative motion (< 20 m/s) and with the duration (< 1.1 W / tau),
+            turning (< 0.5 rad/s, 0.2 rad/s per s of duration) at 3 m from the centre."""
+            ht, hd = steps * DT / 2, stride * TAU_STEP / 2
+            return 20.0 * ht + 1.1 * abs(w) / taus[0] * hd + 3.0 * (0.5 * ht + 0.2 * hd) + 0.02
+
+        # (a cell reaches half a step past its point, in time and in duration)
+        hor = np.maximum(np.maximum(tau, tau_c) + extra, follow) + (
+            COARSE * DT / 2 + STRIDE * TAU_STEP / 2 + 1e-9)
         ac, as_ = np.abs(np.cos(sh[kc])), np.abs(np.sin(sh[kc]))
         ahx, ahy = 0.5 * (sl * ac + sw * as_), 0.5 * (sl * as_ + sw * ac)
-        near = ((np.abs(cx - sx[kc]) <= ahx + 0.5 * (tl * cc + tw * cs) + 2 * slack)
-                & (np.abs(cy - sy[kc]) <= ahy + 0.5 * (tl * cs + tw * cc) + 2 * slack)
-                & (tc[None, :] <= hor[:, None] + 1e-9))
+        wide = 2 * slack(COARSE, STRIDE)
+        near = ((np.abs(cx - sx[kc]) <= ahx + 0.5 * (tl * cc + tw * cs) + wide)
+                & (np.abs(cy - sy[kc]) <= ahy + 0.5 * (tl * cs + tw * cc) + wide)
+                & (tc[None, :] <= hor[:, None]))
         ii, kk = np.nonzero(near)
-        if ii.size == 0:
-            return False
-        half = COARSE // 2
-        dk = np.arange(-half, half + 1)
-        di = np.arange(-(stride // 2), stride // 2 + 1)
-        ti = np.clip(kc[kk][:, None, None] + dk[None, None, :], 0, self.t.size - 1)
-        ui = np.clip(ci[ii][:, None, None] + di[None, :, None], 0, taus.size - 1)
-        ti, ui = np.broadcast_arrays(ti, ui)
-        ti, ui = ti.ravel(), ui.ravel()
-        tt, fine = self.t[ti], taus[ui]
-        ok = tt <= np.maximum(np.maximum(tau, fine) + extra, follow) + 1e-9
-        ti, tt, fine = ti[ok], tt[ok], fine[ok]
-        dd = cluster_derivatives(v0, vxf, w, fine[:, None], tt[:, None], (0, 1))
-        tx, ty = dd[0][0][:, 0] + x0, dd[0][1][:, 0] + y0
-        th = np.arctan2(dd[1][1][:, 0], dd[1][0][:, 0])
-        return _touch(sx[ti], sy[ti], sh[ti], sl, sw, tx, ty, th, tl, tw)
+        ti0, ui0 = kc[kk], ci[ii]
+        mid = 2 * slack(MID_STEPS, MID_STRIDE)
+        keep_t, keep_u, keep_d = [np.zeros(0, int)], [np.zeros(0, int)], [np.zeros(0)]
+        for lo in range(0, ti0.size, CHUNK):  # (in pieces: a long horizon holds millions)
+            ti, ui = self._around(ti0[lo:lo + CHUNK], ui0[lo:lo + CHUNK], COARSE, STRIDE,
+                                  MID_STEPS, MID_STRIDE, taus.size)
+            tx, ty, th = _cluster_poses(v0, vxf, w, x0, y0, taus[ui], self.t[ti])
+            depth = _box_depth(sx[ti], sy[ti], sh[ti], sl, sw, tx, ty, th, tl, tw) + mid
+            near = depth >= 0.0
+            keep_t.append(ti[near])
+            keep_u.append(ui[near])
+            keep_d.append(depth[near])
+        order = np.argsort(-np.concatenate(keep_d), kind="stable")  # the deepest first
+        ti1, ui1 = np.concatenate(keep_t)[order], np.concatenate(keep_u)[order]
+        for lo in range(0, ti1.size, CHUNK // 10):
+            ti, ui = self._around(ti1[lo:lo + CHUNK // 10], ui1[lo:lo + CHUNK // 10],
+                                  MID_STEPS, MID_STRIDE, 1, 1, taus.size)
+            tt, fine = self.t[ti], taus[ui]
+            ok = tt <= np.maximum(np.maximum(tau, fine) + extra, follow) + 1e-9
+            ti, tt, fine = ti[ok], tt[ok], fine[ok]
+            tx, ty, th = _cluster_poses(v0, vxf, w, x0, y0, fine, tt)
+            meet = _box_depth(sx[ti], sy[ti], sh[ti], sl, sw, tx, ty, th, tl, tw) >= 0.0
+            ti, tx, ty, th = ti[meet], tx[meet], ty[meet], th[meet]
+            if _touch(sx[ti], sy[ti], sh[ti], sl, sw, tx, ty, th, tl, tw):
+                return True
+        return False
+
+    def _around(self, ti, ui, steps, stride, sub_steps, sub_stride, n_tau):  # noqa: ANN001, ANN202, PLR0913
+        """(time, duration) indices of the points of a finer grid (every sub_steps x DT,
+        sub_stride x TAU_STEP) covering the cells of the given points (half of steps x DT
+        and stride x TAU_STEP on each side), each finer point covering half its own."""
+        ht, hd = steps // 2, stride // 2
+        dk = np.arange(-ht + sub_steps // 2, ht + 1, sub_steps) if sub_steps > 1 else np.arange(
+            -ht, ht + 1)
+        di = np.arange(-hd + sub_stride // 2, hd + 1, sub_stride) if sub_stride > 1 else np.arange(
+            -hd, hd + 1)
+        t_i = np.clip(ti[:, None, None] + dk[None, None, :], 0, self.t.size - 1)
+        u_i = np.clip(ui[:, None, None] + di[None, :, None], 0, n_tau - 1)
+        t_i, u_i = np.broadcast_arrays(t_i, u_i)
+        return t_i.ravel(), u_i.ravel()
+
+
+def _cluster_poses(v0, vxf, w, x0, y0, taus, tt):  # noqa: ANN001, ANN202
+    """(x, y, heading) of the cluster's lane change of duration taus[i] at time tt[i]."""
+    dd = cluster_derivatives(v0, vxf, w, taus[:, None], tt[:, None], (0, 1))
+    return (dd[0][0][:, 0] + x0, dd[0][1][:, 0] + y0,
+            np.arctan2(dd[1][1][:, 0], dd[1][0][:, 0]))
 
 
 def _coarse_index(n: int) -> np.ndarray:
@@ -202,15 +244,20 @@ def _coarse_index(n: int) -> np.ndarray:
     return np.unique(np.append(np.arange(0, n, STRIDE), n - 1))
 
 
-def _boxes_meet(ax, ay, ah, al, aw, bx, by, bh, bl, bw, slack):  # noqa: ANN001, ANN202
-    """The axis-aligned boxes of the rectangles, each widened by slack, overlap."""
+def _box_depth(ax, ay, ah, al, aw, bx, by, bh, bl, bw):  # noqa: ANN001, ANN202
+    """m, how far the axis-aligned boxes of the rectangles overlap (the lesser of the two
+    axes; negative: the gap between them)."""
     def half(h, length, width):  # noqa: ANN001, ANN202
         c, s = np.abs(np.cos(h)), np.abs(np.sin(h))
         return 0.5 * (length * c + width * s), 0.5 * (length * s + width * c)
 
     (ahx, ahy), (bhx, bhy) = half(ah, al, aw), half(bh, bl, bw)
-    return ((np.abs(bx - ax) <= ahx + bhx + 2 * slack)
-            & (np.abs(by - ay) <= ahy + bhy + 2 * slack))
+    return np.minimum(ahx + bhx - np.abs(bx - ax), ahy + bhy - np.abs(by - ay))
+
+
+def _boxes_meet(ax, ay, ah, al, aw, bx, by, bh, bl, bw, slack):  # noqa: ANN001, ANN202
+    """The axis-aligned boxes of the rectangles, each widened by slack, overlap."""
+    return _box_depth(ax, ay, ah, al, aw, bx, by, bh, bl, bw) + 2 * slack >= 0.0
 
 
 def _check(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int,
@@ -293,7 +340,7 @@ def random_situation(seed: int) -> tuple:
     return planner, 0.0, sv, target, messages, float(rng.uniform(0, 1))
 
 
-@pytest.mark.parametrize("seed", range(N_RANDOM))
+@pytest.mark.parametrize("seed", SEEDS)
 def test_random_dense_situations_against_the_reference(seed: int) -> None:
     planner, t, sv, target, messages, occupant = random_situation(seed)
     assert {category(m) for m in messages} == {"C1", "C2", "C3"}

@@ -95,3 +95,11 @@ def test_tau_min_map_matches_the_envelope() -> None:
         direct = stable_set(v, kmh(90), -3.75, fine, 0.6, VEH).tau_min
         assert float(fmap(v)) == pytest.approx(direct, abs=0.005)
     assert np.isnan(fmap(80.0))  # outside the map
+    # one float takes a path on plain floats: the same values as numpy's, bit for bit
+    speeds = np.concatenate((np.linspace(0.0, 52.0, 2001), fmap.speeds, [1.0, 50.0]))
+    lo, hi = fmap.bounds(speeds)
+    value = fmap(speeds)
+    for i, v in enumerate(speeds.tolist()):
+        got = (*fmap.bounds(v), fmap(v))
+        assert isinstance(got[0], float)
+        np.testing.assert_array_equal(got, (lo[i], hi[i], value[i]))
