@@ -13,7 +13,7 @@ its collision-free set lies within one tau step of the reference's (tight): the
 candidate two steps outside a bound is rejected by the reference too.
 
 The random dense situations: 4 by default; the full 200 with COSIM_REFERENCE_FULL=1
-(about 20 minutes), which also judges every accepted tau of the dense scenes (by
+(about 8 minutes), which also judges every accepted tau of the dense scenes (by
 default every 4th and the ends of each interval).
 """
 
