@@ -284,22 +284,22 @@ def check_candidates(
     """First overlap of every SV candidate (n_c) with any TV hypothesis (n_h) on the
     uniform time grid t (eq. 10-11).
 
-    A pair (candidate c, hypothesis h) is tested at the times t_k <=
-    max(sv_horizon[c], tv_horizon[h]) (the exact test: the cell of the last one reaches
-    that horizon, the times up to it all covered; a C2 cell's durations, h to h + 1,
-    are looked at up to the horizon of h + 1, the later one). Time runs forwards and a candidate leaves at its
-    first overlap (ties at one sample go to the lowest hypothesis). At each sample a
-    vehicle's hypotheses are skipped when their box is far from the candidates' box;
-    the candidates near the vehicle's box, and for each the hypotheses whose y is near
-    its own, come from binary searches (a closed-form cluster, the SV's from rest and
-    a C2 TV's, is ordered by duration in x and y at every time, so its box is that of
-    its two extreme trajectories); then axis-aligned boxes (from bounds on the
-    headings) and centre distances. The exact test ("exact") then covers, continuously,
-    the times within half a step of t_k and every duration between h and the next
-    listed one of its cluster (see the module's docstring; an overlap reported at
-    t_k lies in that cell, or, when the cell would need a closer look and the next
-    sample overlaps outright, at that sample); "col" is the paper's CoL at the samples
-    and the listed durations only. The loops run compiled (numba).
+    A pair (candidate c, hypothesis h) is tested at the times t_k <= max(sv_horizon[c],
+    tv_horizon[h]) (the exact test: the cell of the last one reaches that horizon, the
+    times up to it all covered; a C2 cell's durations, h to h + 1, are looked at up to
+    the horizon of h + 1, the later one). Time runs forwards and a candidate leaves at
+    its first overlap (ties at one sample go to the lowest hypothesis). At each sample a
+    vehicle's hypotheses are skipped when their box is far from the candidates' box; the
+    candidates near the vehicle's box, and for each the hypotheses whose y is near its
+    own, come from binary searches (a closed-form cluster, the SV's from rest and a C2
+    TV's, is ordered by duration in x and y at every time, so its box is that of its two
+    extreme trajectories); then axis-aligned boxes (from bounds on the headings) and
+    centre distances. The exact test ("exact") then covers, continuously, the times
+    within half a step of t_k and every duration between h and the next listed one of
+    its cluster (see the module's docstring; an overlap reported at t_k lies in that
+    cell, or, when the cell would need a closer look and the next sample overlaps
+    outright, at that sample); "col" is the paper's CoL at the samples and the listed
+    durations only. The loops run compiled (numba).
     """
     if test not in COLLISION_TESTS:
         raise ValueError(f"collision test {test!r}: one of {COLLISION_TESTS}")
