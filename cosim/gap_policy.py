@@ -10,7 +10,8 @@ speed that takes it into it (never faster than its own leader allows). It calls 
 planner only once the gap is reached (and at >= cosim.gap.PLANNER_MIN_SPEED), with
 the gap's speed as vxf; a plan is flown only if its new follower, predicted as
 SUMO's Krauss follows (cosim.planning.interaction.check_follower), brakes no harder
-than MOBIL's b_safe, else it counts as a failed plan (retried after
+than `GapConfig.plan_decel` (within MOBIL's b_safe), else it counts as a failed plan
+and its follower is asked to make room (retried after
 `retry_interval`, the approach going on). It stops behind a standing leader at
 STOP_GAP (IDM standstill gap). It signals while it seeks a gap, and asks the chosen
 gap's follower to open the gap (`cooperate(t, tv_id)`: the traffic's courtesy and
