@@ -21,7 +21,7 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 SLOW = {
     "cosim batch scenarios/study_density.toml": "150 runs",
     "cosim batch scenarios/study_replanning.toml": "800 runs",
-    "cosim batch scenarios/study_gap.toml --seeds 1-10": "480 runs",
+    "cosim batch scenarios/study_gap.toml": "1080 runs",
     "cosim run scenarios/traffic_medium.toml --gui": "needs a display; waits for its window",
     "cosim bench planner": "minutes: loop transcriptions",
     "cosim bench cosim": "three 30 s dense runs and more",
