@@ -143,13 +143,10 @@ class CoSimulation:
                 if k == self.n_steps:
                     break
                 reference = policy.update(t, scene, observer.inbox(scene))
-                if self.cooperation:  # gap requests due reach their TVs; passed ones stop
+                for channel in self.cooperation:  # gap requests due reach their TVs
                     tvs = scene.tvs
-                    present = set(tvs.ids)
-                    ahead = {tvs.ids[i] for i in np.flatnonzero(tvs.x > scene.sv.x)}
-                    for channel in self.cooperation:
-                        channel.deliver(t, world.sumo.api, SV_ID, present)
-                        channel.release(world.sumo.api, ahead)
+                    channel.deliver(t, world.sumo.api, SV_ID, tvs.ids)
+                    channel.release(world.sumo.api, tvs.ids, tvs.x > scene.sv.x)
                 ego.advance(t, self.dt, reference)
                 observer.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())

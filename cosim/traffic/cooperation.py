@@ -30,10 +30,12 @@ libsumo itself.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 from types import ModuleType
 
 import numpy as np
+from numpy.typing import NDArray
 
 from cosim.errors import InputError
 
@@ -113,9 +115,11 @@ class CooperationChannel:
         return True
 
     def deliver(self, t: float, api: ModuleType, sv_id: str,
-                present: set[str] | frozenset[str] | None = None) -> list[str]:
+                present: Collection[str] | None = None) -> list[str]:
         """Apply the requests due by time t (a TV no longer in `present`, if given, is
         skipped); returns the ids of the TVs that now yield."""
+        if not self._queue:
+            return []
         due = [r for r in self._queue if r.due <= t + 1e-9]
         self._queue = [r for r in self._queue if r.due > t + 1e-9]
         yielding = []
@@ -127,12 +131,12 @@ class CooperationChannel:
         self._yielding.update(yielding)
         return yielding
 
-    def release(self, api: ModuleType, ahead: set[str]) -> None:
-        """End the yielding of the TVs now ahead of the SV (`ahead`: ids of the TVs
-        ahead of it, present in SUMO): openGap keeps the SV as their leader, and a TV
-        that has got ahead of it would otherwise stop and wait for it, for good (it never
-        reaches the gap it is told to open)."""
-        done = self._yielding & ahead
+    def release(self, api: ModuleType, ids: Sequence[str], ahead: NDArray[np.bool_]) -> None:
+        """End the yielding of the TVs now ahead of the SV (`ids` of the TVs present in
+        SUMO, `ahead` true for those ahead of it): openGap keeps the SV as their leader,
+        and a TV that has got ahead of it would otherwise stop and wait for it, for good
+        (it never reaches the gap it is told to open). Looks only at the yielding TVs."""
+        done = {tv for tv in self._yielding if tv in ids and ahead[ids.index(tv)]}
         for tv_id in sorted(done):  # sorted: the same order every run
             api.vehicle.deactivateGapControl(tv_id)
         self._yielding -= done

@@ -137,10 +137,10 @@ def run_passing(release: bool, seconds: float = 16.0) -> tuple[np.ndarray, np.nd
             t = sim.time
             if abs(t - 1.0) < 1e-6:
                 channel.request(t, "tv")
-            channel.deliver(t, sim.api, "sv", {"tv"})
+            channel.deliver(t, sim.api, "sv", ("tv",))
             x_tv = sim.api.vehicle.getPosition("tv")[0] - 0.5 * L  # centre
             if release:
-                channel.release(sim.api, {"tv"} if x_tv > x_sv else set())
+                channel.release(sim.api, ("tv",), np.array([x_tv > x_sv]))
             if t >= 3.0:
                 v_sv = max(v_sv - 4.0 * STEP, 2.0)
             x_sv += v_sv * STEP
