@@ -76,6 +76,13 @@ N_CONST = C_TYRE + N_TYRE
 
 
 @njit
+def low_speed_share(speed: float, vlow: float) -> float:
+    """-, how much of the slip damping acts at a wheel moving at `speed` (m/s): 1 at
+    rest, falling along a half cosine to 0 at `vlow` and above."""
+    return 0.5 * (1.0 + math.cos(math.pi * min(speed / vlow, 1.0)))
+
+
+@njit
 def twotrack_derivative(s: Array, c: Array, inputs: Array, forces: Array, out: Array) -> None:
     """ds/dt at state s into `out`; inputs = (cos delta, sin delta, four wheel torques);
     the accelerations and wheel forces (ax, ay, Fx1..4, Fy1..4, Fz1..4) into `forces`."""
@@ -127,18 +134,13 @@ def twotrack_derivative(s: Array, c: Array, inputs: Array, forces: Array, out: A
     out[19] = (-vyr - au4 * a4) * isa
     vlow = c[C_VLOW]
     if min(au1, au2, au3, au4) < vlow:
-        w = 0.5 * (1.0 + math.cos(math.pi * min(au1 / vlow, 1.0)))
-        k1 += w * c[C_DAMP_X_F] * sx1
-        a1 -= w * c[C_DAMP_Y_F] * l1
-        w = 0.5 * (1.0 + math.cos(math.pi * min(au2 / vlow, 1.0)))
-        k2 += w * c[C_DAMP_X_F] * sx2
-        a2 -= w * c[C_DAMP_Y_F] * l2
-        w = 0.5 * (1.0 + math.cos(math.pi * min(au3 / vlow, 1.0)))
-        k3 += w * c[C_DAMP_X_R] * sx3
-        a3 -= w * c[C_DAMP_Y_R] * vyr
-        w = 0.5 * (1.0 + math.cos(math.pi * min(au4 / vlow, 1.0)))
-        k4 += w * c[C_DAMP_X_R] * sx4
-        a4 -= w * c[C_DAMP_Y_R] * vyr
+        w1, w2 = low_speed_share(au1, vlow), low_speed_share(au2, vlow)
+        w3, w4 = low_speed_share(au3, vlow), low_speed_share(au4, vlow)
+        dxf, dyf, dxr, dyr = c[C_DAMP_X_F], c[C_DAMP_Y_F], c[C_DAMP_X_R], c[C_DAMP_Y_R]
+        k1, k2, k3, k4 = (k1 + w1 * dxf * sx1, k2 + w2 * dxf * sx2,
+                          k3 + w3 * dxr * sx3, k4 + w4 * dxr * sx4)
+        a1, a2, a3, a4 = (a1 - w1 * dyf * l1, a2 - w2 * dyf * l2,
+                          a3 - w3 * dyr * vyr, a4 - w4 * dyr * vyr)
 
     ifz0f, ifz0r = 1.0 / fz0f, 1.0 / fz0r
     fx1, fy1 = combined_forces(k1, a1, fz1, ifz0f, kaf, mu, c, C_TYRE)

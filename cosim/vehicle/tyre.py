@@ -132,6 +132,19 @@ def mf_curve(slip: float, b: float, c: float, e: float, d: float) -> float:
 
 
 @njit
+def combined_weight(slip: float, other: float, b1: float, b2: float, e: float,
+                    c: float) -> float:
+    """-, the weight G of one force under combined slip (Pacejka's cosine form):
+    cos(C atan(B1 slip / sqrt(1 + (B2 other)^2) - E (...))), 0 past C atan(.) = pi / 2.
+    G_x,alpha: slip = tan(alpha), other = kappa; G_y,kappa: the other way round."""
+    r = b2 * other
+    z = b1 * slip / math.sqrt(1.0 + r * r)
+    if e != 0.0:
+        z = z - e * (z - math.atan(z))
+    return math.cos(min(c * math.atan(abs(z)), HALF_PI))
+
+
+@njit
 def combined_forces(kappa: float, alpha: float, fz: float, inv_fz0: float, k_alpha0: float,
                     mu: float, t: Array, o: int) -> tuple[float, float]:
     """N, (Fx, Fy) of one wheel: pure-slip Magic Formula times the combined-slip weights.
@@ -140,8 +153,8 @@ def combined_forces(kappa: float, alpha: float, fz: float, inv_fz0: float, k_alp
     force points to the wheel's left); fz: load (N); inv_fz0: 1 / the static load (1/N)
     the load sensitivity refers to; k_alpha0: cornering stiffness at that load (N/rad);
     mu: road friction (mu_y at the static load); t[o:o + N_TYRE]: the coefficients
-    (`TyreParams.array`). Written out in one piece (no helper calls): it is the plant's
-    hot spot."""
+    (`TyreParams.array`). The plant's hot spot: its one helper, `combined_weight`, is
+    compiled inline."""
     if fz <= 0.0:
         return 0.0, 0.0
     x = fz * inv_fz0
@@ -160,19 +173,11 @@ def combined_forces(kappa: float, alpha: float, fz: float, inv_fz0: float, k_alp
     ey = t[o + T_EY]
     if ey != 0.0:
         by = by - ey * (by - math.atan(by))
-    # combined slip: the weights G_x,alpha and G_y,kappa (0 past C atan(.) = pi / 2)
-    r2 = t[o + T_RBX2] * kappa
-    z = t[o + T_RBX1] * alpha / math.sqrt(1.0 + r2 * r2)
-    e = t[o + T_REX1]
-    if e != 0.0:
-        z = z - e * (z - math.atan(z))
-    g_xa = math.cos(min(t[o + T_RCX1] * math.atan(abs(z)), HALF_PI))
-    r2 = t[o + T_RBY2] * alpha
-    z = t[o + T_RBY1] * kappa / math.sqrt(1.0 + r2 * r2)
-    e = t[o + T_REY1]
-    if e != 0.0:
-        z = z - e * (z - math.atan(z))
-    g_yk = math.cos(min(t[o + T_RCY1] * math.atan(abs(z)), HALF_PI))
+    # combined slip: the weights G_x,alpha and G_y,kappa
+    g_xa = combined_weight(alpha, kappa, t[o + T_RBX1], t[o + T_RBX2], t[o + T_REX1],
+                           t[o + T_RCX1])
+    g_yk = combined_weight(kappa, alpha, t[o + T_RBY1], t[o + T_RBY2], t[o + T_REY1],
+                           t[o + T_RCY1])
     return (g_xa * mu_x * fz * math.sin(cx * math.atan(bx)),
             g_yk * mu_y * fz * math.sin(cy * math.atan(by)))
 
