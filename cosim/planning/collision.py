@@ -328,6 +328,18 @@ def _standard_heading(v0: float, vxf: float, w: float, tau: float, t: float) -> 
 
 
 @njit
+def _candidate_velocity(general: bool, cx: Array, cy: Array, c: int, tau: float, v0: float,
+                        vxf: float, w: float, t: float) -> tuple[float, float]:
+    """m/s, the velocity of SV candidate c (duration tau) at time t after its start:
+    from its general-start coefficients (cx, cy) or, from rest laterally, eq. 2 / 4's
+    closed form (v0 -> vxf over the lateral displacement w)."""
+    if general:
+        _, _, xd, yd = _general_state(cx, cy, c, tau, vxf, t)
+        return xd, yd
+    return standard_velocity(v0, vxf, w, tau, t)
+
+
+@njit
 def _direction(xd: float, yd: float) -> tuple[float, float]:
     """(cos, sin) of the heading atan2(yd, xd) of velocity (xd, yd), without
     trigonometry ((1, 0) at rest, as atan2(0, 0) = 0)."""
@@ -901,11 +913,8 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             tv_cs[ra, 2] = 0.0
                             tv_hk[ra] = k
                         if sv_k[c] != k:
-                            if general:
-                                _, _, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], vxf,
-                                                              tk + shift)
-                            else:
-                                xd, yd = standard_velocity(v0, vxf, w, sv.tau[c], tk + shift)
+                            xd, yd = _candidate_velocity(general, sv.cx, sv.cy, c, sv.tau[c],
+                                                         v0, vxf, w, tk + shift)
                             sv_cs[c, 0], sv_cs[c, 1] = _direction(xd, yd)
                             sv_cs[c, 2] = 0.0
                             sv_k[c] = k
@@ -947,11 +956,8 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             or tk > hor):
                         continue
                     if sv_k[c] != k:  # cos, sin from the velocity (no trigonometry)
-                        if general:
-                            _, _, xd, yd = _general_state(sv.cx, sv.cy, c, sv.tau[c], vxf,
-                                                          tk + shift)
-                        else:
-                            xd, yd = standard_velocity(v0, vxf, w, sv.tau[c], tk + shift)
+                        xd, yd = _candidate_velocity(general, sv.cx, sv.cy, c, sv.tau[c], v0,
+                                                     vxf, w, tk + shift)
                         sv_cs[c, 0], sv_cs[c, 1] = _direction(xd, yd)
                         sv_cs[c, 2] = math.atan2(yd, xd) if col else 0.0
                         sv_k[c] = k
