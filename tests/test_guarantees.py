@@ -13,12 +13,12 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -113,6 +113,27 @@ def test_killed_while_writing_leaves_only_complete_files(tmp_path: Path) -> None
     assert caught_mid_write > 0, "never caught cosim run writing: the test proved nothing"
 
 
+def _stderr_drain(proc: subprocess.Popen[bytes]) -> Callable[[], bytes]:
+    """A function that returns what the process has written to stderr since its last
+    call, without blocking."""
+    assert proc.stderr is not None
+    fd = proc.stderr.fileno()
+    os.set_blocking(fd, False)
+
+    def drain() -> bytes:
+        data = b""
+        while True:
+            try:
+                chunk = os.read(fd, 65536)
+            except BlockingIOError:
+                return data
+            if not chunk:
+                return data
+            data += chunk
+
+    return drain
+
+
 def _previous_run(tmp_path: Path) -> Path:
     """An output folder holding a previous run's files (CSVs and figures, marked as old)."""
     out = tmp_path / "out"
@@ -142,15 +163,12 @@ def test_interrupt_leaves_the_previous_run_untouched(
     out = _previous_run(tmp_path)
     before = _files(out)
     proc = _cosim(["run", str(scenario), "--out", str(out)], tmp_path)
-    assert proc.stderr is not None
-    fd = proc.stderr.fileno()
-    os.set_blocking(fd, False)
+    drain = _stderr_drain(proc)
     seen = b""
 
     def ready() -> bool:
         nonlocal seen
-        with contextlib.suppress(BlockingIOError):
-            seen += os.read(fd, 65536)
+        seen += drain()
         if moment == "stepping":
             return b"step" in seen
         # the CSVs are written and the figures are being drawn, in the staging folder
@@ -159,15 +177,7 @@ def test_interrupt_leaves_the_previous_run_untouched(
     assert _wait_for(proc, ready), seen
     proc.send_signal(sig)
     proc.wait(timeout=60)
-    while True:
-        try:
-            chunk = os.read(fd, 65536)
-        except BlockingIOError:
-            break
-        if not chunk:
-            break
-        seen += chunk
-    text = seen.decode(errors="replace")
+    text = (seen + drain()).decode(errors="replace")
     assert proc.returncode == status, text
     assert _files(out) == before  # exactly what it held: no new CSV beside old figures
     if sig == signal.SIGKILL:
@@ -185,21 +195,8 @@ def test_ctrl_c_while_simulating_exits_130_and_writes_nothing(tmp_path: Path) ->
     out = tmp_path / "out"
     proc = _cosim(["run", str(scenario), "--out", str(out)], tmp_path)
     # The progress bar on stderr shows the simulation has started.
-    assert proc.stderr is not None
-    fd = proc.stderr.fileno()
-    os.set_blocking(fd, False)
+    drain = _stderr_drain(proc)
     seen = b""
-
-    def drain() -> bytes:
-        data = b""
-        while True:
-            try:
-                chunk = os.read(fd, 65536)
-            except BlockingIOError:
-                return data
-            if not chunk:
-                return data
-            data += chunk
 
     def simulating() -> bool:
         nonlocal seen
