@@ -143,10 +143,13 @@ class CoSimulation:
                 if k == self.n_steps:
                     break
                 reference = policy.update(t, scene, observer.inbox(scene))
-                for channel in self.cooperation:  # gap requests due reach their TVs
-                    tvs = scene.tvs
-                    channel.deliver(t, world.sumo.api, SV_ID, tvs.ids)
-                    channel.release(world.sumo.api, tvs.ids, tvs.x > scene.sv.x)
+                if self.cooperation:  # gap requests due reach their TVs
+                    tvs, api = scene.tvs, world.sumo.api
+                    changing = policy.status(scene.sv).changing
+                    for channel in self.cooperation:
+                        channel.changing(api, SV_ID, changing, tvs.ids)
+                        channel.deliver(t, api, SV_ID, tvs.ids)
+                        channel.release(api, tvs.ids, tvs.x > scene.sv.x)
                 ego.advance(t, self.dt, reference)
                 observer.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())

@@ -21,7 +21,10 @@ car-following then treats the SV as its leader while it raises its time headway 
 `time_headway` and its standstill gap to `space_headway` (the change spread at
 `change_rate`, braking at most `max_decel`) and keeps them for `duration` after
 reaching them (TraCI's openGap; SUMO_NOTES.md "Cooperation"). This only changes how
-the TV follows; who goes where is still the planner's decision.
+the TV follows; who goes where is still the planner's decision. A TV makes room
+firmly while the SV waits beside the gap (`max_decel`) and gently once the SV moves
+over (`changing_decel`): as SUMO's informed followers do, most of the room is made
+before the change, and the change itself asks little of them.
 
 The API handle is the SUMO adapter's (`SumoSim.api`): this module does not import
 libsumo itself.
@@ -51,10 +54,15 @@ class CooperationConfig:
     space_headway: float = 5.0  # m, the standstill gap it opens
     duration: float = 10.0  # s, how long it holds the gap once open
     change_rate: float = 0.5  # 1/s, SUMO's openGap rate of change (fraction per second)
-    max_decel: float = 0.3  # m/s^2, the hardest it brakes to open the gap: gently, so
-    # that its braking stays near what SUMO's own SV asks of its followers (sample of
-    # study_gap: 2.0 gave a follower_max_decel of ~2.5 m/s^2, 0.3 about 0.8, 0.15 about
-    # 0.66 but 10/12 lane changes instead of 12/12; docs/gap_driver.md)
+    max_decel: float = 0.5  # m/s^2, the hardest it brakes to open the gap while the SV
+    # waits for it (before the SV's change begins) ...
+    changing_decel: float = 0.1  # m/s^2, ... and once the SV's change is under way: the
+    # braking a TV that still yields may go on with when the SV moves over (re-issued at
+    # the change's start; SUMO's dawdling, up to 0.52 m/s^2 a step, comes on top).
+    # Sample of study_gap (densities 10-60, 20 seeds, gap / gap_lossy / gap_perception):
+    # 0.1 throughout opened gaps too slowly at 20 veh/km/lane (18-19 of 20 lane changes);
+    # 0.5 while waiting, 0.1 changing: 20 of 20, the new follower's braking unchanged
+    # (docs/gap_driver.md)
 
     def check(self, source: str = "cooperation") -> None:
         """Raise InputError naming the first bad field."""
@@ -64,24 +72,35 @@ class CooperationConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0.0):
                 raise InputError(source, name, v, "a finite number >= 0 s")
-        for name in ("time_headway", "space_headway", "duration", "change_rate", "max_decel"):
+        for name in ("time_headway", "space_headway", "duration", "change_rate", "max_decel",
+                     "changing_decel"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise InputError(source, name, v, "a finite number > 0")
 
 
-def open_gap(api: ModuleType, tv_id: str, sv_id: str, cfg: CooperationConfig) -> None:
-    """Make `tv_id` open a gap behind `sv_id` (SUMO's openGap, the SV as reference)."""
-    api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration,
-                        cfg.change_rate, cfg.max_decel, sv_id)
+# 1/s, an openGap rate that reaches the target headway in one step: SUMO adds
+# rate x step x (target - own) a step, capped at the target (MSVehicle::Influencer)
+AT_ONCE = 1e6
 
 
-# the traffic's courtesy to the SV's blinker (module docstring): at once, always honoured,
-# braking at most 0.1 m/s^2 on top of the TV's own dawdling (SUMO's Krauss, sigma 0.2 x
-# accel 2.6 = up to 0.52 m/s^2 a step): sample of study_gap (densities 10-60, 6 seeds),
-# measured p95 of the new follower's braking / lane changes of 30: 0.3 -> 0.82 / 29,
-# 0.1 -> 0.62 / 29, 0.02 -> 0.54 / 27 (SUMO's own driver: 0.36-1.02 / 30)
-COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0, max_decel=0.1)
+def open_gap(api: ModuleType, tv_id: str, sv_id: str, cfg: CooperationConfig,
+             changing: bool = False) -> None:
+    """Make `tv_id` open a gap behind `sv_id` (SUMO's openGap, the SV as reference),
+    braking at most cfg.max_decel, or cfg.changing_decel once the SV is `changing`.
+    A request during the change takes the target headway at once: a TV told again
+    would otherwise spread it anew from its own (shorter) headway, speed up toward
+    the SV for a while and then brake for it."""
+    if changing:
+        api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration,
+                            AT_ONCE, cfg.changing_decel, sv_id)
+    else:
+        api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration,
+                            cfg.change_rate, cfg.max_decel, sv_id)
+
+
+# the traffic's courtesy to the SV's blinker (module docstring): at once, always honoured
+COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0)
 
 
 @dataclass
@@ -93,7 +112,9 @@ class _Request:
 
 @dataclass
 class CooperationChannel:
-    """Requests in flight: `request` sends one, `deliver` applies those that are due."""
+    """Requests in flight: `request` sends one, `deliver` applies those that are due,
+    `changing` eases the yielding TVs' braking when the SV's change begins, `release`
+    ends the yielding of the TVs that got ahead of the SV."""
 
     cfg: CooperationConfig
     rng: np.random.Generator
@@ -102,6 +123,7 @@ class CooperationChannel:
     _queue: list[_Request] = field(default_factory=list)
     _asked: set[str] = field(default_factory=set)
     _yielding: set[str] = field(default_factory=set)
+    _changing: bool = False  # the SV's change is under way
 
     def request(self, t: float, tv_id: str) -> bool:
         """Send a request to `tv_id` at time t (once per TV: a repeated request is not
@@ -125,11 +147,22 @@ class CooperationChannel:
         yielding = []
         for r in due:  # a handful of requests per run, not a loop over traffic
             if r.honoured and (present is None or r.tv_id in present):
-                open_gap(api, r.tv_id, sv_id, self.cfg)
+                open_gap(api, r.tv_id, sv_id, self.cfg, self._changing)
                 yielding.append(r.tv_id)
         self.honoured += len(yielding)
         self._yielding.update(yielding)
         return yielding
+
+    def changing(self, api: ModuleType, sv_id: str, changing: bool,
+                 present: Collection[str]) -> None:
+        """Whether the SV's change is under way. At its start, each TV that still yields
+        (and is in `present`) is told again, to brake at most `changing_decel` from now
+        on (`open_gap`)."""
+        if changing and not self._changing and self.cfg.changing_decel != self.cfg.max_decel:
+            for tv_id in sorted(self._yielding):  # sorted: the same order every run
+                if tv_id in present:
+                    open_gap(api, tv_id, sv_id, self.cfg, changing=True)
+        self._changing = changing
 
     def release(self, api: ModuleType, ids: Sequence[str], ahead: NDArray[np.bool_]) -> None:
         """End the yielding of the TVs now ahead of the SV (`ids` of the TVs present in

@@ -17,10 +17,12 @@ L, W = 4.32, 1.8  # m
 V = 22.0  # m/s
 
 
-def run_side_by_side(cfg: CooperationConfig, seconds: float = 14.0, request_at: float = 2.0
+def run_side_by_side(cfg: CooperationConfig, seconds: float = 14.0, request_at: float = 2.0,
+                     changing_at: float = np.inf
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """SV (moved by us) in lane 1 at V; a SUMO-driven TV in lane 0 alongside it at V
-    (no dawdling). Returns t, gap (SV rear - TV front along x) and the TV's speed."""
+    (no dawdling); the SV's change (for the channel) begins at `changing_at`. Returns
+    t, gap (SV rear - TV front along x) and the TV's speed."""
     with SumoSim(DEFAULT_NETWORK, STEP, 1, lanechange_duration=3.0) as sim:
         road = sim.road()
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
@@ -37,7 +39,9 @@ def run_side_by_side(cfg: CooperationConfig, seconds: float = 14.0, request_at: 
             t = sim.time
             if abs(t - request_at) < 1e-6:
                 channel.request(t, "tv")
-            channel.deliver(t, sim.api, "sv", set(sim.api.vehicle.getIDList()))
+            present = set(sim.api.vehicle.getIDList())
+            channel.changing(sim.api, "sv", t >= changing_at - 1e-9, present)
+            channel.deliver(t, sim.api, "sv", present)
             x_sv += V * STEP
             sim.move("sv", x_sv, road.lane_center(1), 0.0, V)
             if "tv" in sim.api.vehicle.getIDList():
@@ -62,6 +66,20 @@ def test_a_tv_asked_to_open_a_gap_opens_it() -> None:
     assert gap[-1] >= cfg.space_headway + 0.8 * cfg.time_headway * V
     # and speeds up again behind the SV (openGap spreads the change: slowly)
     assert v[-1] > v.min() + 2.0 and v[-1] <= V + 0.05
+
+
+def test_a_yielding_tv_brakes_gently_once_the_sv_changes_lanes() -> None:
+    """Firmly (max_decel) while the SV waits beside the gap, at most changing_decel from
+    the step the SV's change begins."""
+    cfg = CooperationConfig(enabled=True, latency=0.0, max_decel=1.0, changing_decel=0.1)
+    t, gap, v, honoured = run_side_by_side(cfg, seconds=8.0, changing_at=5.0)
+    assert honoured == 1
+    decel = -np.diff(v) / np.diff(t)
+    waiting = (t[1:] > 2.0 + 1e-9) & (t[1:] < 5.0 - 1e-9)
+    assert decel[waiting].max() == pytest.approx(cfg.max_decel, abs=0.02)
+    after = t[1:] > 5.0 + STEP + 1e-9  # the new request acts from the next step
+    assert decel[after].max() == pytest.approx(cfg.changing_decel, abs=1e-6)
+    assert gap[-1] < cfg.space_headway + cfg.time_headway * v[-1]  # still making room
 
 
 @pytest.mark.parametrize("cfg", [CooperationConfig(enabled=True, compliance=0.0),
