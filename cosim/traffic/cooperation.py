@@ -91,12 +91,10 @@ def open_gap(api: ModuleType, tv_id: str, sv_id: str, cfg: CooperationConfig,
     A request during the change takes the target headway at once: a TV told again
     would otherwise spread it anew from its own (shorter) headway, speed up toward
     the SV for a while and then brake for it."""
-    if changing:
-        api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration,
-                            AT_ONCE, cfg.changing_decel, sv_id)
-    else:
-        api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration,
-                            cfg.change_rate, cfg.max_decel, sv_id)
+    rate, decel = (AT_ONCE, cfg.changing_decel) if changing else (cfg.change_rate,
+                                                                  cfg.max_decel)
+    api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration, rate,
+                        decel, sv_id)
 
 
 # the traffic's courtesy to the SV's blinker (module docstring): at once, always honoured
