@@ -318,8 +318,7 @@ class LaneChangePlanner:
             return out
         cap = base + HORIZON_CAP_S
         s = self._time_grid(cap)
-        tv_x, tv_v = (np.array(a) for a in zip(
-            *(constant_acceleration(messages[j], t + s) for j in ahead), strict=True))
+        tv_x, tv_v = constant_acceleration([messages[j] for j in ahead], t + s)
         half = 0.5 * (np.array([messages[j].length for j in ahead]) + self.vehicle.length)
         fast = max(v_start, v_end)
         sv_speed = np.where(s < manoeuvre, fast, v_end)

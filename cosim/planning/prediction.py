@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from cosim.params import RoadParams, VehicleParams
 from cosim.planning.envelope import MODES, envelope_margin, paper_map_tau_min
@@ -83,13 +83,19 @@ def c2_lanes(msg: V2VMessage, road: RoadParams) -> tuple[int, int] | None:
     return target - msg.intention, target
 
 
-def constant_acceleration(msg: V2VMessage, t: Array) -> tuple[Array, Array]:
-    """(x, speed) at absolute times t from the message's state, speed clipped at 0 (C1)."""
-    dt = t - msg.t
-    v, a = msg.speed, msg.accel
-    if a < 0.0:
-        dt = np.minimum(dt, v / -a)  # stopped: stays
-    return msg.x + v * dt + 0.5 * a * dt * dt, np.maximum(v + a * dt, 0.0)
+def constant_acceleration(msgs: Sequence[V2VMessage], t: ArrayLike) -> tuple[Array, Array]:
+    """(x, speed) of each message's TV at absolute times t from its state, speed clipped
+    at 0 (C1): arrays of shape (len(msgs), *t's shape), one computation for all."""
+    mt, v, a, mx = (np.array([getattr(m, f) for m in msgs], dtype=float)
+                    for f in ("t", "speed", "accel", "x"))
+    tt = np.asarray(t, dtype=float)
+    per = (-1,) + (1,) * tt.ndim  # per message, broadcast over the times
+    mt, v, a, mx = (q.reshape(per) for q in (mt, v, a, mx))
+    dt = tt[None, ...] - mt
+    neg = np.flatnonzero(a < 0.0)
+    if neg.size:  # stopped: stays
+        dt[neg] = np.minimum(dt[neg], v[neg] / -a[neg])
+    return mx + v * dt + 0.5 * a * dt * dt, np.maximum(v + a * dt, 0.0)
 
 
 TV_LEADER_RANGE = 150.0  # m, a C2 TV's leader in its target lane is looked for this far
@@ -288,9 +294,7 @@ def predict_lazy(
 
     if c2:
         # the TVs' state at the planning instant (they start when the SV does)
-        starts = [constant_acceleration(m, t_plan) for _, m, _, _ in c2]  # type: ignore[arg-type]
-        x0 = np.array([s[0] for s in starts])
-        v0 = np.array([s[1] for s in starts])
+        x0, v0 = constant_acceleration([m for _, m, _, _ in c2], t_plan)
         vxf = np.array([road.target_speed(o, g) for _, _, o, g in c2])
         if gap_end_speed:
             vxf = np.minimum(vxf, target_leader_speed(messages, t_plan, c2, x0))
@@ -367,16 +371,11 @@ def predict_lazy(
     for r, b in at_row:
         k = b.x.shape[0]
         sx[r:r + k], sy[r:r + k], sh[r:r + k] = b.x, b.y, b.heading
-    if c1:  # constant_acceleration of every C1 TV (the same operations, one array)
+    if c1:  # every C1 TV at once
         rows = np.array([r for r, _ in c1])
-        mt, v, a, mx, my, mh = (np.array([getattr(m, f) for _, m in c1])
-                                for f in ("t", "speed", "accel", "x", "y", "heading"))
-        dt = t[None, :] - mt[:, None]
-        neg = np.flatnonzero(a < 0.0)
-        if neg.size:  # stopped: stays
-            dt[neg] = np.minimum(dt[neg], (v[neg] / -a[neg])[:, None])
-        sx[rows] = mx[:, None] + v[:, None] * dt + 0.5 * a[:, None] * dt * dt
-        sy[rows], sh[rows] = my[:, None], mh[:, None]
+        sx[rows] = constant_acceleration([m for _, m in c1], t)[0]
+        sy[rows] = np.array([m.y for _, m in c1])[:, None]
+        sh[rows] = np.array([m.heading for _, m in c1])[:, None]
     return LazyFutures(
         t=t, rel=rel, vehicle_ids=ids, categories=tuple(cats),
         owner=np.array(owner, dtype=np.int64), tau=np.array(tau_h), t_end=np.array(t_end),

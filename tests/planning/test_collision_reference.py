@@ -108,7 +108,7 @@ class Reference:
         for j, m in enumerate(messages):
             lanes = c2_lanes(m, road) if category(m) == "C2" else None
             if lanes is not None and abs(m.lateral_speed) < 1e-12:
-                x0, v0 = (a[0] for a in constant_acceleration(m, np.array([t])))
+                x0, v0 = (a[0] for a in constant_acceleration([m], t))
                 c2.append((j, m, v0, road.target_speed(*lanes),
                            road.lane_center(lanes[1]) - m.y, x0))
                 continue
