@@ -321,13 +321,6 @@ def check_candidates(
 
 
 @njit
-def _standard_heading(v0: float, vxf: float, w: float, tau: float, t: float) -> float:
-    """Heading of eq. 2 / eq. 4 from rest at time t."""
-    xd, yd = standard_velocity(v0, vxf, w, tau, t)
-    return math.atan2(yd, xd)
-
-
-@njit
 def _candidate_velocity(general: bool, cx: Array, cy: Array, c: int, tau: float, v0: float,
                         vxf: float, w: float, t: float) -> tuple[float, float]:
     """m/s, the velocity of SV candidate c (duration tau) at time t after its start:
@@ -337,6 +330,19 @@ def _candidate_velocity(general: bool, cx: Array, cy: Array, c: int, tau: float,
         _, _, xd, yd = _general_state(cx, cy, c, tau, vxf, t)
         return xd, yd
     return standard_velocity(v0, vxf, w, tau, t)
+
+
+@njit
+def _candidate_pose(general: bool, cx: Array, cy: Array, c: int, tau: float, v0: float,
+                    vxf: float, w: float, x0: float, y0: float, s: float
+                    ) -> tuple[float, float, float, float, float, float]:
+    """Global (x, y, cos and sin of the heading, x', y') of SV candidate c (duration tau)
+    placed at (x0, y0), s after its start: general start or eq. 2 / 4 from rest."""
+    if general:
+        x, y, xd, yd = _general_state(cx, cy, c, tau, vxf, s)
+        ca, sa = _direction(xd, yd)
+        return x + x0, y + y0, ca, sa, xd, yd
+    return _closed_pose(v0, vxf, w, tau, x0, y0, s)
 
 
 @njit
@@ -430,14 +436,6 @@ def _general_xy(cx: Array, cy: Array, c: int, tau: float, vxf: float,
     """Relative (x, y) of a general-start candidate c at manoeuvre time s."""
     x, y, _, _ = _general_state(cx, cy, c, tau, vxf, s)
     return x, y
-
-
-@njit
-def _general_pose(cx: Array, cy: Array, c: int, tau: float, vxf: float,
-                  s: float) -> tuple[float, float, float]:
-    """Relative (x, y, heading) of a general-start candidate c at manoeuvre time s."""
-    x, y, xd, yd = _general_state(cx, cy, c, tau, vxf, s)
-    return x, y, math.atan2(yd, xd)
 
 
 @njit
@@ -586,12 +584,8 @@ def _overlaps_at(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: fl
                  margin: float) -> bool:
     """Candidate c and hypothesis h overlap at time t, at duration tau_a or tau_b."""
     p = sv.par
-    if sv.cx.shape[0]:
-        ax, ay, avx, avy = _general_state(sv.cx, sv.cy, c, sv.tau[c], p[1], t + p[5])
-        ax, ay = ax + p[3], ay + p[4]
-        ca, sa = _direction(avx, avy)
-    else:
-        ax, ay, ca, sa, _, _ = _closed_pose(p[0], p[1], p[2], sv.tau[c], p[3], p[4], t + p[5])
+    ax, ay, ca, sa, _, _ = _candidate_pose(sv.cx.shape[0] > 0, sv.cx, sv.cy, c, sv.tau[c], p[0],
+                                           p[1], p[2], p[3], p[4], t + p[5])
     hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
     if tv.row_of[h] >= 0:
         bx, by, bh, _, _ = _tv_state(tv, h, tau_a, t)
@@ -642,13 +636,8 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
         n -= 1
         ta, tb, t0, t1 = stack[n, 0], stack[n, 1], stack[n, 2], stack[n, 3]
         tm = 0.5 * (t0 + t1)
-        if general:
-            ax, ay, avx, avy = _general_state(sv.cx, sv.cy, c, tau_c, p[1], tm + p[5])
-            ax, ay = ax + p[3], ay + p[4]
-            ca, sa = _direction(avx, avy)
-        else:
-            ax, ay, ca, sa, avx, avy = _closed_pose(p[0], p[1], p[2], tau_c, p[3], p[4],
-                                                    tm + p[5])
+        ax, ay, ca, sa, avx, avy = _candidate_pose(general, sv.cx, sv.cy, c, tau_c, p[0], p[1],
+                                                   p[2], p[3], p[4], tm + p[5])
         if closed:
             bx, by, cb, sb, bvx, bvy = _closed_pose(v0, vxf, w, ta, x0, y0, tm - start)
         else:
