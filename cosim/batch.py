@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cosim.errors import InputError
+from cosim.metrics import FOLLOWER_PERCENTILE
 
 if TYPE_CHECKING:  # pandas and scipy load lazily: a worker process needs neither
     import pandas as pd
@@ -80,7 +81,6 @@ DURATION_METRIC = "lane_change_duration_s"  # s
 TTC_METRIC = "min_ttc_s"  # s
 FOLLOWER_METRIC = "follower_max_decel_mps2"  # m/s^2, the SV's new follower (issue 16)
 PERCENTILES = (10, 50, 90)
-FOLLOWER_PERCENTILE = 95  # the statistic issue 16 compares with SUMO's driver
 # Record keys kept in DIR/runs/<run_id>.json but not in runs.csv.
 RECORD_ONLY = ("traceback", "code")
 CONFIDENCE = 0.95

@@ -46,7 +46,7 @@ Vehicles are arrays (one entry per TV or gap); no Python loop over vehicles.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -154,7 +154,7 @@ def slot_ends(rear: ArrayLike, v_f: ArrayLike, front: ArrayLike, v_l: ArrayLike,
     before the SV enters), and at most hi, behind a leader whose rear is at `front` driving v_l
     (the SV's own secure gap at `v_sv_l`)."""
     half = 0.5 * sv_length
-    slot_follower = replace(follower, b_safe=min(follower.b_safe, cfg.entry_decel))
+    slot_follower = follower.limited(cfg.entry_decel)
     vf = np.asarray(v_f, dtype=float)
     vsf = np.asarray(v_sv_f, dtype=float)
     closing = 0.5 * np.maximum(vf - vsf, 0.0) * cfg.entry_delay

@@ -58,8 +58,7 @@ class GapPolicy(PaperPolicy):
         self.gap_cfg = gap_cfg or GapConfig()
         self.follower = follower or FollowerModel()
         # what a flown plan may ask of its new follower: the driver's own limit within b_safe
-        self.plan_follower = replace(self.follower, b_safe=min(
-            self.follower.b_safe, self.gap_cfg.plan_decel))
+        self.plan_follower = self.follower.limited(self.gap_cfg.plan_decel)
         self.cooperate = cooperate
         self.sv_length = scenario.vehicle.length
         self.decision = scenario.sv.decision

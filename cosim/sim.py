@@ -146,10 +146,11 @@ class CoSimulation:
                 if self.cooperation:  # gap requests due reach their TVs
                     tvs, api = scene.tvs, world.sumo.api
                     changing = policy.status(scene.sv).changing
+                    ahead = tvs.x > scene.sv.x
                     for channel in self.cooperation:
                         channel.changing(api, SV_ID, changing, tvs.ids)
                         channel.deliver(t, api, SV_ID, tvs.ids)
-                        channel.release(api, tvs.ids, tvs.x > scene.sv.x)
+                        channel.release(api, tvs.ids, ahead)
                 ego.advance(t, self.dt, reference)
                 observer.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())

@@ -77,6 +77,11 @@ class FollowerModel:
     leader_decel: float = 4.5  # m/s^2, the decel the follower assumes of its leader (Krauss)
     b_safe: float = B_SAFE  # m/s^2, MOBIL safe-braking limit the manoeuvre may ask
 
+    def limited(self, decel: float) -> FollowerModel:
+        """The same follower, with the manoeuvre asking it no more than `decel` (m/s^2)
+        within b_safe."""
+        return replace(self, b_safe=min(self.b_safe, decel))
+
     def check(self, source: str = "follower model") -> None:
         """Raise InputError naming the first bad field."""
         if self.model not in MODELS:

@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from cosim.metrics import FOLLOWER_PERCENTILE
 from cosim.plots import save_figure
 
 # (summary column prefix, axis label); rates are shown in per cent.
@@ -66,7 +67,7 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
         scale = 100.0 if prefix in RATES else 1.0
         # rates, medians of durations and TTC, the follower's p95: summary.md's statistics
         column = (f"{prefix}_rate" if scale != 1.0 else
-                  "follower_decel_mps2_p95" if prefix == "follower_decel_mps2" else
+                  f"{prefix}_p{FOLLOWER_PERCENTILE}" if prefix == "follower_decel_mps2" else
                   f"{prefix}_p50")
         if column not in summary:
             continue
