@@ -61,8 +61,8 @@ class PlannedEgo:
         self.world = world
         self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
                                sc.road.mu, x0, y0, 0.0, sc.sv.speed)
-        world.sumo.add_controlled(SV_ID, x0, y0, 0.0, sc.sv.speed, sc.vehicle.length,
-                                  sc.vehicle.width, sc.sv.lane)
+        world.add_controlled(SV_ID, x0, y0, 0.0, sc.sv.speed, sc.vehicle.length,
+                             sc.vehicle.width, sc.sv.lane)
         self.loop.set_reference(first_reference)
         self.record = self.loop.record(0.0)
         self.records: list[Any] = [self.record]
@@ -103,7 +103,7 @@ class PlannedEgo:
         r = self.record = self.loop.advance(t, dt, self.substeps, reference)
         self.records.append(r)
         self.wall += time.perf_counter() - w0
-        self.world.sumo.move(SV_ID, r.x, r.y, r.heading, r.vx, r.ax)
+        self.world.move(SV_ID, r.x, r.y, r.heading, r.vx, r.ax)
 
     def finish_trace(self, trace: dict[str, Array]) -> None:
         """Nothing to add: every column came from the closed loop."""
@@ -119,9 +119,8 @@ class SumoDrivenEgo:
         sc = scenario
         lane = sc.sv.lane
         desired = sc.sv.desired_speed or sc.road.speed_bands[lane][1]
-        world.sumo.add_driven(SV_ID, lane, world.sv_start_x, sc.sv.speed, desired,
-                              sc.vehicle.length, sc.vehicle.width,
-                              own_lane_changes=sc.sv.decision)
+        world.add_sumo_driven_sv(lane, sc.sv.speed, desired, sc.vehicle.length,
+                                 sc.vehicle.width, own_lane_changes=sc.sv.decision)
         self.world = world
         self.records: list[Any] = []
         self.wall = 0.0
@@ -129,11 +128,11 @@ class SumoDrivenEgo:
 
     def inserted(self) -> None:
         """From now on SUMO drives it."""
-        self.world.sumo.controlled.release(SV_ID)
+        self.world.hand_sv_to_sumo()
 
     def state(self, everyone: TrafficSnapshot) -> SVState:
         i = everyone.index(SV_ID)
-        self.ax = float(self.world.sumo.api.vehicle.getAcceleration(SV_ID))  # not in every read
+        self.ax = self.world.sv_acceleration()  # not in every read
         return SVState(float(everyone.x[i]), float(everyone.y[i]), float(everyone.heading[i]),
                        float(everyone.speed[i]), float(everyone.lateral_speed[i]),
                        float(everyone.lane[i]))

@@ -180,6 +180,7 @@ def iae_row(t: ArrayLike, trace: dict[str, Array], t0: float, t1: float) -> dict
     }
 
 
+SETTLE_TOL = 0.1  # m, |y - target lane centre| below which a lane change counts as done
 FOLLOWER_PERCENTILE = 95  # the statistic of it issue 16 compares with SUMO's driver (batch)
 FOLLOWER_WINDOW = 3.0  # s, after the change settles, the new follower is still watched
 

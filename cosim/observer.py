@@ -106,8 +106,8 @@ class Observer:
             poses = list(zip(k.x.tolist(), k.y.tolist(), k.heading.tolist(), k.speed.tolist(),
                              k.accel.tolist(), strict=True))
             x, y, h, v, _a = poses[0]
-            self.world.sumo.add_controlled(spec.id, x, y, h, v, spec.length, spec.width,
-                                           spec.lane, vtype="tv_scripted")
+            self.world.add_controlled(spec.id, x, y, h, v, spec.length, spec.width,
+                                      spec.lane, vtype="tv_scripted")
             self.scripted.append(tv)
             self.scripted_poses.append(poses)
 
@@ -116,7 +116,7 @@ class Observer:
         k = int(round(t / self.dt))
         for tv, poses in zip(self.scripted, self.scripted_poses, strict=True):
             x, y, h, v, a = poses[k]
-            self.world.sumo.move(tv.spec.id, x, y, h, v, a)
+            self.world.move(tv.spec.id, x, y, h, v, a)
 
     def inbox(self, scene: Scene) -> Inbox:
         """This step's messages, for the policy."""
@@ -126,9 +126,9 @@ class Observer:
         """The channel's messages of the TVs around the SV now."""
         everyone = scene.everyone
         if self.read_everyone:
-            everyone = self.world.sumo.snapshot()  # the channel keeps those in range
+            everyone = self.world.read_all()  # the channel keeps those in range
         elif not self.full_scene:  # the scene's read had no accelerations and signals
-            everyone = self.world.sumo.reader.read(everyone.ids)
+            everyone = self.world.read_again(everyone.ids)
         perceived = self.v2v.mode == "perception"  # scripted TVs are measured too
         public = everyone.select(np.array(
             [vid != SV_ID and (perceived or vid not in self.scripted_ids)

@@ -83,9 +83,6 @@ class RoadParams:
         return lo if target_lane > origin_lane else hi
 
 
-LANE_CHANGE_POLICIES = ("paper", "gap")  # [planner] policy names
-
-
 @dataclass(frozen=True)
 class PlannerConfig:
     """Lane-change planner settings (Section 3)."""
@@ -104,8 +101,9 @@ class PlannerConfig:
     replanning: bool = False  # -, re-check the rest of the plan while it is flown
     recheck_interval: float = 0.1  # s, time between two re-checks
     uncertainty_margin: bool = True  # -, widen safety_margin by V2V latency / loss / noise
-    # beyond the paper (issue 16): "paper" plans where the SV is once the target lane is
-    # free (cosim.policy); "gap" picks a gap, drives to it, then plans (cosim.gap_policy)
+    # beyond the paper (issue 16): the lane-change policy by its registered name
+    # (cosim.driving.registry): "paper" plans where the SV is once the target lane is free
+    # (cosim.driving.paper); "gap" picks a gap, drives to it, then plans (cosim.driving.gap)
     policy: str = "paper"
 
 

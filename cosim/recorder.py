@@ -19,8 +19,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim import metrics as mx
+from cosim.driving.base import Manoeuvres, PolicyStatus
+from cosim.driving.manoeuvre import LaneChange
+from cosim.driving.plans import PLAN_COLUMNS  # noqa: F401  (the run's columns, re-exported)
+from cosim.metrics import SETTLE_TOL
 from cosim.params import RoadParams
-from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.proximity import gap_ttc_min
 from cosim.scenario import Scenario
 from cosim.traffic.sumo import TrafficSnapshot
@@ -28,7 +31,6 @@ from cosim.traffic.world import Scene
 
 Array = NDArray[np.float64]
 
-SETTLE_TOL = 0.1  # m, |y - target lane centre| below which a lane change counts as done
 IAE_WINDOW = 10.0  # s, IAE from the start of the first lane change (cosim track's default)
 
 # ----------------------------------------------------------------------------- columns
@@ -72,27 +74,6 @@ TRACE_COLUMNS: dict[str, str] = {
     "n_tvs": "number of TVs within 150 m (x) of the SV",
 }
 COLUMN = {name: i for i, name in enumerate(TRACE_COLUMNS)}
-
-PLAN_COLUMNS: dict[str, str] = {
-    "t_s": "simulation time of the planning request (s)",
-    "trigger": "scripted | decision | retry",
-    "origin_lane": "lane the SV is in (SUMO index)",
-    "target_lane": "lane requested (SUMO index)",
-    "vx0_mps": "SV speed at the request (m/s)",
-    "vxf_mps": "target speed at the end of the lane change (band rule) (m/s)",
-    "n_candidates": "number of tau values on the grid",
-    "tau_min_stable_s": "smallest stable tau (handling envelope) (s)",
-    "stable_set_s": "stable tau set as intervals a-b;c-d (s)",
-    "collision_free_set_s": "collision-free tau set (intervals) (s)",
-    "tau_opt_s": "tau_opt of eq. 13 over the collision-free set (s)",
-    "tau_s": "tau chosen (collision-free tau nearest tau_opt) (s; NaN: no plan)",
-    "ok": "1: a plan was adopted, 0: no collision-free tau (the SV keeps its lane)",
-    "rejected_unstable": "candidates rejected by the handling envelope",
-    "rejected_collision": "candidates rejected for a collision",
-    "rejections": "collisions per TV id, id:count;id:count (or why the request was dropped)",
-    "reason": "replan | abort | brake rows: why the plan under way was dropped (the re-check's "
-    "first collision); else empty",
-}
 
 METRIC_DOCS: dict[str, str] = {
     "scenario": "scenario name",
@@ -163,60 +144,7 @@ TIMING_DOCS: dict[str, str] = {
 }
 
 
-def _fmt_intervals(spans: list[tuple[float, float]]) -> str:
-    return ";".join(f"{a:.2f}-{b:.2f}" for a, b in spans)
-
-
-def plan_row(plan: Any, trigger: str, vx0: float) -> dict[str, Any]:
-    """One plans.csv row of a planner's Plan (see PLAN_COLUMNS)."""
-    per_tv: dict[str, int] = {}
-    n_unstable = 0
-    for rej in plan.rejections:
-        if rej.reason == "unstable":
-            n_unstable += 1
-        else:
-            key = rej.vehicle_id or "?"
-            per_tv[key] = per_tv.get(key, 0) + 1
-    return {
-        "t_s": plan.t,
-        "trigger": trigger,
-        "origin_lane": plan.origin_lane,
-        "target_lane": plan.target_lane,
-        "vx0_mps": vx0,
-        "vxf_mps": plan.vxf,
-        "n_candidates": int(plan.taus.size),
-        "tau_min_stable_s": plan.tau_min,
-        "stable_set_s": _fmt_intervals(plan.stable_intervals),
-        "collision_free_set_s": _fmt_intervals(plan.collision_free_intervals),
-        "tau_opt_s": plan.tau_opt,
-        "tau_s": math.nan if plan.tau is None else float(plan.tau),
-        "ok": int(plan.tau is not None),
-        "rejected_unstable": n_unstable,
-        "rejected_collision": sum(per_tv.values()),
-        "rejections": ";".join(f"{k}:{v}" for k, v in sorted(per_tv.items())),
-        "reason": "",
-    }
-
-
 # ----------------------------------------------------------------------------- records
-
-
-@dataclass
-class LaneChange:
-    """One adopted lane-change plan and how it went."""
-
-    t0: float  # s, start
-    tau: float  # s, planned duration
-    origin_lane: int  # lane the manoeuvre under way leaves (after an abort: the one it aborted)
-    target_lane: int  # lane it heads for (after an abort: the lane it started in)
-    y_target: float  # m, target lane centre
-    trajectory: LaneChangeTrajectory
-    plan: Any  # the planner's Plan (for the tau-set figure)
-    t_next: float = math.inf  # s, when the next manoeuvre started (window end)
-    trigger: str = ""  # what asked for it (scripted | decision | retry)
-    aborted: bool = False  # given up for a return to the origin lane (not a lane change)
-    start_lane: int = -1  # lane it started in
-    wanted_lane: int = -1  # lane first asked for
 
 
 @dataclass
@@ -261,33 +189,6 @@ class Tracks:
             str(name): (t[order[a:b]], x[order[a:b]], y[order[a:b]])
             for name, a, b in zip(names, bounds[:-1], bounds[1:], strict=True)
         }
-
-
-@dataclass(frozen=True)
-class PolicyStatus:
-    """What the recorder reads of the lane-change policy at the top of a step."""
-
-    target_lane: int | None  # lane a planned manoeuvre heads for (None: keeping its lane)
-    changing: bool  # a planned manoeuvre is under way (trace column `changing`)
-    manoeuvring: bool  # a collision onset now is the SV's fault (a lane change under way)
-    leader_gap: float  # m, bumper-to-bumper gap to the leader (inf: none)
-    idm_accel: float  # m/s^2, car-following acceleration (NaN while changing lanes)
-
-
-@dataclass
-class Manoeuvres:
-    """What the policy did over a run, for the metrics row."""
-
-    lane_changes: list[LaneChange]  # adopted plans (empty for the SUMO-driven SV)
-    starts: list[float]  # s, start of each lane change counted
-    targets: list[float]  # m, its target lane centre
-    ends: list[float]  # s, end of its settling window
-    requests: int  # lane changes requested
-    planner_calls: int  # plans.csv rows that are planner calls
-    outcomes: dict[str, int]  # re-check outcomes: replan, abort, brake
-    first_start: float | None  # s, start of the first adopted plan (IAE window); None: none
-    plans: list[dict[str, Any]]  # plans.csv rows
-    first_plan: Any = None  # the planner's first Plan (for the tau-set figure)
 
 
 class Recorder:
@@ -461,23 +362,3 @@ class Recorder:
             sumo_events=events,
         )
         return m
-
-
-def excursions(t: Array, y: Array, road: RoadParams) -> tuple[list[float], list[float],
-                                                              list[float]]:
-    """Lane changes read off a path: each time the SV leaves one lane centre band
-    (|y - centre| < SETTLE_TOL) and next enters another's. Returns starts, target
-    centres and window ends (the run's end)."""
-    centres = np.array([road.lane_center(k) for k in range(road.n_lanes)])
-    dist = np.abs(y[:, None] - centres[None, :])
-    home = np.where(dist.min(axis=1) < SETTLE_TOL, dist.argmin(axis=1), -1)
-    starts: list[float] = []
-    targets: list[float] = []
-    last_home, last_t = -1, 0.0
-    for i in np.flatnonzero(home >= 0):
-        k = int(home[i])
-        if last_home >= 0 and k != last_home:
-            starts.append(last_t)
-            targets.append(float(centres[k]))
-        last_home, last_t = k, float(t[i])
-    return starts, targets, [float(t[-1])] * len(starts)

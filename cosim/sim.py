@@ -11,9 +11,10 @@ reads top to bottom, one part per job:
    collisions of the last step, gap / TTC,
 3. observer (cosim.observer): this step's V2V messages (scripted TVs: their own),
    through the channel (range, latency, loss), read when the policy plans,
-4. policy (cosim.policy): keeping / changing / braking / waiting: a due scripted
-   request or the decision rule asks the planner; the re-check of the plan under
-   way replans, aborts or brakes; returns the reference to track,
+4. policy (cosim.driving, chosen by name from its registry): when to change lanes
+   and, through its manoeuvre, plan / fly / re-check / replan / abort / brake;
+   returns the reference to track; then the gap requests it sent reach their TVs
+   (cosim.traffic.world: the cooperation channels),
 5. ego (cosim.ego): control + plant, `scenario.substeps` substeps from t_k to
    t_k+1 tracking the reference, and the pose to SUMO (moveToXY); the
    SUMO-driven baseline does nothing here,
@@ -22,7 +23,7 @@ reads top to bottom, one part per job:
 
 Controller "sumo" is the baseline: the SV is an ordinary SUMO vehicle of the
 SV's size (`SumoDrivenEgo`); scripted requests become `changeLane` calls, the
-decision rule is SUMO's own lane-change model (`SumoDriverPolicy`); the same
+decision rule is SUMO's own lane-change model (cosim.driving.sumo); the same
 trace columns (those SUMO has) and the same metrics.
 
 `run_scenario` runs one scenario and writes trace.csv, plans.csv,
@@ -38,49 +39,27 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from cosim.decision import DecisionConfig
+from cosim.driving import registry
+from cosim.driving.base import DrivingContext, LaneChangePolicy, WorldPorts
+from cosim.driving.following import lane_keeping_reference
+from cosim.driving.rule import DecisionConfig
 from cosim.ego import Ego, PlannedEgo, SumoDrivenEgo
-from cosim.gap_policy import GapPolicy
 from cosim.observer import Observer, uncertain_config
-from cosim.policy import POLICIES, LaneChangePolicy, SumoDriverPolicy, lane_keeping_reference
 from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and records)
     COLUMN,
     METRIC_DOCS,
     PLAN_COLUMNS,
     TIMING_DOCS,
     TRACE_COLUMNS,
-    LaneChange,
     Recorder,
     RunResult,
-    plan_row,
 )
 from cosim.scenario import Scenario
-from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
-from cosim.traffic.world import SV_ID, Scene, World
+from cosim.traffic.world import Scene, World
 
 ProgressFn = Callable[[int], None]
-# [planner] policy -> the lane-change policy of our SV (the paper's, the gap-seeking one)
-DRIVERS = {**POLICIES, GapPolicy.name: GapPolicy}
-COOPERATION_STREAM = 16  # -, second seed word of the V2V gap requests' generator
-COURTESY_STREAM = 17  # -, the same for the traffic's courtesy
-
-
-def cooperation_channels(sc: Scenario) -> list[CooperationChannel]:
-    """The gap requests' channels of a run (cosim.traffic.cooperation): the traffic's
-    courtesy (`[traffic] courtesy`) and cooperative V2V (`[v2v] cooperation`); each
-    draws from a generator of its own, seeded by the scenario's seed."""
-    configs = []
-    if sc.traffic.courtesy:
-        configs.append((COURTESY_STREAM, COURTESY))
-    if sc.v2v.cooperation:
-        configs.append((COOPERATION_STREAM, CooperationConfig(
-            enabled=True, compliance=sc.v2v.cooperation_compliance,
-            latency=sc.v2v.cooperation_latency)))
-    return [CooperationChannel(cfg, np.random.default_rng([sc.seed, stream]))
-            for stream, cfg in configs]
+SUMO_DRIVES = "sumo"  # the registered policy of the SUMO-driven SV (controller "sumo")
 
 
 class CoSimulation:
@@ -93,36 +72,33 @@ class CoSimulation:
         self.dt = scenario.step
         self.n_steps = scenario.n_steps
         self.world = World(scenario, gui=gui)
-        self.cooperation: list[CooperationChannel] = []  # gap requests (gap policy)
 
     def _start(self) -> None:
         """SUMO with its traffic, the scripted TVs, the SV, then the first step that
         inserts them all (the order SUMO sees the vehicles in is part of the result)."""
         sc, world = self.sc, self.world
         road = self.road = world.start()
+        sumo_drives = sc.sv.controller == "sumo"
+        cls = registry.policy_class(SUMO_DRIVES if sumo_drives else sc.planner.policy)
+        self.observer = Observer(sc, road, world, listens=cls.listens)
         ego: Ego
-        policy: LaneChangePolicy
-        if sc.sv.controller == "sumo":
-            self.observer = Observer(sc, road, world, listens=SumoDriverPolicy.listens)
+        planner = None
+        if sumo_drives:
             ego = SumoDrivenEgo(sc, world)
-            policy = SumoDriverPolicy(sc, road, self.cfg,
-                                      lambda lane: world.sumo.change_lane(SV_ID, lane, 30.0))
         else:
             from cosim.planning.planner import LaneChangePlanner
 
-            self.observer = Observer(sc, road, world)
             y0 = road.lane_center(sc.sv.lane)
             ego = PlannedEgo(sc, world, y0, lane_keeping_reference(
                 0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
-            planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc))
-            blinker = lambda direction: world.sumo.set_blinker(SV_ID, direction)  # noqa: E731
-            if sc.planner.policy == GapPolicy.name:
-                channels = self.cooperation = cooperation_channels(sc)
-                policy = GapPolicy(sc, road, self.cfg, planner, blinker, (
-                    lambda t, tv_id: [c.request(t, tv_id) for c in channels]) if channels
-                    else None)
-            else:
-                policy = DRIVERS[sc.planner.policy](sc, road, self.cfg, planner, blinker)
+            planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc),
+                                        prediction=cls.prediction)
+        if cls.asks_for_gaps:
+            world.open_gap_requests()
+        ports = WorldPorts(blinker=world.set_sv_blinker, change_lane=world.change_sv_lane,
+                           ask_gap=world.ask_gap)
+        policy: LaneChangePolicy = cls(DrivingContext.of(sc, road, decision=self.cfg,
+                                                         planner=planner, ports=ports))
         self.ego, self.policy = ego, policy
         self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
         world.insert()
@@ -143,14 +119,9 @@ class CoSimulation:
                 if k == self.n_steps:
                     break
                 reference = policy.update(t, scene, observer.inbox(scene))
-                if self.cooperation:  # gap requests due reach their TVs
-                    tvs, api = scene.tvs, world.sumo.api
-                    changing = policy.status(scene.sv).changing
-                    ahead = tvs.x > scene.sv.x
-                    for channel in self.cooperation:
-                        channel.changing(api, SV_ID, changing, tvs.ids)
-                        channel.deliver(t, api, SV_ID, tvs.ids)
-                        channel.release(api, tvs.ids, ahead)
+                if world.gap_requests:  # gap requests due reach their TVs
+                    world.deliver_gap_requests(t, scene.tvs, scene.sv.x,
+                                               policy.status(scene.sv).changing)
                 ego.advance(t, self.dt, reference)
                 observer.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())

@@ -7,8 +7,9 @@ import math
 
 import numpy as np
 
+from cosim.driving.base import PolicyStatus
 from cosim.params import RoadParams
-from cosim.recorder import COLUMN, PolicyStatus, Recorder
+from cosim.recorder import COLUMN, Recorder
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import SV_ID, Scene, SVState
 

@@ -48,6 +48,6 @@ def test_traffic_jam_runs_through_a_queue_that_stops_and_restarts() -> None:
     assert vx[-1] > 15.0  # and it drove off with it
     assert r.trace["leader_gap_m"].min() >= 2.0
     # no lane change was planned below the planner's minimum speed
-    from cosim.gap import PLANNER_MIN_SPEED
+    from cosim.driving.manoeuvre import PLANNER_MIN_SPEED
 
     assert all(p["vx0_mps"] >= PLANNER_MIN_SPEED for p in r.plans)

@@ -21,11 +21,11 @@ from cosim.commands import add_figure_format, compile_first, flag_overrides
 def drivers(policy: str) -> dict[str, dict[str, str]]:
     """driver name -> the overrides that make it, for a scenario whose policy is `policy`:
     mimo and siso with it, mimo_<other> with each other policy, sumo."""
-    from cosim.params import LANE_CHANGE_POLICIES
+    from cosim.driving.registry import names
 
     runs = {"mimo": {"controller": "mimo"}, "siso": {"controller": "siso"}}
     runs |= {f"mimo_{p}": {"controller": "mimo", "policy": p}
-             for p in LANE_CHANGE_POLICIES if p != policy}
+             for p in names(planned=True) if p != policy}
     return runs | {"sumo": {"controller": "sumo"}}
 
 SHOWN = ("lane_changes", "collisions", "min_gap_m", "min_ttc_s", "max_abs_lat_accel_mps2",

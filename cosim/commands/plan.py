@@ -120,8 +120,10 @@ def run(args: argparse.Namespace) -> int:
         cfg = replace(cfg, collision_test=args.collision_test)
     if args.envelope:
         cfg = replace(cfg, envelope=args.envelope)
+    from cosim.driving.registry import prediction_of
+
     si = situation(sc)
-    planner = LaneChangePlanner(sc.vehicle, si.road, cfg)
+    planner = LaneChangePlanner(sc.vehicle, si.road, cfg, prediction=prediction_of(cfg.policy))
     start = time.perf_counter()
     warm_up()  # so that the planning time is the planner's own
     startup_s = time.perf_counter() - start

@@ -74,6 +74,16 @@ class SVPlanState:
     lane: int  # SUMO index of the origin lane
 
 
+@dataclass(frozen=True)
+class PredictionOptions:
+    """How the planner predicts the TVs, beyond the paper's C1-C3, as a policy needs it
+    (cosim.driving: each policy class names its own)."""
+
+    # a C2 TV ends its change no faster than its leader in the target lane (the gap
+    # policy's own rule for its SV: cosim.planning.prediction.predict_lazy)
+    gap_end_speed: bool = False
+
+
 class Rejection(NamedTuple):
     """Why one tau was not taken (a named tuple: a plan holds one per rejected tau)."""
 
@@ -179,10 +189,12 @@ class LaneChangePlanner:
     def __init__(
         self, vehicle: VehicleParams, road: RoadParams, config: PlannerConfig,
         *, collision_step: float = COLLISION_STEP, use_maps: bool = True,
+        prediction: PredictionOptions | None = None,
     ) -> None:
         """`use_maps`: take tau_min of lane changes that start from rest laterally (the
         SV from its lane centre, C2 TVs) from a `TauMinMap` built once per mode
-        (eq. 7 with our envelope); starts mid-manoeuvre always run the envelope."""
+        (eq. 7 with our envelope); starts mid-manoeuvre always run the envelope.
+        `prediction`: the policy's prediction options (None: the defaults)."""
         if config.envelope not in ENVELOPES:
             raise InputError("planner", "envelope", config.envelope, f"one of {ENVELOPES}")
         if config.collision_test not in COLLISION_TESTS:
@@ -197,6 +209,7 @@ class LaneChangePlanner:
         self.road = road
         self.config = config
         self.collision_step = collision_step
+        self.prediction = prediction or PredictionOptions()
         n = int(round((config.tau_max - config.tau_min_floor) / config.tau_step))
         grid = config.tau_min_floor + config.tau_step * np.arange(n + 1)
         self.grid = grid[grid <= config.tau_max + 1e-9]
@@ -406,7 +419,7 @@ class LaneChangePlanner:
             messages, t, t_rel, road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
-            cells=cfg.collision_test == "exact", gap_end_speed=cfg.policy == "gap",
+            cells=cfg.collision_test == "exact", gap_end_speed=self.prediction.gap_end_speed,
         )
         hit_vehicle, hit_time = np.full(taus.size, -1), np.full(taus.size, np.nan)
         free = np.zeros(taus.size, dtype=bool)
@@ -448,7 +461,7 @@ class LaneChangePlanner:
             messages, t, t_rel, self.road, self.vehicle, self.grid,
             envelope=cfg.envelope, safety_factor=cfg.safety_factor,
             stable_fn=self._tv_stable if self.use_maps else None,
-            cells=cfg.collision_test == "exact", gap_end_speed=cfg.policy == "gap",
+            cells=cfg.collision_test == "exact", gap_end_speed=self.prediction.gap_end_speed,
         )
         cand = SVCandidates(np.array([tr.tau]), tr.vx0, tr.vxf, tr.width, tr.x0, tr.y0,
                              tr.ax0, tr.vy0, tr.ay0, t_shift=t - tr.t0)

@@ -12,9 +12,9 @@ import math
 from dataclasses import replace
 from typing import Any
 
+from cosim.driving.registry import PLANNED  # the registry owns the policies' names
 from cosim.errors import InputError
 from cosim.params import (
-    LANE_CHANGE_POLICIES,
     VEHICLE_PRESETS,
     ControllerGains,
     PlannerConfig,
@@ -128,7 +128,7 @@ PLANNER_FIELDS = (
     Field("uncertainty_margin", bool, default=_PLAN.uncertainty_margin,
           override="uncertainty_margin",
           doc="widen safety_margin by V2V latency, loss and noise"),
-    Field("policy", str, choices=LANE_CHANGE_POLICIES, default=_PLAN.policy, override="policy",
+    Field("policy", str, choices=PLANNED, default=_PLAN.policy, override="policy",  # type: ignore[arg-type]
           doc="lane-change driver: paper (the paper's method) or gap (choose a gap, reach it)"),
 )
 # attribute names: the key without its unit suffix

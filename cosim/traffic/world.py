@@ -9,6 +9,11 @@ follows the traffic near the SV, not the whole road's), and `Scene.around`
 keeps the TVs within NEAR_RANGE (x) of the SV, which the policy's decision rule,
 the recorder and the figures use. SUMO's own collisions involving the SV are
 read after each step (a cross-check of our exact overlap test).
+
+Nothing outside cosim.traffic reaches SUMO: the ego, the observer and the policy's
+ports (cosim.driving.base.WorldPorts) go through the named calls below (the SV and
+the scripted TVs placed and moved, the SV's blinker, a lane change SUMO makes for the
+SUMO-driven SV, gap requests to TVs through the cooperation channels).
 """
 
 from __future__ import annotations
@@ -21,13 +26,17 @@ from numpy.typing import NDArray
 
 from cosim.errors import SimulationError
 from cosim.params import RoadParams
-from cosim.scenario import Scenario
+from cosim.scenario.model import Scenario
+from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
 Array = NDArray[np.float64]
 
 SV_ID = "sv"
+SV_LANE_CHANGE_DURATION = 30.0  # s, SUMO keeps trying a lane change it is asked for this long
+COOPERATION_STREAM = 16  # -, second seed word of the V2V gap requests' generator
+COURTESY_STREAM = 17  # -, the same for the traffic's courtesy
 SV_LENGTH_MARGIN = 2.0  # SV lengths kept free of random traffic around the SV at t = 0
 NEAR_RANGE = 150.0  # m, TVs within this x distance of the SV are recorded for the figures
 
@@ -64,6 +73,21 @@ class Scene:
         return cls(t, sv, everyone, tvs, tvs.speed * np.cos(tvs.heading))
 
 
+def cooperation_channels(sc: Scenario) -> list[CooperationChannel]:
+    """The gap requests' channels of a run (cosim.traffic.cooperation): the traffic's
+    courtesy (`[traffic] courtesy`) and cooperative V2V (`[v2v] cooperation`); each
+    draws from a generator of its own, seeded by the scenario's seed."""
+    configs = []
+    if sc.traffic.courtesy:
+        configs.append((COURTESY_STREAM, COURTESY))
+    if sc.v2v.cooperation:
+        configs.append((COOPERATION_STREAM, CooperationConfig(
+            enabled=True, compliance=sc.v2v.cooperation_compliance,
+            latency=sc.v2v.cooperation_latency)))
+    return [CooperationChannel(cfg, np.random.default_rng([sc.seed, stream]))
+            for stream, cfg in configs]
+
+
 class World:
     """SUMO with the scenario's traffic, as the loop uses it; `wall` is the wall time
     spent in SUMO's steps and reads (s), `wall_read` the reads' part of it."""
@@ -81,6 +105,7 @@ class World:
         self.wall = 0.0
         self.wall_read = 0.0
         self.t_offset = 0.0  # s, SUMO's clock when the run's t = 0
+        self.gap_requests: list[CooperationChannel] = []  # open_gap_requests
 
     def start(self) -> RoadParams:
         """Start SUMO and place the random traffic around the SV's start; returns the
@@ -140,6 +165,71 @@ class World:
         """SUMO's teleports and lost vehicles, one line each, in the run's time."""
         return [f"{e.time - self.t_offset:.2f} s {e.kind} {e.vehicle_id}: {e.detail}"
                 for e in self.sumo.events]
+
+    # ------------------------------------------------ vehicles we place and move
+    def add_controlled(self, vehicle_id: str, x: float, y: float, heading: float,
+                       speed: float, length: float, width: float, lane: int,
+                       vtype: str = "sv") -> None:
+        """A vehicle SUMO does not drive (the SV, a scripted TV) at its centre pose."""
+        self.sumo.add_controlled(vehicle_id, x, y, heading, speed, length, width, lane,
+                                 vtype=vtype)
+
+    def move(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
+             accel: float | None = None) -> None:
+        """A controlled vehicle's centre pose (holds from the next step)."""
+        self.sumo.move(vehicle_id, x, y, heading, speed, accel)
+
+    def add_sumo_driven_sv(self, lane: int, speed: float, desired_speed: float,
+                           length: float, width: float, *, own_lane_changes: bool) -> None:
+        """The SV as a vehicle SUMO drives (controller "sumo") at its start in `lane`;
+        `hand_sv_to_sumo` after the inserting step gives it to SUMO."""
+        self.sumo.add_driven(SV_ID, lane, self.sv_start_x, speed, desired_speed, length,
+                             width, own_lane_changes=own_lane_changes)
+
+    def hand_sv_to_sumo(self) -> None:
+        """From now on SUMO drives the SV (its own speed and lane-change modes)."""
+        self.sumo.controlled.release(SV_ID)
+
+    def sv_acceleration(self) -> float:
+        """m/s^2, SUMO's longitudinal acceleration of the SV now (not in every read)."""
+        return float(self.sumo.api.vehicle.getAcceleration(SV_ID))
+
+    def set_sv_blinker(self, direction: int) -> None:
+        """The SV's blinker: -1 right, 0 off, +1 left (what V2V and SUMO's drivers see)."""
+        self.sumo.set_blinker(SV_ID, direction)
+
+    def change_sv_lane(self, lane: int) -> None:
+        """Ask SUMO to move the SUMO-driven SV to `lane` (with SUMO's safety checks)."""
+        self.sumo.change_lane(SV_ID, lane, SV_LANE_CHANGE_DURATION)
+
+    def read_all(self) -> TrafficSnapshot:
+        """Every vehicle on the network, accelerations and signals included."""
+        return self.sumo.snapshot()
+
+    def read_again(self, ids: tuple[str, ...]) -> TrafficSnapshot:
+        """These vehicles again, accelerations and signals included."""
+        return self.sumo.reader.read(ids)
+
+    # ------------------------------------------------ gap requests (cooperation)
+    def open_gap_requests(self) -> None:
+        """Open the scenario's gap-request channels (a policy that asks TVs for gaps)."""
+        self.gap_requests = cooperation_channels(self.scenario)
+
+    def ask_gap(self, t: float, tv_id: str) -> None:
+        """Ask the TV `tv_id` to open a gap behind the SV, through every open channel."""
+        for channel in self.gap_requests:
+            channel.request(t, tv_id)
+
+    def deliver_gap_requests(self, t: float, tvs: TrafficSnapshot, sv_x: float,
+                             changing: bool) -> None:
+        """The step's gap requests: the yielding TVs told when the SV's change begins,
+        the requests due reach their TVs, TVs now ahead of the SV stop yielding."""
+        api = self.sumo.api
+        ahead = tvs.x > sv_x
+        for channel in self.gap_requests:
+            channel.changing(api, SV_ID, changing, tvs.ids)
+            channel.deliver(t, api, SV_ID, tvs.ids)
+            channel.release(api, tvs.ids, ahead)
 
     def close(self) -> None:
         if self.started:

@@ -1,4 +1,4 @@
-"""The gap-seeking policy (cosim.gap_policy) on hand-made scenes, without SUMO: the
+"""The gap-seeking policy (cosim.driving.gap.policy) on hand-made scenes, without SUMO: the
 real planner, TVs in the target lane at constant speed (given both as the scene and
 as V2V messages); the SV follows its reference exactly."""
 
@@ -10,11 +10,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from cosim.decision import DecisionConfig
-from cosim.gap_policy import STOP_GAP, GapPolicy
+from cosim.driving.base import DrivingContext, WorldPorts
+from cosim.driving.gap.policy import STOP_GAP, GapPolicy
+from cosim.driving.manoeuvre import CHANGING, KEEPING
+from cosim.driving.scene import Traffic
 from cosim.params import RoadParams
 from cosim.planning.planner import LaneChangePlanner
-from cosim.policy import CHANGING, KEEPING
 from cosim.scenario import LaneChangeCommand, load_scenario, project_root
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.v2v import V2VMessage
@@ -52,9 +53,9 @@ class Drive:
         sc = replace(BASE, sv=sv, tvs=(), road=ROAD)
         planner = LaneChangePlanner(sc.vehicle, ROAD, sc.planner)
         self.asked = asked
-        self.policy = GapPolicy(sc, ROAD, DecisionConfig(), planner, lambda d: None,
-                                None if asked is None else
-                                (lambda t, tv: asked.append((t, tv))))
+        ports = WorldPorts() if asked is None else WorldPorts(
+            ask_gap=lambda t, tv: asked.append((t, tv)))
+        self.policy = GapPolicy(DrivingContext.of(sc, ROAD, planner=planner, ports=ports))
         self.x0 = np.array(x0)
         self.sv = SVState(0.0, ROAD.lane_center(0), 0.0, V, 0.0, 0.0)
         self.inbox = Inbox()
@@ -82,9 +83,9 @@ def test_a_free_gap_beside_is_planned_at_once_at_the_gap_speed() -> None:
     d = Drive([-120.0, 120.0])
     d.step()
     pol = d.policy
-    assert pol.mode == CHANGING
-    assert len(pol.plans) == 1 and pol.plans[0]["ok"] == 1
-    assert pol.plans[0]["vxf_mps"] == V  # the gap's speed, not the band rule's
+    assert pol.manoeuvre.mode == CHANGING
+    assert len(pol.manoeuvre.plans) == 1 and pol.manoeuvre.plans[0]["ok"] == 1
+    assert pol.manoeuvre.plans[0]["vxf_mps"] == V  # the gap's speed, not the band rule's
 
 
 def test_blocked_beside_it_approaches_a_gap_then_plans() -> None:
@@ -92,18 +93,18 @@ def test_blocked_beside_it_approaches_a_gap_then_plans() -> None:
     d = Drive([-100.0, 0.0, 100.0])
     pol = d.policy
     d.step()
-    assert pol.mode == KEEPING and pol.plans == []
+    assert pol.manoeuvre.mode == KEEPING and pol.manoeuvre.plans == []
     assert pol.last is not None and pol.last.gap is not None
     assert pol.last.gap.relation in ("ahead", "behind") and not pol.last.plan_now
     speeds = []
-    while pol.mode == KEEPING and d.t < 30.0:
+    while pol.manoeuvre.mode == KEEPING and d.t < 30.0:
         d.step()
         speeds.append(d.sv.vx)
     # it changed its speed to get there, then asked the planner once, successfully
-    assert pol.mode == CHANGING and d.t < 30.0
+    assert pol.manoeuvre.mode == CHANGING and d.t < 30.0
     assert max(abs(v - V) for v in speeds) > 1.0
-    assert len(pol.plans) == 1 and pol.plans[0]["ok"] == 1
-    lc = pol.active
+    assert len(pol.manoeuvre.plans) == 1 and pol.manoeuvre.plans[0]["ok"] == 1
+    lc = pol.manoeuvre.active
     assert lc is not None and lc.target_lane == 1
 
 
@@ -111,19 +112,19 @@ def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
     d = Drive([-120.0, 120.0])
     pol = d.policy
     d.step()
-    assert pol.mode == CHANGING
+    assert pol.manoeuvre.mode == CHANGING
     # the same request with a TV in the target lane 40 m behind, 5 m/s faster
     e = Drive([-120.0, 120.0])
     snap = snapshot(0.0, np.array([-40.0, 120.0]), 1)
     scene = Scene(0.0, e.sv, snap, snap, np.array([V + 5.0, V]))
-    e.policy.scene = scene
-    e.policy.last = pol.last
     from cosim.planning.planner import SVPlanState
 
     state = SVPlanState(x=0.0, y=ROAD.lane_center(0), heading=0.0, vx=V, ax=0.0, vy=0.0,
                         ay=0.0, lane=0)
-    plan, why = e.policy.call_planner(0.0, state, 1, [])
+    assert pol.last is not None
+    plan = e.policy.manoeuvre.planner.plan(0.0, state, 1, [], 0.5, vxf=pol.last.vxf)
     assert plan.trajectory is not None  # the paper's planner (no messages) would fly it
+    why = e.policy.accept(0.0, plan, 1, Traffic.of(scene))
     assert why.startswith("follower tv0 would brake") and why.endswith(" > 1")
 
 

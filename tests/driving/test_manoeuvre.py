@@ -1,4 +1,5 @@
-"""Replanning and abort during the manoeuvre (beyond the paper's S2), cosim/sim.py.
+"""Replanning and abort during the manoeuvre (beyond the paper's S2): cosim.driving.manoeuvre
+in the loop (cosim.sim).
 
 A TV ahead in the target lane brakes hard (8 m/s^2) one second into the SV's lane
 change (tests/data/tv_brakes_mid_change.toml, scripted, real libsumo)."""
@@ -13,14 +14,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cosim.driving.manoeuvre import reference_state
 from cosim.observer import uncertain_config
 from cosim.params import RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.policy import reference_state
 from cosim.scenario import load_scenario, with_overrides
 from cosim.sim import simulate
 
-SCENARIO = Path(__file__).parent / "data" / "tv_brakes_mid_change.toml"
+SCENARIO = Path(__file__).parents[1] / "data" / "tv_brakes_mid_change.toml"
 
 
 def _assert_continuous(old: LaneChangeTrajectory, new: LaneChangeTrajectory) -> None:

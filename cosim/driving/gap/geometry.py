@@ -51,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cosim.driving.manoeuvre import PLANNER_MIN_SPEED
 from cosim.planning.interaction import (
     FollowerModel,
     accepted_gap,
@@ -59,9 +60,6 @@ from cosim.planning.interaction import (
 )
 
 Array = NDArray[np.float64]
-
-PLANNER_MIN_SPEED = 5.0  # m/s (18 km/h): below it the SV keeps its lane (module docstring)
-
 
 @dataclass(frozen=True)
 class GapConfig:

@@ -1,25 +1,25 @@
-"""The gap-seeking lane-change driver (policy "gap", beyond the paper): one decision
-per step while the SV keeps its lane.
+"""The gap-seeking decision (policy "gap", beyond the paper): one decision per step
+while the SV keeps its lane.
 
-The paper's driver (decision.py) asks the planner for a change only when the target
+The paper's trigger (cosim.driving.rule) asks the planner for a change only when the target
 lane is already free beside the SV, and always ends the change at the band rule's
 speed; in dense traffic that moment rarely comes (docs/batch_results.md). This
 driver instead:
 
-1. wants a lane as decision.py's rule does (a slow leader, a faster adjacent lane,
+1. wants a lane as the paper's rule does (a slow leader, a faster adjacent lane,
    left first) or as a scripted request says, but without the free-lane pre-filter:
    the gap choice replaces it;
-2. picks a gap in that lane and the speed that takes the SV there (cosim.gap):
+2. picks a gap in that lane and the speed that takes the SV there (cosim.driving.gap.geometry):
    ahead, alongside or behind, never past its own leader;
 3. drives that speed in its own lane (within the approach acceleration), the IDM of
-   decision.py still keeping it behind its own leader (the smaller of the two);
+   the paper's rule still keeping it behind its own leader (the smaller of the two);
 4. plans the paper's manoeuvre once the gap is reached, at the gap's speed (vxf)
    and only at or above `GapConfig.min_speed`; the planner's collision check and
    the new follower's check (planning.interaction.check_follower) then decide;
 5. names the TV to ask to open the gap while it blocks it (the chosen gap's
    follower until the SV is inside the gap's slot, or without a gap in reach the TV
    nearest behind the SV in that lane), for the traffic's courtesy and cooperative
-   V2V (traffic.cooperation).
+   V2V (cosim.traffic.cooperation).
 
 Vehicles are arrays (one entry per TV); no Python loop over vehicles.
 """
@@ -30,16 +30,18 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import NDArray
 
-from cosim.decision import (
-    DecisionConfig,
-    decide,
-    lanes_touched,
-    neighbours,
+from cosim.driving.gap.geometry import (
+    GapChoice,
+    GapConfig,
+    choose_gap,
+    lane_gaps,
+    seeking_accel,
 )
-from cosim.gap import GapChoice, GapConfig, choose_gap, lane_gaps, seeking_accel
-from cosim.params import RoadParams
+from cosim.driving.lanes import LaneLayout
+from cosim.driving.rule import DecisionConfig, decide, neighbours
+from cosim.driving.scene import SV, Traffic
 from cosim.planning.interaction import FollowerModel
 
 
@@ -58,71 +60,69 @@ class GapDecision:
 
 
 def wanting_config(cfg: DecisionConfig) -> DecisionConfig:
-    """decision.py's rule without its free-lane pre-filter (every gap passes it)."""
+    """the paper's rule without its free-lane pre-filter (every gap passes it)."""
     return replace(cfg, min_gap=-math.inf, time_gap_ahead=0.0, time_gap_behind=0.0,
                    closing_time=0.0)
 
 
-def gap_decision(
-    sv_x: float, sv_y: float, sv_speed: float, sv_length: float, desired_speed: float,
-    tv_x: ArrayLike, tv_y: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
-    tv_width: ArrayLike, road: RoadParams, cfg: DecisionConfig, gap_cfg: GapConfig,
-    follower: FollowerModel, *, wanted_lane: int | None = None, allow_change: bool = True,
-    tv_lateral_speed: ArrayLike | None = None,
-) -> GapDecision:
-    """The module docstring's steps for an SV at (sv_x, sv_y) driving sv_speed (m/s).
-    `wanted_lane`: a scripted request's lane (else the rule decides);
-    `allow_change` False: car-following only."""
-    lane = road.lane_of(sv_y)
-    d = decide(sv_x, sv_y, sv_speed, sv_length, desired_speed, tv_x, tv_y, tv_speed,
-               tv_length, tv_width, road, wanting_config(cfg),
-               allow_change=allow_change and wanted_lane is None,
-               tv_lateral_speed=tv_lateral_speed)
+def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig,
+                 gap_cfg: GapConfig, follower: FollowerModel, *,
+                 wanted_lane: int | None = None, allow_change: bool = True) -> GapDecision:
+    """The module docstring's steps for `sv` among `traffic`. `wanted_lane`: a
+    scripted request's lane (else the rule decides); `allow_change` False:
+    car-following only."""
+    lane = lanes.lane_of(sv.y)
+    d = decide(sv, traffic, lanes, wanting_config(cfg),
+               allow_change=allow_change and wanted_lane is None)
     target = wanted_lane if allow_change and wanted_lane is not None else d.target_lane
     keep = GapDecision(None, d.accel, d.leader_gap, False, math.nan, None, -1, d.reason)
     if target is None or target == lane:
         return keep
-    x = np.asarray(tv_x, dtype=float)
-    lo, hi = lanes_touched(tv_y, 0.5 * np.asarray(tv_width, dtype=float), road)
-    in_target = (lo <= target) & (hi >= target)
-    gaps = lane_gaps(sv_length, x, tv_speed, tv_length, in_target,
-                     road.target_speed(lane, target), gap_cfg, follower,
-                     road.speed_bands[target][1])
-    own = neighbours(lane, sv_x, sv_length, x, tv_y, tv_speed, tv_length, tv_width, road,
-                     tv_lateral_speed)
+    x = np.asarray(traffic.x, dtype=float)
+    in_target = in_lane(target, traffic, lanes)
+    gaps = lane_gaps(sv.length, x, traffic.speed, traffic.length, in_target,
+                     lanes.end_speed(lane, target), gap_cfg, follower,
+                     lanes.speed_limit(target))
+    own = neighbours(lane, sv, traffic, lanes, leaving=True)
     own_limit, own_speed = math.inf, 0.0
     if own.leader >= 0:
         # the SV's centre may get as far as its own leader's rear less half the SV and a
         # standstill gap
-        own_limit = sv_x + own.gap_ahead - cfg.idm_min_gap
+        own_limit = sv.x + own.gap_ahead - cfg.idm_min_gap
         own_speed = own.leader_speed
-    choice = choose_gap(sv_x, sv_speed, sv_length, desired_speed, gaps, gap_cfg, follower,
+    choice = choose_gap(sv.x, sv.speed, sv.length, sv.desired_speed, gaps, gap_cfg, follower,
                         own_limit, own_speed)
     # seeking: up to its lane's limit, Krauss-safe behind its own leader (gap.seeking_accel)
-    lane_max = road.speed_bands[lane][1]
+    lane_max = lanes.speed_limit(lane)
     leader_speed = own.leader_speed if own.leader >= 0 else math.inf
     if choice is None:
         # none in reach: toward the target lane's speed (its gaps come by faster when it
         # is slower, and are judged at a smaller speed difference when it is faster);
         # the TV nearest behind the SV in that lane may be asked to yield
-        accel = seeking_accel(sv_speed, road.target_speed(lane, target), lane_max,
+        accel = seeking_accel(sv.speed, lanes.end_speed(lane, target), lane_max,
                               own.gap_ahead, leader_speed, gap_cfg)
-        behind = np.where(in_target & (x < sv_x), x, -np.inf)
+        behind = np.where(in_target & (x < sv.x), x, -np.inf)
         ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
         return replace(keep, target_lane=target, accel=float(accel), cooperate_with=ask,
                        reason=f"lane {target}: no gap in reach")
     # toward the approach speed, within the approach acceleration
-    accel = seeking_accel(sv_speed, choice.target_speed, lane_max, own.gap_ahead,
+    accel = seeking_accel(sv.speed, choice.target_speed, lane_max, own.gap_ahead,
                           leader_speed, gap_cfg)
-    plan_now = choice.reachable and sv_speed >= gap_cfg.min_speed
+    plan_now = choice.reachable and sv.speed >= gap_cfg.min_speed
     # only a follower that blocks the gap is asked (SUMO's LC2013 informs the blocking
     # follower only): one behind the SV that it is not yet clear of (a gap's follower
     # ahead of the SV would have to brake for a car behind it)
     f = choice.follower
-    coop = f if f >= 0 and not choice.reachable and x[f] < sv_x else -1
+    coop = f if f >= 0 and not choice.reachable and x[f] < sv.x else -1
     return GapDecision(
         target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=plan_now,
         vxf=choice.speed, gap=choice, cooperate_with=coop,
         reason=f"lane {target}: gap {choice.index} {choice.relation}"
         + (", reached" if plan_now else f", {choice.offset:+.1f} m"),
     )
+
+
+def in_lane(lane: int, traffic: Traffic, lanes: LaneLayout) -> NDArray[np.bool_]:
+    """Which TVs' bodies touch `lane` (a TV half way through a change is in both)."""
+    lo, hi = lanes.lanes_touched(traffic.y, 0.5 * np.asarray(traffic.width, dtype=float))
+    return (lo <= lane) & (hi >= lane)

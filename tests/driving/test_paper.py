@@ -1,4 +1,5 @@
-"""The lane-change policy (cosim.policy) on hand-made scenes, without SUMO: the real
+"""The paper's lane-change policy (cosim.driving.paper, its manoeuvre
+cosim.driving.manoeuvre) on hand-made scenes, without SUMO: the real
 planner plans against hand-made V2V messages; the SV follows its reference exactly.
 
 For the re-check branches a planner that forces the outcome (`Forced`: the check
@@ -14,18 +15,14 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cosim.decision import DecisionConfig
+from cosim.driving.base import DrivingContext, WorldPorts
+from cosim.driving.manoeuvre import BRAKING, CHANGING, KEEPING, WAITING
+from cosim.driving.paper import PaperPolicy
+from cosim.driving.registry import policy_class
+from cosim.driving.rule import DecisionConfig
+from cosim.driving.sumo import SumoPolicy
 from cosim.params import RoadParams
 from cosim.planning.planner import LaneChangePlanner, Rejection
-from cosim.policy import (
-    BRAKING,
-    CHANGING,
-    KEEPING,
-    POLICIES,
-    WAITING,
-    PaperPolicy,
-    SumoDriverPolicy,
-)
 from cosim.scenario import LaneChangeCommand, Scenario, load_scenario, project_root
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.v2v import V2VMessage
@@ -84,9 +81,9 @@ class Forced:
     calls: list[tuple[str, int]] = field(default_factory=list)
 
     def plan(self, t: float, state: Any, target: int, messages: list[Any],
-             occupant: float) -> Any:
+             occupant: float, vxf: float | None = None) -> Any:
         self.calls.append(("plan", target))
-        plan = self.real.plan(t, state, target, messages, occupant)
+        plan = self.real.plan(t, state, target, messages, occupant, vxf)
         if target in self.no_tau:
             return replace(plan, tau=None, trajectory=None)
         return plan
@@ -105,7 +102,9 @@ class Drive:
     def __init__(self, sc: Scenario, planner: Any = None) -> None:
         self.blinks: list[int] = []
         self.planner = planner or LaneChangePlanner(sc.vehicle, ROAD, sc.planner)
-        self.policy = POLICIES["paper"](sc, ROAD, CFG, self.planner, self.blinks.append)
+        self.policy = policy_class("paper")(DrivingContext.of(
+            sc, ROAD, decision=CFG, planner=self.planner,
+            ports=WorldPorts(blinker=self.blinks.append)))
         self.sv = SVState(X0, ROAD.lane_center(0), 0.0, sc.sv.speed, 0.0, 0.0)
         self.inbox = Inbox()
         self.t = 0.0
@@ -114,7 +113,7 @@ class Drive:
     def step(self) -> None:
         t = self.t
         ref = self.policy.update(t, scene_of(t, self.sv), self.inbox)
-        self.modes.append(self.policy.mode)
+        self.modes.append(self.policy.manoeuvre.mode)
         t1 = t + DT
         x, y = ref.position(t1)
         xd, yd = ref.derivative(t1, 1)
@@ -128,7 +127,7 @@ class Drive:
 
 
 def test_the_paper_policy_is_registered_by_name() -> None:
-    assert POLICIES["paper"] is PaperPolicy
+    assert policy_class("paper") is PaperPolicy
     assert PaperPolicy.name == "paper"
 
 
@@ -136,16 +135,17 @@ def test_request_plan_changing_settled() -> None:
     d = Drive(scenario((0.0, 1)))
     d.step()
     pol = d.policy
-    assert pol.mode == CHANGING
+    m = pol.manoeuvre
+    assert m.mode == CHANGING
     assert d.blinks == [1]  # left
-    lc = pol.active
+    lc = m.active
     assert lc is not None and (lc.origin_lane, lc.target_lane, lc.trigger) == (0, 1, "scripted")
     status = pol.status(d.sv)
     assert status.changing and status.target_lane == 1 and math.isnan(status.idm_accel)
-    assert [row["trigger"] for row in pol.plans] == ["scripted"] and pol.plans[0]["ok"] == 1
-    assert pol.pending == []  # served
+    assert [row["trigger"] for row in m.plans] == ["scripted"] and m.plans[0]["ok"] == 1
+    assert m.pending == []  # served
     d.run_until(lc.t0 + lc.tau + DT)
-    assert pol.mode == KEEPING and pol.active is None
+    assert m.mode == KEEPING and m.active is None
     assert d.blinks == [1, 0]
     assert abs(d.sv.y - ROAD.lane_center(1)) < 1e-6  # settled on the target centre
     assert not pol.status(d.sv).changing
@@ -161,17 +161,18 @@ def test_no_plan_waits_and_retries_after_the_interval() -> None:
     d.inbox.messages = [tv_message(0.0, X0, 1, d.sv.vx)]
     d.step()
     pol = d.policy
-    assert pol.mode == WAITING and pol.active is None
-    assert pol.plans[-1]["ok"] == 0 and pol.plans[-1]["trigger"] == "scripted"
+    m = pol.manoeuvre
+    assert m.mode == WAITING and m.active is None
+    assert m.plans[-1]["ok"] == 0 and m.plans[-1]["trigger"] == "scripted"
     assert d.blinks == []
     d.run_until(CFG.retry_interval - DT)
-    assert len(pol.plans) == 1  # not asked again within the interval
+    assert len(m.plans) == 1  # not asked again within the interval
     assert d.modes[-1] == WAITING
     d.inbox.messages = []  # the target lane is free now
     d.run_until(CFG.retry_interval + DT)
-    assert [row["trigger"] for row in pol.plans] == ["scripted", "retry"]
-    assert pol.plans[-1]["t_s"] == pytest.approx(CFG.retry_interval)
-    assert pol.mode == CHANGING and pol.requests == 1  # a retry is not a new request
+    assert [row["trigger"] for row in m.plans] == ["scripted", "retry"]
+    assert m.plans[-1]["t_s"] == pytest.approx(CFG.retry_interval)
+    assert m.mode == CHANGING and m.requests == 1  # a retry is not a new request
 
 
 def drive_into_recheck(*, collide: int, no_tau: set[int]) -> Drive:
@@ -188,45 +189,48 @@ def drive_into_recheck(*, collide: int, no_tau: set[int]) -> Drive:
 def test_recheck_collision_replans_to_the_target_lane() -> None:
     d = drive_into_recheck(collide=1, no_tau=set())
     pol = d.policy
+    m = pol.manoeuvre
     assert d.planner.calls == [("check", -1), ("plan", 1)]
-    assert pol.outcomes == {"replan": 1, "abort": 0, "brake": 0}
-    assert pol.mode == CHANGING and pol.active is not None and pol.active.target_lane == 1
-    assert pol.plans[-1]["trigger"] == "replan"
-    assert pol.plans[-1]["reason"].startswith("re-check: collision with tv")
-    assert pol.next_check == pytest.approx(1.0)
+    assert m.outcomes == {"replan": 1, "abort": 0, "brake": 0}
+    assert m.mode == CHANGING and m.active is not None and m.active.target_lane == 1
+    assert m.plans[-1]["trigger"] == "replan"
+    assert m.plans[-1]["reason"].startswith("re-check: collision with tv")
+    assert m.next_check == pytest.approx(1.0)
 
 
 def test_recheck_without_a_replan_aborts_to_the_origin_lane() -> None:
     d = drive_into_recheck(collide=1, no_tau={1})
     pol = d.policy
+    m = pol.manoeuvre
     assert d.planner.calls == [("check", -1), ("plan", 1), ("plan", 0)]
-    assert pol.outcomes == {"replan": 0, "abort": 1, "brake": 0}
-    lc = pol.active
+    assert m.outcomes == {"replan": 0, "abort": 1, "brake": 0}
+    lc = m.active
     assert lc is not None and (lc.origin_lane, lc.target_lane, lc.aborted) == (1, 0, True)
     assert d.blinks == [1, -1]
     # the scripted request is asked again once back in the lane
-    assert pol.pending and pol.pending[0].target_lane == 1
+    assert m.pending and m.pending[0].target_lane == 1
     d.planner.no_tau = set()
     d.run_until(lc.t0 + lc.tau + 2 * DT)
-    assert pol.plans[-1]["trigger"] in ("scripted", "retry") and pol.plans[-1]["ok"] == 1
-    assert pol.active is not None and pol.active.target_lane == 1
+    assert m.plans[-1]["trigger"] in ("scripted", "retry") and m.plans[-1]["ok"] == 1
+    assert m.active is not None and m.active.target_lane == 1
 
 
 def test_recheck_without_replan_or_abort_brakes_and_stops_checking() -> None:
     d = drive_into_recheck(collide=5, no_tau={0, 1})
     pol = d.policy
-    assert pol.outcomes == {"replan": 0, "abort": 0, "brake": 1}
-    assert pol.mode == BRAKING and pol.next_check == math.inf
-    row = pol.plans[-1]
+    m = pol.manoeuvre
+    assert m.outcomes == {"replan": 0, "abort": 0, "brake": 1}
+    assert m.mode == BRAKING and m.next_check == math.inf
+    row = m.plans[-1]
     assert row["trigger"] == "brake" and row["ok"] == 1
-    lc = pol.active
+    lc = m.active
     assert lc is not None and lc.trajectory.vxf < d.sv.vx  # it brakes
     calls = len(d.planner.calls)
     d.run_until(lc.t0 + lc.tau)
     assert len(d.planner.calls) == calls  # not re-checked into another manoeuvre
     d.run_until(lc.t0 + lc.tau + DT)
-    assert pol.active is None and d.blinks[-1] == 0  # over: keeping its lane again, or
-    assert pol.mode in (KEEPING, WAITING)  # back in lane 0 and asking again (no tau yet)
+    assert m.active is None and d.blinks[-1] == 0  # over: keeping its lane again, or
+    assert m.mode in (KEEPING, WAITING)  # back in lane 0 and asking again (no tau yet)
 
 
 def test_scripted_requests_are_served_in_order() -> None:
@@ -235,16 +239,17 @@ def test_scripted_requests_are_served_in_order() -> None:
     d = Drive(scenario((0.0, 0), (0.0, 2), (0.0, 1), (8.0, 2)))
     d.step()
     pol = d.policy
-    rows = pol.plans
+    m = pol.manoeuvre
+    rows = m.plans
     assert [(r["target_lane"], r["ok"], r["rejections"]) for r in rows] == [
         (2, 0, "not an adjacent lane"), (1, 1, rows[1]["rejections"])]
-    assert [c.target_lane for c in pol.pending] == [2]
+    assert [c.target_lane for c in m.pending] == [2]
     d.run_until(7.95)
-    assert len(pol.plans) == 2  # the next one is not due yet
+    assert len(m.plans) == 2  # the next one is not due yet
     d.run_until(8.05)
-    assert [r["target_lane"] for r in pol.plans] == [2, 1, 2]
-    assert pol.active is not None and (pol.active.origin_lane, pol.active.target_lane) == (1, 2)
-    assert pol.requests == 3
+    assert [r["target_lane"] for r in m.plans] == [2, 1, 2]
+    assert m.active is not None and (m.active.origin_lane, m.active.target_lane) == (1, 2)
+    assert m.requests == 3
 
 
 def test_messages_are_read_only_when_planning() -> None:
@@ -264,10 +269,11 @@ def test_the_sv_row_is_not_a_tv_of_the_scene() -> None:
     np.testing.assert_allclose(scene.tv_vx, [20.0])
 
 
-def test_the_sumo_driver_hands_scripted_requests_to_sumo_one_a_step() -> None:
+def test_the_sumo_policy_hands_scripted_requests_to_sumo_one_a_step() -> None:
     sc = scenario((0.0, 1), (0.0, 2), (5.0, 0))
     asked: list[int] = []
-    pol = SumoDriverPolicy(sc, ROAD, CFG, asked.append)
+    pol = SumoPolicy(DrivingContext.of(sc, ROAD, decision=CFG,
+                                       ports=WorldPorts(change_lane=asked.append)))
     sv = SVState(X0, ROAD.lane_center(0), 0.0, 20.0, 0.0, 0.0)
     assert pol.update(0.0, scene_of(0.0, sv), Inbox()) is None  # SUMO drives
     assert asked == [1]

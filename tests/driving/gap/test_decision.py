@@ -1,4 +1,4 @@
-"""The gap-seeking driver (cosim.gap_driver) on hand-made scenes, without SUMO."""
+"""The gap-seeking decision (cosim.driving.gap.decision) on hand-made scenes, without SUMO."""
 
 from __future__ import annotations
 
@@ -6,9 +6,11 @@ import math
 
 import numpy as np
 
-from cosim.decision import DecisionConfig
-from cosim.gap import GapConfig
-from cosim.gap_driver import gap_decision
+from cosim.driving.gap.decision import gap_decision
+from cosim.driving.gap.geometry import GapConfig
+from cosim.driving.lanes import LaneLayout
+from cosim.driving.rule import DecisionConfig
+from cosim.driving.scene import SV, Traffic
 from cosim.params import RoadParams
 from cosim.planning.interaction import FollowerModel
 
@@ -19,17 +21,15 @@ KRAUSS = FollowerModel()
 L = 4.32
 
 
-def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> dict[str, np.ndarray]:
+def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> Traffic:
     n = len(xs)
-    return {"tv_x": np.array(xs, dtype=float),
-            "tv_y": np.array([ROAD.lane_center(k) for k in lanes]),
-            "tv_speed": np.array(speeds, dtype=float), "tv_length": np.full(n, L),
-            "tv_width": np.full(n, 1.8)}
+    return Traffic.arrays(xs, [ROAD.lane_center(k) for k in lanes], speeds, np.full(n, L),
+                          np.full(n, 1.8))
 
 
-def drive(sv_x: float, sv_speed: float, tvs: dict[str, np.ndarray], **kw: object):
-    return gap_decision(sv_x, ROAD.lane_center(1), sv_speed, L, 30.0, **tvs, road=ROAD,
-                        cfg=CFG, gap_cfg=GAP, follower=KRAUSS, **kw)
+def drive(sv_x: float, sv_speed: float, tvs: Traffic, **kw: object):
+    return gap_decision(SV(sv_x, ROAD.lane_center(1), sv_speed, L, 30.0), tvs,
+                        LaneLayout(ROAD), CFG, GAP, KRAUSS, **kw)
 
 
 def test_free_road_keeps_the_lane() -> None:

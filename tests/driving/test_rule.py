@@ -1,4 +1,6 @@
-"""Tests of cosim.decision: the lane-change rule and IDM car-following."""
+"""Tests of cosim.driving.rule (the paper's trigger and IDM car-following), the lane
+layout's neighbours along a lane and lane membership (cosim.driving.lanes), and the
+manoeuvre's timer."""
 
 from __future__ import annotations
 
@@ -7,17 +9,14 @@ import math
 import numpy as np
 import pytest
 
-from cosim.decision import (
-    DecisionConfig,
-    LaneChangeTimer,
-    decide,
-    idm_acceleration,
-    lanes_touched,
-    neighbours,
-)
+from cosim.driving.lanes import LaneLayout
+from cosim.driving.manoeuvre import LaneChangeTimer
+from cosim.driving.rule import DecisionConfig, decide, idm_acceleration
+from cosim.driving.scene import SV, Traffic
 from cosim.params import RoadParams
 
 ROAD = RoadParams()
+LANES = LaneLayout(ROAD)
 CFG = DecisionConfig()
 L, W = 4.32, 1.8
 
@@ -32,8 +31,9 @@ def run_decide(tvs: list[tuple[float, int | float, float]], *, sv_lane: int = 0,
     y = np.array([lane_y(tv[1]) if isinstance(tv[1], int) else tv[1] for tv in tvs])
     v = np.array([tv[2] for tv in tvs], dtype=float)
     n = len(tvs)
-    return decide(0.0, lane_y(sv_lane), sv_speed, L, desired, x, y, v, np.full(n, L),
-                  np.full(n, W), ROAD, CFG, allow_change=allow)
+    return decide(SV(0.0, lane_y(sv_lane), sv_speed, L, desired),
+                  Traffic.arrays(x, y, v, np.full(n, L), np.full(n, W)), LANES, CFG,
+                  allow_change=allow)
 
 
 def test_slow_leader_and_empty_left_lane_requests_the_left_lane() -> None:
@@ -81,7 +81,7 @@ def test_right_lane_is_used_when_the_left_is_blocked() -> None:
 
 def test_a_tv_between_lanes_blocks_both() -> None:
     between = ROAD.y_right + ROAD.lane_width  # on the line between lanes 0 and 1
-    lo, hi = lanes_touched([between], [W / 2], ROAD)
+    lo, hi = LANES.lanes_touched([between], [W / 2])
     assert (lo[0], hi[0]) == (0, 1)
     d = run_decide([(25.0, 0, 70 / 3.6), (3.0, between, 25.0)])
     assert d.target_lane is None
@@ -96,11 +96,11 @@ def test_neighbours_finds_nearest_leader_and_follower() -> None:
     x = np.array([50.0, 20.0, -10.0, -40.0, 5.0])
     y = np.array([lane_y(0), lane_y(0), lane_y(0), lane_y(0), lane_y(1)])
     v = np.array([10.0, 11.0, 12.0, 13.0, 14.0])
-    n = neighbours(0, 0.0, L, x, y, v, np.full(5, L), np.full(5, W), ROAD)
+    n = LANES.neighbours(0, 0.0, L, x, y, v, np.full(5, L), np.full(5, W))
     assert (n.leader, n.follower) == (1, 2)
     assert n.gap_ahead == pytest.approx(20.0 - L)
     assert n.follower_speed == 12.0
-    empty = neighbours(2, 0.0, L, x, y, v, np.full(5, L), np.full(5, W), ROAD)
+    empty = LANES.neighbours(2, 0.0, L, x, y, v, np.full(5, L), np.full(5, W))
     assert empty.leader == -1 and math.isinf(empty.gap_ahead)
 
 
@@ -150,8 +150,8 @@ def test_a_tv_leaving_the_lane_is_no_longer_the_leader() -> None:
     """Half across the line into lane 1 and moving left: not lane 0's leader any more;
     moving right (coming in), or still centred in lane 0, it is."""
     y = np.array([ROAD.y_right + ROAD.lane_width + 0.3])  # centre just inside lane 1
-    args = (0.0, L, np.array([12.0]), y, np.array([20.0]), np.full(1, L), np.full(1, W), ROAD)
-    assert neighbours(0, *args).leader == 0  # without lateral speeds: touches lane 0
-    assert neighbours(0, *args, np.array([1.0])).leader == -1  # leaving
-    assert neighbours(0, *args, np.array([-1.0])).leader == 0  # cutting in
-    assert neighbours(1, *args, np.array([1.0])).leader == 0  # its new lane
+    args = (0.0, L, np.array([12.0]), y, np.array([20.0]), np.full(1, L), np.full(1, W))
+    assert LANES.neighbours(0, *args).leader == 0  # without lateral speeds: touches lane 0
+    assert LANES.neighbours(0, *args, np.array([1.0])).leader == -1  # leaving
+    assert LANES.neighbours(0, *args, np.array([-1.0])).leader == 0  # cutting in
+    assert LANES.neighbours(1, *args, np.array([1.0])).leader == 0  # its new lane

@@ -1,4 +1,5 @@
-"""When the SV in traffic wants to change lanes, and how it follows when it keeps its lane.
+"""The paper's trigger: when the SV in traffic wants to change lanes (the decision rule),
+and how it follows when it keeps its lane (IDM).
 
 Beyond the paper (which starts every case with "SV decides to change lanes"):
 
@@ -19,8 +20,8 @@ Beyond the paper (which starts every case with "SV decides to change lanes"):
 - After the planner found no collision-free tau the SV keeps its lane and asks
   again `retry_interval` later; after any manoeuvre it waits `cooldown`.
 
-Vehicles are numpy arrays (one entry per TV); the leader / follower search is a
-compiled loop over them (cosim.proximity).
+Vehicles are numpy arrays (one entry per TV, cosim.driving.scene.Traffic); the leader /
+follower search along a lane is the lane layout's (cosim.driving.lanes, a compiled loop).
 """
 
 from __future__ import annotations
@@ -28,13 +29,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-from numpy.typing import ArrayLike, NDArray
-
-from cosim.params import RoadParams
-from cosim.proximity import lane_neighbours
-
-Array = NDArray[np.float64]
+from cosim.driving.lanes import LaneLayout, Neighbours
+from cosim.driving.scene import SV, Traffic
 
 
 @dataclass(frozen=True)
@@ -55,64 +51,6 @@ class DecisionConfig:
     idm_min_gap: float = 2.0  # m, IDM standstill gap s0
     idm_delta: float = 4.0  # -, IDM acceleration exponent
     max_brake: float = 8.0  # m/s^2, the IDM deceleration is clipped here
-
-
-@dataclass(frozen=True)
-class Neighbours:
-    """Nearest vehicles ahead and behind the SV in one lane (index -1: none)."""
-
-    lane: int
-    leader: int  # index into the TV arrays, -1: none
-    gap_ahead: float  # m, bumper to bumper (inf: none)
-    leader_speed: float  # m/s (nan: none)
-    follower: int  # index, -1: none
-    gap_behind: float  # m (inf: none)
-    follower_speed: float  # m/s (nan: none)
-
-
-def lanes_touched(y: ArrayLike, half_width: ArrayLike, road: RoadParams) -> tuple[Array, Array]:
-    """Lowest and highest lane index each rectangle's lateral extent touches."""
-    yy = np.asarray(y, dtype=float)
-    hw = np.asarray(half_width, dtype=float)
-    lo = np.floor((yy - hw - road.y_right) / road.lane_width)
-    hi = np.floor((yy + hw - road.y_right) / road.lane_width)
-    return lo, hi
-
-
-def neighbours(
-    lane: int,
-    sv_x: float,
-    sv_length: float,
-    tv_x: ArrayLike,
-    tv_y: ArrayLike,
-    tv_speed: ArrayLike,
-    tv_length: ArrayLike,
-    tv_width: ArrayLike,
-    road: RoadParams,
-    tv_lateral_speed: ArrayLike | None = None,
-) -> Neighbours:
-    """The SV's leader and follower in `lane` (TVs touching that lane).
-
-    With `tv_lateral_speed` (m/s, + left), a TV whose centre is already in
-    another lane and that moves away from `lane` does not count (it is leaving)."""
-    def arr(a: ArrayLike) -> Array:
-        return np.ascontiguousarray(a, dtype=float)
-
-    v = arr(tv_speed)
-    use_vy = tv_lateral_speed is not None
-    i_lead, gap_ahead, i_foll, gap_behind = lane_neighbours(
-        int(lane), float(sv_x), float(sv_length), arr(tv_x), arr(tv_y), arr(tv_length),
-        arr(tv_width), float(road.y_right), float(road.lane_width),
-        arr(tv_lateral_speed) if use_vy else np.zeros(0), use_vy)
-    return Neighbours(
-        lane=lane,
-        leader=i_lead,
-        gap_ahead=float(gap_ahead),
-        leader_speed=float(v[i_lead]) if i_lead >= 0 else math.nan,
-        follower=i_foll,
-        gap_behind=float(gap_behind),
-        follower_speed=float(v[i_foll]) if i_foll >= 0 else math.nan,
-    )
 
 
 def idm_acceleration(
@@ -160,67 +98,38 @@ class Decision:
     reason: str  # why (for the trace / plans log)
 
 
-def decide(
-    sv_x: float,
-    sv_y: float,
-    sv_speed: float,
-    sv_length: float,
-    desired_speed: float,
-    tv_x: ArrayLike,
-    tv_y: ArrayLike,
-    tv_speed: ArrayLike,
-    tv_length: ArrayLike,
-    tv_width: ArrayLike,
-    road: RoadParams,
-    cfg: DecisionConfig,
-    *,
-    allow_change: bool = True,
-    tv_lateral_speed: ArrayLike | None = None,
-) -> Decision:
-    """The rule of the module docstring, for an SV at (sv_x, sv_y) driving sv_speed.
-
-    `tv_lateral_speed` (m/s, + left): a TV leaving the SV's lane is not its leader
-    (target lanes still count every TV touching them)."""
-    lane = road.lane_of(sv_y)
-    args = (sv_x, sv_length, tv_x, tv_y, tv_speed, tv_length, tv_width, road)
-    own = neighbours(lane, *args, tv_lateral_speed)
+def decide(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig, *,
+           allow_change: bool = True) -> Decision:
+    """The rule of the module docstring for `sv` among `traffic` (a TV leaving the
+    SV's lane, by its lateral speed, is not its leader; target lanes still count
+    every TV touching them)."""
+    lane = lanes.lane_of(sv.y)
+    own = neighbours(lane, sv, traffic, lanes, leaving=True)
     lead_v = own.leader_speed if own.leader >= 0 else math.inf
     within = own.gap_ahead <= cfg.look_ahead
-    accel = idm_acceleration(sv_speed, desired_speed, own.gap_ahead, lead_v, cfg)
-    slow_leader = within and lead_v < desired_speed - cfg.speed_margin
+    accel = idm_acceleration(sv.speed, sv.desired_speed, own.gap_ahead, lead_v, cfg)
+    slow_leader = within and lead_v < sv.desired_speed - cfg.speed_margin
     if not (allow_change and slow_leader):
         reason = "slow leader, waiting" if slow_leader else "keep lane"
         return Decision(None, accel, own.gap_ahead, reason)
     for target in (lane + 1, lane - 1):  # left (overtaking) first
-        if not 0 <= target < road.n_lanes:
+        if not 0 <= target < lanes.n_lanes:
             continue
-        n = neighbours(target, *args)
-        lane_speed = road.speed_bands[target][1]
+        n = neighbours(target, sv, traffic, lanes)
+        lane_speed = lanes.speed_limit(target)
         if n.leader >= 0 and n.gap_ahead <= cfg.look_ahead:
             lane_speed = min(lane_speed, n.leader_speed)
         if lane_speed < lead_v + cfg.speed_margin:
             continue
-        if lane_free(n, sv_speed, cfg, road.target_speed(lane, target)):
+        if lane_free(n, sv.speed, cfg, lanes.end_speed(lane, target)):
             return Decision(target, accel, own.gap_ahead, f"slow leader, lane {target} free")
     return Decision(None, accel, own.gap_ahead, "slow leader, no free faster lane")
 
 
-class LaneChangeTimer:
-    """When the SV may ask the planner again: after a failure, `retry_interval`
-    later (any request); after a finished manoeuvre, `cooldown` later (requests of
-    the decision rule only: a scripted request comes when the scenario says)."""
-
-    def __init__(self, cfg: DecisionConfig) -> None:
-        self.cfg = cfg
-        self.next_retry = -math.inf  # s, earliest request after a failed planning call
-        self.next_decision = -math.inf  # s, earliest decision-rule request after a manoeuvre
-
-    def may_request(self, t: float, *, decision: bool = True) -> bool:
-        due = t >= self.next_retry - 1e-9
-        return due and (not decision or t >= self.next_decision - 1e-9)
-
-    def planning_failed(self, t: float) -> None:
-        self.next_retry = t + self.cfg.retry_interval
-
-    def manoeuvre_done(self, t: float) -> None:
-        self.next_decision = t + self.cfg.cooldown
+def neighbours(lane: int, sv: SV, traffic: Traffic, lanes: LaneLayout, *,
+               leaving: bool = False) -> Neighbours:
+    """The SV's leader and follower in `lane` (`leaving`: a TV moving out of the lane,
+    by its lateral speed when known, does not count)."""
+    return lanes.neighbours(lane, sv.x, sv.length, traffic.x, traffic.y, traffic.speed,
+                            traffic.length, traffic.width,
+                            traffic.lateral_speed if leaving else None)

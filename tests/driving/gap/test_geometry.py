@@ -1,4 +1,4 @@
-"""Gap choice and approach (cosim.gap) on hand-made target lanes, without SUMO."""
+"""Gap choice and approach (cosim.driving.gap.geometry) on hand-made target lanes, without SUMO."""
 
 from __future__ import annotations
 
@@ -8,7 +8,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from cosim.gap import GapConfig, approach_speed, choose_gap, lane_gaps, reach_time
+from cosim.driving.gap.geometry import (
+    GapConfig,
+    approach_speed,
+    choose_gap,
+    lane_gaps,
+    reach_time,
+)
 from cosim.planning.interaction import FollowerModel, accepted_gap, entry_decel, secure_gap
 
 CFG = GapConfig()
@@ -169,6 +175,7 @@ def test_following_the_target_speed_reaches_the_gap() -> None:
 
 def test_seeking_closes_up_to_the_krauss_safe_speed_behind_its_leader() -> None:
     from cosim.gap import seeking_accel
+
     from cosim.planning.interaction import krauss_safe_speed
 
     cfg = GapConfig()

@@ -1,0 +1,94 @@
+"""Car following in the SV's lane while it keeps its lane: the decision rule's IDM
+acceleration (cosim.driving.rule), rate-limited to what the car can follow, and the
+straight lane-keeping reference built from it (a 'lane change' of width 0 along the
+lane centre whose speed follows the IDM law, kept near the car's speed)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from cosim.driving.base import DrivingContext
+from cosim.driving.rule import Decision, DecisionConfig, decide
+from cosim.driving.scene import SV, Traffic
+from cosim.params import G
+from cosim.planning.trajectory import LaneChangeTrajectory
+
+if TYPE_CHECKING:
+    from cosim.traffic.world import Scene, SVState
+
+FOLLOW_HORIZON = 1.0  # s, horizon of the straight lane-keeping reference
+FOLLOW_GRIP = 0.7  # -, share of mu g the car-following reference may brake with
+MAX_FOLLOW_JERK = 15.0  # m/s^3, rate limit of the car-following acceleration
+REF_SPEED_BAND = 0.5  # m/s, the lane-keeping reference speed stays this close to Vx
+
+
+def lane_keeping_reference(
+    t: float, x: float, y_centre: float, speed: float, accel: float
+) -> LaneChangeTrajectory:
+    """A straight reference along a lane centre whose speed starts at `speed` and
+    changes at `accel` (m/s^2) over the next FOLLOW_HORIZON (a 'lane change' of width 0)."""
+    return LaneChangeTrajectory(
+        t0=t, tau=FOLLOW_HORIZON, x0=x, y0=y_centre, vx0=speed,
+        vxf=max(speed + accel * FOLLOW_HORIZON, 0.0), width=0.0, ax0=accel,
+    )
+
+
+class CarFollowing:
+    """Car following in the SV's lane (IDM through the decision rule), rate-limited to
+    what the car can follow, and the lane-keeping reference built from it; `cfg` is the
+    decision rule's settings this policy follows with."""
+
+    def __init__(self, ctx: DrivingContext, cfg: DecisionConfig) -> None:
+        self.sv = ctx.sv
+        self.sv_length = ctx.sv_length
+        self.lanes, self.mu, self.cfg, self.dt = ctx.lanes, ctx.mu, cfg, ctx.step
+        self.v_cruise = ctx.sv.speed  # m/s, speed kept without a leader (no decision rule)
+        self.v_ref = ctx.sv.speed  # m/s, lane-keeping reference speed (integrated IDM)
+        self.accel = 0.0  # m/s^2, car-following acceleration
+        self.leader_gap = math.inf  # m
+
+    def desired_speed(self, lane: int) -> float:
+        if self.sv.desired_speed is not None:
+            return self.sv.desired_speed
+        if self.sv.decision:
+            return self.lanes.speed_limit(lane)
+        return self.v_cruise
+
+    def view(self, sv: SVState) -> SV:
+        """The SV as the decision rules see it: at the reference's speed, wanting its
+        desired speed in the lane it is in."""
+        return SV(sv.x, sv.y, self.v_ref, self.sv_length,
+                  self.desired_speed(self.lanes.lane_of(sv.y)))
+
+    def update(self, sv: SVState, scene: Scene, allow_change: bool) -> Decision:
+        """This step's car-following acceleration; the decision rule's lane change
+        (only with `allow_change` and `[sv] decision`)."""
+        d = decide(self.view(sv), Traffic.of(scene), self.lanes, self.cfg,
+                   allow_change=allow_change and self.sv.decision)
+        self.limit(d.accel, d.leader_gap)
+        return d
+
+    def limit(self, accel: float, leader_gap: float) -> None:
+        """Take `accel` (m/s^2) as this step's car-following acceleration, as a reference
+        the car can follow: braking within the road's grip, and the acceleration
+        changing at most MAX_FOLLOW_JERK (a new leader cutting in)."""
+        lo = -min(self.cfg.max_brake, FOLLOW_GRIP * self.mu * G)
+        step = MAX_FOLLOW_JERK * self.dt
+        self.accel = min(max(accel, lo, self.accel - step), self.accel + step)
+        self.leader_gap = leader_gap
+
+    def resume(self, speed: float) -> None:
+        """A manoeuvre ended at `speed` (m/s): follow on from it, and cruise at it."""
+        self.v_ref = speed
+        self.v_cruise = speed
+
+    def reference(self, t: float, sv: SVState) -> LaneChangeTrajectory:
+        """The straight lane-keeping reference from t; advances the reference speed."""
+        lane = self.lanes.lane_of(sv.y)
+        # anti-windup of the reference: never far from the speed the car has
+        self.v_ref = min(max(self.v_ref, sv.vx - REF_SPEED_BAND), sv.vx + REF_SPEED_BAND)
+        reference = lane_keeping_reference(t, sv.x, self.lanes.centre(lane), self.v_ref,
+                                           self.accel)
+        self.v_ref = max(self.v_ref + self.accel * self.dt, 0.0)
+        return reference

@@ -1,0 +1,155 @@
+"""The gap-seeking lane-change policy ("gap", `[planner] policy = "gap"`; beyond the
+paper): the manoeuvre of the paper's SV (cosim.driving.manoeuvre: keeping / changing /
+braking / waiting, re-check, replan / abort / brake) with another way of keeping
+its lane and of deciding when to plan.
+
+While keeping its lane the SV follows cosim.driving.gap.decision each step: it wants a lane
+(a due scripted request, or the decision rule's faster lane, held for WANT_HOLD
+while it is still in the lane it wanted to leave), picks a gap there and drives the
+speed that takes it into it (never faster than its own leader allows). It calls the
+planner only once the gap is reached (and at >= cosim.driving.manoeuvre.PLANNER_MIN_SPEED), with
+the gap's speed as vxf; a plan is flown only if its new follower, predicted as
+SUMO's Krauss follows (cosim.planning.interaction.check_follower), brakes no harder
+than `GapConfig.plan_decel` (within MOBIL's b_safe), else it counts as a failed plan
+and its follower is asked to make room (retried after
+`retry_interval`, the approach going on). It stops behind a standing leader at
+STOP_GAP (IDM standstill gap). It signals while it seeks a gap, and asks the chosen
+gap's follower to open the gap (the context's `ask_gap` port: the traffic's courtesy
+and cooperative V2V, cosim.traffic.cooperation). Its planner predicts a C2 TV to end
+its change no faster than its new leader, as this SV does (`prediction`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
+from cosim.driving.following import CarFollowing
+from cosim.driving.gap.decision import GapDecision, gap_decision, in_lane
+from cosim.driving.gap.geometry import GapConfig
+from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre
+from cosim.driving.registry import register
+from cosim.driving.scene import Traffic
+from cosim.planning.interaction import FollowerModel, check_follower
+from cosim.planning.planner import PredictionOptions
+
+if TYPE_CHECKING:
+    from cosim.planning.planner import Plan
+    from cosim.planning.trajectory import LaneChangeTrajectory
+    from cosim.traffic.world import Scene, SVState
+
+WANT_HOLD = 20.0  # s, a lane the decision rule wanted is sought this long at most
+STOP_GAP = 2.5  # m, IDM standstill gap s0 of this policy (SUMO's minGap; >= 2 m in a queue)
+
+
+@register("gap")
+class GapPolicy:
+    """The module docstring's policy; `gap` and `follower` are its gap choice's settings
+    and the model of the TVs that follow (SUMO's Krauss by default)."""
+
+    listens = True
+    needs_planner = True
+    asks_for_gaps = True
+    prediction = PredictionOptions(gap_end_speed=True)
+
+    def __init__(self, ctx: DrivingContext, gap: GapConfig | None = None,
+                 follower: FollowerModel | None = None) -> None:
+        cfg = replace(ctx.decision, idm_min_gap=max(ctx.decision.idm_min_gap, STOP_GAP))
+        self.lanes = ctx.lanes
+        self.ask_gap = ctx.ports.ask_gap
+        self._blinker = ctx.ports.blinker
+        self.signal = 0  # the SV's blinker now: -1 right, 0 off, +1 left
+        self.following = CarFollowing(ctx, cfg)
+        self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal)
+        self.gap_cfg = gap or GapConfig()
+        self.follower = follower or FollowerModel()
+        # what a flown plan may ask of its new follower: the policy's own limit within b_safe
+        self.plan_follower = self.follower.limited(self.gap_cfg.plan_decel)
+        self.sv_length = ctx.sv_length
+        self.decision = ctx.sv.decision
+        self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
+        self.last: GapDecision | None = None  # this step's decision (for inspection)
+
+    @property
+    def wall(self) -> float:
+        return self.manoeuvre.wall
+
+    def _signal(self, direction: int) -> None:
+        """The blinker, set in SUMO only when it changes."""
+        if direction != self.signal:
+            self.signal = direction
+            self._blinker(direction)
+
+    def status(self, sv: SVState) -> PolicyStatus:
+        return self.manoeuvre.status(self.following.leader_gap, self.following.accel)
+
+    def update(self, t: float, scene: Scene, messages: Messages) -> LaneChangeTrajectory:
+        """Finish a manoeuvre that is over; car-following toward the chosen gap; plan the
+        change once the gap is reached, or re-check the one under way."""
+        sv, m = scene.sv, self.manoeuvre
+        ended = m.begin(t)
+        if ended is not None:
+            self.following.resume(float(ended.trajectory.vxf))
+        allow_scripted, allow_decision = m.may_request(t, sv)
+        if m.active is not None:  # changing: car-following values for the trace only
+            self.following.update(sv, scene, False)
+            trajectory = m.advance(t, sv, None, "", messages)
+        else:
+            traffic = Traffic.of(scene)
+            d, trigger = self.seek(t, sv, traffic, allow_scripted, allow_decision)
+            target = d.target_lane if trigger else None
+            trajectory = m.advance(
+                t, sv, target, trigger, messages,
+                vxf=d.vxf if math.isfinite(d.vxf) else None,
+                accept=lambda plan: self.accept(t, plan, target, traffic))
+        return trajectory if trajectory is not None else self.following.reference(t, sv)
+
+    def seek(self, t: float, sv: SVState, traffic: Traffic, allow_scripted: bool,
+             allow_decision: bool) -> tuple[GapDecision, str]:
+        """Car-following toward the chosen gap this step; the decision, and the trigger
+        once the gap is reached ("scripted" | "decision"; "": do not plan now)."""
+        following, m = self.following, self.manoeuvre
+        lane = self.lanes.lane_of(sv.y)
+        scripted = m.due_scripted(t, sv)
+        if self.wanted is not None and (self.wanted[0] != lane or t > self.wanted[2]):
+            self.wanted = None
+        wanted = scripted if scripted is not None else (
+            self.wanted[1] if self.wanted is not None else None)
+        d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg, self.gap_cfg,
+                         self.follower, wanted_lane=wanted,
+                         allow_change=scripted is not None or self.decision)
+        following.limit(d.accel, d.leader_gap)
+        self.last = d
+        if scripted is None and self.wanted is None and d.target_lane is not None:
+            self.wanted = (lane, d.target_lane, t + WANT_HOLD)
+        # it signals while it seeks a gap, as SUMO's drivers do while they wait for one:
+        # what the traffic's courtesy answers (cosim.traffic.cooperation)
+        self._signal(0 if d.target_lane is None else (1 if d.target_lane > lane else -1))
+        if d.cooperate_with >= 0:
+            self.ask_gap(t, str(traffic.ids[d.cooperate_with]))
+        if not d.plan_now or d.target_lane is None:
+            return d, ""
+        if scripted is not None:
+            return d, "scripted" if allow_scripted else ""
+        return d, "decision" if allow_decision else ""
+
+    def accept(self, t: float, plan: Plan, target: int | None, traffic: Traffic) -> str:
+        """Why the plan is not flown although it has a trajectory ("": fly it): its new
+        follower would brake harder than the policy's limit within b_safe (MOBIL)."""
+        assert target is not None and plan.trajectory is not None
+        in_target = in_lane(target, traffic, self.lanes)
+        check = check_follower(plan.trajectory, self.sv_length, traffic.x, traffic.speed,
+                               traffic.length, in_target, self.plan_follower)
+        if check.safe:
+            return ""
+        # the follower that would brake too hard blocks: ask it to make room
+        self.ask_gap(t, str(traffic.ids[check.follower]))
+        return (f"follower {traffic.ids[check.follower]} would brake "
+                f"{check.max_decel:.2f} m/s^2 > {self.plan_follower.b_safe:g}")
+
+    def summary(self, t: np.ndarray, y: np.ndarray) -> Manoeuvres:
+        return self.manoeuvre.summary(t)

@@ -1,0 +1,327 @@
+"""The manoeuvre: plan a lane change, fly it, re-check it, replan / abort / brake: one
+component every policy that flies planned manoeuvres uses (not a base class it
+overrides). The policy decides *when* (a target lane and a trigger each step); the
+manoeuvre does the rest and is in one of four states:
+
+- keeping: no manoeuvre under way; the policy's car-following reference is flown.
+- changing: the planner (eq. 13 over the stable, collision-free tau set) gave a
+  plan; the SV tracks it until t0 + tau, then keeps its lane again. With
+  `[planner] replanning` the rest of the plan is re-checked every
+  `recheck_interval` against fresh predictions; on a collision it replans to the
+  target lane from the reference's state, else aborts to the origin lane (an
+  aborted scripted request is asked again once back), else brakes.
+- braking: the last resort (neither a replan nor an abort is collision-free):
+  brake within BRAKE_GRIP mu g while steering to the nearest lane centre; not
+  re-checked.
+- waiting: the planner found no collision-free tau (or the policy's own check
+  refused the plan); the SV keeps its lane and asks again `retry_interval` later
+  (the row says "retry").
+
+It also keeps the scripted requests not yet served (`due_scripted`), the plans.csv
+rows, the counts of the metrics row, and when the SV may ask again (`LaneChangeTimer`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cosim.driving.base import DrivingContext, Manoeuvres, PolicyStatus
+from cosim.driving.plans import plan_row, request_row
+from cosim.driving.rule import DecisionConfig
+from cosim.params import G
+from cosim.planning.trajectory import LaneChangeTrajectory
+
+if TYPE_CHECKING:
+    from cosim.planning.planner import Plan, SVPlanState
+    from cosim.traffic.world import SVState
+
+PLANNER_MIN_SPEED = 5.0  # m/s (18 km/h): below it no lane change is planned (stop-and-go:
+# the SV keeps its lane in a queue); the gap policy's GapConfig.min_speed defaults to it
+BRAKE_GRIP = 0.7  # -, share of mu g an emergency brake (no replan, no abort) may use
+BRAKE_TAU = 3.0  # s, emergency brake's duration when the planner gave no tau_min
+BRAKE_TAU_MIN = 1.5  # s, shortest emergency brake (lateral move to the nearest centre)
+
+KEEPING, CHANGING, BRAKING, WAITING = "keeping", "changing", "braking", "waiting"
+
+# a plan the policy refuses although it has a trajectory: (plan) -> why ("": fly it)
+Acceptance = Callable[["Plan"], str]
+
+
+@dataclass
+class LaneChange:
+    """One adopted lane-change plan and how it went."""
+
+    t0: float  # s, start
+    tau: float  # s, planned duration
+    origin_lane: int  # lane the manoeuvre under way leaves (after an abort: the one it aborted)
+    target_lane: int  # lane it heads for (after an abort: the lane it started in)
+    y_target: float  # m, target lane centre
+    trajectory: LaneChangeTrajectory
+    plan: Any  # the planner's Plan (for the tau-set figure)
+    t_next: float = math.inf  # s, when the next manoeuvre started (window end)
+    trigger: str = ""  # what asked for it (scripted | decision | retry)
+    aborted: bool = False  # given up for a return to the origin lane (not a lane change)
+    start_lane: int = -1  # lane it started in
+    wanted_lane: int = -1  # lane first asked for
+
+
+class LaneChangeTimer:
+    """When the SV may ask the planner again: after a failure, `retry_interval`
+    later (any request); after a finished manoeuvre, `cooldown` later (requests of
+    the decision rule only: a scripted request comes when the scenario says)."""
+
+    def __init__(self, cfg: DecisionConfig) -> None:
+        self.cfg = cfg
+        self.next_retry = -math.inf  # s, earliest request after a failed planning call
+        self.next_decision = -math.inf  # s, earliest decision-rule request after a manoeuvre
+
+    def may_request(self, t: float, *, decision: bool = True) -> bool:
+        due = t >= self.next_retry - 1e-9
+        return due and (not decision or t >= self.next_decision - 1e-9)
+
+    def planning_failed(self, t: float) -> None:
+        self.next_retry = t + self.cfg.retry_interval
+
+    def manoeuvre_done(self, t: float) -> None:
+        self.next_decision = t + self.cfg.cooldown
+
+
+def reference_state(trajectory: LaneChangeTrajectory, t: float, lane: int) -> SVPlanState:
+    """The reference's state at t as a planning start (position, velocity and
+    acceleration of the reference, not of the plant: a new plan from it continues the
+    reference without a jump, and the controller's errors carry over unchanged)."""
+    from cosim.planning.planner import SVPlanState
+
+    x, y = trajectory.position(t)
+    xd, yd = trajectory.derivative(t, 1)
+    xdd, ydd = trajectory.derivative(t, 2)
+    return SVPlanState(x=float(x), y=float(y), heading=math.atan2(float(yd), float(xd)),
+                       vx=float(xd), ax=float(xdd), vy=float(yd), ay=float(ydd), lane=lane)
+
+
+class Manoeuvre:
+    """The module docstring's component. `blinker(direction)` sets the SV's blinker
+    (-1 right, 0 off, +1 left); the context's planner has `plan(t, state, target,
+    messages, occupant, vxf=None)` and `check(trajectory, t, messages)`
+    (cosim.planning.planner.LaneChangePlanner)."""
+
+    def __init__(self, ctx: DrivingContext, timer: LaneChangeTimer,
+                 blinker: Callable[[int], None]) -> None:
+        self.lanes = ctx.lanes
+        self.mu = ctx.mu
+        self.planner = ctx.planner
+        self.blinker = blinker
+        self.timer = timer
+        self.occupant = ctx.sv.occupant
+        self.recheck_interval = ctx.recheck_interval
+        self.replanning = ctx.replanning
+        self.mode = KEEPING
+        self.pending = list(ctx.sv.lane_changes)  # scripted requests not yet served
+        self.active: LaneChange | None = None  # the manoeuvre under way
+        self.lane_changes: list[LaneChange] = []
+        self.plans: list[dict[str, Any]] = []  # plans.csv rows
+        self.first_plan: Any = None
+        self.requests = 0
+        self.last_failed: tuple[int, int] | None = None  # (origin, target) of a failed plan
+        self.next_check = math.inf  # s, next re-check of the plan under way
+        self.outcomes = {"replan": 0, "abort": 0, "brake": 0}  # re-check outcomes
+        self.wall = 0.0  # s, wall time in the planner
+
+    # ------------------------------------------------------------------ the step
+    def begin(self, t: float) -> LaneChange | None:
+        """Top of a step: end a manoeuvre whose time is up (returned: the policy resumes
+        its car-following from its end speed) and leave `waiting` once the retry is due."""
+        lc = self.active
+        ended = None
+        if lc is not None and t >= lc.t0 + lc.tau - 1e-9:
+            self.active = None
+            self.mode = KEEPING
+            self.timer.manoeuvre_done(t)
+            self.blinker(0)
+            ended = lc
+        if self.mode == WAITING and self.timer.may_request(t, decision=False):
+            self.mode = KEEPING
+        return ended
+
+    def may_request(self, t: float, sv: SVState) -> tuple[bool, bool]:
+        """Whether a scripted request, and whether a request of a decision rule, may go
+        to the planner now: no manoeuvre under way, at least PLANNER_MIN_SPEED, and the
+        timer's retry / cooldown passed."""
+        free = self.active is None and sv.vx >= PLANNER_MIN_SPEED
+        return (free and self.timer.may_request(t, decision=False),
+                free and self.timer.may_request(t))
+
+    def advance(self, t: float, sv: SVState, target: int | None, trigger: str,
+                messages: Any, *, vxf: float | None = None,
+                accept: Acceptance | None = None) -> LaneChangeTrajectory | None:
+        """Plan the change the policy asks for (`target`, `trigger`; None: none), or
+        re-check the one under way when due; the trajectory to fly (None: keeping)."""
+        if target is not None:
+            self.start(t, sv, target, trigger, messages.read(), vxf=vxf, accept=accept)
+        elif self.mode == CHANGING and self.replanning and t >= self.next_check - 1e-9:
+            self.recheck(t, messages.read())
+        return None if self.active is None else self.active.trajectory
+
+    def status(self, leader_gap: float, follow_accel: float) -> PolicyStatus:
+        lc = self.active
+        return PolicyStatus(
+            target_lane=None if lc is None else lc.target_lane, changing=lc is not None,
+            manoeuvring=lc is not None, leader_gap=leader_gap,
+            idm_accel=follow_accel if lc is None else math.nan)
+
+    def due_scripted(self, t: float, sv: SVState) -> int | None:
+        """The lane of the first due scripted request (in time order; one already
+        satisfied is dropped, one to a lane not adjacent is logged and dropped)."""
+        lane = self.lanes.lane_of(sv.y)
+        while self.pending and self.pending[0].at <= t + 1e-9:
+            target = self.pending[0].target_lane
+            if target == lane:
+                self.pending.pop(0)
+                continue
+            if abs(target - lane) != 1:  # an earlier change never happened: drop it
+                self.pending.pop(0)
+                self.plans.append(request_row(t, lane, target, sv.vx, 0,
+                                              "not an adjacent lane"))
+                self.requests += 1
+                continue
+            return target
+        return None
+
+    def start(self, t: float, sv: SVState, target: int, trigger: str, messages: list[Any],
+              *, vxf: float | None = None, accept: Acceptance | None = None) -> None:
+        """Ask the planner for a lane change to `target` (ending at `vxf`, m/s; None: the
+        band rule's speed); adopt the plan (changing) unless `accept` refuses it, or keep
+        the lane and ask again after `retry_interval` (waiting)."""
+        from cosim.planning.planner import SVPlanState
+
+        lane = self.lanes.lane_of(sv.y)
+        # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans
+        # only while keeping its lane, where these are ~0; the measured values carry
+        # the plant's transients (at t = 0: drag with no force yet) into the plan
+        state = SVPlanState(x=sv.x, y=sv.y, heading=sv.heading, vx=sv.vx, ax=0.0, vy=0.0,
+                            ay=0.0, lane=lane)
+        if trigger != "decision" and self.last_failed == (lane, target):
+            trigger = "retry"
+        if trigger != "retry":
+            self.requests += 1
+        w0 = time.perf_counter()
+        plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf)
+        why = accept(plan) if accept is not None and plan.trajectory is not None else ""
+        self.wall += time.perf_counter() - w0
+        row = plan_row(plan, trigger, state.vx)
+        if why:
+            row.update(ok=0, rejections=why)
+        self.plans.append(row)
+        if self.first_plan is None:
+            self.first_plan = plan
+        if plan.trajectory is None or why:
+            self.timer.planning_failed(t)
+            self.last_failed = (lane, target)
+            self.mode = WAITING
+            return
+        self.last_failed = None
+        if trigger != "decision" and self.pending:
+            self.pending.pop(0)
+        self.active = LaneChange(
+            t0=t, tau=float(plan.tau), origin_lane=lane, target_lane=target,
+            y_target=self.lanes.centre(target), trajectory=plan.trajectory, plan=plan,
+            trigger=trigger, start_lane=lane, wanted_lane=target,
+        )
+        self.lane_changes.append(self.active)
+        self.mode = CHANGING
+        self.blinker(1 if target > lane else -1)
+        self.next_check = t + self.recheck_interval
+
+    # ------------------------------------------------------------------ replanning
+    def recheck(self, t: float, messages: list[Any]) -> None:
+        """Beyond the paper (S2): re-check the rest of the plan under way against fresh
+        predictions; if it now collides, replan to the target lane from the reference's
+        state at t, else abort to the origin lane, else brake in the nearest lane."""
+        from cosim.scenario.model import LaneChangeCommand
+
+        lc = self.active
+        assert lc is not None
+        self.next_check = t + self.recheck_interval
+        w0 = time.perf_counter()
+        rejection = self.planner.check(lc.trajectory, t, messages)
+        self.wall += time.perf_counter() - w0
+        if rejection is None:
+            return
+        when = math.nan if rejection.time is None else rejection.time
+        reason = f"re-check: collision with {rejection.vehicle_id} at {when:.2f} s"
+        frm, to = lc.origin_lane, lc.target_lane
+        state = reference_state(lc.trajectory, t, frm)
+        w0 = time.perf_counter()
+        # continuing keeps the SV's intent, so it is tried first; the abort only when
+        # no collision-free tau to the target lane is left
+        again = self.planner.plan(t, state, to, messages, self.occupant)
+        back = None
+        if again.trajectory is None:
+            back = self.planner.plan(t, replace(state, lane=to), frm, messages, self.occupant)
+        self.wall += time.perf_counter() - w0
+        if again.trajectory is not None:
+            kind, plan, trajectory = "replan", again, again.trajectory
+        elif back is not None and back.trajectory is not None:
+            kind, plan, trajectory = "abort", back, back.trajectory
+        else:
+            kind, plan = "brake", back if back is not None else again
+            trajectory = self.brake_trajectory(t, lc, plan)
+        self.outcomes[kind] += 1
+        row = plan_row(plan, kind, state.vx)
+        row.update(reason=reason)
+        lanes = self.lanes
+        if kind == "brake":
+            self.mode = BRAKING
+            self.next_check = math.inf  # the last resort: not re-checked into another one
+            row.update(tau_s=trajectory.tau, ok=1, target_lane=lanes.lane_of(trajectory.y_final))
+        self.plans.append(row)
+        lc.trajectory = trajectory
+        lc.plan = plan
+        lc.tau = trajectory.t_end - lc.t0
+        end_lane = lanes.lane_of(trajectory.y_final)
+        if end_lane != to:  # heading back: the manoeuvre now leaves `to` for `end_lane`
+            lc.origin_lane, lc.target_lane = to, end_lane
+            lc.y_target = lanes.centre(end_lane)
+            self.blinker(1 if end_lane > to else -1)
+        was_aborted = lc.aborted
+        lc.aborted = lc.target_lane == lc.start_lane  # back where it started: no lane change
+        if lc.aborted and not was_aborted and lc.trigger in ("scripted", "retry"):
+            # ask again once back in the lane
+            self.pending.insert(0, LaneChangeCommand(at=t, target_lane=lc.wanted_lane))
+
+    def brake_trajectory(self, t: float, lc: LaneChange, plan: Any) -> LaneChangeTrajectory:
+        """Neither replan nor abort is collision-free: brake (within BRAKE_GRIP mu g at the
+        quartic's peak) while steering to the nearest lane centre, from the reference's
+        state at t (eq. 2 / eq. 4 with general start values)."""
+        st = reference_state(lc.trajectory, t, lc.origin_lane)  # lane unused here
+        lane = self.lanes.lane_of(st.y)
+        tau = plan.tau_min if math.isfinite(plan.tau_min) else BRAKE_TAU
+        tau = max(tau, BRAKE_TAU_MIN)
+        # the quartic from a = ax0 to a(tau) = 0 peaks at about 1.5x its mean deceleration
+        decel = BRAKE_GRIP * self.mu * G / 1.5
+        vxf = max(st.vx - decel * tau, 0.0)
+        return LaneChangeTrajectory(
+            t0=t, tau=tau, x0=st.x, y0=st.y, vx0=st.vx, vxf=vxf,
+            width=self.lanes.centre(lane) - st.y, ax0=st.ax, vy0=st.vy, ay0=st.ay,
+        )
+
+    # ------------------------------------------------------------------ the run
+    def summary(self, t: np.ndarray) -> Manoeuvres:
+        """Lane changes from each adopted plan's start; an aborted one is none."""
+        changes = self.lane_changes
+        for a, b in zip(changes, changes[1:], strict=False):
+            a.t_next = b.t0
+        flown = [lc for lc in changes if not lc.aborted]  # an aborted one went back
+        return Manoeuvres(
+            lane_changes=changes, starts=[lc.t0 for lc in flown],
+            targets=[lc.y_target for lc in flown],
+            ends=[min(lc.t_next, float(t[-1])) for lc in flown], requests=self.requests,
+            planner_calls=len(self.plans), outcomes=dict(self.outcomes),
+            first_start=changes[0].t0 if changes else None, plans=self.plans,
+            first_plan=self.first_plan)

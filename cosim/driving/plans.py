@@ -1,0 +1,74 @@
+"""The plans log (plans.csv): its columns, and the rows a policy writes to it, one per
+planner call (`plan_row`) or per scripted request that did not go through the planner
+(`request_row`)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+PLAN_COLUMNS: dict[str, str] = {
+    "t_s": "simulation time of the planning request (s)",
+    "trigger": "scripted | decision | retry",
+    "origin_lane": "lane the SV is in (SUMO index)",
+    "target_lane": "lane requested (SUMO index)",
+    "vx0_mps": "SV speed at the request (m/s)",
+    "vxf_mps": "target speed at the end of the lane change (band rule) (m/s)",
+    "n_candidates": "number of tau values on the grid",
+    "tau_min_stable_s": "smallest stable tau (handling envelope) (s)",
+    "stable_set_s": "stable tau set as intervals a-b;c-d (s)",
+    "collision_free_set_s": "collision-free tau set (intervals) (s)",
+    "tau_opt_s": "tau_opt of eq. 13 over the collision-free set (s)",
+    "tau_s": "tau chosen (collision-free tau nearest tau_opt) (s; NaN: no plan)",
+    "ok": "1: a plan was adopted, 0: no collision-free tau (the SV keeps its lane)",
+    "rejected_unstable": "candidates rejected by the handling envelope",
+    "rejected_collision": "candidates rejected for a collision",
+    "rejections": "collisions per TV id, id:count;id:count (or why the request was dropped)",
+    "reason": "replan | abort | brake rows: why the plan under way was dropped (the re-check's "
+    "first collision); else empty",
+}
+
+
+def _fmt_intervals(spans: list[tuple[float, float]]) -> str:
+    return ";".join(f"{a:.2f}-{b:.2f}" for a, b in spans)
+
+
+def plan_row(plan: Any, trigger: str, vx0: float) -> dict[str, Any]:
+    """One plans.csv row of a planner's Plan (see PLAN_COLUMNS)."""
+    per_tv: dict[str, int] = {}
+    n_unstable = 0
+    for rej in plan.rejections:
+        if rej.reason == "unstable":
+            n_unstable += 1
+        else:
+            key = rej.vehicle_id or "?"
+            per_tv[key] = per_tv.get(key, 0) + 1
+    return {
+        "t_s": plan.t,
+        "trigger": trigger,
+        "origin_lane": plan.origin_lane,
+        "target_lane": plan.target_lane,
+        "vx0_mps": vx0,
+        "vxf_mps": plan.vxf,
+        "n_candidates": int(plan.taus.size),
+        "tau_min_stable_s": plan.tau_min,
+        "stable_set_s": _fmt_intervals(plan.stable_intervals),
+        "collision_free_set_s": _fmt_intervals(plan.collision_free_intervals),
+        "tau_opt_s": plan.tau_opt,
+        "tau_s": math.nan if plan.tau is None else float(plan.tau),
+        "ok": int(plan.tau is not None),
+        "rejected_unstable": n_unstable,
+        "rejected_collision": sum(per_tv.values()),
+        "rejections": ";".join(f"{k}:{v}" for k, v in sorted(per_tv.items())),
+        "reason": "",
+    }
+
+
+def request_row(t: float, origin: int, target: int, vx0: float, ok: int,
+                why: str = "") -> dict[str, Any]:
+    """A plans.csv row of a scripted request that did not go through the planner (one
+    dropped, or one handed to SUMO's lane-change model)."""
+    row = dict.fromkeys(PLAN_COLUMNS, math.nan)
+    row.update(t_s=t, trigger="scripted", origin_lane=origin, target_lane=target, vx0_mps=vx0,
+               ok=ok, stable_set_s="", collision_free_set_s="", rejections=why)
+    return row
