@@ -3,7 +3,7 @@
 Two questions the loop asks every step of the few dozen TVs around the SV:
 
 - `lane_neighbours`: the nearest TV ahead and behind the SV whose rectangle
-  touches a lane (the decision rule's leader and follower, cosim.decision);
+  touches a lane (the decision rule's leader and follower, cosim.driving.lanes);
 - `gap_ttc_min`: the smallest along-lane gap and time-to-collision to a TV sharing
   the SV's strip of road (cosim.metrics.gap_ttc, reduced to its minima), and
   which TVs are within reach of an overlap (bounding circles), for the exact test.

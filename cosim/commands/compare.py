@@ -1,6 +1,6 @@
 """`cosim compare SCENARIO.toml [--out DIR] [--seed N]`: the same scenario and seed
 driven by MIMO and SISO (with the scenario's lane-change policy), MIMO with the other
-policy (`[planner] policy`: the paper's method or the gap-seeking driver) and
+policy (`[planner] policy`: the paper's method or the gap-seeking policy) and
 SUMO-native, side by side.
 
 Writes DIR/compare.csv (a `driver` column, then metrics.csv's columns; one row per

@@ -135,7 +135,7 @@ def accepted_gap(follower_speed: ArrayLike, sv_speed: ArrayLike, m: FollowerMode
                  dt: float = 0.05, longest: float = 400.0) -> Array:
     """m, the shortest bumper gap behind the SV at which the follower's entry
     deceleration (`entry_decel`) is at most b_safe (bisection on the model itself, to
-    1 cm; entry_decel does not grow with the gap). Compiled: the gap driver asks this
+    1 cm; entry_decel does not grow with the gap). Compiled: the gap policy asks this
     every step."""
     v, vs = np.broadcast_arrays(np.asarray(follower_speed, dtype=float),
                                 np.asarray(sv_speed, dtype=float))

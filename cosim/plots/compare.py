@@ -12,7 +12,7 @@ import numpy as np
 from cosim.plots import save_figure
 
 LABELS = {"mimo": "ours, MIMO", "siso": "ours, SISO", "mimo_paper": "ours, MIMO, paper's method",
-          "mimo_gap": "ours, MIMO, gap driver", "sumo": "SUMO-native"}
+          "mimo_gap": "ours, MIMO, gap policy", "sumo": "SUMO-native"}
 STYLES = {"mimo": ("C0", "-"), "siso": ("C1", "--"), "mimo_paper": ("C3", ":"),
           "mimo_gap": ("C3", ":"), "sumo": ("C2", "-")}
 

@@ -129,7 +129,8 @@ PLANNER_FIELDS = (
           override="uncertainty_margin",
           doc="widen safety_margin by V2V latency, loss and noise"),
     Field("policy", str, choices=PLANNED, default=_PLAN.policy, override="policy",  # type: ignore[arg-type]
-          doc="lane-change driver: paper (the paper's method) or gap (choose a gap, reach it)"),
+          doc="lane-change policy, by its registered name (cosim.driving.registry): paper (the "
+              "paper's method) or gap (choose a gap, reach it)"),
 )
 # attribute names: the key without its unit suffix
 PLANNER_FIELDS = tuple(

@@ -62,7 +62,7 @@ class CooperationConfig:
     # Sample of study_gap (densities 10-60, 20 seeds, gap / gap_lossy / gap_perception):
     # 0.1 throughout opened gaps too slowly at 20 veh/km/lane (18-19 of 20 lane changes);
     # 0.5 while waiting, 0.1 changing: 20 of 20, the new follower's braking unchanged
-    # (docs/gap_driver.md)
+    # (docs/gap_policy.md)
 
     def check(self, source: str = "cooperation") -> None:
         """Raise InputError naming the first bad field."""

@@ -14,7 +14,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cosim.driving.manoeuvre import reference_state
+from cosim.driving.manoeuvre import LaneChangeTimer, reference_state
+from cosim.driving.rule import DecisionConfig
 from cosim.observer import uncertain_config
 from cosim.params import RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
@@ -22,6 +23,7 @@ from cosim.scenario import load_scenario, with_overrides
 from cosim.sim import simulate
 
 SCENARIO = Path(__file__).parents[1] / "data" / "tv_brakes_mid_change.toml"
+CFG = DecisionConfig()
 
 
 def _assert_continuous(old: LaneChangeTrajectory, new: LaneChangeTrajectory) -> None:
@@ -139,3 +141,17 @@ def test_no_collision_with_late_lossy_or_perceived_information(v2v: dict) -> Non
     m = r.metrics
     assert m["collisions"] == 0 and m["sumo_collisions"] == 0
     assert m["replans"] + m["aborts"] + m["emergency_brakes"] >= 1
+
+
+def test_timer_waits_after_a_failure_and_after_a_manoeuvre() -> None:
+    timer = LaneChangeTimer(CFG)
+    assert timer.may_request(0.0)
+    timer.planning_failed(2.0)
+    assert not timer.may_request(2.5)
+    assert timer.may_request(2.0 + CFG.retry_interval)
+    timer.manoeuvre_done(10.0)
+    assert not timer.may_request(12.0)
+    assert timer.may_request(12.0, decision=False)  # a scripted request is not held back
+    assert timer.may_request(10.0 + CFG.cooldown)
+    timer.planning_failed(20.0)
+    assert not timer.may_request(20.5, decision=False)

@@ -20,7 +20,6 @@ from cosim.driving.manoeuvre import BRAKING, CHANGING, KEEPING, WAITING
 from cosim.driving.paper import PaperPolicy
 from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig
-from cosim.driving.sumo import SumoPolicy
 from cosim.params import RoadParams
 from cosim.planning.planner import LaneChangePlanner, Rejection
 from cosim.scenario import LaneChangeCommand, Scenario, load_scenario, project_root
@@ -267,20 +266,3 @@ def test_the_sv_row_is_not_a_tv_of_the_scene() -> None:
     scene = Scene.around(0.0, SVState(0.0, 0.0, 0.0, 20.0, 0.0, 0.0), snap)
     assert scene.tvs.ids == ("a",)
     np.testing.assert_allclose(scene.tv_vx, [20.0])
-
-
-def test_the_sumo_policy_hands_scripted_requests_to_sumo_one_a_step() -> None:
-    sc = scenario((0.0, 1), (0.0, 2), (5.0, 0))
-    asked: list[int] = []
-    pol = SumoPolicy(DrivingContext.of(sc, ROAD, decision=CFG,
-                                       ports=WorldPorts(change_lane=asked.append)))
-    sv = SVState(X0, ROAD.lane_center(0), 0.0, 20.0, 0.0, 0.0)
-    assert pol.update(0.0, scene_of(0.0, sv), Inbox()) is None  # SUMO drives
-    assert asked == [1]
-    pol.update(0.05, scene_of(0.05, sv), Inbox())
-    assert asked == [1, 2]  # the next due one, a step later
-    pol.update(1.0, scene_of(1.0, sv), Inbox())
-    assert asked == [1, 2]  # lane 0 at 5 s: not due yet (and already there then)
-    assert [r["target_lane"] for r in pol.plans] == [1, 2] and pol.requests == 2
-    assert not pol.status(sv).changing and not pol.status(sv).manoeuvring
-    assert pol.status(replace(sv, vy=0.5)).manoeuvring  # moving sideways: changing lanes

@@ -1,6 +1,4 @@
-"""Tests of cosim.driving.rule (the paper's trigger and IDM car-following), the lane
-layout's neighbours along a lane and lane membership (cosim.driving.lanes), and the
-manoeuvre's timer."""
+"""The paper's trigger and IDM car-following (cosim.driving.rule) on hand-made scenes."""
 
 from __future__ import annotations
 
@@ -10,7 +8,6 @@ import numpy as np
 import pytest
 
 from cosim.driving.lanes import LaneLayout
-from cosim.driving.manoeuvre import LaneChangeTimer
 from cosim.driving.rule import DecisionConfig, decide, idm_acceleration
 from cosim.driving.scene import SV, Traffic
 from cosim.params import RoadParams
@@ -92,18 +89,6 @@ def test_no_change_while_not_allowed() -> None:
     assert d.target_lane is None and d.reason == "slow leader, waiting"
 
 
-def test_neighbours_finds_nearest_leader_and_follower() -> None:
-    x = np.array([50.0, 20.0, -10.0, -40.0, 5.0])
-    y = np.array([lane_y(0), lane_y(0), lane_y(0), lane_y(0), lane_y(1)])
-    v = np.array([10.0, 11.0, 12.0, 13.0, 14.0])
-    n = LANES.neighbours(0, 0.0, L, x, y, v, np.full(5, L), np.full(5, W))
-    assert (n.leader, n.follower) == (1, 2)
-    assert n.gap_ahead == pytest.approx(20.0 - L)
-    assert n.follower_speed == 12.0
-    empty = LANES.neighbours(2, 0.0, L, x, y, v, np.full(5, L), np.full(5, W))
-    assert empty.leader == -1 and math.isinf(empty.gap_ahead)
-
-
 def test_idm_free_road_accelerates_below_and_stops_at_desired_speed() -> None:
     assert idm_acceleration(20.0, 25.0, math.inf, math.nan, CFG) > 0.5
     assert idm_acceleration(25.0, 25.0, math.inf, math.nan, CFG) == pytest.approx(0.0)
@@ -130,28 +115,3 @@ def test_idm_following_converges_to_a_safe_gap() -> None:
     assert min(gaps) > 0.0
     assert v == pytest.approx(v_l, abs=0.05)
     assert gaps[-1] >= CFG.idm_min_gap + v_l * CFG.idm_time_gap
-
-
-def test_timer_waits_after_a_failure_and_after_a_manoeuvre() -> None:
-    timer = LaneChangeTimer(CFG)
-    assert timer.may_request(0.0)
-    timer.planning_failed(2.0)
-    assert not timer.may_request(2.5)
-    assert timer.may_request(2.0 + CFG.retry_interval)
-    timer.manoeuvre_done(10.0)
-    assert not timer.may_request(12.0)
-    assert timer.may_request(12.0, decision=False)  # a scripted request is not held back
-    assert timer.may_request(10.0 + CFG.cooldown)
-    timer.planning_failed(20.0)
-    assert not timer.may_request(20.5, decision=False)
-
-
-def test_a_tv_leaving_the_lane_is_no_longer_the_leader() -> None:
-    """Half across the line into lane 1 and moving left: not lane 0's leader any more;
-    moving right (coming in), or still centred in lane 0, it is."""
-    y = np.array([ROAD.y_right + ROAD.lane_width + 0.3])  # centre just inside lane 1
-    args = (0.0, L, np.array([12.0]), y, np.array([20.0]), np.full(1, L), np.full(1, W))
-    assert LANES.neighbours(0, *args).leader == 0  # without lateral speeds: touches lane 0
-    assert LANES.neighbours(0, *args, np.array([1.0])).leader == -1  # leaving
-    assert LANES.neighbours(0, *args, np.array([-1.0])).leader == 0  # cutting in
-    assert LANES.neighbours(1, *args, np.array([1.0])).leader == 0  # its new lane

@@ -1,10 +1,10 @@
 """The gap-seeking decision (policy "gap", beyond the paper): one decision per step
 while the SV keeps its lane.
 
-The paper's trigger (cosim.driving.rule) asks the planner for a change only when the target
-lane is already free beside the SV, and always ends the change at the band rule's
-speed; in dense traffic that moment rarely comes (docs/batch_results.md). This
-driver instead:
+The paper's trigger (cosim.driving.rule) asks the planner for a change only when the
+target lane is already free beside the SV, and always ends the change at the band
+rule's speed; in dense traffic that moment rarely comes (docs/batch_results.md). This
+policy instead:
 
 1. wants a lane as the paper's rule does (a slow leader, a faster adjacent lane,
    left first) or as a scripted request says, but without the free-lane pre-filter:

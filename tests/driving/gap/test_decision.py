@@ -41,7 +41,7 @@ def test_free_road_keeps_the_lane() -> None:
 def test_slow_leader_and_a_blocked_faster_lane_approaches_a_gap() -> None:
     # a slow leader 30 m ahead in lane 1; lane 2 has a TV right beside the SV and
     # others 100 m before and after it: the old rule's free-lane filter says no;
-    # the gap driver aims at a gap and adjusts its speed
+    # the gap policy aims at a gap and adjusts its speed
     tvs = scene([30.0, -100.0, 0.0, 100.0], [1, 2, 2, 2], [22.0, 28.0, 28.0, 28.0])
     d = drive(0.0, 25.0, tvs)
     assert d.target_lane == 2

@@ -174,8 +174,7 @@ def test_following_the_target_speed_reaches_the_gap() -> None:
 
 
 def test_seeking_closes_up_to_the_krauss_safe_speed_behind_its_leader() -> None:
-    from cosim.gap import seeking_accel
-
+    from cosim.driving.gap.geometry import seeking_accel
     from cosim.planning.interaction import krauss_safe_speed
 
     cfg = GapConfig()

@@ -1,0 +1,61 @@
+"""Car following in the SV's lane (cosim.driving.following) on hand-made scenes: the
+acceleration the reference asks for is rate-limited and within the road's grip, and
+the lane-keeping reference runs along the lane centre near the car's speed."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from cosim.driving.base import DrivingContext
+from cosim.driving.following import (
+    FOLLOW_GRIP,
+    MAX_FOLLOW_JERK,
+    REF_SPEED_BAND,
+    CarFollowing,
+)
+from cosim.params import G, RoadParams
+from cosim.scenario import load_scenario, project_root
+from cosim.traffic.sumo import TrafficSnapshot
+from cosim.traffic.world import Scene, SVState
+
+ROAD = RoadParams(mu=0.5)
+BASE = load_scenario(project_root() / "scenarios/paper_case1_overtaking.toml")
+
+
+def following() -> CarFollowing:
+    sc = replace(BASE, sv=replace(BASE.sv, decision=False, lane_changes=(), lane=0), tvs=())
+    return CarFollowing(DrivingContext.of(sc, ROAD), DrivingContext.of(sc, ROAD).decision)
+
+
+def scene(sv: SVState, leader_x: float, leader_speed: float) -> Scene:
+    one = np.ones(1)
+    snap = TrafficSnapshot(0.0, ("lead",), np.array([leader_x]),
+                           np.array([ROAD.lane_center(0)]), np.zeros(1), leader_speed * one,
+                           np.zeros(1), np.zeros(1, int), np.zeros(1), 4.32 * one, 1.8 * one,
+                           np.zeros(1, int))
+    return Scene(0.0, sv, snap, snap, leader_speed * one)
+
+
+def test_a_standing_leader_close_ahead_brakes_within_grip_and_jerk() -> None:
+    f = following()
+    sv = SVState(0.0, ROAD.lane_center(0), 0.0, 25.0, 0.0, 0.0)
+    accels = []
+    for _ in range(40):
+        f.update(sv, scene(sv, 30.0, 0.0), allow_change=False)
+        accels.append(f.accel)
+    steps = np.diff([0.0, *accels])
+    assert np.all(np.abs(steps) <= MAX_FOLLOW_JERK * f.dt + 1e-12)  # rate-limited
+    assert min(accels) == pytest.approx(-FOLLOW_GRIP * ROAD.mu * G)  # grip-limited
+    assert f.leader_gap == pytest.approx(30.0 - 4.32)
+
+
+def test_the_reference_runs_along_the_lane_centre_near_the_car_speed() -> None:
+    f = following()
+    f.v_ref = 40.0  # wound up far above the car
+    sv = SVState(10.0, ROAD.lane_center(0) + 0.3, 0.0, 25.0, 0.0, 0.0)
+    ref = f.reference(0.0, sv)
+    assert ref.y0 == ROAD.lane_center(0) and ref.width == 0.0
+    assert ref.vx0 == pytest.approx(25.0 + REF_SPEED_BAND)
