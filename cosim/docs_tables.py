@@ -40,6 +40,7 @@ PAPER_PLANNING = {
 }
 TRAFFIC = ("traffic_low", "traffic_medium", "traffic_high")
 TRAFFIC_SEEDS = (1, 2, 3)
+# a driver: our controller with the scenario's policy, or SUMO's own models for both
 DRIVER_LABELS = {"mimo": "MIMO", "siso": "SISO", "sumo": "SUMO-native"}
 
 
@@ -162,10 +163,10 @@ def run_iae_table() -> str:
                    *(f"{PAPER_TABLE2['mimo'][c]:.3f}" for c in cols)]),
              _row(["paper SISO (veDYNA)", *(f"{PAPER_TABLE2['siso'][c]:.3f}" for c in cols)])]
     for name in PAPER_CASES:
-        for driver in ("mimo", "siso"):
-            m = _metrics(name, controller=driver)
+        for controller in ("mimo", "siso"):  # the same policy: the controllers compared
+            m = _metrics(name, controller=controller)
             lines.append(_row([
-                f"ours {DRIVER_LABELS[driver]}, case {CASE_LABELS[name].split()[0]}",
+                f"ours {DRIVER_LABELS[controller]}, case {CASE_LABELS[name].split()[0]}",
                 f"{m['iae_vx_mps_s']:.4f}", f"{m['iae_ye_m_s']:.4f}",
                 f"{m['iae_phie_deg_s']:.3f}", f"{m['iae_deltaf_deg_s']:.3f}",
                 f"{m['iae_fx_kn_s']:.3f}"]))

@@ -9,7 +9,7 @@ densities_veh_per_km_lane = [5, 10, 15, 20, 25]
 seeds = [1, 2, 3]                     # or seed_count = 10 (seeds 1..10)
 occupants = [0.5]                     # p; absent: the base scenario's
 mu = [0.8, 0.5]                       # absent: the base scenario's
-drivers = ["mimo", "siso", "sumo"]    # SV controller; absent: the base scenario's
+drivers = ["mimo", "siso", "sumo"]    # SV driver (by its controller); absent: the base's
 plants = ["twotrack"]                 # absent: the base scenario's
 duration_s = 30.0                     # absent: the base scenario's
 traces = false                        # keep each run's trace files
@@ -67,6 +67,9 @@ DENSITY = _scenario_field(TRAFFIC_FIELDS, "density_veh_per_km_lane")
 SEED = _scenario_field(SCENARIO_FIELDS, "seed")
 OCCUPANT = _scenario_field(SV_FIELDS, "occupant")
 MU = _scenario_field(ROAD_FIELDS, "mu")
+# A *driver* is a controller with a lane-change policy: mimo / siso fly the base scenario's
+# policy (and each variant's), sumo is SUMO's own models for both (it runs no variant):
+# the grid's `drivers` are named by their controller.
 DRIVER = _scenario_field(SV_FIELDS, "controller")
 PLANT = _scenario_field(SV_FIELDS, "plant")
 DURATION = _scenario_field(SCENARIO_FIELDS, "duration_s")
@@ -167,7 +170,7 @@ class Study:
     seeds: tuple[int, ...]
     occupants: tuple[float, ...] | None  # -, p
     mus: tuple[float, ...] | None  # -, road friction
-    drivers: tuple[str, ...] | None  # SV controller
+    drivers: tuple[str, ...] | None  # SV drivers, named by their controller (below)
     plants: tuple[str, ...] | None
     duration: float | None  # s, simulated time of every run (None: the scenario's)
     traces: bool  # keep each run's trace files
