@@ -712,18 +712,20 @@ def _tv_static(tv: TVSide, h: int) -> tuple[float, float, float, float, float, f
 
 
 @njit
-def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
-                    col: bool) -> tuple[IntArray, IntArray]:
-    """(first sample, first hypothesis) per candidate; see `check_candidates`."""
-    n_c, n_t, n_h = sv.tau.size, t.size, tv.row_of.size
+def _phase_bounds(sv: SVSide, tv: TVSide, margin: float, col: bool) -> tuple[
+        Array, Array, Array, Array, Array, Array, Array, Array, Array, NDArray[np.bool_],
+        float, float, float]:
+    """Phase 1 of `_first_overlaps`: per candidate its motion bounds (x' least and
+    most, |y'|, heading rate, |acceleration|); per hypothesis its motion bounds, the
+    most a cell can grow both rectangles by, the reach (circle) and box half extents of
+    both bodies together; per vehicle the widest limits, the latest horizon and whether
+    its hypotheses are in closed form; the last time any pair is tested; the SV's
+    circumradius, and grown by the margin."""
+    n_c, n_h = sv.tau.size, tv.row_of.size
     n_g = tv.groups.size - 1
     groups, row_of, lc, cell = tv.groups, tv.row_of, tv.lc, tv.cell
-    general = sv.cx.shape[0] > 0
-    p = sv.par
-    v0, vxf, w, x0, y0, shift = p[0], p[1], p[2], p[3], p[4], p[5]
     hla, hwa = sv.half_l, sv.half_w
-    dt = tv.dt
-    half = 0.5 * dt
+    half = 0.5 * tv.dt
 
     # the SV cluster's bounds, each candidate's and over all
     sv_b = np.empty((n_c, 5))  # x' least, most, |y'|, heading rate, |acceleration|
@@ -784,6 +786,44 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
         last_t = max(last_t, sv.horizon[c])
     for g in range(n_g):
         last_t = max(last_t, g_hor[g])
+    return (sv_b, tv_b, rad, reach2, lim_x, lim_y, g_lim_x, g_lim_y, g_hor, g_closed, last_t,
+            r_sv, r_sv_m)
+
+
+@njit
+def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
+                    col: bool) -> tuple[IntArray, IntArray]:
+    """(first sample, first hypothesis) per candidate; see `check_candidates`.
+
+    Phase map (one compiled function for the hot part: numba does not inline helpers
+    that write into arrays well, and the per-sample caches below are such arrays):
+
+    1. bounds (`_phase_bounds`, once per check): motion bounds of every SV candidate
+       and TV hypothesis, the reach (circles) and box half extents of both bodies
+       together per hypothesis, their widest per vehicle, the last time any pair is
+       tested;
+    2. per sample k, broad phase: the box of the live candidates (closed form: of the
+       first and last, ordered by duration) against each vehicle's box of hypotheses,
+       grown by its limits; then the candidates near the vehicle's box (a sorted range),
+       and the hypotheses whose y is near the candidate's (a sorted range); a run of
+       _RUN neighbouring durations of a closed-form cluster cleared by one grown test;
+    3. per pair, narrow phase: the limits and reach of the pair, the exact test at the
+       sample (separating axes, or CoL), then the cell (times within half a step,
+       durations up to the next) by one grown test (`_sat_moved`), and only when that
+       fails the next sample (`_overlaps_at`) or the refined search (`_refine`). The
+       first hit ends the candidate.
+    """
+    n_c, n_t, n_h = sv.tau.size, t.size, tv.row_of.size
+    n_g = tv.groups.size - 1
+    groups, row_of, lc, cell = tv.groups, tv.row_of, tv.lc, tv.cell
+    general = sv.cx.shape[0] > 0
+    p = sv.par
+    v0, vxf, w, x0, y0, shift = p[0], p[1], p[2], p[3], p[4], p[5]
+    hla, hwa = sv.half_l, sv.half_w
+    dt = tv.dt
+    half = 0.5 * dt
+    (sv_b, tv_b, rad, reach2, lim_x, lim_y, g_lim_x, g_lim_y, g_hor, g_closed, last_t,
+     r_sv, r_sv_m) = _phase_bounds(sv, tv, margin, col)
 
     first_k = np.full(n_c, -1, dtype=np.int64)
     first_h = np.full(n_c, -1, dtype=np.int64)
