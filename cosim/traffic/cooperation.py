@@ -1,6 +1,7 @@
 """Gap requests from the SV to a TV in its target lane, and the TV yielding through SUMO.
 
-Two channels carry them (both used by the gap policy only; cosim.sim builds them):
+Two channels carry them (opened by cosim.traffic.world.World for a policy that asks for
+gaps, `asks_for_gaps`: the gap policy):
 - courtesy (`[traffic] courtesy`, on by default): the traffic's courtesy to a lane
   changer that signals. SUMO's own lane changers get it from SUMO: LC2013's
   `informFollower` asks the blocking follower in the target lane to let them in, and

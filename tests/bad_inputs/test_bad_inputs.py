@@ -583,7 +583,7 @@ def test_position_is_measured_from_the_road_start(tmp_path: Path) -> None:
 
 def test_sv_id_agrees_with_the_simulation() -> None:
     from cosim.scenario.rules import SV_ID
-    from cosim.sim import SV_ID as SIM_SV_ID
+    from cosim.traffic.world import SV_ID as SIM_SV_ID
 
     assert SV_ID == SIM_SV_ID
 
