@@ -129,6 +129,10 @@ METRIC_DOCS: dict[str, str] = {
     "(a planned manoeuvre under way, replans and aborts included; the SUMO-driven SV: moving "
     "sideways faster than 0.05 m/s)",
     "sumo_collisions": "collision events involving the SV reported by SUMO (cross-check)",
+    "collision_t_s": "time of the first collision onset by our check (s; NaN: none)",
+    "collision_with": "TV id(s) of that first collision, ';'-separated (empty: none)",
+    "stopped_by_collision": "1 if the run stopped at that onset ([scenario] on_collision = "
+    "\"stop\", the default: duration_s and steps are then up to it), else 0",
     "min_gap_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
     "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
     "follower_max_decel_mps2": "largest deceleration of the SV's new follower in the target "
@@ -306,6 +310,9 @@ class Recorder:
         self.sumo_pairs: set[tuple[str, ...]] = set()
         self.sumo_new = 0  # SUMO collision events involving the SV (onsets)
         self.sumo_step_collisions = 0  # SUMO collisions involving the SV in the last step
+        self.first_collision: tuple[float, str] | None = None  # (t s, TV ids) of the first onset
+        self.last_row = n_steps  # the run's last trace row (earlier: stopped by a collision)
+        self.stopped = False  # the run stopped at its first collision onset
 
     def record(self, k: int, scene: Scene, status: PolicyStatus) -> Array:
         """Row k: what every SV has (the ego adds its own columns); returns the row."""
@@ -349,6 +356,8 @@ class Recorder:
             if status.manoeuvring or float(tvs.x[tvs.index(vid)]) > x:
                 self.sv_fault += 1
             self.manoeuvre_hits += int(status.manoeuvring)
+        if hits - self.hits and self.first_collision is None:
+            self.first_collision = (scene.t, ";".join(sorted(hits - self.hits)))
         self.collisions += len(hits - self.hits)
         self.hits = hits
         row[C["collisions"]] = len(hits)
@@ -356,6 +365,16 @@ class Recorder:
         row[C["n_tvs"]] = len(tvs)
         self.tracks.add(scene.t, tvs)
         return row
+
+    def stop_at_collision(self, k: int) -> bool:
+        """True if row k holds the run's first collision onset: the run ends with this
+        row (`[scenario] on_collision = "stop"`; a crash ends the ride, the SV never
+        drives on through the TV)."""
+        if self.first_collision is None or self.stopped:
+            return False
+        self.stopped = True
+        self.last_row = k
+        return True
 
     def sumo_collisions(self, pairs: set[tuple[str, ...]]) -> None:
         """SUMO's collisions of the last step that involve the SV (cross-check)."""
@@ -397,8 +416,9 @@ class Recorder:
         return worst
 
     def trace(self) -> dict[str, Array]:
-        """The trace columns as arrays (copies)."""
-        return {name: self.data[:, i].copy() for name, i in COLUMN.items()}
+        """The trace columns as arrays (copies), up to the run's last row."""
+        rows = self.data[:self.last_row + 1]
+        return {name: rows[:, i].copy() for name, i in COLUMN.items()}
 
     def metrics(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres, *,
                 plant: str, tracks_reference: bool, n_steps: int, events: int
@@ -418,7 +438,7 @@ class Recorder:
             "controller": sc.sv.controller,
             "plant": plant,
             "duration_s": float(t[-1]),
-            "steps": n_steps,
+            "steps": self.last_row if self.stopped else n_steps,
             "lane_change_requests": requests,
             "plans": done.planner_calls,
             "plans_failed": sum(1 for p in done.plans if p["ok"] == 0),
@@ -438,6 +458,10 @@ class Recorder:
             "collisions_sv": self.sv_fault,
             "collisions_manoeuvre": self.manoeuvre_hits,
             "sumo_collisions": self.sumo_new,
+            "collision_t_s": math.nan if self.first_collision is None
+            else self.first_collision[0],
+            "collision_with": "" if self.first_collision is None else self.first_collision[1],
+            "stopped_by_collision": int(self.stopped),
             "min_gap_m": float(np.min(trace["gap_min_m"])),
             "min_ttc_s": float(np.min(trace["ttc_min_s"])),
             "follower_max_decel_mps2": self.follower_decel(

@@ -140,8 +140,9 @@ class CoSimulation:
                 everyone = world.read(observer.radius, full=observer.full_scene)
                 scene = Scene.around(t, ego.state(everyone), everyone)
                 ego.write_trace(recorder.record(k, scene, policy.status(scene.sv)))
-                if k == self.n_steps:
-                    break
+                if k == self.n_steps or (self.sc.on_collision == "stop"
+                                         and recorder.stop_at_collision(k)):
+                    break  # the end, or the first collision onset (on_collision = "stop")
                 reference = policy.update(t, scene, observer.inbox(scene))
                 if self.cooperation:  # gap requests due reach their TVs
                     tvs, api = scene.tvs, world.sumo.api

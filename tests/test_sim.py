@@ -103,6 +103,7 @@ CUT_IN = """
 [scenario]
 name = "cut_in"
 duration_s = 6.0
+on_collision = "continue"
 [road]
 mu = 0.8
 [sv]
@@ -136,6 +137,39 @@ def test_a_forced_overlap_is_detected_by_our_check(tmp_path: Path) -> None:
     dy = 3.75 * (1 - _quintic((r.trace["t_s"] - 0.5) / 3.0))
     expected = r.trace["t_s"][np.argmax(dy <= 1.8)]
     assert abs(t_first - expected) <= 0.051
+
+
+def test_a_collision_stops_the_run_at_its_onset(tmp_path: Path) -> None:
+    """The default `on_collision = "stop"`: the run ends with the row of the first onset
+    (a crash ends the ride; before issue 22 the SV drove on inside the TV), recorded with
+    its time, the TV and the fault; "continue" runs to the end."""
+    go_on = simulate(scenario_from(tmp_path, CUT_IN))
+    t_hit = float(go_on.trace["t_s"][np.argmax(go_on.trace["collisions"] > 0)])
+    r = simulate(scenario_from(tmp_path, CUT_IN.replace('on_collision = "continue"', "")))
+    m = r.metrics
+    assert r.scenario.on_collision == "stop"
+    assert m["stopped_by_collision"] == 1 and go_on.metrics["stopped_by_collision"] == 0
+    assert m["collision_t_s"] == pytest.approx(t_hit) == go_on.metrics["collision_t_s"]
+    assert m["collision_with"] == "cutter" and m["collisions"] == 1
+    assert m["collisions_sv"] == go_on.metrics["collisions_sv"]  # the same fault
+    assert r.trace["t_s"][-1] == pytest.approx(t_hit) == m["duration_s"]
+    assert r.trace["collisions"][-1] == 1 and np.all(r.trace["collisions"][:-1] == 0)
+    assert m["steps"] == round(t_hit / 0.05) and go_on.metrics["duration_s"] == 6.0
+    # the rows up to the onset are the same run's
+    n = r.trace["t_s"].size
+    assert np.array_equal(r.trace["x_m"], go_on.trace["x_m"][:n])
+
+
+def test_cosim_run_says_on_stderr_that_a_collision_stopped_it(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "cut_in.toml"
+    path.write_text(CUT_IN.replace('on_collision = "continue"', ""), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--no-figures"]) == 0
+    err = capsys.readouterr().err
+    assert "collision with cutter at t = " in err and "the run stopped there" in err
+    metrics = (out / "metrics.csv").read_text(encoding="utf-8")
+    assert "stopped_by_collision" in metrics
 
 
 def _quintic(s: np.ndarray) -> np.ndarray:
