@@ -152,6 +152,9 @@ METRIC_DOCS: dict[str, str] = {
     "final_lane": "SV's lane at the end (SUMO index, from y)",
     "final_offset_m": "SV's y minus its lane centre at the end (m)",
     "mean_speed_mps": "SV's mean speed (m/s)",
+    "start_speed_mps": "SV's speed at t = 0 (m/s): sv.speed_kmh, or lower where its leader at "
+    "t = 0 is random traffic it could not brake for from that speed (SUMO's departSpeed rule: "
+    "README, Output files)",
     "sumo_events": "SUMO teleports / lost vehicles during the run",
 }
 
@@ -482,6 +485,7 @@ class Recorder:
             final_lane=lane_end,
             final_offset_m=y_end - self.road.lane_center(lane_end),
             mean_speed_mps=float(np.mean(trace["vx_mps"])),
+            start_speed_mps=float(trace["vx_mps"][0]),
             sumo_events=events,
         )
         return m

@@ -32,9 +32,11 @@ but timing.csv byte-identical between two runs of the same scenario and seed).
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -102,18 +104,30 @@ class CoSimulation:
         road = self.road = world.start()
         ego: Ego
         policy: LaneChangePolicy
-        if sc.sv.controller == "sumo":
-            self.observer = Observer(sc, road, world, listens=SumoDriverPolicy.listens)
-            ego = SumoDrivenEgo(sc, world)
+        sumo_driven = sc.sv.controller == "sumo"
+        self.observer = Observer(sc, road, world, listens=SumoDriverPolicy.listens
+                                 if sumo_driven else True)
+        y0 = road.lane_center(sc.sv.lane)
+        ego = (SumoDrivenEgo(sc, world) if sumo_driven else PlannedEgo(
+            sc, world, y0, lane_keeping_reference(0.0, world.sv_start_x, y0, sc.sv.speed, 0.0)))
+        self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
+        world.insert()
+        ego.inserted()
+        # the SV starts at a speed it can brake from for the random traffic ahead (SUMO's
+        # departSpeed rule, `World.start_speed`); the policy is built from that speed
+        self.start = world.start_speed(sc.sv.speed, road.mu) if sc.traffic.density > 0 else (
+            sc.sv.speed, "", math.inf, math.nan)
+        if self.start[0] < sc.sv.speed:
+            v0 = self.start[0]
+            keep = sc.sv.desired_speed if (sc.sv.desired_speed or sc.sv.decision) else sc.sv.speed
+            sc = self.sc = replace(sc, sv=replace(sc.sv, speed=v0, desired_speed=keep))
+            ego.start_speed(v0, lane_keeping_reference(0.0, world.sv_start_x, y0, v0, 0.0))
+        if sumo_driven:
             policy = SumoDriverPolicy(sc, road, self.cfg,
                                       lambda lane: world.sumo.change_lane(SV_ID, lane, 30.0))
         else:
             from cosim.planning.planner import LaneChangePlanner
 
-            self.observer = Observer(sc, road, world)
-            y0 = road.lane_center(sc.sv.lane)
-            ego = PlannedEgo(sc, world, y0, lane_keeping_reference(
-                0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc))
             blinker = lambda direction: world.sumo.set_blinker(SV_ID, direction)  # noqa: E731
             if sc.planner.policy == GapPolicy.name:
@@ -124,9 +138,6 @@ class CoSimulation:
             else:
                 policy = DRIVERS[sc.planner.policy](sc, road, self.cfg, planner, blinker)
         self.ego, self.policy = ego, policy
-        self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
-        world.insert()
-        ego.inserted()
 
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()

@@ -115,6 +115,22 @@ class World:
         self.t_offset = self.sumo.time
         self.sumo.follow_in_gui(SV_ID)
 
+    def start_speed(self, speed: float, mu: float) -> tuple[float, str, float, float]:
+        """(m/s, leader id, gap m, leader speed m/s): the SV's start speed, `speed` or, when
+        its leader in its lane right after insertion is random traffic, at most the speed
+        from which it can brake for that leader (`demand.safe_start_speed`: SUMO's
+        departSpeed rule). A scripted leader's place and speed are the scenario's: kept."""
+        from cosim.traffic.demand import RANDOM_ID, safe_start_speed
+
+        vehicle = self.sumo.api.vehicle
+        found = vehicle.getLeader(SV_ID, 1000.0)  # gap from the SV's front + its minGap
+        if not found or not found[0] or not RANDOM_ID.fullmatch(found[0]):
+            return speed, "", float("inf"), float("nan")
+        leader = str(found[0])
+        gap = float(found[1]) + float(vehicle.getMinGap(SV_ID))
+        leader_speed = float(vehicle.getSpeed(leader))
+        return safe_start_speed(speed, gap, leader_speed, mu), leader, gap, leader_speed
+
     def read(self, radius: float, *, full: bool = True) -> TrafficSnapshot:
         """Every vehicle within `radius` of the SV (the SV included); without `full` no
         accelerations and signals (only V2V messages need them)."""
