@@ -156,6 +156,20 @@ METRIC_DOCS: dict[str, str] = {
     "t = 0 is random traffic it could not brake for from that speed (SUMO's departSpeed rule: "
     "README, Output files)",
     "sumo_events": "SUMO teleports / lost vehicles during the run",
+    "rms_long_accel_mps2": "RMS of the SV's longitudinal acceleration ax over the run (m/s^2)",
+    "rms_long_jerk_mps3": "RMS of its jerk d(ax)/dt between steps (m/s^3)",
+    "max_long_jerk_mps3": "largest |d(ax)/dt| between steps (m/s^3)",
+    "long_accel_jump_share": "share of steps whose ax changes by more than 5 m/s^2 (-; the "
+    "chatter measure of issue 22)",
+    "merge_time_gap_s": "time gap to the new leader when the SV's centre enters the target "
+    "lane: bumper-to-bumper gap / SV speed, smallest over the lane changes (s; inf: no leader "
+    "within 150 m; NaN: no lane change entered)",
+    "post_change_max_decel_mps2": "the SV's largest deceleration from its entry into the "
+    "target lane until 3 s after the change settles (3 s after the entry if it did not), "
+    "largest over the lane changes (m/s^2; NaN: no lane change entered)",
+    "request_to_lane_s": "time from the first lane-change request (scripted: its at_s, both "
+    "drivers; else our driver's first decision-rule planner call) until the SV's centre is "
+    "in the requested lane (s; NaN: no request, or never got there)",
 }
 
 TIMING_DOCS: dict[str, str] = {
@@ -248,10 +262,12 @@ class Tracks:
 
     def __init__(self) -> None:
         self.chunks: list[tuple[float, tuple[str, ...], Array, Array]] = []
+        self.lengths: list[Array] = []  # m, the TVs' body lengths, one array per chunk
 
     def add(self, t: float, snap: TrafficSnapshot) -> None:
         if len(snap):
             self.chunks.append((t, snap.ids, snap.x, snap.y))  # snapshots are never modified
+            self.lengths.append(snap.length)
 
     def result(self) -> dict[str, tuple[Array, Array, Array]]:
         """id -> (t, x, y) arrays in time order."""
@@ -418,6 +434,43 @@ class Recorder:
                 worst = decel if math.isnan(worst) else max(worst, decel)
         return worst
 
+    def comfort(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres,
+                durations: Array) -> dict[str, float]:
+        """The comfort columns (metrics.COMFORT_COLUMNS, METRIC_DOCS): ax and its jerk over
+        the run; per lane change entered, the time gap to the new leader at the entry and
+        the SV's hardest braking after it; the first request's time to the target lane."""
+        t, lane, ax = trace["t_s"], trace["lane"], trace["ax_mps2"]
+        m: dict[str, float] = mx.longitudinal_comfort(t, ax)
+        chunk_t = np.array([c[0] for c in self.tracks.chunks])
+        gaps, decels = [], []
+        for s, y_target, e, d in zip(done.starts, done.targets, done.ends, durations,
+                                     strict=True):
+            target = self.road.lane_of(y_target)
+            enter = mx.lane_entry_time(t, lane, s, target, e)
+            if not math.isfinite(enter):
+                continue
+            decels.append(mx.post_change_max_decel(t, ax, enter, s + d))
+            k = int(np.searchsorted(chunk_t, enter - 1e-9))
+            if k >= chunk_t.size or abs(chunk_t[k] - enter) > 1e-9:
+                gaps.append(math.inf)  # nobody near then
+                continue
+            _, _, x, y = self.tracks.chunks[k]
+            in_lane = np.floor((y - self.road.y_right) / self.road.lane_width) == target
+            gaps.append(mx.time_gap(float(np.interp(enter, t, trace["x_m"])),
+                                    float(np.interp(enter, t, trace["vx_mps"])),
+                                    self.sv_length, x[in_lane], self.tracks.lengths[k][in_lane]))
+        m["merge_time_gap_s"] = min(gaps) if gaps else math.nan
+        m["post_change_max_decel_mps2"] = max(decels) if decels else math.nan
+        # the first request: scripted (both drivers), else our driver's first planner call
+        if sc.sv.lane_changes:
+            request, wanted = sc.sv.lane_changes[0].at, sc.sv.lane_changes[0].target_lane
+        else:
+            first = next((p for p in done.plans if p["trigger"] == "decision"), None)
+            request, wanted = ((math.nan, -1) if first is None
+                               else (float(first["t_s"]), int(first["target_lane"])))
+        m["request_to_lane_s"] = mx.request_to_lane(t, lane, request, wanted)
+        return m
+
     def trace(self) -> dict[str, Array]:
         """The trace columns as arrays (copies), up to the run's last row."""
         rows = self.data[:self.last_row + 1]
@@ -488,6 +541,7 @@ class Recorder:
             start_speed_mps=float(trace["vx_mps"][0]),
             sumo_events=events,
         )
+        m.update(self.comfort(sc, trace, done, durations))
         return m
 
 

@@ -333,3 +333,26 @@ def test_scripted_requests_come_when_the_scenario_says(tmp_path: Path) -> None:
     assert first.t0 + first.tau < 4.0  # the first was over by then
     assert r.metrics["lane_changes"] == 2 and r.metrics["final_lane"] == 0
     assert abs(r.metrics["final_offset_m"]) < 0.1
+
+
+@pytest.mark.parametrize("controller", ["mimo", "sumo"])
+def test_comfort_metrics_are_the_traces_for_both_drivers(controller: str) -> None:
+    """Issue 22: the comfort columns, for our driver and SUMO's alike (paper case 5.1)."""
+    from cosim.metrics import COMFORT_COLUMNS
+
+    sc = with_overrides(load_scenario(SCENARIOS / "paper_case1_overtaking.toml"),
+                        controller=controller)
+    r = simulate(sc)
+    m, t, ax = r.metrics, r.trace["t_s"], r.trace["ax_mps2"]
+    assert all(k in m for k in COMFORT_COLUMNS)
+    ok = np.isfinite(ax)
+    assert m["rms_long_accel_mps2"] == pytest.approx(np.sqrt(np.mean(ax[ok] ** 2)))
+    jerk = np.abs(np.diff(ax) / np.diff(t))
+    assert m["max_long_jerk_mps3"] == pytest.approx(np.nanmax(jerk))
+    assert m["long_accel_jump_share"] < 0.01
+    # requested at 0 s (scripted), in lane 1 within the lane change's time
+    entered = t[np.argmax(r.trace["lane"] == 1)]
+    assert m["request_to_lane_s"] == pytest.approx(entered - sc.sv.lane_changes[0].at)
+    assert 0.5 < m["request_to_lane_s"] < 6.4
+    assert m["merge_time_gap_s"] == math.inf  # case 5.1: nobody ahead in lane 1
+    assert 0.0 <= m["post_change_max_decel_mps2"] < 3.0
