@@ -140,8 +140,9 @@ class SumoDrivenEgo:
         self.world.sumo.controlled.release(SV_ID)
 
     def start_speed(self, speed: float, reference: LaneChangeTrajectory) -> None:
-        """Its speed at t = 0 (m/s), as if it had driven it over the insertion step."""
-        self.world.sumo.api.vehicle.setPreviousSpeed(SV_ID, float(speed))
+        """Its speed at t = 0 (m/s), as if it had driven it over the insertion step (at
+        zero acceleration: SUMO would otherwise report the jump as one)."""
+        self.world.sumo.api.vehicle.setPreviousSpeed(SV_ID, float(speed), 0.0)
 
     def state(self, everyone: TrafficSnapshot) -> SVState:
         i = everyone.index(SV_ID)

@@ -13,6 +13,10 @@ proportional loop on speed, stable only for kx1 T < 2; at 100 Hz (T = 10 ms,
 kx1 T = 2) the speed error after a step keeps oscillating at +-0.03 m/s, at
 67 Hz it grows until the wheel forces saturate.
 
+Eq. 28's gain has a low-speed form (`longitudinal.speed_gain`): below 21.6 m/s it is held
+under the tyres' force build-up rate Vx / sigma_kappa, through whose lag the paper's
+kx1 = 200 /s limit-cycled the two-track car at ~25 Hz (issue 22).
+
 Guards: the controller divides by max(vx, speed_floor); below speed_floor (stop-and-go)
 the integrators run over distance (ye * h * vx / speed_floor: they hold at a standstill,
 where the errors cannot change) and dMz fades in proportion (a yaw moment at rest only

@@ -47,9 +47,12 @@ def test_a_queue_too_close_and_slow_on_a_wet_road_lowers_the_start_speed() -> No
     assert 15.0 < m["start_speed_mps"] < 20.0 < sc.sv.speed
     assert m["collisions"] == 0 and m["stopped_by_collision"] == 0
     # SUMO's own driver gets the same start
-    s = simulate(with_overrides(sc, controller="sumo")).metrics
+    sumo = simulate(with_overrides(sc, controller="sumo"))
+    s = sumo.metrics
     assert s["start_speed_mps"] == pytest.approx(m["start_speed_mps"])
     assert s["collisions"] == 0
+    # set as the speed it drove, not reported as a jump (it was -65 m/s^2 at t = 0)
+    assert abs(sumo.trace["ax_mps2"][0]) < 5.0
 
 
 def test_scripted_and_free_starts_keep_their_speed() -> None:
