@@ -20,6 +20,12 @@ reads top to bottom, one part per job:
 6. the scripted TVs to their poses at t_k+1,
 7. `simulationStep()`: SUMO moves its own vehicles to t_k+1.
 
+Start and end (issue 22): right after the step that inserts everyone, the SV's speed is
+lowered to one it can brake from if its leader is random traffic too close and slow
+(`World.start_speed`, SUMO's departSpeed rule), and the policy is built from that speed;
+the run stops with the row of our check's first collision onset (`[scenario]
+on_collision = "stop"`, the default), never driving on through the TV.
+
 Controller "sumo" is the baseline: the SV is an ordinary SUMO vehicle of the
 SV's size (`SumoDrivenEgo`); scripted requests become `changeLane` calls, the
 decision rule is SUMO's own lane-change model (`SumoDriverPolicy`); the same
