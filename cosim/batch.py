@@ -540,8 +540,72 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         row[f"follower_decel_mps2_p{FOLLOWER_PERCENTILE}"] = (
             float(np.percentile(decel, FOLLOWER_PERCENTILE)) if len(decel) else math.nan)
         row["follower_decel_mps2_max"] = float(decel.max()) if len(decel) else math.nan
+        row.update(comfort_summary(ok))
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+# ------------------------------------------------------------------ comfort (issue 22)
+# Per grid cell: medians (p50) and worst values of the SV's comfort metrics
+# (cosim.metrics.COMFORT_COLUMNS), over the finished runs where the metric is finite.
+COMFORT_MEDIANS = ("rms_long_accel_mps2", "rms_long_jerk_mps3", "max_long_jerk_mps3",
+                   "long_accel_jump_share", "merge_time_gap_s", "post_change_max_decel_mps2",
+                   "request_to_lane_s")
+HARD_BRAKE = 3.0  # m/s^2, a deceleration after the change this large counts as hard braking
+
+
+def comfort_summary(ok: pd.DataFrame) -> dict[str, float]:
+    """summary.csv's comfort columns of one cell's finished runs: `<metric>_p50` for each
+    of COMFORT_MEDIANS, `max_long_jerk_mps3_max`, `merge_time_gap_s_min`,
+    `post_change_max_decel_mps2_max` and `hard_post_change_brakes` (runs that braked
+    harder than HARD_BRAKE after a change; NaN before these metrics existed)."""
+    import pandas as pd
+
+    row: dict[str, float] = {}
+
+    def values(metric: str) -> np.ndarray:
+        if metric not in ok:
+            return np.empty(0)
+        v = pd.to_numeric(ok[metric], errors="coerce").to_numpy(float)
+        return v[np.isfinite(v)]
+
+    for metric in COMFORT_MEDIANS:
+        v = values(metric)
+        row[f"{metric}_p50"] = float(np.median(v)) if len(v) else math.nan
+    jerk, gap, decel = (values(m) for m in ("max_long_jerk_mps3", "merge_time_gap_s",
+                                            "post_change_max_decel_mps2"))
+    row["max_long_jerk_mps3_max"] = float(jerk.max()) if len(jerk) else math.nan
+    row["merge_time_gap_s_min"] = float(gap.min()) if len(gap) else math.nan
+    row["post_change_max_decel_mps2_max"] = float(decel.max()) if len(decel) else math.nan
+    row["hard_post_change_brakes"] = (float(np.sum(decel > HARD_BRAKE))
+                                      if "post_change_max_decel_mps2" in ok else math.nan)
+    return row
+
+
+def comfort_markdown(summary: pd.DataFrame) -> str:
+    """The comfort columns of summary.csv as a Markdown table (comfort.md)."""
+    head = ["driver", "variant", "mu", "density (veh/km/lane)",
+            "max jerk m/s^3: median / max", "ax jumps > 5 m/s^2: median share",
+            "merge time gap s: median / min", "decel after change m/s^2: median / max",
+            "runs braking > 3 m/s^2 after change", "request to target lane s: median"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+
+    def num(value: Any, digits: int = 2) -> str:
+        return "-" if not (isinstance(value, float | int) and math.isfinite(value)) \
+            else f"{value:.{digits}f}"
+
+    for _, r in summary.iterrows():
+        if "max_long_jerk_mps3_p50" not in r:
+            continue
+        lines.append("| " + " | ".join([
+            str(r["driver"]), str(r["variant"]), f"{r['mu']:g}", f"{r['density']:g}",
+            f"{num(r['max_long_jerk_mps3_p50'], 0)} / {num(r['max_long_jerk_mps3_max'], 0)}",
+            num(r["long_accel_jump_share_p50"], 3),
+            f"{num(r['merge_time_gap_s_p50'])} / {num(r['merge_time_gap_s_min'])}",
+            f"{num(r['post_change_max_decel_mps2_p50'])} / "
+            f"{num(r['post_change_max_decel_mps2_max'])}",
+            num(r["hard_post_change_brakes"], 0), num(r["request_to_lane_s_p50"])]) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def interval(low: float, high: float, digits: int = 2, scale: float = 1.0) -> str:
@@ -594,10 +658,11 @@ def summary_markdown(summary: pd.DataFrame) -> str:
 
 
 def write_tables(runs: pd.DataFrame, summary: pd.DataFrame, out_dir: Path) -> None:
-    """runs.csv, summary.csv and summary.md, each replaced atomically."""
+    """runs.csv, summary.csv, summary.md and comfort.md, each replaced atomically."""
     atomic_write_csv(out_dir / "runs.csv", runs)
     atomic_write_csv(out_dir / "summary.csv", summary)
     atomic_write_text(out_dir / "summary.md", summary_markdown(summary))
+    atomic_write_text(out_dir / "comfort.md", comfort_markdown(summary))
 
 
 # --------------------------------------------------------------------------- the study

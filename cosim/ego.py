@@ -39,6 +39,7 @@ class Ego(Protocol):
     wall: float  # s, wall time in controller + plant
 
     def inserted(self) -> None: ...
+    def start_speed(self, speed: float, reference: LaneChangeTrajectory) -> None: ...
     def state(self, everyone: TrafficSnapshot) -> SVState: ...
     def write_trace(self, row: Array) -> None: ...
     def advance(self, t: float, dt: float, reference: LaneChangeTrajectory | None) -> None: ...
@@ -52,21 +53,28 @@ class PlannedEgo:
 
     def __init__(self, scenario: Scenario, world: World, y0: float,
                  first_reference: LaneChangeTrajectory) -> None:
-        from cosim.control.closed_loop import ClosedLoop
-
         sc = scenario
         x0 = world.sv_start_x
         self.plant = sc.sv.plant
         self.substeps = sc.substeps
         self.world = world
-        self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
-                               sc.road.mu, x0, y0, 0.0, sc.sv.speed)
+        self._start = (sc, x0, y0)
+        self.start_speed(sc.sv.speed, first_reference)
         world.add_controlled(SV_ID, x0, y0, 0.0, sc.sv.speed, sc.vehicle.length,
                              sc.vehicle.width, sc.sv.lane)
-        self.loop.set_reference(first_reference)
+        self.wall = 0.0
+
+    def start_speed(self, speed: float, reference: LaneChangeTrajectory) -> None:
+        """(Re)start the closed loop at t = 0 at `speed` (m/s) tracking `reference` (SUMO
+        gets the speed with the first pose written)."""
+        from cosim.control.closed_loop import ClosedLoop
+
+        sc, x0, y0 = self._start
+        self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
+                               sc.road.mu, x0, y0, 0.0, speed)
+        self.loop.set_reference(reference)
         self.record = self.loop.record(0.0)
         self.records: list[Any] = [self.record]
-        self.wall = 0.0
 
     def inserted(self) -> None:
         """Nothing to do: the SV stays under our control."""
@@ -129,6 +137,11 @@ class SumoDrivenEgo:
     def inserted(self) -> None:
         """From now on SUMO drives it."""
         self.world.hand_sv_to_sumo()
+
+    def start_speed(self, speed: float, reference: LaneChangeTrajectory) -> None:
+        """Its speed at t = 0 (m/s), as if it had driven it over the insertion step (at
+        zero acceleration: SUMO would otherwise report the jump as one)."""
+        self.world.set_sv_previous_speed(speed)
 
     def state(self, everyone: TrafficSnapshot) -> SVState:
         i = everyone.index(SV_ID)

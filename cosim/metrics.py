@@ -213,3 +213,78 @@ def follower_max_decel(t: ArrayLike, speed: ArrayLike, enter: float, settled: fl
         return math.nan
     decel = float((-np.diff(v)[pair] / np.diff(tt)[pair]).max())
     return decel if decel > 0.0 else 0.0
+
+
+# ----------------------------------------------------------------------------- comfort
+# Riding comfort of the SV, for our drivers and SUMO's alike (issue 22): what the
+# paper's method exists for. Longitudinal acceleration and jerk over the run; around
+# each lane change: the time gap to the new leader as the SV enters the target lane,
+# the SV's hardest braking from then until POST_CHANGE_WINDOW after the change settles,
+# and how long after the request the SV got there.
+
+ACCEL_JUMP = 5.0  # m/s^2, a step-to-step change of ax this large is a jump (chatter)
+POST_CHANGE_WINDOW = FOLLOWER_WINDOW  # s, after the change settles, the SV is still watched
+COMFORT_COLUMNS = (
+    "rms_long_accel_mps2", "rms_long_jerk_mps3", "max_long_jerk_mps3", "long_accel_jump_share",
+    "merge_time_gap_s", "post_change_max_decel_mps2", "request_to_lane_s",
+)
+
+
+def longitudinal_comfort(t: ArrayLike, ax: ArrayLike) -> dict[str, float]:
+    """RMS of ax (m/s^2), RMS and peak |dax/dt| between samples (m/s^3), and the share of
+    steps whose |ax change| exceeds ACCEL_JUMP (-); samples where ax is not finite are
+    left out (NaN: fewer than two)."""
+    tt = np.asarray(t, dtype=float)
+    a = np.asarray(ax, dtype=float)
+    ok = np.isfinite(a)
+    da = np.diff(a)
+    step = np.diff(tt)
+    pair = ok[1:] & ok[:-1] & (step > 0.0)
+    if not pair.any():
+        return dict.fromkeys(COMFORT_COLUMNS[:4], math.nan)
+    j = da[pair] / step[pair]
+    return {
+        "rms_long_accel_mps2": float(np.sqrt(np.mean(a[ok] ** 2))),
+        "rms_long_jerk_mps3": float(np.sqrt(np.mean(j**2))),
+        "max_long_jerk_mps3": float(np.abs(j).max()),
+        "long_accel_jump_share": float(np.mean(np.abs(da[pair]) > ACCEL_JUMP)),
+    }
+
+
+def time_gap(sv_x: float, sv_speed: float, sv_length: float, tv_x: ArrayLike,
+             tv_length: ArrayLike) -> float:
+    """s, bumper-to-bumper gap to the nearest TV ahead (centre x > the SV's) over the SV's
+    speed; inf: no TV ahead; candidates are the TVs given (those in the lane)."""
+    x = np.asarray(tv_x, dtype=float)
+    ahead = x > sv_x
+    if not ahead.any():
+        return math.inf
+    k = int(np.argmin(np.where(ahead, x, np.inf)))
+    gap = float(x[k] - sv_x - 0.5 * (np.asarray(tv_length, dtype=float)[k] + sv_length))
+    return gap / sv_speed if sv_speed > 0.0 else (math.inf if gap > 0.0 else 0.0)
+
+
+def post_change_max_decel(t: ArrayLike, ax: ArrayLike, enter: float, settled: float,
+                          window: float = POST_CHANGE_WINDOW) -> float:
+    """m/s^2 (>= 0), the SV's largest deceleration -ax in [enter, settled + window]
+    (an unsettled change: [enter, enter + window]); NaN: never entered."""
+    if math.isnan(enter):
+        return math.nan
+    tt = np.asarray(t, dtype=float)
+    stop = (settled if math.isfinite(settled) else enter) + window
+    inside = (tt >= enter - 1e-9) & (tt <= stop + 1e-9)
+    a = np.asarray(ax, dtype=float)[inside]
+    a = a[np.isfinite(a)]
+    if not a.size:
+        return math.nan
+    decel = float(-a.min())
+    return decel if decel > 0.0 else 0.0
+
+
+def request_to_lane(t: ArrayLike, lane: ArrayLike, request: float, target_lane: int) -> float:
+    """s, from a lane-change request at `request` until the SV's centre is first in
+    `target_lane` (NaN: no request, or never got there)."""
+    if math.isnan(request):
+        return math.nan
+    enter = lane_entry_time(t, lane, request, target_lane)
+    return enter - request if math.isfinite(enter) else math.nan

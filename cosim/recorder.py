@@ -110,6 +110,10 @@ METRIC_DOCS: dict[str, str] = {
     "(a planned manoeuvre under way, replans and aborts included; the SUMO-driven SV: moving "
     "sideways faster than 0.05 m/s)",
     "sumo_collisions": "collision events involving the SV reported by SUMO (cross-check)",
+    "collision_t_s": "time of the first collision onset by our check (s; NaN: none)",
+    "collision_with": "TV id(s) of that first collision, ';'-separated (empty: none)",
+    "stopped_by_collision": "1 if the run stopped at that onset ([scenario] on_collision = "
+    "\"stop\", the default: duration_s and steps are then up to it), else 0",
     "min_gap_m": "smallest along-lane gap to a TV sharing the SV's strip (m; inf: none)",
     "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
     "follower_max_decel_mps2": "largest deceleration of the SV's new follower in the target "
@@ -129,7 +133,24 @@ METRIC_DOCS: dict[str, str] = {
     "final_lane": "SV's lane at the end (SUMO index, from y)",
     "final_offset_m": "SV's y minus its lane centre at the end (m)",
     "mean_speed_mps": "SV's mean speed (m/s)",
+    "start_speed_mps": "SV's speed at t = 0 (m/s): sv.speed_kmh, or lower where its leader at "
+    "t = 0 is random traffic it could not brake for from that speed (SUMO's departSpeed rule: "
+    "README, Output files)",
     "sumo_events": "SUMO teleports / lost vehicles during the run",
+    "rms_long_accel_mps2": "RMS of the SV's longitudinal acceleration ax over the run (m/s^2)",
+    "rms_long_jerk_mps3": "RMS of its jerk d(ax)/dt between steps (m/s^3)",
+    "max_long_jerk_mps3": "largest |d(ax)/dt| between steps (m/s^3)",
+    "long_accel_jump_share": "share of steps whose ax changes by more than 5 m/s^2 (-; the "
+    "chatter measure of issue 22)",
+    "merge_time_gap_s": "time gap to the new leader when the SV's centre enters the target "
+    "lane: bumper-to-bumper gap / SV speed, smallest over the lane changes (s; inf: no leader "
+    "within 150 m; NaN: no lane change entered)",
+    "post_change_max_decel_mps2": "the SV's largest deceleration from its entry into the "
+    "target lane until 3 s after the change settles (3 s after the entry if it did not), "
+    "largest over the lane changes (m/s^2; NaN: no lane change entered)",
+    "request_to_lane_s": "time from the first lane-change request (scripted: its at_s, both "
+    "drivers; else our driver's first decision-rule planner call) until the SV's centre is "
+    "in the requested lane (s; NaN: no request, or never got there)",
 }
 
 TIMING_DOCS: dict[str, str] = {
@@ -169,10 +190,12 @@ class Tracks:
 
     def __init__(self) -> None:
         self.chunks: list[tuple[float, tuple[str, ...], Array, Array]] = []
+        self.lengths: list[Array] = []  # m, the TVs' body lengths, one array per chunk
 
     def add(self, t: float, snap: TrafficSnapshot) -> None:
         if len(snap):
             self.chunks.append((t, snap.ids, snap.x, snap.y))  # snapshots are never modified
+            self.lengths.append(snap.length)
 
     def result(self) -> dict[str, tuple[Array, Array, Array]]:
         """id -> (t, x, y) arrays in time order."""
@@ -207,6 +230,9 @@ class Recorder:
         self.sumo_pairs: set[tuple[str, ...]] = set()
         self.sumo_new = 0  # SUMO collision events involving the SV (onsets)
         self.sumo_step_collisions = 0  # SUMO collisions involving the SV in the last step
+        self.first_collision: tuple[float, str] | None = None  # (t s, TV ids) of the first onset
+        self.last_row = n_steps  # the run's last trace row (earlier: stopped by a collision)
+        self.stopped = False  # the run stopped at its first collision onset
 
     def record(self, k: int, scene: Scene, status: PolicyStatus) -> Array:
         """Row k: what every SV has (the ego adds its own columns); returns the row."""
@@ -250,6 +276,8 @@ class Recorder:
             if status.manoeuvring or float(tvs.x[tvs.index(vid)]) > x:
                 self.sv_fault += 1
             self.manoeuvre_hits += int(status.manoeuvring)
+        if hits - self.hits and self.first_collision is None:
+            self.first_collision = (scene.t, ";".join(sorted(hits - self.hits)))
         self.collisions += len(hits - self.hits)
         self.hits = hits
         row[C["collisions"]] = len(hits)
@@ -257,6 +285,16 @@ class Recorder:
         row[C["n_tvs"]] = len(tvs)
         self.tracks.add(scene.t, tvs)
         return row
+
+    def stop_at_collision(self, k: int) -> bool:
+        """True if row k holds the run's first collision onset: the run ends with this
+        row (`[scenario] on_collision = "stop"`; a crash ends the ride, the SV never
+        drives on through the TV)."""
+        if self.first_collision is None or self.stopped:
+            return False
+        self.stopped = True
+        self.last_row = k
+        return True
 
     def sumo_collisions(self, pairs: set[tuple[str, ...]]) -> None:
         """SUMO's collisions of the last step that involve the SV (cross-check)."""
@@ -297,9 +335,47 @@ class Recorder:
                 worst = decel if math.isnan(worst) else max(worst, decel)
         return worst
 
+    def comfort(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres,
+                durations: Array) -> dict[str, float]:
+        """The comfort columns (metrics.COMFORT_COLUMNS, METRIC_DOCS): ax and its jerk over
+        the run; per lane change entered, the time gap to the new leader at the entry and
+        the SV's hardest braking after it; the first request's time to the target lane."""
+        t, lane, ax = trace["t_s"], trace["lane"], trace["ax_mps2"]
+        m: dict[str, float] = mx.longitudinal_comfort(t, ax)
+        chunk_t = np.array([c[0] for c in self.tracks.chunks])
+        gaps, decels = [], []
+        for s, y_target, e, d in zip(done.starts, done.targets, done.ends, durations,
+                                     strict=True):
+            target = self.road.lane_of(y_target)
+            enter = mx.lane_entry_time(t, lane, s, target, e)
+            if not math.isfinite(enter):
+                continue
+            decels.append(mx.post_change_max_decel(t, ax, enter, s + d))
+            k = int(np.searchsorted(chunk_t, enter - 1e-9))
+            if k >= chunk_t.size or abs(chunk_t[k] - enter) > 1e-9:
+                gaps.append(math.inf)  # nobody near then
+                continue
+            _, _, x, y = self.tracks.chunks[k]
+            in_lane = np.floor((y - self.road.y_right) / self.road.lane_width) == target
+            gaps.append(mx.time_gap(float(np.interp(enter, t, trace["x_m"])),
+                                    float(np.interp(enter, t, trace["vx_mps"])),
+                                    self.sv_length, x[in_lane], self.tracks.lengths[k][in_lane]))
+        m["merge_time_gap_s"] = min(gaps) if gaps else math.nan
+        m["post_change_max_decel_mps2"] = max(decels) if decels else math.nan
+        # the first request: scripted (both drivers), else our driver's first planner call
+        if sc.sv.lane_changes:
+            request, wanted = sc.sv.lane_changes[0].at, sc.sv.lane_changes[0].target_lane
+        else:
+            first = next((p for p in done.plans if p["trigger"] == "decision"), None)
+            request, wanted = ((math.nan, -1) if first is None
+                               else (float(first["t_s"]), int(first["target_lane"])))
+        m["request_to_lane_s"] = mx.request_to_lane(t, lane, request, wanted)
+        return m
+
     def trace(self) -> dict[str, Array]:
-        """The trace columns as arrays (copies)."""
-        return {name: self.data[:, i].copy() for name, i in COLUMN.items()}
+        """The trace columns as arrays (copies), up to the run's last row."""
+        rows = self.data[:self.last_row + 1]
+        return {name: rows[:, i].copy() for name, i in COLUMN.items()}
 
     def metrics(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres, *,
                 plant: str, tracks_reference: bool, n_steps: int, events: int
@@ -319,7 +395,7 @@ class Recorder:
             "controller": sc.sv.controller,
             "plant": plant,
             "duration_s": float(t[-1]),
-            "steps": n_steps,
+            "steps": self.last_row if self.stopped else n_steps,
             "lane_change_requests": requests,
             "plans": done.planner_calls,
             "plans_failed": sum(1 for p in done.plans if p["ok"] == 0),
@@ -339,6 +415,10 @@ class Recorder:
             "collisions_sv": self.sv_fault,
             "collisions_manoeuvre": self.manoeuvre_hits,
             "sumo_collisions": self.sumo_new,
+            "collision_t_s": math.nan if self.first_collision is None
+            else self.first_collision[0],
+            "collision_with": "" if self.first_collision is None else self.first_collision[1],
+            "stopped_by_collision": int(self.stopped),
             "min_gap_m": float(np.min(trace["gap_min_m"])),
             "min_ttc_s": float(np.min(trace["ttc_min_s"])),
             "follower_max_decel_mps2": self.follower_decel(
@@ -359,6 +439,8 @@ class Recorder:
             final_lane=lane_end,
             final_offset_m=y_end - self.road.lane_center(lane_end),
             mean_speed_mps=float(np.mean(trace["vx_mps"])),
+            start_speed_mps=float(trace["vx_mps"][0]),
             sumo_events=events,
         )
+        m.update(self.comfort(sc, trace, done, durations))
         return m

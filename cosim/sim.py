@@ -21,6 +21,12 @@ reads top to bottom, one part per job:
 6. the scripted TVs to their poses at t_k+1,
 7. `simulationStep()`: SUMO moves its own vehicles to t_k+1.
 
+Start and end (issue 22): right after the step that inserts everyone, the SV's speed is
+lowered to one it can brake from if its leader is random traffic too close and slow
+(`World.start_speed`, SUMO's departSpeed rule), and the policy is built from that speed;
+the run stops with the row of our check's first collision onset (`[scenario]
+on_collision = "stop"`, the default), never driving on through the TV.
+
 Controller "sumo" is the baseline: the SV is an ordinary SUMO vehicle of the
 SV's size (`SumoDrivenEgo`); scripted requests become `changeLane` calls, the
 decision rule is SUMO's own lane-change model (cosim.driving.sumo); the same
@@ -33,9 +39,11 @@ but timing.csv byte-identical between two runs of the same scenario and seed).
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -83,16 +91,28 @@ class CoSimulation:
         self.observer = Observer(sc, road, world, listens=cls.listens)
         ego: Ego
         planner = None
+        y0 = road.lane_center(sc.sv.lane)
         if sumo_drives:
             ego = SumoDrivenEgo(sc, world)
         else:
             from cosim.planning.planner import LaneChangePlanner
 
-            y0 = road.lane_center(sc.sv.lane)
             ego = PlannedEgo(sc, world, y0, lane_keeping_reference(
                 0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc),
                                         prediction=cls.prediction)
+        self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
+        world.insert()
+        ego.inserted()
+        # the SV starts at a speed it can brake from for the random traffic ahead (SUMO's
+        # departSpeed rule, `World.start_speed`); the policy is built from that speed
+        self.start = world.start_speed(sc.sv.speed, road.mu) if sc.traffic.density > 0 else (
+            sc.sv.speed, "", math.inf, math.nan)
+        if self.start[0] < sc.sv.speed:
+            v0 = self.start[0]
+            keep = sc.sv.desired_speed if (sc.sv.desired_speed or sc.sv.decision) else sc.sv.speed
+            sc = self.sc = replace(sc, sv=replace(sc.sv, speed=v0, desired_speed=keep))
+            ego.start_speed(v0, lane_keeping_reference(0.0, world.sv_start_x, y0, v0, 0.0))
         if cls.asks_for_gaps:
             world.open_gap_requests()
         ports = WorldPorts(blinker=world.set_sv_blinker, change_lane=world.change_sv_lane,
@@ -100,9 +120,6 @@ class CoSimulation:
         policy: LaneChangePolicy = cls(DrivingContext.of(sc, road, decision=self.cfg,
                                                          planner=planner, ports=ports))
         self.ego, self.policy = ego, policy
-        self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
-        world.insert()
-        ego.inserted()
 
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()
@@ -116,8 +133,9 @@ class CoSimulation:
                 everyone = world.read(observer.radius, full=observer.full_scene)
                 scene = Scene.around(t, ego.state(everyone), everyone)
                 ego.write_trace(recorder.record(k, scene, policy.status(scene.sv)))
-                if k == self.n_steps:
-                    break
+                if k == self.n_steps or (self.sc.on_collision == "stop"
+                                         and recorder.stop_at_collision(k)):
+                    break  # the end, or the first collision onset (on_collision = "stop")
                 reference = policy.update(t, scene, observer.inbox(scene))
                 if world.gap_requests:  # gap requests due reach their TVs
                     world.deliver_gap_requests(t, scene.tvs, scene.sv.x,

@@ -257,6 +257,15 @@ def test_local_study_records_every_run_and_summarises_each_cell(local_study: Pat
     table = (local_study / "summary.md").read_text().splitlines()
     assert len(table) == 2 + 4 and table[0].startswith("| driver | density")
     assert (local_study / "plots" / "density.png").stat().st_size > 10_000
+    # the comfort block (issue 22): per cell, from the runs' own metrics
+    comfort = (local_study / "comfort.md").read_text().splitlines()
+    assert len(comfort) == 2 + 4 and "max jerk" in comfort[0]
+    done = runs[~failed]
+    for _, cell in summary.iterrows():
+        mine = done[(done["driver"] == cell["driver"]) & (done["density"] == cell["density"])]
+        assert cell["max_long_jerk_mps3_max"] == pytest.approx(mine["max_long_jerk_mps3"].max())
+        assert 0.0 <= cell["long_accel_jump_share_p50"] <= 1.0
+        assert cell["hard_post_change_brakes"] == (mine["post_change_max_decel_mps2"] > 3.0).sum()
 
 
 def test_same_command_again_runs_nothing(local_study: Path, capsys: pytest.CaptureFixture) -> None:

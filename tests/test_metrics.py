@@ -156,3 +156,49 @@ def test_follower_max_decel_window_and_nan() -> None:
     v_odd = v.copy()
     v_odd[::2] = np.nan  # no two consecutive known samples
     assert np.isnan(follower_max_decel(t, v_odd, 4.0, 8.0))
+
+
+# ---------------------------------------------------------------- comfort (issue 22)
+
+
+def test_longitudinal_comfort_measures_rms_jerk_and_chatter() -> None:
+    from cosim.metrics import longitudinal_comfort
+
+    t = np.arange(0.0, 1.0, 0.05)
+    smooth = longitudinal_comfort(t, np.full(t.size, -2.0))
+    assert smooth["rms_long_accel_mps2"] == pytest.approx(2.0)
+    assert smooth["rms_long_jerk_mps3"] == 0.0 and smooth["max_long_jerk_mps3"] == 0.0
+    assert smooth["long_accel_jump_share"] == 0.0
+    # the two-track chatter of issue 22: -6, +7, -6, ... every 0.05 s step
+    chatter = longitudinal_comfort(t, np.where(np.arange(t.size) % 2, 7.0, -6.0))
+    assert chatter["long_accel_jump_share"] == 1.0
+    assert chatter["max_long_jerk_mps3"] == pytest.approx(13.0 / 0.05)
+    assert chatter["rms_long_jerk_mps3"] == pytest.approx(13.0 / 0.05)
+    nan = longitudinal_comfort(t[:1], [1.0])
+    assert all(math.isnan(v) for v in nan.values())
+
+
+def test_time_gap_to_the_nearest_tv_ahead() -> None:
+    from cosim.metrics import time_gap
+
+    # SV (4.8 m) at x = 100 m, 20 m/s; TVs (5 m) at 80 (behind), 130 and 160 m
+    assert time_gap(100.0, 20.0, 4.8, [80.0, 160.0, 130.0], [5.0, 5.0, 5.0]) == pytest.approx(
+        (30.0 - 4.9) / 20.0)
+    assert time_gap(100.0, 20.0, 4.8, [80.0], [5.0]) == math.inf
+    assert time_gap(100.0, 20.0, 4.8, [], []) == math.inf
+
+
+def test_post_change_decel_and_request_time_windows() -> None:
+    from cosim.metrics import post_change_max_decel, request_to_lane
+
+    t = np.arange(0.0, 20.0, 0.05)
+    ax = np.where((t > 9.0) & (t < 9.5), -4.0, np.where(t > 15.0, -6.0, 0.5))
+    # entered at 5 s, settled at 6.5 s: watched until 9.5 s (the -4 m/s^2 at 9-9.5 s)
+    assert post_change_max_decel(t, ax, 5.0, 6.5) == pytest.approx(4.0)
+    assert post_change_max_decel(t, ax, 5.0, 5.5) == 0.0  # until 8.5 s: it only speeds up
+    assert post_change_max_decel(t, ax, 5.0, math.nan) == 0.0  # unsettled: entry + 3 s
+    assert math.isnan(post_change_max_decel(t, ax, math.nan, 6.5))
+    lane = np.where(t >= 4.0, 2, 1)
+    assert request_to_lane(t, lane, 2.0, 2) == pytest.approx(2.0)
+    assert math.isnan(request_to_lane(t, lane, 2.0, 0))
+    assert math.isnan(request_to_lane(t, lane, math.nan, 2))

@@ -103,6 +103,7 @@ CUT_IN = """
 [scenario]
 name = "cut_in"
 duration_s = 6.0
+on_collision = "continue"
 [road]
 mu = 0.8
 [sv]
@@ -136,6 +137,39 @@ def test_a_forced_overlap_is_detected_by_our_check(tmp_path: Path) -> None:
     dy = 3.75 * (1 - _quintic((r.trace["t_s"] - 0.5) / 3.0))
     expected = r.trace["t_s"][np.argmax(dy <= 1.8)]
     assert abs(t_first - expected) <= 0.051
+
+
+def test_a_collision_stops_the_run_at_its_onset(tmp_path: Path) -> None:
+    """The default `on_collision = "stop"`: the run ends with the row of the first onset
+    (a crash ends the ride; before issue 22 the SV drove on inside the TV), recorded with
+    its time, the TV and the fault; "continue" runs to the end."""
+    go_on = simulate(scenario_from(tmp_path, CUT_IN))
+    t_hit = float(go_on.trace["t_s"][np.argmax(go_on.trace["collisions"] > 0)])
+    r = simulate(scenario_from(tmp_path, CUT_IN.replace('on_collision = "continue"', "")))
+    m = r.metrics
+    assert r.scenario.on_collision == "stop"
+    assert m["stopped_by_collision"] == 1 and go_on.metrics["stopped_by_collision"] == 0
+    assert m["collision_t_s"] == pytest.approx(t_hit) == go_on.metrics["collision_t_s"]
+    assert m["collision_with"] == "cutter" and m["collisions"] == 1
+    assert m["collisions_sv"] == go_on.metrics["collisions_sv"]  # the same fault
+    assert r.trace["t_s"][-1] == pytest.approx(t_hit) == m["duration_s"]
+    assert r.trace["collisions"][-1] == 1 and np.all(r.trace["collisions"][:-1] == 0)
+    assert m["steps"] == round(t_hit / 0.05) and go_on.metrics["duration_s"] == 6.0
+    # the rows up to the onset are the same run's
+    n = r.trace["t_s"].size
+    assert np.array_equal(r.trace["x_m"], go_on.trace["x_m"][:n])
+
+
+def test_cosim_run_says_on_stderr_that_a_collision_stopped_it(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "cut_in.toml"
+    path.write_text(CUT_IN.replace('on_collision = "continue"', ""), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--no-figures"]) == 0
+    err = capsys.readouterr().err
+    assert "collision with cutter at t = " in err and "the run stopped there" in err
+    metrics = (out / "metrics.csv").read_text(encoding="utf-8")
+    assert "stopped_by_collision" in metrics
 
 
 def _quintic(s: np.ndarray) -> np.ndarray:
@@ -299,3 +333,26 @@ def test_scripted_requests_come_when_the_scenario_says(tmp_path: Path) -> None:
     assert first.t0 + first.tau < 4.0  # the first was over by then
     assert r.metrics["lane_changes"] == 2 and r.metrics["final_lane"] == 0
     assert abs(r.metrics["final_offset_m"]) < 0.1
+
+
+@pytest.mark.parametrize("controller", ["mimo", "sumo"])
+def test_comfort_metrics_are_the_traces_for_both_drivers(controller: str) -> None:
+    """Issue 22: the comfort columns, for our driver and SUMO's alike (paper case 5.1)."""
+    from cosim.metrics import COMFORT_COLUMNS
+
+    sc = with_overrides(load_scenario(SCENARIOS / "paper_case1_overtaking.toml"),
+                        controller=controller)
+    r = simulate(sc)
+    m, t, ax = r.metrics, r.trace["t_s"], r.trace["ax_mps2"]
+    assert all(k in m for k in COMFORT_COLUMNS)
+    ok = np.isfinite(ax)
+    assert m["rms_long_accel_mps2"] == pytest.approx(np.sqrt(np.mean(ax[ok] ** 2)))
+    jerk = np.abs(np.diff(ax) / np.diff(t))
+    assert m["max_long_jerk_mps3"] == pytest.approx(np.nanmax(jerk))
+    assert m["long_accel_jump_share"] < 0.01
+    # requested at 0 s (scripted), in lane 1 within the lane change's time
+    entered = t[np.argmax(r.trace["lane"] == 1)]
+    assert m["request_to_lane_s"] == pytest.approx(entered - sc.sv.lane_changes[0].at)
+    assert 0.5 < m["request_to_lane_s"] < 6.4
+    assert m["merge_time_gap_s"] == math.inf  # case 5.1: nobody ahead in lane 1
+    assert 0.0 <= m["post_change_max_decel_mps2"] < 3.0

@@ -76,6 +76,16 @@ def run(args: argparse.Namespace) -> int:
     summary = ", ".join(f"{k} = {metrics[k]:.4g}" if isinstance(metrics[k], float)
                         else f"{k} = {metrics[k]}" for k in keys if k in metrics)
     print(f"{scenario.name}: {summary}")
+    if metrics.get("start_speed_mps", scenario.sv.speed) < scenario.sv.speed - 1e-6:
+        print(f"cosim run: {scenario.name}: the SV started at "
+              f"{metrics['start_speed_mps'] * 3.6:.1f} km/h, not {scenario.sv.speed * 3.6:g}: "
+              "the random traffic ahead was too close and slow to brake for from that speed "
+              "(SUMO's departSpeed rule)", file=sys.stderr)
+    if metrics.get("stopped_by_collision"):
+        print(f"cosim run: {scenario.name}: collision with {metrics['collision_with']} at "
+              f"t = {metrics['collision_t_s']:.2f} s ({'SV' if metrics['collisions_sv'] else 'TV'}"
+              " at fault): the run stopped there (outputs written up to it; "
+              "[scenario] on_collision = \"continue\" runs on)", file=sys.stderr)
     note = quiet_sv_note(scenario, metrics)
     if note:
         print(note)

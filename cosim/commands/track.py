@@ -87,7 +87,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--vehicle", choices=tuple(VEHICLE_PRESETS), default="table1",
                         help="the car (default: Table 1's; CommonRoad's vehicle1/2/3)")
     parser.add_argument("--paper-law", action="store_true",
-                        help="no yaw-moment limit: the MIMO law exactly as printed")
+                        help="no yaw-moment limit and no low-speed form of eq. 28's kx1: "
+                        "the laws exactly as printed")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     add_figure_format(parser)
     parser.set_defaults(func=run)
@@ -197,7 +198,8 @@ def run(args: argparse.Namespace) -> int:
         ref, origin = case_reference(case, source, args.tau_s, mu)
         runs = [
             run_tracking(p, c, ref, mu=mu, duration=args.duration_s, vehicle=vehicle,
-                         gains=gains, chassis=chassis, yaw_moment_share=share)
+                         gains=gains, chassis=chassis, yaw_moment_share=share,
+                         low_speed_gain=not args.paper_law)
             for p in plants for c in ("mimo", "siso")
         ]
         verdicts = {}

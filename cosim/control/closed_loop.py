@@ -13,6 +13,10 @@ proportional loop on speed, stable only for kx1 T < 2; at 100 Hz (T = 10 ms,
 kx1 T = 2) the speed error after a step keeps oscillating at +-0.03 m/s, at
 67 Hz it grows until the wheel forces saturate.
 
+Eq. 28's gain has a low-speed form (`longitudinal.speed_gain`): below 21.6 m/s it is held
+under the tyres' force build-up rate Vx / sigma_kappa, through whose lag the paper's
+kx1 = 200 /s limit-cycled the two-track car at ~25 Hz (issue 22).
+
 Guards: the controller divides by max(vx, speed_floor); below speed_floor (stop-and-go)
 the integrators run over distance (ye * h * vx / speed_floor: they hold at a standstill,
 where the errors cannot change) and dMz fades in proportion (a yaw moment at rest only
@@ -69,7 +73,7 @@ from cosim.vehicle.plant import Plant, check_finite
 from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
 from .allocation import allocate_core
-from .longitudinal import longitudinal_core
+from .longitudinal import longitudinal_core, speed_gain, speed_gain_inverse_lag
 from .reference import PathErrors, ReferencePath, path_errors
 from .triple_step import check_gains, law_params, mimo_core, siso_core
 
@@ -111,6 +115,7 @@ class StepRecord:
 # Layout of the controller's constant array `cp` and state array `cs` (compiled code).
 CP_FLOOR, CP_MIMO, CP_MAX_STEER, CP_STEER_RATE, CP_DMZ_LIMIT = 0, 1, 2, 3, 4
 CP_FORCE_LO, CP_FORCE_HI, CP_LS, CP_LF, CP_EPS, CP_MASS, CP_KX1 = 5, 6, 7, 8, 9, 10, 11
+CP_KX1_SLOPE = 12  # 1/(m s), eq. 28's low-speed form (`longitudinal.speed_gain`; 0: off)
 # cs: 0 projection (path parameter, s), 1 int(ye) (m s), 2 int(phi_e) (rad s),
 # 3 delta_f applied (rad), 4 dMz (N m), 5 Fa (N), 6-9 wheel forces (N),
 # 10 last control saturated (0/1), 11-15 a non-finite control output
@@ -140,7 +145,9 @@ def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: floa
     else:
         delta_cmd = siso_core(lp, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, cs[1])
         dmz = 0.0
-    fa = longitudinal_core(cp[CP_MASS], cp[CP_KX1], s[3], vx_ref, ax_ref)
+    # eq. 28 with its gain held below the tyres' force build-up rate (`longitudinal`)
+    kx1 = speed_gain(cp[CP_KX1], s[3], cp[CP_KX1_SLOPE])
+    fa = longitudinal_core(cp[CP_MASS], kx1, s[3], vx_ref, ax_ref)
     if not (math.isfinite(delta_cmd) and math.isfinite(dmz) and math.isfinite(fa)):
         cs[11], cs[12], cs[13], cs[14], cs[15] = delta_cmd, dmz, fa, ye, phi_e
         return BAD_CONTROL
@@ -221,6 +228,7 @@ class ClosedLoop:
         control_every: int = 1,
         speed_floor: float = 1.0,  # m/s, the control laws never divide by less
         yaw_moment_share: float | None = YAW_MOMENT_SHARE,  # -, friction share of dMz (None: off)
+        low_speed_gain: bool = True,  # eq. 28's gain within the tyres' lag (False: as printed)
     ) -> None:
         if plant not in PLANTS:
             raise InputError("closed loop", "plant", plant, f"one of {', '.join(PLANTS)}")
@@ -264,6 +272,7 @@ class ClosedLoop:
             speed_floor, 1.0 if controller == "mimo" else 0.0,
             self.limits.max_steer, self.limits.max_steer_rate, self.dmz_limit, lo, hi,
             vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
+            speed_gain_inverse_lag(ch.tyre.relaxation_long) if low_speed_gain else 0.0,
         ])
         self._cs = np.zeros(CS_SIZE)
         self._path: ReferencePath | None = None

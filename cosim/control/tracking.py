@@ -75,6 +75,7 @@ def run_tracking(
     record_step: float = 0.01,
     substeps: int = 2,
     yaw_moment_share: float | None = YAW_MOMENT_SHARE,
+    low_speed_gain: bool = True,
 ) -> TrackingRun:
     """Start on the reference at its t0 (position, heading, speed) and follow it for
     `duration` seconds; substeps of record_step / substeps (5 ms by default, as in
@@ -87,6 +88,7 @@ def run_tracking(
     loop = ClosedLoop(
         plant, controller, vehicle, gains, mu, x0, y0, heading, float(reference.speed(t0)),
         chassis=chassis, limits=limits, yaw_moment_share=yaw_moment_share,
+        low_speed_gain=low_speed_gain,
     )
     loop.set_reference(reference, reset=True)
     records = [loop.record(t0)]

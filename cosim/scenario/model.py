@@ -229,6 +229,9 @@ class V2VSpec:
 
 DEFAULT_STEP = 0.05  # s, SUMO step
 DEFAULT_SUBSTEPS = 10  # plant/controller substeps per SUMO step
+# what a run does at its first collision onset (issue 22): a crash ends the ride, the SV
+# never drives on through its leader ("continue": the old behaviour, for cross-checks)
+ON_COLLISION = ("stop", "continue")
 
 
 @dataclass(frozen=True)
@@ -252,6 +255,11 @@ class Scenario:
                                   override="substeps"))
     seed: int = declare(Field("seed", int, lo=0, hi=2**31 - 1, default=0,
                               doc="SUMO and traffic seed", override="seed"))
+    on_collision: str = declare(Field(
+        "on_collision", str, choices=ON_COLLISION, default="stop",
+        doc="at our check's first collision onset: stop the run there (outputs written, "
+            "metrics `collision_t_s`, `stopped_by_collision`), or continue to the end",
+        override="on_collision"))
     path: Path  # the scenario file (absolute)
     road: RoadParams  # lane width and y from the network, bands and mu from the file
     network: Path  # .net.xml (absolute)

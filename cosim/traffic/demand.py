@@ -13,7 +13,9 @@ lowers to a speed safe behind the TV ahead (in dense traffic the queue starts
 slow, ~13 m/s at 50 veh/km/lane), so TVs never start on a collision course
 with each other. The SV, though, is placed at its scenario speed (e.g.
 100 km/h) into that queue: `start_zone` gives the stretch of its lane kept free
-so it can brake behind its leader and its follower behind it.
+so it can brake behind its leader and its follower behind it, and where its leader
+at t = 0 is random traffic too slow for that, `safe_start_speed` lowers the SV's
+start speed as SUMO's own insertion would (`World.start_speed`).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from cosim.errors import InputError
-from cosim.params import RoadParams
+from cosim.params import G, RoadParams
 from cosim.traffic.sumo import TV_LENGTH, SumoSim
 
 QUANTILE_RANGE = (0.1, 0.95)  # -, desired speeds stay off the band's edges (drivers dawdle)
@@ -34,6 +36,10 @@ SPACING_JITTER = 0.25  # -, spacing varies by +-25 % of 1000/density
 START_HEADWAY = 2.0  # s, free road ahead of the SV at t = 0 per m/s of its speed
 TV_MIN_GAP = 2.5  # m, SUMO's default minGap of the TV type (front to rear, standstill)
 TV_HEADWAY = 1.0  # s, SUMO's default tau of the TV type (Krauss safe headway)
+# The SV's start speed behind random traffic (`safe_start_speed`, issue 22)
+START_DECEL = 4.5  # m/s^2, SUMO's `decel` of its passenger car, what its departSpeed rules use
+START_GRIP = 0.7  # -, share of mu g the SV's car-following may brake with (policy FOLLOW_GRIP)
+START_REACTION = 0.5  # s, the SV's car-following ramps its braking up (15 m/s^3) first
 RANDOM_ID_PREFIX = "tv"  # random traffic is tv1, tv2, ... (scenario TV ids may not be)
 RANDOM_ID = re.compile(rf"{RANDOM_ID_PREFIX}\d+")
 
@@ -113,6 +119,24 @@ def start_zone(
     ahead = 0.5 * length + TV_MIN_GAP + START_HEADWAY * max(speed, 0.0)
     behind = 0.5 * length + TV_MIN_GAP + TV_HEADWAY * max(follower_speed, 0.0)
     return x - behind, x + ahead
+
+
+def safe_start_speed(speed: float, gap: float, leader_speed: float, mu: float) -> float:
+    """m/s, the highest speed up to `speed` at which a vehicle starting `gap` m (bumper to
+    bumper) behind a leader at `leader_speed` (m/s) can stop TV_MIN_GAP behind it should
+    the leader brake to a standstill: SUMO's insertion rule (departSpeed "max" lowers the
+    speed to Krauss's safe speed v tau + v^2 / 2b <= gap - minGap + v_l^2 / 2b, leader and
+    follower braking alike) with b = min(START_DECEL, START_GRIP mu g), the braking the
+    SV's car-following may use on this road, and tau = START_REACTION.
+
+    Beyond the paper (issue 22): at 65 veh/km/lane SUMO inserts the queue ahead at
+    ~8.5 m/s; the SV at 100 km/h 62 m behind it needs ~3.1 m/s^2 even if the queue held
+    its speed, more than the 2.75 m/s^2 its car-following may use on mu 0.4, and every
+    such run ended in an SV-caused rear-end collision at 4.8 s."""
+    b = min(START_DECEL, START_GRIP * mu * G)
+    room = max(gap - TV_MIN_GAP, 0.0) + leader_speed**2 / (2.0 * b)
+    bt = b * START_REACTION
+    return min(speed, -bt + float(np.sqrt(bt * bt + 2.0 * b * room)))
 
 
 def populate(

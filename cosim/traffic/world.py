@@ -140,6 +140,22 @@ class World:
         self.t_offset = self.sumo.time
         self.sumo.follow_in_gui(SV_ID)
 
+    def start_speed(self, speed: float, mu: float) -> tuple[float, str, float, float]:
+        """(m/s, leader id, gap m, leader speed m/s): the SV's start speed, `speed` or, when
+        its leader in its lane right after insertion is random traffic, at most the speed
+        from which it can brake for that leader (`demand.safe_start_speed`: SUMO's
+        departSpeed rule). A scripted leader's place and speed are the scenario's: kept."""
+        from cosim.traffic.demand import RANDOM_ID, safe_start_speed
+
+        vehicle = self.sumo.api.vehicle
+        found = vehicle.getLeader(SV_ID, 1000.0)  # gap from the SV's front + its minGap
+        if not found or not found[0] or not RANDOM_ID.fullmatch(found[0]):
+            return speed, "", float("inf"), float("nan")
+        leader = str(found[0])
+        gap = float(found[1]) + float(vehicle.getMinGap(SV_ID))
+        leader_speed = float(vehicle.getSpeed(leader))
+        return safe_start_speed(speed, gap, leader_speed, mu), leader, gap, leader_speed
+
     def read(self, radius: float, *, full: bool = True) -> TrafficSnapshot:
         """Every vehicle within `radius` of the SV (the SV included); without `full` no
         accelerations and signals (only V2V messages need them)."""
@@ -193,6 +209,11 @@ class World:
     def sv_acceleration(self) -> float:
         """m/s^2, SUMO's longitudinal acceleration of the SV now (not in every read)."""
         return float(self.sumo.api.vehicle.getAcceleration(SV_ID))
+
+    def set_sv_previous_speed(self, speed: float) -> None:
+        """The SUMO-driven SV's speed at t = 0 (m/s), as if driven over the insertion step
+        at zero acceleration (SUMO would otherwise report the jump as one)."""
+        self.sumo.api.vehicle.setPreviousSpeed(SV_ID, float(speed), 0.0)
 
     def set_sv_blinker(self, direction: int) -> None:
         """The SV's blinker: -1 right, 0 off, +1 left (what V2V and SUMO's drivers see)."""
