@@ -257,8 +257,8 @@ def check_study(study: Study) -> Scenario:
             if exc.source == source and exc.key in changes:  # an unknown override name
                 raise InputError(source, f"{key}.{exc.key}", exc.value, exc.allowed) from None
             raise InputError(source, key, value,
-                             f"{exc.allowed} (base scenario {study.scenario}: {exc.key} = "
-                             f"{exc.value!r})") from None
+                             f"a value the base scenario {study.scenario} allows (with this one "
+                             f"its {exc.key} = {exc.value!r} is refused: {exc.allowed})") from None
 
     for attr, (override, file_key, _flag) in GRID.items():
         values = getattr(study, attr)

@@ -101,7 +101,7 @@ def _check_sv(src: str, s: Scenario, net: Highway) -> None:
         key = f"sv.lane_changes[{i}]"
         if cmd.at >= s.duration:
             raise InputError(src, f"{key}.at_s", cmd.at,
-                             f"before scenario.duration_s = {s.duration:g} s")
+                             f"a time before the run ends (scenario.duration_s = {s.duration:g} s)")
         if cmd.at <= last_at:
             raise InputError(src, f"{key}.at_s", cmd.at,
                              f"after the previous request's at_s = {last_at:g} s")
@@ -149,8 +149,9 @@ def _check_tvs(src: str, s: Scenario, net: Highway) -> None:
                                  f"after -tau_s = {-lc.tau:g} s (a finished change: put the TV "
                                  "in its target lane)")
             if lc.start >= s.duration:
-                raise InputError(src, f"{key}.lane_change.start_s", lc.start,
-                                 f"before scenario.duration_s = {s.duration:g} s")
+                raise InputError(
+                    src, f"{key}.lane_change.start_s", lc.start,
+                    f"a time before the run ends (scenario.duration_s = {s.duration:g} s)")
         _check_speed_limit(src, f"{key}.speed_kmh", _start_pose(tv, s, net)[3], tv.lane, net)
 
 

@@ -174,21 +174,56 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
         return InputError(path, "lane widths", sorted(widths),
                           SUPPORTED + f" (its lane widths are {sorted(widths)} m)")
     width = widths.pop()
+    # netconvert rounds every coordinate to its --precision (2 decimals by default: lane
+    # centres 1.875 / 5.625 / 9.375 are written 1.88 / 5.62 / 9.38): a lane is where it
+    # should be if it is there up to that rounding (each number off by half a unit of the
+    # last decimal; lane k's expected centre y0 + k * width adds k of those through width).
+    places = _precision(path)
+    half = 0.5 * 10.0 ** -places + 1e-9  # m, half a unit of the file's last decimal
+    worst = 0.0  # m, the largest offset found
     for k, ((a, b), (c, d)) in enumerate(shapes):
         # lane k's centre line: same x extent, y = y0 + k * width (side by side, no gaps)
-        if max(abs(a - x0), abs(c - x1), abs(b - d), abs(b - (y0 + k * width))) > 1e-3:
+        tol = (k + 2) * half
+        off = max(abs(a - x0), abs(c - x1), abs(b - d), abs(b - (y0 + k * width)))
+        if off > tol:
+            why = ("not side by side with lane 0 at one width" if off > 10 * tol + 1e-3 else
+                   f"more than the rounding of the file's {places} decimals allows, {tol:.3g} m")
             return InputError(path, f"lane {k}", f"({a:g}, {b:g}) to ({c:g}, {d:g})",
                               SUPPORTED + f" (its lane {k} runs from ({a:g}, {b:g}) to "
-                              f"({c:g}, {d:g}))")
+                              f"({c:g}, {d:g}), expected y = {y0 + k * width:g} m: {why})")
+        worst = max(worst, off)
+    if worst <= 1e-6:
+        y_right = y0 - width / 2.0
+    else:  # rounded centres: lane 0's right edge from all of them (least squares)
+        centres = [b for (_, b), _ in shapes]
+        y_right = sum(centres) / len(centres) - width * (len(centres) - 1) / 2.0 - width / 2.0
     return Highway(
         path=Path(path),
         edge_id=edge.getID(),
         x_start=float(x0),
         length=float(lanes[0].getLength()),
         lane_width=float(width),
-        y_right=float(y0 - width / 2.0),
+        y_right=float(y_right),
         lane_speeds=tuple(float(lane.getSpeed()) for lane in lanes),
     )
+
+
+_LOCATION = re.compile(rb'<location[^>]*?netOffset="\s*-?\d+(?:\.(\d*))?')
+_SHAPE = re.compile(rb'<lane [^>]*?shape="([^"]*)"')
+
+
+def _precision(path: str) -> int:
+    """Decimals the network's coordinates are written with: netconvert writes every
+    coordinate, `<location netOffset>` included, with its --precision (default 2); without
+    a `<location>` (a hand-written file), the most decimals of a lane shape's y values."""
+    with open(path, "rb") as fh:
+        head = fh.read(MAX_NETWORK_BYTES)
+    found = _LOCATION.search(head)
+    if found:
+        return len(found.group(1) or b"")
+    ys = [point.split(b",")[1] for shape in _SHAPE.findall(head) for point in shape.split()
+          if point.count(b",") >= 1]
+    return max((len(y.partition(b".")[2]) for y in ys), default=6)
 
 
 def main(argv: list[str] | None = None) -> int:
