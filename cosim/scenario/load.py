@@ -110,8 +110,9 @@ def read_network(source: str, key: str, written: str, path: Path,
     try:
         return load_highway(path)
     except InputError as exc:
-        if exc.key in ("network", "size"):  # unreadable or too big: say so as it is
-            raise InputError(source, key, str(path), f"{exc.allowed} ({exc.value})") from None
+        if exc.key in ("network", "size") or exc.key.endswith(" speed"):  # say what it is
+            raise InputError(source, key, str(path),
+                             f"{exc.allowed} ({exc.key} = {exc.value})") from None
         raise InputError(source, key, str(path), exc.allowed) from None
 
 

@@ -52,6 +52,13 @@ class Highway:
     lane_width: float  # m
     y_right: float  # m, global y of lane 0's right line
     lane_speeds: tuple[float, ...]  # m/s, SUMO speed limit per lane index
+    # per lane index: whether SUMO lets a passenger car (every cosim vehicle type's
+    # class, DEFAULT_VEHTYPE's) drive on it (its allow / disallow attributes)
+    lane_open: tuple[bool, ...] = ()
+
+    def closed_lanes(self) -> list[int]:
+        """Lane indices closed to passenger cars (empty: all open)."""
+        return [k for k, ok in enumerate(self.lane_open) if not ok]
 
     @property
     def n_lanes(self) -> int:
@@ -114,6 +121,7 @@ SUPPORTED = (
     "a SUMO network of one straight edge along +x (two-point lane shapes, constant y), "
     "its lanes side by side with one width"
 )
+PASSENGER = "passenger"  # the vehicle class of every vehicle cosim puts into SUMO
 MAX_NETWORK_BYTES = 64 * 2**20  # a highway net is a few kB: refuse bigger files before reading
 
 
@@ -170,6 +178,11 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
         return InputError(path, "edge", edge.getID(),
                           SUPPORTED + f" (its edge {edge.getID()!r} runs from ({x0:g}, {y0:g}) "
                           f"to ({x1:g}, {y1:g}))")
+    for lane in lanes:  # SUMO drives nothing on a lane without a speed limit above 0
+        if not lane.getSpeed() > 0:
+            return InputError(path, f"lane {lane.getIndex()} speed", lane.getSpeed(),
+                              "a network whose every lane has a speed limit > 0 m/s (SUMO moves "
+                              f"nothing on its lane {lane.getID()!r})")
     if len(widths) != 1:
         return InputError(path, "lane widths", sorted(widths),
                           SUPPORTED + f" (its lane widths are {sorted(widths)} m)")
@@ -205,6 +218,7 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
         lane_width=float(width),
         y_right=float(y_right),
         lane_speeds=tuple(float(lane.getSpeed()) for lane in lanes),
+        lane_open=tuple(bool(lane.allows(PASSENGER)) for lane in lanes),
     )
 
 
