@@ -67,8 +67,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="keep each run's trace files in DIR/traces/<run_id>/")
     p.add_argument("--workers", type=count("--workers"), metavar="N",
                    help="processes (default: the machine's cores)")
+    p.add_argument("--allow-many-workers", action="store_true",
+                   help=f"allow --workers above {WORKERS_PER_CORE} x the cores")
     p.add_argument("--dask", metavar="ADDRESS",
-                   help="run on a Dask cluster: a scheduler address, or 'local' (LocalCluster)")
+                   help="run on a Dask cluster: a scheduler address, or 'local' (LocalCluster "
+                   "of --workers processes)")
     p.add_argument("--retry-failed", action="store_true", help="run failed runs again")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true", help="no figures")
@@ -140,9 +143,36 @@ def study_from_args(args: argparse.Namespace) -> Study:
         raise InputError(SOURCE, "--densities", None, "required without a study file")
     if not study.seeds:
         raise InputError(SOURCE, "--seeds", None, "required without a study file")
-    if args.workers is not None and args.workers < 1:
-        raise InputError(SOURCE, "--workers", args.workers, "an integer >= 1")
+    check_workers(args)
+    if args.plants is not None and study.drivers is not None and set(study.drivers) == {"sumo"}:
+        raise InputError(SOURCE, "--plants", args.plants,
+                         "no --plants when every driver is sumo (SUMO drives the SV: no plant of "
+                         "ours runs)")
     return study
+
+
+# Local processes per core at most (each run is one SUMO and one Python process, CPU-bound):
+# more only queue for the cores and hold memory. --allow-many-workers lifts it.
+WORKERS_PER_CORE = 4
+
+
+def check_workers(args: argparse.Namespace) -> None:
+    """--workers within the machine (a small multiple of its cores, unless
+    --allow-many-workers) and meaningful: with a remote --dask the cluster's workers run
+    the runs, so --workers is refused there (with --dask local it sizes the LocalCluster)."""
+    if args.workers is None:
+        return
+    if args.workers < 1:
+        raise InputError(SOURCE, "--workers", args.workers, "an integer >= 1")
+    if args.dask is not None and args.dask != "local":
+        raise InputError(SOURCE, "--workers", args.workers,
+                         f"no --workers with --dask {args.dask} (the cluster's own workers run "
+                         "the runs; --workers sizes only --dask local)")
+    limit = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if args.workers > limit and not args.allow_many_workers:
+        raise InputError(SOURCE, "--workers", args.workers,
+                         f"at most {limit} ({WORKERS_PER_CORE} x this machine's "
+                         f"{os.cpu_count() or 1} cores), or add --allow-many-workers")
 
 
 def specs_of(study: Study) -> list[RunSpec]:

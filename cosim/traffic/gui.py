@@ -53,7 +53,8 @@ def display_problem(environ: dict[str, str] | None = None) -> str | None:
         return None
     if env.get("DISPLAY") or env.get("WAYLAND_DISPLAY"):
         return None
-    return "no display (DISPLAY is not set): run without --gui, or under xvfb-run"
+    return "a display for sumo-gui's window (neither DISPLAY nor WAYLAND_DISPLAY is set): " \
+        "run without --gui, or under xvfb-run"
 
 
 def check_gui(settings: GuiSettings, environ: dict[str, str] | None = None) -> None:
@@ -61,13 +62,14 @@ def check_gui(settings: GuiSettings, environ: dict[str, str] | None = None) -> N
     settings make sense; called before anything runs."""
     problem = display_problem(environ)
     if problem is not None:
-        raise InputError(SOURCE, "--gui", "set", problem)
+        env = os.environ if environ is None else environ
+        raise InputError(f"{SOURCE} --gui", "DISPLAY", env.get("DISPLAY", ""), problem)
     if not 0.05 <= settings.speed <= 100.0:
         raise InputError(SOURCE, "--gui-speed", settings.speed,
                          "a factor in [0.05, 100] (1: real time)")
     if binary() is None:
-        raise InputError(SOURCE, "--gui", "set",
-                         "sumo-gui, which the eclipse-sumo package installs (not found)")
+        raise InputError(f"{SOURCE} --gui", "sumo-gui", "not found",
+                         "sumo-gui, which the eclipse-sumo package installs")
 
 
 def binary() -> str | None:
