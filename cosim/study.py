@@ -50,8 +50,7 @@ from cosim.scenario import (
     override_target,
     read_toml,
 )
-from cosim.scenario.load import exists
-from cosim.validation import Field, check_known_tables, check_table, validate_table
+from cosim.validation import Field, check_known_tables, check_table, not_a_file, validate_table
 
 MAX_RUNS = 100_000  # runs in one study: a bigger grid is refused before it is expanded
 MAX_SEEDS = 100_000  # seeds in one study (seed_count, or a flag's range A-B)
@@ -223,8 +222,10 @@ def study_from_dict(doc: Any, path: Path) -> Study:
     scenario = Path(values.pop("scenario"))
     if not scenario.is_absolute():
         scenario = path.parent / scenario
-    if not exists(scenario, want_file=True):
-        raise InputError(source, "study.scenario", str(scenario), "an existing scenario file")
+    problem = not_a_file(scenario)
+    if problem is not None:
+        raise InputError(source, "study.scenario", str(scenario), "an existing scenario file" + (
+            "" if problem == "not found" else f" (this is {problem})"))
     origins = {attr: (source, f"study.{GRID[attr][1]}") for attr in GRID
                if values.get(attr) is not None}
     if "seed_count" in raw:

@@ -66,7 +66,7 @@ def compile_first(stream: Any = None) -> float:
     import cosim.planning.collision  # noqa: F401  declaring their compiled functions names
     import cosim.planning.interaction  # noqa: F401  the cache's folder)
     import cosim.proximity  # noqa: F401
-    from cosim.compiled import cache_warm
+    from cosim.compiled import cache_folder, cache_warm
 
     out = stream or sys.stderr
     cold = not cache_warm()
@@ -78,8 +78,7 @@ def compile_first(stream: Any = None) -> float:
 
     took = time.perf_counter() - start
     if cold:
-        print(f"compiled in {took:.0f} s (cached in cosim/__pycache__/numba/)", file=out,
-              flush=True)
+        print(f"compiled in {took:.0f} s (cached in {cache_folder()})", file=out, flush=True)
     return took
 
 

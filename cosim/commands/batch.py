@@ -35,7 +35,7 @@ from cosim.study import (
     check_seed_count,
     load_study,
 )
-from cosim.validation import Field
+from cosim.validation import Field, not_a_file
 
 SOURCE = "command line"
 
@@ -137,8 +137,10 @@ def study_from_args(args: argparse.Namespace) -> Study:
         duration=args.duration,
         traces=args.traces,
     )
-    if not study.scenario.is_file():
-        raise InputError(SOURCE, "--scenario", str(study.scenario), "an existing scenario file")
+    problem = not_a_file(study.scenario)
+    if problem is not None:
+        raise InputError(SOURCE, "--scenario", str(study.scenario), "an existing scenario file" + (
+            "" if problem == "not found" else f" (this is {problem})"))
     if not study.densities:
         raise InputError(SOURCE, "--densities", None, "required without a study file")
     if not study.seeds:
