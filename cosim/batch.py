@@ -26,6 +26,7 @@ Life of a study (`cosim batch`):
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import hashlib
 import json
 import math
@@ -34,7 +35,7 @@ import os
 import random
 import time
 import traceback
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from statistics import NormalDist
@@ -310,12 +311,63 @@ def _pool(workers: int) -> cf.ProcessPoolExecutor:
     # (a missing module in PRELOAD is skipped by the fork server).
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(PRELOAD))
-    return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1)
+    return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1,
+                                  initializer=_worker_signals)
+
+
+def _worker_signals() -> None:
+    """A worker leaves Ctrl-C to the parent (a terminal sends it to the whole group): the
+    parent ends every worker itself (`_ending_pool`), so no worker prints a traceback."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def _ending_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
+    """A pool that, left by an exception (Ctrl-C, SIGTERM as `Terminated`), ends its
+    workers and the fork server before the exception goes on: no run left running, no
+    worker unpickling from a parent that is gone (a traceback), no orphan left defunct.
+    Left normally, it waits for its workers as `with ProcessPoolExecutor` does."""
+    pool = _pool(workers)
+    try:
+        yield pool
+    except BaseException:
+        _end_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _end_pool(pool: cf.ProcessPoolExecutor, timeout: float = 10.0) -> None:
+    """Terminate the pool's workers, wait for them (the fork server reaps them), then stop
+    the fork server (our child: reaped here). Private parts of multiprocessing, read
+    defensively: a Python without them falls back to shutdown without waiting."""
+    import signal
+
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
+    deadline = time.monotonic() + timeout
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(max(0.0, deadline - time.monotonic()))
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    pid = getattr(server, "_forkserver_pid", None)
+    if server is None or pid is None:
+        return
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(pid, signal.SIGTERM)  # it may still be importing PRELOAD: do not wait for it
+    with contextlib.suppress(Exception):
+        server._stop()  # closes its pipe, reaps it, forgets it (the next pool starts anew)
 
 
 def warm_up() -> None:
     """Start the fork server (imports included) now, e.g. before timing a study."""
-    with _pool(1) as pool:
+    with _ending_pool(1) as pool:
         pool.submit(os.getpid).result()
 
 
@@ -329,7 +381,7 @@ def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: 
     queue = list(reversed(specs))
     while queue:
         broken: list[RunSpec] = []
-        with _pool(workers) as pool:
+        with _ending_pool(workers) as pool:
             running: dict[cf.Future[dict[str, Any]], RunSpec] = {}
             while (queue or running) and not broken:
                 while queue and len(running) < workers:
@@ -345,7 +397,7 @@ def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: 
             broken += list(running.values())
         for spec in broken:
             start = time.perf_counter()
-            with _pool(1) as alone:
+            with _ending_pool(1) as alone:
                 try:
                     record = alone.submit(execute_run, spec, str(out_dir)).result()
                 except cf.process.BrokenProcessPool as exc:

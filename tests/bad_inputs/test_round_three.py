@@ -10,6 +10,8 @@ created or changed.
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -94,3 +96,196 @@ def test_many_workers_need_the_override_and_follow_the_cores() -> None:
     check_workers(parse([*base, "--workers", str(limit)]))  # at the bound: fine
     check_workers(parse([*base, "--workers", str(limit + 1), "--allow-many-workers"]))
     check_workers(parse([*base, "--workers", "2", "--dask", "local"]))  # sizes the cluster
+
+
+# ------------------------------------------------------------------ class 3: output targets
+
+
+def _links(tmp_path: Path) -> dict[str, Path]:
+    (tmp_path / "dangling").symlink_to(tmp_path / "nowhere")
+    (tmp_path / "loop1").symlink_to(tmp_path / "loop2")
+    (tmp_path / "loop2").symlink_to(tmp_path / "loop1")
+    return {
+        "through_a_dangling_link": tmp_path / "dangling" / "out",
+        "through_a_link_loop": tmp_path / "loop1" / "out",
+        "a_dangling_link": tmp_path / "dangling",
+        "a_link_loop": tmp_path / "loop1",
+        "a_device": Path("/dev/null"),
+    }
+
+
+OUT_CASES = ["through_a_dangling_link", "through_a_link_loop", "a_dangling_link", "a_link_loop",
+             "a_device"]
+OUT_WORDS = {"through_a_dangling_link": "dangling symbolic link",
+             "through_a_link_loop": "symbolic link loop", "a_dangling_link": "dangling symbolic",
+             "a_link_loop": "symbolic link loop", "a_device": "a character device"}
+
+
+@pytest.mark.parametrize("command", ["run", "plan", "batch"])
+@pytest.mark.parametrize("case", OUT_CASES)
+def test_an_output_target_that_cannot_take_a_result_is_refused_before_the_run(
+        command: str, case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = _links(tmp_path)[case]
+    before = sorted(p.name for p in tmp_path.iterdir())
+    argv = _batch(out) if command == "batch" else [command, str(BASE), "--out", str(out)]
+    assert main(argv) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert f"--out = '{out}'" in line and OUT_WORDS[case] in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_a_run_into_a_link_to_a_folder_keeps_the_link_and_leaves_no_copy(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    real = tmp_path / "real"
+    real.mkdir()
+    (real / "metrics.csv").write_text("previous\n")
+    link = tmp_path / "link"
+    link.symlink_to(real)
+    scenario = _short(tmp_path)
+    assert main(["run", str(scenario), "--out", str(link), "--no-figures"]) == 0
+    assert link.is_symlink() and (real / "metrics.csv").read_text() != "previous\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "real", "s.toml"]
+
+
+def _short(folder: Path, duration: float = 2.0) -> Path:
+    scenario = folder / "s.toml"
+    scenario.write_text(BASE.read_text().replace("duration_s = 10.0", f"duration_s = {duration}")
+                        .replace("start_s = 2.0", "start_s = 0.5")
+                        .replace("lane_changes = [{at_s = 1.0", "lane_changes = [{at_s = 0.5")
+                        .replace("[road]\n", f'[road]\nnetwork = "{HERE}/../../networks/'
+                                 'highway.net.xml"\n'))
+    return scenario
+
+
+@pytest.fixture
+def tiny_disk(tmp_path: Path):  # type: ignore[no-untyped-def]
+    """A 64 kB tmpfs: a full disk for real (root only; skipped where mount is refused)."""
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
+                          capture_output=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
+
+
+def test_a_full_disk_is_one_line_and_the_previous_run_stays(
+        tiny_disk: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tiny_disk / "out"
+    out.mkdir()
+    (out / "metrics.csv").write_text("previous\n")
+    (tiny_disk / "filler").write_bytes(b"\0" * 48 * 1024)  # about 12 kB left: trace.csv is more
+    assert main(["run", str(_short(tmp_path)), "--out", str(out), "--no-figures"]) == 2
+    line = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
+    assert "Traceback" not in line
+    assert line.startswith(f"cosim run: error: cannot write {out}/"), line
+    assert "No space left on device" in line and f"{out} keeps what it held" in line
+    assert sorted(p.name for p in tiny_disk.iterdir()) == ["filler", "out"]  # no staging left
+    assert [p.name for p in out.iterdir()] == ["metrics.csv"]
+    assert (out / "metrics.csv").read_text() == "previous\n"
+
+
+def test_a_full_disk_in_a_batch_is_one_line(
+        tiny_disk: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tiny_disk / "study"
+    argv = ["batch", "--scenario", str(_short(tmp_path)), "--densities", "0", "--seeds", "1-2",
+            "--no-progress", "--traces", "--workers", "1", "-o", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("cosim batch: error: cannot write ") and "No space left" in last
+
+
+# ------------------------------------------------------------------ class 6: full streams
+
+
+def _cosim(args: list[str], cwd: Path, **kwargs: object) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "cosim.cli", *args], cwd=cwd, text=True,
+                          timeout=300, **kwargs)  # type: ignore[call-overload]
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full")
+def test_stdout_on_a_full_device_is_one_line_and_no_figure(tmp_path: Path) -> None:
+    out = tmp_path / "plan"
+    with open("/dev/full", "w") as full:
+        done = _cosim(["plan", str(BASE), "--json", "--out", str(out)], tmp_path, stdout=full,
+                      stderr=subprocess.PIPE)
+    assert done.returncode == 2, done.stderr
+    line = _one_line(done.stderr)
+    assert line == "cosim plan: error: cannot write standard output: No space left on device"
+    assert not out.exists()  # the answer first: no figure without it
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full")
+def test_stderr_on_a_full_device_exits_2(tmp_path: Path) -> None:
+    with open("/dev/full", "w") as full:
+        done = _cosim(["plan", str(HERE / "mu_too_high.toml"), "--no-plot"], tmp_path,
+                      stdout=subprocess.PIPE, stderr=full)
+    assert done.returncode == 2 and done.stdout == ""
+
+
+# ------------------------------------------------------------------ class 8: messages
+
+
+def test_a_network_that_is_a_folder_or_a_device_says_so(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "netdir").mkdir()
+    for target, what in (("netdir", "is a folder"), ("/dev/zero", "is a character device")):
+        scenario = tmp_path / "s.toml"
+        scenario.write_text(BASE.read_text().replace("[road]\n", f'[road]\nnetwork = "{target}"\n'))
+        assert main(["plan", str(scenario), "--no-plot"]) == 2
+        line = _one_line(capsys.readouterr().err)
+        assert f"road.network = '{target}'" in line and what in line and "not found" not in line
+
+
+@pytest.mark.parametrize(("target", "what"), [("folder", "this is a folder"),
+                                              ("/dev/zero", "this is a character device")])
+def test_a_scenario_path_that_is_no_file_says_what_it_is(
+        target: str, what: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "folder").mkdir()
+    path = target if target.startswith("/") else str(tmp_path / target)
+    assert main(["plan", path, "--no-plot"]) == 2
+    assert what in _one_line(capsys.readouterr().err)
+
+
+def test_a_utf8_bom_is_accepted(tmp_path: Path) -> None:
+    from cosim.scenario import load_scenario
+
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + BASE.read_bytes().replace(
+        b"[road]\n", f'[road]\nnetwork = "{HERE}/../../networks/highway.net.xml"\n'.encode()))
+    assert load_scenario(path).sv.lane == 1
+
+
+def test_a_toml_error_reads_as_a_sentence(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", str(HERE / "not_toml.toml"), "--no-plot"]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "file = 'line 10, column" in line and "valid TOML (" in line and " there)" in line
+    assert "Invalid statement (at" not in line
+
+
+def test_a_duration_flag_refused_by_the_base_says_what_it_breaks(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(_batch(tmp_path / "out", "--duration", "1")) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "--duration = 1.0: a value the base scenario" in line
+    assert "sv.lane_changes[0].at_s = 1.0 is refused: a time before the run ends" in line
+
+
+def test_the_numba_cache_folder_named_is_where_it_caches(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A read-only install: the cache (and the folder `compile_first` names) moves to the
+    user's cache folder, where numba can write, instead of naming the package's."""
+    from cosim import compiled
+
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert compiled.cache_folder().is_relative_to(Path(compiled.__file__).parent)
+    monkeypatch.setattr(compiled, "_writable", lambda folder: False)
+    assert compiled.cache_folder().is_relative_to(tmp_path / "cosim" / "numba")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
+    assert compiled.cache_folder().is_relative_to(tmp_path / "mine" / "numba")
