@@ -348,11 +348,13 @@ def _end_pool(pool: cf.ProcessPoolExecutor, timeout: float = 10.0) -> None:
     for proc in procs:
         with contextlib.suppress(Exception):
             proc.terminate()
-    pool.shutdown(wait=False, cancel_futures=True)
     deadline = time.monotonic() + timeout
     for proc in procs:
         with contextlib.suppress(Exception):
             proc.join(max(0.0, deadline - time.monotonic()))
+    # its workers are gone: waiting is short, and shutdown(wait=False) would let the
+    # pool's manager thread trip over the processes it forgets (a thread traceback)
+    pool.shutdown(wait=True, cancel_futures=True)
     from multiprocessing import forkserver
 
     server = getattr(forkserver, "_forkserver", None)

@@ -289,3 +289,153 @@ def test_the_numba_cache_folder_named_is_where_it_caches(
     assert compiled.cache_folder().is_relative_to(tmp_path / "cosim" / "numba")
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
     assert compiled.cache_folder().is_relative_to(tmp_path / "mine" / "numba")
+
+
+# ------------------------------------------------------------------ class 4: the swap
+
+
+def test_a_signal_during_the_swap_is_held_until_the_new_run_is_in_place(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """SIGTERM while the old folder is being removed (the moment that left a hidden
+    `.out.old-PID-*` copy and reported "terminated"): the swap and its clean-up finish,
+    then the signal is delivered, and the folder holds the complete new result."""
+    import shutil
+    import signal
+    import threading
+
+    from cosim import output
+    from cosim.errors import Terminated, signals_as_interrupts
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal handlers need the main thread")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "metrics.csv").write_text("previous\n")
+    real_rmtree = shutil.rmtree
+
+    def rmtree_under_signal(path: object, *args: object, **kwargs: object) -> None:
+        if output.OLD_MARK in str(path):
+            os.kill(os.getpid(), signal.SIGTERM)  # arrives as the old copy is removed
+        real_rmtree(path, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(output.shutil, "rmtree", rmtree_under_signal)
+    previous = signals_as_interrupts()
+    try:
+        with pytest.raises(Terminated):
+            with output.staged_dir(out) as stage:
+                (stage / "metrics.csv").write_text("new\n")
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    assert (out / "metrics.csv").read_text() == "new\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no hidden copy
+    assert output.COMPLETED[-1] == out
+
+
+def test_cosim_run_signalled_at_the_swap_reports_the_complete_run(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import shutil
+    import signal
+    import threading
+
+    from cosim import output
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal handlers need the main thread")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "metrics.csv").write_text("previous\n")
+    scenario = _short(tmp_path)
+    real_rmtree = shutil.rmtree
+
+    def rmtree_under_signal(path: object, *args: object, **kwargs: object) -> None:
+        if output.OLD_MARK in str(path):
+            os.kill(os.getpid(), signal.SIGINT)
+        real_rmtree(path, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(output.shutil, "rmtree", rmtree_under_signal)
+    assert main(["run", str(scenario), "--out", str(out), "--no-figures"]) == 0
+    last = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
+    assert last == f"cosim run: interrupted after the run was complete: {out} holds it"
+    assert (out / "metrics.csv").read_text() != "previous\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "s.toml"]
+
+
+# ------------------------------------------------------------------ class 5: batch signals
+
+
+def _descendants(pid: int) -> set[int]:
+    """Every process below `pid` (Linux /proc), the resource tracker aside (it ends with
+    the process that started it, whoever reaps it then)."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            text = stat.read_text()
+            cmd = (stat.parent / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if b"resource_tracker" in cmd:
+            continue
+        ppid = int(text.rsplit(")", 1)[1].split()[1])
+        children.setdefault(ppid, []).append(int(stat.parent.name))
+    found: set[int] = set()
+    todo = [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            found.add(child)
+            todo.append(child)
+    return found
+
+
+def _gone(pids: set[int], timeout: float = 15.0) -> set[int]:
+    """The pids still there (running or defunct) after `timeout`."""
+    import time
+
+    end = time.monotonic() + timeout
+    while True:
+        left = {p for p in pids if Path(f"/proc/{p}").exists()}
+        if not left or time.monotonic() > end:
+            return left
+        time.sleep(0.1)
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize(("signame", "status", "what", "moment"), [
+    ("SIGTERM", 143, "terminated (SIGTERM)", "starting"),
+    ("SIGTERM", 143, "terminated (SIGTERM)", "running"),
+    ("SIGINT", 130, "interrupted", "running"),  # to the whole group, as a terminal does
+])
+def test_a_signalled_batch_ends_every_worker_and_says_one_line(
+        tmp_path: Path, signame: str, status: int, what: str, moment: str) -> None:
+    import signal
+    import time
+
+    sig = getattr(signal, signame)
+    out = tmp_path / "study"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "cosim.cli", *_batch(out, "--workers", "2", "--seeds", "1-4",
+                                                     "--duration", "5")],
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    seen: set[int] = set()
+    end = time.monotonic() + 240
+    while time.monotonic() < end and proc.poll() is None:
+        seen |= _descendants(proc.pid)
+        workers = len(seen) - 1  # the fork server and the workers it forked
+        if (moment == "starting" and seen) or (moment == "running" and workers >= 2):
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, "the batch ended before the signal: the test proved nothing"
+    time.sleep(0.3)
+    seen |= _descendants(proc.pid)
+    if sig == signal.SIGINT:
+        os.killpg(proc.pid, sig)
+    else:
+        proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    text = err.decode()
+    assert proc.returncode == status, text
+    assert "Traceback" not in text and "Error" not in text, text
+    assert text.strip().splitlines()[-1] == f"cosim batch: {what}"
+    assert len(text.strip().splitlines()) <= 2, text
+    assert not _gone(seen), f"left behind: {_gone(seen)} of {seen}"
