@@ -321,9 +321,8 @@ def test_a_signal_during_the_swap_is_held_until_the_new_run_is_in_place(
     monkeypatch.setattr(output.shutil, "rmtree", rmtree_under_signal)
     previous = signals_as_interrupts()
     try:
-        with pytest.raises(Terminated):
-            with output.staged_dir(out) as stage:
-                (stage / "metrics.csv").write_text("new\n")
+        with pytest.raises(Terminated), output.staged_dir(out) as stage:
+            (stage / "metrics.csv").write_text("new\n")
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
