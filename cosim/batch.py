@@ -677,6 +677,119 @@ def provenance() -> dict[str, Any]:
     return info
 
 
+STUDY_FILE = "study.json"  # the grid and the base it was run with (`base_fingerprint`)
+
+
+def base_fingerprint(specs: Sequence[RunSpec]) -> dict[str, Any]:
+    """What the runs of a study folder were made from besides their grid values: the base
+    scenario resolved (every key, in file units, with the study's duration), its file's and
+    its network's bytes, and the variants' overrides. Kept in DIR/study.json, so that a
+    study resumed into DIR with another base is refused (`check_same_base`), not silently
+    rerun under new run ids with the old rows dropped from runs.csv."""
+    from cosim.scenario import load_scenario, scenario_to_dict, with_overrides
+
+    if not specs:
+        return {}
+    spec = specs[0]
+    base = load_scenario(spec.scenario)
+    if spec.duration is not None:
+        base = with_overrides(base, duration=spec.duration)
+    resolved = json.loads(json.dumps(scenario_to_dict(base), default=str))
+    return {
+        "scenario": resolved,
+        "scenario_sha": spec.scenario_sha,
+        "network_sha": file_sha(base.network),
+        "variants": {s.variant: [list(p) for p in s.overrides] for s in specs
+                     if s.variant != NO_VARIANT},
+    }
+
+
+def _flat(tree: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(tree, dict):
+        out: dict[str, Any] = {}
+        for k, v in tree.items():
+            out.update(_flat(v, f"{prefix}.{k}" if prefix else str(k)))
+        return out
+    if isinstance(tree, list) and any(isinstance(v, (dict, list)) for v in tree):
+        out = {}
+        for i, v in enumerate(tree):
+            out.update(_flat(v, f"{prefix}[{i}]"))
+        return out
+    return {prefix: tree}
+
+
+def base_changes(before: Mapping[str, Any], now: Mapping[str, Any]) -> list[str]:
+    """What differs between two fingerprints, in words ("scenario.duration_s 10.0 -> 5.0")."""
+    old, new = _flat(before.get("scenario", {})), _flat(now.get("scenario", {}))
+    changes = [f"{k} {old.get(k, '(absent)')!r} -> {new.get(k, '(absent)')!r}"
+               for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+    if before.get("scenario") is None and before.get("duration") != now.get("duration"):
+        changes.append(f"duration {before.get('duration')!r} -> {now.get('duration')!r}")
+    for name in sorted(set(before.get("variants", {})) & set(now.get("variants", {}))):
+        if before["variants"][name] != now["variants"][name]:
+            changes.append(f"variant {name!r} {before['variants'][name]} -> "
+                           f"{now['variants'][name]}")
+    if not changes and before.get("scenario_sha") != now.get("scenario_sha"):
+        changes.append("the base scenario file's text (same settings; the run ids name its "
+                       "bytes)")
+    if before.get("network_sha", now["network_sha"]) != now["network_sha"]:
+        changes.append("the network file")
+    return changes
+
+
+def read_fingerprint(out_dir: Path) -> dict[str, Any] | None:
+    """The fingerprint a study folder's runs were made with (None: no study there yet).
+    Folders from before fingerprints were kept: the base file's hash and duration of the
+    runs study.json lists."""
+    try:
+        data = json.loads((out_dir / STUDY_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(data, dict):
+        return None
+    if isinstance(data.get("base"), dict):
+        return data["base"]
+    runs = data.get("runs") or []
+    if not runs or not isinstance(runs[0], dict):
+        return None
+    return {"scenario": None, "scenario_sha": runs[0].get("scenario_sha"),
+            "duration": runs[0].get("duration")}
+
+
+def check_same_base(out_dir: Path, specs: Sequence[RunSpec]) -> dict[str, Any]:
+    """The study's fingerprint; InputError if DIR holds runs made from another base (a
+    resumed study must not mix them, nor drop them silently): --restart or another -o."""
+    now = base_fingerprint(specs)
+    before = read_fingerprint(out_dir)
+    if before is None or not now:
+        return now
+    if before.get("scenario") is None:  # an older folder: compare what its runs name
+        now_old = {"scenario_sha": now["scenario_sha"], "duration": specs[0].duration}
+        changes = [] if now_old == {k: before.get(k) for k in now_old} else [
+            "the base scenario file or --duration (this folder's study.json predates the "
+            "settings kept for comparison)"]
+    else:
+        changes = base_changes(before, now)
+    if changes:
+        shown = "; ".join(changes[:3]) + (f"; and {len(changes) - 3} more"
+                                            if len(changes) > 3 else "")
+        raise InputError(
+            str(out_dir / STUDY_FILE), "base", shown,
+            f"the base scenario the runs in {out_dir} were made with: add --restart to "
+            "replace them, or give another -o")
+    return now
+
+
+def clear_study(out_dir: Path) -> None:
+    """--restart: remove the runs a study folder holds (records, traces, tables, plots)."""
+    import shutil
+
+    for name in ("runs", "traces", "plots"):
+        shutil.rmtree(out_dir / name, ignore_errors=True)
+    for name in ("runs.csv", "summary.csv", "summary.md", STUDY_FILE):
+        (out_dir / name).unlink(missing_ok=True)
+
+
 @dataclass
 class StudyResult:
     out_dir: Path
@@ -700,19 +813,24 @@ def run_study(
     plots: bool = True,
     title: str = "study",
     on_start: Callable[[int], None] | None = None,
+    restart: bool = False,
 ) -> StudyResult:
     """Run what is not yet recorded, then write runs.csv, summary.csv and plots.
 
     `on_start(n_to_run)` is called once the input is known good (a Dask
-    scheduler reached), just before anything is written."""
+    scheduler reached), just before anything is written. A folder whose runs were made
+    from another base scenario (or duration, network, variant) is refused
+    (`check_same_base`) unless `restart`, which removes its runs and starts afresh."""
     start = time.perf_counter()
     out_dir = Path(out_dir)
     workers = workers or os.cpu_count() or 1
     specs = list({s.run_id: s for s in specs}.values())  # a run listed twice runs once
-    todo = pending(specs, out_dir, retry_failed=retry_failed)
+    # Another base than the folder's runs were made with: refused before anything runs.
+    fingerprint = base_fingerprint(specs) if restart else check_same_base(out_dir, specs)
+    todo = list(specs) if restart else pending(specs, out_dir, retry_failed=retry_failed)
     done_before = len(specs) - len(todo)
     todo_ids = {s.run_id for s in todo}
-    failed_before = sum(
+    failed_before = 0 if restart else sum(
         1 for s in specs
         if s.run_id not in todo_ids
         and (read_record(out_dir, s.run_id) or {}).get("status") != STATUS_OK
@@ -721,12 +839,15 @@ def run_study(
     client = dask_client(dask, workers) if dask is not None and todo else None
     if on_start is not None:
         on_start(len(todo))
+    if restart:
+        clear_study(out_dir)
     make_output_dir(runs_dir(out_dir))
     for stale in stale_temp_files(runs_dir(out_dir)):  # left by a killed study
         stale.unlink(missing_ok=True)
     atomic_write_json(
-        out_dir / "study.json",
-        {"title": title, "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
+        out_dir / STUDY_FILE,
+        {"title": title, "base": fingerprint,
+         "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
     )
 
     from tqdm import tqdm

@@ -20,7 +20,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from cosim.batch import RunSpec, expand, run_study
+from cosim.batch import RunSpec, check_same_base, expand, run_study
 from cosim.commands import add_figure_format, compile_first, count
 from cosim.errors import InputError
 from cosim.output import check_output_dir
@@ -73,6 +73,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="run on a Dask cluster: a scheduler address, or 'local' (LocalCluster "
                    "of --workers processes)")
     p.add_argument("--retry-failed", action="store_true", help="run failed runs again")
+    p.add_argument("--restart", action="store_true",
+                   help="replace the runs DIR holds (needed when the base scenario, "
+                   "--duration or the network changed since they were made)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true", help="no figures")
     add_figure_format(p)
@@ -239,12 +242,14 @@ def run(args: argparse.Namespace) -> int:
         print(f"cosim batch: {study.name}: {len(specs)} runs ({len(specs) - todo} done before) "
               f"on {where} -> {out}", file=sys.stderr)
 
+    if not args.restart:
+        check_same_base(out, specs)  # a resumed study on another base: refused now
     if args.dask is None and any(d != "sumo" for d in {s.driver for s in specs}):
         compile_first()  # before the progress bar, which then counts runs only
     result = run_study(
         specs, out, workers=workers, dask=args.dask, progress=not args.no_progress,
         retry_failed=args.retry_failed, plots=not args.no_plots, title=study.name,
-        on_start=announce,
+        on_start=announce, restart=args.restart,
     )
     print(
         f"{len(result.runs)} runs ({result.ran} run now, {result.skipped} already done), "

@@ -438,3 +438,66 @@ def test_a_signalled_batch_ends_every_worker_and_says_one_line(
     assert text.strip().splitlines()[-1] == f"cosim batch: {what}"
     assert len(text.strip().splitlines()) <= 2, text
     assert not _gone(seen), f"left behind: {_gone(seen)} of {seen}"
+
+
+# ------------------------------------------------------------------ class 9: resumed studies
+
+
+def test_a_resumed_study_on_another_base_is_refused_unless_restarted(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Another --duration, an edited base scenario, an edited network: each named, exit 2,
+    the folder untouched; --restart replaces the runs; the same base resumes as before."""
+    import json
+
+    scenario = _short(tmp_path, 3.0)
+    out = tmp_path / "study"
+    argv = ["batch", "--scenario", str(scenario), "--densities", "0", "--seeds", "1",
+            "--no-progress", "--no-plots", "--workers", "1", "-o", str(out)]
+    assert main(argv) == 0
+    capsys.readouterr()
+
+    def snapshot() -> dict[str, bytes]:
+        return {str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*"))
+                if p.is_file()}
+
+    before = snapshot()
+    assert "base" in json.loads((out / "study.json").read_text())
+    assert main(argv) == 0  # the same base: resumed, nothing run again
+    assert "0 run now, 1 already done" in capsys.readouterr().out
+    for flags, edit, shown in (
+        (["--duration", "2"], None, "scenario.duration_s 3.0 -> 2.0"),
+        ([], ("mu = 0.6", "mu = 0.5"), "road.mu 0.6 -> 0.5"),
+        ([], ("\n[road]", "\n# a comment\n[road]"), "the base scenario file's text"),
+    ):
+        text = scenario.read_text()
+        if edit:
+            scenario.write_text(text.replace(*edit))
+        assert main([*argv, *flags]) == 2
+        line = _one_line(capsys.readouterr().err)
+        assert line.startswith(f"cosim batch: error: {out / 'study.json'}: base = "), line
+        assert shown in line and "--restart" in line, line
+        assert snapshot() == before
+        scenario.write_text(text)
+    scenario.write_text(scenario.read_text().replace("mu = 0.6", "mu = 0.5"))
+    assert main([*argv, "--restart"]) == 0
+    assert "1 run now, 0 already done" in capsys.readouterr().out
+    runs = (out / "runs.csv").read_text().splitlines()
+    assert len(runs) == 2 and len(list((out / "runs").glob("*.json"))) == 1
+
+
+def test_a_folder_from_before_fingerprints_compares_what_its_runs_name(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    scenario = _short(tmp_path, 3.0)
+    out = tmp_path / "study"
+    argv = ["batch", "--scenario", str(scenario), "--densities", "0", "--seeds", "1",
+            "--no-progress", "--no-plots", "--workers", "1", "-o", str(out)]
+    assert main(argv) == 0
+    study = json.loads((out / "study.json").read_text())
+    del study["base"]  # as written before issue 25
+    (out / "study.json").write_text(json.dumps(study))
+    capsys.readouterr()
+    assert main([*argv, "--duration", "2"]) == 2
+    assert "predates" in _one_line(capsys.readouterr().err)
+    assert main(argv) == 0
