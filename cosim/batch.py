@@ -316,11 +316,14 @@ def _pool(workers: int) -> cf.ProcessPoolExecutor:
 
 
 def _worker_signals() -> None:
-    """A worker leaves Ctrl-C to the parent (a terminal sends it to the whole group): the
-    parent ends every worker itself (`_ending_pool`), so no worker prints a traceback."""
+    """A worker leaves Ctrl-C and a closed terminal's SIGHUP to the parent (a terminal sends
+    them to the whole group): the parent ends every worker itself (`_ending_pool`), so no
+    worker prints a traceback or dies as a failed run."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGHUP"):
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
 
 
 @contextlib.contextmanager
@@ -341,7 +344,14 @@ def _ending_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
 def _end_pool(pool: cf.ProcessPoolExecutor, timeout: float = 10.0) -> None:
     """Terminate the pool's workers, wait for them (the fork server reaps them), then stop
     the fork server (our child: reaped here). Private parts of multiprocessing, read
-    defensively: a Python without them falls back to shutdown without waiting."""
+    defensively. A second Ctrl-C or SIGTERM meanwhile is held until this is done."""
+    from cosim.errors import signals_deferred
+
+    with signals_deferred():
+        _end_pool_now(pool, timeout)
+
+
+def _end_pool_now(pool: cf.ProcessPoolExecutor, timeout: float) -> None:
     import signal
 
     procs = list((getattr(pool, "_processes", None) or {}).values())

@@ -20,7 +20,7 @@ from typing import Any, NoReturn
 from cosim import __version__
 from cosim.errors import (
     EXIT_INTERRUPTED,
-    EXIT_TERMINATED,
+    SIGNAL_WORDS,
     CosimError,
     InputError,
     OutputError,
@@ -184,7 +184,7 @@ def _completed() -> list[Any]:
 
 
 def _interrupted(command: str, status: int, done: list[Any]) -> int:
-    what = "terminated (SIGTERM)" if status == EXIT_TERMINATED else "interrupted"
+    what = SIGNAL_WORDS.get(status, "interrupted")
     if command == "run" and done:
         # the signal came once the run's folder was swapped in: the run is complete and
         # in place, and the status says so (README, "Atomic outputs")

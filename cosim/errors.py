@@ -17,6 +17,7 @@ from typing import Any
 
 EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT)
 EXIT_TERMINATED = 143  # SIGTERM (128 + SIGTERM)
+EXIT_HANGUP = 129  # SIGHUP (128 + SIGHUP): the terminal went away
 
 
 class CosimError(Exception):
@@ -87,16 +88,35 @@ def _raise_terminated(signum: int, frame: Any) -> None:
     raise Terminated("terminated (SIGTERM)")
 
 
+class HungUp(Terminated):
+    """SIGHUP (the terminal closed), unwound like SIGTERM."""
+
+    exit_status = EXIT_HANGUP
+
+
+def _raise_hangup(signum: int, frame: Any) -> None:
+    del signum, frame
+    _RECEIVED.append(EXIT_HANGUP)
+    raise HungUp("hung up (SIGHUP)")
+
+
+# What each signal's exit status is called on stderr.
+SIGNAL_WORDS = {EXIT_TERMINATED: "terminated (SIGTERM)", EXIT_HANGUP: "hung up (SIGHUP)"}
+
+
 def signals_as_interrupts() -> dict[int, Any]:
-    """Make SIGINT raise KeyboardInterrupt and SIGTERM `Terminated` (main thread only),
+    """Make SIGINT raise KeyboardInterrupt, SIGTERM `Terminated` and SIGHUP `HungUp` (main
+    thread only),
     each remembered (`interrupted_status`); returns the previous handlers, by signal, for
     `signal.signal` to put back (empty: nothing was changed)."""
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         return {}
-    return {signum: signal.signal(signum, handler) for signum, handler in
-            ((signal.SIGINT, _raise_interrupted), (signal.SIGTERM, _raise_terminated))}
+    handlers = [(signal.SIGINT, _raise_interrupted), (signal.SIGTERM, _raise_terminated)]
+    if hasattr(signal, "SIGHUP"):  # POSIX
+        handlers.append((signal.SIGHUP, _raise_hangup))
+    return {signum: signal.signal(signum, handler) for signum, handler in handlers}
 
 
 @contextlib.contextmanager
@@ -115,7 +135,9 @@ def signals_deferred() -> Iterator[None]:
         del frame
         held.append(signum)
 
-    previous = {signum: signal.signal(signum, hold) for signum in (signal.SIGINT, signal.SIGTERM)}
+    signums = [signal.SIGINT, signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP")
+                                                 else [])
+    previous = {signum: signal.signal(signum, hold) for signum in signums}
     try:
         yield
     finally:

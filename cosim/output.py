@@ -344,9 +344,10 @@ def staged_dir(path: str | Path) -> Iterator[Path]:
     except BaseException as exc:
         if swapped:
             raise  # a signal held through the swap: the new run is in place
-        shutil.rmtree(tmp, ignore_errors=True)
-        if aside is not None and not final.exists():
-            os.replace(aside, final)  # interrupted between the two renames: put it back
+        with signals_deferred():  # a second Ctrl-C must not leave half of the clean-up
+            shutil.rmtree(tmp, ignore_errors=True)
+            if aside is not None and not final.exists():
+                os.replace(aside, final)  # failed between the two renames: put it back
         kept = f"{final} keeps what it held" if final.exists() else f"{final} was not made"
         if isinstance(exc, OutputError) and exc.where.startswith(str(tmp)):
             # name the file as the user knows it, not its hidden staging copy

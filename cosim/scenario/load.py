@@ -164,7 +164,8 @@ def scenario_from_dict(
     network = _resolve(base_dir, rd["network"])
     highway = read_network(src, "road.network", rd["network"], network, base_dir)
     # lane geometry has one source: the network (the file may only repeat its width)
-    if rd["lane_width"] is not None and abs(rd["lane_width"] - highway.lane_width) > 1e-3:
+    if (rd["lane_width"] is not None
+            and abs(rd["lane_width"] - highway.lane_width) > max(1e-3, highway.rounding)):
         raise InputError(src, "road.lane_width_m", rd["lane_width"],
                          f"the network's lane width {highway.lane_width:g} m (or absent)")
     road = RoadParams(lane_width=highway.lane_width, speed_bands=rd["speed_bands"],

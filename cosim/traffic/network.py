@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import math
 import re
 import subprocess
 import sys
@@ -55,6 +56,7 @@ class Highway:
     # per lane index: whether SUMO lets a passenger car (every cosim vehicle type's
     # class, DEFAULT_VEHTYPE's) drive on it (its allow / disallow attributes)
     lane_open: tuple[bool, ...] = ()
+    rounding: float = 1e-6  # m, half a unit of the last decimal the file's numbers have
 
     def closed_lanes(self) -> list[int]:
         """Lane indices closed to passenger cars (empty: all open)."""
@@ -168,13 +170,26 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
                           SUPPORTED + f" (this one has {len(edges)} edges)")
     edge = edges[0]
     lanes = sorted(edge.getLanes(), key=lambda lane: lane.getIndex())
+    if not lanes:
+        return InputError(path, "edge", edge.getID(), SUPPORTED + " (its edge has no lane)")
     shapes = [lane.getShape() for lane in lanes]
     widths = {round(lane.getWidth(), 6) for lane in lanes}
     if any(len(s) != 2 for s in shapes):
         return InputError(path, "edge", edge.getID(),
                           SUPPORTED + f" (its edge {edge.getID()!r} is bent)")
+    if not all(math.isfinite(v) for shape in shapes for point in shape for v in point[:2]):
+        return InputError(path, "edge", edge.getID(),
+                          SUPPORTED + " (a lane shape has a coordinate that is not a number)")
+    if not all(w > 0 for w in widths):  # NaN, 0 or negative
+        return InputError(path, "lane widths", sorted(widths), "lane widths > 0 m")
+    # netconvert rounds every coordinate to its --precision (2 decimals by default: lane
+    # centres 1.875 / 5.625 / 9.375 are written 1.88 / 5.62 / 9.38): a lane is where it
+    # should be if it is there up to that rounding (each number off by half a unit of the
+    # last decimal; lane k's expected centre y0 + k * width adds k of those through width).
+    places = _precision(path)
+    half = 0.5 * 10.0 ** -places + 1e-9  # m, half a unit of the file's last decimal
     (x0, y0), (x1, y1) = shapes[0]
-    if abs(y1 - y0) > 1e-6 or x1 <= x0:
+    if abs(y1 - y0) > max(2 * half, 1e-6) or x1 <= x0:
         return InputError(path, "edge", edge.getID(),
                           SUPPORTED + f" (its edge {edge.getID()!r} runs from ({x0:g}, {y0:g}) "
                           f"to ({x1:g}, {y1:g}))")
@@ -187,12 +202,6 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
         return InputError(path, "lane widths", sorted(widths),
                           SUPPORTED + f" (its lane widths are {sorted(widths)} m)")
     width = widths.pop()
-    # netconvert rounds every coordinate to its --precision (2 decimals by default: lane
-    # centres 1.875 / 5.625 / 9.375 are written 1.88 / 5.62 / 9.38): a lane is where it
-    # should be if it is there up to that rounding (each number off by half a unit of the
-    # last decimal; lane k's expected centre y0 + k * width adds k of those through width).
-    places = _precision(path)
-    half = 0.5 * 10.0 ** -places + 1e-9  # m, half a unit of the file's last decimal
     worst = 0.0  # m, the largest offset found
     for k, ((a, b), (c, d)) in enumerate(shapes):
         # lane k's centre line: same x extent, y = y0 + k * width (side by side, no gaps)
@@ -219,6 +228,7 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
         y_right=float(y_right),
         lane_speeds=tuple(float(lane.getSpeed()) for lane in lanes),
         lane_open=tuple(bool(lane.allows(PASSENGER)) for lane in lanes),
+        rounding=float(max(half, 1e-6)),
     )
 
 

@@ -501,3 +501,36 @@ def test_a_folder_from_before_fingerprints_compares_what_its_runs_name(
     assert main([*argv, "--duration", "2"]) == 2
     assert "predates" in _one_line(capsys.readouterr().err)
     assert main(argv) == 0
+
+
+def test_sighup_while_running_unwinds_like_sigterm(tmp_path: Path) -> None:
+    """A closed terminal (SIGHUP): exit 129, one line, the previous run kept, nothing
+    temporary left."""
+    import signal
+    import time
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "metrics.csv").write_text("previous\n")
+    scenario = _short(tmp_path, 60.0)
+    text = scenario.read_text().replace("lane_changes = [{at_s = 0.5", "lane_changes = [{at_s = 5")
+    scenario.write_text(text + "\n[traffic]\ndensity_veh_per_km_lane = 20.0\n")
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(scenario), "--out",
+                             str(out), "--no-figures"], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    assert proc.stderr is not None
+    os.set_blocking(proc.stderr.fileno(), False)
+    seen = b""
+    end = time.monotonic() + 240
+    while b"step/s" not in seen and proc.poll() is None and time.monotonic() < end:
+        seen += proc.stderr.read() or b""
+        time.sleep(0.05)
+    assert proc.poll() is None, seen
+    proc.send_signal(signal.SIGHUP)
+    proc.wait(timeout=60)
+    seen += proc.stderr.read() or b""
+    err = seen.decode(errors="replace").replace("\r", "\n")
+    assert proc.returncode == 129, err
+    assert err.strip().splitlines()[-1] == "cosim run: hung up (SIGHUP)"
+    assert (out / "metrics.csv").read_text() == "previous\n" and len(list(out.iterdir())) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "s.toml"]
