@@ -121,13 +121,14 @@ OUT_WORDS = {"through_a_dangling_link": "dangling symbolic link",
              "a_link_loop": "symbolic link loop", "a_device": "a character device"}
 
 
-@pytest.mark.parametrize("command", ["run", "plan", "batch"])
+@pytest.mark.parametrize("command", ["run", "plan", "batch", "compare", "track"])
 @pytest.mark.parametrize("case", OUT_CASES)
 def test_an_output_target_that_cannot_take_a_result_is_refused_before_the_run(
         command: str, case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = _links(tmp_path)[case]
     before = sorted(p.name for p in tmp_path.iterdir())
-    argv = _batch(out) if command == "batch" else [command, str(BASE), "--out", str(out)]
+    argv = (_batch(out) if command == "batch" else ["track", "--out", str(out)]
+            if command == "track" else [command, str(BASE), "--out", str(out)])
     assert main(argv) == 2
     line = _one_line(capsys.readouterr().err)
     assert f"--out = '{out}'" in line and OUT_WORDS[case] in line, line
