@@ -76,7 +76,8 @@ def _check_speed_limit(src: str, key: str, speed: float, lane: int, net: Highway
     """SUMO refuses to insert a vehicle faster than its lane's limit ("Departure speed ...
     too high"): say so now."""
     limit = net.lane_speeds[lane]
-    if speed > limit + SPEED_TOLERANCE:
+    # within the network's rounding: netconvert's default 2 decimals write 120 km/h as 33.33
+    if speed > limit + max(SPEED_TOLERANCE, net.rounding):
         raise InputError(src, key, round(speed * KMH, 6),
                          f"at most lane {lane}'s speed limit in the network, "
                          f"{limit * KMH:.6g} km/h (SUMO inserts no faster vehicle)")

@@ -111,3 +111,20 @@ def test_a_netconvert_network_runs_and_a_short_one_is_blamed_for_its_length(
     assert cli(["plan", str(scenario), "--no-plot"]) == 2
     err = capsys.readouterr().err
     assert "sv.position_m = 300.0" in err and "edge is 300 m long" in err, err
+
+
+def test_shipped_scenarios_validate_on_a_default_precision_network(tmp_path: Path) -> None:
+    """Paper case 3's TV at 120 km/h in a lane netconvert writes as 33.33 m/s (119.988
+    km/h): within the file's rounding, as SUMO takes it; 125 km/h is still refused."""
+    from cosim.scenario import load_scenario
+
+    net = _netconvert(tmp_path)
+    case3 = NETWORK_DIR.parent / "scenarios" / "paper_case3_lane_exchange.toml"
+    text = case3.read_text()
+    assert "network" not in text
+    scenario = tmp_path / "case3.toml"
+    scenario.write_text(text.replace("[road]\n", f'[road]\nnetwork = "{net}"\n', 1))
+    assert load_scenario(scenario).tvs[0].speed == pytest.approx(120 / 3.6)
+    scenario.write_text(scenario.read_text().replace("speed_kmh = 120.0", "speed_kmh = 125.0", 1))
+    with pytest.raises(InputError, match="119.988 km/h"):
+        load_scenario(scenario)
