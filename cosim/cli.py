@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from cosim import __version__
+from cosim.commands import check_figure_flags
 from cosim.errors import (
     EXIT_INTERRUPTED,
     SIGNAL_WORDS,
@@ -134,16 +135,17 @@ def _say(text: str) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if getattr(args, "figure_format", None):
+    if hasattr(args, "figure_format"):
         from cosim.plots import set_format
 
-        set_format(args.figure_format)
+        set_format(args.figure_format or "png")
     previous = signals_as_interrupts()  # SIGTERM unwinds like Ctrl-C (exit 143)
     streams = sys.stdout, sys.stderr
     sys.stdout, sys.stderr = _Guarded(sys.stdout, "standard output"), _Guarded(
         sys.stderr, "standard error")
     completed_before = len(_completed())
     try:
+        check_figure_flags(args)
         status = int(args.func(args) or 0)
         sys.stdout.flush()  # a full stdout fails here, inside the command, not at exit
         return status

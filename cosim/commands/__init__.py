@@ -18,8 +18,23 @@ FIGURE_FORMATS = ("png", "svg", "pdf")  # = cosim.plots.FORMATS (not imported: m
 
 def add_figure_format(parser: argparse.ArgumentParser) -> None:
     """`--figure-format png|svg|pdf` (default png, 200 dpi), for every command that draws."""
-    parser.add_argument("--figure-format", choices=FIGURE_FORMATS, default="png",
+    parser.add_argument("--figure-format", choices=FIGURE_FORMATS, default=None,
                         help="format of the figures (default png, 200 dpi)")
+
+
+# Flags that turn a command's figures off: --figure-format with one of them means nothing.
+NO_FIGURE_FLAGS = (("no_figures", "--no-figures"), ("no_plot", "--no-plot"),
+                   ("no_plots", "--no-plots"))
+
+
+def check_figure_flags(args: argparse.Namespace) -> None:
+    """--figure-format with a flag that draws no figure is refused, naming both."""
+    if getattr(args, "figure_format", None) is None:
+        return
+    for attr, flag in NO_FIGURE_FLAGS:
+        if getattr(args, attr, False):
+            raise InputError("command line", "--figure-format", args.figure_format,
+                             f"no --figure-format with {flag} (no figure is drawn)")
 
 
 def flag_type(field: Field) -> Callable[[str], Any]:

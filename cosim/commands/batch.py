@@ -149,6 +149,9 @@ def study_from_args(args: argparse.Namespace) -> Study:
     if not study.seeds:
         raise InputError(SOURCE, "--seeds", None, "required without a study file")
     check_workers(args)
+    if args.restart and args.retry_failed:
+        raise InputError(SOURCE, "--retry-failed", True,
+                         "no --retry-failed with --restart (--restart runs every run again)")
     if args.plants is not None and study.drivers is not None and set(study.drivers) == {"sumo"}:
         raise InputError(SOURCE, "--plants", args.plants,
                          "no --plants when every driver is sumo (SUMO drives the SV: no plant of "

@@ -41,6 +41,8 @@ RUN_FLAG_CASES = {
     "gui_quit_without_gui": (["--gui-quit"], "--gui-quit = True", "only with --gui"),
     "plant_with_sumo_driver": (["--controller", "sumo", "--plant", "bicycle"],
                                "--plant = 'bicycle'", "--controller sumo"),
+    "figure_format_without_figures": (["--no-figures", "--figure-format", "svg"],
+                                      "--figure-format = 'svg'", "--no-figures"),
 }
 
 
@@ -72,6 +74,10 @@ BATCH_FLAG_CASES = {
                                  "--workers = 2", "--dask tcp://127.0.0.1:1"),
     "plants_with_sumo_only": (["--drivers", "sumo", "--plants", "bicycle"],
                               "--plants = 'bicycle'", "every driver is sumo"),
+    "retry_failed_with_restart": (["--restart", "--retry-failed"], "--retry-failed = True",
+                                  "--restart"),
+    "figure_format_without_plots": (["--figure-format", "pdf"], "--figure-format = 'pdf'",
+                                    "--no-plots"),
 }
 
 
@@ -169,6 +175,27 @@ def tiny_disk(tmp_path: Path):  # type: ignore[no-untyped-def]
         pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
     try:
         yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
+
+
+@pytest.mark.parametrize("command", ["run", "plan", "batch"])
+def test_a_read_only_file_system_is_refused_before_the_run(
+        command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    mount = tmp_path / "ro"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(mount)],
+                          capture_output=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
+    try:
+        for out, allowed in ((mount / "out", f"a folder we may create ({mount} is read-only)"),
+                             (mount, "a folder we may write into")):
+            argv = _batch(out) if command == "batch" else [command, str(BASE), "--out",
+                                                           str(out)]
+            assert main(argv) == 2
+            line = _one_line(capsys.readouterr().err)
+            assert f"--out = '{out}': {allowed}" in line, line
     finally:
         subprocess.run(["umount", str(mount)], check=False)
 
