@@ -425,8 +425,13 @@ def dask_client(address: str, workers: int) -> Any:
     from distributed import Client, LocalCluster
 
     if address == "local":
+        import logging
+
+        # errors only: a study ended by Ctrl-C or SIGTERM cancels its tasks, and the
+        # workers' warnings about that would bury the one line that says so
         cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+            silence_logs=logging.ERROR,
         )
         return Client(cluster)
     try:
@@ -445,6 +450,34 @@ def dask_client(address: str, workers: int) -> Any:
             "start workers with `dask worker ADDRESS --nthreads 1`",
         )
     return client
+
+
+def _start_dask(address: str, workers: int) -> Any:
+    """`dask_client`, with Ctrl-C and SIGTERM held while a LocalCluster starts: cut short,
+    its half-started workers fail in distributed's exit hooks (tracebacks); held, the
+    cluster is whole and `_close_dask` ends it."""
+    from cosim.errors import signals_deferred
+
+    started: list[Any] = []
+    try:
+        with signals_deferred():
+            started.append(dask_client(address, workers))
+    except BaseException:
+        if started:
+            _close_dask(started[0], address)
+        raise
+    return started[0]
+
+
+def _close_dask(client: Any, address: str | None) -> None:
+    """Close the client and, for --dask local, its LocalCluster (a second signal held)."""
+    from cosim.errors import signals_deferred
+
+    with signals_deferred():
+        cluster = client.cluster if address == "local" else None
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def run_dask(specs: Sequence[RunSpec], out_dir: Path, client: Any, on_record: OnRecord) -> None:
@@ -846,51 +879,49 @@ def run_study(
         and (read_record(out_dir, s.run_id) or {}).get("status") != STATUS_OK
     )
     # Connect first: a bad address is an input error, before anything is written.
-    client = dask_client(dask, workers) if dask is not None and todo else None
-    if on_start is not None:
-        on_start(len(todo))
-    if restart:
-        clear_study(out_dir)
-    make_output_dir(runs_dir(out_dir))
-    for stale in stale_temp_files(runs_dir(out_dir)):  # left by a killed study
-        stale.unlink(missing_ok=True)
-    atomic_write_json(
-        out_dir / STUDY_FILE,
-        {"title": title, "base": fingerprint,
-         "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
-    )
-
-    from tqdm import tqdm
-
-    bar = tqdm(
-        total=len(specs), initial=done_before, unit="run", desc=title, disable=not progress,
-        dynamic_ncols=True,
-    )
-    failed = [failed_before]
-
-    code = provenance()
-
-    def on_record(record: dict[str, Any]) -> None:
-        record["code"] = code  # which code made this record (kept in the JSON only)
-        write_record(out_dir, record)
-        if record["status"] != STATUS_OK:
-            failed[0] += 1
-        bar.update(1)
-        bar.set_postfix(done=bar.n, failed=failed[0], refresh=True)
-
-    bar.set_postfix(done=bar.n, failed=failed[0])
+    client = _start_dask(dask, workers) if dask is not None and todo else None
+    bar = None
     try:
+        if on_start is not None:
+            on_start(len(todo))
+        if restart:
+            clear_study(out_dir)
+        make_output_dir(runs_dir(out_dir))
+        for stale in stale_temp_files(runs_dir(out_dir)):  # left by a killed study
+            stale.unlink(missing_ok=True)
+        atomic_write_json(
+            out_dir / STUDY_FILE,
+            {"title": title, "base": fingerprint,
+             "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
+        )
+
+        from tqdm import tqdm
+
+        bar = tqdm(
+            total=len(specs), initial=done_before, unit="run", desc=title,
+            disable=not progress, dynamic_ncols=True,
+        )
+        failed = [failed_before]
+        code = provenance()
+
+        def on_record(record: dict[str, Any]) -> None:
+            record["code"] = code  # which code made this record (kept in the JSON only)
+            write_record(out_dir, record)
+            if record["status"] != STATUS_OK:
+                failed[0] += 1
+            bar.update(1)
+            bar.set_postfix(done=bar.n, failed=failed[0], refresh=True)
+
+        bar.set_postfix(done=bar.n, failed=failed[0])
         if client is not None:
             run_dask(todo, out_dir, client, on_record)
         elif todo:
             run_local(todo, out_dir, workers, on_record)
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if client is not None:
-            cluster = client.cluster if dask == "local" else None
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            _close_dask(client, dask)
 
     runs = assemble(specs, out_dir)
     summary = summarize(runs)
