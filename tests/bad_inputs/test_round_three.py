@@ -432,6 +432,7 @@ def _gone(pids: set[int], timeout: float = 15.0) -> set[int]:
     ("SIGTERM", 143, "terminated (SIGTERM)", "starting"),
     ("SIGTERM", 143, "terminated (SIGTERM)", "running"),
     ("SIGINT", 130, "interrupted", "running"),  # to the whole group, as a terminal does
+    ("SIGTERM", 143, "terminated (SIGTERM)", "dask"),  # --dask local, runs in flight
 ])
 def test_a_signalled_batch_ends_every_worker_and_says_one_line(
         tmp_path: Path, signame: str, status: int, what: str, moment: str) -> None:
@@ -440,16 +441,18 @@ def test_a_signalled_batch_ends_every_worker_and_says_one_line(
 
     sig = getattr(signal, signame)
     out = tmp_path / "study"
+    dask = ["--dask", "local"] if moment == "dask" else []
     proc = subprocess.Popen(
         [sys.executable, "-m", "cosim.cli", *_batch(out, "--workers", "2", "--seeds", "1-4",
-                                                     "--duration", "5")],
+                                                     "--duration", "5", *dask)],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     seen: set[int] = set()
     end = time.monotonic() + 240
     while time.monotonic() < end and proc.poll() is None:
         seen |= _descendants(proc.pid)
-        workers = len(seen) - 1  # the fork server and the workers it forked
-        if (moment == "starting" and seen) or (moment == "running" and workers >= 2):
+        workers = len(seen) - 1  # the fork server (or a nanny) and the workers
+        if ((moment == "starting" and seen) or (moment == "running" and workers >= 2)
+                or (moment == "dask" and (out / "study.json").exists())):
             break
         time.sleep(0.05)
     assert proc.poll() is None, "the batch ended before the signal: the test proved nothing"
