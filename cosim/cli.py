@@ -96,9 +96,9 @@ class _Guarded:
         self._stream = stream
         self._name = name
 
-    def write(self, text: str) -> int:
+    def write(self, text: str) -> Any:
         try:
-            return int(self._stream.write(text))
+            return self._stream.write(text)
         except BrokenPipeError:
             raise
         except OSError as exc:

@@ -224,15 +224,9 @@ def _link_problem(path: Path) -> str | None:
 
 def _kind(path: Path) -> str:
     """What a path that is not a folder is, in words."""
-    import stat
+    from cosim.validation import file_kind
 
-    mode = path.stat().st_mode
-    for test, what in ((stat.S_ISREG, "a file"), (stat.S_ISCHR, "a character device"),
-                       (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a named pipe"),
-                       (stat.S_ISSOCK, "a socket")):
-        if test(mode):
-            return what
-    return "not a folder"
+    return file_kind(path.stat().st_mode)
 
 
 def make_output_dir(path: str | Path) -> Path:
@@ -309,7 +303,10 @@ def staged_dir(path: str | Path) -> Iterator[Path]:
     deleted). On any exception (Ctrl-C, SIGTERM through `Terminated`) the temporary folder
     is deleted and `path` keeps exactly what it held. A SIGKILL leaves the hidden sibling,
     which the next `staged_dir` of the same folder cleans (`recover_stale`; the names
-    carry the owner's process id, so a concurrent run's stage is left alone)."""
+    carry the owner's process id, so a concurrent run's stage is left alone). The swap and
+    the old folder's removal hold SIGINT / SIGTERM / SIGHUP until done (`signals_deferred`):
+    a signal then finds the new folder in place (`COMPLETED`) and no hidden copy. A write
+    that fails (no space left) is an `OutputError` naming the file as the user knows it."""
     from cosim.errors import OutputError, signals_deferred
 
     final = Path(path)

@@ -191,9 +191,16 @@ def not_a_file(path: Any) -> str | None:
         return getattr(exc, "strerror", None) or str(exc)
     if stat.S_ISREG(mode):
         return None if os.access(p, os.R_OK) else "not readable (permission denied)"
-    for test, what in ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"),
-                       (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a named pipe"),
-                       (stat.S_ISSOCK, "a socket")):
+    return file_kind(mode)
+
+
+def file_kind(mode: int) -> str:
+    """What a file of this st_mode is, in words ("a folder", "a character device", ...)."""
+    import stat
+
+    for test, what in ((stat.S_ISREG, "a file"), (stat.S_ISDIR, "a folder"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket")):
         if test(mode):
             return what
     return "not a regular file"
