@@ -50,7 +50,14 @@ from cosim.scenario import (
     override_target,
     read_toml,
 )
-from cosim.validation import Field, check_known_tables, check_table, not_a_file, validate_table
+from cosim.validation import (
+    MISSING,
+    Field,
+    check_known_tables,
+    check_table,
+    not_a_file,
+    validate_table,
+)
 
 MAX_RUNS = 100_000  # runs in one study: a bigger grid is refused before it is expanded
 MAX_SEEDS = 100_000  # seeds in one study (seed_count, or a flag's range A-B)
@@ -206,6 +213,10 @@ def study_from_dict(doc: Any, path: Path) -> Study:
     """Validate a study document (the parsed TOML) read from `path`."""
     source = str(path)
     check_table(source, "", doc)
+    if "study" not in doc and {"scenario", "sv"} <= set(doc):
+        raise InputError(source, "[study]", MISSING,
+                         "a study file (this is a scenario: run a grid on it with "
+                         "cosim batch --scenario FILE --densities LIST --seeds LIST)")
     check_known_tables(source, doc, ["study"])
     if "study" not in doc:
         raise InputError(source, "study", None, "required: a [study] table")

@@ -565,3 +565,10 @@ def test_sighup_while_running_unwinds_like_sigterm(tmp_path: Path) -> None:
     assert err.strip().splitlines()[-1] == "cosim run: hung up (SIGHUP)"
     assert (out / "metrics.csv").read_text() == "previous\n" and len(list(out.iterdir())) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "s.toml"]
+
+
+def test_a_scenario_given_as_a_study_says_so(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["batch", str(BASE), "--no-progress"]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "[study] = <missing>: a study file (this is a scenario" in line
+    assert "--scenario FILE" in line
