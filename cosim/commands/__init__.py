@@ -57,9 +57,21 @@ def flag_type(field: Field) -> Callable[[str], Any]:
     return convert
 
 
-def count(key: str, lo: int = 1) -> Callable[[str], Any]:
-    """An integer flag >= lo (repeats, workers, seeds)."""
-    return flag_type(Field(key, int, lo=lo, default=None))
+def count(key: str, lo: int = 1, hi: int | None = None) -> Callable[[str], Any]:
+    """An integer flag >= lo (repeats, workers, seeds), at most hi if given."""
+    return flag_type(Field(key, int, lo=lo, hi=hi, default=None))
+
+
+# Local worker processes per core at most (each run is one SUMO and one Python process,
+# CPU-bound): more only queue for the cores and hold memory.
+WORKERS_PER_CORE = 4
+
+
+def max_workers() -> int:
+    """The most local worker processes a command starts without being told otherwise."""
+    import os
+
+    return WORKERS_PER_CORE * (os.cpu_count() or 1)
 
 
 def seconds(key: str, hi: float = 3600.0) -> Callable[[str], Any]:

@@ -21,7 +21,13 @@ from pathlib import Path
 from typing import Any
 
 from cosim.batch import RunSpec, check_same_base, expand, run_study
-from cosim.commands import add_figure_format, compile_first, count
+from cosim.commands import (
+    WORKERS_PER_CORE,
+    add_figure_format,
+    compile_first,
+    count,
+    max_workers,
+)
 from cosim.errors import InputError
 from cosim.output import check_output_dir
 from cosim.study import (
@@ -159,11 +165,6 @@ def study_from_args(args: argparse.Namespace) -> Study:
     return study
 
 
-# Local processes per core at most (each run is one SUMO and one Python process, CPU-bound):
-# more only queue for the cores and hold memory. --allow-many-workers lifts it.
-WORKERS_PER_CORE = 4
-
-
 def check_workers(args: argparse.Namespace) -> None:
     """--workers within the machine (a small multiple of its cores, unless
     --allow-many-workers) and meaningful: with a remote --dask the cluster's workers run
@@ -176,7 +177,7 @@ def check_workers(args: argparse.Namespace) -> None:
         raise InputError(SOURCE, "--workers", args.workers,
                          f"no --workers with --dask {args.dask} (the cluster's own workers run "
                          "the runs; --workers sizes only --dask local)")
-    limit = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    limit = max_workers()  # --allow-many-workers lifts it
     if args.workers > limit and not args.allow_many_workers:
         raise InputError(SOURCE, "--workers", args.workers,
                          f"at most {limit} ({WORKERS_PER_CORE} x this machine's "

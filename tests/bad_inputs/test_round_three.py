@@ -572,3 +572,15 @@ def test_a_scenario_given_as_a_study_says_so(capsys: pytest.CaptureFixture[str])
     line = _one_line(capsys.readouterr().err)
     assert "[study] = <missing>: a study file (this is a scenario" in line
     assert "--scenario FILE" in line
+
+
+@pytest.mark.parametrize(("flags", "shown"), [
+    (["--workers", "1000"], "argument --workers: 1000: an integer in [1, "),
+    (["--seeds", "2000000000"], "argument --seeds: 2000000000: an integer in [1, 1000]"),
+])
+def test_bench_batch_bounds_its_work(flags: list[str], shown: str,
+                                     capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["bench", "batch", *flags])
+    assert info.value.code == 2
+    assert shown in _one_line(capsys.readouterr().err)
