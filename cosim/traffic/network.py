@@ -208,8 +208,13 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
         tol = (k + 2) * half
         off = max(abs(a - x0), abs(c - x1), abs(b - d), abs(b - (y0 + k * width)))
         if off > tol:
-            why = ("not side by side with lane 0 at one width" if off > 10 * tol + 1e-3 else
-                   f"more than the rounding of the file's {places} decimals allows, {tol:.3g} m")
+            if abs(b - (y0 - k * width)) <= tol:
+                why = (f"to the right of lane 0: lanes numbered from the left, a left-hand "
+                       "traffic network (netconvert --lefthand), which cosim does not drive on")
+            elif off > 10 * tol + 1e-3:
+                why = "not side by side with lane 0 at one width"
+            else:
+                why = f"more than the rounding of the file's {places} decimals allows, {tol:.3g} m"
             return InputError(path, f"lane {k}", f"({a:g}, {b:g}) to ({c:g}, {d:g})",
                               SUPPORTED + f" (its lane {k} runs from ({a:g}, {b:g}) to "
                               f"({c:g}, {d:g}), expected y = {y0 + k * width:g} m: {why})")

@@ -128,3 +128,9 @@ def test_shipped_scenarios_validate_on_a_default_precision_network(tmp_path: Pat
     scenario.write_text(scenario.read_text().replace("speed_kmh = 120.0", "speed_kmh = 125.0", 1))
     with pytest.raises(InputError, match="119.988 km/h"):
         load_scenario(scenario)
+
+
+def test_a_left_hand_traffic_network_is_named_as_such(tmp_path: Path) -> None:
+    net = _netconvert(tmp_path, "--lefthand", "true")
+    with pytest.raises(InputError, match="left-hand traffic network"):
+        load_highway(net)
