@@ -209,7 +209,7 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
         off = max(abs(a - x0), abs(c - x1), abs(b - d), abs(b - (y0 + k * width)))
         if off > tol:
             if abs(b - (y0 - k * width)) <= tol:
-                why = (f"to the right of lane 0: lanes numbered from the left, a left-hand "
+                why = ("to the right of lane 0: lanes numbered from the left, a left-hand "
                        "traffic network (netconvert --lefthand), which cosim does not drive on")
             elif off > 10 * tol + 1e-3:
                 why = "not side by side with lane 0 at one width"
