@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import importlib
 import os
 import re
@@ -102,6 +103,8 @@ class _Guarded:
         except BrokenPipeError:
             raise
         except OSError as exc:
+            if exc.errno == errno.EBADF:  # closed by the user (`2>&-`): discarded, as asked
+                return len(text)
             raise OutputError(self._name, exc) from None
 
     def flush(self) -> None:
@@ -110,7 +113,8 @@ class _Guarded:
         except BrokenPipeError:
             raise
         except OSError as exc:
-            raise OutputError(self._name, exc) from None
+            if exc.errno != errno.EBADF:
+                raise OutputError(self._name, exc) from None
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
@@ -141,8 +145,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         set_format(args.figure_format or "png")
     previous = signals_as_interrupts()  # SIGTERM unwinds like Ctrl-C (exit 143)
     streams = sys.stdout, sys.stderr
-    sys.stdout, sys.stderr = _Guarded(sys.stdout, "standard output"), _Guarded(
-        sys.stderr, "standard error")
+    # a closed descriptor (`2>&-`) leaves its stream None, which print skips but the
+    # progress bar does not: what would go there goes nowhere, as the user asked
+    sink = open(os.devnull, "w") if None in streams else None  # noqa: SIM115 (closed below)
+    sys.stdout = _Guarded(sys.stdout or sink, "standard output")
+    sys.stderr = _Guarded(sys.stderr or sink, "standard error")
     completed_before = len(_completed())
     try:
         check_figure_flags(args)
@@ -175,6 +182,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _interrupted(args.command, status, _completed()[completed_before:])
     finally:
         sys.stdout, sys.stderr = streams
+        if sink is not None:
+            sink.close()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
 

@@ -146,7 +146,8 @@ def run(args: argparse.Namespace) -> int:
         print(report(sc.name, plan, startup_s))
         if figure is not None:
             print(f"figure: {figure}")
-    sys.stdout.flush()
+    if sys.stdout is not None:  # (None: a closed descriptor)
+        sys.stdout.flush()
     if figure is not None:
         from cosim.output import make_output_dir
         from cosim.plots.planning import planning_figure

@@ -584,3 +584,15 @@ def test_bench_batch_bounds_its_work(flags: list[str], shown: str,
         main(["bench", "batch", *flags])
     assert info.value.code == 2
     assert shown in _one_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("fd", [1, 2])
+def test_a_closed_standard_stream_discards_what_goes_there(fd: int, tmp_path: Path) -> None:
+    """`>&-` / `2>&-`: the user asked for nothing there; the run completes (exit 0)."""
+    out = tmp_path / "out"
+    done = subprocess.run(
+        [sys.executable, "-m", "cosim.cli", "run", str(_short(tmp_path)), "--out", str(out),
+         "--no-figures"], cwd=tmp_path, capture_output=True, timeout=300,
+        preexec_fn=lambda: os.close(fd))  # noqa: PLW1509 (no threads in this child yet)
+    assert done.returncode == 0, done.stderr
+    assert (out / "metrics.csv").is_file()
