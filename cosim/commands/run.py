@@ -7,6 +7,7 @@ written); flags override the file's [sv] plant / controller and [scenario] seed.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -79,6 +80,12 @@ def run(args: argparse.Namespace) -> int:
             print("cosim run: stopped: the sumo-gui window was closed before the run ended",
                   file=sys.stderr)
             return 130
+        if args.gui and type(exc).__name__ == "TraCIException" and "finished" in str(exc):
+            # sumo-gui ended before traci reached it: it could not open its window
+            raise InputError(f"{SOURCE} --gui", "sumo-gui", "ended at start",
+                             "a display sumo-gui can open (DISPLAY "
+                             f"{os.environ.get('DISPLAY', '')!r}); run without --gui, or "
+                             "under xvfb-run") from None
         raise
     keys = ("lane_changes", "collisions", "sumo_collisions", "min_gap_m", "min_ttc_s",
             "tau_first_s", "iae_ye_m_s")

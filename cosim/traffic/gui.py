@@ -51,10 +51,46 @@ def display_problem(environ: dict[str, str] | None = None) -> str | None:
     env = os.environ if environ is None else environ
     if sys.platform in ("win32", "darwin"):
         return None
-    if env.get("DISPLAY") or env.get("WAYLAND_DISPLAY"):
+    if env.get("WAYLAND_DISPLAY"):
         return None
+    display = env.get("DISPLAY")
+    if display:
+        if x_display_reachable(display):
+            return None
+        return (f"a display sumo-gui can open (no X server answers on DISPLAY {display!r}): "
+                "start one, run without --gui, or under xvfb-run")
     return "a display for sumo-gui's window (neither DISPLAY nor WAYLAND_DISPLAY is set): " \
         "run without --gui, or under xvfb-run"
+
+
+def x_display_reachable(display: str, timeout: float = 1.0) -> bool:
+    """Whether an X server listens for DISPLAY (":N", "unix:N", "host:N", with an optional
+    ".screen"): its socket /tmp/.X11-unix/XN (or Linux's abstract one), or TCP 6000 + N.
+    A DISPLAY of another form is given the benefit of the doubt."""
+    import re
+    import socket
+
+    found = re.fullmatch(r"(?P<host>[^:]*):(?P<n>\d+)(\.\d+)?", display)
+    if not found:
+        return True
+    host, n = found.group("host"), int(found.group("n"))
+    if host in ("", "unix"):
+        for address in (f"/tmp/.X11-unix/X{n}", f"\0/tmp/.X11-unix/X{n}"):
+            with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
+                sock.settimeout(timeout)
+                try:
+                    sock.connect(address)
+                    return True
+                except OSError:
+                    continue
+        if host == "unix":
+            return False
+        host = "localhost"
+    try:
+        with socket.create_connection((host, 6000 + n), timeout=timeout):
+            return True
+    except OSError:
+        return False
 
 
 def check_gui(settings: GuiSettings, environ: dict[str, str] | None = None) -> None:

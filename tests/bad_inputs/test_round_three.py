@@ -596,3 +596,34 @@ def test_a_closed_standard_stream_discards_what_goes_there(fd: int, tmp_path: Pa
         preexec_fn=lambda: os.close(fd))  # noqa: PLW1509 (no threads in this child yet)
     assert done.returncode == 0, done.stderr
     assert (out / "metrics.csv").is_file()
+
+
+def test_gui_with_a_display_nobody_serves_is_one_line(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """DISPLAY set, no X server behind it: refused at once (it was a traci traceback)."""
+    import socket
+
+    from cosim.traffic.gui import x_display_reachable
+
+    number = next(n for n in range(180, 300) if not Path(f"/tmp/.X11-unix/X{n}").exists())
+    monkeypatch.setenv("DISPLAY", f":{number}")
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["run", str(BASE), "--gui", "--out", str(tmp_path / "out")]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert f"DISPLAY = ':{number}'" in line and "no X server answers" in line, line
+    assert not (tmp_path / "out").exists()
+    # a listening socket where X puts its own is a display
+    folder = Path("/tmp/.X11-unix")
+    if not os.access(folder if folder.exists() else folder.parent, os.W_OK):
+        return
+    folder.mkdir(exist_ok=True)
+    path = folder / f"X{number}"
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as server:
+        server.bind(str(path))
+        server.listen(1)
+        try:
+            assert x_display_reachable(f":{number}") and x_display_reachable(f":{number}.0")
+        finally:
+            path.unlink()
+    assert not x_display_reachable(f":{number}")
