@@ -824,11 +824,24 @@ def check_same_base(out_dir: Path, specs: Sequence[RunSpec]) -> dict[str, Any]:
 
 
 def clear_study(out_dir: Path) -> None:
-    """--restart: remove the runs a study folder holds (records, traces, tables, plots)."""
+    """--restart: remove the runs a study folder holds: what a study writes (records
+    `runs/<run_id>.json`, `traces/<run_id>/`, the tables, the plots), nothing else, and
+    only where a study.json says it is a study's folder."""
+    import re
     import shutil
 
-    for name in ("runs", "traces", "plots"):
-        shutil.rmtree(out_dir / name, ignore_errors=True)
+    if not (out_dir / STUDY_FILE).is_file():
+        return
+    run_id = re.compile(r"[0-9a-f]{12}")
+    for p in runs_dir(out_dir).glob("*.json"):
+        if run_id.fullmatch(p.stem):
+            p.unlink(missing_ok=True)
+    for p in (out_dir / "traces").glob("*"):
+        if p.is_dir() and run_id.fullmatch(p.name):
+            shutil.rmtree(p, ignore_errors=True)
+    for p in (out_dir / "plots").glob("*"):
+        if p.suffix in (".png", ".svg", ".pdf"):
+            p.unlink(missing_ok=True)
     for name in ("runs.csv", "summary.csv", "summary.md", STUDY_FILE):
         (out_dir / name).unlink(missing_ok=True)
 

@@ -510,7 +510,9 @@ def test_a_resumed_study_on_another_base_is_refused_unless_restarted(
         assert snapshot() == before
         scenario.write_text(text)
     scenario.write_text(scenario.read_text().replace("mu = 0.6", "mu = 0.5"))
+    (out / "runs" / "notes.txt").write_text("mine\n")  # not a study's: --restart keeps it
     assert main([*argv, "--restart"]) == 0
+    assert (out / "runs" / "notes.txt").read_text() == "mine\n"
     assert "1 run now, 0 already done" in capsys.readouterr().out
     runs = (out / "runs.csv").read_text().splitlines()
     assert len(runs) == 2 and len(list((out / "runs").glob("*.json"))) == 1
