@@ -105,7 +105,10 @@ def compile_first(stream: Any = None) -> float:
 
     took = time.perf_counter() - start
     if cold:
-        print(f"compiled in {took:.0f} s (cached in {cache_folder()})", file=out, flush=True)
+        folder = cache_folder()
+        where = (f"cached in {folder}" if any(folder.rglob("*.nbi")) else
+                 "not cached: no folder numba could write; each process compiles again")
+        print(f"compiled in {took:.0f} s ({where})", file=out, flush=True)
     return took
 
 
