@@ -26,6 +26,7 @@ Life of a study (`cosim batch`):
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import hashlib
 import json
 import math
@@ -34,7 +35,7 @@ import os
 import random
 import time
 import traceback
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from statistics import NormalDist
@@ -310,12 +311,75 @@ def _pool(workers: int) -> cf.ProcessPoolExecutor:
     # (a missing module in PRELOAD is skipped by the fork server).
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(PRELOAD))
-    return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1)
+    return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1,
+                                  initializer=_worker_signals)
+
+
+def _worker_signals() -> None:
+    """A worker leaves Ctrl-C and a closed terminal's SIGHUP to the parent (a terminal sends
+    them to the whole group): the parent ends every worker itself (`_ending_pool`), so no
+    worker prints a traceback or dies as a failed run."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGHUP"):
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def _ending_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
+    """A pool that, left by an exception (Ctrl-C, SIGTERM as `Terminated`), ends its
+    workers and the fork server before the exception goes on: no run left running, no
+    worker unpickling from a parent that is gone (a traceback), no orphan left defunct.
+    Left normally, it waits for its workers as `with ProcessPoolExecutor` does."""
+    pool = _pool(workers)
+    try:
+        yield pool
+    except BaseException:
+        _end_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _end_pool(pool: cf.ProcessPoolExecutor, timeout: float = 10.0) -> None:
+    """Terminate the pool's workers, wait for them (the fork server reaps them), then stop
+    the fork server (our child: reaped here). Private parts of multiprocessing, read
+    defensively. A second Ctrl-C or SIGTERM meanwhile is held until this is done."""
+    from cosim.errors import signals_deferred
+
+    with signals_deferred():
+        _end_pool_now(pool, timeout)
+
+
+def _end_pool_now(pool: cf.ProcessPoolExecutor, timeout: float) -> None:
+    import signal
+
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    deadline = time.monotonic() + timeout
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(max(0.0, deadline - time.monotonic()))
+    # its workers are gone: waiting is short, and shutdown(wait=False) would let the
+    # pool's manager thread trip over the processes it forgets (a thread traceback)
+    pool.shutdown(wait=True, cancel_futures=True)
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    pid = getattr(server, "_forkserver_pid", None)
+    if server is None or pid is None:
+        return
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(pid, signal.SIGTERM)  # it may still be importing PRELOAD: do not wait for it
+    with contextlib.suppress(Exception):
+        server._stop()  # closes its pipe, reaps it, forgets it (the next pool starts anew)
 
 
 def warm_up() -> None:
     """Start the fork server (imports included) now, e.g. before timing a study."""
-    with _pool(1) as pool:
+    with _ending_pool(1) as pool:
         pool.submit(os.getpid).result()
 
 
@@ -329,7 +393,7 @@ def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: 
     queue = list(reversed(specs))
     while queue:
         broken: list[RunSpec] = []
-        with _pool(workers) as pool:
+        with _ending_pool(workers) as pool:
             running: dict[cf.Future[dict[str, Any]], RunSpec] = {}
             while (queue or running) and not broken:
                 while queue and len(running) < workers:
@@ -345,7 +409,7 @@ def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: 
             broken += list(running.values())
         for spec in broken:
             start = time.perf_counter()
-            with _pool(1) as alone:
+            with _ending_pool(1) as alone:
                 try:
                     record = alone.submit(execute_run, spec, str(out_dir)).result()
                 except cf.process.BrokenProcessPool as exc:
@@ -361,8 +425,13 @@ def dask_client(address: str, workers: int) -> Any:
     from distributed import Client, LocalCluster
 
     if address == "local":
+        import logging
+
+        # errors only: a study ended by Ctrl-C or SIGTERM cancels its tasks, and the
+        # workers' warnings about that would bury the one line that says so
         cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+            silence_logs=logging.ERROR,
         )
         return Client(cluster)
     try:
@@ -381,6 +450,34 @@ def dask_client(address: str, workers: int) -> Any:
             "start workers with `dask worker ADDRESS --nthreads 1`",
         )
     return client
+
+
+def _start_dask(address: str, workers: int) -> Any:
+    """`dask_client`, with Ctrl-C and SIGTERM held while a LocalCluster starts: cut short,
+    its half-started workers fail in distributed's exit hooks (tracebacks); held, the
+    cluster is whole and `_close_dask` ends it."""
+    from cosim.errors import signals_deferred
+
+    started: list[Any] = []
+    try:
+        with signals_deferred():
+            started.append(dask_client(address, workers))
+    except BaseException:
+        if started:
+            _close_dask(started[0], address)
+        raise
+    return started[0]
+
+
+def _close_dask(client: Any, address: str | None) -> None:
+    """Close the client and, for --dask local, its LocalCluster (a second signal held)."""
+    from cosim.errors import signals_deferred
+
+    with signals_deferred():
+        cluster = client.cluster if address == "local" else None
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def run_dask(specs: Sequence[RunSpec], out_dir: Path, client: Any, on_record: OnRecord) -> None:
@@ -688,6 +785,132 @@ def provenance() -> dict[str, Any]:
     return info
 
 
+STUDY_FILE = "study.json"  # the grid and the base it was run with (`base_fingerprint`)
+
+
+def base_fingerprint(specs: Sequence[RunSpec]) -> dict[str, Any]:
+    """What the runs of a study folder were made from besides their grid values: the base
+    scenario resolved (every key, in file units, with the study's duration), its file's and
+    its network's bytes, and the variants' overrides. Kept in DIR/study.json, so that a
+    study resumed into DIR with another base is refused (`check_same_base`), not silently
+    rerun under new run ids with the old rows dropped from runs.csv."""
+    from cosim.scenario import load_scenario, scenario_to_dict, with_overrides
+
+    if not specs:
+        return {}
+    spec = specs[0]
+    base = load_scenario(spec.scenario)
+    if spec.duration is not None:
+        base = with_overrides(base, duration=spec.duration)
+    resolved = json.loads(json.dumps(scenario_to_dict(base), default=str))
+    return {
+        "scenario": resolved,
+        "scenario_sha": spec.scenario_sha,
+        "network_sha": file_sha(base.network),
+        "variants": {s.variant: [list(p) for p in s.overrides] for s in specs
+                     if s.variant != NO_VARIANT},
+    }
+
+
+def _flat(tree: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(tree, dict):
+        out: dict[str, Any] = {}
+        for k, v in tree.items():
+            out.update(_flat(v, f"{prefix}.{k}" if prefix else str(k)))
+        return out
+    if isinstance(tree, list) and any(isinstance(v, (dict, list)) for v in tree):
+        out = {}
+        for i, v in enumerate(tree):
+            out.update(_flat(v, f"{prefix}[{i}]"))
+        return out
+    return {prefix: tree}
+
+
+def base_changes(before: Mapping[str, Any], now: Mapping[str, Any]) -> list[str]:
+    """What differs between two fingerprints, in words ("scenario.duration_s 10.0 -> 5.0")."""
+    old, new = _flat(before.get("scenario", {})), _flat(now.get("scenario", {}))
+    changes = [f"{k} {old.get(k, '(absent)')!r} -> {new.get(k, '(absent)')!r}"
+               for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+    if before.get("scenario") is None and before.get("duration") != now.get("duration"):
+        changes.append(f"duration {before.get('duration')!r} -> {now.get('duration')!r}")
+    for name in sorted(set(before.get("variants", {})) & set(now.get("variants", {}))):
+        if before["variants"][name] != now["variants"][name]:
+            changes.append(f"variant {name!r} {before['variants'][name]} -> "
+                           f"{now['variants'][name]}")
+    if not changes and before.get("scenario_sha") != now.get("scenario_sha"):
+        changes.append("the base scenario file's text (same settings; the run ids name its "
+                       "bytes)")
+    if before.get("network_sha", now["network_sha"]) != now["network_sha"]:
+        changes.append("the network file")
+    return changes
+
+
+def read_fingerprint(out_dir: Path) -> dict[str, Any] | None:
+    """The fingerprint a study folder's runs were made with (None: no study there yet).
+    Folders from before fingerprints were kept: the base file's hash and duration of the
+    runs study.json lists."""
+    try:
+        data = json.loads((out_dir / STUDY_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(data, dict):
+        return None
+    if isinstance(data.get("base"), dict):
+        return data["base"]
+    runs = data.get("runs") or []
+    if not runs or not isinstance(runs[0], dict):
+        return None
+    return {"scenario": None, "scenario_sha": runs[0].get("scenario_sha"),
+            "duration": runs[0].get("duration")}
+
+
+def check_same_base(out_dir: Path, specs: Sequence[RunSpec]) -> dict[str, Any]:
+    """The study's fingerprint; InputError if DIR holds runs made from another base (a
+    resumed study must not mix them, nor drop them silently): --restart or another -o."""
+    now = base_fingerprint(specs)
+    before = read_fingerprint(out_dir)
+    if before is None or not now:
+        return now
+    if before.get("scenario") is None:  # an older folder: compare what its runs name
+        now_old = {"scenario_sha": now["scenario_sha"], "duration": specs[0].duration}
+        changes = [] if now_old == {k: before.get(k) for k in now_old} else [
+            "the base scenario file or --duration (this folder's study.json predates the "
+            "settings kept for comparison)"]
+    else:
+        changes = base_changes(before, now)
+    if changes:
+        shown = "; ".join(changes[:3]) + (f"; and {len(changes) - 3} more"
+                                            if len(changes) > 3 else "")
+        raise InputError(
+            str(out_dir / STUDY_FILE), "base", shown,
+            f"the base scenario the runs in {out_dir} were made with: add --restart to "
+            "replace them, or give another -o")
+    return now
+
+
+def clear_study(out_dir: Path) -> None:
+    """--restart: remove the runs a study folder holds: what a study writes (records
+    `runs/<run_id>.json`, `traces/<run_id>/`, the tables, the plots), nothing else, and
+    only where a study.json says it is a study's folder."""
+    import re
+    import shutil
+
+    if not (out_dir / STUDY_FILE).is_file():
+        return
+    run_id = re.compile(r"[0-9a-f]{12}")
+    for p in runs_dir(out_dir).glob("*.json"):
+        if run_id.fullmatch(p.stem):
+            p.unlink(missing_ok=True)
+    for p in (out_dir / "traces").glob("*"):
+        if p.is_dir() and run_id.fullmatch(p.name):
+            shutil.rmtree(p, ignore_errors=True)
+    for p in (out_dir / "plots").glob("*"):
+        if p.suffix in (".png", ".svg", ".pdf"):
+            p.unlink(missing_ok=True)
+    for name in ("runs.csv", "summary.csv", "summary.md", STUDY_FILE):
+        (out_dir / name).unlink(missing_ok=True)
+
+
 @dataclass
 class StudyResult:
     out_dir: Path
@@ -711,66 +934,72 @@ def run_study(
     plots: bool = True,
     title: str = "study",
     on_start: Callable[[int], None] | None = None,
+    restart: bool = False,
 ) -> StudyResult:
     """Run what is not yet recorded, then write runs.csv, summary.csv and plots.
 
     `on_start(n_to_run)` is called once the input is known good (a Dask
-    scheduler reached), just before anything is written."""
+    scheduler reached), just before anything is written. A folder whose runs were made
+    from another base scenario (or duration, network, variant) is refused
+    (`check_same_base`) unless `restart`, which removes its runs and starts afresh."""
     start = time.perf_counter()
     out_dir = Path(out_dir)
     workers = workers or os.cpu_count() or 1
     specs = list({s.run_id: s for s in specs}.values())  # a run listed twice runs once
-    todo = pending(specs, out_dir, retry_failed=retry_failed)
+    # Another base than the folder's runs were made with: refused before anything runs.
+    fingerprint = base_fingerprint(specs) if restart else check_same_base(out_dir, specs)
+    todo = list(specs) if restart else pending(specs, out_dir, retry_failed=retry_failed)
     done_before = len(specs) - len(todo)
     todo_ids = {s.run_id for s in todo}
-    failed_before = sum(
+    failed_before = 0 if restart else sum(
         1 for s in specs
         if s.run_id not in todo_ids
         and (read_record(out_dir, s.run_id) or {}).get("status") != STATUS_OK
     )
     # Connect first: a bad address is an input error, before anything is written.
-    client = dask_client(dask, workers) if dask is not None and todo else None
-    if on_start is not None:
-        on_start(len(todo))
-    make_output_dir(runs_dir(out_dir))
-    for stale in stale_temp_files(runs_dir(out_dir)):  # left by a killed study
-        stale.unlink(missing_ok=True)
-    atomic_write_json(
-        out_dir / "study.json",
-        {"title": title, "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
-    )
-
-    from tqdm import tqdm
-
-    bar = tqdm(
-        total=len(specs), initial=done_before, unit="run", desc=title, disable=not progress,
-        dynamic_ncols=True,
-    )
-    failed = [failed_before]
-
-    code = provenance()
-
-    def on_record(record: dict[str, Any]) -> None:
-        record["code"] = code  # which code made this record (kept in the JSON only)
-        write_record(out_dir, record)
-        if record["status"] != STATUS_OK:
-            failed[0] += 1
-        bar.update(1)
-        bar.set_postfix(done=bar.n, failed=failed[0], refresh=True)
-
-    bar.set_postfix(done=bar.n, failed=failed[0])
+    client = _start_dask(dask, workers) if dask is not None and todo else None
+    bar = None
     try:
+        if on_start is not None:
+            on_start(len(todo))
+        if restart:
+            clear_study(out_dir)
+        make_output_dir(runs_dir(out_dir))
+        for stale in stale_temp_files(runs_dir(out_dir)):  # left by a killed study
+            stale.unlink(missing_ok=True)
+        atomic_write_json(
+            out_dir / STUDY_FILE,
+            {"title": title, "base": fingerprint,
+             "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
+        )
+
+        from tqdm import tqdm
+
+        bar = tqdm(
+            total=len(specs), initial=done_before, unit="run", desc=title,
+            disable=not progress, dynamic_ncols=True,
+        )
+        failed = [failed_before]
+        code = provenance()
+
+        def on_record(record: dict[str, Any]) -> None:
+            record["code"] = code  # which code made this record (kept in the JSON only)
+            write_record(out_dir, record)
+            if record["status"] != STATUS_OK:
+                failed[0] += 1
+            bar.update(1)
+            bar.set_postfix(done=bar.n, failed=failed[0], refresh=True)
+
+        bar.set_postfix(done=bar.n, failed=failed[0])
         if client is not None:
             run_dask(todo, out_dir, client, on_record)
         elif todo:
             run_local(todo, out_dir, workers, on_record)
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if client is not None:
-            cluster = client.cluster if dask == "local" else None
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            _close_dask(client, dask)
 
     runs = assemble(specs, out_dir)
     summary = summarize(runs)

@@ -8,20 +8,24 @@ process exits with status 2; nothing is written before the input is valid.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import importlib
 import os
 import re
 import signal
 import sys
 from collections.abc import Sequence
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from cosim import __version__
+from cosim.commands import check_figure_flags
 from cosim.errors import (
     EXIT_INTERRUPTED,
-    EXIT_TERMINATED,
+    SIGNAL_WORDS,
     CosimError,
     InputError,
+    OutputError,
     interrupted_status,
     signals_as_interrupts,
 )
@@ -84,24 +88,89 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Guarded:
+    """sys.stdout / sys.stderr whose write errors (a full device, an I/O error) become
+    one OutputError naming the stream, not a traceback; a closed pipe stays
+    BrokenPipeError (a reader such as `head` went away: not an error)."""
+
+    def __init__(self, stream: Any, name: str) -> None:
+        self._stream = stream
+        self._name = name
+
+    def write(self, text: str) -> Any:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            if exc.errno == errno.EBADF:  # closed by the user (`2>&-`): discarded, as asked
+                return len(text)
+            raise OutputError(self._name, exc) from None
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            if exc.errno != errno.EBADF:
+                raise OutputError(self._name, exc) from None
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+def _silence(fd: int) -> None:
+    """Point a standard stream's descriptor at /dev/null, so that the interpreter's final
+    flush of what could not be written does not fail again (exit 120, a warning)."""
+    with contextlib.suppress(OSError):
+        os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+
+
+def _say(text: str) -> None:
+    """One line on stderr; if stderr itself cannot take it, nothing (the status tells)."""
+    try:
+        print(text, file=sys.stderr, flush=True)
+    except (OSError, OutputError):
+        with contextlib.suppress(OSError, ValueError):
+            _silence(sys.__stderr__.fileno())
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if getattr(args, "figure_format", None):
+    if hasattr(args, "figure_format"):
         from cosim.plots import set_format
 
-        set_format(args.figure_format)
+        set_format(args.figure_format or "png")
     previous = signals_as_interrupts()  # SIGTERM unwinds like Ctrl-C (exit 143)
+    streams = sys.stdout, sys.stderr
+    # a closed descriptor (`2>&-`) leaves its stream None, which print skips but the
+    # progress bar does not: what would go there goes nowhere, as the user asked
+    sink = open(os.devnull, "w") if None in streams else None  # noqa: SIM115 (closed below)
+    sys.stdout = _Guarded(sys.stdout or sink, "standard output")
+    sys.stderr = _Guarded(sys.stderr or sink, "standard error")
+    completed_before = len(_completed())
     try:
-        return int(args.func(args) or 0)
+        check_figure_flags(args)
+        status = int(args.func(args) or 0)
+        sys.stdout.flush()  # a full stdout fails here, inside the command, not at exit
+        return status
     except InputError as exc:
-        print(f"cosim {args.command}: error: {exc}", file=sys.stderr)
+        _say(f"cosim {args.command}: error: {exc}")
+        return 2
+    except OutputError as exc:
+        if exc.where == "standard output":
+            with contextlib.suppress(OSError, ValueError):
+                _silence(streams[0].fileno())
+        _say(f"cosim {args.command}: error: {exc}")
         return 2
     except CosimError as exc:
-        print(f"cosim {args.command}: failed: {exc}", file=sys.stderr)
+        _say(f"cosim {args.command}: failed: {exc}")
         return 1
     except KeyboardInterrupt as exc:
-        return _interrupted(args.command, getattr(exc, "exit_status", EXIT_INTERRUPTED))
+        done = _completed()[completed_before:]
+        return _interrupted(args.command, getattr(exc, "exit_status", EXIT_INTERRUPTED), done)
     except BrokenPipeError:
         # the reader (`| head`) went away: stop quietly, as a Unix filter does
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -110,15 +179,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         status = interrupted_status()  # e.g. Ctrl-C inside matplotlib's C import: ImportError
         if status is None:
             raise
-        return _interrupted(args.command, status)
+        return _interrupted(args.command, status, _completed()[completed_before:])
     finally:
+        sys.stdout, sys.stderr = streams
+        if sink is not None:
+            sink.close()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
 
 
-def _interrupted(command: str, status: int) -> int:
-    what = "terminated (SIGTERM)" if status == EXIT_TERMINATED else "interrupted"
-    print(f"cosim {command}: {what}", file=sys.stderr)
+def _completed() -> list[Any]:
+    """Output folders swapped in whole by this process (cosim.output.COMPLETED)."""
+    output = sys.modules.get("cosim.output")
+    return list(getattr(output, "COMPLETED", []))
+
+
+def _interrupted(command: str, status: int, done: list[Any]) -> int:
+    what = SIGNAL_WORDS.get(status, "interrupted")
+    if command == "run" and done:
+        # the signal came once the run's folder was swapped in: the run is complete and
+        # in place, and the status says so (README, "Atomic outputs")
+        _say(f"cosim {command}: {what} after the run was complete: {done[-1]} holds it")
+        return 0
+    _say(f"cosim {command}: {what}")
     return status
 
 

@@ -112,8 +112,34 @@ def _cache_dir(user_dir: str) -> Path:
     for path in sorted({inspect.getsourcefile(d.py_func) or "" for d in _PENDING}):
         digest.update(path.encode())
         digest.update(Path(path).read_bytes())
-    base = Path(user_dir) if user_dir else Path(__file__).resolve().parent / "__pycache__"
-    return base / "numba" / digest.hexdigest()[:16]
+    return _cache_base(user_dir) / "numba" / digest.hexdigest()[:16]
+
+
+def _cache_base(user_dir: str) -> Path:
+    """NUMBA_CACHE_DIR if set; else `__pycache__` beside this package if it can be written
+    (a checkout, a user's venv); else (a read-only install) the user's cache folder,
+    `$XDG_CACHE_HOME/cosim` or `~/.cache/cosim`. numba itself would fall back to a folder of
+    its own there, and the folder `cache_warm` looks in and `compile_first` names would be
+    the wrong one."""
+    if user_dir:
+        return Path(user_dir)
+    in_tree = Path(__file__).resolve().parent / "__pycache__"
+    if _writable(in_tree):
+        return in_tree
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "cosim"
+
+
+def _writable(folder: Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return False
+    return os.access(folder, os.W_OK | os.X_OK)
+
+
+def cache_folder() -> Path:
+    """The folder numba's cache of the compiled functions declared so far goes to."""
+    return _cache_dir(os.environ.get("NUMBA_CACHE_DIR", ""))
 
 
 def njit(fn: F) -> F:
@@ -141,7 +167,7 @@ def cache_warm() -> bool:
     so far, so that `warm_up` loads rather than compiles (a callee compiled only inside
     its caller has no entry of its own, hence 'nearly'). Import the compiled modules
     first: the cache's folder is named after their sources."""
-    folder = _cache_dir(os.environ.get("NUMBA_CACHE_DIR", ""))
+    folder = cache_folder()
     if not folder.is_dir():
         return False
     return len(list(folder.rglob("*.nbi"))) >= 0.9 * len(_PENDING)

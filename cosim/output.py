@@ -16,6 +16,7 @@ are refused, and so is replacing a folder that holds anything a run does not wri
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
@@ -37,6 +38,9 @@ NAME_PATTERN = r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,79}"
 # What a run writes into its folder (CSVs and figures); a folder holding anything else is
 # not replaced by a run.
 RUN_SUFFIXES = (".csv", ".png", ".svg", ".pdf")
+# Folders `staged_dir` swapped in, in this process: a signal after the swap finds the new
+# run complete, and the command says so (cosim.cli).
+COMPLETED: list[Path] = []
 
 
 def _read_umask() -> int:
@@ -72,12 +76,17 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     fig.savefig(tmp)`. On an exception the temporary file is removed and `path`
     is left as it was.
     """
+    from cosim.errors import OutputError
+
     final = Path(path)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(
-        prefix=f".{final.stem}{TEMP_MARK}", suffix=final.suffix, dir=final.parent
-    )
-    os.close(fd)
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{final.stem}{TEMP_MARK}", suffix=final.suffix, dir=final.parent
+        )
+        os.close(fd)
+    except OSError as exc:
+        raise OutputError(final, exc) from exc
     tmp = Path(tmp_name)
     try:
         yield tmp
@@ -86,9 +95,11 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             os.fsync(fh.fileno())
         os.chmod(tmp, FILE_MODE)
         os.replace(tmp, final)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if isinstance(exc, OSError):  # a full disk, a vanished folder: one line, not a trace
+            raise OutputError(final, exc) from exc
         raise
     _fsync_dir(final.parent)
 
@@ -158,6 +169,11 @@ def check_output_dir(path: str | Path, source: str = "command line", key: str = 
         raise InputError(source, key, str(path),
                          "a folder path naming its folder (not '', '.', '..' or a root)")
     try:
+        problem = _link_problem(out)
+        if problem is not None:
+            raise InputError(source, key, str(out), f"a usable folder path ({problem})")
+        if out.exists() and not out.is_dir():
+            raise InputError(source, key, str(out), f"a folder (this is {_kind(out)})")
         if whole and out.is_dir():
             foreign = [p.name for p in out.iterdir()
                        if not (p.is_file() and p.suffix in RUN_SUFFIXES)]
@@ -167,10 +183,13 @@ def check_output_dir(path: str | Path, source: str = "command line", key: str = 
                     "a new folder, an empty one or a previous run's (a run replaces it whole; "
                     f"this one holds {sorted(foreign)[:3]}, which a run does not write)")
         if out.exists():
-            if not out.is_dir():
-                raise InputError(source, key, str(out), "a folder (this is a file)")
             if not os.access(out, os.W_OK | os.X_OK):
                 raise InputError(source, key, str(out), "a folder we may write into")
+            beside = out.resolve().parent
+            if whole and not os.access(beside, os.W_OK | os.X_OK):
+                raise InputError(source, key, str(out),
+                                 f"a folder in a folder we may write into (a run is built "
+                                 f"beside it and swapped in; {beside} is read-only)")
             return out
         parent = out.absolute().parent
         while not parent.exists():
@@ -184,6 +203,30 @@ def check_output_dir(path: str | Path, source: str = "command line", key: str = 
     except OSError as exc:
         raise InputError(source, key, str(out), f"a usable folder path ({exc.strerror})") from None
     return out
+
+
+def _link_problem(path: Path) -> str | None:
+    """A symbolic link on the way to `path` (itself included) that leads nowhere: dangling,
+    or a loop (mkdir would fail on it after the run, not before)."""
+    for p in (path, *path.absolute().parents):
+        if not p.is_symlink():
+            continue
+        try:
+            os.stat(p)
+        except FileNotFoundError:
+            return f"{p} is a dangling symbolic link to {os.readlink(p)}"
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                return f"{p} is a symbolic link loop"
+            return f"{p}: {exc.strerror}"
+    return None
+
+
+def _kind(path: Path) -> str:
+    """What a path that is not a folder is, in words."""
+    from cosim.validation import file_kind
+
+    return file_kind(path.stat().st_mode)
 
 
 def make_output_dir(path: str | Path) -> Path:
@@ -260,29 +303,56 @@ def staged_dir(path: str | Path) -> Iterator[Path]:
     deleted). On any exception (Ctrl-C, SIGTERM through `Terminated`) the temporary folder
     is deleted and `path` keeps exactly what it held. A SIGKILL leaves the hidden sibling,
     which the next `staged_dir` of the same folder cleans (`recover_stale`; the names
-    carry the owner's process id, so a concurrent run's stage is left alone)."""
+    carry the owner's process id, so a concurrent run's stage is left alone). The swap and
+    the old folder's removal hold SIGINT / SIGTERM / SIGHUP until done (`signals_deferred`):
+    a signal then finds the new folder in place (`COMPLETED`) and no hidden copy. A write
+    that fails (no space left) is an `OutputError` naming the file as the user knows it."""
+    from cosim.errors import OutputError, signals_deferred
+
     final = Path(path)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    recover_stale(final)
-    temp, old = _stage_names(final)
-    pid = f"{os.getpid()}-"  # the owner, for recover_stale
-    tmp = Path(tempfile.mkdtemp(prefix=temp + pid, dir=final.parent))
+    if final.is_symlink():  # a link to a folder: build beside the folder, keep the link
+        final = final.resolve()
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        recover_stale(final)
+        temp, old = _stage_names(final)
+        pid = f"{os.getpid()}-"  # the owner, for recover_stale
+        tmp = Path(tempfile.mkdtemp(prefix=temp + pid, dir=final.parent))
+    except OSError as exc:
+        raise OutputError(final, exc) from exc
     aside: Path | None = None
+    swapped = False
     try:
         os.chmod(tmp, 0o777 & ~_read_umask())
         yield tmp
-        if final.exists():
-            aside = Path(tempfile.mkdtemp(prefix=old + pid, dir=final.parent))
-            os.replace(final, aside)  # an empty directory is replaced by rename(2)
-        os.replace(tmp, final)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if aside is not None and not final.exists():
-            os.replace(aside, final)  # interrupted between the two renames: put it back
+        # The swap and the old folder's removal run whole: a Ctrl-C or SIGTERM now is
+        # held until the new folder is in place and no hidden copy is left, then delivered
+        # (the command reports the run complete: `completed`).
+        with signals_deferred():
+            if final.exists():
+                aside = Path(tempfile.mkdtemp(prefix=old + pid, dir=final.parent))
+                os.replace(final, aside)  # an empty directory is replaced by rename(2)
+            os.replace(tmp, final)
+            swapped = True
+            COMPLETED.append(final)
+            _fsync_dir(final.parent)
+            if aside is not None:
+                shutil.rmtree(aside, ignore_errors=True)
+    except BaseException as exc:
+        if swapped:
+            raise  # a signal held through the swap: the new run is in place
+        with signals_deferred():  # a second Ctrl-C must not leave half of the clean-up
+            shutil.rmtree(tmp, ignore_errors=True)
+            if aside is not None and not final.exists():
+                os.replace(aside, final)  # failed between the two renames: put it back
+        kept = f"{final} keeps what it held" if final.exists() else f"{final} was not made"
+        if isinstance(exc, OutputError) and exc.where.startswith(str(tmp)):
+            # name the file as the user knows it, not its hidden staging copy
+            raise OutputError(str(final) + exc.where[len(str(tmp)):], exc.reason,
+                              kept) from exc
+        if isinstance(exc, OSError):
+            raise OutputError(final, exc, kept) from exc
         raise
-    _fsync_dir(final.parent)
-    if aside is not None:
-        shutil.rmtree(aside, ignore_errors=True)
 
 
 def stale_temp_files(directory: str | Path) -> list[Path]:

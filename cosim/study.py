@@ -50,8 +50,14 @@ from cosim.scenario import (
     override_target,
     read_toml,
 )
-from cosim.scenario.load import exists
-from cosim.validation import Field, check_known_tables, check_table, validate_table
+from cosim.validation import (
+    MISSING,
+    Field,
+    check_known_tables,
+    check_table,
+    not_a_file,
+    validate_table,
+)
 
 MAX_RUNS = 100_000  # runs in one study: a bigger grid is refused before it is expanded
 MAX_SEEDS = 100_000  # seeds in one study (seed_count, or a flag's range A-B)
@@ -210,6 +216,10 @@ def study_from_dict(doc: Any, path: Path) -> Study:
     """Validate a study document (the parsed TOML) read from `path`."""
     source = str(path)
     check_table(source, "", doc)
+    if "study" not in doc and {"scenario", "sv"} <= set(doc):
+        raise InputError(source, "[study]", MISSING,
+                         "a study file (this is a scenario: run a grid on it with "
+                         "cosim batch --scenario FILE --densities LIST --seeds LIST)")
     check_known_tables(source, doc, ["study"])
     if "study" not in doc:
         raise InputError(source, "study", None, "required: a [study] table")
@@ -226,8 +236,10 @@ def study_from_dict(doc: Any, path: Path) -> Study:
     scenario = Path(values.pop("scenario"))
     if not scenario.is_absolute():
         scenario = path.parent / scenario
-    if not exists(scenario, want_file=True):
-        raise InputError(source, "study.scenario", str(scenario), "an existing scenario file")
+    problem = not_a_file(scenario)
+    if problem is not None:
+        raise InputError(source, "study.scenario", str(scenario), "an existing scenario file" + (
+            "" if problem == "not found" else f" (this is {problem})"))
     origins = {attr: (source, f"study.{GRID[attr][1]}") for attr in GRID
                if values.get(attr) is not None}
     if "seed_count" in raw:
@@ -260,8 +272,8 @@ def check_study(study: Study) -> Scenario:
             if exc.source == source and exc.key in changes:  # an unknown override name
                 raise InputError(source, f"{key}.{exc.key}", exc.value, exc.allowed) from None
             raise InputError(source, key, value,
-                             f"{exc.allowed} (base scenario {study.scenario}: {exc.key} = "
-                             f"{exc.value!r})") from None
+                             f"a value the base scenario {study.scenario} allows (with this one "
+                             f"its {exc.key} = {exc.value!r} is refused: {exc.allowed})") from None
 
     for attr, (override, file_key, _flag) in GRID.items():
         values = getattr(study, attr)

@@ -175,6 +175,37 @@ def declared_fields(cls: type) -> tuple[Field, ...]:
     )
 
 
+def not_a_file(path: Any) -> str | None:
+    """Why `path` cannot be read as a file, in words ("not found", "a folder", "a character
+    device", a dangling link ...), or None when it is a regular file (symlinks followed)."""
+    import os
+    import stat
+    from pathlib import Path
+
+    p = Path(path)
+    try:
+        mode = p.stat().st_mode
+    except FileNotFoundError:
+        return "a dangling symbolic link" if p.is_symlink() else "not found"
+    except (OSError, ValueError) as exc:
+        return getattr(exc, "strerror", None) or str(exc)
+    if stat.S_ISREG(mode):
+        return None if os.access(p, os.R_OK) else "not readable (permission denied)"
+    return file_kind(mode)
+
+
+def file_kind(mode: int) -> str:
+    """What a file of this st_mode is, in words ("a folder", "a character device", ...)."""
+    import stat
+
+    for test, what in ((stat.S_ISREG, "a file"), (stat.S_ISDIR, "a folder"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return what
+    return "not a regular file"
+
+
 def suggest(key: str, known: Sequence[str]) -> str:
     """' (did you mean 'x'?)' for a close known key, else ''."""
     close = difflib.get_close_matches(key, list(known), n=1, cutoff=0.6)

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from cosim.batch import expand, run_study, warm_up
-from cosim.commands import count, seconds
+from cosim.commands import count, max_workers, seconds
 from cosim.scenario import project_root
 
 
@@ -49,12 +49,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=project_root() / "scenarios" / "study_density_base.toml",
                         help="base scenario (default: scenarios/study_density_base.toml)")
     parser.add_argument("--densities", default="10,20", help="veh/km/lane, comma-separated")
-    parser.add_argument("--seeds", type=count("--seeds"), default=8, help="seeds 1..N per density")
-    parser.add_argument("--driver", default="mimo", help="mimo, siso or sumo")
+    parser.add_argument("--seeds", type=count("--seeds", hi=1000), default=8,
+                        help="seeds 1..N per density (at most 1000)")
+    parser.add_argument("--driver", default="mimo", choices=("mimo", "siso", "sumo"),
+                        help="mimo, siso or sumo")
     parser.add_argument("--duration", type=seconds("--duration"), default=20.0,
                         help="s, simulated time per run")
-    parser.add_argument("--workers", type=count("--workers"), default=os.cpu_count() or 2,
-                        help="workers of the parallel case (default: the machine's cores)")
+    parser.add_argument("--workers", type=count("--workers", hi=max_workers()),
+                        default=os.cpu_count() or 2, help="workers of the parallel case "
+                        f"(default: the machine's cores; at most {max_workers()})")
     parser.add_argument("--repeats", type=count("--repeats"), default=3,
                         help="repeats of each case")
 
@@ -64,6 +67,9 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     from cosim.study import DENSITY
 
     densities = parse_list(args.densities, "--densities", DENSITY) or (10.0,)
+    from cosim.scenario import load_scenario
+
+    load_scenario(args.scenario)  # a bad base scenario: one line now, not failed runs
     specs = expand(
         args.scenario, densities=densities, seeds=range(1, args.seeds + 1),
         occupants=(0.5,), mus=(0.8,), drivers=(args.driver,), plants=("twotrack",),

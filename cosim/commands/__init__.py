@@ -18,8 +18,23 @@ FIGURE_FORMATS = ("png", "svg", "pdf")  # = cosim.plots.FORMATS (not imported: m
 
 def add_figure_format(parser: argparse.ArgumentParser) -> None:
     """`--figure-format png|svg|pdf` (default png, 200 dpi), for every command that draws."""
-    parser.add_argument("--figure-format", choices=FIGURE_FORMATS, default="png",
+    parser.add_argument("--figure-format", choices=FIGURE_FORMATS, default=None,
                         help="format of the figures (default png, 200 dpi)")
+
+
+# Flags that turn a command's figures off: --figure-format with one of them means nothing.
+NO_FIGURE_FLAGS = (("no_figures", "--no-figures"), ("no_plot", "--no-plot"),
+                   ("no_plots", "--no-plots"))
+
+
+def check_figure_flags(args: argparse.Namespace) -> None:
+    """--figure-format with a flag that draws no figure is refused, naming both."""
+    if getattr(args, "figure_format", None) is None:
+        return
+    for attr, flag in NO_FIGURE_FLAGS:
+        if getattr(args, attr, False):
+            raise InputError("command line", "--figure-format", args.figure_format,
+                             f"no --figure-format with {flag} (no figure is drawn)")
 
 
 def flag_type(field: Field) -> Callable[[str], Any]:
@@ -42,9 +57,21 @@ def flag_type(field: Field) -> Callable[[str], Any]:
     return convert
 
 
-def count(key: str, lo: int = 1) -> Callable[[str], Any]:
-    """An integer flag >= lo (repeats, workers, seeds)."""
-    return flag_type(Field(key, int, lo=lo, default=None))
+def count(key: str, lo: int = 1, hi: int | None = None) -> Callable[[str], Any]:
+    """An integer flag >= lo (repeats, workers, seeds), at most hi if given."""
+    return flag_type(Field(key, int, lo=lo, hi=hi, default=None))
+
+
+# Local worker processes per core at most (each run is one SUMO and one Python process,
+# CPU-bound): more only queue for the cores and hold memory.
+WORKERS_PER_CORE = 4
+
+
+def max_workers() -> int:
+    """The most local worker processes a command starts without being told otherwise."""
+    import os
+
+    return WORKERS_PER_CORE * (os.cpu_count() or 1)
 
 
 def seconds(key: str, hi: float = 3600.0) -> Callable[[str], Any]:
@@ -66,7 +93,7 @@ def compile_first(stream: Any = None) -> float:
     import cosim.planning.collision  # noqa: F401  declaring their compiled functions names
     import cosim.planning.interaction  # noqa: F401  the cache's folder)
     import cosim.proximity  # noqa: F401
-    from cosim.compiled import cache_warm
+    from cosim.compiled import cache_folder, cache_warm
 
     out = stream or sys.stderr
     cold = not cache_warm()
@@ -78,8 +105,10 @@ def compile_first(stream: Any = None) -> float:
 
     took = time.perf_counter() - start
     if cold:
-        print(f"compiled in {took:.0f} s (cached in cosim/__pycache__/numba/)", file=out,
-              flush=True)
+        folder = cache_folder()
+        where = (f"cached in {folder}" if any(folder.rglob("*.nbi")) else
+                 "not cached: no folder numba could write; each process compiles again")
+        print(f"compiled in {took:.0f} s ({where})", file=out, flush=True)
     return took
 
 

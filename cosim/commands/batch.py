@@ -20,8 +20,14 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from cosim.batch import RunSpec, expand, run_study
-from cosim.commands import add_figure_format, compile_first, count
+from cosim.batch import RunSpec, check_same_base, expand, run_study
+from cosim.commands import (
+    WORKERS_PER_CORE,
+    add_figure_format,
+    compile_first,
+    count,
+    max_workers,
+)
 from cosim.errors import InputError
 from cosim.output import check_output_dir
 from cosim.study import (
@@ -35,7 +41,7 @@ from cosim.study import (
     check_seed_count,
     load_study,
 )
-from cosim.validation import Field
+from cosim.validation import Field, not_a_file
 
 SOURCE = "command line"
 
@@ -67,9 +73,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="keep each run's trace files in DIR/traces/<run_id>/")
     p.add_argument("--workers", type=count("--workers"), metavar="N",
                    help="processes (default: the machine's cores)")
+    p.add_argument("--allow-many-workers", action="store_true",
+                   help=f"allow --workers above {WORKERS_PER_CORE} x the cores")
     p.add_argument("--dask", metavar="ADDRESS",
-                   help="run on a Dask cluster: a scheduler address, or 'local' (LocalCluster)")
+                   help="run on a Dask cluster: a scheduler address, or 'local' (LocalCluster "
+                   "of --workers processes)")
     p.add_argument("--retry-failed", action="store_true", help="run failed runs again")
+    p.add_argument("--restart", action="store_true",
+                   help="replace the runs DIR holds (needed when the base scenario, "
+                   "--duration or the network changed since they were made)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true", help="no figures")
     add_figure_format(p)
@@ -134,15 +146,42 @@ def study_from_args(args: argparse.Namespace) -> Study:
         duration=args.duration,
         traces=args.traces,
     )
-    if not study.scenario.is_file():
-        raise InputError(SOURCE, "--scenario", str(study.scenario), "an existing scenario file")
+    problem = not_a_file(study.scenario)
+    if problem is not None:
+        raise InputError(SOURCE, "--scenario", str(study.scenario), "an existing scenario file" + (
+            "" if problem == "not found" else f" (this is {problem})"))
     if not study.densities:
         raise InputError(SOURCE, "--densities", None, "required without a study file")
     if not study.seeds:
         raise InputError(SOURCE, "--seeds", None, "required without a study file")
-    if args.workers is not None and args.workers < 1:
-        raise InputError(SOURCE, "--workers", args.workers, "an integer >= 1")
+    check_workers(args)
+    if args.restart and args.retry_failed:
+        raise InputError(SOURCE, "--retry-failed", True,
+                         "no --retry-failed with --restart (--restart runs every run again)")
+    if args.plants is not None and study.drivers is not None and set(study.drivers) == {"sumo"}:
+        raise InputError(SOURCE, "--plants", args.plants,
+                         "no --plants when every driver is sumo (SUMO drives the SV: no plant of "
+                         "ours runs)")
     return study
+
+
+def check_workers(args: argparse.Namespace) -> None:
+    """--workers within the machine (a small multiple of its cores, unless
+    --allow-many-workers) and meaningful: with a remote --dask the cluster's workers run
+    the runs, so --workers is refused there (with --dask local it sizes the LocalCluster)."""
+    if args.workers is None:
+        return
+    if args.workers < 1:
+        raise InputError(SOURCE, "--workers", args.workers, "an integer >= 1")
+    if args.dask is not None and args.dask != "local":
+        raise InputError(SOURCE, "--workers", args.workers,
+                         f"no --workers with --dask {args.dask} (the cluster's own workers run "
+                         "the runs; --workers sizes only --dask local)")
+    limit = max_workers()  # --allow-many-workers lifts it
+    if args.workers > limit and not args.allow_many_workers:
+        raise InputError(SOURCE, "--workers", args.workers,
+                         f"at most {limit} ({WORKERS_PER_CORE} x this machine's "
+                         f"{os.cpu_count() or 1} cores), or add --allow-many-workers")
 
 
 def specs_of(study: Study) -> list[RunSpec]:
@@ -207,12 +246,14 @@ def run(args: argparse.Namespace) -> int:
         print(f"cosim batch: {study.name}: {len(specs)} runs ({len(specs) - todo} done before) "
               f"on {where} -> {out}", file=sys.stderr)
 
+    if not args.restart:
+        check_same_base(out, specs)  # a resumed study on another base: refused now
     if args.dask is None and any(d != "sumo" for d in {s.driver for s in specs}):
         compile_first()  # before the progress bar, which then counts runs only
     result = run_study(
         specs, out, workers=workers, dask=args.dask, progress=not args.no_progress,
         retry_failed=args.retry_failed, plots=not args.no_plots, title=study.name,
-        on_start=announce,
+        on_start=announce, restart=args.restart,
     )
     print(
         f"{len(result.runs)} runs ({result.ran} run now, {result.skipped} already done), "

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -130,19 +131,13 @@ def run(args: argparse.Namespace) -> int:
     plan = planner.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
     figure = None
     if not args.no_plot:
-        from cosim.output import check_output_dir, make_output_dir
+        from cosim.output import check_output_dir
         from cosim.plots import figure_path
-        from cosim.plots.planning import planning_figure
 
         check_output_dir(args.out)  # no escaping or empty name
-        try:
-            out = make_output_dir(args.out)
-        except OSError as exc:
-            raise InputError("cosim plan", "--out", str(args.out),
-                             f"a writable folder ({exc})") from None
-        figure = planning_figure(figure_path(out, figure_stem(sc.name, cfg)), plan, si.road,
-                                 sc.vehicle, title=f"{sc.name}: planning at t = {si.t:g} s, "
-                                 f"{describe_method(cfg)}")
+        figure = figure_path(args.out, figure_stem(sc.name, cfg))
+    # The answer first, the figure after it: if standard output cannot take the answer (a
+    # full device), the command fails before it writes anything (README, `cosim plan`).
     if args.json:
         d = plan.to_dict()
         d["scenario"] = sc.name
@@ -153,4 +148,17 @@ def run(args: argparse.Namespace) -> int:
         print(report(sc.name, plan, startup_s))
         if figure is not None:
             print(f"figure: {figure}")
+    if sys.stdout is not None:  # (None: a closed descriptor)
+        sys.stdout.flush()
+    if figure is not None:
+        from cosim.output import make_output_dir
+        from cosim.plots.planning import planning_figure
+
+        try:
+            make_output_dir(args.out)
+        except OSError as exc:
+            raise InputError("cosim plan", "--out", str(args.out),
+                             f"a writable folder ({exc})") from None
+        planning_figure(figure, plan, si.road, sc.vehicle,
+                        title=f"{sc.name}: planning at t = {si.t:g} s, {describe_method(cfg)}")
     return 0

@@ -7,11 +7,13 @@ written); flags override the file's [sv] plant / controller and [scenario] seed.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from cosim.commands import add_figure_format, compile_first, flag_overrides
+from cosim.errors import InputError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -31,7 +33,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--gui", action="store_true",
                         help="show the run in sumo-gui (traci), following the SV, in real "
                         "time; the window stays open until closed (needs a display)")
-    parser.add_argument("--gui-speed", type=float, default=1.0, metavar="FACTOR",
+    parser.add_argument("--gui-speed", type=float, default=None, metavar="FACTOR",
                         help="with --gui: simulated seconds per wall second (default 1: "
                         "real time; 0.5: slow motion)")
     parser.add_argument("--gui-quit", action="store_true",
@@ -49,10 +51,18 @@ def run(args: argparse.Namespace) -> int:
     from cosim.traffic import gui as sumo_gui
     from cosim.vehicle.bicycle import warn_near_critical_speed
 
-    settings = sumo_gui.GuiSettings(speed=args.gui_speed, keep_open=not args.gui_quit)
+    check_flags(args)
+    settings = sumo_gui.GuiSettings(speed=1.0 if args.gui_speed is None else args.gui_speed,
+                                    keep_open=not args.gui_quit)
     if args.gui:
         sumo_gui.check_gui(settings)  # no display: one line now, not a traceback later
-    scenario = flag_overrides(load_scenario(args.scenario), {
+    scenario = load_scenario(args.scenario)
+    if args.plant is not None and (args.controller or scenario.sv.controller) == "sumo":
+        why = ("--controller sumo" if args.controller else
+               f"the scenario's sv.controller = 'sumo' ({args.scenario})")
+        raise InputError(SOURCE, "--plant", args.plant,
+                         f"no --plant with {why}: SUMO drives the SV, no plant of ours runs")
+    scenario = flag_overrides(scenario, {
         "--plant": ("plant", args.plant), "--controller": ("controller", args.controller),
         "--seed": ("seed", args.seed)})
     warn_near_critical_speed(scenario)  # one line on stderr if the SV may get near it
@@ -70,6 +80,12 @@ def run(args: argparse.Namespace) -> int:
             print("cosim run: stopped: the sumo-gui window was closed before the run ended",
                   file=sys.stderr)
             return 130
+        if args.gui and type(exc).__name__ == "TraCIException" and "finished" in str(exc):
+            # sumo-gui ended before traci reached it: it could not open its window
+            raise InputError(f"{SOURCE} --gui", "sumo-gui", "ended at start",
+                             "a display sumo-gui can open (DISPLAY "
+                             f"{os.environ.get('DISPLAY', '')!r}); run without --gui, or "
+                             "under xvfb-run") from None
         raise
     keys = ("lane_changes", "collisions", "sumo_collisions", "min_gap_m", "min_ttc_s",
             "tau_first_s", "iae_ye_m_s")
@@ -92,6 +108,20 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {out}", file=sys.stderr)
     sumo_gui.wait_for_windows()
     return 0
+
+
+SOURCE = "command line"
+
+
+def check_flags(args: argparse.Namespace) -> None:
+    """Flags that mean nothing without another one are refused, naming both."""
+    if not args.gui:
+        for flag, given in (("--gui-speed", args.gui_speed is not None),
+                            ("--gui-quit", args.gui_quit)):
+            if given:
+                raise InputError(SOURCE, flag, args.gui_speed if flag == "--gui-speed" else
+                                 True, f"only with --gui ({flag} sets how sumo-gui shows the "
+                                 "run; without --gui there is no window)")
 
 
 def quiet_sv_note(scenario: Any, metrics: dict[str, Any]) -> str:

@@ -3,6 +3,7 @@ through cosim.traffic.network), then the cross-field rules (cosim.scenario.rules
 
 from __future__ import annotations
 
+import codecs
 import copy
 import re
 import tomllib
@@ -26,6 +27,7 @@ from cosim.validation import (
     MISSING,
     check_known_tables,
     check_table,
+    not_a_file,
     validate_table,
 )
 
@@ -70,8 +72,10 @@ def read_toml(path: str | Path, what: str = "scenario") -> dict[str, Any]:
     MAX_FILE_BYTES (checked before reading), not UTF-8, not TOML or nested too deep."""
     p = Path(path)
     source = str(p)
-    if not exists(p, want_file=True):
-        raise InputError(source, "file", source, f"an existing {what} file (.toml)")
+    problem = not_a_file(p)
+    if problem is not None:
+        raise InputError(source, "file", source, f"an existing {what} file (.toml)" + (
+            "" if problem == "not found" else f"; this is {problem}"))
     try:
         size = p.stat().st_size
         if size > MAX_FILE_BYTES:
@@ -80,6 +84,8 @@ def read_toml(path: str | Path, what: str = "scenario") -> dict[str, Any]:
         data = p.read_bytes()
     except OSError as exc:
         raise InputError(source, "file", source, f"a readable file ({exc.strerror})") from None
+    if data.startswith(codecs.BOM_UTF8):  # what some editors put first: not TOML, harmless
+        data = data[len(codecs.BOM_UTF8):]
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -87,7 +93,11 @@ def read_toml(path: str | Path, what: str = "scenario") -> dict[str, Any]:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, "file", str(exc), "valid TOML") from None
+        where = re.fullmatch(r"(.*?) \(at (line \d+, column \d+|end of document)\)", str(exc))
+        if where is None:
+            raise InputError(source, "file", str(exc), "valid TOML") from None
+        raise InputError(source, "file", where.group(2),
+                         f"valid TOML ({where.group(1).rstrip('.').lower()} there)") from None
     except (RecursionError, ValueError) as exc:  # pathological nesting
         what_ = "nesting too deep" if isinstance(exc, RecursionError) else str(exc)
         raise InputError(source, "file", what_, "valid TOML") from None
@@ -102,16 +112,21 @@ def load_scenario(path: str | Path) -> Scenario:
 def read_network(source: str, key: str, written: str, path: Path,
                  base_dir: Path) -> Highway:
     """The scenario's network as the tool drives on it, or InputError naming the scenario."""
-    if not exists(path, want_file=True):
+    problem = not_a_file(path)
+    if problem == "not found":
         looked = path if Path(written).is_absolute() else (
             f"{base_dir / written} or {project_root() / written}")
         raise InputError(source, key, written,
                          f"an existing SUMO .net.xml file (not found: {looked})")
+    if problem is not None:
+        raise InputError(source, key, written,
+                         f"a SUMO .net.xml file ({path} is {problem})")
     try:
         return load_highway(path)
     except InputError as exc:
-        if exc.key in ("network", "size"):  # unreadable or too big: say so as it is
-            raise InputError(source, key, str(path), f"{exc.allowed} ({exc.value})") from None
+        if exc.key in ("network", "size") or exc.key.endswith(" speed"):  # say what it is
+            raise InputError(source, key, str(path),
+                             f"{exc.allowed} ({exc.key} = {exc.value})") from None
         raise InputError(source, key, str(path), exc.allowed) from None
 
 
@@ -149,7 +164,8 @@ def scenario_from_dict(
     network = _resolve(base_dir, rd["network"])
     highway = read_network(src, "road.network", rd["network"], network, base_dir)
     # lane geometry has one source: the network (the file may only repeat its width)
-    if rd["lane_width"] is not None and abs(rd["lane_width"] - highway.lane_width) > 1e-3:
+    if (rd["lane_width"] is not None
+            and abs(rd["lane_width"] - highway.lane_width) > max(1e-3, highway.rounding)):
         raise InputError(src, "road.lane_width_m", rd["lane_width"],
                          f"the network's lane width {highway.lane_width:g} m (or absent)")
     road = RoadParams(lane_width=highway.lane_width, speed_bands=rd["speed_bands"],

@@ -33,6 +33,7 @@ def check_scenario(src: str, s: Scenario, net: Highway) -> None:
     _check_vehicle(src, s)
     _check_sv(src, s, net)
     _check_tvs(src, s, net)
+    _check_lanes_open(src, s, net)
     _check_no_overlap(src, s, net)
     _check_positions(src, s, net)
 
@@ -75,7 +76,8 @@ def _check_speed_limit(src: str, key: str, speed: float, lane: int, net: Highway
     """SUMO refuses to insert a vehicle faster than its lane's limit ("Departure speed ...
     too high"): say so now."""
     limit = net.lane_speeds[lane]
-    if speed > limit + SPEED_TOLERANCE:
+    # within the network's rounding: netconvert's default 2 decimals write 120 km/h as 33.33
+    if speed > limit + max(SPEED_TOLERANCE, net.rounding):
         raise InputError(src, key, round(speed * KMH, 6),
                          f"at most lane {lane}'s speed limit in the network, "
                          f"{limit * KMH:.6g} km/h (SUMO inserts no faster vehicle)")
@@ -101,7 +103,7 @@ def _check_sv(src: str, s: Scenario, net: Highway) -> None:
         key = f"sv.lane_changes[{i}]"
         if cmd.at >= s.duration:
             raise InputError(src, f"{key}.at_s", cmd.at,
-                             f"before scenario.duration_s = {s.duration:g} s")
+                             f"a time before the run ends (scenario.duration_s = {s.duration:g} s)")
         if cmd.at <= last_at:
             raise InputError(src, f"{key}.at_s", cmd.at,
                              f"after the previous request's at_s = {last_at:g} s")
@@ -149,9 +151,46 @@ def _check_tvs(src: str, s: Scenario, net: Highway) -> None:
                                  f"after -tau_s = {-lc.tau:g} s (a finished change: put the TV "
                                  "in its target lane)")
             if lc.start >= s.duration:
-                raise InputError(src, f"{key}.lane_change.start_s", lc.start,
-                                 f"before scenario.duration_s = {s.duration:g} s")
+                raise InputError(
+                    src, f"{key}.lane_change.start_s", lc.start,
+                    f"a time before the run ends (scenario.duration_s = {s.duration:g} s)")
         _check_speed_limit(src, f"{key}.speed_kmh", _start_pose(tv, s, net)[3], tv.lane, net)
+
+
+def _check_lanes_open(src: str, s: Scenario, net: Highway) -> None:
+    """Every lane a vehicle is put into or sent to allows passenger cars (the class of
+    every vehicle type cosim makes): SUMO refuses the insertion otherwise ("Invalid
+    departLane definition") or never changes into the lane."""
+    closed = set(net.closed_lanes())
+    if not closed:
+        return
+
+    def refuse(key: str, value: object, lane: int, allowed: str) -> None:
+        raise InputError(src, key, value,
+                         f"{allowed} (lane {lane} of the network {s.network.name} is closed to "
+                         "passenger cars by its allow / disallow; every vehicle cosim adds is "
+                         "one)")
+
+    open_lane = "a lane open to passenger cars"
+    if s.traffic.density > 0:
+        refuse("traffic.density_veh_per_km_lane", s.traffic.density, min(closed),
+               "0 on this network (random traffic enters every lane)")
+    sv = s.sv
+    if sv.lane in closed:
+        refuse("sv.lane", sv.lane, sv.lane, open_lane)
+    for i, cmd in enumerate(sv.lane_changes):
+        if cmd.target_lane in closed:
+            refuse(f"sv.lane_changes[{i}].target_lane", cmd.target_lane, cmd.target_lane,
+                   open_lane)
+    if sv.decision:
+        refuse("sv.decision", True, min(closed),
+               "false on this network (by the traffic rule the SV may change to any lane)")
+    for i, tv in enumerate(s.tvs):
+        if tv.lane in closed:
+            refuse(f"tv[{i}].lane", tv.lane, tv.lane, open_lane)
+        if tv.lane_change is not None and tv.lane_change.target_lane in closed:
+            refuse(f"tv[{i}].lane_change.target_lane", tv.lane_change.target_lane,
+                   tv.lane_change.target_lane, open_lane)
 
 
 def _start_pose(tv: TVSpec, s: Scenario, net: Highway) -> tuple[float, float, float, float]:

@@ -51,9 +51,46 @@ def display_problem(environ: dict[str, str] | None = None) -> str | None:
     env = os.environ if environ is None else environ
     if sys.platform in ("win32", "darwin"):
         return None
-    if env.get("DISPLAY") or env.get("WAYLAND_DISPLAY"):
+    if env.get("WAYLAND_DISPLAY"):
         return None
-    return "no display (DISPLAY is not set): run without --gui, or under xvfb-run"
+    display = env.get("DISPLAY")
+    if display:
+        if x_display_reachable(display):
+            return None
+        return (f"a display sumo-gui can open (no X server answers on DISPLAY {display!r}): "
+                "start one, run without --gui, or under xvfb-run")
+    return "a display for sumo-gui's window (neither DISPLAY nor WAYLAND_DISPLAY is set): " \
+        "run without --gui, or under xvfb-run"
+
+
+def x_display_reachable(display: str, timeout: float = 1.0) -> bool:
+    """Whether an X server listens for DISPLAY (":N", "unix:N", "host:N", with an optional
+    ".screen"): its socket /tmp/.X11-unix/XN (or Linux's abstract one), or TCP 6000 + N.
+    A DISPLAY of another form is given the benefit of the doubt."""
+    import re
+    import socket
+
+    found = re.fullmatch(r"(?P<host>[^:]*):(?P<n>\d+)(\.\d+)?", display)
+    if not found:
+        return True
+    host, n = found.group("host"), int(found.group("n"))
+    if host in ("", "unix"):
+        for address in (f"/tmp/.X11-unix/X{n}", f"\0/tmp/.X11-unix/X{n}"):
+            with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
+                sock.settimeout(timeout)
+                try:
+                    sock.connect(address)
+                    return True
+                except OSError:
+                    continue
+        if host == "unix":
+            return False
+        host = "localhost"
+    try:
+        with socket.create_connection((host, 6000 + n), timeout=timeout):
+            return True
+    except OSError:
+        return False
 
 
 def check_gui(settings: GuiSettings, environ: dict[str, str] | None = None) -> None:
@@ -61,13 +98,14 @@ def check_gui(settings: GuiSettings, environ: dict[str, str] | None = None) -> N
     settings make sense; called before anything runs."""
     problem = display_problem(environ)
     if problem is not None:
-        raise InputError(SOURCE, "--gui", "set", problem)
+        env = os.environ if environ is None else environ
+        raise InputError(f"{SOURCE} --gui", "DISPLAY", env.get("DISPLAY", ""), problem)
     if not 0.05 <= settings.speed <= 100.0:
         raise InputError(SOURCE, "--gui-speed", settings.speed,
                          "a factor in [0.05, 100] (1: real time)")
     if binary() is None:
-        raise InputError(SOURCE, "--gui", "set",
-                         "sumo-gui, which the eclipse-sumo package installs (not found)")
+        raise InputError(f"{SOURCE} --gui", "sumo-gui", "not found",
+                         "sumo-gui, which the eclipse-sumo package installs")
 
 
 def binary() -> str | None:

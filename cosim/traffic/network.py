@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import math
 import re
 import subprocess
 import sys
@@ -52,6 +53,14 @@ class Highway:
     lane_width: float  # m
     y_right: float  # m, global y of lane 0's right line
     lane_speeds: tuple[float, ...]  # m/s, SUMO speed limit per lane index
+    # per lane index: whether SUMO lets a passenger car (every cosim vehicle type's
+    # class, DEFAULT_VEHTYPE's) drive on it (its allow / disallow attributes)
+    lane_open: tuple[bool, ...] = ()
+    rounding: float = 1e-6  # m, half a unit of the last decimal the file's numbers have
+
+    def closed_lanes(self) -> list[int]:
+        """Lane indices closed to passenger cars (empty: all open)."""
+        return [k for k, ok in enumerate(self.lane_open) if not ok]
 
     @property
     def n_lanes(self) -> int:
@@ -114,6 +123,7 @@ SUPPORTED = (
     "a SUMO network of one straight edge along +x (two-point lane shapes, constant y), "
     "its lanes side by side with one width"
 )
+PASSENGER = "passenger"  # the vehicle class of every vehicle cosim puts into SUMO
 MAX_NETWORK_BYTES = 64 * 2**20  # a highway net is a few kB: refuse bigger files before reading
 
 
@@ -160,35 +170,89 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
                           SUPPORTED + f" (this one has {len(edges)} edges)")
     edge = edges[0]
     lanes = sorted(edge.getLanes(), key=lambda lane: lane.getIndex())
+    if not lanes:
+        return InputError(path, "edge", edge.getID(), SUPPORTED + " (its edge has no lane)")
     shapes = [lane.getShape() for lane in lanes]
     widths = {round(lane.getWidth(), 6) for lane in lanes}
     if any(len(s) != 2 for s in shapes):
         return InputError(path, "edge", edge.getID(),
                           SUPPORTED + f" (its edge {edge.getID()!r} is bent)")
+    if not all(math.isfinite(v) for shape in shapes for point in shape for v in point[:2]):
+        return InputError(path, "edge", edge.getID(),
+                          SUPPORTED + " (a lane shape has a coordinate that is not a number)")
+    if not all(w > 0 for w in widths):  # NaN, 0 or negative
+        return InputError(path, "lane widths", sorted(widths), "lane widths > 0 m")
+    # netconvert rounds every coordinate to its --precision (2 decimals by default: lane
+    # centres 1.875 / 5.625 / 9.375 are written 1.88 / 5.62 / 9.38): a lane is where it
+    # should be if it is there up to that rounding (each number off by half a unit of the
+    # last decimal; lane k's expected centre y0 + k * width adds k of those through width).
+    places = _precision(path)
+    half = 0.5 * 10.0 ** -places + 1e-9  # m, half a unit of the file's last decimal
     (x0, y0), (x1, y1) = shapes[0]
-    if abs(y1 - y0) > 1e-6 or x1 <= x0:
+    if abs(y1 - y0) > max(2 * half, 1e-6) or x1 <= x0:
         return InputError(path, "edge", edge.getID(),
                           SUPPORTED + f" (its edge {edge.getID()!r} runs from ({x0:g}, {y0:g}) "
                           f"to ({x1:g}, {y1:g}))")
+    for lane in lanes:  # SUMO drives nothing on a lane without a speed limit above 0
+        if not lane.getSpeed() > 0:
+            return InputError(path, f"lane {lane.getIndex()} speed", lane.getSpeed(),
+                              "a network whose every lane has a speed limit > 0 m/s (SUMO moves "
+                              f"nothing on its lane {lane.getID()!r})")
     if len(widths) != 1:
         return InputError(path, "lane widths", sorted(widths),
                           SUPPORTED + f" (its lane widths are {sorted(widths)} m)")
     width = widths.pop()
+    worst = 0.0  # m, the largest offset found
     for k, ((a, b), (c, d)) in enumerate(shapes):
         # lane k's centre line: same x extent, y = y0 + k * width (side by side, no gaps)
-        if max(abs(a - x0), abs(c - x1), abs(b - d), abs(b - (y0 + k * width))) > 1e-3:
+        tol = (k + 2) * half
+        off = max(abs(a - x0), abs(c - x1), abs(b - d), abs(b - (y0 + k * width)))
+        if off > tol:
+            if abs(b - (y0 - k * width)) <= tol:
+                why = ("to the right of lane 0: lanes numbered from the left, a left-hand "
+                       "traffic network (netconvert --lefthand), which cosim does not drive on")
+            elif off > 10 * tol + 1e-3:
+                why = "not side by side with lane 0 at one width"
+            else:
+                why = f"more than the rounding of the file's {places} decimals allows, {tol:.3g} m"
             return InputError(path, f"lane {k}", f"({a:g}, {b:g}) to ({c:g}, {d:g})",
                               SUPPORTED + f" (its lane {k} runs from ({a:g}, {b:g}) to "
-                              f"({c:g}, {d:g}))")
+                              f"({c:g}, {d:g}), expected y = {y0 + k * width:g} m: {why})")
+        worst = max(worst, off)
+    if worst <= 1e-6:
+        y_right = y0 - width / 2.0
+    else:  # rounded centres: lane 0's right edge from all of them (least squares)
+        centres = [b for (_, b), _ in shapes]
+        y_right = sum(centres) / len(centres) - width * (len(centres) - 1) / 2.0 - width / 2.0
     return Highway(
         path=Path(path),
         edge_id=edge.getID(),
         x_start=float(x0),
         length=float(lanes[0].getLength()),
         lane_width=float(width),
-        y_right=float(y0 - width / 2.0),
+        y_right=float(y_right),
         lane_speeds=tuple(float(lane.getSpeed()) for lane in lanes),
+        lane_open=tuple(bool(lane.allows(PASSENGER)) for lane in lanes),
+        rounding=float(max(half, 1e-6)),
     )
+
+
+_LOCATION = re.compile(rb'<location[^>]*?netOffset="\s*-?\d+(?:\.(\d*))?')
+_SHAPE = re.compile(rb'<lane [^>]*?shape="([^"]*)"')
+
+
+def _precision(path: str) -> int:
+    """Decimals the network's coordinates are written with: netconvert writes every
+    coordinate, `<location netOffset>` included, with its --precision (default 2); without
+    a `<location>` (a hand-written file), the most decimals of a lane shape's y values."""
+    with open(path, "rb") as fh:
+        head = fh.read(MAX_NETWORK_BYTES)
+    found = _LOCATION.search(head)
+    if found:
+        return len(found.group(1) or b"")
+    ys = [point.split(b",")[1] for shape in _SHAPE.findall(head) for point in shape.split()
+          if point.count(b",") >= 1]
+    return max((len(y.partition(b".")[2]) for y in ys), default=6)
 
 
 def main(argv: list[str] | None = None) -> int:

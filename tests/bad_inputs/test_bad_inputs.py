@@ -137,6 +137,12 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "name_escapes.toml": ("scenario.name", "'../x'"),
     "name_empty.toml": ("scenario.name", "''"),
     "name_hidden.toml": ("scenario.name", "'.results'"),
+    # issue 25, class 2: lanes SUMO closes to the cars cosim adds (allow / disallow)
+    "sv_lane_closed_to_cars.toml": ("sv.lane", "1"),
+    "tv_target_lane_closed_to_cars.toml": ("tv[0].lane_change.target_lane", "0"),
+    "sv_target_lane_bus_only.toml": ("sv.lane_changes[0].target_lane", "2"),
+    # class 8: a lane speed of 0 is the network's fault, not sv.speed_kmh's
+    "network_lane_speed_zero.toml": ("road.network", "lane_speed_zero.net.xml"),
 }
 
 # A few messages must also say what is allowed (the suggestion, the range, the rule).
@@ -162,6 +168,11 @@ ALLOWED_HINTS: dict[str, str] = {
     "tvs_on_each_other.toml": "clear of TV 'lag' at t = 0",
     "wide_vehicles_side_by_side.toml": "+3.75 m across the road, widths 4 and 3.6 m",
     "name_dot.toml": "not '', '.', '..' or a path",
+    "sv_lane_closed_to_cars.toml": "lane 1 of the network lane1_closed.net.xml is closed to "
+                                   "passenger cars",
+    "tv_target_lane_closed_to_cars.toml": "lane 0 of the network lane0_closed.net.xml is closed",
+    "sv_target_lane_bus_only.toml": "lane 2 of the network lane2_bus_only.net.xml is closed",
+    "network_lane_speed_zero.toml": "lane 1 speed = 0",
 }
 
 
@@ -520,7 +531,8 @@ ISSUE13_CASES = sorted(
     name for name in SCENARIO_CASES
     if name.startswith(("tv_speed_above", "sv_speed_above", "tv_id_", "traffic_longer", "tv_runs",
                         "network_two", "network_minus", "network_bent", "sv_position_neg",
-                        "tv_mid_change", "tvs_on", "wide_vehicles", "name_"))
+                        "tv_mid_change", "tvs_on", "wide_vehicles", "name_", "sv_lane_closed",
+                        "tv_target_lane_closed", "sv_target_lane_bus", "network_lane_speed"))
 )
 
 

@@ -320,3 +320,17 @@ def test_snapshot_near_drops_vehicles_that_arrive_between_refreshes() -> None:
             inside = np.hypot(full.x - full.x[i], full.y - full.y[i]) <= 150.0
             assert set(near.ids) == {v for v, m in zip(full.ids, inside, strict=True) if m}
         assert arrived >= 4  # the road's end took vehicles while the candidates stood
+
+
+def test_every_vehicle_type_is_of_the_class_the_lane_check_assumes() -> None:
+    """cosim.scenario.rules refuses lanes closed to `network.PASSENGER` before SUMO starts:
+    the types cosim makes (traffic, controlled, driven) must be of that class."""
+    from cosim.traffic.network import PASSENGER
+
+    with make_sim(1) as sim:
+        sim.add_traffic("t0", 0, 500.0, 0.5)
+        sim.add_controlled("c0", 700.0, sim.highway.road().lane_center(1), 0.0, 25.0, 4.5, 1.8, 1)
+        sim.add_driven("d0", 2, 900.0, 30.0, 30.0, 4.5, 1.8)
+        sim.step()
+        classes = {vid: sim.api.vehicle.getVehicleClass(vid) for vid in ("t0", "c0", "d0")}
+    assert classes == {"t0": PASSENGER, "c0": PASSENGER, "d0": PASSENGER}
