@@ -1,0 +1,461 @@
+"""The road frame: arc length s along a reference line and lateral offset d from it.
+
+The reference line is built from SUMO's lane shapes (the centre line of the route's
+reference track, `cosim.road.tracks.reference_track`) and smoothed: SUMO's polylines
+kink at single vertices (3-18 degrees on real motorways), where a frame's curvature
+would be unbounded. The smoothed line is an *arc spline*: circular arcs of one length
+`h` (0.5 m), heading continuous from one to the next (G1), each arc's curvature
+constant. Its table holds, at s_k = s_min + k h, the point (x_k, y_k), the heading
+theta_k and, per arc, the curvature kappa_k; it runs `extension` m straight on past
+both ends of the route.
+
+Conversions are exact (closed form, both ways, no iteration): a point (s, d) is the
+point of arc k at u = s - s_k plus d along the arc's left normal there,
+
+    x = x_k + T(theta_k) [sin(kappa u) / kappa - d sin(kappa u),
+                          (1 - cos(kappa u)) / kappa + d cos(kappa u)],
+
+and a point's (s, d) is its foot on the arc whose normals cover it (the normals at the
+knots are shared by the arcs on both sides, so those regions tile the plane within
+the smallest radius of the line): in the arc's local coordinates (a, b),
+
+    u = atan2(kappa a, 1 - kappa b) / kappa,
+    d = (2 b - kappa (a^2 + b^2)) / (1 + sqrt((1 - kappa b)^2 + (kappa a)^2)),
+
+written so that nothing cancels when kappa -> 0. The heading and curvature of a path
+given in (s, d) follow Werling et al. (ICRA 2010, Appendix) with the arc's constant
+kappa: theta = theta_r + atan(d' / (1 - kappa d)). The frame's d is measured from the
+reference track's right border (its centre lies at d = half its width), as y was from
+the straight road's right border before.
+
+The search for a point's arc starts from a previous s (`s_hint`) and looks `WINDOW`
+arcs either way; with no hint, or nothing found there, it searches every arc.
+
+Smoothing (`smooth`): the reference polyline is resampled every `h` and smoothed by
+a discrete smoothing spline penalising third differences (Whittaker-Henderson,
+order 3: straight lines, circles and parabolas pass through unchanged, a kink's
+heading change is spread over about the smoothing length ell). The strongest
+smoothing whose deviation from SUMO's polyline stays within `target_deviation` is
+taken; if the smallest radius is then below `min_radius`, more smoothing is taken up
+to `max_deviation`; a line that cannot reach `min_radius` within `max_deviation` is
+refused (InputError naming the radius and the deviation). The deviation is the
+Hausdorff distance between the smoothed line and SUMO's polyline.
+
+On a one-edge straight road along +x (`StraightFrame`) the frame is the identity up to
+an offset: s = x - x0 and d = y - y0, with (x0, y0) the start of the reference lane's
+right border (0, 0 on networks/highway.net.xml, where s = x and d = y exactly).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cosim.compiled import njit, register_warm_up
+from cosim.errors import InputError
+
+Array = NDArray[np.float64]
+WINDOW = 16  # arcs searched either side of the hint (8 m at h = 0.5 m)
+_EPS_U = 1e-9  # m, slack on an arc's ends when deciding which arc a point projects onto
+
+
+@dataclass(frozen=True)
+class FrameLimits:
+    """How much the reference line may deviate from SUMO's polyline and how tight it may
+    bend; the frame's table step and extension."""
+
+    target_deviation: float = 0.05  # m, smoothing spends up to this to lower curvature
+    max_deviation: float = 0.20  # m, beyond this a network is refused
+    min_radius: float = 200.0  # m, a reference line bending tighter is refused
+    spacing: float = 0.5  # m, the table step h (arc length)
+    extension: float = 200.0  # m, straight continuation past both ends
+
+
+DEFAULT_LIMITS = FrameLimits()
+
+
+@dataclass(frozen=True)
+class FrameQuality:
+    """What smoothing did to SUMO's polyline (measured on the built frame)."""
+
+    max_deviation: float  # m, Hausdorff distance between the reference line and SUMO's polyline
+    min_radius: float  # m, smallest radius of the reference line (inf: straight)
+    smoothing_length: float  # m, ell of the smoothing spline (0: none)
+    polyline_min_radius: float  # m, the same polyline's radius, kink by kink (angle / segment)
+
+
+# ---------------------------------------------------------------- compiled kernels
+@njit
+def _cartesian(s: Array, d: Array, s_min: float, h: float, x: Array, y: Array,
+               theta: Array, kappa: Array, out_x: Array, out_y: Array,
+               out_heading: Array) -> None:
+    """(s, d) -> (x, y, heading of the reference line at s); see the module docstring."""
+    n = kappa.shape[0]
+    for i in range(s.shape[0]):
+        k = int(math.floor((s[i] - s_min) / h))
+        k = min(max(k, 0), n - 1)
+        u = s[i] - (s_min + k * h)
+        kk = kappa[k]
+        t = kk * u
+        if kk == 0.0:
+            along, side = u, 0.0
+        else:
+            along = math.sin(t) / kk
+            half = math.sin(0.5 * t)
+            side = 2.0 * half * half / kk
+        along -= d[i] * math.sin(t)
+        side += d[i] * math.cos(t)
+        c, sn = math.cos(theta[k]), math.sin(theta[k])
+        out_x[i] = x[k] + c * along - sn * side
+        out_y[i] = y[k] + sn * along + c * side
+        out_heading[i] = theta[k] + t
+
+
+@njit
+def _project_one(px: float, py: float, lo: int, hi: int, s_min: float, h: float,
+                 x: Array, y: Array, theta: Array, kappa: Array) -> tuple[float, float, int]:
+    """The (s, d) of a point on arcs lo..hi-1 whose normals cover it (the smallest |d| if
+    several do); k = -1 if none does."""
+    n = kappa.shape[0]
+    best_s, best_d, best_k = 0.0, math.inf, -1
+    for k in range(lo, hi):
+        c, sn = math.cos(theta[k]), math.sin(theta[k])
+        dx, dy = px - x[k], py - y[k]
+        a = c * dx + sn * dy
+        b = -sn * dx + c * dy
+        kk = kappa[k]
+        if kk == 0.0:
+            u, dd = a, b
+        else:
+            u = math.atan2(kk * a, 1.0 - kk * b) / kk
+            dd = (2.0 * b - kk * (a * a + b * b)) / (
+                1.0 + math.sqrt((1.0 - kk * b) ** 2 + (kk * a) ** 2))
+        inside = (u >= -_EPS_U or k == 0) and (u <= h + _EPS_U or k == n - 1)
+        if inside and abs(dd) < abs(best_d):
+            best_s, best_d, best_k = s_min + k * h + u, dd, k
+    return best_s, best_d, best_k
+
+
+@njit
+def _frenet(px: Array, py: Array, hint: Array, window: int, s_min: float, h: float,
+            x: Array, y: Array, theta: Array, kappa: Array, out_s: Array,
+            out_d: Array) -> None:
+    """(x, y) -> (s, d): the arcs within `window` of each point's hint s first (NaN: no
+    hint), every arc if none of those covers it."""
+    n = kappa.shape[0]
+    for i in range(px.shape[0]):
+        k = -1
+        if not math.isnan(hint[i]):
+            k0 = int(math.floor((hint[i] - s_min) / h))
+            lo = min(max(k0 - window, 0), n)
+            hi = min(max(k0 + window + 1, 0), n)
+            s, d, k = _project_one(px[i], py[i], lo, hi, s_min, h, x, y, theta, kappa)
+        if k < 0:
+            s, d, k = _project_one(px[i], py[i], 0, n, s_min, h, x, y, theta, kappa)
+        if k < 0:  # beyond every arc's normals (far inside a bend): not on this road
+            s, d = math.nan, math.nan
+        out_s[i] = s
+        out_d[i] = d
+
+
+@register_warm_up
+def _warm_up() -> None:
+    z = np.zeros(2)
+    one = np.ones(1)
+    _cartesian(z[:1], z[:1], 0.0, 1.0, z, z, z, one, z[:1].copy(), z[:1].copy(), z[:1].copy())
+    _frenet(z[:1], z[:1], np.full(1, np.nan), 1, 0.0, 1.0, z, z, z, one, z[:1].copy(),
+            z[:1].copy())
+
+
+# ---------------------------------------------------------------- frames
+def _arrays(*values: ArrayLike) -> tuple[tuple[int, ...], list[Array]]:
+    arrays = np.broadcast_arrays(*[np.asarray(v, dtype=np.float64) for v in values])
+    shape = arrays[0].shape
+    return shape, [np.ascontiguousarray(a).ravel() for a in arrays]
+
+
+def _shaped(shape: tuple[int, ...], *arrays: Array) -> tuple[Any, ...]:
+    if shape == ():
+        return tuple(float(a[0]) for a in arrays)
+    return tuple(a.reshape(shape) for a in arrays)
+
+
+class StraightFrame:
+    """The frame of a straight road along +x: s = x - x0, d = y - y0 (the identity when
+    x0 = y0 = 0), heading 0, curvature 0."""
+
+    def __init__(self, x0: float, y0: float, length: float, extension: float = 200.0) -> None:
+        self.x0 = float(x0)
+        self.y0 = float(y0)
+        self.length = float(length)  # m, of the route's reference lane
+        self.s_min = -float(extension)
+        self.s_max = self.length + float(extension)
+        self.quality = FrameQuality(0.0, math.inf, 0.0, math.inf)
+
+    def to_cartesian(self, s: ArrayLike, d: ArrayLike) -> tuple[Any, Any, Any]:
+        """(x, y, heading of the road) of road coordinates (s, d); arrays or floats."""
+        shape, (s_, d_) = _arrays(s, d)
+        return _shaped(shape, s_ + self.x0, d_ + self.y0, np.zeros_like(s_))
+
+    def to_frenet(self, x: ArrayLike, y: ArrayLike,
+                  s_hint: ArrayLike | None = None) -> tuple[Any, Any]:
+        """(s, d) of Cartesian points; arrays or floats (`s_hint` unused: exact)."""
+        del s_hint
+        shape, (x_, y_) = _arrays(x, y)
+        return _shaped(shape, x_ - self.x0, y_ - self.y0)
+
+    def heading(self, s: ArrayLike) -> Any:
+        """rad, the reference line's heading at s."""
+        return np.zeros_like(np.asarray(s, dtype=np.float64)) + 0.0
+
+    def curvature(self, s: ArrayLike) -> Any:
+        """1/m, the reference line's curvature at s (+: bending left)."""
+        return np.zeros_like(np.asarray(s, dtype=np.float64)) + 0.0
+
+
+class ArcFrame:
+    """The frame along an arc spline (see the module docstring). `d_offset` is added to
+    the offset from the spline: d = 0 lies `d_offset` to the right of it."""
+
+    def __init__(self, s_min: float, h: float, x: Array, y: Array, theta: Array,
+                 kappa: Array, d_offset: float, length: float, extension: float,
+                 quality: FrameQuality) -> None:
+        self.s_min = float(s_min)
+        self.h = float(h)
+        self.x = np.ascontiguousarray(x, dtype=np.float64)
+        self.y = np.ascontiguousarray(y, dtype=np.float64)
+        self.theta = np.ascontiguousarray(theta, dtype=np.float64)
+        self.kappa = np.ascontiguousarray(kappa, dtype=np.float64)
+        self.d_offset = float(d_offset)
+        self.length = float(length)  # m, s of the reference lane's end (its start: s = 0)
+        self.s_max = self.s_min + self.h * len(self.kappa)
+        self.extension = float(extension)
+        self.quality = quality
+
+    @property
+    def s(self) -> Array:
+        """m, the table's knots."""
+        return self.s_min + self.h * np.arange(len(self.x))
+
+    def to_cartesian(self, s: ArrayLike, d: ArrayLike) -> tuple[Any, Any, Any]:
+        """(x, y, heading of the road) of road coordinates (s, d); arrays or floats.
+        Beyond the table the end arcs go on (straight)."""
+        shape, (s_, d_) = _arrays(s, d)
+        n = s_.shape[0]
+        ox, oy, oh = np.empty(n), np.empty(n), np.empty(n)
+        _cartesian(s_, d_ - self.d_offset, self.s_min, self.h, self.x, self.y, self.theta,
+                   self.kappa, ox, oy, oh)
+        return _shaped(shape, ox, oy, oh)
+
+    def to_frenet(self, x: ArrayLike, y: ArrayLike,
+                  s_hint: ArrayLike | None = None) -> tuple[Any, Any]:
+        """(s, d) of Cartesian points; arrays or floats. `s_hint` (m, per point or one for
+        all; NaN or None: none) is where to look first, e.g. the point's s a step ago.
+        A point no arc's normals reach (far inside a bend) gives NaN."""
+        hint = np.nan if s_hint is None else s_hint
+        shape, (x_, y_, h_) = _arrays(x, y, hint)
+        n = x_.shape[0]
+        os_, od = np.empty(n), np.empty(n)
+        _frenet(x_, y_, h_, WINDOW, self.s_min, self.h, self.x, self.y, self.theta,
+                self.kappa, os_, od)
+        return _shaped(shape, os_, od + self.d_offset)
+
+    def _arc(self, s: ArrayLike) -> tuple[Array, Array]:
+        s_ = np.asarray(s, dtype=np.float64)
+        k = np.clip(np.floor((s_ - self.s_min) / self.h).astype(np.int64), 0,
+                    len(self.kappa) - 1)
+        return k, s_ - (self.s_min + k * self.h)
+
+    def heading(self, s: ArrayLike) -> Any:
+        """rad, the reference line's heading at s."""
+        k, u = self._arc(s)
+        return self.theta[k] + self.kappa[k] * u
+
+    def curvature(self, s: ArrayLike) -> Any:
+        """1/m, the reference line's curvature at s (+: bending left; constant per arc)."""
+        k, _ = self._arc(s)
+        return self.kappa[k]
+
+
+Frame = StraightFrame | ArcFrame
+
+
+# ---------------------------------------------------------------- smoothing
+def _resample(points: Array, h: float) -> tuple[Array, float]:
+    """The polyline resampled every ~h (an integer number of equal steps); its length."""
+    seg = np.hypot(*np.diff(points, axis=0).T)
+    cum = np.concatenate(([0.0], np.cumsum(seg)))
+    total = float(cum[-1])
+    n = max(2, int(math.ceil(total / h)))
+    t = np.linspace(0.0, total, n + 1)
+    return np.column_stack((np.interp(t, cum, points[:, 0]),
+                            np.interp(t, cum, points[:, 1]))), total
+
+
+def _whittaker(points: Array, ell: float) -> Array:
+    """Smoothing spline of order 3 over equally spaced points (rows), smoothing length
+    ell (m): minimise |p - r|^2 + (ell/step)^6 |D3 p|^2, a banded system. The caller
+    spaces the points at ell / 32 or closer, so that (ell/step)^6 stays near 1e9 and the
+    system well conditioned."""
+    from scipy.linalg import solveh_banded
+
+    n = points.shape[0]
+    if ell <= 0.0 or n < 8:
+        return points.copy()
+    step = float(np.hypot(*(points[1] - points[0])))
+    lam = (ell / step) ** 6
+    w = np.array([-1.0, 3.0, -3.0, 1.0])  # a row of D3
+    m = n - 3
+    bands = np.zeros((4, n))  # D3^T D3, upper banded form (row 3 the diagonal)
+    for off in range(4):
+        for a in range(4 - off):
+            np.add.at(bands[3 - off], np.arange(m) + a + off, w[a] * w[a + off])
+    bands *= lam
+    bands[3] += 1.0
+    centre = points.mean(axis=0)
+    return solveh_banded(bands, points - centre) + centre
+
+
+def _radius(points: Array) -> float:
+    """m, the smallest radius of a polyline, vertex by vertex (turn angle / mean segment)."""
+    v = np.diff(points, axis=0)
+    ang = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
+    seg = np.hypot(v[:, 0], v[:, 1])
+    if len(ang) < 2:
+        return math.inf
+    k = np.abs(np.diff(ang)) / (0.5 * (seg[:-1] + seg[1:]))
+    top = float(k.max())
+    return math.inf if top == 0.0 else 1.0 / top
+
+
+def _arc_spline(points: Array, h: float, extension: float) -> tuple[Array, ...]:
+    """Knots every h of the G1 arc spline whose headings follow the smoothed points'
+    (the mean of the two chords at each point, interpolated in arc length), positions
+    integrated arc by arc from the first point; `extension` straight at both ends."""
+    v = np.diff(points, axis=0)
+    chord = np.hypot(v[:, 0], v[:, 1])
+    phi = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
+    theta_pts = np.concatenate(([phi[0]], 0.5 * (phi[:-1] + phi[1:]), [phi[-1]]))
+    cum = np.concatenate(([0.0], np.cumsum(chord)))
+    total = float(cum[-1])
+    n = max(1, int(math.ceil(total / h)))
+    n_ext = int(math.ceil(extension / h))
+    s_core = h * np.arange(n + 1)
+    th_core = np.interp(s_core, cum, theta_pts)
+    theta = np.concatenate((np.full(n_ext, th_core[0]), th_core, np.full(n_ext, th_core[-1])))
+    dth = np.diff(theta)
+    kappa = dth / h
+    mid = theta[:-1] + 0.5 * dth
+    step = h * np.sinc(dth / (2.0 * np.pi))  # chord of an arc: h sin(dth/2) / (dth/2)
+    dx = np.concatenate(([0.0], np.cumsum(step * np.cos(mid))))
+    dy = np.concatenate(([0.0], np.cumsum(step * np.sin(mid))))
+    # place the knot of s = 0 on the first smoothed point
+    x = points[0, 0] + dx - dx[n_ext]
+    y = points[0, 1] + dy - dy[n_ext]
+    return x, y, theta, kappa, n_ext
+
+
+def _deviation(frame: ArcFrame, raw_dense: Array, along: Array) -> float:
+    """m, Hausdorff distance between the frame's reference line (d = d_offset, over the
+    route) and SUMO's polyline sampled densely (`raw_dense`, `along` its arc length):
+    each polyline point's distance to the line (its |d|, exact), each knot's distance to
+    the polyline's nearby segments."""
+    s_raw, d_raw = frame.to_frenet(raw_dense[:, 0], raw_dense[:, 1], s_hint=along)
+    if np.isnan(s_raw).any():
+        return math.inf
+    one = float(np.abs(d_raw - frame.d_offset).max())
+    knots = frame.s[(frame.s >= s_raw[0]) & (frame.s <= s_raw[-1])]
+    kx, ky, _ = frame.to_cartesian(knots, np.full(knots.shape, frame.d_offset))
+    near = np.clip(np.searchsorted(s_raw, knots)[:, None] + np.arange(-4, 4)[None, :], 0,
+                   len(s_raw) - 2)
+    q0, q1 = raw_dense[near], raw_dense[near + 1]
+    v = q1 - q0
+    w = np.stack((kx, ky), axis=-1)[:, None, :] - q0
+    t = np.clip(np.einsum("ijk,ijk->ij", w, v) / np.maximum(np.einsum("ijk,ijk->ij", v, v),
+                                                              1e-300), 0.0, 1.0)
+    other = float(np.hypot(*(w - t[..., None] * v).transpose(2, 0, 1)).min(axis=1).max())
+    return max(one, other)
+
+
+def _frame_of(points: Array, raw: Array, limits: FrameLimits, d_offset: float,
+              ell: float) -> ArcFrame:
+    """The arc-spline frame through smoothed points, s = 0 at SUMO's first point."""
+    h = limits.spacing
+    x, y, theta, kappa, n_ext = _arc_spline(points, h, limits.extension)
+    kmax = float(np.abs(kappa).max())
+    quality = FrameQuality(math.nan, math.inf if kmax == 0.0 else 1.0 / kmax, ell,
+                           _radius(raw))
+    frame = ArcFrame(-n_ext * h, h, x, y, theta, kappa, d_offset, 0.0, limits.extension,
+                     quality)
+    s0, _ = frame.to_frenet(raw[0, 0], raw[0, 1], s_hint=0.0)
+    end_hint = h * (len(x) - 1 - 2 * n_ext)
+    s1, _ = frame.to_frenet(raw[-1, 0], raw[-1, 1], s_hint=end_hint)
+    return ArcFrame(-n_ext * h - s0, h, x, y, theta, kappa, d_offset, s1 - s0,
+                    limits.extension, quality)
+
+
+def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
+           d_offset: float = 0.0, source: str = "network") -> ArcFrame:
+    """The arc-spline frame of a polyline (rows x, y; SUMO's lane shape), smoothed as
+    the module docstring says; `d_offset` (m) places d = 0 that far right of it.
+    Raises InputError(source, ...) if it cannot be smoothed within the limits."""
+    raw = np.asarray(polyline, dtype=np.float64)
+    keep = np.concatenate(([True], np.hypot(*np.diff(raw, axis=0).T) > 1e-9))
+    raw = raw[keep]
+    if raw.shape[0] < 2:
+        raise InputError(source, "reference lane", raw.tolist(),
+                         "a lane shape of two or more distinct points")
+    h = limits.spacing
+    raw_dense = _with_vertices(raw, h)  # SUMO's polyline, its vertices among the points
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(raw_dense, axis=0).T))))
+
+    def attempt(ell: float) -> tuple[float, ArcFrame, float, float]:
+        points = _whittaker(_resample(raw, max(h, ell / 32.0))[0], ell)
+        frame = _frame_of(points, raw, limits, d_offset, ell)
+        return ell, frame, _deviation(frame, raw_dense, along), frame.quality.min_radius
+
+    lengths = [0.0] + [h * 2.0 ** (k / 2.0) for k in range(0, 15)]  # 0, 0.5 m .. 64 m
+    tried = []
+    for ell in lengths:  # deviation grows with ell: stop once past the largest bound
+        tried.append(attempt(ell))
+        if tried[-1][2] > limits.max_deviation:
+            break
+    within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
+    chosen = within[-1]
+    if chosen[3] < limits.min_radius:
+        better = [t for t in tried if t[2] <= limits.max_deviation
+                  and t[3] >= limits.min_radius]
+        if not better:
+            best = max((t for t in tried if t[2] <= limits.max_deviation),
+                       key=lambda t: t[3], default=tried[0])
+            k = int(np.argmax(np.abs(best[1].kappa)))
+            raise InputError(source, "reference line radius", f"{best[3]:.1f} m",
+                             f"a route whose lanes can be smoothed to a radius of at least "
+                             f"{limits.min_radius:g} m within {limits.max_deviation:g} m of "
+                             f"SUMO's lane shape (its tightest bend, near x = "
+                             f"{best[1].x[k]:.1f}, y = {best[1].y[k]:.1f}, keeps a radius of "
+                             f"{best[3]:.1f} m at a deviation of {best[2]:.3f} m)")
+        chosen = min(better, key=lambda t: t[0])
+    ell, frame, dev, _ = chosen
+    if dev > limits.max_deviation:
+        raise InputError(source, "reference line deviation", f"{dev:.3f} m",
+                         f"a route whose lanes can be smoothed within {limits.max_deviation:g} "
+                         "m of SUMO's lane shape")
+    return ArcFrame(frame.s_min, h, frame.x, frame.y, frame.theta, frame.kappa, d_offset,
+                    frame.length, limits.extension,
+                    FrameQuality(dev, frame.quality.min_radius, ell,
+                                 frame.quality.polyline_min_radius))
+
+
+def _with_vertices(raw: Array, h: float) -> Array:
+    """The polyline with points added every <= h along each segment (vertices kept)."""
+    out = [raw[:1]]
+    for a, b in zip(raw[:-1], raw[1:], strict=True):
+        n = max(1, int(math.ceil(math.dist(a, b) / h)))
+        t = (np.arange(1, n + 1) / n)[:, None]
+        out.append(a + t * (b - a))
+    return np.concatenate(out)
