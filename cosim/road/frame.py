@@ -34,10 +34,11 @@ arcs either way; with no hint, or nothing found there, it searches every arc.
 Smoothing (`smooth`): the reference polyline is resampled every `h` and smoothed by
 a discrete smoothing spline penalising third differences (Whittaker-Henderson,
 order 3: straight lines, circles and parabolas pass through unchanged, a kink's
-heading change is spread over about the smoothing length ell). The strongest
-smoothing whose deviation from SUMO's polyline stays within `target_deviation` is
-taken; if the smallest radius is then below `min_radius`, more smoothing is taken up
-to `max_deviation`; a line that cannot reach `min_radius` within `max_deviation` is
+heading change is spread over about the smoothing length ell). The least smoothing
+that reaches 90 % of the largest smallest-radius any smoothing within
+`target_deviation` of SUMO's polyline reaches is taken (more would bend SUMO's own
+curves); if the smallest radius is then below `min_radius`, more smoothing is taken
+up to `max_deviation`; a line that cannot reach `min_radius` within `max_deviation` is
 refused (InputError naming the radius and the deviation). The deviation is the
 Hausdorff distance between the smoothed line and SUMO's polyline.
 
@@ -49,6 +50,7 @@ right border (0, 0 on networks/highway.net.xml, where s = x and d = y exactly).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,6 +62,7 @@ from cosim.errors import InputError
 
 Array = NDArray[np.float64]
 WINDOW = 16  # arcs searched either side of the hint (8 m at h = 0.5 m)
+RADIUS_SHARE = 0.9  # smoothing stops once the radius is within 10 % of the best it can get
 _EPS_U = 1e-9  # m, slack on an arc's ends when deciding which arc a point projects onto
 
 
@@ -85,7 +88,7 @@ class FrameQuality:
     max_deviation: float  # m, Hausdorff distance between the reference line and SUMO's polyline
     min_radius: float  # m, smallest radius of the reference line (inf: straight)
     smoothing_length: float  # m, ell of the smoothing spline (0: none)
-    polyline_min_radius: float  # m, the same polyline's radius, kink by kink (angle / segment)
+    max_kink: float  # rad, SUMO's polyline's largest turn at one vertex
 
 
 # ---------------------------------------------------------------- compiled kernels
@@ -194,7 +197,7 @@ class StraightFrame:
         self.length = float(length)  # m, of the route's reference lane
         self.s_min = -float(extension)
         self.s_max = self.length + float(extension)
-        self.quality = FrameQuality(0.0, math.inf, 0.0, math.inf)
+        self.quality = FrameQuality(0.0, math.inf, 0.0, 0.0)
 
     def to_cartesian(self, s: ArrayLike, d: ArrayLike) -> tuple[Any, Any, Any]:
         """(x, y, heading of the road) of road coordinates (s, d); arrays or floats."""
@@ -320,16 +323,11 @@ def _whittaker(points: Array, ell: float) -> Array:
     return solveh_banded(bands, points - centre) + centre
 
 
-def _radius(points: Array) -> float:
-    """m, the smallest radius of a polyline, vertex by vertex (turn angle / mean segment)."""
+def _max_kink(points: Array) -> float:
+    """rad, a polyline's largest turn at one vertex."""
     v = np.diff(points, axis=0)
     ang = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
-    seg = np.hypot(v[:, 0], v[:, 1])
-    if len(ang) < 2:
-        return math.inf
-    k = np.abs(np.diff(ang)) / (0.5 * (seg[:-1] + seg[1:]))
-    top = float(k.max())
-    return math.inf if top == 0.0 else 1.0 / top
+    return float(np.abs(np.diff(ang)).max(initial=0.0))
 
 
 def _arc_spline(points: Array, h: float, extension: float) -> tuple[Array, ...]:
@@ -359,25 +357,35 @@ def _arc_spline(points: Array, h: float, extension: float) -> tuple[Array, ...]:
     return x, y, theta, kappa, n_ext
 
 
-def _deviation(frame: ArcFrame, raw_dense: Array, along: Array) -> float:
-    """m, Hausdorff distance between the frame's reference line (d = d_offset, over the
-    route) and SUMO's polyline sampled densely (`raw_dense`, `along` its arc length):
-    each polyline point's distance to the line (its |d|, exact), each knot's distance to
-    the polyline's nearby segments."""
-    s_raw, d_raw = frame.to_frenet(raw_dense[:, 0], raw_dense[:, 1], s_hint=along)
+def deviation(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
+              centre: Callable[[Array], Array] | None = None) -> float:
+    """m, Hausdorff distance between a SUMO polyline (rows x, y) and the frame's line
+    d = centre(s) (default: the reference line) over the polyline's extent: each of the
+    polyline's points (every <= 0.5 m, its vertices included) against the line (|d -
+    centre(s)|, exact where centre is constant), each of the line's points (every 0.5 m)
+    against the polyline's nearby segments."""
+    ref = float(getattr(frame, "d_offset", 0.0))
+    line_d = centre if centre is not None else (lambda s: np.full(np.shape(s), ref))
+    dense = _with_vertices(np.asarray(polyline, dtype=np.float64), 0.5)
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(dense, axis=0).T))))
+    s0, _ = frame.to_frenet(dense[0, 0], dense[0, 1])
+    s_raw, d_raw = frame.to_frenet(dense[:, 0], dense[:, 1], s_hint=s0 + along)
     if np.isnan(s_raw).any():
         return math.inf
-    one = float(np.abs(d_raw - frame.d_offset).max())
-    knots = frame.s[(frame.s >= s_raw[0]) & (frame.s <= s_raw[-1])]
-    kx, ky, _ = frame.to_cartesian(knots, np.full(knots.shape, frame.d_offset))
-    near = np.clip(np.searchsorted(s_raw, knots)[:, None] + np.arange(-4, 4)[None, :], 0,
-                   len(s_raw) - 2)
-    q0, q1 = raw_dense[near], raw_dense[near + 1]
+    one = float(np.abs(d_raw - line_d(s_raw)).max())
+    knots = np.arange(s_raw[0], s_raw[-1], 0.5)
+    kx, ky, _ = frame.to_cartesian(knots, line_d(knots))
+    order = np.argsort(s_raw, kind="stable")
+    near = np.clip(np.searchsorted(s_raw[order], knots)[:, None] + np.arange(-4, 4)[None, :],
+                   0, len(s_raw) - 2)
+    near = np.minimum(order[near], len(s_raw) - 2)
+    q0, q1 = dense[near], dense[near + 1]
     v = q1 - q0
     w = np.stack((kx, ky), axis=-1)[:, None, :] - q0
     t = np.clip(np.einsum("ijk,ijk->ij", w, v) / np.maximum(np.einsum("ijk,ijk->ij", v, v),
                                                               1e-300), 0.0, 1.0)
-    other = float(np.hypot(*(w - t[..., None] * v).transpose(2, 0, 1)).min(axis=1).max())
+    other = float(np.hypot(*(w - t[..., None] * v).transpose(2, 0, 1)).min(axis=1).max(
+        initial=0.0))
     return max(one, other)
 
 
@@ -388,7 +396,7 @@ def _frame_of(points: Array, raw: Array, limits: FrameLimits, d_offset: float,
     x, y, theta, kappa, n_ext = _arc_spline(points, h, limits.extension)
     kmax = float(np.abs(kappa).max())
     quality = FrameQuality(math.nan, math.inf if kmax == 0.0 else 1.0 / kmax, ell,
-                           _radius(raw))
+                           _max_kink(raw))
     frame = ArcFrame(-n_ext * h, h, x, y, theta, kappa, d_offset, 0.0, limits.extension,
                      quality)
     s0, _ = frame.to_frenet(raw[0, 0], raw[0, 1], s_hint=0.0)
@@ -410,13 +418,11 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
         raise InputError(source, "reference lane", raw.tolist(),
                          "a lane shape of two or more distinct points")
     h = limits.spacing
-    raw_dense = _with_vertices(raw, h)  # SUMO's polyline, its vertices among the points
-    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(raw_dense, axis=0).T))))
 
     def attempt(ell: float) -> tuple[float, ArcFrame, float, float]:
         points = _whittaker(_resample(raw, max(h, ell / 32.0))[0], ell)
         frame = _frame_of(points, raw, limits, d_offset, ell)
-        return ell, frame, _deviation(frame, raw_dense, along), frame.quality.min_radius
+        return ell, frame, deviation(frame, raw), frame.quality.min_radius
 
     lengths = [0.0] + [h * 2.0 ** (k / 2.0) for k in range(0, 15)]  # 0, 0.5 m .. 64 m
     tried = []
@@ -424,8 +430,11 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
         tried.append(attempt(ell))
         if tried[-1][2] > limits.max_deviation:
             break
+    # the least smoothing that gets within RADIUS_SHARE of the largest smallest-radius
+    # reachable within the target deviation: more would only bend SUMO's curves
     within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
-    chosen = within[-1]
+    reachable = max(t[3] for t in within)
+    chosen = next(t for t in within if t[3] >= RADIUS_SHARE * reachable)
     if chosen[3] < limits.min_radius:
         better = [t for t in tried if t[2] <= limits.max_deviation
                   and t[3] >= limits.min_radius]
@@ -448,7 +457,7 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
     return ArcFrame(frame.s_min, h, frame.x, frame.y, frame.theta, frame.kappa, d_offset,
                     frame.length, limits.extension,
                     FrameQuality(dev, frame.quality.min_radius, ell,
-                                 frame.quality.polyline_min_radius))
+                                 frame.quality.max_kink))
 
 
 def _with_vertices(raw: Array, h: float) -> Array:

@@ -11,12 +11,14 @@ inside the route hold their first (last) edge's offset.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cosim.road.frame import deviation
 from cosim.road.tracks import Track, TrackPiece
 
 Array = NDArray[np.float64]
@@ -33,6 +35,7 @@ class LaneTable:
     d_end: Array  # m, per piece: centre offset at its end (different only on junction lanes)
     width: Array  # m, per piece
     speed: Array  # m/s, per piece: SUMO's limit
+    deviation: float  # m, Hausdorff distance of the centre line from SUMO's lane shapes
 
     @property
     def id(self) -> int:
@@ -113,9 +116,10 @@ def lane_tables(tracks: tuple[Track, ...], reference: Track, frame: Any,
                 after = centre[k + 1] if k + 1 < n else np.nan
                 d0[k] = before if not np.isnan(before) else after
                 d1[k] = after if not np.isnan(after) else before
-        tables.append(LaneTable(track, s0, s1, d0, d1,
-                                np.array([p.width for p in track.pieces]),
-                                np.array([p.speed for p in track.pieces])))
+        table = LaneTable(track, s0, s1, d0, d1, np.array([p.width for p in track.pieces]),
+                          np.array([p.speed for p in track.pieces]), math.nan)
+        dev = deviation(frame, np.array(track.shape()), table.centre)
+        tables.append(replace(table, deviation=dev))
     return tuple(tables)
 
 

@@ -35,6 +35,11 @@ class Road:
     frame: StraightFrame | ArcFrame
     lanes: tuple[LaneTable, ...]  # by track id
 
+    @property
+    def max_deviation(self) -> float:
+        """m, the largest Hausdorff distance of a track's centre line from SUMO's lane."""
+        return max(t.deviation for t in self.lanes)
+
     def lane(self, track: int) -> LaneTable:
         """The lane table of a track id."""
         return self.lanes[track]
@@ -93,4 +98,10 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
         raise InputError(src, "route", list(route.edges),
                          "a route whose lanes all lie within the reference line's reach "
                          "(a lane's end could not be placed along it)")
+    worst = max(tables, key=lambda t: t.deviation)
+    if worst.deviation > limits.max_deviation:
+        raise InputError(src, "lane deviation", f"{worst.deviation:.3f} m",
+                         f"lanes whose centre lines stay within {limits.max_deviation:g} m of "
+                         f"SUMO's lane shapes (track {worst.id}, from {worst.track.name}, "
+                         "does not)")
     return Road(route, tracks, ref, frame, tables)

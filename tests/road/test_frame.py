@@ -1,0 +1,145 @@
+"""The road frame: exact conversions both ways, the identity on the straight road,
+bounded deviation from SUMO's lanes, refusal of what cannot be smoothed."""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import pytest
+import shapely
+
+from cosim.errors import InputError
+from cosim.road.frame import ArcFrame, FrameLimits, StraightFrame, smooth
+from cosim.road.road import Road, load_road
+from cosim.traffic.network import NETWORK_DIR
+
+CURVED = NETWORK_DIR / "curved_motorway.net.xml"
+ROUTE = ("e1", "e2", "e3", "e4")
+
+
+@functools.cache
+def curved() -> Road:
+    return load_road(CURVED, ROUTE)
+
+
+def test_round_trip_on_the_curved_motorway_within_a_nanometre() -> None:
+    frame = curved().frame
+    assert isinstance(frame, ArcFrame)
+    rng = np.random.default_rng(3)
+    s = rng.uniform(-150.0, frame.length + 150.0, 20_000)  # past both ends too
+    d = rng.uniform(-20.0, 30.0, s.size)  # radii >= 700 m: far from any centre
+    x, y, _ = frame.to_cartesian(s, d)
+    s2, d2 = frame.to_frenet(x, y)  # no hint: every arc searched
+    assert np.abs(s2 - s).max() < 1e-9
+    assert np.abs(d2 - d).max() < 1e-9
+    s3, d3 = frame.to_frenet(x, y, s_hint=s + rng.uniform(-6.0, 6.0, s.size))
+    assert np.abs(s3 - s).max() < 1e-9 and np.abs(d3 - d).max() < 1e-9
+    # and the other way round, from points anywhere near the road
+    s4, d4 = frame.to_frenet(x + 0.3, y - 0.2)
+    x5, y5, _ = frame.to_cartesian(s4, d4)
+    assert np.abs(x5 - (x + 0.3)).max() < 1e-9 and np.abs(y5 - (y - 0.2)).max() < 1e-9
+
+
+def test_scalars_in_scalars_out() -> None:
+    frame = curved().frame
+    x, y, h = frame.to_cartesian(1234.5, 5.625)
+    assert all(isinstance(v, float) for v in (x, y, h))
+    s, d = frame.to_frenet(x, y, s_hint=1230.0)
+    assert (s, d) == pytest.approx((1234.5, 5.625), abs=1e-9)
+
+
+def test_geometry_is_right_not_only_consistent_on_a_circle() -> None:
+    """A SUMO-like polyline on a circle of radius 1000 m (a point every 10 m): d is the
+    distance from the line, the heading its tangent, the curvature 1 / R."""
+    R = 1000.0
+    ang = np.linspace(-0.5 * math.pi, -0.5 * math.pi + 0.6, 61)
+    poly = np.column_stack((R * np.cos(ang), R + R * np.sin(ang)))  # starts at (0, 0), +x
+    frame = smooth(poly)
+    s = np.linspace(50.0, frame.length - 50.0, 200)  # the smoothing's free ends apart
+    for d in (-7.0, 0.0, 5.0):
+        x, y, h = frame.to_cartesian(s, d)
+        # radius R - d from the centre (0, R), within the polyline's chord sag (1.25 cm)
+        assert np.abs(np.hypot(x, y - R) - (R - d)).max() < 0.0125
+        # the heading is the tangent of the line d = const: its numerical derivative
+        xa, ya, _ = frame.to_cartesian(s - 0.01, d)
+        xb, yb, _ = frame.to_cartesian(s + 0.01, d)
+        assert np.abs(np.angle(np.exp(1j * (np.arctan2(yb - ya, xb - xa) - h)))).max() < 1e-6
+    # the least smoothing within 10 % of the best radius leaves a ripple at the vertices
+    kappa = frame.curvature(s)
+    assert np.abs(kappa - 1.0 / R).max() < 0.1 / R
+    mean = np.mean(frame.curvature(np.arange(50.0, frame.length - 50.0, 0.25)))
+    assert abs(mean - 1.0 / R) < 1e-6
+    assert frame.quality.max_deviation < 0.02
+
+
+def test_the_straight_shipped_road_is_the_identity_bit_for_bit() -> None:
+    road = load_road(NETWORK_DIR / "highway.net.xml")
+    frame = road.frame
+    assert isinstance(frame, StraightFrame)
+    assert (frame.x0, frame.y0) == (0.0, 0.0)
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(-100, 6100, 1000), rng.uniform(-5, 15, 1000)
+    s, d = frame.to_frenet(x, y)
+    assert np.array_equal(s, x) and np.array_equal(d, y)
+    x2, y2, h = frame.to_cartesian(s, d)
+    assert np.array_equal(x2, x) and np.array_equal(y2, y) and not h.any()
+    assert [t.centre(100.0) for t in road.lanes] == [1.875, 5.625, 9.375]
+    assert [t.speed_limit(3000.0) * 3.6 for t in road.lanes] == pytest.approx([90, 110, 120])
+    assert road.s_of_lane_position("highway_1", 250.0) == 250.0
+
+
+def test_lane_centres_stay_within_the_reported_deviation_of_sumo_lanes() -> None:
+    road = curved()
+    frame = road.frame
+    assert frame.quality.max_deviation <= FrameLimits().max_deviation
+    assert frame.quality.min_radius > 700.0  # lanes of R 790-1511 m
+    for table in road.lanes:
+        s = np.concatenate([np.linspace(a, b, max(2, math.ceil((b - a) / 0.25)))
+                            for a, b in zip(table.s_start, table.s_end, strict=True)])
+        x, y, _ = frame.to_cartesian(s, table.centre(s))
+        ours = shapely.LineString(np.column_stack((x, y)))
+        sumo = shapely.LineString(table.track.shape())
+        measured = shapely.hausdorff_distance(ours, sumo, densify=0.02)
+        assert measured <= table.deviation + 1e-3, table.track.name
+        assert table.deviation <= road.max_deviation <= 0.05
+
+
+def test_lane_tables_follow_the_tracks_along_s() -> None:
+    road = curved()
+    t1, added = road.lane(1), road.lane(3)
+    s_e3 = 0.5 * (added.begin + added.end)
+    assert t1.piece_at(1000.0).lane == "e1_1" and t1.piece_at(s_e3).lane == "e3_2"
+    assert t1.piece_at(4500.0).lane == "e4_1"
+    assert t1.centre(s_e3) == pytest.approx(5.625)
+    assert added.centre(s_e3) == pytest.approx(-1.875)  # right of the reference track
+    assert added.bounds(s_e3) == pytest.approx((-3.75, 0.0))
+    assert 3090 < added.begin < 3120 and 3880 < added.end < 3910
+    assert not added.contains(3000.0) and added.contains(s_e3)
+    assert road.lane(0).end == pytest.approx(road.frame.length)
+    # SUMO's lane positions: 0 on the edge's first lane point
+    assert road.s_of_lane_position("e1_0", 0.0) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_kink_that_cannot_be_smoothed_is_refused_naming_the_radius() -> None:
+    a = math.radians(20.0)
+    poly = [(-300.0, 0.0), (0.0, 0.0), (300.0 * math.cos(a), 300.0 * math.sin(a))]
+    with pytest.raises(InputError) as err:
+        smooth(poly, source="net.xml")
+    text = str(err.value)
+    assert text.startswith("net.xml: reference line radius = '")
+    assert "at least 200 m within 0.2 m" in text and "\n" not in text
+    # a looser bound takes it
+    frame = smooth(poly, FrameLimits(max_deviation=2.0, min_radius=60.0))
+    assert frame.quality.min_radius >= 60.0 and frame.quality.max_deviation <= 2.0
+
+
+def test_a_gentle_kink_is_smoothed_within_the_target() -> None:
+    a = math.radians(1.0)
+    poly = [(-300.0, 0.0), (0.0, 0.0), (300.0 * math.cos(a), 300.0 * math.sin(a))]
+    frame = smooth(poly)
+    q = frame.quality
+    assert q.max_deviation <= FrameLimits().target_deviation
+    assert q.min_radius >= 200.0 and q.smoothing_length > 0.0
+    assert q.max_kink == pytest.approx(math.radians(1.0))  # SUMO's own kink
