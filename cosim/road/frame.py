@@ -468,3 +468,46 @@ def _with_vertices(raw: Array, h: float) -> Array:
         t = (np.arange(1, n + 1) / n)[:, None]
         out.append(a + t * (b - a))
     return np.concatenate(out)
+
+
+# ---------------------------------------------------------------- path states (Werling)
+def cartesian_state(frame: StraightFrame | ArcFrame, s: ArrayLike, d: ArrayLike,
+                    s_dot: ArrayLike, d1: ArrayLike, d2: ArrayLike) -> tuple[Any, ...]:
+    """(x, y, theta, kappa, v) of a path point given in the frame: s, d (m), s_dot =
+    ds/dt (m/s), d1 = dd/ds (-), d2 = d^2d/ds^2 (1/m). Werling et al. 2010, Appendix,
+    with the arc's curvature kappa_r constant (kappa_r' = 0):
+
+        1 - kappa_r d = q,  dtheta = atan(d1 / q),  theta = theta_r + dtheta,
+        kappa = ((d2 + kappa_r d1 tan dtheta) cos^2 dtheta / q + kappa_r) cos dtheta / q,
+        v = s_dot q / cos dtheta.
+    """
+    x, y, theta_r = frame.to_cartesian(s, d)
+    s_, d_, sd, p1, p2 = (np.asarray(v, dtype=np.float64) for v in (s, d, s_dot, d1, d2))
+    kr = np.asarray(frame.curvature(s_), dtype=np.float64)
+    q = 1.0 - kr * (d_ - getattr(frame, "d_offset", 0.0))
+    dth = np.arctan2(p1, q)
+    c = np.cos(dth)
+    kappa = ((p2 + kr * p1 * np.tan(dth)) * c * c / q + kr) * c / q
+    return x, y, theta_r + dth, kappa, sd * q / c
+
+
+def frenet_state(frame: StraightFrame | ArcFrame, x: ArrayLike, y: ArrayLike,
+                 theta: ArrayLike, kappa: ArrayLike, v: ArrayLike,
+                 s_hint: ArrayLike | None = None) -> tuple[Any, ...]:
+    """(s, d, s_dot, d1, d2) of a Cartesian path point (x, y, heading theta, curvature
+    kappa, speed v): the inverse of `cartesian_state` (Werling et al. 2010, Appendix):
+
+        d1 = q tan dtheta,  d2 = -kappa_r d1 tan dtheta
+                                 + q / cos^2 dtheta (kappa q / cos dtheta - kappa_r),
+        s_dot = v cos dtheta / q.
+    """
+    s, d = frame.to_frenet(x, y, s_hint)
+    th, kx, vv = (np.asarray(a, dtype=np.float64) for a in (theta, kappa, v))
+    kr = np.asarray(frame.curvature(s), dtype=np.float64)
+    q = 1.0 - kr * (np.asarray(d) - getattr(frame, "d_offset", 0.0))
+    dth = np.angle(np.exp(1j * (th - np.asarray(frame.heading(s)))))
+    c = np.cos(dth)
+    t = np.tan(dth)
+    d1 = q * t
+    d2 = -kr * d1 * t + q / (c * c) * (kx * q / c - kr)
+    return s, d, vv * c / q, d1, d2

@@ -143,3 +143,39 @@ def test_a_gentle_kink_is_smoothed_within_the_target() -> None:
     assert q.max_deviation <= FrameLimits().target_deviation
     assert q.min_radius >= 200.0 and q.smoothing_length > 0.0
     assert q.max_kink == pytest.approx(math.radians(1.0))  # SUMO's own kink
+
+
+def test_werling_state_conversions_match_the_path_they_describe() -> None:
+    """A path d(s) = 4 sin(s / 60) + 5 drawn in the curved frame: the formulas' heading,
+    curvature and speed equal the Cartesian path's own (finite differences), and the
+    inverse gives back (s, d, s_dot, d', d'')."""
+    from cosim.road.frame import cartesian_state, frenet_state
+
+    frame = curved().frame
+    # through the S-bend, at the arcs' middles: a finite difference stays on one arc
+    # (across a knot the arcs' curvature steps, and so does an offset path's ds-rate)
+    k0 = int((1500.0 - frame.s_min) / frame.h)
+    s = frame.s_min + frame.h * (np.arange(k0, k0 + 1400, 3) + 0.5)
+    d, d1, d2 = 4 * np.sin(s / 60) + 5, 4 / 60 * np.cos(s / 60), -4 / 3600 * np.sin(s / 60)
+    s_dot = np.full(s.shape, 30.0)
+    x, y, theta, kappa, v = cartesian_state(frame, s, d, s_dot, d1, d2)
+    e = 1e-3
+    xa, ya, *_ = cartesian_state(frame, s - e, 4 * np.sin((s - e) / 60) + 5, s_dot, d1, d2)
+    xb, yb, *_ = cartesian_state(frame, s + e, 4 * np.sin((s + e) / 60) + 5, s_dot, d1, d2)
+    heading = np.arctan2(yb - ya, xb - xa)
+    assert np.abs(np.angle(np.exp(1j * (heading - theta)))).max() < 1e-7
+    # speed: |dp/ds| ds/dt
+    assert np.abs(np.hypot(xb - xa, yb - ya) / (2 * e) * 30.0 - v).max() < 1e-5
+    # curvature: the turn of the heading per metre of path
+    sa, sb = s - 0.05, s + 0.05
+    ha = cartesian_state(frame, sa, 4 * np.sin(sa / 60) + 5, s_dot, 4 / 60 * np.cos(sa / 60),
+                         d2)[2]
+    hb = cartesian_state(frame, sb, 4 * np.sin(sb / 60) + 5, s_dot, 4 / 60 * np.cos(sb / 60),
+                         d2)[2]
+    xa2, ya2, _ = frame.to_cartesian(sa, 4 * np.sin(sa / 60) + 5)
+    xb2, yb2, _ = frame.to_cartesian(sb, 4 * np.sin(sb / 60) + 5)
+    numeric = (hb - ha) / np.hypot(xb2 - xa2, yb2 - ya2)
+    assert np.abs(numeric - kappa).max() < 1e-6
+    back = frenet_state(frame, x, y, theta, kappa, v, s_hint=s)
+    for got, want in zip(back, (s, d, s_dot, d1, d2), strict=True):
+        assert np.abs(got - want).max() < 1e-9
