@@ -28,8 +28,9 @@ kappa: theta = theta_r + atan(d' / (1 - kappa d)). The frame's d is measured fro
 reference track's right border (its centre lies at d = half its width), as y was from
 the straight road's right border before.
 
-The search for a point's arc starts from a previous s (`s_hint`) and looks `WINDOW`
-arcs either way; with no hint, or nothing found there, it searches every arc.
+The search for a point's arc starts at the arc of a previous s (`s_hint`; without one,
+at the nearest knot) and steps by the point's u to the arc whose normals cover it
+(usually one or two arcs); failing that it scans `WINDOW` arcs either way, then all.
 
 Smoothing (`smooth`): the reference polyline is resampled every `h` and smoothed by
 a discrete smoothing spline penalising third differences (Whittaker-Henderson,
@@ -112,57 +113,98 @@ def _cartesian(s: Array, d: Array, s_min: float, h: float, x: Array, y: Array,
             side = 2.0 * half * half / kk
         along -= d[i] * math.sin(t)
         side += d[i] * math.cos(t)
-        c, sn = math.cos(theta[k]), math.sin(theta[k])
+        c, sn = math.cos(theta[k]), math.sin(theta[k])  # as the table's _cos, _sin
         out_x[i] = x[k] + c * along - sn * side
         out_y[i] = y[k] + sn * along + c * side
         out_heading[i] = theta[k] + t
 
 
 @njit
-def _project_one(px: float, py: float, lo: int, hi: int, s_min: float, h: float,
-                 x: Array, y: Array, theta: Array, kappa: Array) -> tuple[float, float, int]:
-    """The (s, d) of a point on arcs lo..hi-1 whose normals cover it (the smallest |d| if
-    several do); k = -1 if none does."""
+def _local(px: float, py: float, k: int, x: Array, y: Array, cth: Array, sth: Array,
+           kappa: Array) -> tuple[float, float]:
+    """(u, d) of a point against arc k: u along the arc from its start, d off it."""
+    dx, dy = px - x[k], py - y[k]
+    a = cth[k] * dx + sth[k] * dy
+    b = -sth[k] * dx + cth[k] * dy
+    kk = kappa[k]
+    if kk == 0.0:
+        return a, b
+    u = math.atan2(kk * a, 1.0 - kk * b) / kk
+    d = (2.0 * b - kk * (a * a + b * b)) / (1.0 + math.sqrt((1.0 - kk * b) ** 2 + (kk * a) ** 2))
+    return u, d
+
+
+@njit
+def _covers(u: float, k: int, n: int, h: float) -> bool:
+    """Whether u lies on arc k (the first and last arcs run on beyond the table)."""
+    return (u >= -_EPS_U or k == 0) and (u <= h + _EPS_U or k == n - 1)
+
+
+@njit
+def _walk(px: float, py: float, k: int, h: float, x: Array, y: Array, cth: Array,
+          sth: Array, kappa: Array) -> tuple[float, float, int]:
+    """From arc k, step to the arc whose normals cover the point (u says how many arcs
+    on); k = -1 if that takes more than 8 steps or goes back and forth."""
     n = kappa.shape[0]
-    best_s, best_d, best_k = 0.0, math.inf, -1
+    previous = -2
+    for _ in range(8):
+        u, d = _local(px, py, k, x, y, cth, sth, kappa)
+        if _covers(u, k, n, h):
+            return u, d, k
+        jump = int(math.floor(u / h))
+        nxt = min(max(k + (jump if jump != 0 else -1), 0), n - 1)
+        if nxt == previous or nxt == k:  # noqa: SIM109 - plain compares for numba
+            break
+        previous, k = k, nxt
+    return 0.0, 0.0, -1
+
+
+@njit
+def _scan(px: float, py: float, lo: int, hi: int, h: float, x: Array, y: Array,
+          cth: Array, sth: Array, kappa: Array) -> tuple[float, float, int]:
+    """Of arcs lo..hi-1, the one covering the point with the smallest |d| (-1: none)."""
+    n = kappa.shape[0]
+    best_u, best_d, best_k = 0.0, math.inf, -1
     for k in range(lo, hi):
-        c, sn = math.cos(theta[k]), math.sin(theta[k])
-        dx, dy = px - x[k], py - y[k]
-        a = c * dx + sn * dy
-        b = -sn * dx + c * dy
-        kk = kappa[k]
-        if kk == 0.0:
-            u, dd = a, b
-        else:
-            u = math.atan2(kk * a, 1.0 - kk * b) / kk
-            dd = (2.0 * b - kk * (a * a + b * b)) / (
-                1.0 + math.sqrt((1.0 - kk * b) ** 2 + (kk * a) ** 2))
-        inside = (u >= -_EPS_U or k == 0) and (u <= h + _EPS_U or k == n - 1)
-        if inside and abs(dd) < abs(best_d):
-            best_s, best_d, best_k = s_min + k * h + u, dd, k
-    return best_s, best_d, best_k
+        u, d = _local(px, py, k, x, y, cth, sth, kappa)
+        if _covers(u, k, n, h) and abs(d) < abs(best_d):
+            best_u, best_d, best_k = u, d, k
+    return best_u, best_d, best_k
+
+
+@njit
+def _nearest_knot(px: float, py: float, x: Array, y: Array) -> int:
+    best, k_best = math.inf, 0
+    for k in range(x.shape[0] - 1):
+        q = (px - x[k]) ** 2 + (py - y[k]) ** 2
+        if q < best:
+            best, k_best = q, k
+    return k_best
 
 
 @njit
 def _frenet(px: Array, py: Array, hint: Array, window: int, s_min: float, h: float,
-            x: Array, y: Array, theta: Array, kappa: Array, out_s: Array,
+            x: Array, y: Array, cth: Array, sth: Array, kappa: Array, out_s: Array,
             out_d: Array) -> None:
-    """(x, y) -> (s, d): the arcs within `window` of each point's hint s first (NaN: no
-    hint), every arc if none of those covers it."""
+    """(x, y) -> (s, d). From the arc of each point's hint s (NaN: the arc of the nearest
+    knot) walk to the arc covering it; failing that, scan `window` arcs either way, then
+    every arc (the smallest |d| wins). NaN if no arc's normals reach the point."""
     n = kappa.shape[0]
     for i in range(px.shape[0]):
-        k = -1
-        if not math.isnan(hint[i]):
-            k0 = int(math.floor((hint[i] - s_min) / h))
-            lo = min(max(k0 - window, 0), n)
-            hi = min(max(k0 + window + 1, 0), n)
-            s, d, k = _project_one(px[i], py[i], lo, hi, s_min, h, x, y, theta, kappa)
+        if math.isnan(hint[i]):
+            k0 = _nearest_knot(px[i], py[i], x, y)
+        else:
+            k0 = min(max(int(math.floor((hint[i] - s_min) / h)), 0), n - 1)
+        u, d, k = _walk(px[i], py[i], k0, h, x, y, cth, sth, kappa)
         if k < 0:
-            s, d, k = _project_one(px[i], py[i], 0, n, s_min, h, x, y, theta, kappa)
+            u, d, k = _scan(px[i], py[i], max(k0 - window, 0), min(k0 + window + 1, n), h,
+                            x, y, cth, sth, kappa)
+        if k < 0:
+            u, d, k = _scan(px[i], py[i], 0, n, h, x, y, cth, sth, kappa)
         if k < 0:  # beyond every arc's normals (far inside a bend): not on this road
-            s, d = math.nan, math.nan
-        out_s[i] = s
-        out_d[i] = d
+            out_s[i], out_d[i] = math.nan, math.nan
+        else:
+            out_s[i], out_d[i] = s_min + k * h + u, d
 
 
 @register_warm_up
@@ -170,8 +212,8 @@ def _warm_up() -> None:
     z = np.zeros(2)
     one = np.ones(1)
     _cartesian(z[:1], z[:1], 0.0, 1.0, z, z, z, one, z[:1].copy(), z[:1].copy(), z[:1].copy())
-    _frenet(z[:1], z[:1], np.full(1, np.nan), 1, 0.0, 1.0, z, z, z, one, z[:1].copy(),
-            z[:1].copy())
+    _frenet(z[:1], z[:1], np.full(1, np.nan), 1, 0.0, 1.0, z, z, one[:1].repeat(2), z, one,
+            z[:1].copy(), z[:1].copy())
 
 
 # ---------------------------------------------------------------- frames
@@ -232,6 +274,8 @@ class ArcFrame:
         self.x = np.ascontiguousarray(x, dtype=np.float64)
         self.y = np.ascontiguousarray(y, dtype=np.float64)
         self.theta = np.ascontiguousarray(theta, dtype=np.float64)
+        self._cos = np.cos(self.theta)
+        self._sin = np.sin(self.theta)
         self.kappa = np.ascontiguousarray(kappa, dtype=np.float64)
         self.d_offset = float(d_offset)
         self.length = float(length)  # m, s of the reference lane's end (its start: s = 0)
@@ -263,8 +307,8 @@ class ArcFrame:
         shape, (x_, y_, h_) = _arrays(x, y, hint)
         n = x_.shape[0]
         os_, od = np.empty(n), np.empty(n)
-        _frenet(x_, y_, h_, WINDOW, self.s_min, self.h, self.x, self.y, self.theta,
-                self.kappa, os_, od)
+        _frenet(x_, y_, h_, WINDOW, self.s_min, self.h, self.x, self.y, self._cos,
+                self._sin, self.kappa, os_, od)
         return _shaped(shape, os_, od + self.d_offset)
 
     def _arc(self, s: ArrayLike) -> tuple[Array, Array]:
