@@ -74,7 +74,9 @@ class FrameLimits:
 
     target_deviation: float = 0.05  # m, smoothing spends up to this to lower curvature
     max_deviation: float = 0.20  # m, beyond this a network is refused
-    min_radius: float = 200.0  # m, a reference line bending tighter is refused
+    # m, a reference line bending tighter is refused: lanes reach |d| <= ~15 m from it,
+    # so 1 - kappa d >= 0.85 (the frame's stretch across a lane stays within 15 %)
+    min_radius: float = 100.0
     spacing: float = 0.5  # m, the table step h (arc length)
     extension: float = 200.0  # m, straight continuation past both ends
 

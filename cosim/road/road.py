@@ -11,6 +11,7 @@ within `FrameLimits`.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -26,7 +27,7 @@ from cosim.road.tracks import Track, follow_tracks, reference_track
 
 
 @dataclass(frozen=True)
-class Road:
+class Road:  # frozen; cached_property writes its own __dict__ entry
     """A route, its tracks and lane tables, and the frame along it."""
 
     route: Route
@@ -44,12 +45,26 @@ class Road:
         """The lane table of a track id."""
         return self.lanes[track]
 
+    @functools.cached_property
+    def track_ids(self) -> dict[str, int]:
+        """SUMO lane id -> track id, for every lane of every track (junction lanes too)."""
+        return {p.lane: t.id for t in self.tracks for p in t.pieces}
+
+    @functools.cached_property
+    def edge_ids(self) -> frozenset[str]:
+        """The route's edges and the junction edges between them: a vehicle on any other
+        edge (a road crossing on a bridge, a ramp not yet joined) is not in the SV's lanes."""
+        return frozenset(p.edge for t in self.tracks for p in t.pieces)
+
+    def on_route(self, road_ids: Sequence[str]) -> np.ndarray:
+        """Which of SUMO's road ids (vehicle.getRoadID) lie on the route."""
+        return np.fromiter((r in self.edge_ids for r in road_ids), dtype=bool,
+                           count=len(road_ids))
+
     def track_of_lane(self, lane_id: str) -> LaneTable:
-        """The lane table of the track that runs through SUMO lane `lane_id`."""
-        for table in self.lanes:
-            if any(p.lane == lane_id for p in table.track.pieces):
-                return table
-        raise KeyError(lane_id)
+        """The lane table of the track that runs through SUMO lane `lane_id` (KeyError:
+        no track does)."""
+        return self.lanes[self.track_ids[lane_id]]
 
     def s_of_lane_position(self, lane_id: str, position: float) -> float:
         """m, s of SUMO lane position `position` (m along the lane, as SUMO counts it) on

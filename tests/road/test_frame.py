@@ -129,7 +129,7 @@ def test_a_kink_that_cannot_be_smoothed_is_refused_naming_the_radius() -> None:
         smooth(poly, source="net.xml")
     text = str(err.value)
     assert text.startswith("net.xml: reference line radius = '")
-    assert "at least 200 m within 0.2 m" in text and "\n" not in text
+    assert "at least 100 m within 0.2 m" in text and "\n" not in text
     # a looser bound takes it
     frame = smooth(poly, FrameLimits(max_deviation=2.0, min_radius=60.0))
     assert frame.quality.min_radius >= 60.0 and frame.quality.max_deviation <= 2.0
@@ -141,7 +141,7 @@ def test_a_gentle_kink_is_smoothed_within_the_target() -> None:
     frame = smooth(poly)
     q = frame.quality
     assert q.max_deviation <= FrameLimits().target_deviation
-    assert q.min_radius >= 200.0 and q.smoothing_length > 0.0
+    assert q.min_radius >= 100.0 and q.smoothing_length > 0.0
     assert q.max_kink == pytest.approx(math.radians(1.0))  # SUMO's own kink
 
 

@@ -49,3 +49,12 @@ def test_one_edge_track_ids_are_sumo_indices() -> None:
     tracks = follow_tracks(make_route(NETWORK_DIR / "highway.net.xml"))
     assert [(t.id, t.name) for t in tracks] == [(0, "highway_0"), (1, "highway_1"),
                                                 (2, "highway_2")]
+
+
+def test_the_road_knows_its_edges_and_which_track_a_lane_belongs_to() -> None:
+    from cosim.road.road import load_road
+
+    road = load_road(CURVED, ROUTE)
+    assert road.track_ids["e3_2"] == 1 and road.track_ids[":j2_0_1"] == 1
+    assert road.track_ids["e3_0"] == 3 and road.track_of_lane("e4_0").id == 0
+    assert road.on_route(["e1", ":j2_0", "bridge", "e4"]).tolist() == [True, True, False, True]
