@@ -179,3 +179,30 @@ def test_werling_state_conversions_match_the_path_they_describe() -> None:
     back = frenet_state(frame, x, y, theta, kappa, v, s_hint=s)
     for got, want in zip(back, (s, d, s_dot, d1, d2), strict=True):
         assert np.abs(got - want).max() < 1e-9
+
+
+def test_compiled_conversions_equal_the_interpreted_functions(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """numba's kernels give the interpreted functions' numbers, bit for bit (no fastmath);
+    the interpreted kernel calls the interpreted helpers, as the compiled the compiled."""
+    from cosim.road import frame as fr
+
+    frame = curved().frame
+    rng = np.random.default_rng(7)
+    s = rng.uniform(-50.0, frame.length + 50.0, 300)
+    d = rng.uniform(-10.0, 20.0, s.size)
+    outs = [np.empty(s.size) for _ in range(6)]
+    args = (frame.s_min, frame.h, frame.x, frame.y, frame.theta, frame.kappa)
+    fr._cartesian(s, d - frame.d_offset, *args, *outs[:3])
+    fr._cartesian.py_func(s, d - frame.d_offset, *args, *outs[3:])
+    for a, b in zip(outs[:3], outs[3:], strict=True):
+        assert np.array_equal(a, b)
+    x, y = outs[0] + 0.1, outs[1] - 0.1
+    hints = np.where(np.arange(s.size) % 3 == 0, np.nan, s + 2.0)
+    res = [np.empty(s.size) for _ in range(4)]
+    tables = (frame.s_min, frame.h, frame.x, frame.y, frame._cos, frame._sin, frame.kappa)
+    fr._frenet(x, y, hints, fr.WINDOW, *tables, res[0], res[1])
+    for name in ("_local", "_covers", "_walk", "_scan", "_nearest_knot"):
+        monkeypatch.setattr(fr, name, getattr(fr, name).py_func)  # interpreted helpers
+    fr._frenet.py_func(x, y, hints, fr.WINDOW, *tables, res[2], res[3])
+    assert np.array_equal(res[0], res[2]) and np.array_equal(res[1], res[3])
