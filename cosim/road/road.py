@@ -27,23 +27,27 @@ from cosim.road.tracks import Track, follow_tracks, reference_track
 
 
 @dataclass(frozen=True)
-class Road:  # frozen; cached_property writes its own __dict__ entry
+class Road:
     """A route, its tracks and lane tables, and the frame along it."""
 
     route: Route
     tracks: tuple[Track, ...]
     reference: Track  # the frame's reference track
     frame: StraightFrame | ArcFrame
-    lanes: tuple[LaneTable, ...]  # by track id
+    lanes: tuple[LaneTable, ...]  # in track id order (ids may skip a lane cars may not use)
 
     @property
     def max_deviation(self) -> float:
         """m, the largest Hausdorff distance of a track's centre line from SUMO's lane."""
         return max(t.deviation for t in self.lanes)
 
+    @functools.cached_property
+    def _by_id(self) -> dict[int, LaneTable]:
+        return {t.id: t for t in self.lanes}
+
     def lane(self, track: int) -> LaneTable:
-        """The lane table of a track id."""
-        return self.lanes[track]
+        """The lane table of a track id (KeyError: no such track)."""
+        return self._by_id[track]
 
     @functools.cached_property
     def track_ids(self) -> dict[str, int]:
@@ -64,7 +68,7 @@ class Road:  # frozen; cached_property writes its own __dict__ entry
     def track_of_lane(self, lane_id: str) -> LaneTable:
         """The lane table of the track that runs through SUMO lane `lane_id` (KeyError:
         no track does)."""
-        return self.lanes[self.track_ids[lane_id]]
+        return self._by_id[self.track_ids[lane_id]]
 
     def s_of_lane_position(self, lane_id: str, position: float) -> float:
         """m, s of SUMO lane position `position` (m along the lane, as SUMO counts it) on

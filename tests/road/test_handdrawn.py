@@ -86,3 +86,19 @@ def test_a_coarse_curve_is_refused_with_the_number_that_fails(tmp_path: Path) ->
     with pytest.raises(InputError, match=r"reference line radius = '\d+\.\d m'") as err:
         load_road(net, ["AB", "BC"], source="sc.toml")
     assert str(err.value).startswith("sc.toml: ")
+
+
+def test_a_lane_cars_may_not_use_is_no_track(tmp_path: Path) -> None:
+    (tmp_path / "w.nod.xml").write_text(
+        '<nodes><node id="A" x="0" y="0"/><node id="B" x="500" y="0"/></nodes>',
+        encoding="utf-8")
+    (tmp_path / "w.edg.xml").write_text(
+        '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="30">'
+        '<lane index="0" allow="pedestrian" width="2.0"/></edge></edges>', encoding="utf-8")
+    subprocess.run([netconvert_binary(), "-n", "w.nod.xml", "-e", "w.edg.xml", "-o",
+                    "w.net.xml"], cwd=tmp_path, check=True, capture_output=True)
+    road = load_road(tmp_path / "w.net.xml")
+    assert [t.id for t in road.lanes] == [1, 2]  # SUMO's indices: the sidewalk is lane 0
+    assert road.reference.name == "AB_1"
+    assert road.lane(2).track.name == "AB_2"
+    assert road.lane(1).centre(100.0) == pytest.approx(road.lane(1).track.pieces[0].width / 2)
