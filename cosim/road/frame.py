@@ -32,10 +32,12 @@ The search for a point's arc starts at the arc of a previous s (`s_hint`; withou
 at the nearest knot) and steps by the point's u to the arc whose normals cover it
 (usually one or two arcs); failing that it scans `WINDOW` arcs either way, then all.
 
-Smoothing (`smooth`): the reference polyline is resampled every `h` and smoothed by
-a discrete smoothing spline penalising third differences (Whittaker-Henderson,
-order 3: straight lines, circles and parabolas pass through unchanged, a kink's
-heading change is spread over about the smoothing length ell). The least smoothing
+Smoothing (`smooth`): the reference polyline is resampled every max(h, ell / 32) and
+smoothed by a discrete smoothing spline penalising third differences
+(Whittaker-Henderson, order 3, smoothing length ell: straight lines and parabolas pass
+unchanged, a circle of radius R shrinks by ell^6 / R^5, 3 nm for ell = 10 m and R =
+800 m; a kink's heading change is spread over about ell; where curvature steps, as
+from a straight into a curve, the spline overshoots by a few per cent). The least smoothing
 that reaches 90 % of the largest smallest-radius any smoothing within
 `target_deviation` of SUMO's polyline reaches is taken (more would bend SUMO's own
 curves); if the smallest radius is then below `min_radius`, more smoothing is taken
