@@ -54,3 +54,16 @@ def test_a_missing_or_broken_network_is_refused(tmp_path: Path) -> None:
     bad.write_text("<net><edge", encoding="utf-8")
     with pytest.raises(InputError, match="a readable SUMO .net.xml file"):
         make_route(bad)
+
+
+def test_the_road_command_describes_a_route_or_refuses_it(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from cosim.road.__main__ import main
+
+    assert main([str(CURVED), *ROUTE]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("route e1 e2 e3 e4: ArcFrame")
+    assert out[2].endswith("e1_1[1] e2_1[1] e3_2[2] e4_1[1]")  # track 1: SUMO's 1 -> 2 -> 1
+    assert main([str(CURVED), "e1", "e3"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "'e1 -> e3'" in err
