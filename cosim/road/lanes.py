@@ -98,7 +98,7 @@ def lane_tables(tracks: tuple[Track, ...], reference: Track, frame: Any,
     for track in tracks:
         n = len(track.pieces)
         s0, s1 = np.empty(n), np.empty(n)
-        hint = 0.0
+        hint = math.nan  # a track's first lane: searched from the nearest knot
         for k, piece in enumerate(track.pieces):
             (xa, ya), (xb, yb) = piece.shape[0], piece.shape[-1]
             a, _ = frame.to_frenet(xa, ya, s_hint=hint)
