@@ -559,3 +559,38 @@ def frenet_state(frame: StraightFrame | ArcFrame, x: ArrayLike, y: ArrayLike,
     d1 = q * t
     d2 = -kr * d1 * t + q / (c * c) * (kx * q / c - kr)
     return s, d, vv * c / q, d1, d2
+
+
+# ---------------------------------------------------------------- distortion over a body
+def kappa_max(frame: StraightFrame | ArcFrame, s_lo: float, s_hi: float) -> float:
+    """1/m, the largest |curvature| of the reference line over [s_lo, s_hi]."""
+    if isinstance(frame, StraightFrame):
+        return 0.0
+    n = len(frame.kappa)
+    k0 = min(max(int(math.floor((s_lo - frame.s_min) / frame.h)), 0), n - 1)
+    k1 = min(max(int(math.floor((s_hi - frame.s_min) / frame.h)), k0), n - 1)
+    return float(np.abs(frame.kappa[k0:k1 + 1]).max())
+
+
+def distortion_margin(kappa: float, d_abs: ArrayLike, half_diagonal: float) -> Any:
+    """m, how far the (s, d) image of a rigid body's points can lie from the same body
+    drawn as a rectangle in (s, d) (its offsets from the centre taken as (s, d) offsets):
+    for a body of half-diagonal r centred at |d| <= d_abs from the reference line itself
+    (the frame's d minus its `d_offset`), on a reference line of
+    |curvature| <= kappa over the body's reach. About a circle of radius 1/kappa, with
+    q = 1 - kappa (|d| + r) > 0, a point at offsets (a, b), |(a, b)| <= r, lands at
+
+        along s:  |s - s0 - a| <= kappa r (|d| + r) / q + kappa^2 r^3 / (3 q^3),
+        across:   |d - d0 - b| <= kappa r^2 / (2 q),
+
+    and the margin is the length of that error vector (DESIGN: kappa_max (|d| r + r^2)).
+    Growing both rectangles of a pair by it keeps an (s, d) test sound in the Cartesian
+    plane. inf where q <= 0 (the body reaches the centre of curvature)."""
+    d = np.abs(np.asarray(d_abs, dtype=np.float64))
+    r = float(half_diagonal)
+    q = 1.0 - kappa * (d + r)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        along = kappa * r * (d + r) / q + kappa**2 * r**3 / (3.0 * q**3)
+        across = kappa * r * r / (2.0 * q)
+        out = np.where(q > 0.0, np.hypot(along, across), np.inf)
+    return float(out) if out.ndim == 0 else out

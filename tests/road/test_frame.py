@@ -206,3 +206,48 @@ def test_compiled_conversions_equal_the_interpreted_functions(
         monkeypatch.setattr(fr, name, getattr(fr, name).py_func)  # interpreted helpers
     fr._frenet.py_func(x, y, hints, fr.WINDOW, *tables, res[2], res[3])
     assert np.array_equal(res[0], res[2]) and np.array_equal(res[1], res[3])
+
+
+@pytest.mark.parametrize("where", ["curved_motorway", "tight_bend"])
+def test_a_body_drawn_in_s_d_is_within_the_distortion_margin_of_its_true_image(
+        where: str) -> None:
+    """Cartesian rectangles (the car, random poses, headings +-0.3 rad off the road),
+    their outlines mapped into (s, d): every point lies inside the same rectangle drawn
+    in (s, d) grown by distortion_margin (and the margin is not loose by 3x)."""
+    from cosim.road.frame import distortion_margin, kappa_max
+
+    if where == "curved_motorway":
+        frame, s_range, d_range = curved().frame, (1400.0, 2500.0), (-5.0, 15.0)
+    else:  # a 60 m radius bend (a ramp's), drawn as SUMO would (a point every 2 m)
+        ang = np.linspace(-0.5 * math.pi, 0.5 * math.pi, 95)
+        poly = np.column_stack((60.0 * np.cos(ang), 60.0 + 60.0 * np.sin(ang)))
+        frame = smooth(poly, FrameLimits(min_radius=50.0))
+        s_range, d_range = (20.0, frame.length - 20.0), (-8.0, 12.0)
+    L, W = 4.32, 1.8
+    r = 0.5 * math.hypot(L, W)
+    rng = np.random.default_rng(11)
+    u = np.linspace(-0.5, 0.5, 41)
+    outline = np.concatenate([np.column_stack((u * L, np.full_like(u, sgn * W / 2)))
+                              for sgn in (-1, 1)] +
+                             [np.column_stack((np.full_like(u, sgn * L / 2), u * W))
+                              for sgn in (-1, 1)])
+    worst_ratio = 0.0
+    for _ in range(300):
+        s0, d0 = rng.uniform(*s_range), rng.uniform(*d_range)
+        rel = rng.uniform(-0.3, 0.3)  # heading relative to the road
+        x0, y0, h0 = frame.to_cartesian(s0, d0)
+        c, sn = math.cos(h0 + rel), math.sin(h0 + rel)
+        px = x0 + c * outline[:, 0] - sn * outline[:, 1]
+        py = y0 + sn * outline[:, 0] + c * outline[:, 1]
+        ps, pd = frame.to_frenet(px, py, s_hint=s0)
+        # the same rectangle in (s, d): centre (s0, d0), heading rel
+        du, dw = ps - s0, pd - d0
+        lu = math.cos(rel) * du + math.sin(rel) * dw
+        lw = -math.sin(rel) * du + math.cos(rel) * dw
+        outside = float(np.max(np.maximum(np.abs(lu) - L / 2, np.abs(lw) - W / 2)))
+        margin = distortion_margin(kappa_max(frame, s0 - 2 * r, s0 + 2 * r),
+                                   abs(d0 - frame.d_offset), r)
+        assert outside <= margin, (s0, d0, rel, outside, margin)
+        worst_ratio = max(worst_ratio, outside / margin)
+    assert worst_ratio > 1 / 3  # the bound is not empty talk: the distortion is real
+    print(f"{where}: largest distortion / margin {worst_ratio:.2f}")
