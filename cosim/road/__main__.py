@@ -1,7 +1,8 @@
 """`python -m cosim.road NETWORK [EDGE ...]`: what the road layer makes of a SUMO
 network and route (before the loop drives on it): the frame's deviation from SUMO's
 lanes and its smallest radius, each track with its SUMO lane on every edge and its s
-range; a network it cannot support: one line, exit 2."""
+range (`--plot FILE`: and a figure of them); a network it cannot support: one line,
+exit 2."""
 
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m cosim.road", description=__doc__)
     parser.add_argument("network", help="SUMO .net.xml")
     parser.add_argument("edges", nargs="*", help="the route's edge ids (none: the only edge)")
+    parser.add_argument("--plot", metavar="FILE", default=None,
+                        help="draw the road (x-y map, curvature along s) to FILE (.png/.svg/.pdf)")
     args = parser.parse_args(argv)
     from cosim.road.road import load_road
 
@@ -35,6 +38,12 @@ def main(argv: list[str] | None = None) -> int:
         ref = " (reference)" if t.track is road.reference else ""
         print(f"track {t.id}{ref}: s {t.begin:.1f} to {t.end:.1f} m, centre d "
               f"{t.centre(t.begin):.3f} m, deviation {t.deviation:.3f} m: {lanes}")
+    if args.plot:
+        from pathlib import Path
+
+        from cosim.plots.road import plot_road
+
+        print(f"wrote {plot_road(road, Path(args.plot))}", file=sys.stderr)
     return 0
 
 
