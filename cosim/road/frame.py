@@ -466,9 +466,10 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
         raise InputError(source, "reference lane", raw.tolist(),
                          "a lane shape of two or more distinct points")
     h = limits.spacing
+    line = _forward(raw)
 
     def attempt(ell: float) -> tuple[float, ArcFrame, float, float]:
-        points = _whittaker(_resample(raw, max(h, ell / 32.0))[0], ell)
+        points = _whittaker(_resample(line, max(h, ell / 32.0))[0], ell)
         frame = _frame_of(points, raw, limits, d_offset, ell)
         return ell, frame, deviation(frame, raw), frame.quality.min_radius
 
@@ -506,6 +507,23 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
                     frame.length, limits.extension,
                     FrameQuality(dev, frame.quality.min_radius, ell,
                                  frame.quality.max_kink))
+
+
+def _forward(points: Array) -> Array:
+    """The polyline with each place where it turns back on itself (a lane that starts a
+    little behind the end of the one before it) replaced by the middle of the two
+    vertices: a smoothing spline through a reversal would loop. The deviation is still
+    measured against every vertex of SUMO's polyline."""
+    p = points.copy()
+    for _ in range(len(points)):
+        v = np.diff(p, axis=0)
+        back = np.flatnonzero(np.einsum("ij,ij->i", v[:-1], v[1:]) < 0.0)  # > 90 degrees
+        if back.size == 0 or len(p) <= 2:
+            break
+        i = back[0] + 1  # the vertex where it turns back; merged with the next one
+        j = min(i + 1, len(p) - 1)
+        p = np.concatenate((p[:i], 0.5 * (p[i] + p[j])[None, :], p[j + 1:]))
+    return p
 
 
 def _with_vertices(raw: Array, h: float) -> Array:

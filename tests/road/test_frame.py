@@ -251,3 +251,20 @@ def test_a_body_drawn_in_s_d_is_within_the_distortion_margin_of_its_true_image(
         worst_ratio = max(worst_ratio, outside / margin)
     assert worst_ratio > 1 / 3  # the bound is not empty talk: the distortion is real
     print(f"{where}: largest distortion / margin {worst_ratio:.2f}")
+
+
+@pytest.mark.parametrize(("jog", "deviation"), [((499.95, 0.01), 0.006),  # 5 cm overlap
+                                                ((499.5, 0.3), 0.151),  # back and aside
+                                                ((500.5, 0.3), 0.15)])  # a 31-degree jog
+def test_lanes_that_overlap_or_jog_at_a_junction_are_smoothed(
+        jog: tuple[float, float], deviation: float) -> None:
+    """SUMO's next lane may start a little behind (or aside of) the end of the one
+    before: no loop in the frame, the deviation about half the jog."""
+    poly = [(0.0, 0.0), (500.0, 0.0), jog, (1000.0, jog[1])]
+    frame = smooth(poly)
+    assert frame.quality.max_deviation <= deviation
+    assert frame.quality.min_radius >= FrameLimits().min_radius
+    assert frame.length == pytest.approx(1000.0, abs=0.01)
+    s = np.linspace(0.0, frame.length, 500)
+    x, _, _ = frame.to_cartesian(s, 0.0)
+    assert np.all(np.diff(x) > 0)  # runs forwards all along
