@@ -23,6 +23,7 @@ BENCHMARKS = {
     "cosim": "a dense traffic run with our SV against SUMO alone",
     "batch": "the same study on 1 and on 2 workers",
     "tracking": "the plant's tracking error as corner motion: the default safety margin",
+    "road": "the road frame's conversions (s, d) <-> (x, y) on the curved motorway",
 }
 
 

@@ -1,0 +1,64 @@
+"""The road of a route (cosim.road): an x-y map of SUMO's lanes with the frame's lane
+borders over them, and the reference line's curvature along s beside SUMO's own
+polyline's (kink angle / segment length), which shows what smoothing did."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cosim.plots import save_figure
+
+
+def plot_road(road: Any, path: Path, *, title: str = "") -> Path:
+    """Draw `road` (a cosim.road.road.Road) to `path`."""
+    import matplotlib.pyplot as plt
+
+    frame = road.frame
+    fig, (ax_map, ax_k) = plt.subplots(2, 1, figsize=(10, 9),
+                                       gridspec_kw={"height_ratios": [3, 1]})
+    for track in road.tracks:
+        for piece in track.pieces:
+            xy = np.asarray(piece.shape)
+            ax_map.plot(xy[:, 0], xy[:, 1], color="0.75", lw=3.0, solid_capstyle="butt",
+                        zorder=1)
+    colours = plt.get_cmap("tab10")
+    for table in road.lanes:
+        s = np.arange(table.begin, table.end, 1.0)
+        if s.size < 2:
+            continue
+        right, left = table.bounds(s)
+        for k, d in enumerate((right, left)):
+            x, y, _ = frame.to_cartesian(s, d)
+            ax_map.plot(x, y, color=colours(table.id % 10), lw=0.8, zorder=2,
+                        label=f"track {table.id} ({table.track.name})" if k == 0 else None)
+    for edge in road.route.edges:
+        x, y = road.route.net.getEdge(edge).getShape()[0]
+        ax_map.plot([x], [y], "k|", ms=12)
+        ax_map.annotate(edge, (x, y), fontsize=8, xytext=(3, 6), textcoords="offset points")
+    ax_map.legend(fontsize=7, loc="best", title="frame's lane borders (SUMO's lanes grey)",
+                  title_fontsize=7)
+    ax_map.set_aspect("equal", adjustable="datalim")
+    ax_map.set_xlabel("x (m)")
+    ax_map.set_ylabel("y (m)")
+    q = frame.quality
+    ax_map.set_title(title or f"route {' '.join(road.route.edges)}: deviation "
+                     f"{road.max_deviation * 100:.1f} cm, smallest radius "
+                     f"{q.min_radius:.0f} m")
+    s = np.arange(0.0, frame.length, 0.5)
+    ax_k.plot(s, 1e3 * np.asarray(frame.curvature(s)), lw=0.8, label="frame (smoothed)")
+    ref = np.asarray(road.reference.shape())
+    v = np.diff(ref, axis=0)
+    seg = np.hypot(v[:, 0], v[:, 1])
+    turn = np.diff(np.unwrap(np.arctan2(v[:, 1], v[:, 0])))
+    if turn.size:
+        sv, _ = frame.to_frenet(ref[1:-1, 0], ref[1:-1, 1])
+        ax_k.plot(sv, 1e3 * turn / (0.5 * (seg[:-1] + seg[1:])), ".", ms=2, color="0.5",
+                  label="SUMO's polyline (kink / segment)")
+    ax_k.set_xlabel("s (m)")
+    ax_k.set_ylabel("curvature (1/km)")
+    ax_k.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    return save_figure(fig, path)

@@ -1,0 +1,614 @@
+"""The road frame: arc length s along a reference line and lateral offset d from it.
+
+The reference line is built from SUMO's lane shapes (the centre line of the route's
+reference track, `cosim.road.tracks.reference_track`) and smoothed: SUMO's polylines
+kink at single vertices (3-18 degrees on real motorways), where a frame's curvature
+would be unbounded. The smoothed line is an *arc spline*: circular arcs of one length
+`h` (0.5 m), heading continuous from one to the next (G1), each arc's curvature
+constant. Its table holds, at s_k = s_min + k h, the point (x_k, y_k), the heading
+theta_k and, per arc, the curvature kappa_k; it runs `extension` m straight on past
+both ends of the route.
+
+Conversions are exact (closed form, both ways, no iteration): a point (s, d) is the
+point of arc k at u = s - s_k plus d along the arc's left normal there,
+
+    x = x_k + T(theta_k) [sin(kappa u) / kappa - d sin(kappa u),
+                          (1 - cos(kappa u)) / kappa + d cos(kappa u)],
+
+and a point's (s, d) is its foot on the arc whose normals cover it (the normals at the
+knots are shared by the arcs on both sides, so those regions tile the plane within
+the smallest radius of the line): in the arc's local coordinates (a, b),
+
+    u = atan2(kappa a, 1 - kappa b) / kappa,
+    d = (2 b - kappa (a^2 + b^2)) / (1 + sqrt((1 - kappa b)^2 + (kappa a)^2)),
+
+written so that nothing cancels when kappa -> 0. The heading and curvature of a path
+given in (s, d) follow Werling et al. (ICRA 2010, Appendix) with the arc's constant
+kappa: theta = theta_r + atan(d' / (1 - kappa d)). The frame's d is measured from the
+reference track's right border (its centre lies at d = half its width), as y was from
+the straight road's right border before.
+
+The search for a point's arc starts at the arc of a previous s (`s_hint`; without one,
+at the nearest knot) and steps by the point's u to the arc whose normals cover it
+(usually one or two arcs); failing that it scans `WINDOW` arcs either way, then all.
+
+Smoothing (`smooth`): the reference polyline is resampled every max(h, ell / 32) and
+smoothed by a discrete smoothing spline penalising third differences
+(Whittaker-Henderson, order 3, smoothing length ell: straight lines and parabolas pass
+unchanged, a circle of radius R shrinks by ell^6 / R^5, 3 nm for ell = 10 m and R =
+800 m; a kink's heading change is spread over about ell; where curvature steps, as
+from a straight into a curve, the spline overshoots by a few per cent). The least smoothing
+that reaches 90 % of the largest smallest-radius any smoothing within
+`target_deviation` of SUMO's polyline reaches is taken (more would bend SUMO's own
+curves); if the smallest radius is then below `min_radius`, more smoothing is taken
+up to `max_deviation`; a line that cannot reach `min_radius` within `max_deviation` is
+refused (InputError naming the radius and the deviation). The deviation is the
+Hausdorff distance between the smoothed line and SUMO's polyline.
+
+On a one-edge straight road along +x (`StraightFrame`) the frame is the identity up to
+an offset: s = x - x0 and d = y - y0, with (x0, y0) the start of the reference lane's
+right border (0, 0 on networks/highway.net.xml, where s = x and d = y exactly).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cosim.compiled import njit, register_warm_up
+from cosim.errors import InputError
+
+Array = NDArray[np.float64]
+WINDOW = 16  # arcs searched either side of the hint (8 m at h = 0.5 m)
+RADIUS_SHARE = 0.9  # smoothing stops once the radius is within 10 % of the best it can get
+_EPS_U = 1e-9  # m, slack on an arc's ends when deciding which arc a point projects onto
+
+
+@dataclass(frozen=True)
+class FrameLimits:
+    """How much the reference line may deviate from SUMO's polyline and how tight it may
+    bend; the frame's table step and extension."""
+
+    target_deviation: float = 0.05  # m, smoothing spends up to this to lower curvature
+    max_deviation: float = 0.20  # m, beyond this a network is refused
+    # m, a reference line bending tighter is refused: lanes reach |d| <= ~15 m from it,
+    # so 1 - kappa d >= 0.85 (the frame's stretch across a lane stays within 15 %)
+    min_radius: float = 100.0
+    spacing: float = 0.5  # m, the table step h (arc length)
+    extension: float = 200.0  # m, straight continuation past both ends
+
+
+DEFAULT_LIMITS = FrameLimits()
+
+
+@dataclass(frozen=True)
+class FrameQuality:
+    """What smoothing did to SUMO's polyline (measured on the built frame)."""
+
+    max_deviation: float  # m, Hausdorff distance between the reference line and SUMO's polyline
+    min_radius: float  # m, smallest radius of the reference line (inf: straight)
+    smoothing_length: float  # m, ell of the smoothing spline (0: none)
+    max_kink: float  # rad, SUMO's polyline's largest turn at one vertex
+
+
+# ---------------------------------------------------------------- compiled kernels
+@njit
+def _cartesian(s: Array, d: Array, s_min: float, h: float, x: Array, y: Array,
+               theta: Array, kappa: Array, out_x: Array, out_y: Array,
+               out_heading: Array) -> None:
+    """(s, d) -> (x, y, heading of the reference line at s); see the module docstring."""
+    n = kappa.shape[0]
+    for i in range(s.shape[0]):
+        k = int(math.floor((s[i] - s_min) / h))
+        k = min(max(k, 0), n - 1)
+        u = s[i] - (s_min + k * h)
+        kk = kappa[k]
+        t = kk * u
+        if kk == 0.0:
+            along, side = u, 0.0
+        else:
+            along = math.sin(t) / kk
+            half = math.sin(0.5 * t)
+            side = 2.0 * half * half / kk
+        along -= d[i] * math.sin(t)
+        side += d[i] * math.cos(t)
+        c, sn = math.cos(theta[k]), math.sin(theta[k])  # as the table's _cos, _sin
+        out_x[i] = x[k] + c * along - sn * side
+        out_y[i] = y[k] + sn * along + c * side
+        out_heading[i] = theta[k] + t
+
+
+@njit
+def _local(px: float, py: float, k: int, x: Array, y: Array, cth: Array, sth: Array,
+           kappa: Array) -> tuple[float, float]:
+    """(u, d) of a point against arc k: u along the arc from its start, d off it."""
+    dx, dy = px - x[k], py - y[k]
+    a = cth[k] * dx + sth[k] * dy
+    b = -sth[k] * dx + cth[k] * dy
+    kk = kappa[k]
+    if kk == 0.0:
+        return a, b
+    u = math.atan2(kk * a, 1.0 - kk * b) / kk
+    d = (2.0 * b - kk * (a * a + b * b)) / (1.0 + math.sqrt((1.0 - kk * b) ** 2 + (kk * a) ** 2))
+    return u, d
+
+
+@njit
+def _covers(u: float, k: int, n: int, h: float) -> bool:
+    """Whether u lies on arc k (the first and last arcs run on beyond the table)."""
+    return (u >= -_EPS_U or k == 0) and (u <= h + _EPS_U or k == n - 1)
+
+
+@njit
+def _walk(px: float, py: float, k: int, h: float, x: Array, y: Array, cth: Array,
+          sth: Array, kappa: Array) -> tuple[float, float, int]:
+    """From arc k, step to the arc whose normals cover the point (u says how many arcs
+    on); k = -1 if that takes more than 8 steps or goes back and forth."""
+    n = kappa.shape[0]
+    previous = -2
+    for _ in range(8):
+        u, d = _local(px, py, k, x, y, cth, sth, kappa)
+        if _covers(u, k, n, h):
+            return u, d, k
+        jump = int(math.floor(u / h))
+        nxt = min(max(k + (jump if jump != 0 else -1), 0), n - 1)
+        if nxt == previous or nxt == k:  # noqa: SIM109 - plain compares for numba
+            break
+        previous, k = k, nxt
+    return 0.0, 0.0, -1
+
+
+@njit
+def _scan(px: float, py: float, lo: int, hi: int, h: float, x: Array, y: Array,
+          cth: Array, sth: Array, kappa: Array) -> tuple[float, float, int]:
+    """Of arcs lo..hi-1, the one covering the point with the smallest |d| (-1: none)."""
+    n = kappa.shape[0]
+    best_u, best_d, best_k = 0.0, math.inf, -1
+    for k in range(lo, hi):
+        u, d = _local(px, py, k, x, y, cth, sth, kappa)
+        if _covers(u, k, n, h) and abs(d) < abs(best_d):
+            best_u, best_d, best_k = u, d, k
+    return best_u, best_d, best_k
+
+
+@njit
+def _nearest_knot(px: float, py: float, x: Array, y: Array) -> int:
+    best, k_best = math.inf, 0
+    for k in range(x.shape[0] - 1):
+        q = (px - x[k]) ** 2 + (py - y[k]) ** 2
+        if q < best:
+            best, k_best = q, k
+    return k_best
+
+
+@njit
+def _frenet(px: Array, py: Array, hint: Array, window: int, s_min: float, h: float,
+            x: Array, y: Array, cth: Array, sth: Array, kappa: Array, out_s: Array,
+            out_d: Array) -> None:
+    """(x, y) -> (s, d). From the arc of each point's hint s (NaN: the arc of the nearest
+    knot) walk to the arc covering it; failing that, scan `window` arcs either way, then
+    every arc (the smallest |d| wins). NaN if no arc's normals reach the point."""
+    n = kappa.shape[0]
+    for i in range(px.shape[0]):
+        if math.isnan(hint[i]):
+            k0 = _nearest_knot(px[i], py[i], x, y)
+        else:
+            k0 = min(max(int(math.floor((hint[i] - s_min) / h)), 0), n - 1)
+        u, d, k = _walk(px[i], py[i], k0, h, x, y, cth, sth, kappa)
+        if k < 0:
+            u, d, k = _scan(px[i], py[i], max(k0 - window, 0), min(k0 + window + 1, n), h,
+                            x, y, cth, sth, kappa)
+        if k < 0:
+            u, d, k = _scan(px[i], py[i], 0, n, h, x, y, cth, sth, kappa)
+        if k < 0:  # beyond every arc's normals (far inside a bend): not on this road
+            out_s[i], out_d[i] = math.nan, math.nan
+        else:
+            out_s[i], out_d[i] = s_min + k * h + u, d
+
+
+@register_warm_up
+def _warm_up() -> None:
+    z = np.zeros(2)
+    one = np.ones(1)
+    _cartesian(z[:1], z[:1], 0.0, 1.0, z, z, z, one, z[:1].copy(), z[:1].copy(), z[:1].copy())
+    _frenet(z[:1], z[:1], np.full(1, np.nan), 1, 0.0, 1.0, z, z, one[:1].repeat(2), z, one,
+            z[:1].copy(), z[:1].copy())
+
+
+# ---------------------------------------------------------------- frames
+def _arrays(*values: ArrayLike) -> tuple[tuple[int, ...], list[Array]]:
+    arrays = np.broadcast_arrays(*[np.asarray(v, dtype=np.float64) for v in values])
+    shape = arrays[0].shape
+    return shape, [np.ascontiguousarray(a).ravel() for a in arrays]
+
+
+def _shaped(shape: tuple[int, ...], *arrays: Array) -> tuple[Any, ...]:
+    if shape == ():
+        return tuple(float(a[0]) for a in arrays)
+    return tuple(a.reshape(shape) for a in arrays)
+
+
+class StraightFrame:
+    """The frame of a straight road along +x: s = x - x0, d = y - y0 (the identity when
+    x0 = y0 = 0), heading 0, curvature 0."""
+
+    def __init__(self, x0: float, y0: float, length: float, extension: float = 200.0) -> None:
+        self.x0 = float(x0)
+        self.y0 = float(y0)
+        self.length = float(length)  # m, of the route's reference lane
+        self.s_min = -float(extension)
+        self.s_max = self.length + float(extension)
+        self.quality = FrameQuality(0.0, math.inf, 0.0, 0.0)
+
+    def to_cartesian(self, s: ArrayLike, d: ArrayLike) -> tuple[Any, Any, Any]:
+        """(x, y, heading of the road) of road coordinates (s, d); arrays or floats."""
+        shape, (s_, d_) = _arrays(s, d)
+        return _shaped(shape, s_ + self.x0, d_ + self.y0, np.zeros_like(s_))
+
+    def to_frenet(self, x: ArrayLike, y: ArrayLike,
+                  s_hint: ArrayLike | None = None) -> tuple[Any, Any]:
+        """(s, d) of Cartesian points; arrays or floats (`s_hint` unused: exact)."""
+        del s_hint
+        shape, (x_, y_) = _arrays(x, y)
+        return _shaped(shape, x_ - self.x0, y_ - self.y0)
+
+    def heading(self, s: ArrayLike) -> Any:
+        """rad, the reference line's heading at s."""
+        return np.zeros_like(np.asarray(s, dtype=np.float64)) + 0.0
+
+    def curvature(self, s: ArrayLike) -> Any:
+        """1/m, the reference line's curvature at s (+: bending left)."""
+        return np.zeros_like(np.asarray(s, dtype=np.float64)) + 0.0
+
+
+class ArcFrame:
+    """The frame along an arc spline (see the module docstring). `d_offset` is added to
+    the offset from the spline: d = 0 lies `d_offset` to the right of it."""
+
+    def __init__(self, s_min: float, h: float, x: Array, y: Array, theta: Array,
+                 kappa: Array, d_offset: float, length: float, extension: float,
+                 quality: FrameQuality) -> None:
+        self.s_min = float(s_min)
+        self.h = float(h)
+        self.x = np.ascontiguousarray(x, dtype=np.float64)
+        self.y = np.ascontiguousarray(y, dtype=np.float64)
+        self.theta = np.ascontiguousarray(theta, dtype=np.float64)
+        self._cos = np.cos(self.theta)
+        self._sin = np.sin(self.theta)
+        self.kappa = np.ascontiguousarray(kappa, dtype=np.float64)
+        self.d_offset = float(d_offset)
+        self.length = float(length)  # m, s of the reference lane's end (its start: s = 0)
+        self.s_max = self.s_min + self.h * len(self.kappa)
+        self.extension = float(extension)
+        self.quality = quality
+
+    @property
+    def s(self) -> Array:
+        """m, the table's knots."""
+        return self.s_min + self.h * np.arange(len(self.x))
+
+    def to_cartesian(self, s: ArrayLike, d: ArrayLike) -> tuple[Any, Any, Any]:
+        """(x, y, heading of the road) of road coordinates (s, d); arrays or floats.
+        Beyond the table the end arcs go on (straight)."""
+        shape, (s_, d_) = _arrays(s, d)
+        n = s_.shape[0]
+        ox, oy, oh = np.empty(n), np.empty(n), np.empty(n)
+        _cartesian(s_, d_ - self.d_offset, self.s_min, self.h, self.x, self.y, self.theta,
+                   self.kappa, ox, oy, oh)
+        return _shaped(shape, ox, oy, oh)
+
+    def to_frenet(self, x: ArrayLike, y: ArrayLike,
+                  s_hint: ArrayLike | None = None) -> tuple[Any, Any]:
+        """(s, d) of Cartesian points; arrays or floats. `s_hint` (m, per point or one for
+        all; NaN or None: none) is where to look first, e.g. the point's s a step ago.
+        A point no arc's normals reach (far inside a bend) gives NaN."""
+        hint = np.nan if s_hint is None else s_hint
+        shape, (x_, y_, h_) = _arrays(x, y, hint)
+        n = x_.shape[0]
+        os_, od = np.empty(n), np.empty(n)
+        _frenet(x_, y_, h_, WINDOW, self.s_min, self.h, self.x, self.y, self._cos,
+                self._sin, self.kappa, os_, od)
+        return _shaped(shape, os_, od + self.d_offset)
+
+    def _arc(self, s: ArrayLike) -> tuple[Array, Array]:
+        s_ = np.asarray(s, dtype=np.float64)
+        k = np.clip(np.floor((s_ - self.s_min) / self.h).astype(np.int64), 0,
+                    len(self.kappa) - 1)
+        return k, s_ - (self.s_min + k * self.h)
+
+    def heading(self, s: ArrayLike) -> Any:
+        """rad, the reference line's heading at s."""
+        k, u = self._arc(s)
+        return self.theta[k] + self.kappa[k] * u
+
+    def curvature(self, s: ArrayLike) -> Any:
+        """1/m, the reference line's curvature at s (+: bending left; constant per arc)."""
+        k, _ = self._arc(s)
+        return self.kappa[k]
+
+
+Frame = StraightFrame | ArcFrame
+
+
+# ---------------------------------------------------------------- smoothing
+def _resample(points: Array, h: float) -> tuple[Array, float]:
+    """The polyline resampled every ~h (an integer number of equal steps); its length."""
+    seg = np.hypot(*np.diff(points, axis=0).T)
+    cum = np.concatenate(([0.0], np.cumsum(seg)))
+    total = float(cum[-1])
+    n = max(2, int(math.ceil(total / h)))
+    t = np.linspace(0.0, total, n + 1)
+    return np.column_stack((np.interp(t, cum, points[:, 0]),
+                            np.interp(t, cum, points[:, 1]))), total
+
+
+def _whittaker(points: Array, ell: float) -> Array:
+    """Smoothing spline of order 3 over equally spaced points (rows), smoothing length
+    ell (m): minimise |p - r|^2 + (ell/step)^6 |D3 p|^2, a banded system. The caller
+    spaces the points at ell / 32 or closer, so that (ell/step)^6 stays near 1e9 and the
+    system well conditioned."""
+    from scipy.linalg import solveh_banded
+
+    n = points.shape[0]
+    if ell <= 0.0 or n < 8:
+        return points.copy()
+    step = float(np.hypot(*(points[1] - points[0])))
+    lam = (ell / step) ** 6
+    w = np.array([-1.0, 3.0, -3.0, 1.0])  # a row of D3
+    m = n - 3
+    bands = np.zeros((4, n))  # D3^T D3, upper banded form (row 3 the diagonal)
+    for off in range(4):
+        for a in range(4 - off):
+            np.add.at(bands[3 - off], np.arange(m) + a + off, w[a] * w[a + off])
+    bands *= lam
+    bands[3] += 1.0
+    centre = points.mean(axis=0)
+    return solveh_banded(bands, points - centre) + centre
+
+
+def _max_kink(points: Array) -> float:
+    """rad, a polyline's largest turn at one vertex."""
+    v = np.diff(points, axis=0)
+    ang = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
+    return float(np.abs(np.diff(ang)).max(initial=0.0))
+
+
+def _arc_spline(points: Array, h: float, extension: float) -> tuple[Array, ...]:
+    """Knots every h of the G1 arc spline whose headings follow the smoothed points'
+    (the mean of the two chords at each point, interpolated in arc length), positions
+    integrated arc by arc from the first point; `extension` straight at both ends."""
+    v = np.diff(points, axis=0)
+    chord = np.hypot(v[:, 0], v[:, 1])
+    phi = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
+    theta_pts = np.concatenate(([phi[0]], 0.5 * (phi[:-1] + phi[1:]), [phi[-1]]))
+    cum = np.concatenate(([0.0], np.cumsum(chord)))
+    total = float(cum[-1])
+    n = max(1, int(math.ceil(total / h)))
+    n_ext = int(math.ceil(extension / h))
+    s_core = h * np.arange(n + 1)
+    th_core = np.interp(s_core, cum, theta_pts)
+    theta = np.concatenate((np.full(n_ext, th_core[0]), th_core, np.full(n_ext, th_core[-1])))
+    dth = np.diff(theta)
+    kappa = dth / h
+    mid = theta[:-1] + 0.5 * dth
+    step = h * np.sinc(dth / (2.0 * np.pi))  # chord of an arc: h sin(dth/2) / (dth/2)
+    dx = np.concatenate(([0.0], np.cumsum(step * np.cos(mid))))
+    dy = np.concatenate(([0.0], np.cumsum(step * np.sin(mid))))
+    # place the knot of s = 0 on the first smoothed point
+    x = points[0, 0] + dx - dx[n_ext]
+    y = points[0, 1] + dy - dy[n_ext]
+    return x, y, theta, kappa, n_ext
+
+
+def deviation(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
+              centre: Callable[[Array], Array] | None = None) -> float:
+    """m, Hausdorff distance between a SUMO polyline (rows x, y) and the frame's line
+    d = centre(s) (default: the reference line) over the polyline's extent: each of the
+    polyline's points (every <= 0.5 m, its vertices included) against the line (|d -
+    centre(s)|, exact where centre is constant), each of the line's points (every 0.5 m)
+    against the polyline's nearby segments."""
+    ref = float(getattr(frame, "d_offset", 0.0))
+    line_d = centre if centre is not None else (lambda s: np.full(np.shape(s), ref))
+    dense = _with_vertices(np.asarray(polyline, dtype=np.float64), 0.5)
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(dense, axis=0).T))))
+    s0, _ = frame.to_frenet(dense[0, 0], dense[0, 1])
+    s_raw, d_raw = frame.to_frenet(dense[:, 0], dense[:, 1], s_hint=s0 + along)
+    if np.isnan(s_raw).any():
+        return math.inf
+    one = float(np.abs(d_raw - line_d(s_raw)).max())
+    knots = np.arange(s_raw[0], s_raw[-1], 0.5)
+    kx, ky, _ = frame.to_cartesian(knots, line_d(knots))
+    order = np.argsort(s_raw, kind="stable")
+    near = np.clip(np.searchsorted(s_raw[order], knots)[:, None] + np.arange(-4, 4)[None, :],
+                   0, len(s_raw) - 2)
+    near = np.minimum(order[near], len(s_raw) - 2)
+    q0, q1 = dense[near], dense[near + 1]
+    v = q1 - q0
+    w = np.stack((kx, ky), axis=-1)[:, None, :] - q0
+    t = np.clip(np.einsum("ijk,ijk->ij", w, v) / np.maximum(np.einsum("ijk,ijk->ij", v, v),
+                                                              1e-300), 0.0, 1.0)
+    other = float(np.hypot(*(w - t[..., None] * v).transpose(2, 0, 1)).min(axis=1).max(
+        initial=0.0))
+    return max(one, other)
+
+
+def _frame_of(points: Array, raw: Array, limits: FrameLimits, d_offset: float,
+              ell: float) -> ArcFrame:
+    """The arc-spline frame through smoothed points, s = 0 at SUMO's first point."""
+    h = limits.spacing
+    x, y, theta, kappa, n_ext = _arc_spline(points, h, limits.extension)
+    kmax = float(np.abs(kappa).max())
+    quality = FrameQuality(math.nan, math.inf if kmax == 0.0 else 1.0 / kmax, ell,
+                           _max_kink(raw))
+    frame = ArcFrame(-n_ext * h, h, x, y, theta, kappa, d_offset, 0.0, limits.extension,
+                     quality)
+    s0, _ = frame.to_frenet(raw[0, 0], raw[0, 1], s_hint=0.0)
+    end_hint = h * (len(x) - 1 - 2 * n_ext)
+    s1, _ = frame.to_frenet(raw[-1, 0], raw[-1, 1], s_hint=end_hint)
+    return ArcFrame(-n_ext * h - s0, h, x, y, theta, kappa, d_offset, s1 - s0,
+                    limits.extension, quality)
+
+
+def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
+           d_offset: float = 0.0, source: str = "network") -> ArcFrame:
+    """The arc-spline frame of a polyline (rows x, y; SUMO's lane shape), smoothed as
+    the module docstring says; `d_offset` (m) places d = 0 that far right of it.
+    Raises InputError(source, ...) if it cannot be smoothed within the limits."""
+    raw = np.asarray(polyline, dtype=np.float64)
+    keep = np.concatenate(([True], np.hypot(*np.diff(raw, axis=0).T) > 1e-9))
+    raw = raw[keep]
+    if raw.shape[0] < 2:
+        raise InputError(source, "reference lane", raw.tolist(),
+                         "a lane shape of two or more distinct points")
+    h = limits.spacing
+    line = _forward(raw)
+
+    def attempt(ell: float) -> tuple[float, ArcFrame, float, float]:
+        points = _whittaker(_resample(line, max(h, ell / 32.0))[0], ell)
+        frame = _frame_of(points, raw, limits, d_offset, ell)
+        return ell, frame, deviation(frame, raw), frame.quality.min_radius
+
+    lengths = [0.0] + [h * 2.0 ** (k / 2.0) for k in range(0, 15)]  # 0, 0.5 m .. 64 m
+    tried = []
+    for ell in lengths:  # deviation grows with ell: stop once past the largest bound
+        tried.append(attempt(ell))
+        if tried[-1][2] > limits.max_deviation:
+            break
+    # the least smoothing that gets within RADIUS_SHARE of the largest smallest-radius
+    # reachable within the target deviation: more would only bend SUMO's curves
+    within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
+    reachable = max(t[3] for t in within)
+    chosen = next(t for t in within if t[3] >= RADIUS_SHARE * reachable)
+    if chosen[3] < limits.min_radius:
+        better = [t for t in tried if t[2] <= limits.max_deviation
+                  and t[3] >= limits.min_radius]
+        if not better:
+            best = max((t for t in tried if t[2] <= limits.max_deviation),
+                       key=lambda t: t[3], default=tried[0])
+            k = int(np.argmax(np.abs(best[1].kappa)))
+            raise InputError(source, "reference line radius", f"{best[3]:.1f} m",
+                             f"a route whose lanes can be smoothed to a radius of at least "
+                             f"{limits.min_radius:g} m within {limits.max_deviation:g} m of "
+                             f"SUMO's lane shape (its tightest bend, near x = "
+                             f"{best[1].x[k]:.1f}, y = {best[1].y[k]:.1f}, keeps a radius of "
+                             f"{best[3]:.1f} m at a deviation of {best[2]:.3f} m)")
+        chosen = min(better, key=lambda t: t[0])
+    ell, frame, dev, _ = chosen
+    if dev > limits.max_deviation:
+        raise InputError(source, "reference line deviation", f"{dev:.3f} m",
+                         f"a route whose lanes can be smoothed within {limits.max_deviation:g} "
+                         "m of SUMO's lane shape")
+    return ArcFrame(frame.s_min, h, frame.x, frame.y, frame.theta, frame.kappa, d_offset,
+                    frame.length, limits.extension,
+                    FrameQuality(dev, frame.quality.min_radius, ell,
+                                 frame.quality.max_kink))
+
+
+def _forward(points: Array) -> Array:
+    """The polyline with each place where it turns back on itself (a lane that starts a
+    little behind the end of the one before it) replaced by the middle of the two
+    vertices: a smoothing spline through a reversal would loop. The deviation is still
+    measured against every vertex of SUMO's polyline."""
+    p = points.copy()
+    for _ in range(len(points)):
+        v = np.diff(p, axis=0)
+        back = np.flatnonzero(np.einsum("ij,ij->i", v[:-1], v[1:]) < 0.0)  # > 90 degrees
+        if back.size == 0 or len(p) <= 2:
+            break
+        i = back[0] + 1  # the vertex where it turns back; merged with the next one
+        j = min(i + 1, len(p) - 1)
+        p = np.concatenate((p[:i], 0.5 * (p[i] + p[j])[None, :], p[j + 1:]))
+    return p
+
+
+def _with_vertices(raw: Array, h: float) -> Array:
+    """The polyline with points added every <= h along each segment (vertices kept)."""
+    out = [raw[:1]]
+    for a, b in zip(raw[:-1], raw[1:], strict=True):
+        n = max(1, int(math.ceil(math.dist(a, b) / h)))
+        t = (np.arange(1, n + 1) / n)[:, None]
+        out.append(a + t * (b - a))
+    return np.concatenate(out)
+
+
+# ---------------------------------------------------------------- path states (Werling)
+def cartesian_state(frame: StraightFrame | ArcFrame, s: ArrayLike, d: ArrayLike,
+                    s_dot: ArrayLike, d1: ArrayLike, d2: ArrayLike) -> tuple[Any, ...]:
+    """(x, y, theta, kappa, v) of a path point given in the frame: s, d (m), s_dot =
+    ds/dt (m/s), d1 = dd/ds (-), d2 = d^2d/ds^2 (1/m). Werling et al. 2010, Appendix,
+    with the arc's curvature kappa_r constant (kappa_r' = 0):
+
+        1 - kappa_r d = q,  dtheta = atan(d1 / q),  theta = theta_r + dtheta,
+        kappa = ((d2 + kappa_r d1 tan dtheta) cos^2 dtheta / q + kappa_r) cos dtheta / q,
+        v = s_dot q / cos dtheta.
+    """
+    x, y, theta_r = frame.to_cartesian(s, d)
+    s_, d_, sd, p1, p2 = (np.asarray(v, dtype=np.float64) for v in (s, d, s_dot, d1, d2))
+    kr = np.asarray(frame.curvature(s_), dtype=np.float64)
+    q = 1.0 - kr * (d_ - getattr(frame, "d_offset", 0.0))
+    dth = np.arctan2(p1, q)
+    c = np.cos(dth)
+    kappa = ((p2 + kr * p1 * np.tan(dth)) * c * c / q + kr) * c / q
+    return x, y, theta_r + dth, kappa, sd * q / c
+
+
+def frenet_state(frame: StraightFrame | ArcFrame, x: ArrayLike, y: ArrayLike,
+                 theta: ArrayLike, kappa: ArrayLike, v: ArrayLike,
+                 s_hint: ArrayLike | None = None) -> tuple[Any, ...]:
+    """(s, d, s_dot, d1, d2) of a Cartesian path point (x, y, heading theta, curvature
+    kappa, speed v): the inverse of `cartesian_state` (Werling et al. 2010, Appendix):
+
+        d1 = q tan dtheta,  d2 = -kappa_r d1 tan dtheta
+                                 + q / cos^2 dtheta (kappa q / cos dtheta - kappa_r),
+        s_dot = v cos dtheta / q.
+    """
+    s, d = frame.to_frenet(x, y, s_hint)
+    th, kx, vv = (np.asarray(a, dtype=np.float64) for a in (theta, kappa, v))
+    kr = np.asarray(frame.curvature(s), dtype=np.float64)
+    q = 1.0 - kr * (np.asarray(d) - getattr(frame, "d_offset", 0.0))
+    dth = np.angle(np.exp(1j * (th - np.asarray(frame.heading(s)))))
+    c = np.cos(dth)
+    t = np.tan(dth)
+    d1 = q * t
+    d2 = -kr * d1 * t + q / (c * c) * (kx * q / c - kr)
+    return s, d, vv * c / q, d1, d2
+
+
+# ---------------------------------------------------------------- distortion over a body
+def kappa_max(frame: StraightFrame | ArcFrame, s_lo: float, s_hi: float) -> float:
+    """1/m, the largest |curvature| of the reference line over [s_lo, s_hi]."""
+    if isinstance(frame, StraightFrame):
+        return 0.0
+    n = len(frame.kappa)
+    k0 = min(max(int(math.floor((s_lo - frame.s_min) / frame.h)), 0), n - 1)
+    k1 = min(max(int(math.floor((s_hi - frame.s_min) / frame.h)), k0), n - 1)
+    return float(np.abs(frame.kappa[k0:k1 + 1]).max())
+
+
+def distortion_margin(kappa: float, d_abs: ArrayLike, half_diagonal: float) -> Any:
+    """m, how far the (s, d) image of a rigid body's points can lie from the same body
+    drawn as a rectangle in (s, d) (its offsets from the centre taken as (s, d) offsets):
+    for a body of half-diagonal r centred at |d| <= d_abs from the reference line itself
+    (the frame's d minus its `d_offset`), on a reference line of
+    |curvature| <= kappa over the body's reach. About a circle of radius 1/kappa, with
+    q = 1 - kappa (|d| + r) > 0, a point at offsets (a, b), |(a, b)| <= r, lands at
+
+        along s:  |s - s0 - a| <= kappa r (|d| + r) / q + kappa^2 r^3 / (3 q^3),
+        across:   |d - d0 - b| <= kappa r^2 / (2 q),
+
+    and the margin is the length of that error vector (DESIGN: kappa_max (|d| r + r^2)).
+    Growing both rectangles of a pair by it keeps an (s, d) test sound in the Cartesian
+    plane. inf where q <= 0 (the body reaches the centre of curvature)."""
+    d = np.abs(np.asarray(d_abs, dtype=np.float64))
+    r = float(half_diagonal)
+    q = 1.0 - kappa * (d + r)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        along = kappa * r * (d + r) / q + kappa**2 * r**3 / (3.0 * q**3)
+        across = kappa * r * r / (2.0 * q)
+        out = np.where(q > 0.0, np.hypot(along, across), np.inf)
+    return float(out) if out.ndim == 0 else out

@@ -1,0 +1,126 @@
+"""The road of a run: a route on a SUMO network, its tracks, the (s, d) frame along it
+and every track's lane table, built once from the network (`load_road`).
+
+The frame's reference is the rightmost track that runs through the whole route; d = 0
+is that lane's right border on the route's first edge and s = 0 the start of that
+lane. A route of one straight edge along +x gets the `StraightFrame` (s = x - x0,
+d = y - y0, exactly; on networks/highway.net.xml x0 = y0 = 0, so s = x and d = y);
+every other route the smoothed `ArcFrame`, or an InputError if it cannot be smoothed
+within `FrameLimits`.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from cosim.errors import InputError
+from cosim.road.frame import DEFAULT_LIMITS, ArcFrame, FrameLimits, StraightFrame, smooth
+from cosim.road.lanes import LaneTable, lane_tables
+from cosim.road.route import Route, make_route
+from cosim.road.tracks import Track, follow_tracks, reference_track
+
+
+@dataclass(frozen=True)
+class Road:
+    """A route, its tracks and lane tables, and the frame along it."""
+
+    route: Route
+    tracks: tuple[Track, ...]
+    reference: Track  # the frame's reference track
+    frame: StraightFrame | ArcFrame
+    lanes: tuple[LaneTable, ...]  # in track id order (ids may skip a lane cars may not use)
+
+    @property
+    def max_deviation(self) -> float:
+        """m, the largest Hausdorff distance of a track's centre line from SUMO's lane."""
+        return max(t.deviation for t in self.lanes)
+
+    @functools.cached_property
+    def _by_id(self) -> dict[int, LaneTable]:
+        return {t.id: t for t in self.lanes}
+
+    def lane(self, track: int) -> LaneTable:
+        """The lane table of a track id (KeyError: no such track)."""
+        return self._by_id[track]
+
+    @functools.cached_property
+    def track_ids(self) -> dict[str, int]:
+        """SUMO lane id -> track id, for every lane of every track (junction lanes too)."""
+        return {p.lane: t.id for t in self.tracks for p in t.pieces}
+
+    @functools.cached_property
+    def edge_ids(self) -> frozenset[str]:
+        """The route's edges and the junction edges between them: a vehicle on any other
+        edge (a road crossing on a bridge, a ramp not yet joined) is not in the SV's lanes."""
+        return frozenset(p.edge for t in self.tracks for p in t.pieces)
+
+    def on_route(self, road_ids: Sequence[str]) -> np.ndarray:
+        """Which of SUMO's road ids (vehicle.getRoadID) lie on the route."""
+        return np.fromiter((r in self.edge_ids for r in road_ids), dtype=bool,
+                           count=len(road_ids))
+
+    def track_of_lane(self, lane_id: str) -> LaneTable:
+        """The lane table of the track that runs through SUMO lane `lane_id` (KeyError:
+        no track does)."""
+        return self._by_id[self.track_ids[lane_id]]
+
+    def s_of_lane_position(self, lane_id: str, position: float) -> float:
+        """m, s of SUMO lane position `position` (m along the lane, as SUMO counts it) on
+        lane `lane_id` of the route."""
+        from sumolib.geomhelper import polyLength, positionAtShapeOffset
+
+        table = self.track_of_lane(lane_id)
+        k = next(i for i, p in enumerate(table.track.pieces) if p.lane == lane_id)
+        piece = table.track.pieces[k]
+        # SUMO stretches lane positions onto the shape (lanes of one edge share a length)
+        offset = position * polyLength(piece.shape) / piece.length
+        x, y = positionAtShapeOffset(list(piece.shape), offset)
+        s, _ = self.frame.to_frenet(x, y, s_hint=float(table.s_start[k]) + position)
+        return float(s)
+
+
+def _straight(route: Route, reference: Track) -> bool:
+    """A route of one edge whose lanes are straight lines along +x."""
+    if len(route.edges) != 1:
+        return False
+    shapes = [lane.getShape() for lane in route.edge(0).getLanes()]
+    return all(len(s) == 2 and s[0][1] == s[1][1] and s[1][0] > s[0][0] for s in shapes)
+
+
+def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
+              limits: FrameLimits = DEFAULT_LIMITS, source: str | None = None) -> Road:
+    """The road of `edges` (None: the network's only edge) on `network`. InputError
+    (one line, naming `source` or the network) for a bad route or a network the frame
+    cannot support."""
+    route = make_route(network, edges, source=source)
+    src = source if source is not None else str(route.path)
+    tracks = follow_tracks(route)
+    if not tracks:
+        raise InputError(src, "route", list(route.edges), "a route with a lane a car may use")
+    ref = reference_track(route, tracks, src)
+    first = ref.pieces[0]
+    half = first.width / 2.0
+    if _straight(route, ref):
+        (x0, yc), (x1, _) = first.shape
+        frame: StraightFrame | ArcFrame = StraightFrame(x0, yc - half, x1 - x0,
+                                                        limits.extension)
+    else:
+        frame = smooth(np.array(ref.shape()), limits, d_offset=half, source=src)
+    tables = lane_tables(tracks, ref, frame, route.net)
+    if any(not math.isfinite(v) for t in tables for v in (*t.s_start, *t.s_end)):
+        raise InputError(src, "route", list(route.edges),
+                         "a route whose lanes all lie within the reference line's reach "
+                         "(a lane's end could not be placed along it)")
+    worst = max(tables, key=lambda t: t.deviation)
+    if worst.deviation > limits.max_deviation:
+        raise InputError(src, "lane deviation", f"{worst.deviation:.3f} m",
+                         f"lanes whose centre lines stay within {limits.max_deviation:g} m of "
+                         f"SUMO's lane shapes (track {worst.id}, from {worst.track.name}, "
+                         "does not)")
+    return Road(route, tracks, ref, frame, tables)

@@ -1,0 +1,187 @@
+"""Tracks: the physical lanes of a route, each followed through SUMO's connections.
+
+SUMO numbers lanes per edge (0 the rightmost), so a lane added on the right renumbers
+every lane beside it: SUMO's index of one physical lane changes along a route. A
+*track* is one physical lane followed from edge to edge through SUMO's connections,
+including the internal junction lanes between them (`Connection.getViaLaneID()`), so
+it keeps its identity where the indices shift; SUMO's lane id and index are properties
+of the track on each edge (its `pieces`).
+
+Where consecutive edges have several connections between them, each lane continues
+into at most one lane and each lane is continued from at most one: of a lane that
+splits (one lane feeding two) or two lanes that merge into one, the pair with the
+smallest lateral jump (the distance sideways from the end of one lane to the start of
+the other) continues the track. A track starts at the route's first edge or where a
+lane has no connection from the route's previous edge (a lane added), and ends where
+its lane has no connection onward (an acceleration lane, a lane drop) or at the
+route's end.
+
+Track ids: the tracks present on the route's first edge have SUMO's index there
+(0 the rightmost: the paper's Lane 1/2/3 are tracks 0/1/2); tracks that start later are
+numbered on from there, in driving order and right to left. On a one-edge network
+track id = SUMO lane index.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from cosim.errors import InputError
+from cosim.road.route import VCLASS, Route
+
+Point = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class TrackPiece:
+    """One SUMO lane of a track: a lane of a route edge or a junction lane between two."""
+
+    edge: str  # SUMO edge id (":j2_0" for a junction's internal edge)
+    lane: str  # SUMO lane id
+    index: int  # SUMO's lane index on that edge
+    internal: bool  # a junction lane (not on a route edge)
+    route_index: int  # position of the edge in the route (a junction lane: the edge before it)
+    shape: tuple[Point, ...]  # m, SUMO's lane centre polyline
+    width: float  # m
+    speed: float  # m/s, SUMO's speed limit of the lane
+    length: float  # m, SUMO's lane length (lane positions run from 0 to it)
+
+
+@dataclass(frozen=True)
+class Track:
+    """One physical lane followed along the route."""
+
+    id: int  # see the module docstring
+    pieces: tuple[TrackPiece, ...]  # in driving order
+
+    @property
+    def name(self) -> str:
+        """SUMO's id of the lane where the track begins."""
+        return self.pieces[0].lane
+
+    @property
+    def first_edge(self) -> int:
+        """Route position of the edge the track begins on."""
+        return self.pieces[0].route_index
+
+    @property
+    def last_edge(self) -> int:
+        """Route position of the edge the track ends on."""
+        return self.pieces[-1].route_index
+
+    def piece_on(self, edge: str) -> TrackPiece | None:
+        """The track's lane on `edge` (None: the track is not on it)."""
+        for piece in self.pieces:
+            if piece.edge == edge:
+                return piece
+        return None
+
+    def shape(self) -> list[Point]:
+        """m, the track's centre line: its pieces' shapes joined (repeated points once)."""
+        points: list[Point] = []
+        for piece in self.pieces:
+            for p in piece.shape:
+                if not points or math.dist(points[-1], p) > 1e-9:
+                    points.append(p)
+        return points
+
+
+def _piece(lane: Any, route_index: int) -> TrackPiece:
+    edge = lane.getEdge()
+    return TrackPiece(
+        edge=edge.getID(), lane=lane.getID(), index=lane.getIndex(),
+        internal=edge.getFunction() == "internal", route_index=route_index,
+        shape=tuple((float(x), float(y)) for x, y in lane.getShape()),
+        width=float(lane.getWidth()), speed=float(lane.getSpeed()),
+        length=float(lane.getLength()),
+    )
+
+
+def lateral_jump(from_lane: Any, to_lane: Any) -> float:
+    """m, how far sideways the start of `to_lane` lies from the end of `from_lane`
+    (across the last segment's direction of `from_lane`)."""
+    shape = from_lane.getShape()
+    (x0, y0), (x1, y1) = shape[-2], shape[-1]
+    tx, ty = x1 - x0, y1 - y0
+    norm = math.hypot(tx, ty) or 1.0
+    qx, qy = to_lane.getShape()[0]
+    return abs(tx * (qy - y1) - ty * (qx - x1)) / norm
+
+
+def _continuations(net: Any, a: Any, b: Any) -> dict[int, tuple[int, list[Any]]]:
+    """From-lane index -> (to-lane index, junction lanes between) for the lanes of edge
+    `a` that continue on edge `b`: one-to-one, by the smallest lateral jump."""
+    candidates = []
+    for c in a.getConnections(b):
+        fl, tl = c.getFromLane(), c.getToLane()
+        if fl.allows(VCLASS) and tl.allows(VCLASS):
+            candidates.append((lateral_jump(fl, tl), fl.getIndex(), tl.getIndex(), c))
+    candidates.sort(key=lambda item: (item[0], item[1], item[2]))
+    taken_from: dict[int, tuple[int, list[Any]]] = {}
+    taken_to: set[int] = set()
+    for _, i, j, c in candidates:
+        if i in taken_from or j in taken_to:
+            continue
+        taken_from[i] = (j, _via_chain(net, c))
+        taken_to.add(j)
+    return taken_from
+
+
+def _via_chain(net: Any, connection: Any) -> list[Any]:
+    """The internal lanes a connection runs through, in order (an internal junction
+    splits them in two)."""
+    lanes: list[Any] = []
+    via = connection.getViaLaneID()
+    target = connection.getToLane().getID()
+    while via and len(lanes) < 16:
+        lane = net.getLane(via)
+        lanes.append(lane)
+        onward = [c for c in lane.getOutgoing() if c.getToLane().getID() == target]
+        via = onward[0].getViaLaneID() if onward else ""
+    return lanes
+
+
+def follow_tracks(route: Route) -> tuple[Track, ...]:
+    """The route's tracks (see the module docstring), ordered by id."""
+    net = route.net
+    first = route.edge(0)
+    building: dict[int, list[TrackPiece]] = {}
+    open_by_index: dict[int, int] = {}  # SUMO index on the current edge -> track id
+    for lane in sorted(first.getLanes(), key=lambda ln: ln.getIndex()):
+        if lane.allows(VCLASS):
+            building[lane.getIndex()] = [_piece(lane, 0)]
+            open_by_index[lane.getIndex()] = lane.getIndex()
+    next_id = max(building) + 1 if building else 0
+    for k in range(1, len(route.edges)):
+        a, b = route.edge(k - 1), route.edge(k)
+        cont = _continuations(net, a, b)
+        now: dict[int, int] = {}
+        for i, track in sorted(open_by_index.items()):
+            if i not in cont:
+                continue  # the lane ends here: so does its track
+            j, vias = cont[i]
+            building[track] += [_piece(v, k - 1) for v in vias]
+            building[track].append(_piece(net.getEdge(b.getID()).getLane(j), k))
+            now[j] = track
+        # lanes of b no track reached: a track starts, numbered right to left
+        for lane in sorted(b.getLanes(), key=lambda ln: ln.getIndex()):
+            j = lane.getIndex()
+            if j not in now and lane.allows(VCLASS):
+                building[next_id] = [_piece(lane, k)]
+                now[j] = next_id
+                next_id += 1
+        open_by_index = now
+    return tuple(Track(tid, tuple(pieces)) for tid, pieces in sorted(building.items()))
+
+
+def reference_track(route: Route, tracks: tuple[Track, ...], source: str | None = None) -> Track:
+    """The rightmost track that runs through the whole route: the road frame's reference.
+    Raises InputError if no lane runs from the route's first edge to its last."""
+    through = [t for t in tracks if t.first_edge == 0 and t.last_edge == len(route.edges) - 1]
+    if not through:
+        raise InputError(source or str(route.path), "route", list(route.edges),
+                         "a route along which at least one lane runs from the first edge to "
+                         "the last (no lane of it does)")
+    return min(through, key=lambda t: t.pieces[0].index)
