@@ -76,12 +76,16 @@ def test_every_shown_command_is_classified() -> None:
 
 
 @pytest.mark.parametrize("command", quick_commands())
-def test_quick_command_runs_as_written(command: str) -> None:
-    """Run from the repository root exactly as the docs show it (outputs go where
-    they say, under results/), through this checkout's package."""
+def test_quick_command_runs_as_written(command: str, tmp_path: Path) -> None:
+    """Run exactly as the docs show it, through this checkout's package, from a
+    temporary folder that holds the checkout's inputs (scenarios/, networks/, tests/
+    linked), so that the outputs go where the docs say (results/... under the current
+    folder) and never into the user's results/."""
     argv = shlex.split(command)[1:]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    done = subprocess.run([sys.executable, "-m", "cosim.cli", *argv], cwd=ROOT, env=env,
+    for name in ("scenarios", "networks", "tests"):
+        (tmp_path / name).symlink_to(ROOT / name)
+    done = subprocess.run([sys.executable, "-m", "cosim.cli", *argv], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=240)
     assert done.returncode == 0, f"{command}\n{done.stderr[-2000:]}"
     assert "Traceback" not in done.stderr
