@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
@@ -50,6 +52,29 @@ def count(key: str, lo: int = 1) -> Callable[[str], Any]:
 def seconds(key: str, hi: float = 3600.0) -> Callable[[str], Any]:
     """A positive duration flag in (0, hi] s."""
     return flag_type(Field(key, float, lo=0.0, hi=hi, lo_open=True, unit="s", default=None))
+
+
+RESULTS = Path("results")  # default outputs: under the current directory, as a user expects
+
+
+def variant_folder(base: Path, name: str, variants: dict[str, Any]) -> Path:
+    """The default output folder base/name, with one `--key_value` part per variant
+    that differs from the defaults (`results/paper_case1_overtaking--controller_siso
+    --seed_3`): runs of one scenario with other flags never overwrite each other, and
+    the same flags write into the same folder again. `variants`: key -> value, None
+    for "not overridden" (skipped); the order is the caller's."""
+    parts = [name]
+    for key, value in variants.items():
+        if value is not None:
+            text = re.sub(r"[^A-Za-z0-9.]+", "_", f"{value:g}" if isinstance(value, float)
+                          else str(value)).strip("_.")
+            parts.append(f"{key}_{text}")
+    return base / "--".join(parts)
+
+
+def overridden(before: Any, after: Any) -> Any:
+    """after if a flag changed the scenario's value, else None (no folder part)."""
+    return None if after == before else after
 
 
 COMPILE_ESTIMATE_S = 25.0  # s, numba compiling every hot loop on a cold cache (2 cores)

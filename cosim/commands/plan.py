@@ -36,7 +36,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--out", type=Path, default=Path("results/plan"),
-                        help="folder for the figure (default results/plan)")
+                        help="folder for the figure (default ./results/plan)")
     parser.add_argument("--no-plot", action="store_true", help="draw no figure")
     parser.add_argument("--collision-test", choices=("exact", "col"), default=None,
                         help="override the scenario's [planner] collision_test")
