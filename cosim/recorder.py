@@ -149,6 +149,7 @@ METRIC_DOCS: dict[str, str] = {
     "final_offset_m": "SV's y minus its lane centre at the end (m)",
     "mean_speed_mps": "SV's mean speed (m/s)",
     "sumo_events": "SUMO teleports / lost vehicles during the run",
+    **mx.OUTCOME_DOCS,  # which check saw a collision; lane changes the end cut short
 }
 
 TIMING_DOCS: dict[str, str] = {
@@ -460,6 +461,12 @@ class Recorder:
             mean_speed_mps=float(np.mean(trace["vx_mps"])),
             sumo_events=events,
         )
+        m.update(mx.outcome_columns(
+            collisions=self.collisions, sumo_collisions=self.sumo_new, requests=requests,
+            completed=bool(m["lane_change_completed"]), durations=durations, ends=done.ends,
+            t_end=float(t[-1]), y_end=y_end,
+            centres=np.array([self.road.lane_center(k) for k in range(self.road.n_lanes)]),
+            tol=SETTLE_TOL))
         return m
 
 
