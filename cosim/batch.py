@@ -693,12 +693,11 @@ def run_study(
         {"title": title, "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
     )
 
-    from tqdm import tqdm
+    from cosim.progress import Bar
 
-    bar = tqdm(
-        total=len(specs), initial=done_before, unit="run", desc=title, disable=not progress,
-        dynamic_ncols=True,
-    )
+    # ETA from the rate after the first round of runs (the workers' start-up in it)
+    bar = Bar(len(specs), initial=done_before, unit="run", desc=title, disable=not progress,
+              warm=min(max(workers, 1), max(len(specs) - done_before, 1)))
     failed = [failed_before]
 
     code = provenance()
@@ -708,10 +707,10 @@ def run_study(
         write_record(out_dir, record)
         if record["status"] != STATUS_OK:
             failed[0] += 1
+        bar.postfix(done=bar.n + 1, failed=failed[0])
         bar.update(1)
-        bar.set_postfix(done=bar.n, failed=failed[0], refresh=True)
 
-    bar.set_postfix(done=bar.n, failed=failed[0])
+    bar.postfix(done=bar.n, failed=failed[0])
     try:
         if client is not None:
             run_dask(todo, out_dir, client, on_record)

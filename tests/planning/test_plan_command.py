@@ -21,6 +21,8 @@ def test_json_has_the_keys_scripts_need(capsys: pytest.CaptureFixture[str],
                 "planning_time_s", "rejected"):
         assert key in d
     assert d["figure"] is None
+    # the one-off map build apart from the plan: the planner's own time is milliseconds
+    assert d["map_build_s"] > 0.0 and d["planning_time_s"] < d["map_build_s"]
     assert len(d["collision_free"]) == 1 and d["collision_free"][0][0] == d["tau_min"]
     assert any(r["reason"] == "collision" and r["vehicle_id"] == "pvc" for r in d["rejected"])
     assert not list(tmp_path.iterdir())
