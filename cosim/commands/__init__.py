@@ -77,7 +77,9 @@ def overridden(before: Any, after: Any) -> Any:
     return None if after == before else after
 
 
-COMPILE_ESTIMATE_S = 25.0  # s, numba compiling every hot loop on a cold cache (2 cores)
+# s, numba compiling every hot loop on a cold cache: 23 s of CPU, 36 s wall measured on a
+# 2-core machine (126 s at load 9); the message says it is longer on a busy machine
+COMPILE_ESTIMATE_S = 40.0
 
 
 def compile_first(stream: Any = None) -> float:
@@ -96,8 +98,8 @@ def compile_first(stream: Any = None) -> float:
     out = stream or sys.stderr
     cold = not cache_warm()
     if cold:
-        print(f"compiling (once per machine, ~{COMPILE_ESTIMATE_S:.0f} s) ...", file=out,
-              flush=True)
+        print(f"compiling (once per machine, ~{COMPILE_ESTIMATE_S:.0f} s, longer on a busy "
+              "machine) ...", file=out, flush=True)
     start = time.perf_counter()
     import cosim.control.warm  # noqa: F401  (compiles or loads every compiled function)
 
