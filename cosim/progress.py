@@ -14,8 +14,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-# What the bar shows: tqdm's own remaining-time field replaced by ours in the postfix.
-BAR_FORMAT = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
+# What the bar shows: tqdm's own remaining-time field replaced by ours in the postfix
+# (the rate keeps the unit in the line: "12.3 step/s").
+BAR_FORMAT = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}, {rate_fmt}{postfix}]"
 
 
 def warm_units(total: int, share: float = 0.05, least: int = 1, most: int = 50) -> int:

@@ -44,4 +44,4 @@ def test_bar_shows_the_warm_eta_and_fields() -> None:
         for _ in range(4):
             bar.update(1)
     text = out.getvalue()
-    assert "done=0, failed=0, ETA --:--" in text and "4/4" in text
+    assert "done=0, failed=0, ETA --:--" in text and "4/4" in text and "run/s" in text

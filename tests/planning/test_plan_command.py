@@ -15,6 +15,9 @@ CASE1 = ROOT / "scenarios" / "paper_case1_overtaking.toml"
 
 def test_json_has_the_keys_scripts_need(capsys: pytest.CaptureFixture[str],
                                         tmp_path: Path) -> None:
+    from cosim.planning.planner import _built_tau_min_map
+
+    _built_tau_min_map.cache_clear()  # as in a fresh process: the maps are built here
     assert main(["plan", str(CASE1), "--json", "--no-plot"]) == 0
     d = json.loads(capsys.readouterr().out)
     for key in ("tau_min", "tau_max", "stable", "collision_free", "tau_opt", "omega",
