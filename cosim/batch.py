@@ -76,6 +76,8 @@ NO_PLANT = "none"
 # Metrics summarised per grid cell (names as cosim.metrics writes them).
 SUCCESS_METRIC = "lane_change_completed"  # bool: the commanded lane change ended in its lane
 COLLISION_METRIC = "collision"  # bool: our geometric check saw an overlap
+SUMO_COLLISION_METRIC = "sumo_collision"  # bool: SUMO's getCollisions saw one (cross-check)
+UNFINISHED_METRIC = "lane_change_unfinished"  # bool: the run ended during the lane change
 SV_COLLISION_METRIC = "collisions_sv"  # count: collisions the SV caused (cosim.sim)
 MANOEUVRE_COLLISION_METRIC = "collisions_manoeuvre"  # count: ... while changing lanes
 DURATION_METRIC = "lane_change_duration_s"  # s
@@ -592,7 +594,10 @@ def _as_bool(column: pd.Series) -> pd.Series:
 
 def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     """summary.csv: per grid cell (all parameters but the seed), the number of
-    runs, failed runs, success and collision rates with Wilson intervals, and
+    runs, failed runs, runs whose lane change the end cut short (`unfinished`), the
+    success rate over the other (finished) runs, the collision rates of both checks
+    (ours `collision`, SUMO's `sumo_collision`) and the SV-caused one, with Wilson
+    intervals, and
     lane-change duration and minimum TTC: mean, percentiles, and the median's
     distribution-free interval (`median_ci`); the new follower's largest deceleration:
     count, 95th percentile and maximum.
@@ -610,13 +615,19 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         n = len(ok)
         row: dict[str, Any] = dict(zip(CELL, cell, strict=True))
         row.update(runs=len(group), ok=n, failed=len(group) - n)
+        # lane changes the run's end cut short are neither successes nor failures
+        unfinished = (int(_as_bool(ok[UNFINISHED_METRIC]).sum())
+                      if UNFINISHED_METRIC in ok and n else 0)
+        row["unfinished"] = unfinished
         for name, metric in (("success", SUCCESS_METRIC), ("collision", COLLISION_METRIC),
+                             ("sumo_collision", SUMO_COLLISION_METRIC),
                              ("sv_collision", SV_COLLISION_METRIC),
                              ("manoeuvre_collision", MANOEUVRE_COLLISION_METRIC)):
             hits = int(_as_bool(ok[metric]).sum()) if metric in ok and n else 0
             known = metric in ok or name in ("success", "collision")  # older records lack some
-            row[f"{name}_rate"] = hits / n if n and known else math.nan
-            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = wilson(hits, n if known else 0)
+            of = n - unfinished if name == "success" else n
+            row[f"{name}_rate"] = hits / of if of and known else math.nan
+            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = wilson(hits, of if known else 0)
         for name, metric in (("lc_duration_s", DURATION_METRIC), ("min_ttc_s", TTC_METRIC)):
             values = (
                 pd.to_numeric(ok[metric], errors="coerce").to_numpy(float)
@@ -737,17 +748,24 @@ def summary_markdown(summary: pd.DataFrame) -> str:
             return "-"
         return f"{p95:.2f} / {row['follower_decel_mps2_max']:.2f}"
 
+    def collisions(row: pd.Series) -> str:  # ours, then SUMO's in parentheses
+        ours = pct(row, "collision")
+        sumo = row.get("sumo_collision_rate", math.nan)
+        return ours if not math.isfinite(sumo) else f"{ours} ({100 * sumo:.0f})"
+
     ours = summary[summary["plant"] != NO_PLANT]
     varying = [c for c in ("variant", "plant", "occupant", "mu")
                if (ours if c == "plant" else summary)[c].nunique() > 1]
     head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
-            "success % [95 % CI]", "collision % [95 % CI]", "SV-caused collision % [95 % CI]",
+            "unfinished", "success % of finished [95 % CI]",
+            "collision % [95 % CI] (SUMO's %)", "SV-caused collision % [95 % CI]",
             "lane-change duration s: median [95 % CI]", "min TTC s: median [95 % CI]",
             "new follower's max decel m/s^2: p95 / max"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for _, row in summary.iterrows():
         cells = [str(row["driver"]), *(f"{row[c]}" for c in varying), f"{row['density']:g}",
-                 f"{row['ok']} / {row['failed']}", pct(row, "success"), pct(row, "collision"),
+                 f"{row['ok']} / {row['failed']}", f"{row.get('unfinished', 0)}",
+                 pct(row, "success"), collisions(row),
                  pct(row, "sv_collision"), median(row, "lc_duration_s"),
                  median(row, "min_ttc_s"), follower(row)]
         lines.append("| " + " | ".join(cells) + " |")
@@ -973,12 +991,12 @@ def run_study(
              "runs": [asdict(s) | {"run_id": s.run_id} for s in specs]},
         )
 
-        from tqdm import tqdm
+        from cosim.progress import Bar
 
-        bar = tqdm(
-            total=len(specs), initial=done_before, unit="run", desc=title,
-            disable=not progress, dynamic_ncols=True,
-        )
+        # ETA from the rate after the first round of runs (the workers' start-up in it)
+        bar = Bar(len(specs), initial=done_before, unit="run", desc=title,
+                  disable=not progress,
+                  warm=min(max(workers, 1), max(len(specs) - done_before, 1)))
         failed = [failed_before]
         code = provenance()
 
@@ -987,10 +1005,10 @@ def run_study(
             write_record(out_dir, record)
             if record["status"] != STATUS_OK:
                 failed[0] += 1
+            bar.postfix(done=bar.n + 1, failed=failed[0])
             bar.update(1)
-            bar.set_postfix(done=bar.n, failed=failed[0], refresh=True)
 
-        bar.set_postfix(done=bar.n, failed=failed[0])
+        bar.postfix(done=bar.n, failed=failed[0])
         if client is not None:
             run_dask(todo, out_dir, client, on_record)
         elif todo:

@@ -280,6 +280,72 @@ def blocks(text: str) -> list[tuple[str, str, str]]:
     return [(m["name"], m["commit"], m["body"]) for m in BLOCK.finditer(text)]
 
 
+# A figure in prose that comes from a marked table: `<!-- cosim value: TABLE[ROW KEY;
+# ...][COLUMN] -->0.09<!-- end value -->`. ROW KEY: the row's first cells, separated by
+# ";" (an empty cell repeats the one above it), COLUMN: a header cell. `cosim docs` writes the
+# table's cell there, `--check` fails when they differ; so a number in the text cannot
+# drift from the table it quotes.
+VALUE = re.compile(r"<!-- cosim value: (?P<name>[a-z0-9_]+)\[(?P<row>[^\]]*)\]"
+                   r"\[(?P<column>[^\]]*)\] -->(?P<value>.*?)<!-- end value -->")
+
+
+def _cells(line: str) -> list[str]:
+    """A Markdown table row's cells (an escaped \\| stays inside its cell)."""
+    cells = re.split(r"(?<!\\)\|", line.strip())[1:-1]
+    return [c.strip() for c in cells]
+
+
+def table_cell(body: str, row: list[str], column: str) -> str | None:
+    """The cell of a table's text in the first row whose first cells are `row` (empty
+    cells repeat the row above) under the header `column`; None: no such cell."""
+    lines = [ln for ln in body.strip().splitlines() if ln.startswith("|")]
+    if len(lines) < 3:
+        return None
+    header = _cells(lines[0])
+    if column not in header:
+        return None
+    j = header.index(column)
+    above: list[str] = []
+    for line in lines[2:]:
+        cells = _cells(line)
+        full = [c or (above[i] if i < len(above) else "") for i, c in enumerate(cells)]
+        above = full
+        if full[:len(row)] == row and j < len(cells):
+            return cells[j]
+    return None
+
+
+def check_values(texts: dict[str, str], tables: dict[str, str], *, write: bool
+                 ) -> tuple[dict[str, str], list[str]]:
+    """The inline values (VALUE) of every doc against the tables' bodies: the texts with
+    each value set to its cell (write) and the problems (a value that differs from its
+    cell, or names a table, row or column that is not there)."""
+    problems: list[str] = []
+    out = {}
+    for doc, text in texts.items():
+        def swap(m: re.Match[str], doc: str = doc) -> str:
+            row = [c.strip() for c in m["row"].split(";")]
+            body = tables.get(m["name"])
+            cell = None if body is None else table_cell(body, row, m["column"])
+            where = f"{m['name']}[{m['row']}][{m['column']}]"
+            if cell is None:
+                problems.append(f"{doc}: inline value {where}: no such table cell")
+                return m.group(0)
+            if m["value"] != cell and not write:
+                problems.append(f"{doc}: inline value {m['value']!r} is not {where} = "
+                                f"{cell!r}: run `cosim docs --only {m['name']}`")
+                return m.group(0)
+            return f"<!-- cosim value: {m['name']}[{m['row']}][{m['column']}] -->{cell}" \
+                "<!-- end value -->"
+        out[doc] = VALUE.sub(swap, text)
+    return out, problems
+
+
+def doc_tables(texts: dict[str, str]) -> dict[str, str]:
+    """Every marked table's body as the docs hold it, by name."""
+    return {name: body for text in texts.values() for name, _, body in blocks(text)}
+
+
 def regenerate(names: list[str], *, check: bool, root: Path = ROOT,
                log: Callable[[str], None] = print) -> list[str]:
     """Recompute the named tables; write them into their files (check=False) or
@@ -288,11 +354,13 @@ def regenerate(names: list[str], *, check: bool, root: Path = ROOT,
     made = {name: TABLES[name].make() for name in names}
     problems: list[str] = []
     found: set[str] = set()
+    texts: dict[str, str] = {}
+    originals: dict[str, str] = {}
     for doc in DOCS:
         path = root / doc
         if not path.is_file():
             continue
-        text = path.read_text()
+        text = originals[doc] = path.read_text()
 
         def swap(m: re.Match[str], doc: str = doc) -> str:
             name = m["name"]
@@ -308,11 +376,17 @@ def regenerate(names: list[str], *, check: bool, root: Path = ROOT,
             return (f"<!-- cosim docs: {name} (commit {stamp}) -->\n{made[name].strip()}\n"
                     f"<!-- end cosim docs: {name} -->")
 
-        new = BLOCK.sub(swap, text)
-        if not check and new != text:
-            from cosim.output import atomic_write_text
-
-            atomic_write_text(path, new)
+        texts[doc] = BLOCK.sub(swap, text)
     problems += [f"table {name!r} is marked in none of {', '.join(DOCS)}"
                  for name in names if name not in found]
+    # the figures in prose: against the tables just made, and the others as written
+    tables = doc_tables(texts) | {name: made[name] for name in made}
+    valued, value_problems = check_values(texts, tables, write=not check)
+    problems += [p for p in value_problems if check or "no such" in p]
+    if not check:
+        from cosim.output import atomic_write_text
+
+        for doc, new in valued.items():
+            if new != originals[doc]:
+                atomic_write_text(root / doc, new)
     return problems

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -288,3 +289,61 @@ def request_to_lane(t: ArrayLike, lane: ArrayLike, request: float, target_lane: 
         return math.nan
     enter = lane_entry_time(t, lane, request, target_lane)
     return enter - request if math.isfinite(enter) else math.nan
+
+
+# --------------------------------------------------------------------------- outcomes
+# Which collision check saw what, and lane changes the run's end cut short (issue 26).
+# Our exact overlap check is the referee; SUMO's getCollisions() is a cross-check that
+# sees only vehicles on the same lane index and, for the SV moved by moveToXY, counts
+# a gap below zero along its lane (docs/run_results.md, "Two collision checks").
+COLLISION_SEEN = ("none", "both", "ours", "sumo")
+LANE_CHANGE_STATUSES = ("none", "completed", "unfinished", "failed")
+OUTCOME_DOCS: dict[str, str] = {
+    "sumo_collision": "1 if sumo_collisions > 0, else 0",
+    "collision_seen_by": "which check saw a collision in the run: none, both, ours (our "
+    "exact overlap check only) or sumo (SUMO's getCollisions only; docs/run_results.md)",
+    "lane_change_status": "none (no lane change requested), completed (lane_change_completed"
+    " = 1), unfinished (the run ended while the SV was between lanes or before its last lane"
+    " change settled: neither a success nor a failure) or failed (a run stopped by a "
+    "collision included)",
+    "lane_change_unfinished": "1 if lane_change_status is unfinished, else 0",
+}
+
+
+def collision_seen_by(ours: int, sumo: int) -> str:
+    """One of COLLISION_SEEN from the two checks' event counts."""
+    if ours and sumo:
+        return "both"
+    return "ours" if ours else "sumo" if sumo else "none"
+
+
+def lane_change_status(requests: int, completed: bool, durations: Array, ends: Sequence[float],
+                       t_end: float, y_end: float, centres: Array, tol: float,
+                       stopped: bool = False) -> str:
+    """One of LANE_CHANGE_STATUSES: unfinished when a requested change did not
+    complete because the run ended first: the SV ends more than `tol` from every lane
+    centre (still moving over), or its last lane change's settling window reached the
+    run's end without settling (durations[-1] NaN). A run a collision stopped
+    (`stopped`, [scenario] on_collision = "stop") did not end by itself: failed."""
+    if requests == 0:
+        return "none"
+    if completed:
+        return "completed"
+    if stopped:
+        return "failed"
+    between = float(np.min(np.abs(np.asarray(centres, dtype=float) - y_end))) > tol
+    cut = (len(durations) > 0 and not np.isfinite(durations[-1])
+           and ends[-1] >= t_end - 1e-9)
+    return "unfinished" if between or cut else "failed"
+
+
+def outcome_columns(*, collisions: int, sumo_collisions: int, requests: int, completed: bool,
+                    durations: Array, ends: Sequence[float], t_end: float, y_end: float,
+                    centres: Array, tol: float, stopped: bool = False) -> dict[str, Any]:
+    """The OUTCOME_DOCS columns of a run's metrics row."""
+    status = lane_change_status(requests, completed, durations, ends, t_end, y_end, centres,
+                                tol, stopped)
+    return {"sumo_collision": int(sumo_collisions > 0),
+            "collision_seen_by": collision_seen_by(collisions, sumo_collisions),
+            "lane_change_status": status,
+            "lane_change_unfinished": int(status == "unfinished")}

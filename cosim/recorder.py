@@ -151,6 +151,7 @@ METRIC_DOCS: dict[str, str] = {
     "request_to_lane_s": "time from the first lane-change request (scripted: its at_s, both "
     "drivers; else our driver's first decision-rule planner call) until the SV's centre is "
     "in the requested lane (s; NaN: no request, or never got there)",
+    **mx.OUTCOME_DOCS,  # which check saw a collision; lane changes the end cut short
 }
 
 TIMING_DOCS: dict[str, str] = {
@@ -443,4 +444,10 @@ class Recorder:
             sumo_events=events,
         )
         m.update(self.comfort(sc, trace, done, durations))
+        m.update(mx.outcome_columns(
+            collisions=self.collisions, sumo_collisions=self.sumo_new, requests=requests,
+            completed=bool(m["lane_change_completed"]), durations=durations, ends=done.ends,
+            t_end=float(t[-1]), y_end=y_end,
+            centres=np.array([self.road.lane_center(k) for k in range(self.road.n_lanes)]),
+            tol=SETTLE_TOL, stopped=self.stopped))
         return m

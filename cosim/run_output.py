@@ -57,6 +57,19 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
     return [Path(out_dir) / p.name for p in written]
 
 
+def tv_role(tv: Any) -> str:
+    """A scripted TV's role for a legend: ahead / behind the SV at the start, its lane,
+    and its scripted lane change (with what it broadcasts) or braking."""
+    parts = [f"{'ahead' if tv.gap > 0 else 'behind'}, lane {tv.lane}"]
+    lc = tv.lane_change
+    if lc is not None:
+        category = {"reference": "C3", "intention": "C2", "none": "C1"}.get(lc.broadcast, "")
+        parts.append(f"to lane {lc.target_lane} at {lc.start:g} s ({category})")
+    if tv.brake is not None:
+        parts.append(f"brakes at {tv.brake.at:g} s")
+    return ", ".join(parts)
+
+
 def write_run_figures(result: RunResult, out: Path) -> list[Path]:
     """trajectories (Fig. 16), gaps (gap and TTC over time), tracking and inputs
     (Fig. 13-15), tau_sets and planning (Fig. 10-12), in the chosen figure format."""
@@ -70,7 +83,10 @@ def write_run_figures(result: RunResult, out: Path) -> list[Path]:
         global_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["x_m"], tr["y_m"],
                             result.tv_tracks, result.road,
                             highlight=[tv.id for tv in sc.tvs], lane_changes=spans,
-                            title=f"{sc.name}: global trajectories"),
+                            requests=[float(p["t_s"]) for p in result.plans
+                                      if p.get("trigger") in ("scripted", "decision")],
+                            roles={tv.id: tv_role(tv) for tv in sc.tvs},
+                            title=f"{sc.name}: global trajectories (dots every 1 s)"),
         gap_history(figure_path(out, "gaps"), tr["t_s"], tr["gap_min_m"], tr["leader_gap_m"],
                     tr["ttc_min_s"], lane_changes=spans,
                     title=f"{sc.name}: gaps and time-to-collision"),

@@ -200,8 +200,9 @@ def simulate(scenario: Scenario, *, progress: bool = False, gui: bool | GuiSetti
     sim = CoSimulation(scenario, gui=gui, decision=decision)
     if not progress:
         return sim.run()
-    from tqdm import tqdm
+    from cosim.progress import Bar
 
-    with tqdm(total=sim.n_steps, desc=scenario.name, unit="step", file=sys.stderr,
-              leave=False) as bar:
+    # ETA from the rate after the first 5 % of the steps (SUMO's start, the first plan)
+    with Bar(sim.n_steps, desc=scenario.name, unit="step", file=sys.stderr,
+             leave=False) as bar:
         return sim.run(bar.update)

@@ -430,3 +430,26 @@ def test_subset_of_a_study_file_gets_its_own_folder(
     folders = sorted(p.name for p in (tmp_path / "results" / "batch").iterdir())
     assert folders == [f"{whole}--densities_10--seeds_1--drivers_sumo--duration_2.0"]
     assert (tmp_path / "results" / "batch" / folders[0] / "summary.csv").is_file()
+
+
+def test_summary_counts_unfinished_apart_and_shows_both_collision_checks() -> None:
+    """A lane change the run's end cut short is neither a success nor a failure: the
+    success rate is over the finished runs; SUMO's collisions are a rate of their own,
+    beside ours, in summary.csv and summary.md (issue 26)."""
+    runs = pd.DataFrame({
+        "driver": ["sumo"] * 4, "plant": ["none"] * 4, "occupant": [0.5] * 4,
+        "mu": [0.8] * 4, "density": [30.0] * 4, "seed": [1, 2, 3, 4],
+        "status": [STATUS_OK] * 4, "lane_change_completed": [1, 0, 0, 1],
+        "lane_change_unfinished": [0, 1, 1, 0], "collision": [0, 0, 0, 0],
+        "sumo_collision": [0, 1, 0, 0], "collisions_sv": [0, 0, 0, 0],
+        "lane_change_duration_s": [3.0, np.nan, np.nan, 3.1], "min_ttc_s": [5.0] * 4,
+    })
+    summary = summarize(runs)
+    row = summary.iloc[0]
+    assert row["unfinished"] == 2 and row["success_rate"] == 1.0
+    assert (row["success_ci_low"], row["success_ci_high"]) == wilson(2, 2)
+    assert row["collision_rate"] == 0.0 and row["sumo_collision_rate"] == 0.25
+    text = summary_markdown(summary)
+    assert "unfinished" in text.splitlines()[0] and "SUMO's" in text.splitlines()[0]
+    cells = [c.strip() for c in text.splitlines()[2].split("|")]
+    assert cells[4:7] == ["2", "100 [34, 100]", "0 [0, 49] (25)"]

@@ -81,3 +81,36 @@ def test_gui_without_a_display_is_one_line_at_once(
     assert time.perf_counter() - start < 5.0
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--gui" in err and "display" in err
+
+
+def test_variant_folders_are_named_after_the_overriding_flags() -> None:
+    from pathlib import Path
+
+    from cosim.commands import overridden, variant_folder
+
+    results = Path("results")
+    assert variant_folder(results, "case", {"controller": None, "seed": None}) == results / "case"
+    assert variant_folder(results, "case", {"controller": "siso", "seed": 3}) == (
+        results / "case--controller_siso--seed_3")
+    assert variant_folder(results, "track", {"mu": 0.8, "vehicle": "commonroad/x y"}) == (
+        results / "track--mu_0.8--vehicle_commonroad_x_y")
+    assert overridden("mimo", "mimo") is None and overridden(1, 2) == 2
+
+
+@pytest.mark.sumo
+def test_run_writes_under_the_current_folder_one_folder_per_variant(
+        tmp_path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """Two runs of one scenario with other flags keep two folders, under ./results/ of
+    the current directory (not the install's), and each prints its own folder."""
+    from pathlib import Path
+
+    case1 = Path(__file__).resolve().parents[1] / "scenarios" / "paper_case1_overtaking.toml"
+    monkeypatch.chdir(tmp_path)
+    written = []
+    for flags in (["--controller", "sumo"], ["--controller", "sumo", "--seed", "2"]):
+        assert main(["run", str(case1), "--no-figures", *flags]) == 0
+        written.append(capsys.readouterr().err.strip().splitlines()[-1])
+    assert written == ["wrote results/paper_case1_overtaking--controller_sumo",
+                       "wrote results/paper_case1_overtaking--controller_sumo--seed_2"]
+    for line in written:
+        assert (tmp_path / line.split()[-1] / "metrics.csv").is_file()

@@ -76,12 +76,16 @@ def test_every_shown_command_is_classified() -> None:
 
 
 @pytest.mark.parametrize("command", quick_commands())
-def test_quick_command_runs_as_written(command: str) -> None:
-    """Run from the repository root exactly as the docs show it (outputs go where
-    they say, under results/), through this checkout's package."""
+def test_quick_command_runs_as_written(command: str, tmp_path: Path) -> None:
+    """Run exactly as the docs show it, through this checkout's package, from a
+    temporary folder that holds the checkout's inputs (scenarios/, networks/, tests/
+    linked), so that the outputs go where the docs say (results/... under the current
+    folder) and never into the user's results/."""
     argv = shlex.split(command)[1:]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    done = subprocess.run([sys.executable, "-m", "cosim.cli", *argv], cwd=ROOT, env=env,
+    for name in ("scenarios", "networks", "tests"):
+        (tmp_path / name).symlink_to(ROOT / name)
+    done = subprocess.run([sys.executable, "-m", "cosim.cli", *argv], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=240)
     assert done.returncode == 0, f"{command}\n{done.stderr[-2000:]}"
     assert "Traceback" not in done.stderr
@@ -119,3 +123,34 @@ def test_markdown_tables_have_as_many_cells_in_every_row() -> None:
             cells = len(re.findall(r"(?<!\\)\|", line))
             columns = columns or cells
             assert cells == columns, f"{doc.name}:{number}: {line[:80]}"
+
+
+def test_prose_figures_match_their_tables() -> None:
+    """Figures in the text quoted from a marked table (`<!-- cosim value: ... -->`) are
+    that table's cells: `cosim docs --check` fails otherwise (0.27 m stayed in the text
+    after the table said 0.09 m)."""
+    from cosim.docs_tables import DOCS, check_values, doc_tables
+
+    texts = {d: (ROOT / d).read_text() for d in DOCS}
+    assert sum(t.count("<!-- cosim value:") for t in texts.values()) >= 6
+    assert check_values(texts, doc_tables(texts), write=False)[1] == []
+
+
+def test_stale_prose_figure_is_found_and_rewritten(tmp_path: Path) -> None:
+    from cosim.docs_tables import regenerate, table_cell
+
+    table = ("<!-- cosim docs: run_outcomes (commit old) -->\n"
+             "| case | driver | min gap (m) |\n|---|---|---|\n| 5.1 | MIMO | 0.09 |\n"
+             "| | SUMO-native | 10.09 |\n<!-- end cosim docs: run_outcomes -->\n")
+    assert table_cell(table, ["5.1", "SUMO-native"], "min gap (m)") == "10.09"
+    assert table_cell(table, ["5.2"], "min gap (m)") is None
+    stale = "passes <!-- cosim value: run_outcomes[5.1; MIMO][min gap (m)] -->0.27" \
+        "<!-- end value --> m behind\n"
+    (tmp_path / "README.md").write_text(table + stale)
+    problems = regenerate([], check=True, root=tmp_path, log=lambda _: None)
+    assert len(problems) == 1 and "'0.27'" in problems[0] and "'0.09'" in problems[0]
+    assert regenerate([], check=False, root=tmp_path, log=lambda _: None) == []
+    assert "-->0.09<!-- end value --> m behind" in (tmp_path / "README.md").read_text()
+    (tmp_path / "README.md").write_text(table + stale.replace("MIMO", "SISO"))
+    assert "no such table cell" in regenerate([], check=True, root=tmp_path,
+                                              log=lambda _: None)[0]

@@ -202,3 +202,46 @@ def test_post_change_decel_and_request_time_windows() -> None:
     assert request_to_lane(t, lane, 2.0, 2) == pytest.approx(2.0)
     assert math.isnan(request_to_lane(t, lane, 2.0, 0))
     assert math.isnan(request_to_lane(t, lane, math.nan, 2))
+
+
+def test_collision_seen_by_names_the_checks() -> None:
+    from cosim.metrics import collision_seen_by
+
+    assert [collision_seen_by(o, s) for o, s in ((0, 0), (1, 1), (2, 0), (0, 1))] == [
+        "none", "both", "ours", "sumo"]
+
+
+def test_lane_change_status_tells_unfinished_from_failed() -> None:
+    from cosim.metrics import lane_change_status
+
+    centres = np.array([1.875, 5.625, 9.375])
+    nan = np.array([np.nan])
+    # a request, no start, the SV in its lane at the end: failed
+    assert lane_change_status(1, False, np.array([]), [], 20.0, 5.6, centres, 0.1) == "failed"
+    assert lane_change_status(0, False, np.array([]), [], 20.0, 5.6, centres, 0.1) == "none"
+    assert lane_change_status(1, True, np.array([3.0]), [20.0], 20.0, 9.4, centres,
+                              0.1) == "completed"
+    # still between the lanes at the end
+    assert lane_change_status(1, False, nan, [20.0], 20.0, 7.5, centres, 0.1) == "unfinished"
+    # in the band of the target lane, but the settling window ran into the end
+    assert lane_change_status(1, False, nan, [20.0], 20.0, 9.45, centres, 0.1) == "unfinished"
+    # a change that did not settle before the next manoeuvre: failed, not cut short
+    assert lane_change_status(1, False, nan, [12.0], 20.0, 5.6, centres, 0.1) == "failed"
+
+
+@pytest.mark.sumo
+def test_a_collision_only_sumo_counts_is_reported_as_such() -> None:
+    """study_gap_sample's paper policy, density 40, seed 1: late in the run the SV,
+    changing lanes at 5 degrees, comes within 0.15 m of a TV's x extent (min gap
+    -0.15 m, TTC 0) without the rectangles touching; SUMO, which measures gaps along
+    the lane without the SV's heading, reports a collision. The run ends before the
+    lane change settles: unfinished, not failed (docs/run_results.md)."""
+    from cosim.scenario import load_scenario, project_root, with_overrides
+    from cosim.sim import simulate
+
+    base = load_scenario(project_root() / "scenarios" / "study_density_base.toml")
+    m = simulate(with_overrides(base, policy="paper", density=40, seed=1)).metrics
+    assert (m["collisions"], m["sumo_collisions"], m["sumo_collision"]) == (0, 1, 1)
+    assert m["collision_seen_by"] == "sumo" and m["collisions_sv"] == 0
+    assert m["min_gap_m"] == pytest.approx(-0.15, abs=0.01) and m["min_ttc_s"] == 0.0
+    assert m["lane_change_status"] == "unfinished" and m["lane_change_unfinished"] == 1

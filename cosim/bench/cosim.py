@@ -9,10 +9,14 @@ Side by side in one run, medians over repeats, each from SUMO start to close:
   decision rule, moveToXY write-back, per-step trace and collision check);
 - "cosim, SUMO drives the SV": the same loop with the SUMO-native baseline SV
   (what the loop's bookkeeping costs without planner, controller and plant);
+- "the floor": SUMO with the same traffic and the SV moved along the path our SV
+  drove (recorded in the cosim run just before) by moveToXY and nothing else: what
+  SUMO's step costs with an externally moved vehicle (more than SUMO alone), so that
+  cosim / floor is the loop's own cost (issue 26: target <= 1.25, CPU);
 - a paper case (5.1 by default): its real-time factor, simulated / wall time.
 
-Targets: cosim / sumo alone <= 1.25 (issue 11; 2.0 before); the paper case >= 50x
-real time.
+Targets: cosim / sumo alone <= 1.25 (issue 11; 2.0 before), cosim / floor <= 1.25 on
+CPU time (issue 26); the paper case >= 50x real time.
 
 The closed loop is compiled (numba): its start-up in this process is timed once
 before the warm-up runs and reported apart (`numba_startup_s`), not in the rows.
@@ -80,16 +84,47 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
     return time.perf_counter() - start, time.process_time() - cpu
 
 
+SvPath = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
 def cosim_run(scenario: Scenario) -> tuple[float, float, dict[str, Any]]:
     """s, wall and CPU time of the full co-simulation (nothing written), its timing row
-    with the scene reads' part of wall_sumo_s (`wall_read_s`)."""
+    with the scene reads' part of wall_sumo_s (`wall_read_s`) and the SV's path
+    (`path`: x, y, heading, speed, acceleration per step, as written to SUMO)."""
     from cosim.sim import CoSimulation
 
     start, cpu = time.perf_counter(), time.process_time()
     sim = CoSimulation(scenario)
     result = sim.run()
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-    return wall, cpu, {**result.timing, "wall_read_s": sim.world.wall_read}
+    tr = result.trace
+    path = (tr["x_m"], tr["y_m"], np.radians(tr["psi_deg"]), tr["vx_mps"], tr["ax_mps2"])
+    return wall, cpu, {**result.timing, "wall_read_s": sim.world.wall_read, "path": path}
+
+
+def sumo_floor(scenario: Scenario, path: SvPath) -> tuple[float, float]:
+    """s, wall and CPU time of SUMO with the scenario's traffic and the SV moved along
+    `path` by moveToXY, SUMO start to close: the World's start and insertion, then per
+    step one move and one SUMO step (its hooks included), nothing read, planned,
+    controlled or recorded."""
+    from cosim.traffic.world import SV_ID, World
+
+    x, y, heading, speed, accel = (a.tolist() for a in path)
+    start, cpu = time.perf_counter(), time.process_time()
+    world = World(scenario)
+    try:
+        road = world.start()
+        sc = scenario
+        world.sumo.add_controlled(SV_ID, world.sv_start_x, road.lane_center(sc.sv.lane), 0.0,
+                                  sc.sv.speed, sc.vehicle.length, sc.vehicle.width, sc.sv.lane)
+        world.insert()
+        sumo = world.sumo
+        for k in range(1, min(scenario.n_steps + 1, len(x))):
+            sumo.move(SV_ID, x[k], y[k], heading[k], speed[k], accel[k])
+            sumo.step()
+    finally:
+        world.close()
+    return time.perf_counter() - start, time.process_time() - cpu
 
 
 def _rest(timing: dict[str, Any]) -> float:
@@ -117,7 +152,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     sumo_alone(with_overrides(dense, duration=1.0), with_sv=True)
     cosim_run(with_overrides(dense, duration=1.0))
     baseline = with_overrides(dense, controller="sumo")
-    keys = ("alone", "alone_sv", "ours", "baseline", "paper")
+    keys = ("alone", "alone_sv", "floor", "ours", "baseline", "paper")
     walls: dict[str, list[float]] = {k: [] for k in keys}
     cpus: dict[str, list[float]] = {k: [] for k in keys}
     timing: dict[str, Any] = {}
@@ -131,6 +166,9 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         wall, cpu, timing = cosim_run(dense)
         walls["ours"].append(wall)
         cpus["ours"].append(cpu)
+        wall, cpu = sumo_floor(dense, timing["path"])  # the path just driven
+        walls["floor"].append(wall)
+        cpus["floor"].append(cpu)
         wall, cpu, _ = cosim_run(baseline)
         walls["baseline"].append(wall)
         cpus["baseline"].append(cpu)
@@ -143,6 +181,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     for key, label, sc in (("alone", f"sumo alone ({dense.name})", dense),
                            ("alone_sv", f"sumo alone, with a SUMO-driven SV ({dense.name})",
                             dense),
+                           ("floor", f"the floor: SUMO, the SV moved along its path by "
+                            f"moveToXY ({dense.name})", dense),
                            ("ours", f"cosim, our SV ({dense.name})", dense),
                            ("baseline", f"cosim, SUMO drives the SV ({dense.name})", baseline),
                            ("paper", f"paper case ({paper.name})", paper)):
@@ -158,12 +198,16 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
             "cosim / sumo alone": t_ours / t_alone,
             "cosim / sumo alone (cpu)": c["ours"] / c["alone"],
             "cosim / sumo alone with a SUMO-driven SV": t_ours / w["alone_sv"],
+            "cosim / floor": t_ours / w["floor"],
+            "cosim / floor (cpu)": c["ours"] / c["floor"],
+            "floor / sumo alone (cpu)": c["floor"] / c["alone"],
             "cosim / cosim with the SUMO baseline SV": t_ours / w["baseline"],
             "paper case real-time factor": paper.duration / t_paper,
             "paper case real-time factor (cpu)": paper.duration / c["paper"],
             "numba_startup_s": startup,
         },
-        "targets": {"cosim / sumo alone": "<= 1.25", "paper case real-time factor": ">= 50"},
+        "targets": {"cosim / sumo alone": "<= 1.25", "cosim / floor (cpu)": "<= 1.25",
+                    "paper case real-time factor": ">= 50"},
         "notes": [
             "wall times from SUMO start to close; 'sumo alone' steps the same traffic "
             "(network, density, seed, inflow, band rule) through SumoSim without an SV",

@@ -6,7 +6,8 @@ SUMO-native, side by side.
 Writes DIR/compare.csv (a `driver` column, then metrics.csv's columns; one row per
 driver) and
 DIR/compare.<format> (SV trajectories, lateral acceleration, gap and TTC over
-time); default DIR results/compare/<scenario name>/.
+time); default DIR ./results/compare/<scenario name>/ (with --seed N:
+./results/compare/<scenario name>--seed_N/).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
     parser.add_argument("--out", type=Path, default=None,
-                        help="output folder (default results/compare/<scenario name>)")
+                        help="output folder (default ./results/compare/<scenario name>[--seed_N])")
     parser.add_argument("--seed", type=int, default=None, help="random seed (default: scenario's)")
     add_figure_format(parser)
     parser.set_defaults(func=run)
@@ -49,16 +50,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import pandas as pd
 
+    from cosim.commands import RESULTS, overridden, variant_folder
     from cosim.output import atomic_write_csv, check_output_dir, make_output_dir
     from cosim.plots import figure_path
     from cosim.plots.compare import compare_figure
-    from cosim.scenario import load_scenario, project_root, with_overrides
+    from cosim.scenario import load_scenario, with_overrides
     from cosim.sim import simulate
 
-    base = flag_overrides(load_scenario(args.scenario), {"--seed": ("seed", args.seed)})
+    file = load_scenario(args.scenario)
+    base = flag_overrides(file, {"--seed": ("seed", args.seed)})
     scenarios = {d: with_overrides(base, **changes)  # all checked first
                  for d, changes in drivers(base.planner.policy).items()}
-    out = args.out if args.out is not None else project_root() / "results" / "compare" / base.name
+    out = args.out if args.out is not None else variant_folder(
+        RESULTS / "compare", base.name, {"seed": overridden(file.seed, base.seed)})
     check_output_dir(out)
     compile_first()
     results = {}

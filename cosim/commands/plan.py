@@ -37,7 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--out", type=Path, default=Path("results/plan"),
-                        help="folder for the figure (default results/plan)")
+                        help="folder for the figure (default ./results/plan)")
     parser.add_argument("--no-plot", action="store_true", help="draw no figure")
     parser.add_argument("--collision-test", choices=("exact", "col"), default=None,
                         help="override the scenario's [planner] collision_test")
@@ -85,7 +85,7 @@ def _intervals(iv: list[tuple[float, float]]) -> str:
     return " U ".join(f"[{a:.2f}, {b:.2f}]" for a, b in iv) or "empty"
 
 
-def report(name: str, plan: Plan, startup_s: float) -> str:
+def report(name: str, plan: Plan, startup_s: float, map_build_s: float = 0.0) -> str:
     lines = [
         f"{name}: lane {plan.origin_lane} -> {plan.target_lane} at t = {plan.t:g} s, "
         f"target speed {plan.vxf * 3.6:.1f} km/h",
@@ -96,8 +96,10 @@ def report(name: str, plan: Plan, startup_s: float) -> str:
         f"omega = {plan.omega:.3f}, tau_opt (eq. 13) = {plan.tau_opt:.3f} s",
         f"chosen tau      {plan.tau:.2f} s" if plan.tau is not None
         else "chosen          none: keep the lane",
-        f"planning time   {plan.planning_time_s * 1e3:.2f} ms (the planner's first call: "
-        f"with building its tau_min map of this lane change)",
+        f"planning time   {plan.planning_time_s * 1e3:.2f} ms (the planner's own, as "
+        f"`cosim bench planner` measures it)",
+        f"map build       {map_build_s:.2f} s (the envelope's tau_min map of this lane "
+        f"change: once per process, on the planner's first call)",
         f"start-up        {startup_s:.2f} s (numba: load, or the first time compile, the "
         f"collision check; once per process)",
         "rejected:",
@@ -128,7 +130,12 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     warm_up()  # so that the planning time is the planner's own
     startup_s = time.perf_counter() - start
+    # The first call builds the envelope's tau_min maps of this lane change (one-off,
+    # 0.2-0.6 s, cached for the process); the plan reported is the second, identical
+    # call, so that planning_time_s is the planner's own (as `cosim bench planner`).
+    first = planner.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
     plan = planner.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
+    map_build_s = max(first.planning_time_s - plan.planning_time_s, 0.0)
     figure = None
     if not args.no_plot:
         from cosim.output import check_output_dir
@@ -142,10 +149,11 @@ def run(args: argparse.Namespace) -> int:
         d = plan.to_dict()
         d["scenario"] = sc.name
         d["startup_s"] = startup_s
+        d["map_build_s"] = map_build_s
         d["figure"] = str(figure) if figure is not None else None
         print(json.dumps(d, sort_keys=True))
     else:
-        print(report(sc.name, plan, startup_s))
+        print(report(sc.name, plan, startup_s, map_build_s))
         if figure is not None:
             print(f"figure: {figure}")
     if sys.stdout is not None:  # (None: a closed descriptor)

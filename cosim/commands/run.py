@@ -1,4 +1,5 @@
-"""`cosim run SCENARIO.toml`: one co-simulation run, outputs under results/<scenario>/.
+"""`cosim run SCENARIO.toml`: one co-simulation run, outputs under ./results/<scenario>/
+(a flag that changes the scenario adds `--<flag>_<value>` to the folder's name).
 
 The scenario is loaded and validated first (InputError -> exit 2, nothing
 written); flags override the file's [sv] plant / controller and [scenario] seed.
@@ -13,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.commands import add_figure_format, compile_first, flag_overrides
+from cosim.driving.registry import PLANNED
 from cosim.errors import InputError
 
 
@@ -21,15 +23,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "run",
         help="run one scenario: our SV (or the SUMO baseline) in SUMO traffic",
         description="Run one scenario and write trace.csv, plans.csv, metrics.csv, "
-        "timing.csv and PNG figures (default folder results/<scenario name>/).",
+        "timing.csv and PNG figures (default folder ./results/<scenario name>/, plus "
+        "--controller_X, --plant_X, --policy_X, --seed_N for each flag that changes the "
+        "scenario's value).",
     )
     parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
     parser.add_argument("--out", type=Path, default=None,
-                        help="output folder (default: results/<scenario name>)")
+                        help="output folder (default: ./results/<scenario name>"
+                        "[--<flag>_<value>...])")
     parser.add_argument("--plant", choices=("twotrack", "bicycle"), default=None,
                         help="vehicle model (default: the scenario's)")
     parser.add_argument("--controller", choices=("mimo", "siso", "sumo"), default=None,
                         help="mimo / siso: our planner and controller; sumo: SUMO drives the SV")
+    parser.add_argument("--policy", choices=PLANNED, default=None,
+                        help="lane-change policy (default: the scenario's [planner] policy)")
     parser.add_argument("--gui", action="store_true",
                         help="show the run in sumo-gui (traci), following the SV, in real "
                         "time; the window stays open until closed (needs a display)")
@@ -45,8 +52,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from cosim.commands import RESULTS, overridden, variant_folder
     from cosim.output import check_output_dir
-    from cosim.scenario import load_scenario, project_root
+    from cosim.scenario import load_scenario
     from cosim.sim import run_scenario
     from cosim.traffic import gui as sumo_gui
     from cosim.vehicle.bicycle import warn_near_critical_speed
@@ -56,17 +64,21 @@ def run(args: argparse.Namespace) -> int:
                                     keep_open=not args.gui_quit)
     if args.gui:
         sumo_gui.check_gui(settings)  # no display: one line now, not a traceback later
-    scenario = load_scenario(args.scenario)
-    if args.plant is not None and (args.controller or scenario.sv.controller) == "sumo":
+    base = load_scenario(args.scenario)
+    if args.plant is not None and (args.controller or base.sv.controller) == "sumo":
         why = ("--controller sumo" if args.controller else
                f"the scenario's sv.controller = 'sumo' ({args.scenario})")
         raise InputError(SOURCE, "--plant", args.plant,
                          f"no --plant with {why}: SUMO drives the SV, no plant of ours runs")
-    scenario = flag_overrides(scenario, {
+    scenario = flag_overrides(base, {
         "--plant": ("plant", args.plant), "--controller": ("controller", args.controller),
-        "--seed": ("seed", args.seed)})
+        "--policy": ("policy", args.policy), "--seed": ("seed", args.seed)})
     warn_near_critical_speed(scenario)  # one line on stderr if the SV may get near it
-    out = args.out if args.out is not None else project_root() / "results" / scenario.name
+    out = args.out if args.out is not None else variant_folder(RESULTS, scenario.name, {
+        "controller": overridden(base.sv.controller, scenario.sv.controller),
+        "plant": overridden(base.sv.plant, scenario.sv.plant),
+        "policy": overridden(base.planner.policy, scenario.planner.policy),
+        "seed": overridden(base.seed, scenario.seed)})
     check_output_dir(out, whole=True)  # a bad --out is an input error now, not after the run
     if scenario.sv.controller != "sumo":
         compile_first()  # before the progress bar, which then counts steps only

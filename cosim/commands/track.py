@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cosim.commands import add_figure_format, flag_type
+from cosim.commands import RESULTS, add_figure_format, flag_type, variant_folder
 from cosim.control.closed_loop import YAW_MOMENT_SHARE
 from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, TrackingRun, run_tracking
 from cosim.errors import InputError
@@ -78,8 +78,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         help=f"road friction, {MU.allowed()} as in scenario files "
                         "(default: the case's, 0.4 / 0.6 / 0.8)")
     parser.add_argument("--duration-s", type=float, default=10.0, help="run length (s)")
-    parser.add_argument("--out", type=Path, default=Path("results/track"),
-                        help="folder for the figures (default results/track)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder for the figures (default ./results/track, plus "
+                        "--vehicle_X, --mu_X, --tau_X, --source_X, --cornering_X, --law_paper "
+                        "for each such flag given)")
     parser.add_argument("--no-plot", action="store_true", help="write no figures")
     parser.add_argument("--cornering-scale", type=float, default=1.0,
                         help="two-track tyres' true cornering stiffness / Table 1's "
@@ -178,6 +180,16 @@ def source_of(case: str, source: str | None) -> str:
     return source
 
 
+def default_folder(args: argparse.Namespace) -> Path:
+    """./results/track, with a part per flag that changes the car, the road or the
+    reference (the figures of other settings never overwrite the default's)."""
+    return variant_folder(RESULTS, "track", {
+        "vehicle": None if args.vehicle == "table1" else args.vehicle, "mu": args.mu,
+        "tau": args.tau_s, "source": args.source,
+        "cornering": None if args.cornering_scale == 1.0 else args.cornering_scale,
+        "law": "paper" if args.paper_law else None})
+
+
 def run(args: argparse.Namespace) -> int:
     source = source_of(args.case, args.source)
     if not 0.5 <= args.duration_s <= 120.0:
@@ -195,6 +207,7 @@ def run(args: argparse.Namespace) -> int:
     plants = ("twotrack", "bicycle") if args.plant == "both" else (args.plant,)
     gains = ControllerGains()
     cases = list(CASES.values()) if args.case == "all" else [CASES[args.case]]
+    out = args.out if args.out is not None else default_folder(args)
     results: list[dict[str, Any]] = []
     figures: list[str] = []
     for case in cases:
@@ -217,8 +230,8 @@ def run(args: argparse.Namespace) -> int:
             title = f"case {case.name} lane change, mu {mu:g}, tau {ref.tau:.2f} s"
             suffix = "" if len(cases) == 1 else f"_{case.name}"
             figures += [
-                str(plot_states(runs, figure_path(args.out, f"tracking_states{suffix}"), title)),
-                str(plot_inputs(runs, figure_path(args.out, f"tracking_inputs{suffix}"), title)),
+                str(plot_states(runs, figure_path(out, f"tracking_states{suffix}"), title)),
+                str(plot_inputs(runs, figure_path(out, f"tracking_inputs{suffix}"), title)),
             ]
         results.append({"case": case, "mu": mu, "ref": ref, "origin": origin, "runs": runs,
                         "verdicts": verdicts})

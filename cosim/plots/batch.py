@@ -15,8 +15,8 @@ from cosim.plots import save_figure
 
 # (summary column prefix, axis label); rates are shown in per cent.
 PANELS = (
-    ("success", "lane changes completed (%)"),
-    ("collision", "runs with a collision (%)"),
+    ("success", "lane changes completed\n(% of finished runs)"),
+    ("collision", "runs with a collision (%):\nours (filled), SUMO's (open)"),
     ("sv_collision", "runs with an SV-caused collision (%)"),
     ("follower_decel_mps2", "new follower's max decel, p95 (m/s^2)"),
     ("lc_duration_s", "lane-change duration, median (s)"),
@@ -91,6 +91,12 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
                 marker=markers[i % len(markers)], markersize=4, capsize=3, linewidth=1.4,
                 label=label,
             )
+            if prefix == "collision" and "sumo_collision_rate" in cell:
+                # SUMO's cross-check beside ours: open markers, thin line, no error bars
+                ax.plot(x + dx, cell["sumo_collision_rate"].to_numpy(float) * scale,
+                        color=palette(i % palette.N), linestyle=styles[driver],
+                        linewidth=0.7, marker=markers[i % len(markers)], markersize=6,
+                        markerfacecolor="none")
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
         if scale != 1.0:

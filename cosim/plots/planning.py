@@ -113,7 +113,7 @@ def draw_tau_sets(ax: Axes, plan: Plan) -> None:
         named, rest = ranked, []
     for k, (vid, tv_taus) in enumerate(named):
         ax.plot(tv_taus, np.zeros(len(tv_taus)), "|", color=f"C{(k + 3) % 10}", ms=14,
-                label=f"collides with {vid}")
+                label=f"collides with TV {vid}")
     if rest:
         others = [tau for _, tv_taus in rest for tau in tv_taus]
         ax.plot(others, np.zeros(len(others)), "|", color="0.3", ms=14,
@@ -160,21 +160,34 @@ def draw_snapshots(ax: Axes, plan: Plan, road: RoadParams, vehicle: VehicleParam
     for i in range(k.size):
         ax.add_patch(Polygon(corners(x[i], y[i], h[i], vehicle.length, vehicle.width),
                              closed=True, fill=False, ec="k", lw=1.0))
+        # each box's time from the plan, above the SV's and (the same instants) the
+        # TVs' boxes: boxes of different times may overlap on the page, never in time
+        ax.annotate(f"{marks[i]:g}", (x[i], y[i] + 0.5 * vehicle.width), fontsize=6,
+                    ha="center", va="bottom", color="k")
     for j in range(len(f.vehicle_ids)):
         rows = np.flatnonzero(f.owner == j)
         single = rows.size == 1
         for hh in rows[:: max(1, rows.size // 6)]:
-            for i in k:
+            for m, i in enumerate(k):
                 ax.add_patch(Polygon(
                     corners(f.x[hh, i], f.y[hh, i], f.heading[hh, i], f.length[hh], f.width[hh]),
                     closed=True, fill=False, ec="C3", lw=1.0 if single else 0.5,
                     alpha=1.0 if single else 0.4))
+                if hh == rows[0]:
+                    ax.annotate(f"{marks[m]:g}", (f.x[hh, i], f.y[hh, i] - 0.5 * f.width[hh]),
+                                fontsize=6, ha="center", va="top", color="C3")
+        if rows.size:
+            last = rows[0], k[-1]
+            ax.annotate(f"TV {f.vehicle_ids[j]}", (f.x[last], f.y[last]), fontsize=7,
+                        ha="left", va="center", color="C3", xytext=(6, 0),
+                        textcoords="offset points")
     xs = np.concatenate([x, f.x[:, k].ravel()])
     ax.set_xlim(float(xs.min()) - 5, float(xs.max()) + 5)
     ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
     ax.set_xlabel("global x (m)")
     ax.set_ylabel("global y (m)")
-    ax.set_title(f"(c) chosen lane change and TVs every {RECT_TIMES:g} s (black: SV)")
+    ax.set_title(f"(c) chosen lane change and TVs every {RECT_TIMES:g} s (black: SV; "
+                 "numbers: s after the plan)")
 
 
 def planning_figure(path: Path, plan: Plan, road: RoadParams, vehicle: VehicleParams,

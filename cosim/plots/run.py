@@ -27,14 +27,20 @@ def global_trajectories(
     *,
     highlight: Sequence[str] = (),
     lane_changes: Sequence[tuple[float, float]] = (),
+    requests: Sequence[float] = (),
+    roles: Mapping[str, str] | None = None,
     title: str = "",
 ) -> Path:
-    """Write a PNG of x-y paths: the SV in colour, TVs in grey (those named in
-    `highlight`, e.g. the scenario's scripted TVs, in colour), dots every 1 s.
+    """Write a figure of x-y paths: the SV in colour, TVs in grey (those named in
+    `highlight`, e.g. the scenario's scripted TVs, in colour, labelled "TV <id>" with
+    their role from `roles`), dots every 1 s.
 
     tv_tracks: id -> (t, x, y) arrays while the TV was near the SV.
-    lane_changes: (start, end) simulation times of the SV's lane changes.
+    lane_changes: (start, end) simulation times of the SV's lane changes (a plan's
+    start and its t0 + tau); requests: when a lane change was asked for (it may start
+    later, after retries or while the SV seeks a gap).
     """
+    roles = roles or {}
     fig, ax = plt.subplots(figsize=(11, 3.6))
     x_lo = float(np.nanmin(sv_x))
     x_hi = float(np.nanmax(sv_x))
@@ -54,7 +60,8 @@ def global_trajectories(
         if tid in highlight:
             c = f"C{colour}"
             colour += 1
-            ax.plot(xx, yy, color=c, lw=1.5, label=tid)
+            role = roles.get(tid, "")
+            ax.plot(xx, yy, color=c, lw=1.5, label=f"TV {tid}" + (f" ({role})" if role else ""))
             every = _every_second(tt)
             ax.plot(xx[every], yy[every], "o", color=c, ms=2.5)
         else:
@@ -62,16 +69,22 @@ def global_trajectories(
     ax.plot(sv_x, sv_y, color="C0", lw=2.0, label="SV")
     every = _every_second(t)
     ax.plot(sv_x[every], sv_y[every], "o", color="C0", ms=3)
+    marks = [(when, "x", "lane-change request") for when in requests]
     for start, end in lane_changes:
-        for when, marker in ((start, ">"), (end, "|")):
-            i = int(np.searchsorted(t, when))
-            if 0 <= i < t.size:
-                ax.plot(sv_x[i], sv_y[i], marker, color="k", ms=8)
+        marks += [(start, ">", "lane change starts (plan adopted)"),
+                  (end, "|", "planned end (start + tau)")]
+    shown: set[str] = set()
+    for when, marker, label in marks:
+        i = int(np.searchsorted(t, when - 1e-9))
+        if 0 <= i < t.size:
+            ax.plot(sv_x[i], sv_y[i], marker, color="k", ms=8,
+                    label=None if label in shown else label)
+            shown.add(label)
     ax.set_xlim(x_lo - pad, x_hi + pad)
     ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
     ax.set_xlabel("global x (m)")
     ax.set_ylabel("global y (m)")
-    ax.set_title(title or "global trajectories (dots every 1 s; > start, | end of lane change)")
+    ax.set_title(title or "global trajectories (dots every 1 s)")
     ax.legend(loc="upper right", fontsize=8, ncol=4)
     fig.tight_layout()
     return save_figure(fig, path)

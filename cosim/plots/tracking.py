@@ -89,8 +89,9 @@ def plot_inputs(runs: Sequence[TrackingRun], path: Path, title: str) -> Path:
     for ax, name in zip(wheels, WHEELS, strict=True):
         ax.set_ylabel(f"Fx {name} (kN)")
         ax.set_title(f"{name} wheel longitudinal force", fontsize=8)
-    for ax in wheels[2:]:
+    for ax in (steer, yaw, *wheels):
         ax.set_xlabel("t (s)")
+        ax.tick_params(labelbottom=True)  # shared x: every panel keeps its labels
     for ax in (steer, yaw, *wheels):
         ax.grid(alpha=0.3)
     steer.legend(fontsize=8)

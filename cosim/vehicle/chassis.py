@@ -64,10 +64,15 @@ def commonroad_roll_share(car: CommonRoadCar) -> float:
     """-, front share of the steady lateral load transfer of CommonRoad's multi-body model
     with this car's parameters: its roll axis is on the ground (h_raf = h_rar = 0), so the
     sprung mass's roll moment m_s h_s ay goes through the suspensions in the ratio of their
-    roll stiffnesses (springs K_s T^2 / 2 plus the torsion bar K_ts per axle), and each
-    unsprung mass moves its own m_u R_w ay across its own track."""
-    roll_f = car.K_sf * car.T_f**2 / 2.0 + car.K_tsf
-    roll_r = car.K_sr * car.T_r**2 / 2.0 + car.K_tsr
+    roll stiffnesses, and each unsprung mass moves its own m_u R_w ay across its own track.
+
+    An axle's roll stiffness as `vehicle_dynamics_mb` has it: its suspension forces
+    F_SL,R = ... -/+ z K_s -/+ (phi - phi_u) K_ts / T, with z = +/- (phi - phi_u) T / 2,
+    give the sprung mass the roll moment T/2 (F_SL - F_SR) (sumL) = -(phi - phi_u)
+    (K_s T^2 / 2 - K_ts): the springs' K_s T^2 / 2 plus |K_ts| (CommonRoad's K_ts are
+    negative: the torsion bar stiffens the axle; vehicle2: front share 0.59)."""
+    roll_f = car.K_sf * car.T_f**2 / 2.0 - car.K_tsf
+    roll_r = car.K_sr * car.T_r**2 / 2.0 - car.K_tsr
     front = car.m_s * car.h_s * roll_f / (roll_f + roll_r) + car.m_uf * car.R_w
     rear = car.m_s * car.h_s * roll_r / (roll_f + roll_r) + car.m_ur * car.R_w
     return front / (front + rear)

@@ -15,12 +15,17 @@ CASE1 = ROOT / "scenarios" / "paper_case1_overtaking.toml"
 
 def test_json_has_the_keys_scripts_need(capsys: pytest.CaptureFixture[str],
                                         tmp_path: Path) -> None:
+    from cosim.planning.planner import _built_tau_min_map
+
+    _built_tau_min_map.cache_clear()  # as in a fresh process: the maps are built here
     assert main(["plan", str(CASE1), "--json", "--no-plot"]) == 0
     d = json.loads(capsys.readouterr().out)
     for key in ("tau_min", "tau_max", "stable", "collision_free", "tau_opt", "omega",
                 "planning_time_s", "rejected"):
         assert key in d
     assert d["figure"] is None
+    # the one-off map build apart from the plan: the planner's own time is milliseconds
+    assert d["map_build_s"] > 0.0 and d["planning_time_s"] < d["map_build_s"]
     assert len(d["collision_free"]) == 1 and d["collision_free"][0][0] == d["tau_min"]
     assert any(r["reason"] == "collision" and r["vehicle_id"] == "pvc" for r in d["rejected"])
     assert not list(tmp_path.iterdir())

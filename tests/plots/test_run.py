@@ -38,3 +38,24 @@ def test_compile_first_says_so_on_a_cold_cache(monkeypatch: pytest.MonkeyPatch,
     compile_first(told)
     lines = told.getvalue().splitlines()
     assert lines[0].startswith("compiling (once per machine, ~") and "compiled in" in lines[1]
+
+
+def test_trajectories_legend_names_markers_and_tvs(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """The request, start and planned-end markers are in the legend (once each), the
+    request apart from the start; scripted TVs are "TV <id> (role)"."""
+    import cosim.plots.run as run_plots
+    from cosim.params import RoadParams
+
+    figures = []
+    monkeypatch.setattr(run_plots, "save_figure", lambda fig, path: figures.append(fig) or path)
+    t = np.arange(0.0, 10.0, 0.05)
+    tv = (t, 20.0 + 25.0 * t, np.full_like(t, 5.625))
+    run_plots.global_trajectories(
+        tmp_path / "trajectories.png", t, 25.0 * t, np.full_like(t, 1.875),
+        {"pvc": tv, "tv7": tv}, RoadParams(), highlight=["pvc"],
+        lane_changes=[(2.0, 8.0), (8.5, 9.5)], requests=[1.0],
+        roles={"pvc": "ahead, lane 1"})
+    labels = figures[0].axes[0].get_legend_handles_labels()[1]
+    assert labels == ["TV pvc (ahead, lane 1)", "SV", "lane-change request",
+                      "lane change starts (plan adopted)", "planned end (start + tau)"]

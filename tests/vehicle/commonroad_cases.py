@@ -132,17 +132,51 @@ def _params(mu: float):  # noqa: ANN202 (vehiclemodels' own parameter class)
     return p
 
 
-def run_mb(m: Manoeuvre) -> np.ndarray:
-    """(t, yaw rate, vx, vy) on the DT grid, CommonRoad's multi-body model (LSODA)."""
+def our_peak_slip(mu: float) -> float:
+    """-, the longitudinal slip at which our anti-lock logic cuts a wheel's torque."""
+    from cosim.vehicle.twotrack import C_PEAK
+
+    plant = TwoTrackPlant(commonroad_vehicle(CAR), mu * COMMONROAD_TYRE["p_dy1"], vx=V0,
+                          chassis=our_chassis())
+    return float(plant._const[C_PEAK])
+
+
+ANTI_LOCK_BAND = 0.05  # -, slip over which the surrogate fades a wheel's brake torque out
+
+
+def run_mb(m: Manoeuvre, anti_lock: bool = False) -> np.ndarray:
+    """(t, yaw rate, vx, vy) on the DT grid, CommonRoad's multi-body model (LSODA).
+
+    MB has no anti-lock logic: its brake torque is m R_w u split T_sb / (1 - T_sb),
+    whatever the wheel does, so a lightly loaded wheel locks. `anti_lock`: a surrogate of
+    ours added outside MB, for the comparison only: a braked wheel's torque fades out
+    linearly as its slip (MB's own definition) goes from our anti-lock's peak slip to
+    ANTI_LOCK_BAND beyond it (smooth, so that LSODA can integrate it). Note MB's wheel
+    labels: its "L" wheels are at y = -T/2 (u_w_lf = (vx + T_f r / 2) ...)."""
     from vehiclemodels.init_mb import init_mb
     from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
 
     p = _params(m.mu)
     ramp = abs(m.delta) / STEER_RATE
+    peak = our_peak_slip(m.mu) if anti_lock else math.inf
+    shares = (p.T_sb / 2.0, p.T_sb / 2.0, (1.0 - p.T_sb) / 2.0, (1.0 - p.T_sb) / 2.0)
 
     def f(t: float, x: np.ndarray) -> list[float]:
         rate = math.copysign(STEER_RATE, m.delta) if t < ramp else 0.0
-        return vehicle_dynamics_mb(list(x), [rate, accel_input(m, t, x[3])], p)
+        u = accel_input(m, t, x[3])
+        d = vehicle_dynamics_mb(list(x), [rate, u], p)
+        if u < 0.0 and math.isfinite(peak):
+            vx, r, vy, steer = x[3], x[5], x[10], x[2]
+            front = (vy + p.a * r) * math.sin(steer)
+            speeds = ((vx + 0.5 * p.T_f * r) * math.cos(steer) + front,
+                      (vx - 0.5 * p.T_f * r) * math.cos(steer) + front,
+                      vx + 0.5 * p.T_r * r, vx - 0.5 * p.T_r * r)
+            for i, (uw, share) in enumerate(zip(speeds, shares, strict=True)):
+                if uw > 0.1:
+                    slip = 1.0 - p.R_w * x[23 + i] / uw
+                    kept = min(max((peak + ANTI_LOCK_BAND - slip) / ANTI_LOCK_BAND, 0.0), 1.0)
+                    d[23 + i] -= (1.0 - kept) * share * p.m * p.R_w * u / p.I_y_w
+        return d
 
     x0 = init_mb([0.0, 0.0, 0.0, V0, 0.0, 0.0, 0.0], p)
     return _integrate(f, x0, m, ramp, yaw=5, vx=3, vy=10)
@@ -190,6 +224,39 @@ def _integrate(f, x0: list[float], m: Manoeuvre, ramp: float, *, yaw: int, vx: i
         out[idx, 1], out[idx, 2], out[idx, 3] = sol.y[yaw, pos], sol.y[vx, pos], sol.y[vy, pos]
         x = sol.y[:, -1]
     return out
+
+
+def side_slip_deg(a: np.ndarray) -> np.ndarray:
+    """deg, the side slip angle atan(vy / vx) of a run's rows."""
+    return np.degrees(np.arctan2(a[:, 3], a[:, 2]))
+
+
+def mb_steady_roll_share(mu: float = 1.0, delta: float = 0.0, end: float = 3.0) -> float:
+    """-, the front share of MB's lateral load transfer in a steady turn (80 km/h, speed
+    held, the steering of 0.5 mu g for a neutral-steer car): (F_z outer - inner) front
+    over the sum of both axles', the tyre loads as vehicle_dynamics_mb computes them."""
+    from vehiclemodels.init_mb import init_mb
+    from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
+
+    p = _params(mu)
+    delta = delta or neutral_steer(0.5 * mu * G)
+    ramp = delta / STEER_RATE
+
+    def f(t: float, x: np.ndarray) -> list[float]:
+        rate = STEER_RATE if t < ramp else 0.0
+        return vehicle_dynamics_mb(list(x), [rate, HOLD_GAIN * (V0 - x[3])], p)
+
+    x = np.asarray(init_mb([0.0, 0.0, 0.0, V0, 0.0, 0.0, 0.0], p), dtype=float)
+    for a, b in ((0.0, ramp), (ramp, end)):
+        x = solve_ivp(f, (a, b), x, method="LSODA", rtol=1e-6, atol=1e-8).y[:, -1]
+
+    def load(z: float, roll: float, track: float, side: float) -> float:  # MB's F_z
+        return (z + p.R_w * (math.cos(roll) - 1.0) + side * 0.5 * track * math.sin(roll)) \
+            * p.K_zt
+
+    front = load(x[16], x[13], p.T_f, -1.0) - load(x[16], x[13], p.T_f, 1.0)
+    rear = load(x[21], x[18], p.T_r, -1.0) - load(x[21], x[18], p.T_r, 1.0)
+    return front / (front + rear)
 
 
 def rms(a: np.ndarray, b: np.ndarray, start: float = 0.0) -> float:

@@ -1,0 +1,77 @@
+"""Tests write only into temporary folders, never into the checkout (issue 26).
+
+Every test process runs in a temporary working directory, so a command's default
+output folder (`results/...` under the current directory) lands there; and the
+session fails, naming the files, if the checkout's `results/` gained, lost or
+changed a file while the tests ran, or if an output file (CSV, figure, JSON)
+appeared anywhere else in the checkout. (Sources edited while the tests run are
+the developer's doing, not the tests'.)
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+# What tools write beside the sources (caches, build metadata): not the tests' doing.
+IGNORED = {".git", "__pycache__", ".pytest_cache", ".hypothesis", ".ruff_cache", "build",
+           "dist"}
+
+Snapshot = dict[str, tuple[int, int]]
+
+
+def snapshot(root: Path) -> Snapshot:
+    """Every file under root (caches left out) -> (size, modification time in ns)."""
+    files: Snapshot = {}
+    for folder, dirs, names in os.walk(root):
+        dirs[:] = [d for d in dirs if d not in IGNORED and not d.endswith(".egg-info")]
+        for name in names:
+            path = Path(folder) / name
+            try:
+                stat = path.stat()
+            except OSError:  # removed while we looked
+                continue
+            files[str(path.relative_to(root))] = (stat.st_size, stat.st_mtime_ns)
+    return files
+
+
+OUTPUTS = (".csv", ".png", ".svg", ".pdf", ".json")  # what the commands write
+
+
+def changes(before: Snapshot, after: Snapshot) -> list[str]:
+    """The files of results/ created, removed or changed between two snapshots, and
+    the output files created elsewhere, sorted."""
+    def watched(path: str) -> bool:
+        return Path(path).parts[0] == "results"
+
+    created = [f"created {p}" for p in after.keys() - before.keys()
+               if watched(p) or p.endswith(OUTPUTS)]
+    removed = [f"removed {p}" for p in before.keys() - after.keys() if watched(p)]
+    changed = [f"changed {p}" for p in before.keys() & after.keys()
+               if watched(p) and before[p] != after[p]]
+    return sorted(created + removed + changed)
+
+
+@pytest.fixture(scope="session")
+def checkout_guard() -> tuple[Callable[[Path], Snapshot],
+                              Callable[[Snapshot, Snapshot], list[str]]]:
+    """(snapshot, changes), for the test of this guard itself."""
+    return snapshot, changes
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _checkout_untouched(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    before = snapshot(ROOT)
+    previous = Path.cwd()
+    os.chdir(tmp_path_factory.mktemp("cwd"))  # default output folders land here
+    try:
+        yield
+    finally:
+        os.chdir(previous)
+    touched = changes(before, snapshot(ROOT))
+    assert not touched, ("the tests wrote into the checkout (they must use tmp_path): "
+                         + "; ".join(touched[:20]))
