@@ -70,7 +70,11 @@ class Bar:
                         disable=disable, leave=leave, file=file or sys.stderr,
                         dynamic_ncols=True, bar_format=BAR_FORMAT)
         self.left: float | None = None
-        self._show(refresh=True)
+        try:
+            self._show(refresh=True)
+        except BaseException:  # Ctrl-C before the caller's `with` holds the bar: end its line
+            self.bar.close()
+            raise
 
     @property
     def n(self) -> int:

@@ -115,13 +115,11 @@ def sumo_floor(scenario: Scenario, path: SvPath) -> tuple[float, float]:
     try:
         road = world.start()
         sc = scenario
-        world.sumo.add_controlled(SV_ID, world.sv_start_x, road.lane_center(sc.sv.lane), 0.0,
-                                  sc.sv.speed, sc.vehicle.length, sc.vehicle.width, sc.sv.lane)
+        world.add_controlled(SV_ID, world.sv_start_x, road.lane_center(sc.sv.lane), 0.0,
+                             sc.sv.speed, sc.vehicle.length, sc.vehicle.width, sc.sv.lane)
         world.insert()
-        sumo = world.sumo
-        for k in range(1, min(scenario.n_steps + 1, len(x))):
-            sumo.move(SV_ID, x[k], y[k], heading[k], speed[k], accel[k])
-            sumo.step()
+        n = min(scenario.n_steps + 1, len(x))
+        world.replay_sv(x[:n], y[:n], heading[:n], speed[:n], accel[:n])
     finally:
         world.close()
     return time.perf_counter() - start, time.process_time() - cpu

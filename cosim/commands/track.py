@@ -197,17 +197,17 @@ def run(args: argparse.Namespace) -> int:
     if not 0.2 <= args.cornering_scale <= 2.0:
         raise InputError("--cornering-scale", "cornering_scale", args.cornering_scale,
                          "in [0.2, 2]")
+    out = args.out if args.out is not None else default_folder(args)
     if not args.no_plot:
         from cosim.output import check_output_dir
 
-        check_output_dir(args.out)  # a bad --out now, not after the runs
+        check_output_dir(out)  # a bad --out now, not after the runs
     vehicle = VEHICLE_PRESETS[args.vehicle]
     chassis = dataclasses.replace(chassis_for(vehicle), cornering_scale=args.cornering_scale)
     share = None if args.paper_law else YAW_MOMENT_SHARE
     plants = ("twotrack", "bicycle") if args.plant == "both" else (args.plant,)
     gains = ControllerGains()
     cases = list(CASES.values()) if args.case == "all" else [CASES[args.case]]
-    out = args.out if args.out is not None else default_folder(args)
     results: list[dict[str, Any]] = []
     figures: list[str] = []
     for case in cases:

@@ -195,6 +195,15 @@ class World:
         """A controlled vehicle's centre pose (holds from the next step)."""
         self.sumo.move(vehicle_id, x, y, heading, speed, accel)
 
+    def replay_sv(self, x: list[float], y: list[float], heading: list[float],
+                  speed: list[float], accel: list[float]) -> None:
+        """The SV moved along a recorded path, pose k before SUMO's step k, nothing read or
+        checked (`cosim bench cosim`'s floor: what SUMO costs with the SV moved)."""
+        sumo = self.sumo
+        for k in range(1, len(x)):
+            sumo.move(SV_ID, x[k], y[k], heading[k], speed[k], accel[k])
+            sumo.step()
+
     def add_sumo_driven_sv(self, lane: int, speed: float, desired_speed: float,
                            length: float, width: float, *, own_lane_changes: bool) -> None:
         """The SV as a vehicle SUMO drives (controller "sumo") at its start in `lane`;
