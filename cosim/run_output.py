@@ -7,6 +7,7 @@ format, so two runs of the same scenario and seed give byte-identical files
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,10 +34,13 @@ def trace_frame(trace: dict[str, Array]) -> Any:
 
 
 def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
-                  write_figures: bool = True) -> list[Path]:
+                  write_figures: bool = True, extra_files: Sequence[Path] = ()) -> list[Path]:
     """trace.csv, plans.csv, metrics.csv, timing.csv and the figures, built in a hidden
     sibling folder and swapped in whole (cosim.output.staged_dir): `out_dir` holds either
-    this run's complete result or, after an interrupt, exactly what it held before."""
+    this run's complete result or, after an interrupt, exactly what it held before.
+    `extra_files` (complete files, e.g. SUMO's fcd.xml) are copied in under their names."""
+    import shutil
+
     import pandas as pd
 
     from cosim.output import atomic_write_csv, staged_dir
@@ -52,6 +56,8 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                                         float_format=CSV_FLOAT))
         written.append(atomic_write_csv(out / "timing.csv", pd.DataFrame([result.timing]),
                                         float_format=CSV_FLOAT))
+        for path in extra_files:
+            written.append(Path(shutil.copyfile(path, out / Path(path).name)))
         if write_figures:
             written += write_run_figures(result, out)
     return [Path(out_dir) / p.name for p in written]

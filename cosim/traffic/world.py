@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -92,13 +93,15 @@ class World:
     """SUMO with the scenario's traffic, as the loop uses it; `wall` is the wall time
     spent in SUMO's steps and reads (s), `wall_read` the reads' part of it."""
 
-    def __init__(self, scenario: Scenario, *, gui: bool | GuiSettings = False) -> None:
+    def __init__(self, scenario: Scenario, *, gui: bool | GuiSettings = False,
+                 fcd_output: Path | None = None) -> None:
         sc = scenario
         tr = sc.traffic
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed,
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
+            fcd_output=fcd_output,
         )
         self.scenario = sc
         self.started = False
