@@ -21,15 +21,19 @@ Array = NDArray[np.float64]
 CSV_FLOAT = "%.9g"  # float format of every CSV (fixed: byte-identical reruns)
 
 INT_TRACE_COLUMNS = ("lane", "sumo_lane", "target_lane", "changing", "collisions",
-                     "sumo_collisions", "n_tvs")
+                     "sumo_collisions", "n_tvs", "track")
 
 
-def trace_frame(trace: dict[str, Array]) -> Any:
+def trace_frame(trace: dict[str, Array], edges: Sequence[str] = ()) -> Any:
+    """The trace as a table; the `edge` column (indices into `edges`) as SUMO's road ids."""
     import pandas as pd
 
     frame = pd.DataFrame({name: trace[name] for name in TRACE_COLUMNS})
     for name in INT_TRACE_COLUMNS:
         frame[name] = frame[name].astype(int)
+    names = np.array([*edges, ""], dtype=object)  # index -1 (unknown): ""
+    index = frame["edge"].to_numpy()
+    frame["edge"] = names[np.where(np.isfinite(index), index, -1).astype(int)]
     return frame
 
 
@@ -48,8 +52,8 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
     written = []
     with staged_dir(out_dir) as out:
         if write_trace:
-            written.append(atomic_write_csv(out / "trace.csv", trace_frame(result.trace),
-                                            float_format=CSV_FLOAT))
+            frame = trace_frame(result.trace, result.edges)
+            written.append(atomic_write_csv(out / "trace.csv", frame, float_format=CSV_FLOAT))
             plans = pd.DataFrame(result.plans, columns=list(PLAN_COLUMNS))
             written.append(atomic_write_csv(out / "plans.csv", plans, float_format=CSV_FLOAT))
         written.append(atomic_write_csv(out / "metrics.csv", pd.DataFrame([result.metrics]),

@@ -102,7 +102,8 @@ class CoSimulation:
                 0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc),
                                         prediction=cls.prediction)
-        self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
+        self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road,
+                                 route_road=world.route_road)
         world.insert()
         ego.inserted()
         # the SV starts at a speed it can brake from for the random traffic ahead (SUMO's
@@ -171,7 +172,8 @@ class CoSimulation:
         }
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
-                         records=self.ego.records, first_plan=done.first_plan)
+                         records=self.ego.records, first_plan=done.first_plan,
+                         edges=tuple(recorder.edges))
 
 
 def run_scenario(

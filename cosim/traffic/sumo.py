@@ -121,9 +121,8 @@ class SumoSim:
     (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci; `traci`
     the headless binary so. `speed_bands` (m/s per lane) set each TV's desired speed
     in the lane it is in. `strict`: a controlled vehicle leaving the network raises
-    SimulationError (else it is only recorded in `events`). `fcd_output`: a file SUMO
-    writes its floating-car data to (--fcd-output: every vehicle's front-bumper pose,
-    speed and lane each step), complete once the simulation is closed.
+    SimulationError (else it is only recorded in `events`). `fcd_output`: the file SUMO
+    writes its floating-car data to (--fcd-output), complete once it is closed.
     """
 
     def __init__(
@@ -149,9 +148,7 @@ class SumoSim:
         self.extra_args = tuple(extra_args)
         self.lateral_resolution = float(lateral_resolution)
         self.strict = bool(strict)
-        # SUMO's floating-car data (--fcd-output) goes to this file, the caller's: SUMO
-        # completes it at close
-        self.fcd_output = None if fcd_output is None else Path(fcd_output)
+        self.fcd_output = None if fcd_output is None else Path(fcd_output)  # the caller's
         base = RoadParams()
         self._road = self.highway.road(
             RoadParams(speed_bands=speed_bands) if speed_bands is not None else base
