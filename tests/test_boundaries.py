@@ -2,6 +2,8 @@
 
 - SUMO is reached only inside cosim/traffic/ (the adapter, the world): no other module
   imports libsumo or traci, or reaches an adapter (`.sumo`) or the raw API (`.api`);
+  sumolib (SUMO's network-file reader, no simulation) only there and in cosim/road/,
+  which reads the network's lanes and connections;
 - the planner and the lane-change policies never compare policy names (a policy's
   behaviour comes from its own class and options, cosim.driving.registry)."""
 
@@ -73,7 +75,10 @@ def test_only_cosim_traffic_reaches_sumo() -> None:
         rel = path.relative_to(PACKAGE)
         if rel.parts[0] == "traffic":
             continue
-        bad += [f"{rel}: {hit}" for hit in sumo_reaches(ast.parse(path.read_text("utf-8")))]
+        hits = sumo_reaches(ast.parse(path.read_text("utf-8")))
+        if rel.parts[0] == "road":  # reads the network file with sumolib, runs no SUMO
+            hits = [h for h in hits if "sumolib" not in h]
+        bad += [f"{rel}: {hit}" for hit in hits]
     assert not bad, "; ".join(bad)
 
 
