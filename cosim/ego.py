@@ -82,7 +82,7 @@ class PlannedEgo:
     def state(self, everyone: TrafficSnapshot) -> SVState:
         r = self.record
         lane = float(everyone.lane[everyone.index(SV_ID)])
-        return SVState(r.x, r.y, r.heading, r.vx, r.vy, lane)
+        return SVState(r.x, r.y, r.heading, r.vx, r.vy, lane, self.world.sv_road_id())
 
     def write_trace(self, row: Array) -> None:
         r = self.record
@@ -148,7 +148,7 @@ class SumoDrivenEgo:
         self.ax = self.world.sv_acceleration()  # not in every read
         return SVState(float(everyone.x[i]), float(everyone.y[i]), float(everyone.heading[i]),
                        float(everyone.speed[i]), float(everyone.lateral_speed[i]),
-                       float(everyone.lane[i]))
+                       float(everyone.lane[i]), self.world.sv_road_id())
 
     def write_trace(self, row: Array) -> None:
         row[COLUMN["ax_mps2"]] = self.ax

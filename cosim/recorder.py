@@ -25,9 +25,10 @@ from cosim.driving.plans import PLAN_COLUMNS  # noqa: F401  (the run's columns, 
 from cosim.metrics import SETTLE_TOL
 from cosim.params import RoadParams
 from cosim.proximity import gap_ttc_min
+from cosim.road.road import Road
 from cosim.scenario import Scenario
 from cosim.traffic.sumo import TrafficSnapshot
-from cosim.traffic.world import Scene
+from cosim.traffic.world import Scene, SVState
 
 Array = NDArray[np.float64]
 
@@ -72,6 +73,13 @@ TRACE_COLUMNS: dict[str, str] = {
     "collisions": "number of TVs whose rectangle overlaps the SV's (our exact check)",
     "sumo_collisions": "number of collisions involving the SV SUMO reported this step",
     "n_tvs": "number of TVs within 150 m (x) of the SV",
+    # the road frame (cosim.road; on the straight one-edge road s = x - x0, d = y - y0)
+    "s_m": "SV centre's arc length s along the route's reference line (m)",
+    "d_m": "SV centre's lateral offset d from the reference line, + to the left (m)",
+    "edge": "SUMO road id of the SV (a route edge or a junction's internal edge; empty: off "
+            "the network)",
+    "track": "track of the SV: the physical lane SUMO has it in, followed across edges "
+             "(cosim.road; -1: none)",
 }
 COLUMN = {name: i for i, name in enumerate(TRACE_COLUMNS)}
 
@@ -184,6 +192,7 @@ class RunResult:
     events: list[str] = field(default_factory=list)
     records: list[Any] = field(default_factory=list)  # closed-loop StepRecords (ours only)
     first_plan: Any = None  # the planner's first Plan (for the tau-set figure)
+    edges: tuple[str, ...] = ()  # SUMO road ids the trace's `edge` column indexes
 
 
 class Tracks:
@@ -218,10 +227,15 @@ class Tracks:
 class Recorder:
     """Trace rows, collision onsets and fault, SUMO's collisions, the metrics row."""
 
-    def __init__(self, n_steps: int, sv_length: float, sv_width: float, road: RoadParams) -> None:
+    def __init__(self, n_steps: int, sv_length: float, sv_width: float, road: RoadParams,
+                 route_road: Road | None = None) -> None:
         self.data = np.full((n_steps + 1, len(TRACE_COLUMNS)), np.nan)
         self.tracks = Tracks()
         self.road = road
+        self.route_road = route_road  # the (s, d) frame and tracks (None: s, d NaN)
+        self.edges: list[str] = []  # road ids in the order met (the `edge` column's index)
+        self._edge_index: dict[str, int] = {}
+        self._s_hint: float | None = None  # s a step ago, the projection's start
         self.sv_length, self.sv_width = sv_length, sv_width
         self.sv_diag = math.hypot(sv_length, sv_width)  # m, body diagonal
         self.collisions = 0  # collision onsets by our exact check
@@ -256,6 +270,7 @@ class Recorder:
         row[C["changing"]] = 1.0 if status.changing else 0.0
         row[C["leader_gap_m"]] = status.leader_gap
         row[C["idm_accel_mps2"]] = status.idm_accel
+        self._record_road(row, sv)
         # gap / TTC along the lane, and our exact overlap check against every TV near
         c, s_ = abs(math.cos(h)), abs(math.sin(h))
         hx = 0.5 * (self.sv_length * c + self.sv_width * s_)
@@ -372,6 +387,26 @@ class Recorder:
                                else (float(first["t_s"]), int(first["target_lane"])))
         m["request_to_lane_s"] = mx.request_to_lane(t, lane, request, wanted)
         return m
+
+    def _record_road(self, row: Array, sv: SVState) -> None:
+        """The SV's (s, d), its road id (as an index into `edges`) and track."""
+        C = COLUMN
+        edge = sv.edge
+        k = self._edge_index.get(edge)
+        if k is None:
+            k = self._edge_index[edge] = len(self.edges)
+            self.edges.append(edge)
+        row[C["edge"]] = k
+        rr = self.route_road
+        if rr is None:
+            row[C["track"]] = -1
+            return
+        s, d = rr.frame.to_frenet(sv.x, sv.y, s_hint=self._s_hint)
+        self._s_hint = float(s)
+        row[C["s_m"]] = s
+        row[C["d_m"]] = d
+        lane = int(sv.sumo_lane)
+        row[C["track"]] = rr.track_ids.get(f"{edge}_{lane}", -1) if edge and lane >= 0 else -1
 
     def trace(self) -> dict[str, Array]:
         """The trace columns as arrays (copies), up to the run's last row."""

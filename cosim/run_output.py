@@ -7,6 +7,7 @@ format, so two runs of the same scenario and seed give byte-identical files
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,23 +21,30 @@ Array = NDArray[np.float64]
 CSV_FLOAT = "%.9g"  # float format of every CSV (fixed: byte-identical reruns)
 
 INT_TRACE_COLUMNS = ("lane", "sumo_lane", "target_lane", "changing", "collisions",
-                     "sumo_collisions", "n_tvs")
+                     "sumo_collisions", "n_tvs", "track")
 
 
-def trace_frame(trace: dict[str, Array]) -> Any:
+def trace_frame(trace: dict[str, Array], edges: Sequence[str] = ()) -> Any:
+    """The trace as a table; the `edge` column (indices into `edges`) as SUMO's road ids."""
     import pandas as pd
 
     frame = pd.DataFrame({name: trace[name] for name in TRACE_COLUMNS})
     for name in INT_TRACE_COLUMNS:
         frame[name] = frame[name].astype(int)
+    names = np.array([*edges, ""], dtype=object)  # index -1 (unknown): ""
+    index = frame["edge"].to_numpy()
+    frame["edge"] = names[np.where(np.isfinite(index), index, -1).astype(int)]
     return frame
 
 
 def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
-                  write_figures: bool = True) -> list[Path]:
+                  write_figures: bool = True, extra_files: Sequence[Path] = ()) -> list[Path]:
     """trace.csv, plans.csv, metrics.csv, timing.csv and the figures, built in a hidden
     sibling folder and swapped in whole (cosim.output.staged_dir): `out_dir` holds either
-    this run's complete result or, after an interrupt, exactly what it held before."""
+    this run's complete result or, after an interrupt, exactly what it held before.
+    `extra_files` (complete files, e.g. SUMO's fcd.xml) are copied in under their names."""
+    import shutil
+
     import pandas as pd
 
     from cosim.output import atomic_write_csv, staged_dir
@@ -44,14 +52,16 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
     written = []
     with staged_dir(out_dir) as out:
         if write_trace:
-            written.append(atomic_write_csv(out / "trace.csv", trace_frame(result.trace),
-                                            float_format=CSV_FLOAT))
+            frame = trace_frame(result.trace, result.edges)
+            written.append(atomic_write_csv(out / "trace.csv", frame, float_format=CSV_FLOAT))
             plans = pd.DataFrame(result.plans, columns=list(PLAN_COLUMNS))
             written.append(atomic_write_csv(out / "plans.csv", plans, float_format=CSV_FLOAT))
         written.append(atomic_write_csv(out / "metrics.csv", pd.DataFrame([result.metrics]),
                                         float_format=CSV_FLOAT))
         written.append(atomic_write_csv(out / "timing.csv", pd.DataFrame([result.timing]),
                                         float_format=CSV_FLOAT))
+        for path in extra_files:
+            written.append(Path(shutil.copyfile(path, out / Path(path).name)))
         if write_figures:
             written += write_run_figures(result, out)
     return [Path(out_dir) / p.name for p in written]

@@ -74,12 +74,13 @@ class CoSimulation:
     """One run of a scenario: the world, the ego, its policy, the observer, the recorder."""
 
     def __init__(self, scenario: Scenario, *, gui: bool | GuiSettings = False,
-                 decision: DecisionConfig | None = None) -> None:
+                 decision: DecisionConfig | None = None,
+                 fcd_output: Path | None = None) -> None:
         self.sc = scenario
         self.cfg = decision or DecisionConfig()
         self.dt = scenario.step
         self.n_steps = scenario.n_steps
-        self.world = World(scenario, gui=gui)
+        self.world = World(scenario, gui=gui, fcd_output=fcd_output)
 
     def _start(self) -> None:
         """SUMO with its traffic, the scripted TVs, the SV, then the first step that
@@ -101,7 +102,8 @@ class CoSimulation:
                 0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc),
                                         prediction=cls.prediction)
-        self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road)
+        self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road,
+                                 route_road=world.route_road)
         world.insert()
         ego.inserted()
         # the SV starts at a speed it can brake from for the random traffic ahead (SUMO's
@@ -170,7 +172,8 @@ class CoSimulation:
         }
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
-                         records=self.ego.records, first_plan=done.first_plan)
+                         records=self.ego.records, first_plan=done.first_plan,
+                         edges=tuple(recorder.edges))
 
 
 def run_scenario(
@@ -181,23 +184,33 @@ def run_scenario(
     write_figures: bool = True,
     progress: bool = False,
     gui: bool | GuiSettings = False,
+    fcd: bool = False,
 ) -> dict[str, Any]:
     """Run one scenario (one libsumo simulation in this process); write its outputs
     into `out_dir` (None: write nothing); return the metrics row merged with the
-    wall-time columns (names starting `wall_`)."""
-    result = simulate(scenario, progress=progress, gui=gui)
-    if out_dir is not None:
-        from cosim.run_output import write_outputs
+    wall-time columns (names starting `wall_`). `fcd`: SUMO's floating-car data of the
+    run goes into `out_dir` as fcd.xml, written by SUMO into a temporary folder and
+    moved in with the other outputs (an interrupted or failed run leaves none)."""
+    import tempfile
 
-        write_outputs(result, Path(out_dir), write_trace=write_trace,
-                      write_figures=write_figures)
+    with tempfile.TemporaryDirectory(prefix="cosim-fcd-") as tmp:
+        fcd_path = Path(tmp) / "fcd.xml" if fcd and out_dir is not None else None
+        result = simulate(scenario, progress=progress, gui=gui, fcd_output=fcd_path)
+        if out_dir is not None:
+            from cosim.run_output import write_outputs
+
+            write_outputs(result, Path(out_dir), write_trace=write_trace,
+                          write_figures=write_figures,
+                          extra_files=() if fcd_path is None else (fcd_path,))
     return {**result.metrics, **{k: v for k, v in result.timing.items() if k != "scenario"}}
 
 
 def simulate(scenario: Scenario, *, progress: bool = False, gui: bool | GuiSettings = False,
-             decision: DecisionConfig | None = None) -> RunResult:
-    """Run one scenario and return everything it produced (nothing written)."""
-    sim = CoSimulation(scenario, gui=gui, decision=decision)
+             decision: DecisionConfig | None = None,
+             fcd_output: Path | None = None) -> RunResult:
+    """Run one scenario and return everything it produced (nothing written but SUMO's
+    `fcd_output`, when given)."""
+    sim = CoSimulation(scenario, gui=gui, decision=decision, fcd_output=fcd_output)
     if not progress:
         return sim.run()
     from cosim.progress import Bar

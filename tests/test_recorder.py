@@ -67,3 +67,45 @@ def test_tvs_in_another_lane_have_no_gap_and_sumo_onsets_count_once() -> None:
     rec.sumo_collisions(set())
     rec.sumo_collisions({("c", SV_ID)})
     assert rec.sumo_new == 2 and rec.sumo_step_collisions == 1
+
+
+def test_road_columns_follow_the_track_across_a_junction_on_the_curved_motorway() -> None:
+    """s_m, d_m from the road frame, `edge` as SUMO's road id, `track` the physical lane:
+    on the curved motorway track 1 is SUMO's e2_1 then e3_2 (a lane added on the right
+    at j2), so the index changes and the track does not; s grows along the route."""
+    from cosim.road.road import load_road
+    from cosim.run_output import trace_frame
+
+    road = load_road("networks/curved_motorway.net.xml", ["e1", "e2", "e3", "e4"])
+    lane = road.lane(1)
+    s_values = [float(lane.s_start[k]) + 20.0 for k in range(len(lane.track.pieces))]
+    rec = Recorder(len(s_values), L, W, ROAD, route_road=road)
+    for k, (piece, s) in enumerate(zip(lane.track.pieces, s_values, strict=True)):
+        x, y, heading = road.frame.to_cartesian(s, float(lane.centre(s)))
+        index = int(piece.lane.rsplit("_", 1)[1])
+        sv = SVState(float(x), float(y), float(heading), 20.0, 0.0, float(index), piece.edge)
+        snap = TrafficSnapshot(0.05 * k, (SV_ID,), np.array([x]), np.array([y]),
+                               np.array([heading]), np.array([20.0]), np.zeros(1),
+                               np.array([index]), np.zeros(1), np.full(1, L), np.full(1, W),
+                               np.zeros(1, int))
+        rec.record(k, Scene.around(0.05 * k, sv, snap), KEEPING)
+    rec.last_row = len(s_values) - 1
+    frame = trace_frame(rec.trace(), rec.edges)
+    assert list(frame["edge"]) == [p.edge for p in lane.track.pieces]
+    assert (frame["track"] == 1).all()
+    assert {"e2", "e3"} <= set(frame["edge"]) and frame["sumo_lane"].nunique() > 1
+    assert np.allclose(frame["s_m"], s_values, atol=1e-6)
+    assert np.allclose(frame["d_m"], [float(lane.centre(s)) for s in s_values], atol=1e-6)
+
+
+def test_road_columns_on_the_straight_road_are_x_and_y() -> None:
+    from cosim.road.road import load_road
+
+    road = load_road("networks/highway.net.xml")
+    rec = Recorder(1, L, W, ROAD, route_road=road)
+    snap = scene(0.0, [])
+    sv = SVState(123.456, 5.625, 0.0, 20.0, 0.0, 1.0, "highway")
+    rec.record(0, Scene(0.0, sv, snap.everyone, snap.tvs, snap.tv_vx), KEEPING)
+    row = rec.data[0]
+    assert (row[COLUMN["s_m"]], row[COLUMN["d_m"]]) == (123.456, 5.625)  # bit for bit
+    assert row[COLUMN["track"]] == 1 and rec.edges == ["highway"]

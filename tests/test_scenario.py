@@ -304,3 +304,18 @@ def test_docs_list_every_scenario_key_as_the_code_validates_it() -> None:
 
     text = (project_root() / "docs" / "scenario_keys.md").read_text(encoding="utf-8")
     assert text.endswith(schema_markdown())
+
+
+def test_route_and_sv_edge_on_the_one_edge_network(tmp_path: Path) -> None:
+    """`[road] route` and `[sv] edge` may name the one edge; the scenario is the same one
+    (its route kept as written, exported and read back), and absent they stay absent."""
+    plain = load_scenario(_write(tmp_path, MINIMAL, "plain.toml"))
+    assert plain.route is None and plain.sv.edge is None
+    assert "route" not in scenario_to_dict(plain)["road"]
+    text = MINIMAL.replace("[sv]\n", "[road]\nroute = [\"highway\"]\n[sv]\nedge = \"highway\"\n")
+    s = load_scenario(_write(tmp_path, text, "routed.toml"))
+    assert s.route == ("highway",) and s.sv.edge == "highway"
+    d = scenario_to_dict(s)
+    assert d["road"]["route"] == ["highway"] and d["sv"]["edge"] == "highway"
+    assert scenario_from_dict(json.loads(json.dumps(d)), path=s.path) == s
+    assert (s.sv.position, s.network) == (plain.sv.position, plain.network)

@@ -47,6 +47,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         help="with --gui: close sumo-gui when the run ends")
     parser.add_argument("--seed", type=int, default=None, help="random seed (default: scenario's)")
     parser.add_argument("--no-figures", action="store_true", help="skip the figures")
+    parser.add_argument("--fcd", action="store_true",
+                        help="also write SUMO's floating-car data (--fcd-output) of the run "
+                        "as fcd.xml into the output folder")
     add_figure_format(parser)
     parser.set_defaults(func=run)
 
@@ -85,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         metrics = run_scenario(
             scenario, out, write_trace=True, write_figures=not args.no_figures,
-            progress=True, gui=settings if args.gui else False,
+            progress=True, gui=settings if args.gui else False, fcd=args.fcd,
         )
     except Exception as exc:
         if args.gui and type(exc).__name__ == "FatalTraCIError":  # its user closed it

@@ -9,6 +9,7 @@ declared here, their defaults taken from those dataclasses.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import replace
 from typing import Any
 
@@ -24,7 +25,9 @@ from cosim.params import (
 from cosim.planning.collision import COLLISION_TESTS  # the planner owns its option names
 from cosim.planning.envelope import ENVELOPES
 from cosim.scenario.model import (
+    EDGE_PATTERN,
     KMH,
+    MAX_ROUTE_EDGES,
     MAX_SPEED_KMH,
     LaneChangeCommand,
     Scenario,
@@ -80,6 +83,15 @@ def _parse_network(source: str, key: str, value: Any) -> str:
     return value
 
 
+def _parse_route(source: str, key: str, value: Any) -> tuple[str, ...]:
+    """A list of SUMO edge ids (the network check is cosim.road.route.make_route's)."""
+    allowed = (f"a list of 1 to {MAX_ROUTE_EDGES} SUMO edge ids (strings), in driving order")
+    if (not isinstance(value, list) or not 1 <= len(value) <= MAX_ROUTE_EDGES
+            or not all(isinstance(e, str) and re.fullmatch(EDGE_PATTERN, e) for e in value)):
+        raise InputError(source, key, value, allowed)
+    return tuple(value)
+
+
 SCENARIO_FIELDS = declared_fields(Scenario)
 
 ROAD_FIELDS = (
@@ -97,6 +109,11 @@ ROAD_FIELDS = (
           default_doc=f"`{DEFAULT_NETWORK}`",
           doc="SUMO network: one straight edge along +x (README, Guarantees); relative to "
               "the file, then the project root"),
+    Field("route", list, default=None, parse=_parse_route, export=list,
+          describe=f"a list of 1 to {MAX_ROUTE_EDGES} SUMO edge ids",
+          default_doc="the network's only edge",
+          doc="the SUMO edges the SV drives, in order, each connected to the next (README, "
+              "Roads); optional on a one-edge network"),
 )
 
 SV_FIELDS = declared_fields(SVSpec)

@@ -22,7 +22,7 @@ from cosim.scenario.model import (
     TVSpec,
     V2VSpec,
 )
-from cosim.traffic.network import Highway, load_highway
+from cosim.traffic.network import SUPPORTED, Highway, load_highway
 from cosim.validation import (
     MISSING,
     check_known_tables,
@@ -109,9 +109,8 @@ def load_scenario(path: str | Path) -> Scenario:
     return scenario_from_dict(read_toml(p), path=p.resolve(), source=str(p))
 
 
-def read_network(source: str, key: str, written: str, path: Path,
-                 base_dir: Path) -> Highway:
-    """The scenario's network as the tool drives on it, or InputError naming the scenario."""
+def _network_file(source: str, key: str, written: str, path: Path, base_dir: Path) -> None:
+    """InputError naming the scenario unless `path` is a file."""
     problem = not_a_file(path)
     if problem == "not found":
         looked = path if Path(written).is_absolute() else (
@@ -121,9 +120,24 @@ def read_network(source: str, key: str, written: str, path: Path,
     if problem is not None:
         raise InputError(source, key, written,
                          f"a SUMO .net.xml file ({path} is {problem})")
+
+
+def read_network(source: str, key: str, written: str, path: Path,
+                 base_dir: Path, route: tuple[str, ...] | None = None) -> Highway:
+    """The scenario's network as the tool drives on it, or InputError naming the scenario.
+
+    A `route` (already checked against the network) that is not one straight edge is
+    refused here in one line: the loop drives only such a road yet (README, Roads)."""
+    _network_file(source, key, written, path, base_dir)
     try:
         return load_highway(path)
     except InputError as exc:
+        if route is not None and exc.allowed.startswith(SUPPORTED):
+            raise InputError(
+                source, "road.route", list(route),
+                "a route of one straight edge along +x: the co-simulation loop does not yet "
+                f"drive other roads ({exc.allowed}; `python -m cosim.road {path.name} "
+                f"{' '.join(route)}` shows the road frame cosim/road/ makes of it)") from None
         if exc.key in ("network", "size") or exc.key.endswith(" speed"):  # say what it is
             raise InputError(source, key, str(path),
                              f"{exc.allowed} ({exc.key} = {exc.value})") from None
@@ -137,7 +151,7 @@ def scenario_from_dict(
 
     Relative paths in it are resolved against `path`'s directory, then the project root.
     """
-    from cosim.scenario.rules import check_scenario
+    from cosim.scenario.rules import check_route, check_scenario
 
     p = Path(path)
     src = source if source is not None else str(p)
@@ -162,7 +176,15 @@ def scenario_from_dict(
     sc, rd = tables["scenario"], tables["road"]
     base_dir = p.parent if p.is_absolute() else Path.cwd() / p.parent
     network = _resolve(base_dir, rd["network"])
-    highway = read_network(src, "road.network", rd["network"], network, base_dir)
+    sv = SVSpec(**tables["sv"])
+    vehicle = vehicle_from_table(tables["vehicle"], {  # a preset, then the file's keys
+        f.attr for f in VEHICLE_FIELDS if f.key in doc.get("vehicle", {})})
+    if rd["route"] is not None or sv.edge is not None:
+        _network_file(src, "road.network", rd["network"], network, base_dir)
+        # before the one-edge rules below
+        check_route(src, network, rd["route"], sv, vehicle.length)
+    highway = read_network(src, "road.network", rd["network"], network, base_dir,
+                           route=rd["route"])
     # lane geometry has one source: the network (the file may only repeat its width)
     if (rd["lane_width"] is not None
             and abs(rd["lane_width"] - highway.lane_width) > max(1e-3, highway.rounding)):
@@ -183,15 +205,15 @@ def scenario_from_dict(
         path=p,
         road=road,
         network=network,
-        vehicle=vehicle_from_table(tables["vehicle"], {  # a preset, then the file's keys
-            f.attr for f in VEHICLE_FIELDS if f.key in doc.get("vehicle", {})}),
+        vehicle=vehicle,
         gains=ControllerGains(**tables["controller"]),
         planner=PlannerConfig(**tables["planner"]),
-        sv=SVSpec(**tables["sv"]),
+        sv=sv,
         tvs=tvs,
         traffic=_traffic(src, tables["traffic"]),
         v2v=V2VSpec(**tables["v2v"]),
         document=copy.deepcopy(dict(doc)),
+        route=rd["route"],
     )
     check_scenario(src, scenario, highway)
     return scenario

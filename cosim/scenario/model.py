@@ -19,6 +19,8 @@ from cosim.validation import REQUIRED, Field, declare, parse_tables, table_to_di
 KMH = 3.6  # si_divisor of a km/h field
 MAX_SPEED_KMH = 250.0  # km/h, the highest speed any scenario may name
 MAX_LANE = 7  # highest lane index a file may name (8 lanes)
+EDGE_PATTERN = r"[^\x00-\x1f]{1,200}"  # a SUMO edge id: any printable text
+MAX_ROUTE_EDGES = 1000  # edges in a route
 
 
 def number_key(
@@ -118,11 +120,16 @@ VEHICLE = VehicleParams()
 class SVSpec:
     """The subject vehicle at t = 0 and what it is asked to do."""
 
-    lane: int = declare(lane_key("lane", "SUMO lane index at t = 0 (0 = rightmost, slowest)",
-                             override="sv_lane"))
+    lane: int = declare(lane_key("lane", "SUMO lane index at t = 0 on `sv.edge` (0 = "
+                                 "rightmost, slowest)", override="sv_lane"))
+    edge: str | None = declare(Field(
+        "edge", str, pattern=EDGE_PATTERN, default=None,
+        describe="a SUMO edge id (1 to 200 printable characters)",
+        doc="SUMO edge of `road.route` the SV starts on", default_doc="the route's first edge"))
     position: float = declare(number_key(
         "position_m", "m", 0.0, 1e6, REQUIRED,
-        "distance of the SV's centre from the start of the road (the network's edge) at t = 0",
+        "lane position of the SV's centre on `sv.edge` at t = 0 (on a one-edge road: its "
+        "distance from the start of the road)",
         override="sv_position"))
     speed: float = declare(speed_key("speed_kmh", REQUIRED, "speed at t = 0", override="sv_speed"))
     occupant: float = declare(number_key(
@@ -272,6 +279,9 @@ class Scenario:
     v2v: V2VSpec
     # The document as read (file units), so overrides re-validate the very same input.
     document: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    # [road] route: the SUMO edges the SV drives, as the file gives them (None: absent,
+    # the network's one edge); checked against the network by cosim.scenario.load
+    route: tuple[str, ...] | None = None
 
     @property
     def n_steps(self) -> int:

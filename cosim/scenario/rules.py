@@ -9,10 +9,12 @@ one starting at 0; a TV's `gap_m` is measured from the SV.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from cosim.errors import InputError
-from cosim.scenario.model import KMH, Scenario, TVSpec
+from cosim.scenario.model import KMH, Scenario, SVSpec, TVSpec
 from cosim.traffic.network import Highway
 
 STEP_TOLERANCE = 1e-9  # relative, "duration is a multiple of the step"
@@ -36,6 +38,39 @@ def check_scenario(src: str, s: Scenario, net: Highway) -> None:
     _check_lanes_open(src, s, net)
     _check_no_overlap(src, s, net)
     _check_positions(src, s, net)
+
+
+def check_route(src: str, network: Path, route: tuple[str, ...] | None, sv: SVSpec,
+                sv_length: float) -> None:
+    """`road.route` on `network` (edges that exist, each connected to the next by a lane a
+    car may use: cosim.road.route.make_route) and the SV's start on it: `sv.edge` one of
+    its edges, `sv.lane` a lane of that edge open to cars, `sv.position_m` on that lane.
+    Raise InputError (one line) on the first fault; run before SUMO or the frame."""
+    from cosim.road.route import VCLASS, make_route
+
+    r = make_route(network, route, source=src, key="road.route")
+    edge_id = sv.edge if sv.edge is not None else r.edges[0]
+    if edge_id not in r.edges:
+        raise InputError(src, "sv.edge", edge_id,
+                         f"an edge of road.route ({', '.join(r.edges[:8])}"
+                         f"{', ...' if len(r.edges) > 8 else ''})")
+    edge = r.net.getEdge(edge_id)
+    lanes = sorted(edge.getLanes(), key=lambda lane: lane.getIndex())
+    if sv.lane >= len(lanes):
+        raise InputError(src, "sv.lane", sv.lane,
+                         f"a lane index 0..{len(lanes) - 1} (edge {edge_id!r} has "
+                         f"{len(lanes)} lanes)")
+    lane = lanes[sv.lane]
+    if not lane.allows(VCLASS):
+        raise InputError(src, "sv.lane", sv.lane,
+                         f"a lane open to passenger cars (lane {lane.getID()!r} is closed to "
+                         "them by its allow / disallow)")
+    half = 0.5 * sv_length
+    length = float(lane.getLength())
+    if not half <= sv.position <= length - half:
+        raise InputError(src, "sv.position_m", sv.position,
+                         f"on lane {lane.getID()!r}: in [{half:g}, {length - half:g}] m from "
+                         f"its start (it is {length:g} m long)")
 
 
 def _check_time_and_planner(src: str, s: Scenario) -> None:

@@ -121,7 +121,8 @@ class SumoSim:
     (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci; `traci`
     the headless binary so. `speed_bands` (m/s per lane) set each TV's desired speed
     in the lane it is in. `strict`: a controlled vehicle leaving the network raises
-    SimulationError (else it is only recorded in `events`).
+    SimulationError (else it is only recorded in `events`). `fcd_output`: the file SUMO
+    writes its floating-car data to (--fcd-output), complete once it is closed.
     """
 
     def __init__(
@@ -130,6 +131,7 @@ class SumoSim:
         gui: bool | GuiSettings = False, extra_args: Sequence[str] = (),
         speed_bands: tuple[tuple[float, float], ...] | None = None,
         lateral_resolution: float = 0.8, strict: bool = True, traci: bool = False,
+        fcd_output: Path | None = None,
     ) -> None:
         if step <= 0:
             raise InputError("SumoSim", "step", step, "a positive step length in s")
@@ -146,6 +148,7 @@ class SumoSim:
         self.extra_args = tuple(extra_args)
         self.lateral_resolution = float(lateral_resolution)
         self.strict = bool(strict)
+        self.fcd_output = None if fcd_output is None else Path(fcd_output)  # the caller's
         base = RoadParams()
         self._road = self.highway.road(
             RoadParams(speed_bands=speed_bands) if speed_bands is not None else base
@@ -192,6 +195,8 @@ class SumoSim:
             ("--error-log", str(Path(self._tmp.name) / "sumo-warnings.log")),
             ("--duration-log.disable", "true"),
         ]
+        if self.fcd_output is not None:
+            options.append(("--fcd-output", str(self.fcd_output)))
         if self.sublane:
             options.append(("--lateral-resolution", repr(self.lateral_resolution)))
         elif self.lanechange_duration > 0:

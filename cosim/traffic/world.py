@@ -20,12 +20,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from cosim.errors import SimulationError
 from cosim.params import RoadParams
+from cosim.road.road import load_road
 from cosim.scenario.model import Scenario
 from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
@@ -52,6 +54,7 @@ class SVState:
     vx: float  # m/s, body longitudinal speed
     vy: float  # m/s, body lateral speed
     sumo_lane: float  # SUMO's lane index of the SV (-1: off the network)
+    edge: str = ""  # SUMO's road id of the SV (a junction's internal edge too; "": off it)
 
 
 @dataclass(frozen=True)
@@ -92,15 +95,20 @@ class World:
     """SUMO with the scenario's traffic, as the loop uses it; `wall` is the wall time
     spent in SUMO's steps and reads (s), `wall_read` the reads' part of it."""
 
-    def __init__(self, scenario: Scenario, *, gui: bool | GuiSettings = False) -> None:
+    def __init__(self, scenario: Scenario, *, gui: bool | GuiSettings = False,
+                 fcd_output: Path | None = None) -> None:
         sc = scenario
         tr = sc.traffic
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed,
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
+            fcd_output=fcd_output,
         )
         self.scenario = sc
+        # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
+        # edge the identity StraightFrame); so far only the trace's s_m, d_m, track use it
+        self.route_road = load_road(sc.network, sc.route, source=str(sc.path))
         self.started = False
         self.wall = 0.0
         self.wall_read = 0.0
@@ -214,6 +222,11 @@ class World:
     def hand_sv_to_sumo(self) -> None:
         """From now on SUMO drives the SV (its own speed and lane-change modes)."""
         self.sumo.controlled.release(SV_ID)
+
+    def sv_road_id(self) -> str:
+        """SUMO's road id of the SV now: an edge of the route or a junction's internal
+        edge between two of them ("" off the network)."""
+        return str(self.sumo.api.vehicle.getRoadID(SV_ID))
 
     def sv_acceleration(self) -> float:
         """m/s^2, SUMO's longitudinal acceleration of the SV now (not in every read)."""

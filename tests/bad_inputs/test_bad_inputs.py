@@ -143,6 +143,15 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "sv_target_lane_bus_only.toml": ("sv.lane_changes[0].target_lane", "2"),
     # class 8: a lane speed of 0 is the network's fault, not sv.speed_kmh's
     "network_lane_speed_zero.toml": ("road.network", "lane_speed_zero.net.xml"),
+    # issue 23: a route of edges and the SV's start on it, checked before SUMO starts
+    "route_not_connected.toml": ("road.route", "'e1 -> e3'"),
+    "route_unknown_edge.toml": ("road.route", "'nowhere'"),
+    "route_not_a_list.toml": ("road.route", "'highway'"),
+    "route_curved.toml": ("road.route", "['e1', 'e2', 'e3']"),
+    "sv_edge_not_on_route.toml": ("sv.edge", "'e4'"),
+    "sv_lane_not_on_edge.toml": ("sv.lane", "4"),
+    "sv_position_past_edge.toml": ("sv.position_m", "3000.0"),
+    "sv_edge_on_straight_road.toml": ("sv.edge", "'e1'"),
 }
 
 # A few messages must also say what is allowed (the suggestion, the range, the rule).
@@ -173,6 +182,13 @@ ALLOWED_HINTS: dict[str, str] = {
     "tv_target_lane_closed_to_cars.toml": "lane 0 of the network lane0_closed.net.xml is closed",
     "sv_target_lane_bus_only.toml": "lane 2 of the network lane2_bus_only.net.xml is closed",
     "network_lane_speed_zero.toml": "lane 1 speed = 0",
+    "route_not_connected.toml": "e1 leads to e2",
+    "route_unknown_edge.toml": "an edge of highway.net.xml a car may use (highway)",
+    "route_curved.toml": "the co-simulation loop does not yet drive other roads",
+    "sv_edge_not_on_route.toml": "an edge of road.route (e1, e2)",
+    "sv_lane_not_on_edge.toml": "edge 'e3' has 4 lanes",
+    "sv_position_past_edge.toml": "on lane 'e2_1'",
+    "sv_edge_on_straight_road.toml": "an edge of road.route (highway)",
 }
 
 
