@@ -233,8 +233,9 @@ def test_lane_change_status_tells_unfinished_from_failed() -> None:
 def test_a_collision_only_sumo_counts_is_reported_as_such() -> None:
     """study_gap_sample's paper policy, density 40, seed 1: late in the run the SV,
     changing lanes at a few degrees, comes inside a TV's x extent (min gap below 0,
-    -0.33 m since issue 22's start speed; TTC 0) without the rectangles touching; SUMO, which measures gaps along
-    the lane without the SV's heading, reports a collision. The run ends before the
+    -0.33 m since issue 22's start speed; TTC 0) without the rectangles touching;
+    SUMO, which measures gaps along the lane without the SV's heading, reports a
+    collision. The run ends before the
     lane change settles: unfinished, not failed (docs/run_results.md)."""
     from cosim.scenario import load_scenario, project_root, with_overrides
     from cosim.sim import simulate
