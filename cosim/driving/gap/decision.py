@@ -100,15 +100,22 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
                         own_limit, own_speed, max_speed=lane_max)
     leader_speed = own.leader_speed if own.leader >= 0 else math.inf
     if choice is None:
-        # none in reach: toward the target lane's speed (its gaps come by faster when it
-        # is slower, and are judged at a smaller speed difference when it is faster);
-        # the TV nearest behind the SV in that lane may be asked to yield
-        accel = seeking_accel(sv.speed, lanes.end_speed(lane, target), lane_max,
-                              own.gap_ahead, leader_speed, gap_cfg)
+        # none in reach: the TV nearest behind the SV in that lane may be asked to yield
+        # (if it has no room yet), and the SV keeps pace with that lane's traffic ahead
+        # of it (the nearest TV ahead in that lane), so that the gap the asked TV opens
+        # behind it comes up beside it (driving toward the lane's band speed instead ran
+        # away from the gap being opened: 8-16 s from request to lane, issue 22; pacing
+        # the asked TV itself slowed both down together); none ahead: the band speed
         behind = np.where(in_target & (x < sv.x), x, -np.inf)
         ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
         if ask >= 0 and has_room(sv, traffic, ask, gap_cfg, follower):
             ask = -1  # it already has room: nothing to ask of it
+        ahead = np.where(in_target & (x >= sv.x), x, np.inf)
+        pace = int(np.argmin(ahead)) if ahead.size and np.isfinite(ahead.min()) else -1
+        v_lane = (float(traffic.speed[pace]) if pace >= 0
+                  else lanes.end_speed(lane, target))
+        accel = seeking_accel(sv.speed, v_lane, lane_max, own.gap_ahead, leader_speed,
+                              gap_cfg)
         return replace(keep, target_lane=target, accel=float(accel), cooperate_with=ask,
                        reason=f"lane {target}: no gap in reach")
     # toward the approach speed, within the approach acceleration
