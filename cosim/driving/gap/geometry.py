@@ -25,12 +25,15 @@ the gap, arrays over gaps):
 Approach: the SV aims at the point of the slot nearest to it, inside by `margin` or
 `margin_share` of the slot's length (a buffer for the planner's tau); the
 relative motion (SV minus gap) is a double integrator, and `reach_time` is its
-time-optimal transfer to rest at the aim under the approach acceleration bound.
-The chosen gap is the one reached first (ties: the one whose speed is nearest the
-SV's desired speed); a gap whose slot is shorter than the SV needs, that closes
-before it is reached, that lies beyond the SV's own leader, or whose aim is more
-than `reach` away (the open ends of the lane are open only as far as the SV sees)
-is not a candidate.
+time-optimal transfer to rest at the aim under the approach acceleration bound,
+no sooner than the SV's own lane's speed limit lets it close on a gap ahead.
+The chosen gap is the cheapest (`gap_cost`: the reach time plus the speed the SV,
+its own lane's followers and its new follower give up, so the gap reached first
+when nobody has to brake; ties: the one whose speed is nearest the SV's desired
+speed); a gap whose slot is shorter than the SV needs, that closes before it is
+reached, that lies beyond the SV's own leader, that moves ahead at or above the
+SV's own lane's limit (out of reach), or whose aim is more than `reach` away (the
+open ends of the lane are open only as far as the SV sees) is not a candidate.
 The target speed takes the SV to the aim and brakes it to the gap's speed as it
 arrives: v_g + sign(e) min(|e| / approach_time, sqrt(2 a |e|), max_rel_speed) (near
 the aim a first-order approach, farther the curve along which the relative speed can
@@ -72,8 +75,9 @@ class GapConfig:
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
     speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
     headway: float = 0.8  # s, the SV's headway behind its new leader when it goes: the
-    # slot's front end is the SV's Krauss secure gap with this tau (LC2013 asks its own
-    # changers for the same with SUMO's tau 1 s, MSLCM_LC2013 via getSecureGap); from it
+    # slot's front end is the SV's Krauss secure gap with this tau (SUMO's lane changer
+    # asks its own changers for the same with SUMO's tau 1 s: MSLaneChanger::checkChange,
+    # secureFrontGap); from it
     # the SV's car following (IDM + CAH, DecisionConfig.idm_coolness) reopens its 1.5 s
     # braking less than `comfort_decel` while the new leader keeps its speed (0.5 s,
     # issue 16, left it 0.4-0.9 s behind and braking up to 6.8 m/s^2; 1.0 s left no
