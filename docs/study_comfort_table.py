@@ -23,7 +23,7 @@ def table(folder: Path) -> str:
     ours = runs[runs["driver"] != "sumo"]
     sumo = runs[runs["driver"] == "sumo"]
     head = ["density (veh/km/lane)", "lane changes", "SV-caused collisions",
-            "peak jerk m/s^3 (median)", "share of |da| > 5 m/s^2 (median)",
+            "peak jerk m/s^3 (median)", "share of ax jumps > 5 m/s^2 (median)",
             "runs braking > 3 m/s^2 after the change", "request to lane s (median)",
             "ratio", "follower braking m/s^2 (median)"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
