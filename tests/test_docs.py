@@ -22,6 +22,10 @@ SLOW = {
     "cosim batch scenarios/study_density.toml": "150 runs",
     "cosim batch scenarios/study_replanning.toml": "800 runs",
     "cosim batch scenarios/study_gap.toml": "1080 runs",
+    "cosim batch scenarios/study_comfort.toml": "240 runs",
+    "cosim batch scenarios/study_comfort.toml -o /tmp/study_comfort --workers 2": "240 runs",
+    "cosim batch scenarios/study_comfort_wet.toml -o /tmp/study_comfort_wet --workers 2":
+        "240 runs",
     "cosim run scenarios/traffic_medium.toml --gui": "needs a display; waits for its window",
     "cosim bench planner": "minutes: loop transcriptions",
     "cosim bench cosim": "three 30 s dense runs and more",

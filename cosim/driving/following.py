@@ -21,6 +21,7 @@ FOLLOW_HORIZON = 1.0  # s, horizon of the straight lane-keeping reference
 FOLLOW_GRIP = 0.7  # -, share of mu g the car-following reference may brake with
 MAX_FOLLOW_JERK = 15.0  # m/s^3, rate limit of the car-following acceleration
 REF_SPEED_BAND = 0.5  # m/s, the lane-keeping reference speed stays this close to Vx
+STANDING = 0.1  # m/s, a leader slower than this stands (for the standstill hold)
 
 
 def lane_keeping_reference(
@@ -47,6 +48,7 @@ class CarFollowing:
         self.v_ref = ctx.sv.speed  # m/s, lane-keeping reference speed (integrated IDM)
         self.accel = 0.0  # m/s^2, car-following acceleration
         self.leader_gap = math.inf  # m
+        self.leader_speed = math.inf  # m/s (inf: no leader)
 
     def desired_speed(self, lane: int) -> float:
         if self.sv.desired_speed is not None:
@@ -66,10 +68,10 @@ class CarFollowing:
         (only with `allow_change` and `[sv] decision`)."""
         d = decide(self.view(sv), Traffic.of(scene), self.lanes, self.cfg,
                    allow_change=allow_change and self.sv.decision)
-        self.limit(d.accel, d.leader_gap)
+        self.limit(d.accel, d.leader_gap, d.leader_speed)
         return d
 
-    def limit(self, accel: float, leader_gap: float) -> None:
+    def limit(self, accel: float, leader_gap: float, leader_speed: float = math.inf) -> None:
         """Take `accel` (m/s^2) as this step's car-following acceleration, as a reference
         the car can follow: braking within the road's grip, and the acceleration
         changing at most MAX_FOLLOW_JERK (a new leader cutting in)."""
@@ -77,6 +79,13 @@ class CarFollowing:
         step = MAX_FOLLOW_JERK * self.dt
         self.accel = min(max(accel, lo, self.accel - step), self.accel + step)
         self.leader_gap = leader_gap
+        self.leader_speed = leader_speed
+
+    def holding(self) -> bool:
+        """Behind a standing leader within the IDM's standstill gap: the reference speed
+        is held at 0 (the IDM alone would creep on at the speed its integration leaves
+        and close ~1 cm inside s0; SUMO's Krauss stops at minGap the same way)."""
+        return self.leader_speed < STANDING and self.leader_gap <= self.cfg.idm_min_gap
 
     def resume(self, speed: float) -> None:
         """A manoeuvre ended at `speed` (m/s): follow on from it, and cruise at it."""
@@ -88,6 +97,9 @@ class CarFollowing:
         lane = self.lanes.lane_of(sv.y)
         # anti-windup of the reference: never far from the speed the car has
         self.v_ref = min(max(self.v_ref, sv.vx - REF_SPEED_BAND), sv.vx + REF_SPEED_BAND)
+        if self.holding():
+            self.v_ref = 0.0
+            self.accel = min(self.accel, 0.0)
         reference = lane_keeping_reference(t, sv.x, self.lanes.centre(lane), self.v_ref,
                                            self.accel)
         self.v_ref = max(self.v_ref + self.accel * self.dt, 0.0)

@@ -51,6 +51,10 @@ class DecisionConfig:
     idm_min_gap: float = 2.0  # m, IDM standstill gap s0
     idm_delta: float = 4.0  # -, IDM acceleration exponent
     max_brake: float = 8.0  # m/s^2, the IDM deceleration is clipped here
+    idm_coolness: float = 0.0  # -, c of Kesting-Treiber-Helbing's ACC model (IDM + the
+    # constant-acceleration heuristic, 2010): 0 plain IDM (the paper's rule), 0.99 the
+    # ACC model's value: a small gap behind a leader that is not slower (a cut-in, a
+    # merge) costs about idm_decel instead of the IDM's over-reaction
 
 
 def idm_acceleration(
@@ -66,7 +70,31 @@ def idm_acceleration(
         interaction = (s_star / max(gap, 0.1)) ** 2
     else:
         interaction = 0.0
-    return float(max(cfg.idm_accel * (free - interaction), -cfg.max_brake))
+    a_idm = cfg.idm_accel * (free - interaction)
+    if cfg.idm_coolness > 0.0 and math.isfinite(gap):
+        a_idm = acc_blend(a_idm, speed, gap, leader_speed, cfg)
+    return float(max(a_idm, -cfg.max_brake))
+
+
+def acc_blend(a_idm: float, speed: float, gap: float, leader_speed: float,
+              cfg: DecisionConfig) -> float:
+    """m/s^2, the ACC model's acceleration (Kesting, Treiber, Helbing 2010, "Enhanced
+    intelligent driver model to access the impact of driving strategies on traffic
+    capacity", Phil. Trans. R. Soc. A 368, eqs. 2.4-2.5) from the IDM's `a_idm`: where
+    the IDM brakes harder than the constant-acceleration heuristic (CAH: what keeps
+    the gap from closing if the leader keeps its speed; the leader's acceleration is
+    not measured here and taken as 0, the heuristic's conservative case for a leader
+    that does not brake), the two are blended with coolness c so that braking beyond
+    the CAH is limited to about idm_decel (tanh); a leader that brakes makes the CAH,
+    and so the ACC, brake too (the closing speed enters it)."""
+    closing = max(speed, 0.0) - max(leader_speed, 0.0)
+    # CAH with the leader's acceleration 0: 0 while the gap does not close, else the
+    # braking that matches the leader's speed within the gap
+    a_cah = -closing * closing / (2.0 * max(gap, 0.1)) if closing > 0.0 else 0.0
+    if a_idm >= a_cah:
+        return a_idm
+    c, b = cfg.idm_coolness, cfg.idm_decel
+    return (1.0 - c) * a_idm + c * (a_cah + b * math.tanh((a_idm - a_cah) / b))
 
 
 def lane_free(n: Neighbours, sv_speed: float, cfg: DecisionConfig,
@@ -96,6 +124,7 @@ class Decision:
     accel: float  # m/s^2, car-following acceleration in the current lane (IDM)
     leader_gap: float  # m, bumper-to-bumper gap to the leader (inf: none)
     reason: str  # why (for the trace / plans log)
+    leader_speed: float = math.inf  # m/s, the leader's speed (inf: none)
 
 
 def decide(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig, *,
@@ -111,7 +140,7 @@ def decide(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig, *,
     slow_leader = within and lead_v < sv.desired_speed - cfg.speed_margin
     if not (allow_change and slow_leader):
         reason = "slow leader, waiting" if slow_leader else "keep lane"
-        return Decision(None, accel, own.gap_ahead, reason)
+        return Decision(None, accel, own.gap_ahead, reason, lead_v)
     for target in (lane + 1, lane - 1):  # left (overtaking) first
         if not 0 <= target < lanes.n_lanes:
             continue
@@ -122,8 +151,9 @@ def decide(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig, *,
         if lane_speed < lead_v + cfg.speed_margin:
             continue
         if lane_free(n, sv.speed, cfg, lanes.end_speed(lane, target)):
-            return Decision(target, accel, own.gap_ahead, f"slow leader, lane {target} free")
-    return Decision(None, accel, own.gap_ahead, "slow leader, no free faster lane")
+            return Decision(target, accel, own.gap_ahead, f"slow leader, lane {target} free",
+                            lead_v)
+    return Decision(None, accel, own.gap_ahead, "slow leader, no free faster lane", lead_v)
 
 
 def neighbours(lane: int, sv: SV, traffic: Traffic, lanes: LaneLayout, *,

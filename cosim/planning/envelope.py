@@ -247,7 +247,10 @@ class TauMinMap:
                                        safety_factor=safety_factor, yaw_model=yaw_model) <= 1.0
 
             ok_lo, ok_hi = stable(lo), stable(hi)
-            n_iter = int(np.ceil(np.log2(max(float(np.max(hi - lo)), tol) / tol)))
+            # nan where the coarser pass found no stable tau (its speeds stay nan)
+            span = hi - lo
+            widest = float(np.nanmax(span)) if np.isfinite(span).any() else tol
+            n_iter = int(np.ceil(np.log2(max(widest, tol) / tol)))
             for _ in range(n_iter):  # bisection, all speeds at once
                 mid = 0.5 * (lo + hi)
                 ok = stable(mid)

@@ -59,3 +59,24 @@ def test_the_reference_runs_along_the_lane_centre_near_the_car_speed() -> None:
     ref = f.reference(0.0, sv)
     assert ref.y0 == ROAD.lane_center(0) and ref.width == 0.0
     assert ref.vx0 == pytest.approx(25.0 + REF_SPEED_BAND)
+
+
+def test_behind_a_standing_leader_within_the_standstill_gap_it_holds_at_zero() -> None:
+    # the car creeps at 0.05 m/s, 1.9 m (bumper) behind a standing leader: the IDM's s0
+    # is 2 m; the reference speed is held at 0 and asks no acceleration
+    f = following()
+    s0 = f.cfg.idm_min_gap
+    sv = SVState(0.0, ROAD.lane_center(0), 0.0, 0.05, 0.0, 0.0)
+    f.v_ref = 0.05
+    f.update(sv, scene(sv, 4.32 + s0 - 0.1, 0.0), allow_change=False)
+    assert f.holding()
+    ref = f.reference(0.0, sv)
+    assert ref.vx0 == 0.0 and f.v_ref == 0.0 and f.accel <= 0.0
+    # the same gap behind a leader that drives off: no hold
+    g = following()
+    g.update(sv, scene(sv, 4.32 + s0 - 0.1, 1.0), allow_change=False)
+    assert not g.holding()
+    # nor 1 m beyond the standstill gap behind a standing one
+    h = following()
+    h.update(sv, scene(sv, 4.32 + s0 + 1.0, 0.0), allow_change=False)
+    assert not h.holding()

@@ -103,3 +103,17 @@ def test_tau_min_map_matches_the_envelope() -> None:
         got = (*fmap.bounds(v), fmap(v))
         assert isinstance(got[0], float)
         np.testing.assert_array_equal(got, (lo[i], hi[i], value[i]))
+
+
+def test_a_map_whose_coarse_pass_leaves_speeds_without_a_stable_tau_builds() -> None:
+    # issue 22: the gap policy's vxf 27.14 m/s on a wet road (mu 0.4): the refining
+    # bisection got nan bounds for speeds with no stable tau and its iteration count
+    # became int(nan) ("cannot convert float NaN to integer", study_comfort_wet)
+    from cosim.params import PlannerConfig, VehicleParams
+    from cosim.planning.planner import _built_tau_min_map
+
+    cfg = PlannerConfig()
+    m = _built_tau_min_map(27.139073060960747, 3.75, 0.4, VehicleParams(), cfg.tau_min_floor,
+                           cfg.tau_max, cfg.safety_factor, cfg.envelope)
+    tau = m(27.0)
+    assert np.isnan(tau) or tau >= cfg.tau_min_floor

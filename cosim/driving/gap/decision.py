@@ -19,7 +19,8 @@ policy instead:
 5. names the TV to ask to open the gap while it blocks it (the chosen gap's
    follower until the SV is inside the gap's slot, or without a gap in reach the TV
    nearest behind the SV in that lane), for the traffic's courtesy and cooperative
-   V2V (cosim.traffic.cooperation).
+   V2V (cosim.traffic.cooperation); only a TV that does not already have room for
+   the SV (`has_room`) is asked.
 
 Vehicles are arrays (one entry per TV); no Python loop over vehicles.
 """
@@ -38,6 +39,7 @@ from cosim.driving.gap.geometry import (
     choose_gap,
     lane_gaps,
     seeking_accel,
+    slot_ends,
 )
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.rule import DecisionConfig, decide, neighbours
@@ -57,6 +59,7 @@ class GapDecision:
     gap: GapChoice | None  # the gap aimed at
     cooperate_with: int  # TV index to ask to open the gap (-1: nobody)
     reason: str
+    leader_speed: float = math.inf  # m/s, its own leader's speed (inf: none)
 
 
 def wanting_config(cfg: DecisionConfig) -> DecisionConfig:
@@ -75,7 +78,8 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     d = decide(sv, traffic, lanes, wanting_config(cfg),
                allow_change=allow_change and wanted_lane is None)
     target = wanted_lane if allow_change and wanted_lane is not None else d.target_lane
-    keep = GapDecision(None, d.accel, d.leader_gap, False, math.nan, None, -1, d.reason)
+    keep = GapDecision(None, d.accel, d.leader_gap, False, math.nan, None, -1, d.reason,
+                       d.leader_speed)
     if target is None or target == lane:
         return keep
     x = np.asarray(traffic.x, dtype=float)
@@ -90,19 +94,28 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
         # standstill gap
         own_limit = sv.x + own.gap_ahead - cfg.idm_min_gap
         own_speed = own.leader_speed
-    choice = choose_gap(sv.x, sv.speed, sv.length, sv.desired_speed, gaps, gap_cfg, follower,
-                        own_limit, own_speed)
     # seeking: up to its lane's limit, Krauss-safe behind its own leader (gap.seeking_accel)
     lane_max = lanes.speed_limit(lane)
+    choice = choose_gap(sv.x, sv.speed, sv.length, sv.desired_speed, gaps, gap_cfg, follower,
+                        own_limit, own_speed, max_speed=lane_max)
     leader_speed = own.leader_speed if own.leader >= 0 else math.inf
     if choice is None:
-        # none in reach: toward the target lane's speed (its gaps come by faster when it
-        # is slower, and are judged at a smaller speed difference when it is faster);
-        # the TV nearest behind the SV in that lane may be asked to yield
-        accel = seeking_accel(sv.speed, lanes.end_speed(lane, target), lane_max,
-                              own.gap_ahead, leader_speed, gap_cfg)
+        # none in reach: the TV nearest behind the SV in that lane may be asked to yield
+        # (if it has no room yet), and the SV keeps pace with that lane's traffic ahead
+        # of it (the nearest TV ahead in that lane), so that the gap the asked TV opens
+        # behind it comes up beside it (driving toward the lane's band speed instead ran
+        # away from the gap being opened: 8-16 s from request to lane, issue 22; pacing
+        # the asked TV itself slowed both down together); none ahead: the band speed
         behind = np.where(in_target & (x < sv.x), x, -np.inf)
         ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
+        if ask >= 0 and has_room(sv, traffic, ask, gap_cfg, follower):
+            ask = -1  # it already has room: nothing to ask of it
+        ahead = np.where(in_target & (x >= sv.x), x, np.inf)
+        pace = int(np.argmin(ahead)) if ahead.size and np.isfinite(ahead.min()) else -1
+        v_lane = (float(traffic.speed[pace]) if pace >= 0
+                  else lanes.end_speed(lane, target))
+        accel = seeking_accel(sv.speed, v_lane, lane_max, own.gap_ahead, leader_speed,
+                              gap_cfg)
         return replace(keep, target_lane=target, accel=float(accel), cooperate_with=ask,
                        reason=f"lane {target}: no gap in reach")
     # toward the approach speed, within the approach acceleration
@@ -113,13 +126,28 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     # follower only): one behind the SV that it is not yet clear of (a gap's follower
     # ahead of the SV would have to brake for a car behind it)
     f = choice.follower
-    coop = f if f >= 0 and not choice.reachable and x[f] < sv.x else -1
+    coop = f if (f >= 0 and not choice.reachable and x[f] < sv.x
+                 and not has_room(sv, traffic, f, gap_cfg, follower)) else -1
     return GapDecision(
         target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=plan_now,
         vxf=choice.speed, gap=choice, cooperate_with=coop,
         reason=f"lane {target}: gap {choice.index} {choice.relation}"
         + (", reached" if plan_now else f", {choice.offset:+.1f} m"),
+        leader_speed=d.leader_speed,
     )
+
+
+def has_room(sv: SV, traffic: Traffic, k: int, cfg: GapConfig,
+             follower: FollowerModel) -> bool:
+    """Whether TV `k` (behind the SV in the target lane) already has room for the SV
+    entering beside it now: its bumper gap to the SV's rear is at least the slot's
+    rear end (its accepted gap at `GapConfig.entry_decel` plus what it closes before
+    the SV enters, `slot_ends`). Such a TV is not asked to open a gap: its openGap
+    would only make it brake for nothing (issue 22: 0.56-0.62 m/s^2 in every run)."""
+    lo, _ = slot_ends(float(traffic.x[k]) + 0.5 * float(traffic.length[k]),
+                      float(traffic.speed[k]), math.inf, math.inf, sv.speed, sv.speed,
+                      sv.length, cfg, follower)
+    return bool(sv.x >= float(lo))
 
 
 def in_lane(lane: int, traffic: Traffic, lanes: LaneLayout) -> NDArray[np.bool_]:

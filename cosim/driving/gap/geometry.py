@@ -25,12 +25,15 @@ the gap, arrays over gaps):
 Approach: the SV aims at the point of the slot nearest to it, inside by `margin` or
 `margin_share` of the slot's length (a buffer for the planner's tau); the
 relative motion (SV minus gap) is a double integrator, and `reach_time` is its
-time-optimal transfer to rest at the aim under the approach acceleration bound.
-The chosen gap is the one reached first (ties: the one whose speed is nearest the
-SV's desired speed); a gap whose slot is shorter than the SV needs, that closes
-before it is reached, that lies beyond the SV's own leader, or whose aim is more
-than `reach` away (the open ends of the lane are open only as far as the SV sees)
-is not a candidate.
+time-optimal transfer to rest at the aim under the approach acceleration bound,
+no sooner than the SV's own lane's speed limit lets it close on a gap ahead.
+The chosen gap is the cheapest (`gap_cost`: the reach time plus the speed the SV,
+its own lane's followers and its new follower give up, so the gap reached first
+when nobody has to brake; ties: the one whose speed is nearest the SV's desired
+speed); a gap whose slot is shorter than the SV needs, that closes before it is
+reached, that lies beyond the SV's own leader, that moves ahead at or above the
+SV's own lane's limit (out of reach), or whose aim is more than `reach` away (the
+open ends of the lane are open only as far as the SV sees) is not a candidate.
 The target speed takes the SV to the aim and brakes it to the gap's speed as it
 arrives: v_g + sign(e) min(|e| / approach_time, sqrt(2 a |e|), max_rel_speed) (near
 the aim a first-order approach, farther the curve along which the relative speed can
@@ -61,6 +64,8 @@ from cosim.planning.interaction import (
 
 Array = NDArray[np.float64]
 
+MIN_CLOSING = 0.2  # m/s, a gap ahead the SV closes on slower than this is out of reach
+
 @dataclass(frozen=True)
 class GapConfig:
     """Gap choice and approach settings (SI units)."""
@@ -69,8 +74,16 @@ class GapConfig:
     approach_time: float = 3.0  # s, time constant of the approach near the aim
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
     speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
-    headway: float = 0.5  # s, the SV's headway behind its new leader when it goes (its
-    # IDM reopens its own 1.5 s after the change; dense traffic offers no more)
+    headway: float = 0.8  # s, the SV's headway behind its new leader when it goes: the
+    # slot's front end is the SV's Krauss secure gap with this tau (SUMO's lane changer
+    # asks its own changers for the same with SUMO's tau 1 s: MSLaneChanger::checkChange,
+    # secureFrontGap); from it
+    # the SV's car following (IDM + CAH, DecisionConfig.idm_coolness) reopens its 1.5 s
+    # braking less than `comfort_decel` while the new leader keeps its speed (0.5 s,
+    # issue 16, left it 0.4-0.9 s behind and braking up to 6.8 m/s^2; 1.0 s left no
+    # slot in 70 m gaps at 31.8 m/s: requests waited 8-15 s in a 40-run sample)
+    comfort_decel: float = 2.0  # m/s^2, the SV's comfortable braking limit after a merge
+    # (the IDM's b, MOBIL's comfortable deceleration): the slot's headway keeps within it
     min_gap: float = 2.5  # m, the SV's standstill gap to its new leader
     decel: float = 4.5  # m/s^2, the SV's braking assumed in its secure gap
     margin: float = 2.0  # m, aim at least this far inside the slot's ends ...
@@ -201,6 +214,28 @@ def approach_speed(offset: ArrayLike, gap_speed: ArrayLike, cfg: GapConfig) -> A
     return np.maximum(np.asarray(gap_speed, dtype=float) + np.sign(e) * dv, 0.0)
 
 
+def gap_cost(t: ArrayLike, aim: ArrayLike, sv_x: float, sv_speed: float, sv_length: float,
+             gaps: Gaps, cfg: GapConfig, follower: FollowerModel) -> Array:
+    """s, what taking each gap costs the SV and the vehicles behind it (arrays over
+    gaps): its reach time `t`, plus the speed the SV gives up to get there (the gap's
+    speed below its own, and the relative speed of an approach from ahead: what its own
+    lane's followers give up with it) and the speed the new follower gives up at once
+    when the SV enters at the aim at the gap's speed (Krauss's v_safe),
+    each over the approach acceleration. Without braking anywhere it is the reach time:
+    the gap reached first (alongside: 0 s) is taken first."""
+    aim = np.asarray(aim, dtype=float)
+    e = aim - sv_x
+    # the SV drops back to a gap behind at up to the approach's relative speed
+    back = np.where(e < 0.0, np.minimum(np.sqrt(cfg.approach_accel * np.abs(e)),
+                                        cfg.max_rel_speed), 0.0)
+    shed = np.maximum(sv_speed - (gaps.speed - back), 0.0)
+    has = np.isfinite(gaps.rear)
+    gap_f = np.where(has, aim - 0.5 * sv_length - np.where(has, gaps.rear, 0.0), 0.0)
+    v_safe = krauss_safe_speed(np.maximum(gap_f, 0.0), gaps.speed, follower)
+    loss = np.where(has, np.maximum(gaps.v_lo - v_safe, 0.0), 0.0)
+    return np.asarray(t, dtype=float) + (shed + loss) / cfg.approach_accel
+
+
 @dataclass(frozen=True)
 class GapChoice:
     """The gap the SV aims for now."""
@@ -220,11 +255,15 @@ class GapChoice:
 def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: float,
                gaps: Gaps, cfg: GapConfig, follower: FollowerModel,
                own_limit_x: float = math.inf,
-               own_limit_speed: float = 0.0) -> GapChoice | None:
-    """The gap reached first (module docstring), or None when no gap is a candidate.
-    `own_limit_x` (m) moving at `own_limit_speed` (m/s): the farthest the SV's centre
-    may get in its own lane (its leader's rear less half the SV and a standstill gap):
-    a gap ahead whose aim lies beyond it when reached is not a candidate."""
+               own_limit_speed: float = 0.0, max_speed: float = math.inf) -> GapChoice | None:
+    """The cheapest gap (module docstring: `gap_cost`), or None when no gap is a
+    candidate. `own_limit_x` (m) moving at `own_limit_speed` (m/s): the farthest the
+    SV's centre may get in its own lane (its leader's rear less half the SV and a
+    standstill gap): a gap ahead whose aim lies beyond it when reached is not a
+    candidate. `max_speed` (m/s): the most the SV may drive in its own lane; a gap
+    ahead moving at least that fast cannot be reached (one moving at the target lane's
+    31.8 m/s ahead of an SV held to 30.6 m/s was chased for good, issue 22), and one
+    moving slower is reached no sooner than the speed difference allows."""
     length = gaps.hi - gaps.lo
     room = np.maximum(length, 0.0)
     margin = np.minimum(np.maximum(cfg.margin, cfg.margin_share * np.where(
@@ -232,17 +271,27 @@ def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: fl
     aim = np.clip(sv_x, gaps.lo + margin, gaps.hi - margin)
     e = aim - sv_x
     t = reach_time(e, sv_speed - gaps.speed, cfg.approach_accel)
+    # reachability within the SV's own speed limit: the aim ahead closes at most at
+    # max_speed - v_g
+    closing = max_speed - gaps.speed
+    ahead = e > 1e-6
+    t = np.where(ahead, np.where(closing > MIN_CLOSING,
+                                 np.maximum(t, e / np.maximum(closing, MIN_CLOSING)), np.inf),
+                 t)
     # the slot when the SV gets there: its ends move at the follower's / leader's speed
-    lo_t = gaps.lo + gaps.v_lo * t
-    hi_t = gaps.hi + gaps.v_hi * t
-    aim_t = aim + gaps.speed * t
+    tf = np.where(np.isfinite(t), t, 0.0)  # out of reach (inf) fails the horizon below
+    lo_t = gaps.lo + gaps.v_lo * tf
+    hi_t = gaps.hi + gaps.v_hi * tf
+    aim_t = aim + gaps.speed * tf
     ok = (length >= 0.0) & (hi_t - lo_t >= 0.0) & (t <= cfg.horizon) & (np.abs(e) <= cfg.reach)
     ok &= (aim_t >= lo_t - 1e-6) & (aim_t <= hi_t + 1e-6)
     if math.isfinite(own_limit_x):
-        ok &= (aim_t <= own_limit_x + own_limit_speed * t) | (e <= 0.0)
+        ok &= (aim_t <= own_limit_x + own_limit_speed * tf) | (e <= 0.0)
     if not ok.any():
         return None
-    cost = np.where(ok, t + 1e-3 * np.abs(gaps.speed - desired_speed), np.inf)
+    cost = np.where(ok, gap_cost(t, aim, sv_x, sv_speed, sv_length, gaps, cfg,
+                                        follower)
+                    + 1e-3 * np.abs(gaps.speed - desired_speed), np.inf)
     j = int(np.argmin(cost))
     inside = bool(gaps.lo[j] <= sv_x <= gaps.hi[j])
     relation = "alongside" if inside else ("ahead" if e[j] > 0.0 else "behind")

@@ -44,6 +44,9 @@ if TYPE_CHECKING:
 
 WANT_HOLD = 20.0  # s, a lane the decision rule wanted is sought this long at most
 STOP_GAP = 2.5  # m, IDM standstill gap s0 of this policy (SUMO's minGap; >= 2 m in a queue)
+COOLNESS = 0.99  # -, its car following is the ACC model (IDM + CAH, rule.acc_blend): after
+# a merge into a slot of GapConfig.headway it reopens its 1.5 s gap braking about the
+# IDM's b = 2 m/s^2 at most while the new leader keeps its speed (plain IDM: up to 8)
 
 
 @register("gap")
@@ -58,7 +61,8 @@ class GapPolicy:
 
     def __init__(self, ctx: DrivingContext, gap: GapConfig | None = None,
                  follower: FollowerModel | None = None) -> None:
-        cfg = replace(ctx.decision, idm_min_gap=max(ctx.decision.idm_min_gap, STOP_GAP))
+        cfg = replace(ctx.decision, idm_min_gap=max(ctx.decision.idm_min_gap, STOP_GAP),
+                      idm_coolness=COOLNESS)
         self.lanes = ctx.lanes
         self.ask_gap = ctx.ports.ask_gap
         self._blinker = ctx.ports.blinker
@@ -122,7 +126,7 @@ class GapPolicy:
         d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg, self.gap_cfg,
                          self.follower, wanted_lane=wanted,
                          allow_change=scripted is not None or self.decision)
-        following.limit(d.accel, d.leader_gap)
+        following.limit(d.accel, d.leader_gap, d.leader_speed)
         self.last = d
         if scripted is None and self.wanted is None and d.target_lane is not None:
             self.wanted = (lane, d.target_lane, t + WANT_HOLD)

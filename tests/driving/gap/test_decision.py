@@ -48,7 +48,8 @@ def test_slow_leader_and_a_blocked_faster_lane_approaches_a_gap() -> None:
     assert d.gap is not None and d.gap.relation == "behind"  # slower than lane 2: behind
     assert d.gap.follower == 1 and d.gap.leader == 2
     assert not d.plan_now
-    assert d.cooperate_with == 1  # the follower of the chosen gap may be asked to yield
+    # the chosen gap's follower is 100 m behind: it already has room, nobody is asked
+    assert d.cooperate_with == -1
     assert d.vxf == 28.0  # the gap's speed, not the band rule's 30.6
     assert d.accel < 0.0  # it falls back toward the gap
 

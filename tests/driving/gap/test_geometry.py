@@ -94,7 +94,9 @@ def test_alongside_gap_is_reachable_at_its_speed() -> None:
     assert c_fast is not None and c_fast.index == 1 and not c_fast.reachable
     # inside the slot at the gap's speed but too close to the leader at the SV's speed
     g_near = lane([-100.0, 30.0], 25.0)
-    c_near = choose_gap(0.0, 29.0, SV_LEN, 30.0, g_near, CFG, KRAUSS)
+    # (held to 29 m/s in its own lane: the open lane ahead of the leader, at 30 m/s, is
+    # out of reach; without that limit the gap ahead, which asks no braking, ranks first)
+    c_near = choose_gap(0.0, 29.0, SV_LEN, 30.0, g_near, CFG, KRAUSS, max_speed=29.0)
     assert c_near is not None and c_near.index == 1 and c_near.relation == "alongside"
     assert not c_near.reachable and c_near.target_speed < 25.0  # falls back first
 

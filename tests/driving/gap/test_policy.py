@@ -130,8 +130,11 @@ def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
 
 @pytest.mark.parametrize(("xs", "asked_tv"), [
     ([-120.0, 120.0], None),  # a free gap beside: it goes, nobody is asked
-    ([-100.0, 0.0, 100.0], "tv0"),  # a TV beside: the follower of the gap behind it
-    ([-8.0, 60.0], "tv0"),  # just ahead of a TV, too close: that TV blocks
+    # a TV beside: the gap behind it is taken; its follower, 100 m back, has room
+    ([-100.0, 0.0, 100.0], None),
+    # just ahead of a TV, too close, the gap ahead out of reach at the SV's lane limit
+    # (everybody at 25 m/s, lane 0's limit): it drops behind the TV, nobody is asked
+    ([-8.0, 60.0], None),
     ([20.0, 100.0], None),  # the gap's follower is ahead of the SV: it is not asked to brake
 ])
 def test_only_a_follower_behind_the_sv_that_blocks_the_gap_is_asked(
