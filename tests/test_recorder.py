@@ -10,6 +10,7 @@ import numpy as np
 from cosim.driving.base import PolicyStatus
 from cosim.params import RoadParams
 from cosim.recorder import COLUMN, Recorder
+from cosim.scenario import project_root
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import SV_ID, Scene, SVState
 
@@ -76,7 +77,8 @@ def test_road_columns_follow_the_track_across_a_junction_on_the_curved_motorway(
     from cosim.road.road import load_road
     from cosim.run_output import trace_frame
 
-    road = load_road("networks/curved_motorway.net.xml", ["e1", "e2", "e3", "e4"])
+    road = load_road(project_root() / "networks" / "curved_motorway.net.xml",
+                     ["e1", "e2", "e3", "e4"])
     lane = road.lane(1)
     s_values = [float(lane.s_start[k]) + 20.0 for k in range(len(lane.track.pieces))]
     rec = Recorder(len(s_values), L, W, ROAD, route_road=road)
@@ -101,7 +103,7 @@ def test_road_columns_follow_the_track_across_a_junction_on_the_curved_motorway(
 def test_road_columns_on_the_straight_road_are_x_and_y() -> None:
     from cosim.road.road import load_road
 
-    road = load_road("networks/highway.net.xml")
+    road = load_road(project_root() / "networks" / "highway.net.xml")
     rec = Recorder(1, L, W, ROAD, route_road=road)
     snap = scene(0.0, [])
     sv = SVState(123.456, 5.625, 0.0, 20.0, 0.0, 1.0, "highway")

@@ -1,7 +1,8 @@
 """Importing this module compiles every numba function of the package (or loads it
 from numba's on-disk cache) in the importing process: it loads the modules with
 compiled functions (the closed loop, the collision check, the new follower's
-prediction, the loop's per-step geometry in cosim.proximity; each registers its
+prediction, the loop's per-step geometry in cosim.proximity, the road frame's
+conversions in cosim.road.frame; each registers its
 warm-up with cosim.compiled) and runs `warm_up`.
 
 For a fork server's preload list (`cosim.batch.PRELOAD`): the server pays numba's
@@ -16,6 +17,7 @@ import cosim.control.closed_loop  # noqa: F401  (registers its warm-up)
 import cosim.planning.collision  # noqa: F401  (registers its warm-up)
 import cosim.planning.interaction  # noqa: F401  (registers its warm-up)
 import cosim.proximity  # noqa: F401  (registers its warm-up)
+import cosim.road.frame  # noqa: F401  (registers its warm-up: the loop builds the route's road)
 from cosim.compiled import warm_up
 
 warm_up()
