@@ -194,6 +194,22 @@ def not_a_file(path: Any) -> str | None:
     return file_kind(mode)
 
 
+def network_file(path: Any, max_bytes: int) -> Any:
+    """The os.stat_result of a SUMO network file about to be read. InputError when it is
+    not a readable regular file (saying what it is: `not_a_file`) or is over `max_bytes`."""
+    from pathlib import Path
+
+    why = not_a_file(path)
+    if why is not None:
+        raise InputError(str(path), "network", f"{path} ({why})",
+                         "an existing SUMO .net.xml file")
+    st = Path(path).stat()
+    if st.st_size > max_bytes:
+        raise InputError(str(path), "size", f"{st.st_size} bytes",
+                         f"a network file of at most {max_bytes // 2**20} MiB")
+    return st
+
+
 def file_kind(mode: int) -> str:
     """What a file of this st_mode is, in words ("a folder", "a character device", ...)."""
     import stat

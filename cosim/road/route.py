@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
+from cosim.validation import network_file
 
 VCLASS = "passenger"  # lanes a car may use: sidewalks, bike and bus lanes are no tracks
 MAX_NETWORK_BYTES = 256 * 2**20  # refuse bigger files before parsing them
@@ -39,16 +40,7 @@ def read_network(path: Path | str) -> Any:
     """The sumolib network at `path` with its internal lanes (cached on path, mtime,
     size). Raises InputError if it is missing, too big or not a SUMO network."""
     path = Path(path)
-    try:
-        st = path.stat()
-        is_file = path.is_file()
-    except (OSError, ValueError):
-        is_file = False
-    if not is_file:
-        raise InputError(str(path), "network", str(path), "an existing SUMO .net.xml file")
-    if st.st_size > MAX_NETWORK_BYTES:
-        raise InputError(str(path), "size", f"{st.st_size} bytes",
-                         f"a network file of at most {MAX_NETWORK_BYTES // 2**20} MiB")
+    st = network_file(path, MAX_NETWORK_BYTES)
     found = _read(str(path), st.st_mtime_ns, st.st_size)
     if isinstance(found, InputError):
         raise found

@@ -24,6 +24,7 @@ from pathlib import Path
 
 from cosim.errors import InputError
 from cosim.params import RoadParams
+from cosim.validation import network_file
 
 NETWORK_DIR = Path(__file__).resolve().parents[2] / "networks"  # repository's networks/
 DEFAULT_NAME = "highway"
@@ -135,16 +136,7 @@ def load_highway(path: Path = DEFAULT_NETWORK) -> Highway:
     validation, `cosim plan` and the simulation read a network once per process.
     """
     path = Path(path)
-    try:
-        st = path.stat()
-        is_file = path.is_file()
-    except (OSError, ValueError):
-        is_file = False
-    if not is_file:
-        raise InputError(str(path), "network", str(path), "an existing SUMO .net.xml file")
-    if st.st_size > MAX_NETWORK_BYTES:
-        raise InputError(str(path), "size", f"{st.st_size} bytes",
-                         f"a network file of at most {MAX_NETWORK_BYTES // 2**20} MiB")
+    st = network_file(path, MAX_NETWORK_BYTES)
     found = _read_highway(str(path), st.st_mtime_ns, st.st_size)
     if isinstance(found, InputError):
         raise found
