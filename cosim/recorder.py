@@ -323,20 +323,15 @@ class Recorder:
         """m/s^2, `follower_max_decel_mps2` (METRIC_DOCS; metrics.follower_max_decel)
         over the lane changes starting at `starts` toward the lane centres `targets`."""
         t = trace["t_s"]
-        chunks = self.tracks.chunks
-        chunk_t = np.array([c[0] for c in chunks])
         tracks: dict[str, tuple[Array, Array, Array]] | None = None
         worst = math.nan
         for s, y_target, e, d in zip(starts, targets, ends, durations, strict=True):
-            lane = self.road.lane_of(y_target)
-            enter = mx.lane_entry_time(t, trace["lane"], s, lane, e)
-            k = int(np.searchsorted(chunk_t, enter - 1e-9)) if math.isfinite(enter) else -1
-            if k < 0 or k >= chunk_t.size or abs(chunk_t[k] - enter) > 1e-9:
+            lane, enter, k = self._entered(t, trace["lane"], s, y_target, e)
+            if k is None:
                 continue  # never entered, or nobody near then
-            _, ids, x, y = chunks[k]
+            _, ids, x, _ = self.tracks.chunks[k]
             sv_x = float(np.interp(enter, t, trace["x_m"]))
-            tv_lane = np.floor((y - self.road.y_right) / self.road.lane_width)
-            behind = np.where((tv_lane == lane) & (x < sv_x), x, -np.inf)
+            behind = np.where(self._in_lane(k, lane) & (x < sv_x), x, -np.inf)
             if not np.isfinite(behind.max()):
                 continue  # no follower
             tracks = tracks if tracks is not None else self.tracks.result()
@@ -358,21 +353,18 @@ class Recorder:
         the SV's hardest braking after it; the first request's time to the target lane."""
         t, lane, ax = trace["t_s"], trace["lane"], trace["ax_mps2"]
         m: dict[str, float] = mx.longitudinal_comfort(t, ax)
-        chunk_t = np.array([c[0] for c in self.tracks.chunks])
         gaps, decels = [], []
         for s, y_target, e, d in zip(done.starts, done.targets, done.ends, durations,
                                      strict=True):
-            target = self.road.lane_of(y_target)
-            enter = mx.lane_entry_time(t, lane, s, target, e)
+            target, enter, k = self._entered(t, lane, s, y_target, e)
             if not math.isfinite(enter):
                 continue
             decels.append(mx.post_change_max_decel(t, ax, enter, s + d))
-            k = int(np.searchsorted(chunk_t, enter - 1e-9))
-            if k >= chunk_t.size or abs(chunk_t[k] - enter) > 1e-9:
+            if k is None:
                 gaps.append(math.inf)  # nobody near then
                 continue
-            _, _, x, y = self.tracks.chunks[k]
-            in_lane = np.floor((y - self.road.y_right) / self.road.lane_width) == target
+            x = self.tracks.chunks[k][2]
+            in_lane = self._in_lane(k, target)
             gaps.append(mx.time_gap(float(np.interp(enter, t, trace["x_m"])),
                                     float(np.interp(enter, t, trace["vx_mps"])),
                                     self.sv_length, x[in_lane], self.tracks.lengths[k][in_lane]))
@@ -387,6 +379,27 @@ class Recorder:
                                else (float(first["t_s"]), int(first["target_lane"])))
         m["request_to_lane_s"] = mx.request_to_lane(t, lane, request, wanted)
         return m
+
+    def _entered(self, t: Array, lane: Array, start: float, y_target: float,
+                 end: float) -> tuple[int, float, int | None]:
+        """A lane change's target lane, when the SV's centre entered it (NaN: never) and
+        the index of the TVs' sample (`tracks.chunks`) at that instant (None: never
+        entered, or nobody near then)."""
+        target = self.road.lane_of(y_target)
+        enter = mx.lane_entry_time(t, lane, start, target, end)
+        if not math.isfinite(enter):
+            return target, enter, None
+        chunk_t = np.array([c[0] for c in self.tracks.chunks])
+        k = int(np.searchsorted(chunk_t, enter - 1e-9))
+        if k >= chunk_t.size or abs(chunk_t[k] - enter) > 1e-9:
+            return target, enter, None
+        return target, enter, k
+
+    def _in_lane(self, k: int, lane: int) -> Array:
+        """Mask of sample k's TVs whose centre lies in `lane`'s strip (unclipped: a TV
+        off the road is in no lane)."""
+        y = self.tracks.chunks[k][3]
+        return np.floor((y - self.road.y_right) / self.road.lane_width) == lane
 
     def _record_road(self, row: Array, sv: SVState) -> None:
         """The SV's (s, d), its road id (as an index into `edges`) and track."""
