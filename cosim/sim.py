@@ -157,7 +157,7 @@ class CoSimulation:
         sc, recorder = self.sc, self.recorder
         trace = recorder.trace()
         self.ego.finish_trace(trace)
-        done = self.policy.summary(trace["t_s"], trace["y_m"])
+        done = self.policy.summary(trace["t_s"], trace["d_m"])  # d: across the road
         metrics = recorder.metrics(sc, trace, done, plant=self.ego.plant,
                                    tracks_reference=self.ego.tracks_reference,
                                    n_steps=self.n_steps, events=len(events))

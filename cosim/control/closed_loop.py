@@ -66,6 +66,7 @@ from cosim.compiled import Array, njit, register_warm_up
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.road.frame import Frame, StraightFrame, pose_in_frame
 from cosim.vehicle.actuators import ActuatorLimits, steer_core
 from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
 from cosim.vehicle.chassis import ChassisParams, chassis_for
@@ -74,7 +75,7 @@ from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
 from .allocation import allocate_core
 from .longitudinal import longitudinal_core, speed_gain, speed_gain_inverse_lag
-from .reference import PathErrors, ReferencePath, path_errors
+from .reference import PathErrors, ReferencePath, frame_path_errors
 from .triple_step import check_gains, law_params, mimo_core, siso_core
 
 PLANTS = ("twotrack", "bicycle")
@@ -119,22 +120,27 @@ CP_KX1_SLOPE = 12  # 1/(m s), eq. 28's low-speed form (`longitudinal.speed_gain`
 # cs: 0 projection (path parameter, s), 1 int(ye) (m s), 2 int(phi_e) (rad s),
 # 3 delta_f applied (rad), 4 dMz (N m), 5 Fa (N), 6-9 wheel forces (N),
 # 10 last control saturated (0/1), 11-15 a non-finite control output
-# (delta_f, dMz, Fa, ye, phi_e), 16 time of a non-finite plant state (s)
-CS_SIZE = 17
+# (delta_f, dMz, Fa, ye, phi_e), 16 time of a non-finite plant state (s),
+# 17 the car's s in the road frame at the last sample (m; the next search's hint)
+CS_SIZE = 18
+CS_S_ROAD = 17
 OK, BAD_CONTROL, BAD_STATE = 0, 1, 2
 PLANT_CODES = {"twotrack": 0, "bicycle": 1}
 
 
 @njit
-def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: float,
-                 h_ctrl: float) -> int:
+def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Array,
+                 cs: Array, t: float, h_ctrl: float) -> int:
     """Sample state s at time t, compute and limit the inputs into cs (held until the
-    next call): projection and errors (eq. 16), MIMO (eq. 22-24) or SISO law, Fa
-    (eq. 28), allocation (eq. 30), actuator limits, conditional integration.
-    Returns OK, or BAD_CONTROL with the non-finite outputs in cs[11:16]."""
-    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _) = path_errors(
-        coef, t, s[0], s[1], s[2], s[3], s[4], s[5], cs[0])
+    next call): projection and errors (eq. 16; the reference in the road frame fp, fr),
+    MIMO (eq. 22-24) or SISO law, Fa (eq. 28), allocation (eq. 30), actuator limits,
+    conditional integration. Returns OK, or BAD_CONTROL with the non-finite outputs in
+    cs[11:16]."""
+    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _, s_road, _,
+     _) = frame_path_errors(coef, fp, fr, t, s[0], s[1], s[2], s[3], s[4], s[5], cs[0],
+                            cs[CS_S_ROAD])
     cs[0] = sproj
+    cs[CS_S_ROAD] = s_road
     vx = max(s[3], cp[CP_FLOOR])
     # below the floor the lateral errors barely move: integrate over distance, not time,
     # and fade the yaw moment (at rest it would only pivot the car); 1 above the floor
@@ -181,7 +187,8 @@ def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: floa
 
 @njit
 def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Array,
-                 coef: Array, lp: Array, cp: Array, cs: Array, t: float, h: float,
+                 coef: Array, fp: Array, fr: Array, lp: Array, cp: Array, cs: Array,
+                 t: float, h: float,
                  substeps: int, control_every: int, counter: int) -> tuple[int, int, bool]:
     """`substeps` substeps of h from time t: the controller every `control_every`-th
     substep (`control_core`), then the plant (kind 0 two-track, 1 bicycle) over the
@@ -191,7 +198,7 @@ def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Ar
     for k in range(substeps):
         tk = t + k * h
         if counter % control_every == 0:
-            if control_core(s, coef, lp, cp, cs, tk, h * control_every) != OK:
+            if control_core(s, coef, fp, fr, lp, cp, cs, tk, h * control_every) != OK:
                 return BAD_CONTROL, counter, saturated
             saturated = saturated or cs[10] != 0.0
         counter += 1
@@ -229,6 +236,7 @@ class ClosedLoop:
         speed_floor: float = 1.0,  # m/s, the control laws never divide by less
         yaw_moment_share: float | None = YAW_MOMENT_SHARE,  # -, friction share of dMz (None: off)
         low_speed_gain: bool = True,  # eq. 28's gain within the tyres' lag (False: as printed)
+        frame: Frame | None = None,  # the road frame the references are given in (None: x, y)
     ) -> None:
         if plant not in PLANTS:
             raise InputError("closed loop", "plant", plant, f"one of {', '.join(PLANTS)}")
@@ -275,6 +283,10 @@ class ClosedLoop:
             speed_gain_inverse_lag(ch.tyre.relaxation_long) if low_speed_gain else 0.0,
         ])
         self._cs = np.zeros(CS_SIZE)
+        self._cs[CS_S_ROAD] = math.nan
+        self.frame = frame or StraightFrame(0.0, 0.0, 0.0)
+        self._fp, self._fr = self.frame.packed()
+        self.road_pose = (math.nan, math.nan, math.nan)  # `errors`: s, d, heading to the road
         self._path: ReferencePath | None = None
         self._counter = 0
 
@@ -299,7 +311,9 @@ class ClosedLoop:
         from the closest point of the new path."""
         self._path = ReferencePath(reference)
         s = self.plant.state
-        self._cs[0], _ = self._path.project(float(s[0]), float(s[1]), float(reference.t0))
+        s_road, d_road, _, _ = pose_in_frame(self._fp, self._fr, float(s[0]), float(s[1]),
+                                             float(self._cs[CS_S_ROAD]))
+        self._cs[0], _ = self._path.project(s_road, d_road, float(reference.t0))
         if reset:
             self.reset_integrators()
 
@@ -313,9 +327,12 @@ class ClosedLoop:
         """Path errors of the current plant state at time t (the reference must be set)."""
         assert self._path is not None
         x, y, psi, vx, vy, r = self.plant.state[:6].tolist()
-        e = self._path.errors(t, x, y, psi, vx, vy, r, float(self._cs[0]))
-        self._cs[0] = e.s
-        return e
+        e = frame_path_errors(self._path.coef, self._fp, self._fr, t, x, y, psi, vx, vy, r,
+                              float(self._cs[0]), float(self._cs[CS_S_ROAD]))
+        self._cs[0] = e[5]
+        self._cs[CS_S_ROAD] = e[11]
+        self.road_pose = (e[11], e[12], e[13])
+        return PathErrors(*e[:11])
 
     def advance(
         self, t: float, dt: float, substeps: int, reference: LaneChangeTrajectory
@@ -332,7 +349,8 @@ class ClosedLoop:
         plant = self.plant
         status, self._counter, saturated = advance_core(
             self._kind, plant.state, plant._const, plant._inputs, self._pforces,
-            self._path.coef, self._lp, self._cp, self._cs, float(t), dt / substeps,
+            self._path.coef, self._fp, self._fr, self._lp, self._cp, self._cs, float(t),
+            dt / substeps,
             substeps, self.control_every, self._counter,
         )
         if status == BAD_STATE:

@@ -57,6 +57,18 @@ class TrafficSnapshot:
     length: np.ndarray  # m
     width: np.ndarray  # m
     signals: np.ndarray  # int, SUMO signal bits (1 right blinker, 2 left blinker)
+    # seen in road coordinates (cosim.traffic.road_view): the Cartesian centre poses
+    # (x, y above are then s, d); None: x, y, heading are the Cartesian ones
+    cx: np.ndarray | None = None  # m
+    cy: np.ndarray | None = None  # m
+    ch: np.ndarray | None = None  # rad
+
+    @property
+    def cartesian(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(x, y, heading): the Cartesian centre poses, whichever view this is."""
+        if self.cx is None or self.cy is None or self.ch is None:
+            return self.x, self.y, self.heading
+        return self.cx, self.cy, self.ch
 
     @property
     def intention(self) -> np.ndarray:
@@ -93,6 +105,9 @@ class TrafficSnapshot:
             length=self.length[mask],
             width=self.width[mask],
             signals=self.signals[mask],
+            cx=None if self.cx is None else self.cx[mask],
+            cy=None if self.cy is None else self.cy[mask],
+            ch=None if self.ch is None else self.ch[mask],
         )
 
 

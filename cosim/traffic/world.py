@@ -31,6 +31,7 @@ from cosim.road.road import load_road
 from cosim.scenario.model import Scenario
 from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
+from cosim.traffic.road_view import cartesian_pose, is_identity, road_pose, road_view
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
 Array = NDArray[np.float64]
@@ -55,6 +56,15 @@ class SVState:
     vy: float  # m/s, body lateral speed
     sumo_lane: float  # SUMO's lane index of the SV (-1: off the network)
     edge: str = ""  # SUMO's road id of the SV (a junction's internal edge too; "": off it)
+    # (x m, y m, heading rad) in the Cartesian plane when x, y, heading are road
+    # coordinates (cosim.traffic.road_view); None: they are the Cartesian ones
+    cartesian: tuple[float, float, float] | None = None
+    stretch: float = 1.0  # -, q of the frame at the SV: its speed is q vx (road_view)
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """(x m, y m, heading rad): the Cartesian centre pose."""
+        return self.cartesian if self.cartesian is not None else (self.x, self.y, self.heading)
 
 
 @dataclass(frozen=True)
@@ -107,8 +117,11 @@ class World:
         )
         self.scenario = sc
         # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
-        # edge the identity StraightFrame); so far only the trace's s_m, d_m, track use it
+        # edge the identity StraightFrame); everything read and written is converted
+        # through it (cosim.traffic.road_view)
         self.route_road = load_road(sc.network, sc.route, source=str(sc.path))
+        self.frame = self.route_road.frame
+        self._s_hint: float | None = None  # m, the SV's s at the last read
         self.started = False
         self.wall = 0.0
         self.wall_read = 0.0
@@ -175,7 +188,19 @@ class World:
         if SV_ID not in snap.ids:  # the SUMO-driven SV reached the road's end
             raise SimulationError(snap.time - self.t_offset,
                                   "the SV is no longer on the network (end of the road?)")
-        return snap
+        if is_identity(self.frame):
+            return snap
+        seen = road_view(snap, self.frame, self._s_hint)
+        self._s_hint = float(seen.x[seen.index(SV_ID)])
+        return seen
+
+    def cartesian(self, s: float, d: float, heading: float) -> tuple[float, float, float, float]:
+        """(x, y, heading, q) of a pose in road coordinates (road_view.cartesian_pose)."""
+        return cartesian_pose(self.frame, s, d, heading)
+
+    def road_pose(self, x: float, y: float, heading: float) -> tuple[float, float, float, float]:
+        """(s, d, heading to the road, q) of a Cartesian pose (road_view.road_pose)."""
+        return road_pose(self.frame, x, y, heading, self._s_hint)
 
     def step(self) -> set[tuple[str, ...]]:
         """SUMO moves its vehicles to the next step; returns SUMO's collisions of that
@@ -194,13 +219,21 @@ class World:
     def add_controlled(self, vehicle_id: str, x: float, y: float, heading: float,
                        speed: float, length: float, width: float, lane: int,
                        vtype: str = "sv") -> None:
-        """A vehicle SUMO does not drive (the SV, a scripted TV) at its centre pose."""
-        self.sumo.add_controlled(vehicle_id, x, y, heading, speed, length, width, lane,
+        """A vehicle SUMO does not drive (the SV, a scripted TV) at its centre pose in road
+        coordinates (s, d, heading to the road, speed along s)."""
+        cx, cy, ch, q = self.cartesian(x, y, heading)
+        self.sumo.add_controlled(vehicle_id, cx, cy, ch, speed * q, length, width, lane,
                                  vtype=vtype)
 
     def move(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
              accel: float | None = None) -> None:
-        """A controlled vehicle's centre pose (holds from the next step)."""
+        """A controlled vehicle's centre pose in road coordinates (holds from the next step)."""
+        cx, cy, ch, q = self.cartesian(x, y, heading)
+        self.sumo.move(vehicle_id, cx, cy, ch, speed * q, None if accel is None else accel * q)
+
+    def move_xy(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
+                accel: float | None = None) -> None:
+        """A controlled vehicle's Cartesian centre pose (the SV's plant; from the next step)."""
         self.sumo.move(vehicle_id, x, y, heading, speed, accel)
 
     def replay_sv(self, x: list[float], y: list[float], heading: list[float],
@@ -247,11 +280,11 @@ class World:
 
     def read_all(self) -> TrafficSnapshot:
         """Every vehicle on the network, accelerations and signals included."""
-        return self.sumo.snapshot()
+        return road_view(self.sumo.snapshot(), self.frame, self._s_hint)
 
     def read_again(self, ids: tuple[str, ...]) -> TrafficSnapshot:
         """These vehicles again, accelerations and signals included."""
-        return self.sumo.reader.read(ids)
+        return road_view(self.sumo.reader.read(ids), self.frame, self._s_hint)
 
     # ------------------------------------------------ gap requests (cooperation)
     def open_gap_requests(self) -> None:
