@@ -194,6 +194,7 @@ class RunResult:
     records: list[Any] = field(default_factory=list)  # closed-loop StepRecords (ours only)
     first_plan: Any = None  # the planner's first Plan (for the tau-set figure)
     edges: tuple[str, ...] = ()  # SUMO road ids the trace's `edge` column indexes
+    route_road: Road | None = None  # the route's road and (s, d) frame (cosim.road)
 
 
 class Tracks:

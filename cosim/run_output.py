@@ -89,18 +89,26 @@ def write_run_figures(result: RunResult, out: Path) -> list[Path]:
     tr = result.trace
     sc = result.scenario
     spans = [(lc.t0, lc.t0 + lc.tau) for lc in result.lane_changes]
+    curved = result.route_road is not None and result.route_road.curved
+    view = "road coordinates (s, d)" if curved else "global trajectories"
     paths = [
-        global_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["x_m"], tr["y_m"],
+        # in road coordinates (s, d) as the planner sees them: x, y on the straight road
+        global_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["s_m"], tr["d_m"],
                             result.tv_tracks, result.road,
                             highlight=[tv.id for tv in sc.tvs], lane_changes=spans,
                             requests=[float(p["t_s"]) for p in result.plans
                                       if p.get("trigger") in ("scripted", "decision")],
                             roles={tv.id: tv_role(tv) for tv in sc.tvs},
-                            title=f"{sc.name}: global trajectories (dots every 1 s)"),
+                            title=f"{sc.name}: {view} (dots every 1 s)"),
         gap_history(figure_path(out, "gaps"), tr["t_s"], tr["gap_min_m"], tr["leader_gap_m"],
                     tr["ttc_min_s"], lane_changes=spans,
                     title=f"{sc.name}: gaps and time-to-collision"),
     ]
+    if curved:  # the x-y map: SUMO's lanes, the frame's borders, the SV's path
+        from cosim.plots.road import plot_road
+
+        paths.append(plot_road(result.route_road, figure_path(out, "road"),
+                               sv_path=(tr["x_m"], tr["y_m"])))
     if result.records:
         from cosim.control.tracking import TrackingRun
         from cosim.plots.tracking import plot_inputs, plot_states

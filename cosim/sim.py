@@ -45,7 +45,7 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cosim.driving import registry
 from cosim.driving.base import DrivingContext, LaneChangePolicy, WorldPorts
@@ -62,9 +62,13 @@ from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and 
     Recorder,
     RunResult,
 )
+from cosim.road.road import Road
 from cosim.scenario import Scenario
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.world import Scene, World
+
+if TYPE_CHECKING:
+    from cosim.planning.planner import RoadCurve
 
 ProgressFn = Callable[[int], None]
 SUMO_DRIVES = "sumo"  # the registered policy of the SUMO-driven SV (controller "sumo")
@@ -101,7 +105,8 @@ class CoSimulation:
             ego = PlannedEgo(sc, world, y0, lane_keeping_reference(
                 0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc),
-                                        prediction=cls.prediction)
+                                        prediction=cls.prediction,
+                                        curve=road_curve(world.route_road, sc))
         self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road,
                                  route_road=world.route_road)
         world.insert()
@@ -173,7 +178,19 @@ class CoSimulation:
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
                          records=self.ego.records, first_plan=done.first_plan,
-                         edges=tuple(recorder.edges))
+                         edges=tuple(recorder.edges), route_road=self.world.route_road)
+
+
+def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:
+    """The planner's bound on the road frame's bending (None: a straight road)."""
+    from cosim.planning.planner import RoadCurve
+    from cosim.traffic.sumo import TV_LENGTH, TV_WIDTH
+
+    if not route_road.curved:
+        return None
+    kappa, d_abs = route_road.curvature_bound()
+    top = max(max(hi for _, hi in sc.road.speed_bands), sc.sv.speed, sc.sv.desired_speed or 0.0)
+    return RoadCurve(kappa, d_abs, top, 0.5 * math.hypot(TV_LENGTH, TV_WIDTH))
 
 
 def run_scenario(

@@ -38,12 +38,12 @@ from typing import NamedTuple
 import numpy as np
 
 from cosim.compiled import Array, njit
-from cosim.road.frame import FP_D_OFFSET, point_of_frame, pose_in_frame
 from cosim.planning.trajectory import (
     LaneChangeTrajectory,
     lateral_coefficients,
     longitudinal_coefficients,
 )
+from cosim.road.frame import FP_D_OFFSET, point_of_frame, pose_in_frame
 
 Point = tuple[float, float, float, float, float, float]
 # Layout of the coefficient array: t0, tau, x polynomial (5), y polynomial (6),
