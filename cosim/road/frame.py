@@ -248,8 +248,10 @@ def pose_in_frame(fp: Array, fr: Array, px: float, py: float,
 def point_of_frame(fp: Array, fr: Array, s: float, d: float) -> tuple[float, float, float,
                                                                         float]:
     """(x, y, heading of the reference line at s, its curvature) of one road point (s, d)."""
-    if fp[FP_CURVED] == 0.0:  # (- -x0: -0.0 stays -0.0, as with the identity)
-        return s - (-fp[FP_X0]), d - (-fp[FP_Y0]), 0.0, 0.0
+    if fp[FP_CURVED] == 0.0:
+        if fp[FP_X0] == 0.0 and fp[FP_Y0] == 0.0:  # the identity (-0.0 + 0.0 would be 0.0)
+            return s, d, 0.0, 0.0
+        return s + fp[FP_X0], d + fp[FP_Y0], 0.0, 0.0
     x, y, kappa, theta = fr[0], fr[1], fr[4], fr[5]
     h = fp[FP_H]
     n = kappa.shape[0]
