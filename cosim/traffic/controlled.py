@@ -8,9 +8,11 @@ So, with L the body length,
 
     front = centre + L/2 (cos h, sin h),   angle = (90 - degrees(h)) mod 360.
 
-Controlled vehicles leave SUMO's control (speed mode 0, lane-change mode 0) and are
-written with `vehicle.moveToXY(..., keepRoute=2)`; one that SUMO takes off the
-network (it drops it silently) is caught after the step (`check`).
+Controlled vehicles leave SUMO's control (speed mode 0, lane-change mode 0), are added
+on the route's road (cosim.traffic.route) and written with `vehicle.moveToXY(...,
+keepRoute=2)` with the edge and lane index of the track their front is in as the hint;
+one that SUMO takes off the network (it drops it silently) is caught after the step
+(`check`).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from cosim.errors import InputError, SimulationError
-from cosim.traffic.route import ROUTE_ID
+from cosim.road.tracks import TrackPiece
 from cosim.traffic.snapshot import SIGNAL_BLINKER_LEFT, SIGNAL_BLINKER_RIGHT
 
 
@@ -55,6 +57,8 @@ class _Controlled:
     y_before: float | None = None  # m, centre y written in the step before that
     lateral_speed: float = 0.0  # m/s, dy/dt of the written poses (SUMO reports 0 for them)
     signals: int = -1  # SUMO signal bits to hold (-1: leave them to SUMO)
+    s_front: float = math.nan  # m, s of its front last written (where to look first)
+    hint: TrackPiece | None = None  # the SUMO lane of the track its front was in
 
 
 class ControlledVehicles:
@@ -69,17 +73,25 @@ class ControlledVehicles:
         self.release_modes: dict[str, tuple[float, int]] = {}  # add_driven: (desired m/s, lc mode)
 
     def add(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
-            length: float, width: float, lane: int, type_id: str) -> None:
+            length: float, width: float, track: int, type_id: str) -> None:
         """Insert it (in the next step) with speed mode 0 and lane-change mode 0 (out of
-        SUMO's control), at its pose."""
-        api = self.sim.api
-        front = x - self.sim.highway.x_start + 0.5 * length
+        SUMO's control), at its centre pose, on `track` (a track id of the route: an SV
+        lane k is track k) and on the rest of the route from the edge its front is on."""
+        sim = self.sim
+        api = sim.api
+        lanes = sim.lanes
+        s, _ = lanes.road.frame.to_frenet(x, y)
+        place = lanes.place(track, s + 0.5 * length)
+        front = place.position
+        if place.route_index == 0:  # its whole body on the route
+            front = max(front, length)
+        piece_length = lanes.table(track).track.piece_on(place.edge).length
         api.vehicle.add(
             vehicle_id,
-            ROUTE_ID,
+            lanes.route_id(api, place.route_index),
             typeID=type_id,
-            departLane=str(lane),
-            departPos=repr(float(min(max(front, length), self.sim.highway.length))),
+            departLane=str(place.index),
+            departPos=repr(float(min(front, piece_length))),
             departSpeed=repr(float(max(speed, 0.0))),
         )
         api.vehicle.setSpeedMode(vehicle_id, 0)
@@ -105,11 +117,15 @@ class ControlledVehicles:
         if ctl is None:
             raise SimulationError(self.sim.time, f"{vehicle_id} is not a controlled vehicle")
         xf, yf = front_from_centre(x, y, heading, ctl.length)
-        lane = self.sim.road().lane_of(yf)
+        lanes = self.sim.lanes
+        s_f, d_f = lanes.road.frame.to_frenet(xf, yf, s_hint=ctl.s_front)
+        if math.isfinite(s_f):  # NaN: no arc's normals reach it; keep the last hint
+            ctl.s_front, ctl.hint = s_f, lanes.hint(s_f, d_f)
         vehicle = self.sim.api.vehicle
-        vehicle.moveToXY(
-            vehicle_id, self.sim.highway.edge_id, lane, xf, yf, sumo_angle(heading), keepRoute=2
-        )
+        # the edge and lane of the track its front is in: keepRoute 2 then keeps it on its
+        # route, in that lane, across junctions (where SUMO's lane index may change)
+        edge, index = ("", -1) if ctl.hint is None else (ctl.hint.edge, ctl.hint.index)
+        vehicle.moveToXY(vehicle_id, edge, index, xf, yf, sumo_angle(heading), keepRoute=2)
         if ctl.inserted:
             if accel is None:
                 vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0))

@@ -1,8 +1,10 @@
 """The SUMO adapter: the only module (with its parts below) that imports libsumo / traci.
 
-`SumoSim` starts SUMO on the highway network, steps it, reads every traffic vehicle
-(TV) in one pass into a `TrafficSnapshot`, and lets the co-simulation drive vehicles
-it controls itself (the SV and scripted TVs) with `vehicle.moveToXY(..., keepRoute=2)`.
+`SumoSim` starts SUMO on a route's road (cosim.road.road.Road: SUMO's route is its
+edges, the SV's lanes its through tracks, cosim.traffic.route), steps it, reads every
+traffic vehicle (TV) in one pass into a `TrafficSnapshot`, and lets the co-simulation
+drive vehicles it controls itself (the SV and scripted TVs) with
+`vehicle.moveToXY(..., keepRoute=2)`.
 It is put together from parts named for what they are:
 
 - `cosim.traffic.process.SumoProcess`: the SUMO command line, starting and closing
@@ -28,6 +30,7 @@ from types import ModuleType, TracebackType
 
 from cosim.errors import InputError, SimulationError
 from cosim.params import RoadParams
+from cosim.road.road import Road, load_road
 from cosim.traffic import gui as gui_window
 from cosim.traffic.controlled import (  # noqa: F401  (re-exported)
     ControlledVehicles,
@@ -36,9 +39,8 @@ from cosim.traffic.controlled import (  # noqa: F401  (re-exported)
     sumo_angle,
 )
 from cosim.traffic.gui import GuiSettings
-from cosim.traffic.network import Highway, load_highway
 from cosim.traffic.process import SumoProcess, process
-from cosim.traffic.route import ROUTE_ID
+from cosim.traffic.route import ROUTE_ID, RouteLanes, road_params  # noqa: F401
 from cosim.traffic.snapshot import (  # noqa: F401  (TrafficSnapshot: re-exported)
     INVALID,
     SIGNAL_BLINKER_LEFT,
@@ -61,15 +63,16 @@ CONTROLLED_MAX_SPEED = 70.0  # m/s, a controlled vehicle's type cap (SUMO warns 
 
 
 class SumoSim:
-    """One SUMO simulation of the highway, as a context manager.
+    """One SUMO simulation of a route's road, as a context manager (`route`: the edges,
+    None on a one-edge network; `road`: the Road already built of them).
 
     `lanechange_duration` (s) makes traffic lane changes continuous (constant
     lateral speed for that long); `sublane` uses SUMO's sublane model instead
     (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci; `traci`
-    the headless binary so. `speed_bands` (m/s per lane) set each TV's desired speed
-    in the lane it is in. `strict`: a controlled vehicle leaving the network raises
-    SimulationError (else it is only recorded in `events`). `fcd_output`: the file SUMO
-    writes its floating-car data to (--fcd-output), complete once it is closed.
+    the headless binary so. `speed_bands` (m/s per SV lane: per through track) set each
+    TV's desired speed on the track it is on. `strict`: a controlled vehicle leaving the
+    network raises SimulationError (else it is only recorded in `events`). `fcd_output`:
+    the file SUMO writes its floating-car data to (--fcd-output), complete once closed.
     """
 
     def __init__(
@@ -78,31 +81,31 @@ class SumoSim:
         gui: bool | GuiSettings = False, extra_args: Sequence[str] = (),
         speed_bands: tuple[tuple[float, float], ...] | None = None,
         lateral_resolution: float = 0.8, strict: bool = True, traci: bool = False,
-        fcd_output: Path | None = None,
+        fcd_output: Path | None = None, route: Sequence[str] | None = None,
+        road: Road | None = None,
     ) -> None:
         if step <= 0:
             raise InputError("SumoSim", "step", step, "a positive step length in s")
         if lanechange_duration < 0:
             raise InputError("SumoSim", "lanechange_duration", lanechange_duration, ">= 0 s")
-        self.highway: Highway = load_highway(Path(network))
+        # the route's road (cosim.road): SUMO's route is its edges, the SV's lanes its
+        # through tracks (cosim.traffic.route); `road` if the caller has built it
+        self.lanes = RouteLanes(road if road is not None else load_road(network, route))
         self.process: SumoProcess = process(
-            self.highway.path, step, seed, lanechange_duration=lanechange_duration,
+            self.lanes.road.route.path, step, seed, lanechange_duration=lanechange_duration,
             sublane=sublane, gui=gui, extra_args=extra_args,
             lateral_resolution=lateral_resolution, traci=traci, fcd_output=fcd_output)
         self.strict = bool(strict)
-        base = RoadParams()
-        self._road = self.highway.road(
-            RoadParams(speed_bands=speed_bands) if speed_bands is not None else base
-        )
-        if self._road.n_lanes != self.highway.n_lanes:
-            raise InputError(
-                str(network), "speed_bands", speed_bands, f"{self.highway.n_lanes} (min, max) pairs"
-            )
+        base = RoadParams() if speed_bands is None else RoadParams(speed_bands=speed_bands)
+        self._road = road_params(self.lanes.road, base, str(network))
+        n = len(self.lanes.through)
+        if self._road.n_lanes != n:
+            raise InputError(str(network), "speed_bands", speed_bands,
+                             f"{n} (min, max) pairs (one per lane of the route)")
         self.events: list[TrafficEvent] = []
         self.controlled = ControlledVehicles(self)
-        self.bands = SpeedBands(self._road.speed_bands,
-                                 tuple(f"{self.highway.edge_id}_{i}"
-                                       for i in range(self.highway.n_lanes)))
+        self.bands = SpeedBands(self._road.speed_bands, self.lanes.edge_lanes,
+                                self.lanes.band_index)
         self.traffic = TrafficVehicles(self, self.bands)
         self.dims: dict[str, tuple[float, float]] = {}  # vehicle id -> (length, width)
         self._hooks: list[Callable[[SumoSim], None]] = []
@@ -133,8 +136,10 @@ class SumoSim:
         api = self.process.start()
         if self.gui:
             self.add_hook(gui_window.Pacer(self.gui.speed))
-        self._reader = SnapshotReader(api, self.dims, self.controlled.lateral_speeds)
-        api.route.add(ROUTE_ID, [self.highway.edge_id])
+        self._reader = SnapshotReader(api, self.dims, self.controlled.lateral_speeds,
+                                      self.lanes.through_lane)
+        self.lanes.forget_routes()
+        self.lanes.route_id(api, 0)  # the whole route
         self._ensure_type(TV_TYPE, TV_LENGTH, TV_WIDTH, traffic=True)
         return self
 
@@ -181,7 +186,8 @@ class SumoSim:
         return float(self.api.simulation.getTime())
 
     def road(self) -> RoadParams:
-        """Road geometry from the network (lane width, y_right) with the speed bands."""
+        """The planner's road in (s, d) (cosim.traffic.route.road_params: the lanes'
+        width, y_right 0) with the speed bands."""
         return self._road
 
     def add_hook(self, hook: Callable[[SumoSim], None]) -> None:
@@ -227,17 +233,19 @@ class SumoSim:
         self._types.add(type_id)
 
     def add_traffic(
-        self, vehicle_id: str, lane: int, x: float, quantile: float, speed: float | None = None
+        self, vehicle_id: str, track: int, s: float, quantile: float, speed: float | None = None
     ) -> None:
-        """Insert a TV (TrafficVehicles.add)."""
-        self.traffic.add(vehicle_id, lane, x, quantile, speed)
+        """Insert a TV with its centre at arc length `s` (m) on `track`
+        (TrafficVehicles.add)."""
+        self.traffic.add(vehicle_id, track, s, quantile, speed)
 
     def add_driven(
-        self, vehicle_id: str, lane: int, x: float, speed: float, desired_speed: float,
-        length: float, width: float, *, own_lane_changes: bool = True,
+        self, vehicle_id: str, track: int, pose: tuple[float, float, float], speed: float,
+        desired_speed: float, length: float, width: float, *, own_lane_changes: bool = True,
     ) -> None:
-        """A vehicle SUMO will drive itself (the SV of the 'sumo' baseline): centre at
-        global x in `lane`, its own size, no driver imperfection, desired speed in m/s.
+        """A vehicle SUMO will drive itself (the SV of the 'sumo' baseline): centre `pose`
+        (x m, y m, heading rad) on `track`, its own size, no driver imperfection, desired
+        speed in m/s.
 
         It is placed like a controlled vehicle (exactly there, whatever the gaps:
         SUMO's own insertion may refuse or delay a car in dense traffic) and handed
@@ -249,10 +257,17 @@ class SumoSim:
         self._ensure_type(type_id, length, width, traffic=False)
         self.api.vehicletype.setImperfection(type_id, 0.0)
         self.dims[f"type:{type_id}"] = (length, width)
-        self.add_controlled(vehicle_id, x, self._road.lane_center(lane), 0.0, speed, length,
-                            width, lane, vtype=type_id)
+        x, y, heading = pose
+        self.add_controlled(vehicle_id, x, y, heading, speed, length, width, track,
+                            vtype=type_id)
         self.controlled.release_modes[vehicle_id] = (float(desired_speed),
                                                      1621 if own_lane_changes else 512)
+
+    def centre_pose(self, track: int, s: float) -> tuple[float, float, float]:
+        """(x m, y m, heading rad): the centre of `track`'s lane at arc length `s` (m)."""
+        frame = self.lanes.road.frame
+        x, y, heading = frame.to_cartesian(s, float(self.lanes.table(track).centre(s)))
+        return float(x), float(y), float(heading)
 
     def follow_in_gui(self, vehicle_id: str) -> None:
         """sumo-gui only: keep the main view centred on a vehicle (no-op without GUI)."""
@@ -276,7 +291,8 @@ class SumoSim:
         lane: int,
         vtype: str = "sv",
     ) -> None:
-        """Add a vehicle SUMO does not drive (SV, scripted TV): centre pose, its own size.
+        """Add a vehicle SUMO does not drive (SV, scripted TV): centre pose, its own size,
+        on track `lane` (an SV lane k is track k; ControlledVehicles.add).
 
         Speed mode 0 and lane-change mode 0 take it out of SUMO's control; the
         pose is written with moveToXY and holds from the next step on.

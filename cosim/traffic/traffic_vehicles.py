@@ -1,11 +1,11 @@
 """Traffic vehicles (TVs): inserted where asked, each keeping the speed band of the lane
-it is in (cosim.traffic.sumo's traffic part).
+it is on (cosim.traffic.sumo's traffic part).
 
 Traffic vehicles keep the lane speed bands (Section 5): each TV has a place in [0, 1]
-within a band, and whenever its lane changes its desired speed (maxSpeed; speedFactor
-1) is set to that place in the new lane's band. SUMO's lane-change model decides the
-changes; `--lanechange.duration` makes them continuous (constant lateral speed), the
-sublane model is the alternative.
+within a band, and whenever its track (cosim.road.tracks) changes its desired speed
+(maxSpeed; speedFactor 1) is set to that place in the new track's band. SUMO's
+lane-change model decides the changes; `--lanechange.duration` makes them continuous
+(constant lateral speed), the sublane model is the alternative.
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ from types import ModuleType
 from typing import Any
 
 from cosim.errors import InputError
-from cosim.traffic.route import ROUTE_ID
 
 TV_TYPE = "tv"
 TV_LENGTH = 4.32  # m, traffic vehicles are the Table 1 car (assumption S3: all alike)
@@ -23,83 +22,94 @@ TV_SIGMA = 0.2  # -, Krauss driver imperfection of traffic vehicles
 
 
 class TrafficVehicles:
-    """The TVs of a simulation: inserted at a place in a lane with a place in its speed
-    band, their desired speeds kept to the band of the lane they are in."""
+    """The TVs of a simulation: inserted at a place on a track with a place in its speed
+    band, their desired speeds kept to the band of the track they are on."""
 
     def __init__(self, sim: Any, bands: SpeedBands) -> None:  # sim: the SumoSim
         self.sim = sim
         self.bands = bands
 
-    def add(self, vehicle_id: str, lane: int, x: float, quantile: float,
+    def add(self, vehicle_id: str, track: int, s: float, quantile: float,
             speed: float | None = None) -> None:
-        """Insert a TV with its centre at global x in `lane`, desired speed from the band.
+        """Insert a TV with its centre at arc length `s` (m) on `track`, desired speed
+        from the track's band; it departs on the rest of the route from the edge its
+        front is on (a junction's internal lane: the next edge).
 
         It is inserted in the next step at `speed` (default: its desired speed),
         reduced by SUMO if that is unsafe behind its leader.
         """
         sim = self.sim
-        highway = sim.highway
-        if not 0 <= lane < highway.n_lanes:
-            raise InputError("traffic", "lane", lane, f"0 .. {highway.n_lanes - 1}")
-        desired = self.bands.speed(lane, quantile)
-        front = x - highway.x_start + 0.5 * TV_LENGTH
+        lanes = sim.lanes
+        place = lanes.place(track, s + 0.5 * TV_LENGTH)
+        desired = self.bands.speed(track, quantile)
         api = sim.api
         api.vehicle.add(
             vehicle_id,
-            ROUTE_ID,
+            lanes.route_id(api, place.route_index),
             typeID=TV_TYPE,
-            departLane=str(lane),
-            departPos=repr(float(front)),
+            departLane=str(place.index),
+            departPos=repr(float(place.position)),
             departSpeed="max" if speed is None else repr(float(min(speed, desired))),
         )
         api.vehicle.setMaxSpeed(vehicle_id, desired)
-        self.bands.add(vehicle_id, lane, quantile)
+        self.bands.add(vehicle_id, track, quantile)
         sim.dims[vehicle_id] = (TV_LENGTH, TV_WIDTH)
 
 
 class SpeedBands:
-    """Each TV's desired speed from the speed band of the lane it is in (Section 5):
-    a place in [0, 1] within a band per TV, applied whenever its lane changes.
+    """Each TV's desired speed from the speed band of the track it is on (Section 5): a
+    place in [0, 1] within a band per TV, applied whenever its track changes (SUMO's lane
+    index of one track may change along the route: the band follows the track, not the
+    index). A track that is not a through track has its neighbour's band
+    (cosim.traffic.route).
 
-    A lane change is seen as a TV new in a lane's vehicle list (three lists a step,
-    not one lane-index read per TV: the same lanes, measured ~10x cheaper)."""
+    A track change is seen as a TV new in a lane's vehicle list (one list per lane of
+    the route's edges a step, not one lane read per TV: on the one-edge road three lists,
+    measured ~10x cheaper)."""
 
-    def __init__(self, bands: tuple[tuple[float, float], ...], lane_ids: tuple[str, ...]) -> None:
+    def __init__(self, bands: tuple[tuple[float, float], ...],
+                 lanes: tuple[tuple[str, int], ...], band_index: dict[int, int]) -> None:
         self.bands = bands
-        self.lane_ids = lane_ids
+        self.lane_ids = tuple(lane for lane, _ in lanes)  # SUMO lane ids, route edges only
+        self.lane_track = tuple(track for _, track in lanes)  # the track of each
+        self.band_index = band_index  # track id -> its band
         self.quantile: dict[str, float] = {}  # TV id -> its place in a speed band
-        self.lane: dict[str, int] = {}  # TV id -> lane its desired speed was set for
-        self.seen: list[set[str]] = [set() for _ in lane_ids]  # each lane's vehicles last step
-        self.seen_ids: list[Any] = [None for _ in lane_ids]  # the lists as SUMO gave them
+        self.track: dict[str, int] = {}  # TV id -> track its desired speed was set for
+        self.seen: list[set[str]] = [set() for _ in lanes]  # each lane's vehicles last step
+        self.seen_ids: list[Any] = [None for _ in lanes]  # the lists as SUMO gave them
 
-    def speed(self, lane: int, quantile: float) -> float:
-        """m/s, the desired speed at `quantile` in [0, 1] of a lane's speed band."""
-        lo, hi = self.bands[lane]
+    def speed(self, track: int, quantile: float) -> float:
+        """m/s, the desired speed at `quantile` in [0, 1] of a track's speed band."""
+        if track not in self.band_index:
+            raise InputError("traffic", "track", track,
+                             f"a track of the route {sorted(self.band_index)}")
+        lo, hi = self.bands[self.band_index[track]]
         return lo + quantile * (hi - lo)
 
-    def add(self, vehicle_id: str, lane: int, quantile: float) -> None:
+    def add(self, vehicle_id: str, track: int, quantile: float) -> None:
         self.quantile[vehicle_id] = float(quantile)
-        self.lane[vehicle_id] = lane
+        self.track[vehicle_id] = track
 
     def forget(self, vehicle_id: str) -> None:
         self.quantile.pop(vehicle_id, None)
-        self.lane.pop(vehicle_id, None)
+        self.track.pop(vehicle_id, None)
 
     def keep(self, api: ModuleType) -> None:
-        """After a step: a TV whose lane changed gets its new lane's band."""
-        if not self.lane:
+        """After a step: a TV whose track changed gets its new track's band."""
+        if not self.track:
             return
         on_lane = getattr(getattr(api, "_libsumo", None), "lane_getLastStepVehicleIDs", None) \
             or api.lane.getLastStepVehicleIDs
         set_max_speed = api.vehicle.setMaxSpeed
-        was = self.lane
-        for lane, lane_id in enumerate(self.lane_ids):
+        was = self.track
+        for i, lane_id in enumerate(self.lane_ids):
             ids = on_lane(lane_id)
-            if ids == self.seen_ids[lane]:  # most steps: nobody came or went
+            if ids == self.seen_ids[i]:  # most steps: nobody came or went
                 continue
             now = set(ids)
-            for vid in sorted(now - self.seen[lane]):  # a fixed order of SUMO calls
-                if was.get(vid, lane) != lane:
-                    set_max_speed(vid, self.speed(lane, self.quantile[vid]))
-                    was[vid] = lane
-            self.seen[lane], self.seen_ids[lane] = now, ids
+            track = self.lane_track[i]
+            for vid in sorted(now - self.seen[i]):  # a fixed order of SUMO calls
+                if was.get(vid, track) != track:
+                    set_max_speed(vid, self.speed(track, self.quantile[vid]))
+                    was[vid] = track
+            self.seen[i], self.seen_ids[i] = now, ids
