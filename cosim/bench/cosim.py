@@ -55,6 +55,7 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
     start to close; with_sv: an SV of the scenario's size at its start, driven by
     SUMO's own models (no co-simulation loop at all)."""
     from cosim.traffic.demand import populate, start_zone
+    from cosim.traffic.route import sv_start
     from cosim.traffic.sumo import SumoSim
     from cosim.traffic.world import SV_ID, SV_LENGTH_MARGIN
 
@@ -64,7 +65,7 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
                   lanechange_duration=tr.lanechange_duration, sublane=tr.sublane,
                   speed_bands=scenario.road.speed_bands)
     with sim:
-        x0 = sim.highway.x_start + scenario.sv.position
+        _, x0 = sv_start(sim.lanes.road, scenario.sv.edge, scenario.sv.lane, scenario.sv.position)
         margin = SV_LENGTH_MARGIN * scenario.vehicle.length
         if tr.density > 0:
             sv = scenario.sv
@@ -75,8 +76,9 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
         if with_sv:
             sv = scenario.sv
             desired = sv.desired_speed or scenario.road.speed_bands[sv.lane][1]
-            sim.add_driven(SV_ID, sv.lane, x0, sv.speed, desired, scenario.vehicle.length,
-                           scenario.vehicle.width, own_lane_changes=sv.decision)
+            sim.add_driven(SV_ID, sv.lane, sim.centre_pose(sv.lane, x0), sv.speed, desired,
+                           scenario.vehicle.length, scenario.vehicle.width,
+                           own_lane_changes=sv.decision)
             sim.step()
             sim.controlled.release(SV_ID)
         for _ in range(scenario.n_steps + (0 if with_sv else 1)):

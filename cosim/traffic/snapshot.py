@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from itertools import chain, compress
+from itertools import chain, compress, repeat
 from types import ModuleType
 from typing import Any
 
@@ -26,7 +26,7 @@ NEAR_MARGIN = 60.0  # m, most two vehicles' x distance can shrink in NEAR_REFRES
 INVALID = -1e9  # m, SUMO reports -1073741824 (INVALID_DOUBLE_VALUE) for vehicles off the network
 SIGNAL_BLINKER_RIGHT = 1  # SUMO signal bits
 SIGNAL_BLINKER_LEFT = 2
-GETTERS = ("getPosition", "getAngle", "getSpeed", "getAcceleration", "getLaneIndex",
+GETTERS = ("getPosition", "getAngle", "getSpeed", "getAcceleration", "getLaneID",
            "getLateralSpeed", "getSignals")  # fmt: skip
 
 
@@ -52,7 +52,11 @@ class TrafficSnapshot:
     heading: np.ndarray  # rad, math convention
     speed: np.ndarray  # m/s, along the lane
     accel: np.ndarray  # m/s^2, longitudinal
-    lane: np.ndarray  # int, SUMO lane index (-1: off the network)
+    # int, the through track the vehicle is on (cosim.traffic.route: the SV's lane k is
+    # track k; on the one-edge road SUMO's lane index); -1: on no through track of the
+    # route (a road crossing it on a bridge, another road, off the network, and until
+    # issue 24 a lane added or dropped along the route)
+    lane: np.ndarray
     lateral_speed: np.ndarray  # m/s, + to the left (non-zero while changing lanes)
     length: np.ndarray  # m
     width: np.ndarray  # m
@@ -116,11 +120,14 @@ class SnapshotReader:
 
     `dims` (vehicle id -> (length, width), m) is shared with the adapter, which knows
     the sizes of the vehicles it adds; `lateral_speeds()` gives the sideways speeds
-    of the vehicles moved by moveToXY (SUMO reports 0 for them)."""
+    of the vehicles moved by moveToXY (SUMO reports 0 for them); `tracks` maps SUMO's
+    lane ids of the route's through tracks to their track ids (a vehicle's `lane`)."""
 
     def __init__(self, api: ModuleType, dims: dict[str, tuple[float, float]],
-                 lateral_speeds: Callable[[], Mapping[str, float]]) -> None:
+                 lateral_speeds: Callable[[], Mapping[str, float]],
+                 tracks: Mapping[str, int]) -> None:
         self.api = api
+        self.tracks = tracks
         self.dims = dims
         self.lateral_speeds = lateral_speeds
         self.getters = getters(api)
@@ -228,7 +235,7 @@ class SnapshotReader:
             xf, x, y, h, length, width = (a[keep] for a in (xf, x, y, h, length, width))
             n = len(ids)
         speed = np.fromiter(map(get_speed, ids), float, n)
-        lane = np.fromiter(map(get_lane, ids), int, n)
+        lane = np.fromiter(map(self.tracks.get, map(get_lane, ids), repeat(-1)), int, n)
         lat = np.fromiter(map(get_lat, ids), float, n)
         if full:
             accel = np.fromiter(map(get_accel, ids), float, n)
@@ -274,10 +281,8 @@ class SnapshotReader:
         return float(self.api.vehicle.getSpeed(vehicle_id))
 
     def lane_index(self, vehicle_id: str) -> int:
-        """SUMO lane index of a vehicle (-1 off the network)."""
-        if self.api.vehicle.getLaneID(vehicle_id) == "":
-            return -1
-        return int(self.api.vehicle.getLaneIndex(vehicle_id))
+        """The through track a vehicle is on, as the snapshot's `lane` (-1: none)."""
+        return self.tracks.get(self.api.vehicle.getLaneID(vehicle_id), -1)
 
     def leader(self, vehicle_id: str, distance: float = 200.0) -> tuple[str, float] | None:
         """(id, gap in m bumper to bumper) of the leader in the vehicle's lane, or None."""

@@ -32,6 +32,7 @@ from cosim.scenario.model import Scenario
 from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.road_view import cartesian_pose, is_identity, road_pose, road_view
+from cosim.traffic.route import sv_start
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
 Array = NDArray[np.float64]
@@ -109,19 +110,22 @@ class World:
                  fcd_output: Path | None = None) -> None:
         sc = scenario
         tr = sc.traffic
+        # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
+        # edge the identity StraightFrame); SUMO runs on its route
+        self.route_road = load_road(sc.network, sc.route, source=str(sc.path))
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed,
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
-            fcd_output=fcd_output,
+            fcd_output=fcd_output, road=self.route_road,
         )
         self.scenario = sc
-        # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
-        # edge the identity StraightFrame); everything read and written is converted
-        # through it (cosim.traffic.road_view)
-        self.route_road = load_road(sc.network, sc.route, source=str(sc.path))
+        # everything read and written is converted through the route's frame
+        # (cosim.traffic.road_view; the identity on the one straight edge)
         self.frame = self.route_road.frame
         self._s_hint: float | None = None  # m, the SV's s at the last read
+        # the SV's start: (track id, s in m) of [sv] edge, lane, position_m
+        self.sv_start = sv_start(self.route_road, sc.sv.edge, sc.sv.lane, sc.sv.position)
         self.started = False
         self.wall = 0.0
         self.wall_read = 0.0
@@ -137,6 +141,7 @@ class World:
         self.started = True
         road = sc.road  # lane geometry: the network's, read once by the scenario
         x0 = self.sv_start_x
+        track = self.sv_start_track
         if tr.density > 0:
             from cosim.traffic.demand import populate, start_zone
 
@@ -144,15 +149,23 @@ class World:
             # in its own lane the SV starts at its scenario speed, often faster than
             # the queue SUMO inserts: keep room to brake (and for its follower)
             zone = start_zone(x0, sc.vehicle.length, sc.sv.speed,
-                              road.speed_bands[sc.sv.lane][1])
+                              road.speed_bands[track][1])
             populate(self.sumo, road, tr.density, sc.seed, tr.length,
-                     exclude_zone=(x0 - margin, x0 + margin), lane_zones={sc.sv.lane: zone})
+                     exclude_zone=(x0 - margin, x0 + margin), lane_zones={track: zone})
         return road
 
     @property
     def sv_start_x(self) -> float:
-        """m, global x of the SV's centre at t = 0 (sv.position_m: from the road's start)."""
-        return self.sumo.highway.x_start + self.scenario.sv.position
+        """m, the SV's centre at t = 0 in road coordinates: s of ([sv] edge, [sv] lane,
+        [sv] position_m) along the route's road (`route_road`; on the one-edge road
+        s = x - the road's start x, on networks/highway.net.xml s = x exactly)."""
+        return self.sv_start[1]
+
+    @property
+    def sv_start_track(self) -> int:
+        """The track of `route_road` the SV starts on (its SV lane: [sv] lane is SUMO's
+        index on [sv] edge, which the track keeps across edges)."""
+        return self.sv_start[0]
 
     def insert(self) -> None:
         """The first step: SUMO inserts every vehicle added so far at its place; the
@@ -247,10 +260,11 @@ class World:
 
     def add_sumo_driven_sv(self, lane: int, speed: float, desired_speed: float,
                            length: float, width: float, *, own_lane_changes: bool) -> None:
-        """The SV as a vehicle SUMO drives (controller "sumo") at its start in `lane`;
-        `hand_sv_to_sumo` after the inserting step gives it to SUMO."""
-        self.sumo.add_driven(SV_ID, lane, self.sv_start_x, speed, desired_speed, length,
-                             width, own_lane_changes=own_lane_changes)
+        """The SV as a vehicle SUMO drives (controller "sumo") at its start, on the
+        centre of track `lane`; `hand_sv_to_sumo` after the inserting step gives it to SUMO."""
+        pose = self.sumo.centre_pose(lane, self.sv_start_x)
+        self.sumo.add_driven(SV_ID, lane, pose, speed, desired_speed, length, width,
+                             own_lane_changes=own_lane_changes)
 
     def hand_sv_to_sumo(self) -> None:
         """From now on SUMO drives the SV (its own speed and lane-change modes)."""
