@@ -207,3 +207,78 @@ def test_a_controlled_vehicle_follows_its_track_to_the_route_end(
         assert "sv" in sim.api.vehicle.getIDList()
         assert checked > 0.9 * (end - start) / (speed * STEP)
         assert (changed > 0) == (change_at is not None)
+
+
+# ------------------------------------------------------------------ scenarios on a route
+BAD = Path(__file__).resolve().parents[1] / "bad_inputs"
+
+
+def _curved_doc(**sv: object) -> dict[str, object]:
+    import tomllib
+
+    doc = tomllib.loads((BAD / "route_curved.toml").read_text())
+    doc["road"]["route"] = list(ROUTE)  # type: ignore[index]
+    doc["sv"].update(sv)  # type: ignore[union-attr]
+    return doc
+
+
+def test_a_route_scenario_is_refused_for_a_run_and_built_for_the_sumo_side() -> None:
+    from cosim.errors import InputError
+    from cosim.params import RoadParams
+    from cosim.scenario.load import LOOP_DRIVES_ROUTES, scenario_from_dict
+
+    doc = _curved_doc()
+    assert not LOOP_DRIVES_ROUTES
+    with pytest.raises(InputError, match="does not yet drive other roads"):
+        scenario_from_dict(doc, path=BAD / "route_curved.toml")
+    sc = scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    assert sc.route == ROUTE
+    assert sc.road == RoadParams(lane_width=3.75, speed_bands=RoadParams().speed_bands,
+                                 mu=0.6, y_right=0.0)
+
+
+def test_the_straight_roads_params_are_as_before() -> None:
+    from cosim.params import RoadParams
+    from cosim.scenario.load import load_scenario, project_root
+
+    for name in ("paper_case1_overtaking", "traffic_high"):
+        sc = load_scenario(project_root() / "scenarios" / f"{name}.toml")
+        assert sc.road == RoadParams(lane_width=3.75, speed_bands=sc.road.speed_bands,
+                                     mu=sc.road.mu, y_right=0.0)
+
+
+def test_the_sv_starts_on_its_track_at_its_s() -> None:
+    """[sv] edge e3, lane 2 (SUMO's index there) is track 1: the rules check lane 1's band
+    and the World starts the SV on track 1 at the s of its lane position."""
+    from cosim.scenario.load import scenario_from_dict
+    from cosim.traffic.world import World
+
+    doc = _curved_doc(edge="e3", lane=2, position_m=200.0, lane_changes=[])
+    doc["tv"] = []
+    doc["scenario"]["duration_s"] = 5.0  # type: ignore[index]
+    sc = scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    world = World(sc)
+    road = world.route_road
+    assert world.sv_start_track == 1
+    assert world.sv_start_x == pytest.approx(road.s_of_lane_position("e3_2", 200.0), abs=1e-6)
+    assert world.sv_start_x == pytest.approx(float(road.lane(1).s_start[4]) + 200.0, abs=0.5)
+
+
+def test_a_route_whose_lanes_differ_in_width_is_refused_in_one_line(tmp_path: Path) -> None:
+    from cosim.errors import InputError
+    from cosim.traffic.route import road_params
+
+    (tmp_path / "n.nod.xml").write_text(
+        '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+        '<node id="C" x="2000" y="0"/></nodes>', encoding="utf-8")
+    (tmp_path / "n.edg.xml").write_text(
+        '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3" width="3.75"/>'
+        '<edge id="BC" from="B" to="C" numLanes="3" speed="33.3" width="3.75">'
+        '<lane index="0" width="3.5"/></edge></edges>',
+        encoding="utf-8")
+    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o",
+                    "n.net.xml", "--no-turnarounds", "true"], cwd=tmp_path, check=True,
+                   capture_output=True)
+    road = load_road(tmp_path / "n.net.xml", ["AB", "BC"])
+    with pytest.raises(InputError, match=r"lane widths = \[3.5, 3.75\].*3.5, 3.75 m"):
+        road_params(road)
