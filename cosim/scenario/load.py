@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import codecs
 import copy
+import dataclasses
 import re
 import tomllib
 from collections.abc import Mapping
@@ -13,6 +14,7 @@ from typing import Any
 
 from cosim.errors import InputError
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, vehicle_from_table
+from cosim.road.road import Road, load_road
 from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS, VEHICLE_FIELDS
 from cosim.scenario.model import (
     NAME_PATTERN,
@@ -22,7 +24,15 @@ from cosim.scenario.model import (
     TVSpec,
     V2VSpec,
 )
-from cosim.traffic.network import SUPPORTED, Highway, load_highway
+from cosim.traffic.network import SUPPORTED, Highway, load_highway, network_precision
+from cosim.traffic.route import (
+    RouteLanes,
+    check_through,
+    lane_width,
+    road_params,
+    route_road,
+    sv_start,
+)
 from cosim.validation import (
     MISSING,
     check_known_tables,
@@ -33,6 +43,9 @@ from cosim.validation import (
 
 MAX_FILE_BYTES = 1 * 2**20  # a scenario or study file is a few kB: refuse bigger ones unread
 MAX_TVS = 100  # [[tv]] tables
+# a route that is not one straight edge is refused where a scenario is read until the loop
+# drives it (issue 23: the loop's side converts the scene to (s, d)); SUMO's side is ready
+LOOP_DRIVES_ROUTES = False
 # s, continuous TV lane changes (SUMO_NOTES: the default instant change is a 3.5 m jump)
 DEFAULT_LANECHANGE_DURATION = 3.0
 
@@ -123,16 +136,20 @@ def _network_file(source: str, key: str, written: str, path: Path, base_dir: Pat
 
 
 def read_network(source: str, key: str, written: str, path: Path,
-                 base_dir: Path, route: tuple[str, ...] | None = None) -> Highway:
+                 base_dir: Path, route: tuple[str, ...] | None = None, *,
+                 routes: bool = False) -> Highway | None:
     """The scenario's network as the tool drives on it, or InputError naming the scenario.
 
     A `route` (already checked against the network) that is not one straight edge is
-    refused here in one line: the loop drives only such a road yet (README, Roads)."""
+    refused here in one line unless `routes`: the loop drives only such a road yet
+    (README, Roads); with `routes`, None (the road is then `route_view`'s)."""
     _network_file(source, key, written, path, base_dir)
     try:
         return load_highway(path)
     except InputError as exc:
         if route is not None and exc.allowed.startswith(SUPPORTED):
+            if routes:
+                return None
             raise InputError(
                 source, "road.route", list(route),
                 "a route of one straight edge along +x: the co-simulation loop does not yet "
@@ -145,11 +162,14 @@ def read_network(source: str, key: str, written: str, path: Path,
 
 
 def scenario_from_dict(
-    doc: Mapping[str, Any], path: str | Path = "<scenario>", source: str | None = None
+    doc: Mapping[str, Any], path: str | Path = "<scenario>", source: str | None = None,
+    *, routes: bool | None = None,
 ) -> Scenario:
     """Validate a scenario document (the parsed TOML, file units) into a Scenario.
 
     Relative paths in it are resolved against `path`'s directory, then the project root.
+    `routes`: accept a route that is not one straight edge (None: LOOP_DRIVES_ROUTES, off
+    until the loop drives such roads; the SUMO side and tests build them with True).
     """
     from cosim.scenario.rules import check_route, check_scenario
 
@@ -183,15 +203,26 @@ def scenario_from_dict(
         _network_file(src, "road.network", rd["network"], network, base_dir)
         # before the one-edge rules below
         check_route(src, network, rd["route"], sv, vehicle.length)
-    highway = read_network(src, "road.network", rd["network"], network, base_dir,
-                           route=rd["route"])
+    found = read_network(src, "road.network", rd["network"], network, base_dir,
+                         route=rd["route"], routes=LOOP_DRIVES_ROUTES if routes is None
+                         else routes)
+    # the planner's road in (s, d) from the route's road (cosim.traffic.route.road_params;
+    # on the one straight edge of networks/highway.net.xml the RoadParams of before)
+    road_of_route = _route_road(src, network, rd["route"])
+    base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
+    road = road_params(road_of_route, base, src)
+    rule_sv = sv
+    if found is None:  # another road: the rules read it through its one-edge view
+        check_through(road_of_route, src)
+        track, s_sv = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
+        found = route_view(road_of_route, s_sv - sv.position, sv.edge)
+        rule_sv = dataclasses.replace(sv, lane=track)  # the rules' lane k is track k
+    highway = found
     # lane geometry has one source: the network (the file may only repeat its width)
     if (rd["lane_width"] is not None
-            and abs(rd["lane_width"] - highway.lane_width) > max(1e-3, highway.rounding)):
+            and abs(rd["lane_width"] - road.lane_width) > max(1e-3, highway.rounding)):
         raise InputError(src, "road.lane_width_m", rd["lane_width"],
-                         f"the network's lane width {highway.lane_width:g} m (or absent)")
-    road = RoadParams(lane_width=highway.lane_width, speed_bands=rd["speed_bands"],
-                      mu=rd["mu"], y_right=highway.y_right)
+                         f"the network's lane width {road.lane_width:g} m (or absent)")
     name = sc.pop("name")
     if name is None:  # the file's stem, held to the rule of a written name
         name = p.stem or "scenario"
@@ -215,8 +246,41 @@ def scenario_from_dict(
         document=copy.deepcopy(dict(doc)),
         route=rd["route"],
     )
-    check_scenario(src, scenario, highway)
+    check_scenario(src, scenario if rule_sv is sv else dataclasses.replace(scenario, sv=rule_sv),
+                   highway)
     return scenario
+
+
+def _route_road(src: str, network: Path, route: tuple[str, ...] | None) -> Road:
+    """The route's road, built once per network file (an InputError names the scenario)."""
+    try:
+        return route_road(network, route)
+    except InputError:
+        return load_road(network, route, source=src)  # raises, naming the scenario
+
+
+def route_view(road: Road, x_start: float, sv_edge: str | None) -> Highway:
+    """The one-edge view of a route's road that the scenario rules check against
+    (cosim.scenario.rules reads positions along one edge): x is s, the road starts at
+    `x_start` = the SV's s less its sv.position_m (so the rules' SV x is its s), it is
+    as long as its through tracks reach, a lane's speed limit is its track's on the SV's
+    start edge, and every lane is open to cars (tracks are the lanes cars may use).
+
+    Approximate where the SV starts on a later edge: a scripted TV's gap must then put it
+    ahead of x_start (the start of that edge, not of the route)."""
+    lanes = RouteLanes(road)
+    edge = sv_edge if sv_edge is not None else road.route.edges[0]
+    speeds = []
+    for table in lanes.through:
+        piece = table.track.piece_on(edge) or table.track.pieces[0]
+        speeds.append(piece.speed)
+    end = min(t.end for t in lanes.through)
+    return Highway(
+        path=road.route.path, edge_id=edge, x_start=float(x_start),
+        length=float(end - x_start), lane_width=lane_width(road),
+        y_right=0.0, lane_speeds=tuple(speeds), lane_open=(True,) * len(speeds),
+        rounding=0.5 * 10.0 ** -network_precision(str(road.route.path)) + 1e-9,
+    )
 
 
 def _traffic(src: str, values: dict[str, Any]) -> TrafficSpec:

@@ -23,7 +23,9 @@ from __future__ import annotations
 import bisect
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -31,7 +33,7 @@ from cosim.errors import InputError
 from cosim.params import RoadParams
 from cosim.road.frame import StraightFrame
 from cosim.road.lanes import LaneTable
-from cosim.road.road import Road
+from cosim.road.road import Road, load_road
 from cosim.road.tracks import TrackPiece
 
 ROUTE_ID = "highway_route"  # SUMO's id of the whole route (of the rest from edge k: @k)
@@ -46,6 +48,24 @@ class Place:
     index: int  # SUMO lane index on it
     position: float  # m, lane position (from the lane's start, as SUMO counts it)
     route_index: int  # the edge's position in the route
+
+
+def route_road(network: Path | str, route: Sequence[str] | None = None) -> Road:
+    """The Road of `route` on `network` (cosim.road.road.load_road), built once per
+    process for a file as it is (cached on its path, modification time and size)."""
+    path = Path(network)
+    try:
+        st = path.stat()
+    except (OSError, ValueError):  # load_road says what is wrong with it, in one line
+        return load_road(network, route)
+    return _road(str(path.resolve()), st.st_mtime_ns, st.st_size,
+                 None if route is None else tuple(route))
+
+
+@functools.lru_cache(maxsize=8)
+def _road(path: str, mtime_ns: int, size: int, route: tuple[str, ...] | None) -> Road:
+    del mtime_ns, size  # part of the cache key only
+    return load_road(path, route)
 
 
 def through_tracks(road: Road) -> tuple[LaneTable, ...]:

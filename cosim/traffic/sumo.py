@@ -30,7 +30,7 @@ from types import ModuleType, TracebackType
 
 from cosim.errors import InputError, SimulationError
 from cosim.params import RoadParams
-from cosim.road.road import Road, load_road
+from cosim.road.road import Road
 from cosim.traffic import gui as gui_window
 from cosim.traffic.controlled import (  # noqa: F401  (re-exported)
     ControlledVehicles,
@@ -40,7 +40,7 @@ from cosim.traffic.controlled import (  # noqa: F401  (re-exported)
 )
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.process import SumoProcess, process
-from cosim.traffic.route import ROUTE_ID, RouteLanes, road_params  # noqa: F401
+from cosim.traffic.route import ROUTE_ID, RouteLanes, road_params, route_road  # noqa: F401
 from cosim.traffic.snapshot import (  # noqa: F401  (TrafficSnapshot: re-exported)
     INVALID,
     SIGNAL_BLINKER_LEFT,
@@ -90,7 +90,7 @@ class SumoSim:
             raise InputError("SumoSim", "lanechange_duration", lanechange_duration, ">= 0 s")
         # the route's road (cosim.road): SUMO's route is its edges, the SV's lanes its
         # through tracks (cosim.traffic.route); `road` if the caller has built it
-        self.lanes = RouteLanes(road if road is not None else load_road(network, route))
+        self.lanes = RouteLanes(road if road is not None else route_road(network, route))
         self.process: SumoProcess = process(
             self.lanes.road.route.path, step, seed, lanechange_duration=lanechange_duration,
             sublane=sublane, gui=gui, extra_args=extra_args,
