@@ -117,6 +117,7 @@ class StepRecord:
 CP_FLOOR, CP_MIMO, CP_MAX_STEER, CP_STEER_RATE, CP_DMZ_LIMIT = 0, 1, 2, 3, 4
 CP_FORCE_LO, CP_FORCE_HI, CP_LS, CP_LF, CP_EPS, CP_MASS, CP_KX1 = 5, 6, 7, 8, 9, 10, 11
 CP_KX1_SLOPE = 12  # 1/(m s), eq. 28's low-speed form (`longitudinal.speed_gain`; 0: off)
+CP_CURVE_STIFF, CP_CURVE_MASS = 13, 14  # N m, kg m: L lr Cr and lf M (`curve_yaw_moment`)
 # cs: 0 projection (path parameter, s), 1 int(ye) (m s), 2 int(phi_e) (rad s),
 # 3 delta_f applied (rad), 4 dMz (N m), 5 Fa (N), 6-9 wheel forces (N),
 # 10 last control saturated (0/1), 11-15 a non-finite control output
@@ -129,6 +130,15 @@ PLANT_CODES = {"twotrack": 0, "bicycle": 1}
 
 
 @njit
+def curve_yaw_moment(cp: Array, kappa: float, vx: float) -> float:
+    """N m, the yaw moment that holds the single-track car on a circle of curvature kappa
+    at speed vx with zero sideslip (the MIMO law's aim, phi_e = 0): with beta = 0 the rear
+    axle's slip is lr kappa, its force Cr lr kappa, the front's M vx^2 kappa - Cr lr
+    kappa, and the moments balance at kappa (L lr Cr - lf M vx^2)."""
+    return kappa * (cp[CP_CURVE_STIFF] - cp[CP_CURVE_MASS] * vx * vx)
+
+
+@njit
 def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Array,
                  cs: Array, t: float, h_ctrl: float) -> int:
     """Sample state s at time t, compute and limit the inputs into cs (held until the
@@ -137,8 +147,8 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
     conditional integration. Returns OK, or BAD_CONTROL with the non-finite outputs in
     cs[11:16]."""
     (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _, s_road, _,
-     _) = frame_path_errors(coef, fp, fr, t, s[0], s[1], s[2], s[3], s[4], s[5], cs[0],
-                            cs[CS_S_ROAD])
+     _, k_lane) = frame_path_errors(coef, fp, fr, t, s[0], s[1], s[2], s[3], s[4], s[5],
+                                    cs[0], cs[CS_S_ROAD])
     cs[0] = sproj
     cs[CS_S_ROAD] = s_road
     vx = max(s[3], cp[CP_FLOOR])
@@ -160,10 +170,13 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
     max_steer, dmz_limit = cp[CP_MAX_STEER], cp[CP_DMZ_LIMIT]
     delta = steer_core(max_steer, cp[CP_STEER_RATE], cs[3], delta_cmd, h_ctrl)
     steer_sat = abs(delta_cmd) > max_steer
-    yaw_sat = abs(dmz) > dmz_limit
+    # the limit is on what the law asks beyond holding the road's curve without
+    # sideslip (`curve_yaw_moment`; 0 on a straight road)
+    dmz_road = curve_yaw_moment(cp, k_lane, vx) if k_lane != 0.0 else 0.0
+    yaw_sat = abs(dmz - dmz_road) > dmz_limit
     dmz_cmd = dmz
     if yaw_sat:
-        dmz = math.copysign(dmz_limit, dmz)
+        dmz = dmz_road + math.copysign(dmz_limit, dmz - dmz_road)
     f1, f2, f3, f4 = allocate_core(cp[CP_LS], cp[CP_LF], delta, dmz, fa, cp[CP_EPS])
     lo, hi = cp[CP_FORCE_LO], cp[CP_FORCE_HI]
     force_sat = not (lo <= min(f1, f2, f3, f4) and max(f1, f2, f3, f4) <= hi)
@@ -281,6 +294,7 @@ class ClosedLoop:
             self.limits.max_steer, self.limits.max_steer_rate, self.dmz_limit, lo, hi,
             vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
             speed_gain_inverse_lag(ch.tyre.relaxation_long) if low_speed_gain else 0.0,
+            vehicle.wheelbase * vehicle.lr * vehicle.cr, vehicle.lf * vehicle.mass,
         ])
         self._cs = np.zeros(CS_SIZE)
         self._cs[CS_S_ROAD] = math.nan

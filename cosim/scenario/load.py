@@ -45,7 +45,7 @@ MAX_FILE_BYTES = 1 * 2**20  # a scenario or study file is a few kB: refuse bigge
 MAX_TVS = 100  # [[tv]] tables
 # a route that is not one straight edge is refused where a scenario is read until the loop
 # drives it (issue 23: the loop's side converts the scene to (s, d)); SUMO's side is ready
-LOOP_DRIVES_ROUTES = False
+LOOP_DRIVES_ROUTES = True
 # s, continuous TV lane changes (SUMO_NOTES: the default instant change is a 3.5 m jump)
 DEFAULT_LANECHANGE_DURATION = 3.0
 
