@@ -8,15 +8,20 @@ planner's step; each C2 cluster also between its listed durations, which the
 check covers as cells), each body is mapped to the Cartesian plane as a rigid
 rectangle (centre `frame.to_cartesian(s, d)`, heading the road's at s plus the
 heading relative to the road: atan(dd/ds) along a planned path, the broadcast heading
-of a TV that keeps its lane) and shapely judges the exact rectangles: no chosen plan
-may touch any hypothesis within the horizon the planner checked that pair over.
+of a TV that keeps its lane; the SV also at its path's own Cartesian tangent,
+atan(dd/ds / q) with the frame's stretch q, Werling et al. 2010) and shapely judges
+the exact rectangles: no chosen plan may touch any hypothesis within the horizon the
+planner checked that pair over. The accepted candidates at both ends of every
+collision-free interval, the ones the check lets come closest, are judged too.
 
 The situations are random (fixed seeds) on networks/curved_motorway.net.xml (route
 e1 e2 e3 e4): on its first left curve (R ~960 m), both halves of the S-bend (R 738 m
 to the right, the route's tightest, then R ~1120 m to the left) and across junction j2
-(in a R ~1220 m curve), where SUMO's index of every through lane goes up by one
+(in a R ~1500 m curve), where SUMO's index of every through lane goes up by one
 (the added lane e3_0 on the right): there the TVs are placed as SUMO reports them
-(edge, lane index, lane position) and the SV's own lane index changes along its plan.
+(edge, lane index, lane position; the added lane's too) and converted to (s, d)
+through the road's tracks, and the SV's plans run through j2 in a lane whose SUMO
+index changes under it.
 
 The check can fail: without the margin (curve=None) a situation built to sit at the
 (s, d) check's edge (a TV closing from behind in the target lane on the inside of a
@@ -118,15 +123,16 @@ def _kind(rng: np.random.Generator) -> str:
 
 def curved_situation(road: Road, region: str, seed: int) -> Situation:
     """The SV somewhere in `region` at 70-120 km/h in one of the three through lanes,
-    3-5 TVs per lane within -100..+120 m (the SV's lane clear within 10 m), about a
-    third announcing or making a lane change. At j2 the TVs are placed by SUMO's edge,
-    lane index and lane position (on e2 and e3, the added lane e3_0 too) and converted
-    to (s, d) through the road's tracks, as the World converts what SUMO reports."""
+    3-5 TVs per lane within -100..+120 m (none within 12 m of the SV in its lane), about
+    40 % announcing or making a lane change. At j2, 1-2 TVs per SUMO lane of e2 and e3
+    (the added lane e3_0 too: C1 or C2 to the left), placed by SUMO's edge, lane index
+    and lane position and converted to (s, d) through the road's tracks, as the World
+    converts what SUMO reports."""
     rng = np.random.default_rng([23, seed, list(REGIONS).index(region)])
     rp = RoadParams(mu=float(rng.choice([0.6, 0.8, 1.0])))
     s0 = float(rng.uniform(*REGIONS[region]))
     lane = int(rng.integers(0, 3))
-    targets = (1,) if lane == 0 else (1,) if lane == 2 else (0, 2)
+    targets = (0, 2) if lane == 1 else (1,)
     sv = SVPlanState(s0, rp.lane_center(lane), 0.0, kmh(float(rng.uniform(70, 120))),
                      0.0, 0.0, 0.0, lane)
     messages: list[V2VMessage] = []
@@ -445,6 +451,25 @@ def test_without_the_margin_a_plan_at_the_checks_edge_overlaps(road: Road) -> No
     assert plan.tau is not None and plan.tau < tau_star
     v = judge(road, curved, plan, tuple(messages))
     assert v.overlaps == 0 and v.clearance > 0.0
+
+
+def test_without_any_margin_random_traffic_overlaps_too(road: Road) -> None:
+    """Not only a built case: in one of the random situations above (left curve, seed 5,
+    lane 1 to 2) the planner with neither margin (the paper's exact test, curve=None)
+    accepts a candidate, at an end of its collision-free set, that overlaps a TV in
+    the plane; with the RoadCurve nothing it accepts does."""
+    si = curved_situation(road, "left curve R 960", 5)
+    found = {}
+    for curve in (None, road_curve(road, si.rp)):
+        planner = LaneChangePlanner(VehicleParams(), si.rp,
+                                    PlannerConfig(tau_step=0.05, safety_margin=0.0),
+                                    curve=curve)
+        plan = planner.plan(0.0, si.sv, 2, list(si.messages), si.occupant)
+        assert plan.tau is not None
+        ends = {v for span in plan.collision_free_intervals for v in span}
+        found[curve is None] = sum(judge(road, planner, plan, si.messages, tau).overlaps
+                                   for tau in sorted(ends))
+    assert found[True] > 0 and found[False] == 0, found
 
 
 # ------------------------------------------------------------------ RoadCurve itself
