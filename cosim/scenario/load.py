@@ -43,9 +43,6 @@ from cosim.validation import (
 
 MAX_FILE_BYTES = 1 * 2**20  # a scenario or study file is a few kB: refuse bigger ones unread
 MAX_TVS = 100  # [[tv]] tables
-# a route that is not one straight edge is refused where a scenario is read until the loop
-# drives it (issue 23: the loop's side converts the scene to (s, d)); SUMO's side is ready
-LOOP_DRIVES_ROUTES = True
 # s, continuous TV lane changes (SUMO_NOTES: the default instant change is a 3.5 m jump)
 DEFAULT_LANECHANGE_DURATION = 3.0
 
@@ -136,25 +133,16 @@ def _network_file(source: str, key: str, written: str, path: Path, base_dir: Pat
 
 
 def read_network(source: str, key: str, written: str, path: Path,
-                 base_dir: Path, route: tuple[str, ...] | None = None, *,
-                 routes: bool = False) -> Highway | None:
-    """The scenario's network as the tool drives on it, or InputError naming the scenario.
-
-    A `route` (already checked against the network) that is not one straight edge is
-    refused here in one line unless `routes`: the loop drives only such a road yet
-    (README, Roads); with `routes`, None (the road is then `route_view`'s)."""
+                 base_dir: Path, route: tuple[str, ...] | None = None) -> Highway | None:
+    """The scenario's network as a one-edge straight road, None for a `route` (already
+    checked against the network) that is not one (the road is then `route_view`'s), or
+    InputError naming the scenario."""
     _network_file(source, key, written, path, base_dir)
     try:
         return load_highway(path)
     except InputError as exc:
         if route is not None and exc.allowed.startswith(SUPPORTED):
-            if routes:
-                return None
-            raise InputError(
-                source, "road.route", list(route),
-                "a route of one straight edge along +x: the co-simulation loop does not yet "
-                f"drive other roads ({exc.allowed}; `python -m cosim.road {path.name} "
-                f"{' '.join(route)}` shows the road frame cosim/road/ makes of it)") from None
+            return None
         if exc.key in ("network", "size") or exc.key.endswith(" speed"):  # say what it is
             raise InputError(source, key, str(path),
                              f"{exc.allowed} ({exc.key} = {exc.value})") from None
@@ -163,13 +151,10 @@ def read_network(source: str, key: str, written: str, path: Path,
 
 def scenario_from_dict(
     doc: Mapping[str, Any], path: str | Path = "<scenario>", source: str | None = None,
-    *, routes: bool | None = None,
 ) -> Scenario:
     """Validate a scenario document (the parsed TOML, file units) into a Scenario.
 
     Relative paths in it are resolved against `path`'s directory, then the project root.
-    `routes`: accept a route that is not one straight edge (None: LOOP_DRIVES_ROUTES, off
-    until the loop drives such roads; the SUMO side and tests build them with True).
     """
     from cosim.scenario.rules import check_route, check_scenario
 
@@ -204,8 +189,7 @@ def scenario_from_dict(
         # before the one-edge rules below
         check_route(src, network, rd["route"], sv, vehicle.length)
     found = read_network(src, "road.network", rd["network"], network, base_dir,
-                         route=rd["route"], routes=LOOP_DRIVES_ROUTES if routes is None
-                         else routes)
+                         route=rd["route"])
     # the planner's road in (s, d) from the route's road (cosim.traffic.route.road_params;
     # on the one straight edge of networks/highway.net.xml the RoadParams of before)
     road_of_route = _route_road(src, network, rd["route"])

@@ -210,28 +210,23 @@ def test_a_controlled_vehicle_follows_its_track_to_the_route_end(
 
 
 # ------------------------------------------------------------------ scenarios on a route
-BAD = Path(__file__).resolve().parents[1] / "bad_inputs"
+DATA = Path(__file__).resolve().parents[1] / "data"
 
 
 def _curved_doc(**sv: object) -> dict[str, object]:
     import tomllib
 
-    doc = tomllib.loads((BAD / "route_curved.toml").read_text())
+    doc = tomllib.loads((DATA / "route_curved.toml").read_text())
     doc["road"]["route"] = list(ROUTE)  # type: ignore[index]
     doc["sv"].update(sv)  # type: ignore[union-attr]
     return doc
 
 
-def test_a_route_scenario_is_refused_for_a_run_and_built_for_the_sumo_side() -> None:
-    from cosim.errors import InputError
+def test_a_route_scenario_gets_the_road_in_s_d() -> None:
     from cosim.params import RoadParams
-    from cosim.scenario.load import LOOP_DRIVES_ROUTES, scenario_from_dict
+    from cosim.scenario.load import scenario_from_dict
 
-    doc = _curved_doc()
-    assert not LOOP_DRIVES_ROUTES
-    with pytest.raises(InputError, match="does not yet drive other roads"):
-        scenario_from_dict(doc, path=BAD / "route_curved.toml")
-    sc = scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    sc = scenario_from_dict(_curved_doc(), path=DATA / "route_curved.toml")
     assert sc.route == ROUTE
     assert sc.road == RoadParams(lane_width=3.75, speed_bands=RoadParams().speed_bands,
                                  mu=0.6, y_right=0.0)
@@ -256,7 +251,7 @@ def test_the_sv_starts_on_its_track_at_its_s() -> None:
     doc = _curved_doc(edge="e3", lane=2, position_m=200.0, lane_changes=[])
     doc["tv"] = []
     doc["scenario"]["duration_s"] = 5.0  # type: ignore[index]
-    sc = scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    sc = scenario_from_dict(doc, path=DATA / "route_curved.toml")
     world = World(sc)
     road = world.route_road
     assert world.sv_start_track == 1
