@@ -181,7 +181,7 @@ def scenario_from_dict(
     sc, rd = tables["scenario"], tables["road"]
     base_dir = p.parent if p.is_absolute() else Path.cwd() / p.parent
     network = _resolve(base_dir, rd["network"])
-    sv = SVSpec(**tables["sv"])
+    sv = _lane_changes_in_lanes(src, SVSpec(**tables["sv"]))
     vehicle = vehicle_from_table(tables["vehicle"], {  # a preset, then the file's keys
         f.attr for f in VEHICLE_FIELDS if f.key in doc.get("vehicle", {})})
     if rd["route"] is not None or sv.edge is not None:
@@ -233,6 +233,26 @@ def scenario_from_dict(
     check_scenario(src, scenario if rule_sv is sv else dataclasses.replace(scenario, sv=rule_sv),
                    highway)
     return scenario
+
+
+def _lane_changes_in_lanes(src: str, sv: SVSpec) -> SVSpec:
+    """The SV with each lane change's `direction` turned into its target lane (the lane
+    left (+1) or right (-1) of the one the SV is in by then); exactly one of the two."""
+    lane, out = sv.lane, []
+    for i, cmd in enumerate(sv.lane_changes):
+        if (cmd.target_lane is None) == (cmd.direction is None):
+            raise InputError(src, f"sv.lane_changes[{i}]", MISSING if cmd.direction is None
+                             else cmd.target_lane, "either target_lane or direction")
+        if cmd.direction is not None:
+            # (the direction is dropped: the scenario says target lanes from here on)
+            cmd = dataclasses.replace(cmd, target_lane=lane + (1 if cmd.direction == "left"
+                                                               else -1), direction=None)
+            if cmd.target_lane < 0:
+                raise InputError(src, f"sv.lane_changes[{i}].direction", "right",
+                                 "a side with a lane (the SV is in lane 0 by then)")
+        lane = cmd.target_lane
+        out.append(cmd)
+    return dataclasses.replace(sv, lane_changes=tuple(out))
 
 
 def _route_road(src: str, network: Path, route: tuple[str, ...] | None) -> Road:

@@ -51,8 +51,15 @@ class LaneChangeCommand:
 
     at: float = declare(number_key("at_s", "s", 0.0, 3600.0, REQUIRED,
                                    "simulation time of the request"))
-    target_lane: int = declare(lane_key("target_lane",
-                                        "lane to change to, next to the SV's lane then"))
+    # after loading always set, and `direction` None: it is turned into the lane it names
+    target_lane: int = declare(Field(
+        "target_lane", int, lo=0, hi=MAX_LANE, default=None,
+        doc="lane to change to, next to the SV's lane then (or `direction`)",
+        default_doc="from `direction`"))
+    direction: str | None = declare(Field(
+        "direction", str, choices=("left", "right"), default=None,
+        doc="the lane left or right of the SV's lane then, instead of `target_lane`",
+        default_doc="`target_lane`"))
 
 
 @dataclass(frozen=True)
