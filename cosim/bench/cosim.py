@@ -13,6 +13,8 @@ Side by side in one run, medians over repeats, each from SUMO start to close:
   drove (recorded in the cosim run just before) by moveToXY and nothing else: what
   SUMO's step costs with an externally moved vehicle (more than SUMO alone), so that
   cosim / floor is the loop's own cost (issue 26: target <= 1.25, CPU);
+- "curved twin": the dense scenario's twin on the curved motorway (issue 23: CPU within
+  1.3x of the straight road's, median plan() within 2x);
 - a paper case (5.1 by default): its real-time factor, simulated / wall time.
 
 Targets: cosim / sumo alone <= 1.25 (issue 11; 2.0 before), cosim / floor <= 1.25 on
@@ -37,11 +39,15 @@ from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
 
 DEFAULT_DENSE = "scenarios/traffic_high.toml"
 DEFAULT_PAPER = "scenarios/paper_case1_overtaking.toml"
+DEFAULT_CURVED = "scenarios/curved_traffic_high.toml"  # traffic_high's curved twin
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", type=Path, default=None,
                         help=f"dense traffic scenario (default {DEFAULT_DENSE})")
+    parser.add_argument("--curved", type=Path, default=None,
+                        help=f"the dense scenario's twin on a curved route (default: "
+                             f"{DEFAULT_CURVED}); run for as long")
     parser.add_argument("--paper", type=Path, default=None,
                         help=f"paper case for the real-time factor (default {DEFAULT_PAPER})")
     parser.add_argument("--duration", type=seconds("--duration"), default=30.0,
@@ -93,15 +99,29 @@ def cosim_run(scenario: Scenario) -> tuple[float, float, dict[str, Any]]:
     """s, wall and CPU time of the full co-simulation (nothing written), its timing row
     with the scene reads' part of wall_sumo_s (`wall_read_s`) and the SV's path
     (`path`: x, y, heading, speed, acceleration per step, as written to SUMO)."""
+    from cosim.planning.planner import LaneChangePlanner
     from cosim.sim import CoSimulation
 
+    plan_times: list[float] = []
+    plan = LaneChangePlanner.plan
+
+    def timed(self: LaneChangePlanner, *args: Any, **kwargs: Any) -> Any:
+        made = plan(self, *args, **kwargs)
+        plan_times.append(made.planning_time_s)
+        return made
+
     start, cpu = time.perf_counter(), time.process_time()
-    sim = CoSimulation(scenario)
-    result = sim.run()
+    LaneChangePlanner.plan = timed  # type: ignore[method-assign]
+    try:
+        sim = CoSimulation(scenario)
+        result = sim.run()
+    finally:
+        LaneChangePlanner.plan = plan  # type: ignore[method-assign]
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     tr = result.trace
     path = (tr["x_m"], tr["y_m"], np.radians(tr["psi_deg"]), tr["vx_mps"], tr["ax_mps2"])
-    return wall, cpu, {**result.timing, "wall_read_s": sim.world.wall_read, "path": path}
+    return wall, cpu, {**result.timing, "wall_read_s": sim.world.wall_read, "path": path,
+                       "plan_times": plan_times}
 
 
 def sumo_floor(scenario: Scenario, path: SvPath) -> tuple[float, float]:
@@ -133,6 +153,11 @@ def _rest(timing: dict[str, Any]) -> float:
     return float(timing.get("wall_time_s", 0.0)) - sum(float(timing.get(k, 0.0)) for k in parts)
 
 
+def _median(values: list[float]) -> float:
+    """The median, NaN for none (a run that planned nothing)."""
+    return float(np.median(values)) if values else float("nan")
+
+
 def _path(given: Path | None, default: str) -> Path:
     return given if given is not None else project_root() / default
 
@@ -141,6 +166,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     dense = with_overrides(load_scenario(_path(args.scenario, DEFAULT_DENSE)),
                            duration=float(args.duration))
     paper = load_scenario(_path(args.paper, DEFAULT_PAPER))
+    curved = with_overrides(load_scenario(_path(args.curved, DEFAULT_CURVED)),
+                            duration=float(args.duration))
     repeats = max(int(args.repeats), 1)
 
     start = time.perf_counter()
@@ -152,7 +179,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     sumo_alone(with_overrides(dense, duration=1.0), with_sv=True)
     cosim_run(with_overrides(dense, duration=1.0))
     baseline = with_overrides(dense, controller="sumo")
-    keys = ("alone", "alone_sv", "floor", "ours", "baseline", "paper")
+    keys = ("alone", "alone_sv", "floor", "ours", "curved", "baseline", "paper")
+    plans: dict[str, list[float]] = {"ours": [], "curved": []}  # s, every plan() call
     walls: dict[str, list[float]] = {k: [] for k in keys}
     cpus: dict[str, list[float]] = {k: [] for k in keys}
     timing: dict[str, Any] = {}
@@ -166,9 +194,14 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         wall, cpu, timing = cosim_run(dense)
         walls["ours"].append(wall)
         cpus["ours"].append(cpu)
+        plans["ours"] += timing["plan_times"]
         wall, cpu = sumo_floor(dense, timing["path"])  # the path just driven
         walls["floor"].append(wall)
         cpus["floor"].append(cpu)
+        wall, cpu, bent = cosim_run(curved)
+        walls["curved"].append(wall)
+        cpus["curved"].append(cpu)
+        plans["curved"] += bent["plan_times"]
         wall, cpu, _ = cosim_run(baseline)
         walls["baseline"].append(wall)
         cpus["baseline"].append(cpu)
@@ -184,6 +217,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                            ("floor", f"the floor: SUMO, the SV moved along its path by "
                             f"moveToXY ({dense.name})", dense),
                            ("ours", f"cosim, our SV ({dense.name})", dense),
+                           ("curved", f"cosim, our SV, curved twin ({curved.name})", curved),
                            ("baseline", f"cosim, SUMO drives the SV ({dense.name})", baseline),
                            ("paper", f"paper case ({paper.name})", paper)):
         rows.append({"case": label, "wall_s": w[key], "cpu_s": c[key],
@@ -202,11 +236,16 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
             "cosim / floor (cpu)": c["ours"] / c["floor"],
             "floor / sumo alone (cpu)": c["floor"] / c["alone"],
             "cosim / cosim with the SUMO baseline SV": t_ours / w["baseline"],
+            "curved / straight (cpu)": c["curved"] / c["ours"],
+            "median plan() curved / straight": _median(plans["curved"]) / _median(plans["ours"]),
+            "median plan() straight (ms)": 1e3 * _median(plans["ours"]),
             "paper case real-time factor": paper.duration / t_paper,
             "paper case real-time factor (cpu)": paper.duration / c["paper"],
             "numba_startup_s": startup,
         },
         "targets": {"cosim / sumo alone": "<= 1.25", "cosim / floor (cpu)": "<= 1.25",
+                    "curved / straight (cpu)": "<= 1.3",
+                    "median plan() curved / straight": "<= 2",
                     "paper case real-time factor": ">= 50"},
         "notes": [
             "wall times from SUMO start to close; 'sumo alone' steps the same traffic "
