@@ -282,3 +282,29 @@ def test_a_route_whose_lanes_differ_in_width_is_refused_in_one_line(tmp_path: Pa
     road = load_road(tmp_path / "n.net.xml", ["AB", "BC"])
     with pytest.raises(InputError, match=r"lane widths = \[3.5, 3.75\].*3.5, 3.75 m"):
         road_params(road)
+
+
+@pytest.mark.parametrize(("s0", "first"), [(3300.0, "e3_2"), (3100.0, ":j2_0_1"),
+                                           (3080.0, "e2_1")])
+def test_a_lane_change_asked_of_a_sumo_driven_car_is_to_its_track(s0: float,
+                                                                   first: str) -> None:
+    """The SUMO-driven SV on track 1 asked to change to track 2: on e3 (track 2 is SUMO's
+    index 3 there, its own lane index 2), on the junction before it, and on e2 just before
+    the junction (SUMO shifts the request as the index changes): it ends on track 2."""
+    with curved_sim(4) as sim:
+        road = sim.lanes.road
+        sim.add_driven("sv", 1, sim.centre_pose(1, s0), 30.0, 30.0, L, W,
+                       own_lane_changes=False)
+        sim.step()
+        sim.controlled.release("sv")
+        assert sim.api.vehicle.getLaneID("sv") == first
+        sim.change_lane("sv", 2)
+        seen: list[str] = []
+        for _ in range(int(8.0 / STEP)):
+            sim.step()
+            lane_id = sim.api.vehicle.getLaneID("sv")
+            if not seen or seen[-1] != lane_id:
+                seen.append(lane_id)
+        assert "e3_3" in seen, seen
+        assert road.track_ids[seen[-1]] == 2, seen
+        assert sim.snapshot().lane[sim.snapshot().index("sv")] == 2
