@@ -308,3 +308,59 @@ def test_a_lane_change_asked_of_a_sumo_driven_car_is_to_its_track(s0: float,
         assert "e3_3" in seen, seen
         assert road.track_ids[seen[-1]] == 2, seen
         assert sim.snapshot().lane[sim.snapshot().index("sv")] == 2
+
+
+def test_the_world_starts_traffic_around_the_sv_on_its_track() -> None:
+    """World.start on the curved route: random traffic on the three through tracks,
+    none on any track within the SV's exclusion zone around its s, its own track kept
+    free over its start zone."""
+    from cosim.scenario.load import scenario_from_dict
+    from cosim.traffic.demand import start_zone
+    from cosim.traffic.world import SV_LENGTH_MARGIN, World
+
+    doc = _curved_doc(edge="e2", lane=1, position_m=600.0, lane_changes=[])
+    doc["tv"] = []
+    doc["traffic"] = {"density_veh_per_km_lane": 24.0, "length_m": 4000.0}
+    sc = scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    world = World(sc)
+    try:
+        world.start()
+        world.insert()
+        snap = world.read_all()
+        s, _ = world.route_road.frame.to_frenet(snap.x, snap.y)
+        s0, margin = world.sv_start_x, SV_LENGTH_MARGIN * sc.vehicle.length
+        assert world.sv_start_track == 1 and 2000.0 < s0 < 2200.0
+        assert set(snap.lane.tolist()) == {0, 1, 2}
+        near = np.abs(s - s0) < margin + 0.5 * L
+        assert not near.any()
+        lo, hi = start_zone(s0, sc.vehicle.length, sc.sv.speed, sc.road.speed_bands[1][1])
+        own = snap.lane == 1
+        assert not (own & (s + 0.5 * L > lo) & (s - 0.5 * L < hi)).any()
+        assert ((snap.lane != 1) & (s > hi) & (s < hi + 60.0)).any()  # others are there
+    finally:
+        world.close()
+
+
+def test_a_run_past_the_routes_end_and_a_route_whose_first_lane_ends_are_refused(
+        tmp_path: Path) -> None:
+    from cosim.errors import InputError
+    from cosim.scenario.load import scenario_from_dict
+    from cosim.traffic.route import check_through
+
+    doc = _curved_doc(edge="e4", lane=1, position_m=500.0, lane_changes=[])
+    doc["tv"] = []
+    doc["scenario"]["duration_s"] = 30.0  # type: ignore[index]
+    with pytest.raises(InputError, match=r"scenario.duration_s = 30.0: short enough for the SV "
+                                         r"to stay on the 4807.9\d* m road"):
+        scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    (tmp_path / "n.nod.xml").write_text(
+        '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+        '<node id="C" x="2000" y="0"/></nodes>', encoding="utf-8")
+    (tmp_path / "n.edg.xml").write_text(
+        '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
+        '<edge id="BC" from="B" to="C" numLanes="2" speed="33.3"/></edges>', encoding="utf-8")
+    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o",
+                    "n.net.xml", "--no-turnarounds", "true"], cwd=tmp_path, check=True,
+                   capture_output=True)
+    with pytest.raises(InputError, match=r"tracks \[1, 2\] run through"):
+        check_through(load_road(tmp_path / "n.net.xml", ["AB", "BC"]), "s.toml")
