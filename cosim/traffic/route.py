@@ -207,8 +207,11 @@ class RouteLanes:
         here = [t for t in self.road.lanes if t.begin <= s <= t.end] or self.road.lanes
         for table in here:
             k = min(bisect.bisect_left(self._s_end[table.id], s), len(table.s_end) - 1)
-            centre = float(table.centre(s)) if table.track.pieces[k].internal \
-                else float(table.d_start[k])
+            centre = float(table.d_start[k])
+            if table.track.pieces[k].internal:  # LaneTable.centre's smoothstep, on floats
+                a, b = float(table.s_start[k]), float(table.s_end[k])
+                u = min(max((s - a) / max(b - a, 1e-12), 0.0), 1.0)
+                centre += (float(table.d_end[k]) - centre) * u * u * (3.0 - 2.0 * u)
             half = 0.5 * float(table.width[k])
             if centre - half <= d < centre + half:
                 return table
@@ -225,6 +228,7 @@ class RouteLanes:
         return table.track.pieces[k]
 
 
+@functools.lru_cache(maxsize=1024)
 def _stretch(piece: TrackPiece) -> float:
     """SUMO's lane length over its shape's length (1.0 when they agree)."""
     from sumolib.geomhelper import polyLength
