@@ -199,8 +199,9 @@ def scenario_from_dict(
     if found is None:  # another road: the rules read it through its one-edge view
         check_through(road_of_route, src)
         track, s_sv = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
-        found = route_view(road_of_route, s_sv - sv.position, sv.edge)
-        rule_sv = dataclasses.replace(sv, lane=track)  # the rules' lane k is track k
+        found = route_view(road_of_route, sv.edge)
+        # the rules' lane k is track k, their position the distance from the road's start
+        rule_sv = dataclasses.replace(sv, lane=track, position=s_sv)
     highway = found
     # lane geometry has one source: the network (the file may only repeat its width)
     if (rd["lane_width"] is not None
@@ -263,15 +264,12 @@ def _route_road(src: str, network: Path, route: tuple[str, ...] | None) -> Road:
         return load_road(network, route, source=src)  # raises, naming the scenario
 
 
-def route_view(road: Road, x_start: float, sv_edge: str | None) -> Highway:
+def route_view(road: Road, sv_edge: str | None) -> Highway:
     """The one-edge view of a route's road that the scenario rules check against
-    (cosim.scenario.rules reads positions along one edge): x is s, the road starts at
-    `x_start` = the SV's s less its sv.position_m (so the rules' SV x is its s), it is
-    as long as its through tracks reach, a lane's speed limit is its track's on the SV's
-    start edge, and every lane is open to cars (tracks are the lanes cars may use).
-
-    Approximate where the SV starts on a later edge: a scripted TV's gap must then put it
-    ahead of x_start (the start of that edge, not of the route)."""
+    (cosim.scenario.rules reads positions along one edge from its start): x is s, from 0
+    to where the through tracks end, a lane's speed limit is its track's on the SV's start
+    edge, every lane is open to cars (tracks are the lanes cars may use). The rules then
+    read the SV's s as its sv.position_m (a message about it names that s)."""
     lanes = RouteLanes(road)
     edge = sv_edge if sv_edge is not None else road.route.edges[0]
     speeds = []
@@ -280,8 +278,8 @@ def route_view(road: Road, x_start: float, sv_edge: str | None) -> Highway:
         speeds.append(piece.speed)
     end = min(t.end for t in lanes.through)
     return Highway(
-        path=road.route.path, edge_id=edge, x_start=float(x_start),
-        length=float(end - x_start), lane_width=lane_width(road),
+        path=road.route.path, edge_id=edge, x_start=0.0, length=float(end),
+        lane_width=lane_width(road),
         y_right=0.0, lane_speeds=tuple(speeds), lane_open=(True,) * len(speeds),
         rounding=0.5 * 10.0 ** -network_precision(str(road.route.path)) + 1e-9,
     )

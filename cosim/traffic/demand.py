@@ -59,6 +59,7 @@ class Traffic:
     _last: dict[int, str] = field(default_factory=dict)  # lane -> last vehicle inserted
     _next_gap: dict[int, float] = field(default_factory=dict)  # lane -> m before the next one
     _count: int = 0
+    _begin: dict[int, float] = field(default_factory=dict)  # track -> s where it begins
 
     def new_id(self) -> str:
         self._count += 1
@@ -77,7 +78,6 @@ class Traffic:
         """The inflow (a SumoSim hook, after each step)."""
         if not self.inflow:
             return
-        begin = {t.id: t.begin for t in sim.lanes.through}
         for lane, last in list(self._last.items()):
             # front position of the last one inserted; a vehicle still waiting for room
             # reads INVALID (< any gap); one that has left the road raises: insert then
@@ -88,7 +88,7 @@ class Traffic:
                 pass
             vid = self.new_id()
             q = self.quantile()
-            sim.add_traffic(vid, lane, begin[lane] + 0.5 * TV_LENGTH, q)
+            sim.add_traffic(vid, lane, self._begin[lane] + 0.5 * TV_LENGTH, q)
             self._last[lane] = vid
             self._next_gap[lane] = self.spacing()
 
@@ -178,6 +178,7 @@ def populate(
     del road  # its lanes are the route's through tracks (sim.road() is built of them)
     for table in sim.lanes.through:
         lane = table.id
+        traffic._begin[lane] = table.begin
         # front to back: each one is inserted behind its leader
         xs = placement(rng, density, table.begin, length)[::-1]
         qs = QUANTILE_RANGE[0] + (QUANTILE_RANGE[1] - QUANTILE_RANGE[0]) * rng.random(len(xs))

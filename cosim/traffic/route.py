@@ -26,6 +26,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -112,6 +113,7 @@ class RouteLanes:
             (p.lane, t.id) for t in road.lanes for p in t.track.pieces if not p.internal)
         self._s_end = {t.id: t.s_end.tolist() for t in road.lanes}
         self._added: set[int] = set()  # route indices whose rest-of-route SUMO has
+        self._sampled: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
 
     @property
     def length(self) -> float:
@@ -132,12 +134,12 @@ class RouteLanes:
             index[table.id] = min(beside)[2] if beside else 0
         return index
 
-    def route_id(self, api: object, route_index: int) -> str:
+    def route_id(self, api: ModuleType, route_index: int) -> str:
         """SUMO's id of the route from its `route_index`-th edge on (added on first use;
         the whole route is added when SUMO starts)."""
         rid = ROUTE_ID if route_index == 0 else f"{ROUTE_ID}@{route_index}"
         if route_index not in self._added:
-            api.route.add(rid, list(self.road.route.edges[route_index:]))  # type: ignore[attr-defined]
+            api.route.add(rid, list(self.road.route.edges[route_index:]))
             self._added.add(route_index)
         return rid
 
@@ -179,9 +181,15 @@ class RouteLanes:
                                left=positions[0] + s - s_knots[0],
                                right=positions[-1] + s - s_knots[-1]))
 
-    @functools.lru_cache(maxsize=256)  # noqa: B019 - one RouteLanes per simulation
     def _samples(self, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """s of lane positions every ~SAMPLE_STEP m along piece k of a track."""
+        """s of lane positions every ~SAMPLE_STEP m along piece k of a track (made on
+        first use)."""
+        found = self._sampled.get((track, k))
+        if found is None:
+            found = self._sampled[(track, k)] = self._sample(track, k)
+        return found
+
+    def _sample(self, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:
         table = self.road.lane(track)
         piece = table.track.pieces[k]
         shape = np.asarray(piece.shape, dtype=np.float64)
@@ -207,8 +215,11 @@ class RouteLanes:
         here = [t for t in self.road.lanes if t.begin <= s <= t.end] or self.road.lanes
         for table in here:
             k = min(bisect.bisect_left(self._s_end[table.id], s), len(table.s_end) - 1)
-            centre = float(table.centre(s)) if table.track.pieces[k].internal \
-                else float(table.d_start[k])
+            centre = float(table.d_start[k])
+            if table.track.pieces[k].internal:  # LaneTable.centre's smoothstep, on floats
+                a, b = float(table.s_start[k]), float(table.s_end[k])
+                u = min(max((s - a) / max(b - a, 1e-12), 0.0), 1.0)
+                centre += (float(table.d_end[k]) - centre) * u * u * (3.0 - 2.0 * u)
             half = 0.5 * float(table.width[k])
             if centre - half <= d < centre + half:
                 return table
@@ -225,6 +236,7 @@ class RouteLanes:
         return table.track.pieces[k]
 
 
+@functools.lru_cache(maxsize=1024)
 def _stretch(piece: TrackPiece) -> float:
     """SUMO's lane length over its shape's length (1.0 when they agree)."""
     from sumolib.geomhelper import polyLength

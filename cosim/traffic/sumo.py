@@ -275,8 +275,14 @@ class SumoSim:
             gui_window.follow(self.api, vehicle_id, self.gui)
 
     def change_lane(self, vehicle_id: str, lane: int, duration: float = 30.0) -> None:
-        """Ask SUMO to move a vehicle it drives to `lane` (keeps trying for `duration` s)."""
-        self.api.vehicle.changeLane(vehicle_id, lane, duration)
+        """Ask SUMO to move a vehicle it drives to track `lane` (an SV lane k is track k;
+        keeps trying for `duration` s). SUMO takes the lane index on the vehicle's current
+        edge (a junction's lane too) and shifts the request itself wherever the index of
+        the vehicle's lane changes on its way (MSVehicle::Influencer::adaptLaneTimeLine),
+        so the request follows the track (tests/traffic/test_route.py)."""
+        api = self.api
+        piece = self.lanes.table(lane).track.piece_on(str(api.vehicle.getRoadID(vehicle_id)))
+        api.vehicle.changeLane(vehicle_id, lane if piece is None else piece.index, duration)
 
     # ------------------------------------------------------------------ controlled vehicles
     def add_controlled(

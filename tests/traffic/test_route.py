@@ -277,3 +277,85 @@ def test_a_route_whose_lanes_differ_in_width_is_refused_in_one_line(tmp_path: Pa
     road = load_road(tmp_path / "n.net.xml", ["AB", "BC"])
     with pytest.raises(InputError, match=r"lane widths = \[3.5, 3.75\].*3.5, 3.75 m"):
         road_params(road)
+
+
+@pytest.mark.parametrize(("s0", "first"), [(3300.0, "e3_2"), (3100.0, ":j2_0_1"),
+                                           (3080.0, "e2_1")])
+def test_a_lane_change_asked_of_a_sumo_driven_car_is_to_its_track(s0: float,
+                                                                   first: str) -> None:
+    """The SUMO-driven SV on track 1 asked to change to track 2: on e3 (track 2 is SUMO's
+    index 3 there, its own lane index 2), on the junction before it, and on e2 just before
+    the junction (SUMO shifts the request as the index changes): it ends on track 2."""
+    with curved_sim(4) as sim:
+        road = sim.lanes.road
+        sim.add_driven("sv", 1, sim.centre_pose(1, s0), 30.0, 30.0, L, W,
+                       own_lane_changes=False)
+        sim.step()
+        sim.controlled.release("sv")
+        assert sim.api.vehicle.getLaneID("sv") == first
+        sim.change_lane("sv", 2)
+        seen: list[str] = []
+        for _ in range(int(8.0 / STEP)):
+            sim.step()
+            lane_id = sim.api.vehicle.getLaneID("sv")
+            if not seen or seen[-1] != lane_id:
+                seen.append(lane_id)
+        assert "e3_3" in seen, seen
+        assert road.track_ids[seen[-1]] == 2, seen
+        assert sim.snapshot().lane[sim.snapshot().index("sv")] == 2
+
+
+def test_the_world_starts_traffic_around_the_sv_on_its_track() -> None:
+    """World.start on the curved route: random traffic on the three through tracks,
+    none on any track within the SV's exclusion zone around its s, its own track kept
+    free over its start zone."""
+    from cosim.scenario.load import scenario_from_dict
+    from cosim.traffic.demand import start_zone
+    from cosim.traffic.world import SV_LENGTH_MARGIN, World
+
+    doc = _curved_doc(edge="e2", lane=1, position_m=600.0, lane_changes=[])
+    doc["tv"] = []
+    doc["traffic"] = {"density_veh_per_km_lane": 24.0, "length_m": 4000.0}
+    sc = scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    world = World(sc)
+    try:
+        world.start()
+        world.insert()
+        snap = world.read_all()
+        s, _ = world.route_road.frame.to_frenet(snap.x, snap.y)
+        s0, margin = world.sv_start_x, SV_LENGTH_MARGIN * sc.vehicle.length
+        assert world.sv_start_track == 1 and 2000.0 < s0 < 2200.0
+        assert set(snap.lane.tolist()) == {0, 1, 2}
+        near = np.abs(s - s0) < margin + 0.5 * L
+        assert not near.any()
+        lo, hi = start_zone(s0, sc.vehicle.length, sc.sv.speed, sc.road.speed_bands[1][1])
+        own = snap.lane == 1
+        assert not (own & (s + 0.5 * L > lo) & (s - 0.5 * L < hi)).any()
+        assert ((snap.lane != 1) & (s > hi) & (s < hi + 60.0)).any()  # others are there
+    finally:
+        world.close()
+
+
+def test_a_run_past_the_routes_end_and_a_route_whose_first_lane_ends_are_refused(
+        tmp_path: Path) -> None:
+    from cosim.errors import InputError
+    from cosim.scenario.load import scenario_from_dict
+    from cosim.traffic.route import check_through
+
+    doc = _curved_doc(edge="e4", lane=1, position_m=500.0, lane_changes=[])
+    doc["tv"] = []
+    doc["scenario"]["duration_s"] = 30.0  # type: ignore[index]
+    with pytest.raises(InputError, match=r"scenario.duration_s = 30.0: short enough for the SV "
+                                         r"to stay on the 4807.9\d* m road"):
+        scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    (tmp_path / "n.nod.xml").write_text(
+        '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+        '<node id="C" x="2000" y="0"/></nodes>', encoding="utf-8")
+    (tmp_path / "n.edg.xml").write_text(
+        '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
+        '<edge id="BC" from="B" to="C" numLanes="2" speed="33.3"/></edges>', encoding="utf-8")
+    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o",
+                    "n.net.xml", "--no-turnarounds", "true"], cwd=tmp_path, check=True,
+                   capture_output=True)
+    with pytest.raises(InputError, match=r"tracks \[1, 2\] run through"):
+        check_through(load_road(tmp_path / "n.net.xml", ["AB", "BC"]), "s.toml")
