@@ -316,7 +316,7 @@ def test_the_world_starts_traffic_around_the_sv_on_its_track() -> None:
     doc = _curved_doc(edge="e2", lane=1, position_m=600.0, lane_changes=[])
     doc["tv"] = []
     doc["traffic"] = {"density_veh_per_km_lane": 24.0, "length_m": 4000.0}
-    sc = scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+    sc = scenario_from_dict(doc, path=DATA / "route_curved.toml")
     world = World(sc)
     try:
         world.start()
@@ -347,7 +347,7 @@ def test_a_run_past_the_routes_end_and_a_route_whose_first_lane_ends_are_refused
     doc["scenario"]["duration_s"] = 30.0  # type: ignore[index]
     with pytest.raises(InputError, match=r"scenario.duration_s = 30.0: short enough for the SV "
                                          r"to stay on the 4807.9\d* m road"):
-        scenario_from_dict(doc, path=BAD / "route_curved.toml", routes=True)
+        scenario_from_dict(doc, path=DATA / "route_curved.toml")
     (tmp_path / "n.nod.xml").write_text(
         '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
         '<node id="C" x="2000" y="0"/></nodes>', encoding="utf-8")
