@@ -321,8 +321,10 @@ def test_the_world_starts_traffic_around_the_sv_on_its_track() -> None:
     try:
         world.start()
         world.insert()
-        snap = world.read_all()
-        s, _ = world.route_road.frame.to_frenet(snap.x, snap.y)
+        snap = world.read_all()  # in road coordinates: x is s
+        s = snap.x
+        cx, cy, _ = snap.cartesian
+        assert np.allclose(world.route_road.frame.to_frenet(cx, cy)[0], s, atol=1e-9)
         s0, margin = world.sv_start_x, SV_LENGTH_MARGIN * sc.vehicle.length
         assert world.sv_start_track == 1 and 2000.0 < s0 < 2200.0
         assert set(snap.lane.tolist()) == {0, 1, 2}
