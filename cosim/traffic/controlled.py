@@ -54,8 +54,9 @@ class _Controlled:
     last: tuple[float, float, float]  # m, m, rad: the last centre pose written
     inserted: bool = False  # SUMO has it on the network (it inserts it in the next step)
     t_write: float = -1.0  # s, simulation time of the last write
-    y_before: float | None = None  # m, centre y written in the step before that
-    lateral_speed: float = 0.0  # m/s, dy/dt of the written poses (SUMO reports 0 for them)
+    y_before: float | None = None  # m, centre d (y) written in the step before that
+    lateral_speed: float = 0.0  # m/s, dd/dt of the written poses (SUMO reports 0 for them)
+    d_last: float = math.nan  # m, the centre's d (y on the straight road) last written
     signals: int = -1  # SUMO signal bits to hold (-1: leave them to SUMO)
     s_front: float = math.nan  # m, s of its front last written (where to look first)
     hint: TrackPiece | None = None  # the SUMO lane of the track its front was in
@@ -106,19 +107,28 @@ class ControlledVehicles:
         y: float,
         heading: float,
         speed: float,
-        accel: float | None = None,
+        accel: float | None = None, road: tuple[float, float, float] | None = None,
     ) -> None:
         """Write a controlled vehicle's centre pose (takes effect in the next step).
 
         Also sets its speed (and acceleration), so the TVs that react to it in
-        the next step see the plant's speed, not last step's displacement.
+        the next step see the plant's speed, not last step's displacement. `road`: the
+        same pose's (s, d, heading to the road), when the caller has it (its lateral
+        speed is dd/dt, and the front's place along the road for the hint needs no
+        search); else it is found from the Cartesian pose.
         """
         ctl = self.vehicles.get(vehicle_id)
         if ctl is None:
             raise SimulationError(self.sim.time, f"{vehicle_id} is not a controlled vehicle")
         xf, yf = front_from_centre(x, y, heading, ctl.length)
         lanes = self.sim.lanes
-        s_f, d_f = lanes.road.frame.to_frenet(xf, yf, s_hint=ctl.s_front)
+        if road is not None:
+            s_c, d_c, rel = road
+            half = 0.5 * ctl.length
+            s_f, d_f = s_c + half * math.cos(rel), d_c + half * math.sin(rel)
+        else:
+            s_f, d_f = lanes.road.frame.to_frenet(xf, yf, s_hint=ctl.s_front)
+            d_c = y if lanes.straight else d_f  # (the front's d: near enough for dd/dt)
         if math.isfinite(s_f):  # NaN: no arc's normals reach it; keep the last hint
             ctl.s_front, ctl.hint = s_f, lanes.hint(s_f, d_f)
         vehicle = self.sim.api.vehicle
@@ -133,12 +143,13 @@ class ControlledVehicles:
                 vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0), float(accel))
         t = self.sim.time
         if t > ctl.t_write:  # a new step: the previous write becomes the reference
-            ctl.y_before, t_before = ctl.last[1], ctl.t_write
-            ctl.lateral_speed = 0.0 if t_before < 0 else (y - ctl.y_before) / (t - t_before)
+            ctl.y_before, t_before = ctl.d_last, ctl.t_write
+            ctl.lateral_speed = 0.0 if t_before < 0 else (d_c - ctl.y_before) / (t - t_before)
         elif ctl.y_before is not None:  # written twice in one step: the latest counts
-            ctl.lateral_speed = (y - ctl.y_before) / self.sim.step_length
+            ctl.lateral_speed = (d_c - ctl.y_before) / self.sim.step_length
         ctl.t_write = t
         ctl.last = (float(x), float(y), float(heading))
+        ctl.d_last = float(d_c)
         if ctl.signals >= 0:  # SUMO resets the signals of a moved vehicle: hold them
             vehicle.setSignals(vehicle_id, ctl.signals)
         self.moved = True

@@ -315,10 +315,11 @@ class SumoSim:
         self.dims[vehicle_id] = (length, width)
 
     def move(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
-             accel: float | None = None) -> None:
+             accel: float | None = None, road: tuple[float, float, float] | None = None
+             ) -> None:
         """Write a controlled vehicle's centre pose (takes effect in the next step); see
-        ControlledVehicles.move."""
-        self.controlled.move(vehicle_id, x, y, heading, speed, accel)
+        ControlledVehicles.move (`road`: the pose's s, d, heading to the road)."""
+        self.controlled.move(vehicle_id, x, y, heading, speed, accel, road)
 
     def set_blinker(self, vehicle_id: str, direction: int) -> None:
         """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""

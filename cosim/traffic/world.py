@@ -242,12 +242,15 @@ class World:
              accel: float | None = None) -> None:
         """A controlled vehicle's centre pose in road coordinates (holds from the next step)."""
         cx, cy, ch, q = self.cartesian(x, y, heading)
-        self.sumo.move(vehicle_id, cx, cy, ch, speed * q, None if accel is None else accel * q)
+        self.sumo.move(vehicle_id, cx, cy, ch, speed * q, None if accel is None else accel * q,
+                       road=(x, y, heading))
 
     def move_xy(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
-                accel: float | None = None) -> None:
-        """A controlled vehicle's Cartesian centre pose (the SV's plant; from the next step)."""
-        self.sumo.move(vehicle_id, x, y, heading, speed, accel)
+                accel: float | None = None,
+                road: tuple[float, float, float] | None = None) -> None:
+        """A controlled vehicle's Cartesian centre pose (the SV's plant; from the next step);
+        `road`: the same pose in road coordinates (s, d, heading to the road), if known."""
+        self.sumo.move(vehicle_id, x, y, heading, speed, accel, road=road)
 
     def replay_sv(self, x: list[float], y: list[float], heading: list[float],
                   speed: list[float], accel: list[float]) -> None:
