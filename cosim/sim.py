@@ -89,7 +89,7 @@ class CoSimulation:
     def _start(self) -> None:
         """SUMO with its traffic, the scripted TVs, the SV, then the first step that
         inserts them all (the order SUMO sees the vehicles in is part of the result)."""
-        sc = self.sc = in_tracks(self.sc, self.world.sv_start_track)
+        sc = self.sc = self.sc.in_tracks(self.world.sv_start_track)
         world = self.world
         road = self.road = world.start()
         sumo_drives = sc.sv.controller == "sumo"
@@ -180,22 +180,6 @@ class CoSimulation:
                          recorder.tracks.result(), metrics, timing, events,
                          records=self.ego.records, first_plan=done.first_plan,
                          edges=tuple(recorder.edges), route_road=self.world.route_road)
-
-
-def in_tracks(sc: Scenario, sv_track: int) -> Scenario:
-    """The scenario with its lanes as the loop counts them, the route's tracks: [sv] lane,
-    its lane_changes' and the scripted TVs' lanes are SUMO's indices on [sv] edge, which
-    differ from the track ids by a lane added on the right before that edge (the same
-    scenario when they agree, as on every one-edge road)."""
-    shift = sv_track - sc.sv.lane
-    if shift == 0:
-        return sc
-    changes = tuple(replace(c, target_lane=c.target_lane + shift) for c in sc.sv.lane_changes)
-    tvs = tuple(replace(tv, lane=tv.lane + shift, lane_change=None if tv.lane_change is None
-                        else replace(tv.lane_change,
-                                     target_lane=tv.lane_change.target_lane + shift))
-                for tv in sc.tvs)
-    return replace(sc, sv=replace(sc.sv, lane=sv_track, lane_changes=changes), tvs=tvs)
 
 
 def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:

@@ -195,13 +195,11 @@ def scenario_from_dict(
     road_of_route = _route_road(src, network, rd["route"])
     base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
     road = road_params(road_of_route, base, src)
-    rule_sv = sv
+    start: tuple[int, float] | None = None
     if found is None:  # another road: the rules read it through its one-edge view
         check_through(road_of_route, src)
-        track, s_sv = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
+        start = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
         found = route_view(road_of_route, sv.edge)
-        # the rules' lane k is track k, their position the distance from the road's start
-        rule_sv = dataclasses.replace(sv, lane=track, position=s_sv)
     highway = found
     # lane geometry has one source: the network (the file may only repeat its width)
     if (rd["lane_width"] is not None
@@ -231,9 +229,34 @@ def scenario_from_dict(
         document=copy.deepcopy(dict(doc)),
         route=rd["route"],
     )
-    check_scenario(src, scenario if rule_sv is sv else dataclasses.replace(scenario, sv=rule_sv),
-                   highway)
+    ruled = scenario
+    if start is not None:  # the rules' lane k is track k (every lane the file names
+        # shifted alike), their position the distance from the road's start
+        ruled = scenario.in_tracks(start[0])
+        ruled = dataclasses.replace(ruled, sv=dataclasses.replace(ruled.sv, position=start[1]))
+        _lanes_run_through(src, scenario, ruled)
+    check_scenario(src, ruled, highway)
     return scenario
+
+
+def _lanes_run_through(src: str, written: Scenario, ruled: Scenario) -> None:
+    """InputError for a lane the file names (SUMO's index on [sv] edge) that is not one of
+    the route's through lanes (below them: a lane the route adds, issue 24's)."""
+    names = [(f"sv.lane_changes[{i}].target_lane", w.target_lane, r.target_lane)
+             for i, (w, r) in enumerate(zip(written.sv.lane_changes, ruled.sv.lane_changes,
+                                            strict=True))]
+    for i, (w, r) in enumerate(zip(written.tvs, ruled.tvs, strict=True)):
+        names.append((f"tv[{i}].lane", w.lane, r.lane))
+        if w.lane_change is not None and r.lane_change is not None:
+            names.append((f"tv[{i}].lane_change.target_lane", w.lane_change.target_lane,
+                          r.lane_change.target_lane))
+    lowest = written.sv.lane - ruled.sv.lane
+    for key, value, track in names:
+        if track < 0:
+            raise InputError(src, key, value,
+                             f"a lane that runs through the route (on edge "
+                             f"{written.sv.edge}: index {lowest} or above; lower ones are "
+                             "added on the route, not driven yet)")
 
 
 def _lane_changes_in_lanes(src: str, sv: SVSpec) -> SVSpec:

@@ -361,3 +361,26 @@ def test_a_run_past_the_routes_end_and_a_route_whose_first_lane_ends_are_refused
                    capture_output=True)
     with pytest.raises(InputError, match=r"tracks \[1, 2\] run through"):
         check_through(load_road(tmp_path / "n.net.xml", ["AB", "BC"]), "s.toml")
+
+
+def test_lanes_named_on_an_edge_with_a_lane_added_count_as_tracks() -> None:
+    """On e3 (a lane added on the right at j2) SUMO's index 2 is track 1: a scenario
+    written there (the SV in lane 2 changing to 3, a TV in 2 changing to 1) is checked
+    and run as tracks 1 -> 2 and 1 -> 0; the added lane (index 0) is refused as a target."""
+    from cosim.errors import InputError
+    from cosim.scenario.load import scenario_from_dict
+
+    doc = _curved_doc(edge="e3", lane=2, position_m=200.0,
+                      lane_changes=[{"at_s": 1.0, "target_lane": 3}])
+    doc["tv"][0]["lane"] = 2  # type: ignore[index]
+    doc["tv"][0]["lane_change"]["target_lane"] = 1  # type: ignore[index]
+    doc["tv"] = doc["tv"][:1]  # type: ignore[index]
+    sc = scenario_from_dict(doc, path=DATA / "route_curved.toml")
+    run = sc.in_tracks(1)
+    assert run.sv.lane == 1 and run.sv.lane_changes[0].target_lane == 2
+    assert run.tvs[0].lane == 1 and run.tvs[0].lane_change.target_lane == 0
+    assert sc.in_tracks(sc.sv.lane) is sc
+    doc["sv"].update(lane=1, lane_changes=[{"at_s": 1.0, "target_lane": 0}])  # type: ignore
+    with pytest.raises(InputError, match=r"sv.lane_changes\[0\].target_lane = 0: a lane that "
+                                         r"runs through the route \(on edge e3: index 1"):
+        scenario_from_dict(doc, path=DATA / "route_curved.toml")
