@@ -336,6 +336,10 @@ class StraightFrame:
         """1/m, the reference line's curvature at s (+: bending left)."""
         return np.zeros_like(np.asarray(s, dtype=np.float64)) + 0.0
 
+    def tangent(self, s: ArrayLike) -> tuple[Any, Any]:
+        """(heading rad, curvature 1/m) of the reference line at s: 0, 0."""
+        return self.heading(s), self.curvature(s)
+
 
 class ArcFrame:
     """The frame along an arc spline (see the module docstring). `d_offset` is added to
@@ -410,6 +414,12 @@ class ArcFrame:
         """1/m, the reference line's curvature at s (+: bending left; constant per arc)."""
         k, _ = self._arc(s)
         return self.kappa[k]
+
+    def tangent(self, s: ArrayLike) -> tuple[Any, Any]:
+        """(heading rad, curvature 1/m) of the reference line at s, in one lookup."""
+        k, u = self._arc(s)
+        kappa = self.kappa[k]
+        return self.theta[k] + kappa * u, kappa
 
 
 Frame = StraightFrame | ArcFrame

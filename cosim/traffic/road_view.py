@@ -47,8 +47,9 @@ def road_view(snap: TrafficSnapshot, frame: StraightFrame | ArcFrame,
         return snap
     s, d = frame.to_frenet(snap.x, snap.y, s_hint=s_hint)
     s, d = np.asarray(s, dtype=np.float64), np.asarray(d, dtype=np.float64)
-    rel = np.angle(np.exp(1j * (snap.heading - frame.heading(s))))
-    q = stretch(frame, s, d)
+    theta, kappa = frame.tangent(s)
+    rel = (snap.heading - theta + np.pi) % (2.0 * np.pi) - np.pi  # wrapped into [-pi, pi)
+    q = 1.0 - kappa * (d - getattr(frame, "d_offset", 0.0))
     return replace(snap, x=s, y=d, heading=rel, speed=snap.speed / q, accel=snap.accel / q,
                    cx=snap.x, cy=snap.y, ch=snap.heading)
 
