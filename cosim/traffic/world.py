@@ -27,11 +27,10 @@ from numpy.typing import NDArray
 
 from cosim.errors import SimulationError
 from cosim.params import RoadParams
-from cosim.road.road import load_road
 from cosim.scenario.model import Scenario
 from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
-from cosim.traffic.route import sv_start
+from cosim.traffic.route import route_road, sv_start
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
 Array = NDArray[np.float64]
@@ -102,7 +101,7 @@ class World:
         tr = sc.traffic
         # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
         # edge the identity StraightFrame); SUMO runs on its route
-        self.route_road = load_road(sc.network, sc.route, source=str(sc.path))
+        self.route_road = route_road(sc.network, sc.route, source=str(sc.path))
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed,
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
