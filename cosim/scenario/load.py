@@ -14,7 +14,7 @@ from typing import Any
 
 from cosim.errors import InputError
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, vehicle_from_table
-from cosim.road.road import Road, load_road
+from cosim.road.road import Road
 from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS, VEHICLE_FIELDS
 from cosim.scenario.model import (
     NAME_PATTERN,
@@ -192,7 +192,7 @@ def scenario_from_dict(
                          route=rd["route"])
     # the planner's road in (s, d) from the route's road (cosim.traffic.route.road_params;
     # on the one straight edge of networks/highway.net.xml the RoadParams of before)
-    road_of_route = _route_road(src, network, rd["route"])
+    road_of_route = route_road(network, rd["route"], source=src)
     base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
     road = road_params(road_of_route, base, src)
     start: tuple[int, float] | None = None
@@ -277,14 +277,6 @@ def _lane_changes_in_lanes(src: str, sv: SVSpec) -> SVSpec:
         lane = cmd.target_lane
         out.append(cmd)
     return dataclasses.replace(sv, lane_changes=tuple(out))
-
-
-def _route_road(src: str, network: Path, route: tuple[str, ...] | None) -> Road:
-    """The route's road, built once per network file (an InputError names the scenario)."""
-    try:
-        return route_road(network, route)
-    except InputError:
-        return load_road(network, route, source=src)  # raises, naming the scenario
 
 
 def route_view(road: Road, sv_edge: str | None) -> Highway:

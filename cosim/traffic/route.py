@@ -51,16 +51,23 @@ class Place:
     route_index: int  # the edge's position in the route
 
 
-def route_road(network: Path | str, route: Sequence[str] | None = None) -> Road:
+def route_road(network: Path | str, route: Sequence[str] | None = None,
+               source: str | None = None) -> Road:
     """The Road of `route` on `network` (cosim.road.road.load_road), built once per
-    process for a file as it is (cached on its path, modification time and size)."""
+    process for a file as it is (cached on its path, modification time and size); an
+    InputError names `source` (e.g. the scenario) if given."""
     path = Path(network)
     try:
         st = path.stat()
     except (OSError, ValueError):  # load_road says what is wrong with it, in one line
-        return load_road(network, route)
-    return _road(str(path.resolve()), st.st_mtime_ns, st.st_size,
-                 None if route is None else tuple(route))
+        return load_road(network, route, source=source)
+    try:
+        return _road(str(path.resolve()), st.st_mtime_ns, st.st_size,
+                     None if route is None else tuple(route))
+    except InputError:
+        if source is None:
+            raise
+        return load_road(network, route, source=source)  # raises, naming `source`
 
 
 @functools.lru_cache(maxsize=8)

@@ -112,7 +112,7 @@ class World:
         # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
         # edge the identity StraightFrame); SUMO runs on its route
         # (built once per process and network file: the scenario's loading built it)
-        self.route_road = route_road(sc.network, sc.route)
+        self.route_road = route_road(sc.network, sc.route, source=str(sc.path))
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed,
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
