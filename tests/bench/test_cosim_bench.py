@@ -20,7 +20,7 @@ def test_floor_and_phase_split_of_a_short_dense_run() -> None:
     x = timing["path"][0]
     assert x.size == sc.n_steps + 1 and np.all(np.diff(x) > 0)  # the SV's path, driven on
     floor_wall, floor_cpu = sumo_floor(sc, timing["path"])
-    assert 0 < floor_wall and 0 < floor_cpu
+    assert floor_wall > 0 and floor_cpu > 0
     phases = phase_split(sc)
     assert list(phases) == [name for name, _, _ in PHASES] + ["other"]
     assert all(v > 0 for v in phases.values())
