@@ -41,9 +41,9 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                   write_figures: bool = True, extra_files: Sequence[Path] = (),
                   figure_format: str | None = None) -> list[Path]:
     """trace.csv, plans.csv, metrics.csv, timing.csv and the figures (in `figure_format`,
-    default png), built in a hidden
-    sibling folder and swapped in whole (cosim.output.staged_dir): `out_dir` holds either
-    this run's complete result or, after an interrupt, exactly what it held before.
+    default png), built in a hidden sibling folder and swapped in whole
+    (cosim.output.staged_dir): `out_dir` holds either this run's complete result or,
+    after an interrupt, exactly what it held before.
     `extra_files` (complete files, e.g. SUMO's fcd.xml) are copied in under their names."""
     import shutil
 
@@ -88,9 +88,9 @@ def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> l
     from functools import partial
 
     from cosim import plots
+    from cosim.plots.run import gap_history, global_trajectories
 
     figure_path = partial(plots.figure_path, fmt=fmt)
-    from cosim.plots.run import gap_history, global_trajectories
 
     tr = result.trace
     sc = result.scenario
