@@ -38,10 +38,12 @@ def trace_frame(trace: dict[str, Array], edges: Sequence[str] = ()) -> Any:
 
 
 def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
-                  write_figures: bool = True, extra_files: Sequence[Path] = ()) -> list[Path]:
-    """trace.csv, plans.csv, metrics.csv, timing.csv and the figures, built in a hidden
-    sibling folder and swapped in whole (cosim.output.staged_dir): `out_dir` holds either
-    this run's complete result or, after an interrupt, exactly what it held before.
+                  write_figures: bool = True, extra_files: Sequence[Path] = (),
+                  figure_format: str | None = None) -> list[Path]:
+    """trace.csv, plans.csv, metrics.csv, timing.csv and the figures (in `figure_format`,
+    default png), built in a hidden sibling folder and swapped in whole
+    (cosim.output.staged_dir): `out_dir` holds either this run's complete result or,
+    after an interrupt, exactly what it held before.
     `extra_files` (complete files, e.g. SUMO's fcd.xml) are copied in under their names."""
     import shutil
 
@@ -63,7 +65,7 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
         for path in extra_files:
             written.append(Path(shutil.copyfile(path, out / Path(path).name)))
         if write_figures:
-            written += write_run_figures(result, out)
+            written += write_run_figures(result, out, figure_format)
     return [Path(out_dir) / p.name for p in written]
 
 
@@ -80,11 +82,15 @@ def tv_role(tv: Any) -> str:
     return ", ".join(parts)
 
 
-def write_run_figures(result: RunResult, out: Path) -> list[Path]:
+def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> list[Path]:
     """trajectories (Fig. 16), gaps (gap and TTC over time), tracking and inputs
-    (Fig. 13-15), tau_sets and planning (Fig. 10-12), in the chosen figure format."""
-    from cosim.plots import figure_path
+    (Fig. 13-15), tau_sets and planning (Fig. 10-12), in the format `fmt` (default png)."""
+    from functools import partial
+
+    from cosim import plots
     from cosim.plots.run import gap_history, global_trajectories
+
+    figure_path = partial(plots.figure_path, fmt=fmt)
 
     tr = result.trace
     sc = result.scenario

@@ -203,12 +203,14 @@ def run_scenario(
     progress: bool = False,
     gui: bool | GuiSettings = False,
     fcd: bool = False,
+    figure_format: str | None = None,
 ) -> dict[str, Any]:
     """Run one scenario (one libsumo simulation in this process); write its outputs
     into `out_dir` (None: write nothing); return the metrics row merged with the
     wall-time columns (names starting `wall_`). `fcd`: SUMO's floating-car data of the
     run goes into `out_dir` as fcd.xml, written by SUMO into a temporary folder and
-    moved in with the other outputs (an interrupted or failed run leaves none)."""
+    moved in with the other outputs (an interrupted or failed run leaves none).
+    `figure_format`: png (default), svg or pdf."""
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="cosim-fcd-") as tmp:
@@ -218,7 +220,7 @@ def run_scenario(
             from cosim.run_output import write_outputs
 
             write_outputs(result, Path(out_dir), write_trace=write_trace,
-                          write_figures=write_figures,
+                          write_figures=write_figures, figure_format=figure_format,
                           extra_files=() if fcd_path is None else (fcd_path,))
     return {**result.metrics, **{k: v for k, v in result.timing.items() if k != "scenario"}}
 

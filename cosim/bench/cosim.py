@@ -18,7 +18,8 @@ Side by side in one run, medians over repeats, each from SUMO start to close:
 - a paper case (5.1 by default): its real-time factor, simulated / wall time.
 
 Targets: cosim / sumo alone <= 1.25 (issue 11; 2.0 before), cosim / floor <= 1.25 on
-CPU time (issue 26); the paper case >= 50x real time.
+CPU time (issue 26); the paper case >= 50x real time. One extra cosim run, not in the
+rows, splits the loop's wall time into its parts (`phase_split`, a note and `phases`).
 
 The closed loop is compiled (numba): its start-up in this process is timed once
 before the warm-up runs and reported apart (`numba_startup_s`), not in the rows.
@@ -124,6 +125,46 @@ def cosim_run(scenario: Scenario) -> tuple[float, float, dict[str, Any]]:
                        "plan_times": plan_times}
 
 
+# The loop's parts timed by `phase_split`: (name, the CoSimulation attribute, its method).
+PHASES = (("sumo_step", "world", "step"), ("scene_read", "world", "read"),
+          ("record", "recorder", "record"), ("policy", "policy", "update"),
+          ("control", "ego", "advance"))
+
+
+def phase_split(scenario: Scenario) -> dict[str, float]:
+    """s of wall time per part of one extra cosim run (not in the rows): SUMO's step with
+    its hooks and SUMO's collisions (`World.step`), the scene read (`World.read`), the
+    trace row with the overlap check (`Recorder.record`), the policy (`update`: decision
+    rule, gap choice, planning), control + plant + moveToXY (`Ego.advance`), and `other`:
+    the rest of the run (SUMO start and traffic, the scene's TVs and the SV's state, the
+    ego's trace columns, gap requests, the scripted TVs, the run's result). Each part is
+    timed by a wrapper around that method of this run's objects (about 0.2 us a call)."""
+    from cosim.sim import CoSimulation
+
+    times = {name: 0.0 for name, _, _ in PHASES}
+
+    def timed(fn: Any, name: str) -> Any:
+        def call(*args: Any, **kwargs: Any) -> Any:
+            start = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                times[name] += time.perf_counter() - start
+        return call
+
+    class Timed(CoSimulation):
+        def _start(self) -> None:
+            super()._start()
+            for name, owner, method in PHASES:
+                obj = getattr(self, owner)
+                setattr(obj, method, timed(getattr(obj, method), name))
+
+    start = time.perf_counter()
+    Timed(scenario).run()
+    times["other"] = time.perf_counter() - start - sum(times.values())
+    return times
+
+
 def sumo_floor(scenario: Scenario, path: SvPath) -> tuple[float, float]:
     """s, wall and CPU time of SUMO with the scenario's traffic and the SV moved along
     `path` by moveToXY, SUMO start to close: the World's start and insertion, then per
@@ -208,6 +249,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         wall, cpu, _ = cosim_run(paper)
         walls["paper"].append(wall)
         cpus["paper"].append(cpu)
+    phases = phase_split(dense)
     w = {k: float(np.median(v)) for k, v in walls.items()}
     c = {k: float(np.median(v)) for k, v in cpus.items()}
     rows = []
@@ -247,6 +289,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                     "curved / straight (cpu)": "<= 1.3",
                     "median plan() curved / straight": "<= 2",
                     "paper case real-time factor": ">= 50"},
+        "phases": phases,
         "notes": [
             "wall times from SUMO start to close; 'sumo alone' steps the same traffic "
             "(network, density, seed, inflow, band rule) through SumoSim without an SV",
@@ -258,6 +301,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
             f"planning {timing.get('wall_planning_s', 0):.3f}, the rest (SUMO start and "
             f"traffic, trace rows and overlap check, decision rule, write-back) "
             f"{_rest(timing):.3f}",
+            "the loop's parts in one extra cosim run (s, wall; cosim.bench.cosim.phase_split): "
+            + ", ".join(f"{name} {value:.3f}" for name, value in phases.items()),
             f"plant {dense.sv.plant}, controller {dense.sv.controller}, "
             f"{dense.substeps} substeps per {dense.step:g} s step",
             f"closed loop compiled with numba: start-up in this process {startup:.2f} s "

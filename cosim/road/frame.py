@@ -321,6 +321,8 @@ class StraightFrame:
                   s_hint: ArrayLike | None = None) -> tuple[Any, Any]:
         """(s, d) of Cartesian points; arrays or floats (`s_hint` unused: exact)."""
         del s_hint
+        if type(x) is float and type(y) is float:  # one point (the loop's SV, each step)
+            return x - self.x0, y - self.y0
         shape, (x_, y_) = _arrays(x, y)
         return _shaped(shape, x_ - self.x0, y_ - self.y0)
 

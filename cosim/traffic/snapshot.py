@@ -138,6 +138,10 @@ class SnapshotReader:
         # candidates gone since the refresh (arrived); None: not tracked (a teleport or
         # a removal), then each call asks SUMO who is present
         self.near_gone: set[str] | None = None
+        # the sizes of the last `read`'s vehicles (ids, length, width, length / 2): the
+        # candidates change only at a refresh or an arrival, their sizes never while they
+        # are on the network; cleared when a vehicle leaves (an id may come back)
+        self._sizes: tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def snapshot(self, exclude: Iterable[str] = ()) -> TrafficSnapshot:
         """Every vehicle now (except `exclude`), centre poses, in one pass."""
@@ -196,13 +200,16 @@ class SnapshotReader:
         others may have left too (teleports), see `untracked`."""
         if untracked:
             self.untracked()
-        elif self.near_gone is not None:
-            self.near_gone.update(vehicle_ids)
+        elif vehicle_ids:
+            self._sizes = None
+            if self.near_gone is not None:
+                self.near_gone.update(vehicle_ids)
 
     def untracked(self) -> None:
         """A vehicle may have left other than by arriving (teleport, removal, a lost
         controlled vehicle): snapshot_near reads the ID list until its next refresh."""
         self.near_gone = None
+        self._sizes = None
 
     def read(self, ids: tuple[str, ...], t: float | None = None, *, full: bool = True,
              near: tuple[str, float] | None = None) -> TrafficSnapshot:
@@ -216,14 +223,11 @@ class SnapshotReader:
         pos = np.fromiter(chain.from_iterable(map(get_pos, ids)), float, 2 * n).reshape(n, 2)
         xf, yf = pos[:, 0], pos[:, 1]
         angle = np.fromiter(map(get_angle, ids), float, n)
-        dims = self.dims
-        sizes = np.fromiter(chain.from_iterable(dims.get(vid) or self._read_dims(vid)
-                                                for vid in ids), float, 2 * n).reshape(n, 2)
-        length, width = sizes[:, 0].copy(), sizes[:, 1].copy()
+        length, width, half = self._sizes_of(ids)
         h = np.radians(90.0 - angle)
         h = np.arctan2(np.sin(h), np.cos(h))
-        x = xf - 0.5 * length * np.cos(h)
-        y = yf - 0.5 * length * np.sin(h)
+        x = xf - half * np.cos(h)
+        y = yf - half * np.sin(h)
         if near is not None:
             center_id, radius = near
             if center_id in ids:
@@ -234,6 +238,8 @@ class SnapshotReader:
             ids = tuple(compress(ids, keep.tolist()))
             xf, x, y, h, length, width = (a[keep] for a in (xf, x, y, h, length, width))
             n = len(ids)
+        else:  # the snapshot's own arrays, not the cache's
+            length, width = length.copy(), width.copy()
         speed = np.fromiter(map(get_speed, ids), float, n)
         lane = np.fromiter(map(self.tracks.get, map(get_lane, ids), repeat(-1)), int, n)
         lat = np.fromiter(map(get_lat, ids), float, n)
@@ -243,11 +249,10 @@ class SnapshotReader:
         else:
             accel, signals = np.full(n, np.nan), np.zeros(n, dtype=int)
         lane[xf < INVALID] = -1
-        moved = self.lateral_speeds()
-        if moved:  # SUMO reports no sideways speed of a moved vehicle: dy/dt of its poses
-            for i, vid in enumerate(ids):
-                if vid in moved:
-                    lat[i] = moved[vid]
+        # SUMO reports no sideways speed of a moved vehicle: dy/dt of its poses
+        for vid, speed_y in self.lateral_speeds().items():
+            if vid in ids:
+                lat[ids.index(vid)] = speed_y
         return TrafficSnapshot(
             time=float(self.api.simulation.getTime()) if t is None else t,
             ids=ids,
@@ -307,6 +312,19 @@ class SnapshotReader:
     def pending(self) -> tuple[str, ...]:
         """Vehicles added but not yet inserted (no room at their position yet)."""
         return tuple(self.api.simulation.getPendingVehicles())
+
+    def _sizes_of(self, ids: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """m, the vehicles' lengths, widths and half lengths, the last call's arrays when
+        the vehicles are the same (never modified: `read` hands out copies)."""
+        cached = self._sizes
+        if cached is None or cached[0] != ids:
+            dims = self.dims
+            sizes = np.fromiter(chain.from_iterable(dims.get(vid) or self._read_dims(vid)
+                                                    for vid in ids), float, 2 * len(ids))
+            sizes = sizes.reshape(len(ids), 2)
+            length, width = sizes[:, 0].copy(), sizes[:, 1].copy()
+            cached = self._sizes = (ids, length, width, 0.5 * length)
+        return cached[1], cached[2], cached[3]
 
     def _read_dims(self, vehicle_id: str) -> tuple[float, float]:
         vehicle = self.api.vehicle

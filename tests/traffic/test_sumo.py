@@ -334,3 +334,25 @@ def test_every_vehicle_type_is_of_the_class_the_lane_check_assumes() -> None:
         sim.step()
         classes = {vid: sim.api.vehicle.getVehicleClass(vid) for vid in ("t0", "c0", "d0")}
     assert classes == {"t0": PASSENGER, "c0": PASSENGER, "d0": PASSENGER}
+
+
+def test_snapshot_sizes_follow_a_vehicle_added_again_under_its_id() -> None:
+    """The scene read keeps its vehicles' sizes while they stay; a vehicle removed and
+    added again under the same id with another size is read with the new one."""
+    with make_sim() as sim:
+        y = sim.road().lane_center(1)
+        sim.add_controlled("sv", 200.0, y, 0.0, 20.0, L, W, 1)
+        sim.add_controlled("tv", 230.0, y, 0.0, 20.0, 4.0, 1.7, 1, vtype="tv_scripted")
+        sim.step()
+        for _ in range(2):  # the second read takes the sizes kept from the first
+            near = sim.snapshot_near("sv", 100.0)
+            i = near.index("tv")
+            assert (near.length[i], near.width[i]) == (4.0, 1.7)
+        sim.remove("tv")
+        sim.add_controlled("tv", 240.0, y, 0.0, 20.0, 12.0, 2.5, 1, vtype="truck")
+        sim.move("sv", 201.0, y, 0.0, 20.0)
+        sim.step()
+        near = sim.snapshot_near("sv", 100.0)
+        i = near.index("tv")
+        assert (near.length[i], near.width[i]) == (12.0, 2.5)
+        assert near.x[i] == pytest.approx(240.0, abs=1e-6)  # the centre from the new length
