@@ -59,7 +59,7 @@ class LaneChangeCommand:
     direction: str | None = declare(Field(
         "direction", str, choices=("left", "right"), default=None,
         doc="the lane left or right of the SV's lane then, instead of `target_lane`",
-        default_doc="`target_lane`"))
+        default_doc="`target_lane`"), default=None)
 
 
 @dataclass(frozen=True)
