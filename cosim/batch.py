@@ -953,6 +953,7 @@ def run_study(
     title: str = "study",
     on_start: Callable[[int], None] | None = None,
     restart: bool = False,
+    figure_format: str | None = None,
 ) -> StudyResult:
     """Run what is not yet recorded, then write runs.csv, summary.csv and plots.
 
@@ -1026,7 +1027,7 @@ def run_study(
     if plots and len(runs):
         from cosim.plots.batch import plot_summary
 
-        figures = plot_summary(summary, out_dir / "plots", title=title)
+        figures = plot_summary(summary, out_dir / "plots", title=title, fmt=figure_format)
     return StudyResult(
         out_dir=out_dir, runs=runs, summary=summary, ran=len(todo), skipped=done_before,
         failed=int((runs["status"] != STATUS_OK).sum()) if len(runs) else 0,

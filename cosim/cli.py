@@ -139,10 +139,6 @@ def _say(text: str) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if hasattr(args, "figure_format"):
-        from cosim.plots import set_format
-
-        set_format(args.figure_format or "png")
     previous = signals_as_interrupts()  # SIGTERM unwinds like Ctrl-C (exit 143)
     streams = sys.stdout, sys.stderr
     # a closed descriptor (`2>&-`) leaves its stream None, which print skips but the

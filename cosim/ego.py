@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.recorder import COLUMN
 from cosim.scenario import Scenario
+from cosim.traffic.road_view import is_identity, stretch
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import SV_ID, SVState, World
 
@@ -54,7 +55,7 @@ class PlannedEgo:
     def __init__(self, scenario: Scenario, world: World, y0: float,
                  first_reference: LaneChangeTrajectory) -> None:
         sc = scenario
-        x0 = world.sv_start_x
+        x0 = world.sv_start_x  # m, s and d of the start (road coordinates)
         self.plant = sc.sv.plant
         self.substeps = sc.substeps
         self.world = world
@@ -70,8 +71,11 @@ class PlannedEgo:
         from cosim.control.closed_loop import ClosedLoop
 
         sc, x0, y0 = self._start
+        # the plant is Cartesian; the reference and the scene are in road coordinates
+        # (speed along s: at the start's offset the car drives q times it)
+        cx, cy, ch, q = self.world.cartesian(x0, y0, 0.0)
         self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
-                               sc.road.mu, x0, y0, 0.0, speed)
+                               sc.road.mu, cx, cy, ch, speed * q, frame=self.world.frame)
         self.loop.set_reference(reference)
         self.record = self.loop.record(0.0)
         self.records: list[Any] = [self.record]
@@ -82,7 +86,12 @@ class PlannedEgo:
     def state(self, everyone: TrafficSnapshot) -> SVState:
         r = self.record
         lane = float(everyone.lane[everyone.index(SV_ID)])
-        return SVState(r.x, r.y, r.heading, r.vx, r.vy, lane, self.world.sv_road_id())
+        if is_identity(self.world.frame):
+            return SVState(r.x, r.y, r.heading, r.vx, r.vy, lane, self.world.sv_road_id())
+        s, d, rel = self.loop.road_pose
+        q = float(stretch(self.world.frame, s, d))
+        return SVState(s, d, rel, r.vx / q, r.vy, lane, self.world.sv_road_id(),
+                       cartesian=(r.x, r.y, r.heading), stretch=q)
 
     def write_trace(self, row: Array) -> None:
         r = self.record
@@ -111,7 +120,7 @@ class PlannedEgo:
         r = self.record = self.loop.advance(t, dt, self.substeps, reference)
         self.records.append(r)
         self.wall += time.perf_counter() - w0
-        self.world.move(SV_ID, r.x, r.y, r.heading, r.vx, r.ax)
+        self.world.move_xy(SV_ID, r.x, r.y, r.heading, r.vx, r.ax, road=self.loop.road_pose)
 
     def finish_trace(self, trace: dict[str, Array]) -> None:
         """Nothing to add: every column came from the closed loop."""
@@ -146,9 +155,15 @@ class SumoDrivenEgo:
     def state(self, everyone: TrafficSnapshot) -> SVState:
         i = everyone.index(SV_ID)
         self.ax = self.world.sv_acceleration()  # not in every read
-        return SVState(float(everyone.x[i]), float(everyone.y[i]), float(everyone.heading[i]),
-                       float(everyone.speed[i]), float(everyone.lateral_speed[i]),
-                       float(everyone.lane[i]), self.world.sv_road_id())
+        x, y, h = float(everyone.x[i]), float(everyone.y[i]), float(everyone.heading[i])
+        lane, road_id = float(everyone.lane[i]), self.world.sv_road_id()
+        speed, lateral = float(everyone.speed[i]), float(everyone.lateral_speed[i])
+        if everyone.cx is None:
+            return SVState(x, y, h, speed, lateral, lane, road_id)
+        cx, cy, ch = everyone.cartesian
+        q = float(stretch(self.world.frame, x, y))
+        return SVState(x, y, h, speed, lateral, lane, road_id,
+                       cartesian=(float(cx[i]), float(cy[i]), float(ch[i])), stretch=q)
 
     def write_trace(self, row: Array) -> None:
         row[COLUMN["ax_mps2"]] = self.ax

@@ -27,6 +27,7 @@ from cosim.params import RoadParams
 from cosim.proximity import gap_ttc_min
 from cosim.road.road import Road
 from cosim.scenario import Scenario
+from cosim.traffic.road_view import is_identity
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import Scene, SVState
 
@@ -193,6 +194,7 @@ class RunResult:
     records: list[Any] = field(default_factory=list)  # closed-loop StepRecords (ours only)
     first_plan: Any = None  # the planner's first Plan (for the tau-set figure)
     edges: tuple[str, ...] = ()  # SUMO road ids the trace's `edge` column indexes
+    route_road: Road | None = None  # the route's road and (s, d) frame (cosim.road)
 
 
 class Tracks:
@@ -235,9 +237,12 @@ class Recorder:
         self.route_road = route_road  # the (s, d) frame and tracks (None: s, d NaN)
         self.edges: list[str] = []  # road ids in the order met (the `edge` column's index)
         self._edge_index: dict[str, int] = {}
-        self._s_hint: float | None = None  # s a step ago, the projection's start
         self.sv_length, self.sv_width = sv_length, sv_width
         self.sv_diag = math.hypot(sv_length, sv_width)  # m, body diagonal
+        # m, the SV's reach for the exact check's candidates: in road coordinates
+        # distances are stretched by up to 1 / q (<= 1 / 0.85, the frame's limit)
+        curved = route_road is not None and not is_identity(route_road.frame)
+        self.reach = self.sv_diag * (1.25 if curved else 1.0)
         self.collisions = 0  # collision onsets by our exact check
         self.hits: frozenset[str] = frozenset()  # TVs overlapping the SV at the last row
         self.sv_fault = 0  # collision onsets the SV caused (see METRIC_DOCS)
@@ -256,12 +261,15 @@ class Recorder:
         row = self.data[k]
         C = COLUMN
         sv, tvs = scene.sv, scene.tvs
+        # x, y, h in road coordinates (s, d, heading to the road; the identity on the
+        # straight road): lanes, gaps, TTC; the Cartesian pose: the trace, the overlap check
         x, y, h, vx, vy = sv.x, sv.y, sv.heading, sv.vx, sv.vy
+        px, py, ph = sv.pose
         row[C["t_s"]] = scene.t
-        row[C["x_m"]] = x
-        row[C["y_m"]] = y
-        row[C["psi_deg"]] = math.degrees(h)
-        row[C["vx_mps"]] = vx
+        row[C["x_m"]] = px
+        row[C["y_m"]] = py
+        row[C["psi_deg"]] = math.degrees(ph)
+        row[C["vx_mps"]] = vx * sv.stretch
         row[C["vy_mps"]] = vy
         lane = self.road.lane_of(y)
         row[C["lane"]] = lane
@@ -277,16 +285,17 @@ class Recorder:
         hy = 0.5 * (self.sv_length * s_ + self.sv_width * c)
         sv_vxg = vx * math.cos(h) - vy * math.sin(h)
         reach = np.empty(len(tvs), dtype=bool)
-        gap, ttc = gap_ttc_min(x, y, sv_vxg, hx, hy, self.sv_diag, tvs.x, tvs.y, scene.tv_vx,
+        gap, ttc = gap_ttc_min(x, y, sv_vxg, hx, hy, self.reach, tvs.x, tvs.y, scene.tv_vx,
                                tvs.heading, tvs.length, tvs.width, reach)
         row[C["gap_min_m"]] = gap
         row[C["ttc_min_s"]] = ttc
         # exact test only where the bounding circles meet (most steps: nobody)
         near = np.flatnonzero(reach)
         hits: frozenset[str] = frozenset()
-        if near.size:
-            hit = overlap_sat(x, y, h, self.sv_length, self.sv_width, tvs.x[near], tvs.y[near],
-                              tvs.heading[near], tvs.length[near], tvs.width[near])
+        if near.size:  # (the reach test's circles hold a margin for the frame's stretch)
+            tx, ty, th = tvs.cartesian
+            hit = overlap_sat(px, py, ph, self.sv_length, self.sv_width, tx[near], ty[near],
+                              th[near], tvs.length[near], tvs.width[near])
             hits = frozenset(tvs.ids[i] for i, c in zip(near, hit, strict=True) if c)
         for vid in hits - self.hits:  # onsets: was the SV at fault? (changing lanes, or hit ahead)
             if status.manoeuvring or float(tvs.x[tvs.index(vid)]) > x:
@@ -330,7 +339,7 @@ class Recorder:
             if k is None:
                 continue  # never entered, or nobody near then
             _, ids, x, _ = self.tracks.chunks[k]
-            sv_x = float(np.interp(enter, t, trace["x_m"]))
+            sv_x = float(np.interp(enter, t, trace["s_m"]))
             behind = np.where(self._in_lane(k, lane) & (x < sv_x), x, -np.inf)
             if not np.isfinite(behind.max()):
                 continue  # no follower
@@ -365,7 +374,7 @@ class Recorder:
                 continue
             x = self.tracks.chunks[k][2]
             in_lane = self._in_lane(k, target)
-            gaps.append(mx.time_gap(float(np.interp(enter, t, trace["x_m"])),
+            gaps.append(mx.time_gap(float(np.interp(enter, t, trace["s_m"])),
                                     float(np.interp(enter, t, trace["vx_mps"])),
                                     self.sv_length, x[in_lane], self.tracks.lengths[k][in_lane]))
         m["merge_time_gap_s"] = min(gaps) if gaps else math.nan
@@ -414,10 +423,8 @@ class Recorder:
         if rr is None:
             row[C["track"]] = -1
             return
-        s, d = rr.frame.to_frenet(sv.x, sv.y, s_hint=self._s_hint)
-        self._s_hint = float(s)
-        row[C["s_m"]] = s
-        row[C["d_m"]] = d
+        row[C["s_m"]] = sv.x  # the scene is in road coordinates (road_view)
+        row[C["d_m"]] = sv.y
         lane = int(sv.sumo_lane)
         row[C["track"]] = rr.track_ids.get(f"{edge}_{lane}", -1) if edge and lane >= 0 else -1
 
@@ -431,12 +438,12 @@ class Recorder:
                 ) -> dict[str, Any]:
         """The metrics row (METRIC_DOCS) of a run's trace and what the policy did."""
         t = trace["t_s"]
-        durations = mx.lane_change_durations(t, trace["y_m"], done.starts, done.targets,
+        durations = mx.lane_change_durations(t, trace["d_m"], done.starts, done.targets,
                                              done.ends, SETTLE_TOL)
         settled = durations[np.isfinite(durations)]
         ok_plans = [p for p in done.plans if p["ok"] == 1]
         requests = done.requests
-        y_end = float(trace["y_m"][-1])
+        y_end = float(trace["d_m"][-1])
         lane_end = self.road.lane_of(y_end)
         m: dict[str, Any] = {
             "scenario": sc.name,

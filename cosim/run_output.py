@@ -38,10 +38,12 @@ def trace_frame(trace: dict[str, Array], edges: Sequence[str] = ()) -> Any:
 
 
 def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
-                  write_figures: bool = True, extra_files: Sequence[Path] = ()) -> list[Path]:
-    """trace.csv, plans.csv, metrics.csv, timing.csv and the figures, built in a hidden
-    sibling folder and swapped in whole (cosim.output.staged_dir): `out_dir` holds either
-    this run's complete result or, after an interrupt, exactly what it held before.
+                  write_figures: bool = True, extra_files: Sequence[Path] = (),
+                  figure_format: str | None = None) -> list[Path]:
+    """trace.csv, plans.csv, metrics.csv, timing.csv and the figures (in `figure_format`,
+    default png), built in a hidden sibling folder and swapped in whole
+    (cosim.output.staged_dir): `out_dir` holds either this run's complete result or,
+    after an interrupt, exactly what it held before.
     `extra_files` (complete files, e.g. SUMO's fcd.xml) are copied in under their names."""
     import shutil
 
@@ -63,7 +65,7 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
         for path in extra_files:
             written.append(Path(shutil.copyfile(path, out / Path(path).name)))
         if write_figures:
-            written += write_run_figures(result, out)
+            written += write_run_figures(result, out, figure_format)
     return [Path(out_dir) / p.name for p in written]
 
 
@@ -80,27 +82,39 @@ def tv_role(tv: Any) -> str:
     return ", ".join(parts)
 
 
-def write_run_figures(result: RunResult, out: Path) -> list[Path]:
+def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> list[Path]:
     """trajectories (Fig. 16), gaps (gap and TTC over time), tracking and inputs
-    (Fig. 13-15), tau_sets and planning (Fig. 10-12), in the chosen figure format."""
-    from cosim.plots import figure_path
+    (Fig. 13-15), tau_sets and planning (Fig. 10-12), in the format `fmt` (default png)."""
+    from functools import partial
+
+    from cosim import plots
     from cosim.plots.run import gap_history, global_trajectories
+
+    figure_path = partial(plots.figure_path, fmt=fmt)
 
     tr = result.trace
     sc = result.scenario
     spans = [(lc.t0, lc.t0 + lc.tau) for lc in result.lane_changes]
+    curved = result.route_road is not None and result.route_road.curved
+    view = "road coordinates (s, d)" if curved else "global trajectories"
     paths = [
-        global_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["x_m"], tr["y_m"],
+        # in road coordinates (s, d) as the planner sees them: x, y on the straight road
+        global_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["s_m"], tr["d_m"],
                             result.tv_tracks, result.road,
                             highlight=[tv.id for tv in sc.tvs], lane_changes=spans,
                             requests=[float(p["t_s"]) for p in result.plans
                                       if p.get("trigger") in ("scripted", "decision")],
                             roles={tv.id: tv_role(tv) for tv in sc.tvs},
-                            title=f"{sc.name}: global trajectories (dots every 1 s)"),
+                            title=f"{sc.name}: {view} (dots every 1 s)"),
         gap_history(figure_path(out, "gaps"), tr["t_s"], tr["gap_min_m"], tr["leader_gap_m"],
                     tr["ttc_min_s"], lane_changes=spans,
                     title=f"{sc.name}: gaps and time-to-collision"),
     ]
+    if curved:  # the x-y map: SUMO's lanes, the frame's borders, the SV's path
+        from cosim.plots.road import plot_road
+
+        paths.append(plot_road(result.route_road, figure_path(out, "road"),
+                               sv_path=(tr["x_m"], tr["y_m"])))
     if result.records:
         from cosim.control.tracking import TrackingRun
         from cosim.plots.tracking import plot_inputs, plot_states

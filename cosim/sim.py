@@ -45,7 +45,7 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cosim.driving import registry
 from cosim.driving.base import DrivingContext, LaneChangePolicy, WorldPorts
@@ -62,9 +62,13 @@ from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and 
     Recorder,
     RunResult,
 )
+from cosim.road.road import Road
 from cosim.scenario import Scenario
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.world import Scene, World
+
+if TYPE_CHECKING:
+    from cosim.planning.planner import RoadCurve
 
 ProgressFn = Callable[[int], None]
 SUMO_DRIVES = "sumo"  # the registered policy of the SUMO-driven SV (controller "sumo")
@@ -85,7 +89,8 @@ class CoSimulation:
     def _start(self) -> None:
         """SUMO with its traffic, the scripted TVs, the SV, then the first step that
         inserts them all (the order SUMO sees the vehicles in is part of the result)."""
-        sc, world = self.sc, self.world
+        sc = self.sc = self.sc.in_tracks(self.world.sv_start_track)
+        world = self.world
         road = self.road = world.start()
         sumo_drives = sc.sv.controller == "sumo"
         cls = registry.policy_class(SUMO_DRIVES if sumo_drives else sc.planner.policy)
@@ -101,7 +106,8 @@ class CoSimulation:
             ego = PlannedEgo(sc, world, y0, lane_keeping_reference(
                 0.0, world.sv_start_x, y0, sc.sv.speed, 0.0))
             planner = LaneChangePlanner(sc.vehicle, road, uncertain_config(sc),
-                                        prediction=cls.prediction)
+                                        prediction=cls.prediction,
+                                        curve=road_curve(world.route_road, sc))
         self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road,
                                  route_road=world.route_road)
         world.insert()
@@ -157,7 +163,7 @@ class CoSimulation:
         sc, recorder = self.sc, self.recorder
         trace = recorder.trace()
         self.ego.finish_trace(trace)
-        done = self.policy.summary(trace["t_s"], trace["y_m"])
+        done = self.policy.summary(trace["t_s"], trace["d_m"])  # d: across the road
         metrics = recorder.metrics(sc, trace, done, plant=self.ego.plant,
                                    tracks_reference=self.ego.tracks_reference,
                                    n_steps=self.n_steps, events=len(events))
@@ -173,7 +179,19 @@ class CoSimulation:
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
                          records=self.ego.records, first_plan=done.first_plan,
-                         edges=tuple(recorder.edges))
+                         edges=tuple(recorder.edges), route_road=self.world.route_road)
+
+
+def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:
+    """The planner's bound on the road frame's bending (None: a straight road)."""
+    from cosim.planning.planner import RoadCurve
+    from cosim.traffic.sumo import TV_LENGTH, TV_WIDTH
+
+    if not route_road.curved:
+        return None
+    kappa, d_abs = route_road.curvature_bound()
+    top = max(max(hi for _, hi in sc.road.speed_bands), sc.sv.speed, sc.sv.desired_speed or 0.0)
+    return RoadCurve(kappa, d_abs, top, 0.5 * math.hypot(TV_LENGTH, TV_WIDTH))
 
 
 def run_scenario(
@@ -185,12 +203,14 @@ def run_scenario(
     progress: bool = False,
     gui: bool | GuiSettings = False,
     fcd: bool = False,
+    figure_format: str | None = None,
 ) -> dict[str, Any]:
     """Run one scenario (one libsumo simulation in this process); write its outputs
     into `out_dir` (None: write nothing); return the metrics row merged with the
     wall-time columns (names starting `wall_`). `fcd`: SUMO's floating-car data of the
     run goes into `out_dir` as fcd.xml, written by SUMO into a temporary folder and
-    moved in with the other outputs (an interrupted or failed run leaves none)."""
+    moved in with the other outputs (an interrupted or failed run leaves none).
+    `figure_format`: png (default), svg or pdf."""
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="cosim-fcd-") as tmp:
@@ -200,7 +220,7 @@ def run_scenario(
             from cosim.run_output import write_outputs
 
             write_outputs(result, Path(out_dir), write_trace=write_trace,
-                          write_figures=write_figures,
+                          write_figures=write_figures, figure_format=figure_format,
                           extra_files=() if fcd_path is None else (fcd_path,))
     return {**result.metrics, **{k: v for k, v in result.timing.items() if k != "scenario"}}
 

@@ -161,9 +161,13 @@ def test_summary_table_and_plot_show_the_median_without_minus_like_hyphens(
         return real(self, x, y, **kw)
 
     monkeypatch.setattr(matplotlib.axes.Axes, "errorbar", errorbar)
-    batch_plots.plot_summary(summary, tmp_path)
+    assert batch_plots.plot_summary(summary, tmp_path) == [tmp_path / "density.png"]
     # rates, p95 and medians as the table
     assert drawn == pytest.approx([100.0, 0.0, 0.0, 1.45, 2.4, 31.0])
+    # the format is the caller's (cosim batch --figure-format), not a module setting
+    svg = batch_plots.plot_summary(summary, tmp_path, fmt="svg")
+    assert svg == [tmp_path / "density.svg"] and "<svg" in svg[0].read_text()
+    assert (tmp_path / "density.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_records_are_written_whole(tmp_path: Path) -> None:

@@ -11,7 +11,9 @@ import cosim
 
 PACKAGE = Path(cosim.__file__).resolve().parent
 LOOP_PARTS = ("sim.py", "ego.py", "observer.py", "recorder.py", "traffic/world.py",
-              "traffic/sumo.py", "traffic/snapshot.py", "driving/manoeuvre.py",
+              "traffic/sumo.py", "traffic/snapshot.py", "traffic/process.py",
+              "traffic/traffic_vehicles.py", "traffic/controlled.py", "traffic/route.py",
+              "driving/manoeuvre.py",
               "driving/following.py", "driving/paper.py", "driving/sumo.py",
               "driving/gap/policy.py")
 MAX_LINES = 350

@@ -82,14 +82,20 @@ def test_road_columns_follow_the_track_across_a_junction_on_the_curved_motorway(
     lane = road.lane(1)
     s_values = [float(lane.s_start[k]) + 20.0 for k in range(len(lane.track.pieces))]
     rec = Recorder(len(s_values), L, W, ROAD, route_road=road)
+    cartesian = []
     for k, (piece, s) in enumerate(zip(lane.track.pieces, s_values, strict=True)):
-        x, y, heading = road.frame.to_cartesian(s, float(lane.centre(s)))
+        d = float(lane.centre(s))
+        x, y, heading = road.frame.to_cartesian(s, d)
         index = int(piece.lane.rsplit("_", 1)[1])
-        sv = SVState(float(x), float(y), float(heading), 20.0, 0.0, float(index), piece.edge)
-        snap = TrafficSnapshot(0.05 * k, (SV_ID,), np.array([x]), np.array([y]),
-                               np.array([heading]), np.array([20.0]), np.zeros(1),
+        # the loop's scene is in road coordinates, the Cartesian pose beside it
+        sv = SVState(s, d, 0.0, 20.0, 0.0, float(index), piece.edge,
+                     cartesian=(float(x), float(y), float(heading)))
+        snap = TrafficSnapshot(0.05 * k, (SV_ID,), np.array([s]), np.array([d]),
+                               np.zeros(1), np.array([20.0]), np.zeros(1),
                                np.array([index]), np.zeros(1), np.full(1, L), np.full(1, W),
-                               np.zeros(1, int))
+                               np.zeros(1, int), cx=np.array([x]), cy=np.array([y]),
+                               ch=np.array([heading]))
+        cartesian.append((float(x), float(y), math.degrees(float(heading))))
         rec.record(k, Scene.around(0.05 * k, sv, snap), KEEPING)
     rec.last_row = len(s_values) - 1
     frame = trace_frame(rec.trace(), rec.edges)
@@ -98,6 +104,7 @@ def test_road_columns_follow_the_track_across_a_junction_on_the_curved_motorway(
     assert {"e2", "e3"} <= set(frame["edge"]) and frame["sumo_lane"].nunique() > 1
     assert np.allclose(frame["s_m"], s_values, atol=1e-6)
     assert np.allclose(frame["d_m"], [float(lane.centre(s)) for s in s_values], atol=1e-6)
+    assert np.allclose(frame[["x_m", "y_m", "psi_deg"]].to_numpy(), cartesian, atol=1e-9)
 
 
 def test_road_columns_on_the_straight_road_are_x_and_y() -> None:

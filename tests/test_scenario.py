@@ -319,3 +319,32 @@ def test_route_and_sv_edge_on_the_one_edge_network(tmp_path: Path) -> None:
     assert d["road"]["route"] == ["highway"] and d["sv"]["edge"] == "highway"
     assert scenario_from_dict(json.loads(json.dumps(d)), path=s.path) == s
     assert (s.sv.position, s.network) == (plain.sv.position, plain.network)
+
+
+def test_lane_changes_may_say_a_direction_instead_of_a_lane() -> None:
+    """`direction = "left" | "right"`: the lane next to the one the SV is in by then (the
+    same scenario as with target lanes); both or neither is refused in one line."""
+    doc = _doc()
+    doc["sv"]["lane"] = 1
+    doc["sv"]["lane_changes"] = [{"at_s": 1.0, "direction": "left"},
+                                 {"at_s": 5.0, "direction": "right"},
+                                 {"at_s": 8.0, "direction": "right"}]
+    sc = scenario_from_dict(doc, path=BASE)
+    assert [c.target_lane for c in sc.sv.lane_changes] == [2, 1, 0]
+    assert all(c.direction is None for c in sc.sv.lane_changes)
+    written = _doc()
+    written["sv"]["lane"] = 1
+    written["sv"]["lane_changes"] = [{"at_s": 1.0, "target_lane": 2},
+                                     {"at_s": 5.0, "target_lane": 1},
+                                     {"at_s": 8.0, "target_lane": 0}]
+    assert scenario_from_dict(written, path=BASE).sv == sc.sv
+    doc["sv"]["lane_changes"] = [{"at_s": 1.0, "direction": "left", "target_lane": 2}]
+    with pytest.raises(InputError, match=r"lane_changes\[0\] = 2: either target_lane or"):
+        scenario_from_dict(doc, path=BASE)
+    doc["sv"]["lane_changes"] = [{"at_s": 1.0}]
+    with pytest.raises(InputError, match=r"lane_changes\[0\].*either target_lane or"):
+        scenario_from_dict(doc, path=BASE)
+    doc["sv"]["lane_changes"] = [{"at_s": 1.0, "direction": "right"},
+                                 {"at_s": 4.0, "direction": "right"}]
+    with pytest.raises(InputError, match=r"\[1\].direction = 'right': a side with a lane"):
+        scenario_from_dict(doc, path=BASE)

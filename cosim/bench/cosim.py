@@ -13,10 +13,13 @@ Side by side in one run, medians over repeats, each from SUMO start to close:
   drove (recorded in the cosim run just before) by moveToXY and nothing else: what
   SUMO's step costs with an externally moved vehicle (more than SUMO alone), so that
   cosim / floor is the loop's own cost (issue 26: target <= 1.25, CPU);
+- "curved twin": the dense scenario's twin on the curved motorway (issue 23: CPU within
+  1.3x of the straight road's, median plan() within 2x);
 - a paper case (5.1 by default): its real-time factor, simulated / wall time.
 
 Targets: cosim / sumo alone <= 1.25 (issue 11; 2.0 before), cosim / floor <= 1.25 on
-CPU time (issue 26); the paper case >= 50x real time.
+CPU time (issue 26); the paper case >= 50x real time. One extra cosim run, not in the
+rows, splits the loop's wall time into its parts (`phase_split`, a note and `phases`).
 
 The closed loop is compiled (numba): its start-up in this process is timed once
 before the warm-up runs and reported apart (`numba_startup_s`), not in the rows.
@@ -37,11 +40,15 @@ from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
 
 DEFAULT_DENSE = "scenarios/traffic_high.toml"
 DEFAULT_PAPER = "scenarios/paper_case1_overtaking.toml"
+DEFAULT_CURVED = "scenarios/curved_traffic_high.toml"  # traffic_high's curved twin
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", type=Path, default=None,
                         help=f"dense traffic scenario (default {DEFAULT_DENSE})")
+    parser.add_argument("--curved", type=Path, default=None,
+                        help=f"the dense scenario's twin on a curved route (default: "
+                             f"{DEFAULT_CURVED}); run for as long")
     parser.add_argument("--paper", type=Path, default=None,
                         help=f"paper case for the real-time factor (default {DEFAULT_PAPER})")
     parser.add_argument("--duration", type=seconds("--duration"), default=30.0,
@@ -55,6 +62,7 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
     start to close; with_sv: an SV of the scenario's size at its start, driven by
     SUMO's own models (no co-simulation loop at all)."""
     from cosim.traffic.demand import populate, start_zone
+    from cosim.traffic.route import sv_start
     from cosim.traffic.sumo import SumoSim
     from cosim.traffic.world import SV_ID, SV_LENGTH_MARGIN
 
@@ -64,7 +72,7 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
                   lanechange_duration=tr.lanechange_duration, sublane=tr.sublane,
                   speed_bands=scenario.road.speed_bands)
     with sim:
-        x0 = sim.highway.x_start + scenario.sv.position
+        _, x0 = sv_start(sim.lanes.road, scenario.sv.edge, scenario.sv.lane, scenario.sv.position)
         margin = SV_LENGTH_MARGIN * scenario.vehicle.length
         if tr.density > 0:
             sv = scenario.sv
@@ -75,8 +83,9 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
         if with_sv:
             sv = scenario.sv
             desired = sv.desired_speed or scenario.road.speed_bands[sv.lane][1]
-            sim.add_driven(SV_ID, sv.lane, x0, sv.speed, desired, scenario.vehicle.length,
-                           scenario.vehicle.width, own_lane_changes=sv.decision)
+            sim.add_driven(SV_ID, sv.lane, sim.centre_pose(sv.lane, x0), sv.speed, desired,
+                           scenario.vehicle.length, scenario.vehicle.width,
+                           own_lane_changes=sv.decision)
             sim.step()
             sim.controlled.release(SV_ID)
         for _ in range(scenario.n_steps + (0 if with_sv else 1)):
@@ -91,15 +100,69 @@ def cosim_run(scenario: Scenario) -> tuple[float, float, dict[str, Any]]:
     """s, wall and CPU time of the full co-simulation (nothing written), its timing row
     with the scene reads' part of wall_sumo_s (`wall_read_s`) and the SV's path
     (`path`: x, y, heading, speed, acceleration per step, as written to SUMO)."""
+    from cosim.planning.planner import LaneChangePlanner
     from cosim.sim import CoSimulation
 
+    plan_times: list[float] = []
+    plan = LaneChangePlanner.plan
+
+    def timed(self: LaneChangePlanner, *args: Any, **kwargs: Any) -> Any:
+        made = plan(self, *args, **kwargs)
+        plan_times.append(made.planning_time_s)
+        return made
+
     start, cpu = time.perf_counter(), time.process_time()
-    sim = CoSimulation(scenario)
-    result = sim.run()
+    LaneChangePlanner.plan = timed  # type: ignore[method-assign]
+    try:
+        sim = CoSimulation(scenario)
+        result = sim.run()
+    finally:
+        LaneChangePlanner.plan = plan  # type: ignore[method-assign]
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     tr = result.trace
     path = (tr["x_m"], tr["y_m"], np.radians(tr["psi_deg"]), tr["vx_mps"], tr["ax_mps2"])
-    return wall, cpu, {**result.timing, "wall_read_s": sim.world.wall_read, "path": path}
+    return wall, cpu, {**result.timing, "wall_read_s": sim.world.wall_read, "path": path,
+                       "plan_times": plan_times}
+
+
+# The loop's parts timed by `phase_split`: (name, the CoSimulation attribute, its method).
+PHASES = (("sumo_step", "world", "step"), ("scene_read", "world", "read"),
+          ("record", "recorder", "record"), ("policy", "policy", "update"),
+          ("control", "ego", "advance"))
+
+
+def phase_split(scenario: Scenario) -> dict[str, float]:
+    """s of wall time per part of one extra cosim run (not in the rows): SUMO's step with
+    its hooks and SUMO's collisions (`World.step`), the scene read (`World.read`), the
+    trace row with the overlap check (`Recorder.record`), the policy (`update`: decision
+    rule, gap choice, planning), control + plant + moveToXY (`Ego.advance`), and `other`:
+    the rest of the run (SUMO start and traffic, the scene's TVs and the SV's state, the
+    ego's trace columns, gap requests, the scripted TVs, the run's result). Each part is
+    timed by a wrapper around that method of this run's objects (about 0.2 us a call)."""
+    from cosim.sim import CoSimulation
+
+    times = {name: 0.0 for name, _, _ in PHASES}
+
+    def timed(fn: Any, name: str) -> Any:
+        def call(*args: Any, **kwargs: Any) -> Any:
+            start = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                times[name] += time.perf_counter() - start
+        return call
+
+    class Timed(CoSimulation):
+        def _start(self) -> None:
+            super()._start()
+            for name, owner, method in PHASES:
+                obj = getattr(self, owner)
+                setattr(obj, method, timed(getattr(obj, method), name))
+
+    start = time.perf_counter()
+    Timed(scenario).run()
+    times["other"] = time.perf_counter() - start - sum(times.values())
+    return times
 
 
 def sumo_floor(scenario: Scenario, path: SvPath) -> tuple[float, float]:
@@ -131,6 +194,11 @@ def _rest(timing: dict[str, Any]) -> float:
     return float(timing.get("wall_time_s", 0.0)) - sum(float(timing.get(k, 0.0)) for k in parts)
 
 
+def _median(values: list[float]) -> float:
+    """The median, NaN for none (a run that planned nothing)."""
+    return float(np.median(values)) if values else float("nan")
+
+
 def _path(given: Path | None, default: str) -> Path:
     return given if given is not None else project_root() / default
 
@@ -139,6 +207,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     dense = with_overrides(load_scenario(_path(args.scenario, DEFAULT_DENSE)),
                            duration=float(args.duration))
     paper = load_scenario(_path(args.paper, DEFAULT_PAPER))
+    curved = with_overrides(load_scenario(_path(args.curved, DEFAULT_CURVED)),
+                            duration=float(args.duration))
     repeats = max(int(args.repeats), 1)
 
     start = time.perf_counter()
@@ -150,7 +220,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     sumo_alone(with_overrides(dense, duration=1.0), with_sv=True)
     cosim_run(with_overrides(dense, duration=1.0))
     baseline = with_overrides(dense, controller="sumo")
-    keys = ("alone", "alone_sv", "floor", "ours", "baseline", "paper")
+    keys = ("alone", "alone_sv", "floor", "ours", "curved", "baseline", "paper")
+    plans: dict[str, list[float]] = {"ours": [], "curved": []}  # s, every plan() call
     walls: dict[str, list[float]] = {k: [] for k in keys}
     cpus: dict[str, list[float]] = {k: [] for k in keys}
     timing: dict[str, Any] = {}
@@ -164,15 +235,21 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         wall, cpu, timing = cosim_run(dense)
         walls["ours"].append(wall)
         cpus["ours"].append(cpu)
+        plans["ours"] += timing["plan_times"]
         wall, cpu = sumo_floor(dense, timing["path"])  # the path just driven
         walls["floor"].append(wall)
         cpus["floor"].append(cpu)
+        wall, cpu, bent = cosim_run(curved)
+        walls["curved"].append(wall)
+        cpus["curved"].append(cpu)
+        plans["curved"] += bent["plan_times"]
         wall, cpu, _ = cosim_run(baseline)
         walls["baseline"].append(wall)
         cpus["baseline"].append(cpu)
         wall, cpu, _ = cosim_run(paper)
         walls["paper"].append(wall)
         cpus["paper"].append(cpu)
+    phases = phase_split(dense)
     w = {k: float(np.median(v)) for k, v in walls.items()}
     c = {k: float(np.median(v)) for k, v in cpus.items()}
     rows = []
@@ -182,6 +259,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                            ("floor", f"the floor: SUMO, the SV moved along its path by "
                             f"moveToXY ({dense.name})", dense),
                            ("ours", f"cosim, our SV ({dense.name})", dense),
+                           ("curved", f"cosim, our SV, curved twin ({curved.name})", curved),
                            ("baseline", f"cosim, SUMO drives the SV ({dense.name})", baseline),
                            ("paper", f"paper case ({paper.name})", paper)):
         rows.append({"case": label, "wall_s": w[key], "cpu_s": c[key],
@@ -200,12 +278,18 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
             "cosim / floor (cpu)": c["ours"] / c["floor"],
             "floor / sumo alone (cpu)": c["floor"] / c["alone"],
             "cosim / cosim with the SUMO baseline SV": t_ours / w["baseline"],
+            "curved / straight (cpu)": c["curved"] / c["ours"],
+            "median plan() curved / straight": _median(plans["curved"]) / _median(plans["ours"]),
+            "median plan() straight (ms)": 1e3 * _median(plans["ours"]),
             "paper case real-time factor": paper.duration / t_paper,
             "paper case real-time factor (cpu)": paper.duration / c["paper"],
             "numba_startup_s": startup,
         },
         "targets": {"cosim / sumo alone": "<= 1.25", "cosim / floor (cpu)": "<= 1.25",
+                    "curved / straight (cpu)": "<= 1.3",
+                    "median plan() curved / straight": "<= 2",
                     "paper case real-time factor": ">= 50"},
+        "phases": phases,
         "notes": [
             "wall times from SUMO start to close; 'sumo alone' steps the same traffic "
             "(network, density, seed, inflow, band rule) through SumoSim without an SV",
@@ -217,6 +301,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
             f"planning {timing.get('wall_planning_s', 0):.3f}, the rest (SUMO start and "
             f"traffic, trace rows and overlap check, decision rule, write-back) "
             f"{_rest(timing):.3f}",
+            "the loop's parts in one extra cosim run (s, wall; cosim.bench.cosim.phase_split): "
+            + ", ".join(f"{name} {value:.3f}" for name, value in phases.items()),
             f"plant {dense.sv.plant}, controller {dense.sv.controller}, "
             f"{dense.substeps} substeps per {dense.step:g} s step",
             f"closed loop compiled with numba: start-up in this process {startup:.2f} s "

@@ -253,7 +253,7 @@ def run(args: argparse.Namespace) -> int:
     result = run_study(
         specs, out, workers=workers, dask=args.dask, progress=not args.no_progress,
         retry_failed=args.retry_failed, plots=not args.no_plots, title=study.name,
-        on_start=announce, restart=args.restart,
+        on_start=announce, restart=args.restart, figure_format=args.figure_format,
     )
     print(
         f"{len(result.runs)} runs ({result.ran} run now, {result.skipped} already done), "

@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     make_output_dir(out)
     table = pd.DataFrame([{"driver": d, **r.metrics} for d, r in results.items()])
     csv = atomic_write_csv(out / "compare.csv", table, float_format="%.9g")
-    figure = compare_figure(figure_path(out, "compare"), results,
+    figure = compare_figure(figure_path(out, "compare", args.figure_format), results,
                             title=f"{base.name}, seed {base.seed}: our drivers and SUMO-native")
     print(table[["driver", *SHOWN]].to_string(index=False, float_format="%.3g"))
     print(f"wrote {csv}\nwrote {figure}", file=sys.stderr)

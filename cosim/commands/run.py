@@ -89,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         metrics = run_scenario(
             scenario, out, write_trace=True, write_figures=not args.no_figures,
             progress=True, gui=settings if args.gui else False, fcd=args.fcd,
+            figure_format=args.figure_format,
         )
     except Exception as exc:
         if args.gui and type(exc).__name__ == "FatalTraCIError":  # its user closed it

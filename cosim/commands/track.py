@@ -229,9 +229,10 @@ def run(args: argparse.Namespace) -> int:
 
             title = f"case {case.name} lane change, mu {mu:g}, tau {ref.tau:.2f} s"
             suffix = "" if len(cases) == 1 else f"_{case.name}"
+            fmt = args.figure_format
             figures += [
-                str(plot_states(runs, figure_path(out, f"tracking_states{suffix}"), title)),
-                str(plot_inputs(runs, figure_path(out, f"tracking_inputs{suffix}"), title)),
+                str(plot_states(runs, figure_path(out, f"tracking_states{suffix}", fmt), title)),
+                str(plot_inputs(runs, figure_path(out, f"tracking_inputs{suffix}", fmt), title)),
             ]
         results.append({"case": case, "mu": mu, "ref": ref, "origin": origin, "runs": runs,
                         "verdicts": verdicts})

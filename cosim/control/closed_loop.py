@@ -66,6 +66,7 @@ from cosim.compiled import Array, njit, register_warm_up
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.road.frame import Frame, StraightFrame, pose_in_frame
 from cosim.vehicle.actuators import ActuatorLimits, steer_core
 from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
 from cosim.vehicle.chassis import ChassisParams, chassis_for
@@ -74,7 +75,7 @@ from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
 from .allocation import allocate_core
 from .longitudinal import longitudinal_core, speed_gain, speed_gain_inverse_lag
-from .reference import PathErrors, ReferencePath, path_errors
+from .reference import PathErrors, ReferencePath, frame_path_errors
 from .triple_step import check_gains, law_params, mimo_core, siso_core
 
 PLANTS = ("twotrack", "bicycle")
@@ -116,25 +117,40 @@ class StepRecord:
 CP_FLOOR, CP_MIMO, CP_MAX_STEER, CP_STEER_RATE, CP_DMZ_LIMIT = 0, 1, 2, 3, 4
 CP_FORCE_LO, CP_FORCE_HI, CP_LS, CP_LF, CP_EPS, CP_MASS, CP_KX1 = 5, 6, 7, 8, 9, 10, 11
 CP_KX1_SLOPE = 12  # 1/(m s), eq. 28's low-speed form (`longitudinal.speed_gain`; 0: off)
+CP_CURVE_STIFF, CP_CURVE_MASS = 13, 14  # N m, kg m: L lr Cr and lf M (`curve_yaw_moment`)
 # cs: 0 projection (path parameter, s), 1 int(ye) (m s), 2 int(phi_e) (rad s),
 # 3 delta_f applied (rad), 4 dMz (N m), 5 Fa (N), 6-9 wheel forces (N),
 # 10 last control saturated (0/1), 11-15 a non-finite control output
-# (delta_f, dMz, Fa, ye, phi_e), 16 time of a non-finite plant state (s)
-CS_SIZE = 17
+# (delta_f, dMz, Fa, ye, phi_e), 16 time of a non-finite plant state (s),
+# 17 the car's s in the road frame at the last sample (m; the next search's hint)
+CS_SIZE = 18
+CS_S_ROAD = 17
 OK, BAD_CONTROL, BAD_STATE = 0, 1, 2
 PLANT_CODES = {"twotrack": 0, "bicycle": 1}
 
 
 @njit
-def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: float,
-                 h_ctrl: float) -> int:
+def curve_yaw_moment(cp: Array, kappa: float, vx: float) -> float:
+    """N m, the yaw moment that holds the single-track car on a circle of curvature kappa
+    at speed vx with zero sideslip (the MIMO law's aim, phi_e = 0): with beta = 0 the rear
+    axle's slip is lr kappa, its force Cr lr kappa, the front's M vx^2 kappa - Cr lr
+    kappa, and the moments balance at kappa (L lr Cr - lf M vx^2)."""
+    return kappa * (cp[CP_CURVE_STIFF] - cp[CP_CURVE_MASS] * vx * vx)
+
+
+@njit
+def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Array,
+                 cs: Array, t: float, h_ctrl: float) -> int:
     """Sample state s at time t, compute and limit the inputs into cs (held until the
-    next call): projection and errors (eq. 16), MIMO (eq. 22-24) or SISO law, Fa
-    (eq. 28), allocation (eq. 30), actuator limits, conditional integration.
-    Returns OK, or BAD_CONTROL with the non-finite outputs in cs[11:16]."""
-    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _) = path_errors(
-        coef, t, s[0], s[1], s[2], s[3], s[4], s[5], cs[0])
+    next call): projection and errors (eq. 16; the reference in the road frame fp, fr),
+    MIMO (eq. 22-24) or SISO law, Fa (eq. 28), allocation (eq. 30), actuator limits,
+    conditional integration. Returns OK, or BAD_CONTROL with the non-finite outputs in
+    cs[11:16]."""
+    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _, s_road, _,
+     _, k_lane) = frame_path_errors(coef, fp, fr, t, s[0], s[1], s[2], s[3], s[4], s[5],
+                                    cs[0], cs[CS_S_ROAD])
     cs[0] = sproj
+    cs[CS_S_ROAD] = s_road
     vx = max(s[3], cp[CP_FLOOR])
     # below the floor the lateral errors barely move: integrate over distance, not time,
     # and fade the yaw moment (at rest it would only pivot the car); 1 above the floor
@@ -154,10 +170,13 @@ def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: floa
     max_steer, dmz_limit = cp[CP_MAX_STEER], cp[CP_DMZ_LIMIT]
     delta = steer_core(max_steer, cp[CP_STEER_RATE], cs[3], delta_cmd, h_ctrl)
     steer_sat = abs(delta_cmd) > max_steer
-    yaw_sat = abs(dmz) > dmz_limit
+    # the limit is on what the law asks beyond holding the road's curve without
+    # sideslip (`curve_yaw_moment`; 0 on a straight road)
+    dmz_road = curve_yaw_moment(cp, k_lane, vx) if k_lane != 0.0 else 0.0
+    yaw_sat = abs(dmz - dmz_road) > dmz_limit
     dmz_cmd = dmz
     if yaw_sat:
-        dmz = math.copysign(dmz_limit, dmz)
+        dmz = dmz_road + math.copysign(dmz_limit, dmz - dmz_road)
     f1, f2, f3, f4 = allocate_core(cp[CP_LS], cp[CP_LF], delta, dmz, fa, cp[CP_EPS])
     lo, hi = cp[CP_FORCE_LO], cp[CP_FORCE_HI]
     force_sat = not (lo <= min(f1, f2, f3, f4) and max(f1, f2, f3, f4) <= hi)
@@ -172,7 +191,7 @@ def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: floa
     # hold a saturated demand for ever.
     if not (steer_sat and ye * delta_cmd < 0.0):
         cs[1] += ye * (h_ctrl * slow)
-    if not ((yaw_sat or force_sat) and phi_e * dmz_cmd < 0.0):
+    if not ((yaw_sat or force_sat) and phi_e * (dmz_cmd - dmz_road) < 0.0):
         cs[2] += phi_e * (h_ctrl * slow)
     cs[3], cs[4], cs[5] = delta, dmz, fa
     cs[6], cs[7], cs[8], cs[9] = f1, f2, f3, f4
@@ -181,7 +200,8 @@ def control_core(s: Array, coef: Array, lp: Array, cp: Array, cs: Array, t: floa
 
 @njit
 def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Array,
-                 coef: Array, lp: Array, cp: Array, cs: Array, t: float, h: float,
+                 coef: Array, fp: Array, fr: Array, lp: Array, cp: Array, cs: Array,
+                 t: float, h: float,
                  substeps: int, control_every: int, counter: int) -> tuple[int, int, bool]:
     """`substeps` substeps of h from time t: the controller every `control_every`-th
     substep (`control_core`), then the plant (kind 0 two-track, 1 bicycle) over the
@@ -191,7 +211,7 @@ def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Ar
     for k in range(substeps):
         tk = t + k * h
         if counter % control_every == 0:
-            if control_core(s, coef, lp, cp, cs, tk, h * control_every) != OK:
+            if control_core(s, coef, fp, fr, lp, cp, cs, tk, h * control_every) != OK:
                 return BAD_CONTROL, counter, saturated
             saturated = saturated or cs[10] != 0.0
         counter += 1
@@ -229,6 +249,7 @@ class ClosedLoop:
         speed_floor: float = 1.0,  # m/s, the control laws never divide by less
         yaw_moment_share: float | None = YAW_MOMENT_SHARE,  # -, friction share of dMz (None: off)
         low_speed_gain: bool = True,  # eq. 28's gain within the tyres' lag (False: as printed)
+        frame: Frame | None = None,  # the road frame the references are given in (None: x, y)
     ) -> None:
         if plant not in PLANTS:
             raise InputError("closed loop", "plant", plant, f"one of {', '.join(PLANTS)}")
@@ -273,8 +294,13 @@ class ClosedLoop:
             self.limits.max_steer, self.limits.max_steer_rate, self.dmz_limit, lo, hi,
             vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
             speed_gain_inverse_lag(ch.tyre.relaxation_long) if low_speed_gain else 0.0,
+            vehicle.wheelbase * vehicle.lr * vehicle.cr, vehicle.lf * vehicle.mass,
         ])
         self._cs = np.zeros(CS_SIZE)
+        self._cs[CS_S_ROAD] = math.nan
+        self.frame = frame or StraightFrame(0.0, 0.0, 0.0)
+        self._fp, self._fr = self.frame.packed()
+        self.road_pose = (math.nan, math.nan, math.nan)  # `errors`: s, d, heading to the road
         self._path: ReferencePath | None = None
         self._counter = 0
 
@@ -299,7 +325,9 @@ class ClosedLoop:
         from the closest point of the new path."""
         self._path = ReferencePath(reference)
         s = self.plant.state
-        self._cs[0], _ = self._path.project(float(s[0]), float(s[1]), float(reference.t0))
+        s_road, d_road, _, _ = pose_in_frame(self._fp, self._fr, float(s[0]), float(s[1]),
+                                             float(self._cs[CS_S_ROAD]))
+        self._cs[0], _ = self._path.project(s_road, d_road, float(reference.t0))
         if reset:
             self.reset_integrators()
 
@@ -313,9 +341,12 @@ class ClosedLoop:
         """Path errors of the current plant state at time t (the reference must be set)."""
         assert self._path is not None
         x, y, psi, vx, vy, r = self.plant.state[:6].tolist()
-        e = self._path.errors(t, x, y, psi, vx, vy, r, float(self._cs[0]))
-        self._cs[0] = e.s
-        return e
+        e = frame_path_errors(self._path.coef, self._fp, self._fr, t, x, y, psi, vx, vy, r,
+                              float(self._cs[0]), float(self._cs[CS_S_ROAD]))
+        self._cs[0] = e[5]
+        self._cs[CS_S_ROAD] = e[11]
+        self.road_pose = (e[11], e[12], e[13])
+        return PathErrors(*e[:11])
 
     def advance(
         self, t: float, dt: float, substeps: int, reference: LaneChangeTrajectory
@@ -332,7 +363,8 @@ class ClosedLoop:
         plant = self.plant
         status, self._counter, saturated = advance_core(
             self._kind, plant.state, plant._const, plant._inputs, self._pforces,
-            self._path.coef, self._lp, self._cp, self._cs, float(t), dt / substeps,
+            self._path.coef, self._fp, self._fr, self._lp, self._cp, self._cs, float(t),
+            dt / substeps,
             substeps, self.control_every, self._counter,
         )
         if status == BAD_STATE:

@@ -43,6 +43,7 @@ from cosim.planning.trajectory import (
     lateral_coefficients,
     longitudinal_coefficients,
 )
+from cosim.road.frame import FP_D_OFFSET, point_of_frame, pose_in_frame
 
 Point = tuple[float, float, float, float, float, float]
 # Layout of the coefficient array: t0, tau, x polynomial (5), y polynomial (6),
@@ -127,15 +128,72 @@ def path_errors(
     c: Array, t: float, x: float, y: float, heading: float, vx: float, vy: float,
     yaw_rate: float, guess: float,
 ) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
-    """The fields of `PathErrors` (in order) for a CG state at time t."""
+    """The fields of `PathErrors` (in order) for a CG state at time t (a straight road:
+    the path's plane is the Cartesian plane)."""
+    return road_path_errors(c, t, x, y, heading, vx, vy, yaw_rate, guess, 0.0, 0.0)
+
+
+@njit
+def frame_path_errors(
+    c: Array, fp: Array, fr: Array, t: float, x: float, y: float, heading: float,
+    vx: float, vy: float, yaw_rate: float, guess: float, s_hint: float,
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float,
+           float, float, float, float]:
+    """The fields of `PathErrors` for a Cartesian CG state and a path given in the road
+    frame (s, d) (`cosim.road.frame`, packed: fp, fr), then the car's s, d and heading
+    relative to the road, and the curvature of the road's line through the car (1/m).
+    The car's pose goes into the frame, the errors are taken there (`road_path_errors`,
+    with the road's curvature), and x_ref, y_ref come back Cartesian. On a StraightFrame
+    at the origin every value equals `path_errors`'."""
+    sv, dv, th_r, k_r = pose_in_frame(fp, fr, x, y, s_hint)
+    rel = heading - th_r
+    e = road_path_errors(c, t, sv, dv, rel, vx, vy, yaw_rate, guess, k_r, fp[FP_D_OFFSET])
+    xr, yr, _, k_ref = point_of_frame(fp, fr, e[8], e[9])
+    vx_ref, ax_ref = e[6], e[7]
+    if k_ref != 0.0:  # the plan's ds/dt is the speed on the reference line: at d, q times it
+        q = 1.0 - k_ref * (e[9] - fp[FP_D_OFFSET])
+        vx_ref, ax_ref = vx_ref * q, ax_ref * q
+    k_lane = k_r / (1.0 - k_r * (dv - fp[FP_D_OFFSET])) if k_r != 0.0 else 0.0
+    return (e[0], e[1], e[2], e[3], e[4], e[5], vx_ref, ax_ref, xr, yr, e[10], sv, dv, rel,
+            k_lane)
+
+
+@njit
+def road_path_errors(
+    c: Array, t: float, x: float, y: float, heading: float, vx: float, vy: float,
+    yaw_rate: float, guess: float, k_road: float, d_offset: float,
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
+    """`path_errors` in the road frame: (x, y, heading) are s, d and the heading relative
+    to the road, `k_road` the road's curvature at the car (constant over the frame's
+    0.5 m arc), `d_offset` the reference line's d. The path point closest in (s, d) is
+    taken (the Cartesian closest to second order in the offset), and the errors are the
+    Cartesian ones there: an s step at the path point's offset d_p is q = 1 - k_road
+    (d_p - d_offset) times as long in the plane, so the path's tangent is (q s', d'), ye
+    the offset across it, phi_e the heading against it, and KL the path's curvature in
+    the plane (Werling et al. 2010, Appendix). k_road = 0: `path_errors` exactly."""
     s, (px, py, dx, dy, ddx, ddy) = path_project(c, x, y, guess)
     dx = max(dx, PATH_SPEED_FLOOR)  # at rest the path points along the road (docstring)
-    v2 = dx * dx + dy * dy
-    v = math.sqrt(v2)
-    cth, sth = dx / v, dy / v
-    ye = -(x - px) * sth + (y - py) * cth
-    phi_e = wrap_angle(heading - math.atan2(dy, dx))
-    kappa = (dx * ddy - dy * ddx) / (v2 * v)
+    if k_road == 0.0:
+        v2 = dx * dx + dy * dy
+        v = math.sqrt(v2)
+        cth, sth = dx / v, dy / v
+        ye = -(x - px) * sth + (y - py) * cth
+        phi_e = wrap_angle(heading - math.atan2(dy, dx))
+        kappa = (dx * ddy - dy * ddx) / (v2 * v)
+    else:  # on a curve: an s step at the path point is q times as long in the plane
+        q = 1.0 - k_road * (py - d_offset)
+        qx = q * dx
+        v = math.sqrt(qx * qx + dy * dy)
+        cth, sth = qx / v, dy / v
+        ye = -q * (x - px) * sth + (y - py) * cth
+        phi_e = wrap_angle(heading - math.atan2(dy, qx))
+        # the path's curvature in the plane (Werling et al. 2010, Appendix): d1 = dd/ds,
+        # d2 = d^2d/ds^2 of the (s, d) path, the road's kappa constant over the arc
+        d1 = dy / dx
+        d2 = (ddy * dx - dy * ddx) / (dx * dx * dx)
+        dth = math.atan2(d1, q)
+        cd = math.cos(dth)
+        kappa = ((d2 + k_road * d1 * math.tan(dth)) * cd * cd / q + k_road) * cd / q
     sp, cp = math.sin(phi_e), math.cos(phi_e)
     # Frenet kinematics (eq. 16 is their small-angle form)
     ye_dot = vx * sp + vy * cp

@@ -46,6 +46,7 @@ from cosim.planning.prediction import (
 )
 from cosim.planning.selection import choose, intervals, omega
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.road.frame import distortion_margin
 from cosim.traffic.v2v import V2VMessage
 
 Array = NDArray[np.float64]
@@ -183,18 +184,51 @@ class Plan:
         }
 
 
+@dataclass(frozen=True)
+class RoadCurve:
+    """How the road frame bends where the SV plans (cosim.road.frame): the plans are
+    made in (s, d) as on a straight road; these bound what that leaves out."""
+
+    kappa: float  # 1/m, the reference line's largest |curvature| along the route
+    d_abs: float  # m, the largest |offset| of a lane's edge from the reference line
+    top_speed: float  # m/s, the fastest the SV drives (its lanes' top band speed)
+    tv_half_diagonal: float  # m, the largest traffic vehicle's half-diagonal
+
+    def margin(self, vehicle: VehicleParams) -> float:
+        """m, each check rectangle grown by this keeps the (s, d) test sound in the
+        Cartesian plane (`frame.distortion_margin` for the larger body at d_abs)."""
+        r = max(0.5 * math.hypot(vehicle.length, vehicle.width), self.tv_half_diagonal)
+        return float(distortion_margin(self.kappa, self.d_abs, r))
+
+    def friction(self, road: RoadParams) -> float:
+        """-, the friction the SV's lane change may use: the curve takes top_speed^2 kappa
+        of lateral acceleration at its tightest, what the friction circle leaves is
+        sqrt(mu^2 - (v^2 kappa / g)^2) (one value per run: the tau_min maps are built
+        per friction)."""
+        used = self.top_speed**2 * self.kappa / G
+        if used >= road.mu:
+            raise InputError("road", "curvature", f"R {1.0 / self.kappa:.0f} m",
+                             f"curves the SV can drive at {self.top_speed:.1f} m/s on mu "
+                             f"{road.mu:g} (R >= {self.top_speed**2 / (road.mu * G):.0f} m)")
+        return math.sqrt(road.mu**2 - used**2)
+
+
 class LaneChangePlanner:
     """Plans a lane change of one vehicle (Sections 2-3)."""
 
     def __init__(
         self, vehicle: VehicleParams, road: RoadParams, config: PlannerConfig,
         *, collision_step: float = COLLISION_STEP, use_maps: bool = True,
-        prediction: PredictionOptions | None = None,
+        prediction: PredictionOptions | None = None, curve: RoadCurve | None = None,
     ) -> None:
         """`use_maps`: take tau_min of lane changes that start from rest laterally (the
         SV from its lane centre, C2 TVs) from a `TauMinMap` built once per mode
         (eq. 7 with our envelope); starts mid-manoeuvre always run the envelope.
-        `prediction`: the policy's prediction options (None: the defaults)."""
+        `prediction`: the policy's prediction options (None: the defaults).
+        `curve`: the road frame's curvature bound (None: a straight road): the plans are
+        made in (s, d) with both check rectangles grown by the frame's distortion
+        (`RoadCurve.margin`) and the SV's envelope on the friction the road's curve
+        leaves (`RoadCurve.friction`)."""
         if config.envelope not in ENVELOPES:
             raise InputError("planner", "envelope", config.envelope, f"one of {ENVELOPES}")
         if config.collision_test not in COLLISION_TESTS:
@@ -215,6 +249,11 @@ class LaneChangePlanner:
         self.grid = grid[grid <= config.tau_max + 1e-9]
         self.use_maps = use_maps and config.envelope in YAW_MODELS
         self._maps: dict[tuple[float, float], TauMinMap] = {}
+        self.curve = curve
+        # the SV's envelope (eq. 5-8) and the check's margin, on a curved road
+        self.mu = road.mu if curve is None else curve.friction(road)
+        self.margin = config.safety_margin if curve is None else (
+            config.safety_margin + curve.margin(vehicle))
 
     # -- pieces ------------------------------------------------------------------
 
@@ -224,7 +263,7 @@ class LaneChangePlanner:
         if key not in self._maps:
             cfg = self.config
             self._maps[key] = _built_tau_min_map(
-                vxf, width, self.road.mu, self.vehicle, cfg.tau_min_floor, cfg.tau_max,
+                vxf, width, self.mu, self.vehicle, cfg.tau_min_floor, cfg.tau_max,
                 cfg.safety_factor, cfg.envelope)
         return self._maps[key]
 
@@ -255,7 +294,7 @@ class LaneChangePlanner:
             stable = self.grid >= tau_min - 1e-12
             return StableSet(self.grid, np.where(stable, 0.0, np.inf), stable, tau_min)
         return stable_set(
-            vx0, vxf, width, self.grid, self.road.mu, self.vehicle, envelope=cfg.envelope,
+            vx0, vxf, width, self.grid, self.mu, self.vehicle, envelope=cfg.envelope,
             safety_factor=cfg.safety_factor, ax0=ax0, vy0=vy0, ay0=ay0, mode=mode,
             tau_floor=cfg.tau_min_floor,
         )
@@ -367,7 +406,7 @@ class LaneChangePlanner:
         tv_hor = np.maximum(tv_end + cfg.horizon_extra, follow[futures.owner])
         hits = check_candidates(
             t_rel, sv, self.vehicle.length, self.vehicle.width, sv_end + cfg.horizon_extra,
-            TVHypotheses.from_futures(futures), tv_hor, margin=cfg.safety_margin,
+            TVHypotheses.from_futures(futures), tv_hor, margin=self.margin,
             test=cfg.collision_test,
         )
         c = hits.collides

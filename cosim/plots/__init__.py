@@ -1,8 +1,10 @@
 """Matplotlib figures (Agg backend), one module per subject.
 
-Every figure is saved through `save_figure` (atomically, at `DPI` for PNG) in
-the format the command chose (`--figure-format png|svg|pdf`, `set_format`);
-`figure_path` names a figure with that format's suffix.
+Every figure is saved through `save_figure` (atomically, at `DPI` for PNG) in the
+format its path's suffix names; `figure_path(folder, stem, fmt)` names a figure in the
+format a command was given (`--figure-format png|svg|pdf`, default png), passed down
+explicitly: no module state, so two callers in one process (a test run, a batch worker
+beside the main process) each get the format they asked for.
 """
 
 from __future__ import annotations
@@ -15,24 +17,16 @@ import matplotlib
 matplotlib.use("Agg")
 
 FORMATS = ("png", "svg", "pdf")
+DEFAULT_FORMAT = "png"
 DPI = 200  # dots per inch of PNG figures: sharp when printed at a column's width
-_format = ["png"]  # the format of this process's figures (a command's --figure-format)
 
 
-def set_format(fmt: str) -> None:
-    """Choose the format of every figure this process writes from now on."""
+def figure_path(folder: Path, stem: str, fmt: str | None = DEFAULT_FORMAT) -> Path:
+    """folder/stem.<fmt> (None: the default, png)."""
+    fmt = DEFAULT_FORMAT if fmt is None else fmt
     if fmt not in FORMATS:
         raise ValueError(f"figure format {fmt!r}: one of {', '.join(FORMATS)}")
-    _format[0] = fmt
-
-
-def figure_format() -> str:
-    return _format[0]
-
-
-def figure_path(folder: Path, stem: str) -> Path:
-    """folder/stem.<format>."""
-    return Path(folder) / f"{stem}.{_format[0]}"
+    return Path(folder) / f"{stem}.{fmt}"
 
 
 def save_figure(fig: Any, path: Path) -> Path:
@@ -42,7 +36,7 @@ def save_figure(fig: Any, path: Path) -> Path:
     from cosim.output import atomic_path
 
     path = Path(path)
-    fmt = path.suffix.lstrip(".").lower() or _format[0]
+    fmt = path.suffix.lstrip(".").lower() or DEFAULT_FORMAT
     try:
         with atomic_path(path) as tmp:
             # the creation date would make two identical runs' vector files differ

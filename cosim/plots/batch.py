@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from cosim.metrics import FOLLOWER_PERCENTILE
-from cosim.plots import save_figure
+from cosim.plots import figure_path, save_figure
 
 # (summary column prefix, axis label); rates are shown in per cent.
 PANELS = (
@@ -43,8 +43,10 @@ def _variant(row: pd.Series, varying: list[str]) -> str:
     return ", ".join(parts)
 
 
-def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") -> list[Path]:
-    """Write `density.png` (2 x 3 panels) into `out_dir`; return the paths written.
+def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study",
+                 fmt: str | None = None) -> list[Path]:
+    """Write `density.<fmt>` (2 x 3 panels; default png) into `out_dir`; return the paths
+    written.
     One colour per line (driver and variant), one line style per driver."""
     out_dir.mkdir(parents=True, exist_ok=True)
     summary = summary.copy()
@@ -115,6 +117,6 @@ def plot_summary(summary: pd.DataFrame, out_dir: Path, *, title: str = "study") 
     fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.955),
                ncol=min(len(labels), 5), frameon=False)
     fig.tight_layout(rect=(0, 0, 1, 0.91))
-    path = out_dir / "density.png"
+    path = figure_path(out_dir, "density", fmt)
     save_figure(fig, path)
     return [path]

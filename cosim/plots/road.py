@@ -12,8 +12,10 @@ import numpy as np
 from cosim.plots import save_figure
 
 
-def plot_road(road: Any, path: Path, *, title: str = "") -> Path:
-    """Draw `road` (a cosim.road.road.Road) to `path`."""
+def plot_road(road: Any, path: Path, *, title: str = "",
+              sv_path: tuple[Any, Any] | None = None) -> Path:
+    """Draw `road` (a cosim.road.road.Road) to `path`; `sv_path`: (x, y) arrays of the
+    SV's centre drawn over it (a run's trace)."""
     import matplotlib.pyplot as plt
 
     frame = road.frame
@@ -38,6 +40,8 @@ def plot_road(road: Any, path: Path, *, title: str = "") -> Path:
         x, y = road.route.net.getEdge(edge).getShape()[0]
         ax_map.plot([x], [y], "k|", ms=12)
         ax_map.annotate(edge, (x, y), fontsize=8, xytext=(3, 6), textcoords="offset points")
+    if sv_path is not None:
+        ax_map.plot(sv_path[0], sv_path[1], color="tab:red", lw=1.5, zorder=3, label="SV")
     ax_map.legend(fontsize=7, loc="best", title="frame's lane borders (SUMO's lanes grey)",
                   title_fontsize=7)
     ax_map.set_aspect("equal", adjustable="datalim")

@@ -211,6 +211,67 @@ def _frenet(px: Array, py: Array, hint: Array, window: int, s_min: float, h: flo
             out_s[i], out_d[i] = s_min + k * h + u, d
 
 
+# ---------------------------------------------------------------- one point, packed frame
+# A frame packed for compiled callers (`packed`): `fp` = [curved (0/1), s_min, h, d_offset,
+# x0, y0] and `fr` = rows x, y, cos theta, sin theta, kappa, theta of the arc table (one
+# column of zeros for a StraightFrame).
+FP_CURVED, FP_S_MIN, FP_H, FP_D_OFFSET, FP_X0, FP_Y0 = 0, 1, 2, 3, 4, 5
+
+
+@njit
+def pose_in_frame(fp: Array, fr: Array, px: float, py: float,
+                  s_hint: float) -> tuple[float, float, float, float]:
+    """(s, d, heading of the reference line at s, its curvature) of one Cartesian point;
+    `s_hint` as in `ArcFrame.to_frenet` (NaN: none). A StraightFrame: s = x - x0,
+    d = y - y0, 0, 0 (exactly the identity when x0 = y0 = 0)."""
+    if fp[FP_CURVED] == 0.0:
+        return px - fp[FP_X0], py - fp[FP_Y0], 0.0, 0.0
+    x, y, cth, sth, kappa, theta = fr[0], fr[1], fr[2], fr[3], fr[4], fr[5]
+    s_min, h = fp[FP_S_MIN], fp[FP_H]
+    n = kappa.shape[0]
+    if math.isnan(s_hint):
+        k0 = _nearest_knot(px, py, x, y)
+    else:
+        k0 = min(max(int(math.floor((s_hint - s_min) / h)), 0), n - 1)
+    u, d, k = _walk(px, py, k0, h, x, y, cth, sth, kappa)
+    if k < 0:
+        u, d, k = _scan(px, py, max(k0 - WINDOW, 0), min(k0 + WINDOW + 1, n), h, x, y,
+                        cth, sth, kappa)
+    if k < 0:
+        u, d, k = _scan(px, py, 0, n, h, x, y, cth, sth, kappa)
+    if k < 0:
+        return math.nan, math.nan, math.nan, math.nan
+    return s_min + k * h + u, d + fp[FP_D_OFFSET], theta[k] + kappa[k] * u, kappa[k]
+
+
+@njit
+def point_of_frame(fp: Array, fr: Array, s: float, d: float) -> tuple[float, float, float,
+                                                                        float]:
+    """(x, y, heading of the reference line at s, its curvature) of one road point (s, d)."""
+    if fp[FP_CURVED] == 0.0:
+        if fp[FP_X0] == 0.0 and fp[FP_Y0] == 0.0:  # the identity (-0.0 + 0.0 would be 0.0)
+            return s, d, 0.0, 0.0
+        return s + fp[FP_X0], d + fp[FP_Y0], 0.0, 0.0
+    x, y, kappa, theta = fr[0], fr[1], fr[4], fr[5]
+    h = fp[FP_H]
+    n = kappa.shape[0]
+    k = min(max(int(math.floor((s - fp[FP_S_MIN]) / h)), 0), n - 1)
+    u = s - (fp[FP_S_MIN] + k * h)
+    kk = kappa[k]
+    t = kk * u
+    if kk == 0.0:
+        along, side = u, 0.0
+    else:
+        along = math.sin(t) / kk
+        half = math.sin(0.5 * t)
+        side = 2.0 * half * half / kk
+    dd = d - fp[FP_D_OFFSET]
+    along -= dd * math.sin(t)
+    side += dd * math.cos(t)
+    c, sn = math.cos(theta[k]), math.sin(theta[k])
+    return x[k] + c * along - sn * side, y[k] + sn * along + c * side, theta[k] + t, kk
+
+
 @register_warm_up
 def _warm_up() -> None:
     z = np.zeros(2)
@@ -218,6 +279,12 @@ def _warm_up() -> None:
     _cartesian(z[:1], z[:1], 0.0, 1.0, z, z, z, one, z[:1].copy(), z[:1].copy(), z[:1].copy())
     _frenet(z[:1], z[:1], np.full(1, np.nan), 1, 0.0, 1.0, z, z, one[:1].repeat(2), z, one,
             z[:1].copy(), z[:1].copy())
+    for curved in (0.0, 1.0):
+        fp = np.array([curved, 0.0, 1.0, 0.0, 0.0, 0.0])
+        fr = np.zeros((6, 2))
+        fr[2] = 1.0
+        pose_in_frame(fp, fr, 0.5, 0.1, 0.0)
+        point_of_frame(fp, fr, 0.5, 0.1)
 
 
 # ---------------------------------------------------------------- frames
@@ -254,6 +321,8 @@ class StraightFrame:
                   s_hint: ArrayLike | None = None) -> tuple[Any, Any]:
         """(s, d) of Cartesian points; arrays or floats (`s_hint` unused: exact)."""
         del s_hint
+        if type(x) is float and type(y) is float:  # one point (the loop's SV, each step)
+            return x - self.x0, y - self.y0
         shape, (x_, y_) = _arrays(x, y)
         return _shaped(shape, x_ - self.x0, y_ - self.y0)
 
@@ -261,9 +330,17 @@ class StraightFrame:
         """rad, the reference line's heading at s."""
         return np.zeros_like(np.asarray(s, dtype=np.float64)) + 0.0
 
+    def packed(self) -> tuple[Array, Array]:
+        """(fp, fr) for compiled callers (`pose_in_frame`, `point_of_frame`)."""
+        return np.array([0.0, self.s_min, 1.0, 0.0, self.x0, self.y0]), np.zeros((6, 1))
+
     def curvature(self, s: ArrayLike) -> Any:
         """1/m, the reference line's curvature at s (+: bending left)."""
         return np.zeros_like(np.asarray(s, dtype=np.float64)) + 0.0
+
+    def tangent(self, s: ArrayLike) -> tuple[Any, Any]:
+        """(heading rad, curvature 1/m) of the reference line at s: 0, 0."""
+        return self.heading(s), self.curvature(s)
 
 
 class ArcFrame:
@@ -315,6 +392,15 @@ class ArcFrame:
                 self._sin, self.kappa, os_, od)
         return _shaped(shape, os_, od + self.d_offset)
 
+    def packed(self) -> tuple[Array, Array]:
+        """(fp, fr) for compiled callers (`pose_in_frame`, `point_of_frame`)."""
+        fp = np.array([1.0, self.s_min, self.h, self.d_offset, 0.0, 0.0])
+        fr = np.ascontiguousarray(np.vstack([self.x[:len(self.kappa)], self.y[:len(self.kappa)],
+                                             self._cos[:len(self.kappa)],
+                                             self._sin[:len(self.kappa)], self.kappa,
+                                             self.theta[:len(self.kappa)]]))
+        return fp, fr
+
     def _arc(self, s: ArrayLike) -> tuple[Array, Array]:
         s_ = np.asarray(s, dtype=np.float64)
         k = np.clip(np.floor((s_ - self.s_min) / self.h).astype(np.int64), 0,
@@ -330,6 +416,12 @@ class ArcFrame:
         """1/m, the reference line's curvature at s (+: bending left; constant per arc)."""
         k, _ = self._arc(s)
         return self.kappa[k]
+
+    def tangent(self, s: ArrayLike) -> tuple[Any, Any]:
+        """(heading rad, curvature 1/m) of the reference line at s, in one lookup."""
+        k, u = self._arc(s)
+        kappa = self.kappa[k]
+        return self.theta[k] + kappa * u, kappa
 
 
 Frame = StraightFrame | ArcFrame

@@ -20,7 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from cosim.errors import InputError
-from cosim.road.frame import DEFAULT_LIMITS, ArcFrame, FrameLimits, StraightFrame, smooth
+from cosim.road.frame import (
+    DEFAULT_LIMITS,
+    ArcFrame,
+    FrameLimits,
+    StraightFrame,
+    kappa_max,
+    smooth,
+)
 from cosim.road.lanes import LaneTable, lane_tables
 from cosim.road.route import Route, make_route
 from cosim.road.tracks import Track, follow_tracks, reference_track
@@ -64,6 +71,26 @@ class Road:
         """Which of SUMO's road ids (vehicle.getRoadID) lie on the route."""
         return np.fromiter((r in self.edge_ids for r in road_ids), dtype=bool,
                            count=len(road_ids))
+
+    @property
+    def curved(self) -> bool:
+        """The frame is not the identity up to an offset (an ArcFrame)."""
+        return not isinstance(self.frame, StraightFrame)
+
+    def curvature_bound(self) -> tuple[float, float]:
+        """(1/m, m): the reference line's largest |curvature| over the route and the
+        largest |offset| of a lane's edge from the line (the frame's distortion bound,
+        `frame.distortion_margin`); (0, 0) on a StraightFrame."""
+        if not self.curved:
+            return 0.0, 0.0
+        frame = self.frame
+        assert isinstance(frame, ArcFrame)
+        kappa = kappa_max(frame, 0.0, frame.length)
+        edges = [abs(c - frame.d_offset + sign * 0.5 * w) for t in self.lanes
+                 for c, w in zip(np.concatenate([t.d_start, t.d_end]),
+                                 np.concatenate([t.width, t.width]), strict=True)
+                 for sign in (-1.0, 1.0)]
+        return kappa, max(edges)
 
     def track_of_lane(self, lane_id: str) -> LaneTable:
         """The lane table of the track that runs through SUMO lane `lane_id` (KeyError:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import codecs
 import copy
+import dataclasses
 import re
 import tomllib
 from collections.abc import Mapping
@@ -13,6 +14,7 @@ from typing import Any
 
 from cosim.errors import InputError
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, vehicle_from_table
+from cosim.road.road import Road
 from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS, VEHICLE_FIELDS
 from cosim.scenario.model import (
     NAME_PATTERN,
@@ -22,7 +24,15 @@ from cosim.scenario.model import (
     TVSpec,
     V2VSpec,
 )
-from cosim.traffic.network import SUPPORTED, Highway, load_highway
+from cosim.traffic.network import SUPPORTED, Highway, load_highway, network_precision
+from cosim.traffic.route import (
+    RouteLanes,
+    check_through,
+    lane_width,
+    road_params,
+    route_road,
+    sv_start,
+)
 from cosim.validation import (
     MISSING,
     check_known_tables,
@@ -123,21 +133,16 @@ def _network_file(source: str, key: str, written: str, path: Path, base_dir: Pat
 
 
 def read_network(source: str, key: str, written: str, path: Path,
-                 base_dir: Path, route: tuple[str, ...] | None = None) -> Highway:
-    """The scenario's network as the tool drives on it, or InputError naming the scenario.
-
-    A `route` (already checked against the network) that is not one straight edge is
-    refused here in one line: the loop drives only such a road yet (README, Roads)."""
+                 base_dir: Path, route: tuple[str, ...] | None = None) -> Highway | None:
+    """The scenario's network as a one-edge straight road, None for a `route` (already
+    checked against the network) that is not one (the road is then `route_view`'s), or
+    InputError naming the scenario."""
     _network_file(source, key, written, path, base_dir)
     try:
         return load_highway(path)
     except InputError as exc:
         if route is not None and exc.allowed.startswith(SUPPORTED):
-            raise InputError(
-                source, "road.route", list(route),
-                "a route of one straight edge along +x: the co-simulation loop does not yet "
-                f"drive other roads ({exc.allowed}; `python -m cosim.road {path.name} "
-                f"{' '.join(route)}` shows the road frame cosim/road/ makes of it)") from None
+            return None
         if exc.key in ("network", "size") or exc.key.endswith(" speed"):  # say what it is
             raise InputError(source, key, str(path),
                              f"{exc.allowed} ({exc.key} = {exc.value})") from None
@@ -145,7 +150,7 @@ def read_network(source: str, key: str, written: str, path: Path,
 
 
 def scenario_from_dict(
-    doc: Mapping[str, Any], path: str | Path = "<scenario>", source: str | None = None
+    doc: Mapping[str, Any], path: str | Path = "<scenario>", source: str | None = None,
 ) -> Scenario:
     """Validate a scenario document (the parsed TOML, file units) into a Scenario.
 
@@ -176,22 +181,31 @@ def scenario_from_dict(
     sc, rd = tables["scenario"], tables["road"]
     base_dir = p.parent if p.is_absolute() else Path.cwd() / p.parent
     network = _resolve(base_dir, rd["network"])
-    sv = SVSpec(**tables["sv"])
+    sv = _lane_changes_in_lanes(src, SVSpec(**tables["sv"]))
     vehicle = vehicle_from_table(tables["vehicle"], {  # a preset, then the file's keys
         f.attr for f in VEHICLE_FIELDS if f.key in doc.get("vehicle", {})})
     if rd["route"] is not None or sv.edge is not None:
         _network_file(src, "road.network", rd["network"], network, base_dir)
         # before the one-edge rules below
         check_route(src, network, rd["route"], sv, vehicle.length)
-    highway = read_network(src, "road.network", rd["network"], network, base_dir,
-                           route=rd["route"])
+    found = read_network(src, "road.network", rd["network"], network, base_dir,
+                         route=rd["route"])
+    # the planner's road in (s, d) from the route's road (cosim.traffic.route.road_params;
+    # on the one straight edge of networks/highway.net.xml the RoadParams of before)
+    road_of_route = route_road(network, rd["route"], source=src)
+    base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
+    road = road_params(road_of_route, base, src)
+    start: tuple[int, float] | None = None
+    if found is None:  # another road: the rules read it through its one-edge view
+        check_through(road_of_route, src)
+        start = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
+        found = route_view(road_of_route, sv.edge)
+    highway = found
     # lane geometry has one source: the network (the file may only repeat its width)
     if (rd["lane_width"] is not None
-            and abs(rd["lane_width"] - highway.lane_width) > max(1e-3, highway.rounding)):
+            and abs(rd["lane_width"] - road.lane_width) > max(1e-3, highway.rounding)):
         raise InputError(src, "road.lane_width_m", rd["lane_width"],
-                         f"the network's lane width {highway.lane_width:g} m (or absent)")
-    road = RoadParams(lane_width=highway.lane_width, speed_bands=rd["speed_bands"],
-                      mu=rd["mu"], y_right=highway.y_right)
+                         f"the network's lane width {road.lane_width:g} m (or absent)")
     name = sc.pop("name")
     if name is None:  # the file's stem, held to the rule of a written name
         name = p.stem or "scenario"
@@ -215,8 +229,75 @@ def scenario_from_dict(
         document=copy.deepcopy(dict(doc)),
         route=rd["route"],
     )
-    check_scenario(src, scenario, highway)
+    ruled = scenario
+    if start is not None:  # the rules' lane k is track k (every lane the file names
+        # shifted alike), their position the distance from the road's start
+        ruled = scenario.in_tracks(start[0])
+        ruled = dataclasses.replace(ruled, sv=dataclasses.replace(ruled.sv, position=start[1]))
+        _lanes_run_through(src, scenario, ruled)
+    check_scenario(src, ruled, highway)
     return scenario
+
+
+def _lanes_run_through(src: str, written: Scenario, ruled: Scenario) -> None:
+    """InputError for a lane the file names (SUMO's index on [sv] edge) that is not one of
+    the route's through lanes (below them: a lane the route adds, issue 24's)."""
+    names = [(f"sv.lane_changes[{i}].target_lane", w.target_lane, r.target_lane)
+             for i, (w, r) in enumerate(zip(written.sv.lane_changes, ruled.sv.lane_changes,
+                                            strict=True))]
+    for i, (w, r) in enumerate(zip(written.tvs, ruled.tvs, strict=True)):
+        names.append((f"tv[{i}].lane", w.lane, r.lane))
+        if w.lane_change is not None and r.lane_change is not None:
+            names.append((f"tv[{i}].lane_change.target_lane", w.lane_change.target_lane,
+                          r.lane_change.target_lane))
+    lowest = written.sv.lane - ruled.sv.lane
+    for key, value, track in names:
+        if track < 0:
+            raise InputError(src, key, value,
+                             f"a lane that runs through the route (on edge "
+                             f"{written.sv.edge}: index {lowest} or above; lower ones are "
+                             "added on the route, not driven yet)")
+
+
+def _lane_changes_in_lanes(src: str, sv: SVSpec) -> SVSpec:
+    """The SV with each lane change's `direction` turned into its target lane (the lane
+    left (+1) or right (-1) of the one the SV is in by then); exactly one of the two."""
+    lane, out = sv.lane, []
+    for i, cmd in enumerate(sv.lane_changes):
+        if (cmd.target_lane is None) == (cmd.direction is None):
+            raise InputError(src, f"sv.lane_changes[{i}]", MISSING if cmd.direction is None
+                             else cmd.target_lane, "either target_lane or direction")
+        if cmd.direction is not None:
+            # (the direction is dropped: the scenario says target lanes from here on)
+            cmd = dataclasses.replace(cmd, target_lane=lane + (1 if cmd.direction == "left"
+                                                               else -1), direction=None)
+            if cmd.target_lane < 0:
+                raise InputError(src, f"sv.lane_changes[{i}].direction", "right",
+                                 "a side with a lane (the SV is in lane 0 by then)")
+        lane = cmd.target_lane
+        out.append(cmd)
+    return dataclasses.replace(sv, lane_changes=tuple(out))
+
+
+def route_view(road: Road, sv_edge: str | None) -> Highway:
+    """The one-edge view of a route's road that the scenario rules check against
+    (cosim.scenario.rules reads positions along one edge from its start): x is s, from 0
+    to where the through tracks end, a lane's speed limit is its track's on the SV's start
+    edge, every lane is open to cars (tracks are the lanes cars may use). The rules then
+    read the SV's s as its sv.position_m (a message about it names that s)."""
+    lanes = RouteLanes(road)
+    edge = sv_edge if sv_edge is not None else road.route.edges[0]
+    speeds = []
+    for table in lanes.through:
+        piece = table.track.piece_on(edge) or table.track.pieces[0]
+        speeds.append(piece.speed)
+    end = min(t.end for t in lanes.through)
+    return Highway(
+        path=road.route.path, edge_id=edge, x_start=0.0, length=float(end),
+        lane_width=lane_width(road),
+        y_right=0.0, lane_speeds=tuple(speeds), lane_open=(True,) * len(speeds),
+        rounding=0.5 * 10.0 ** -network_precision(str(road.route.path)) + 1e-9,
+    )
 
 
 def _traffic(src: str, values: dict[str, Any]) -> TrafficSpec:

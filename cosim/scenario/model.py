@@ -8,7 +8,7 @@ declared in cosim.scenario.keys; everything else is declared here, beside its at
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -51,8 +51,15 @@ class LaneChangeCommand:
 
     at: float = declare(number_key("at_s", "s", 0.0, 3600.0, REQUIRED,
                                    "simulation time of the request"))
-    target_lane: int = declare(lane_key("target_lane",
-                                        "lane to change to, next to the SV's lane then"))
+    # after loading always set, and `direction` None: it is turned into the lane it names
+    target_lane: int = declare(Field(
+        "target_lane", int, lo=0, hi=MAX_LANE, default=None,
+        doc="lane to change to, next to the SV's lane then (or `direction`)",
+        default_doc="from `direction`"))
+    direction: str | None = declare(Field(
+        "direction", str, choices=("left", "right"), default=None,
+        doc="the lane left or right of the SV's lane then, instead of `target_lane`",
+        default_doc="`target_lane`"), default=None)
 
 
 @dataclass(frozen=True)
@@ -287,3 +294,20 @@ class Scenario:
     def n_steps(self) -> int:
         """Number of SUMO steps in `duration`."""
         return int(round(self.duration / self.step))
+
+    def in_tracks(self, sv_track: int) -> Scenario:
+        """This scenario with its lanes as the run counts them, the route's tracks: [sv]
+        lane, its lane_changes' and the scripted TVs' lanes are SUMO's indices on [sv]
+        edge, which differ from the track ids by a lane added on the right before that
+        edge (`sv_track`: the SV's track there). Itself when they agree, as on every
+        one-edge road."""
+        shift = sv_track - self.sv.lane
+        if shift == 0:
+            return self
+        changes = tuple(replace(c, target_lane=c.target_lane + shift)
+                        for c in self.sv.lane_changes)
+        tvs = tuple(replace(tv, lane=tv.lane + shift, lane_change=None
+                            if tv.lane_change is None else replace(
+                                tv.lane_change, target_lane=tv.lane_change.target_lane + shift))
+                    for tv in self.tvs)
+        return replace(self, sv=replace(self.sv, lane=sv_track, lane_changes=changes), tvs=tvs)

@@ -1,12 +1,15 @@
 """Random highway traffic by density, with the paper's lane speed bands.
 
-At t = 0 every lane gets `density` vehicles per km spread along the first
-`length` metres (about evenly, jittered), so the road is full from the start;
-then an inflow at the start of the road inserts the next vehicle of a lane once
-the last one has driven a spacing of about 1000/density m, so the density holds.
-Each traffic vehicle (TV) draws where its desired speed sits in a band
-(`quantile`); SumoSim sets its desired speed from the band of whatever lane it
-is in (Section 5: lanes 60-90, 90-110, 110-120 km/h).
+At t = 0 every SV lane (every through track of the route, cosim.traffic.route) gets
+`density` vehicles per km spread along its first `length` metres of arc length s
+(about evenly, jittered), so the road is full from the start; then an inflow at the
+start of the route inserts the next vehicle of a track once the last one has driven a
+spacing of about 1000/density m, so the density holds. Lanes that are not through
+tracks (a lane added along the route) get no traffic of their own: TVs change into
+them. Each traffic vehicle (TV) draws where its desired speed sits in a band
+(`quantile`); SumoSim sets its desired speed from the band of whatever track it is on
+(Section 5: lanes 60-90, 90-110, 110-120 km/h). Positions and zones are arc lengths s
+along the route (on the one-edge road s = x - the road's start x).
 
 Start-up safety: TVs are inserted at SUMO's "max" depart speed, which SUMO
 lowers to a speed safe behind the TV ahead (in dense traffic the queue starts
@@ -56,6 +59,7 @@ class Traffic:
     _last: dict[int, str] = field(default_factory=dict)  # lane -> last vehicle inserted
     _next_gap: dict[int, float] = field(default_factory=dict)  # lane -> m before the next one
     _count: int = 0
+    _begin: dict[int, float] = field(default_factory=dict)  # track -> s where it begins
 
     def new_id(self) -> str:
         self._count += 1
@@ -84,7 +88,7 @@ class Traffic:
                 pass
             vid = self.new_id()
             q = self.quantile()
-            sim.add_traffic(vid, lane, sim.highway.x_start + 0.5 * TV_LENGTH, q)
+            sim.add_traffic(vid, lane, self._begin[lane] + 0.5 * TV_LENGTH, q)
             self._last[lane] = vid
             self._next_gap[lane] = self.spacing()
 
@@ -151,26 +155,32 @@ def populate(
 ) -> Traffic:
     """Place traffic for t = 0 (call before the first step) and keep an inflow.
 
-    `exclude_zone` (x_lo, x_hi), m: no TV's body may overlap this stretch in any
-    lane at t = 0 (keep it free around the SV). `lane_zones`: lane -> (x_lo,
-    x_hi), m, further stretches kept free in that lane only (e.g. `start_zone`
-    of the SV in its own lane). Positions and desired speeds are drawn for every
-    slot before the zones cut some (so a seed gives the same traffic outside the
-    zones whatever their size). Returns the `Traffic`, already registered as a step hook of `sim`.
+    Every through track of `sim`'s route gets TVs along s from its start over `length`
+    m (`road`, the RoadParams of those lanes, is not needed). `exclude_zone` (s_lo,
+    s_hi), m: no TV's body may overlap this stretch in any lane at t = 0 (keep it free
+    around the SV). `lane_zones`: track -> (s_lo, s_hi), m, further stretches kept free
+    on that track only (e.g. `start_zone` of the SV in its own lane). Positions and
+    desired speeds are drawn for every slot before the zones cut some (so a seed gives
+    the same traffic outside the zones whatever their size). Returns the `Traffic`,
+    already registered as a step hook of `sim`.
     """
     if density < 0 or not np.isfinite(density):
         raise InputError("traffic", "density_veh_per_km_lane", density, ">= 0 veh/km/lane")
-    if length <= 0 or length > sim.highway.length:
+    road_length = sim.lanes.length
+    if length <= 0 or length > road_length:
         raise InputError(
-            "traffic", "length_m", length, f"0 < length <= the road's {sim.highway.length:.0f} m"
+            "traffic", "length_m", length, f"0 < length <= the road's {road_length:.0f} m"
         )
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     traffic = Traffic(density=density, length=length, rng=rng, inflow=inflow)
     if density == 0:
         return traffic
-    for lane in range(road.n_lanes):
+    del road  # its lanes are the route's through tracks (sim.road() is built of them)
+    for table in sim.lanes.through:
+        lane = table.id
+        traffic._begin[lane] = table.begin
         # front to back: each one is inserted behind its leader
-        xs = placement(rng, density, sim.highway.x_start, length)[::-1]
+        xs = placement(rng, density, table.begin, length)[::-1]
         qs = QUANTILE_RANGE[0] + (QUANTILE_RANGE[1] - QUANTILE_RANGE[0]) * rng.random(len(xs))
         keep = np.ones(len(xs), dtype=bool)
         zones = [exclude_zone] if exclude_zone is not None else []

@@ -178,7 +178,7 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
     # centres 1.875 / 5.625 / 9.375 are written 1.88 / 5.62 / 9.38): a lane is where it
     # should be if it is there up to that rounding (each number off by half a unit of the
     # last decimal; lane k's expected centre y0 + k * width adds k of those through width).
-    places = _precision(path)
+    places = network_precision(path)
     half = 0.5 * 10.0 ** -places + 1e-9  # m, half a unit of the file's last decimal
     (x0, y0), (x1, y1) = shapes[0]
     if abs(y1 - y0) > max(2 * half, 1e-6) or x1 <= x0:
@@ -233,7 +233,7 @@ _LOCATION = re.compile(rb'<location[^>]*?netOffset="\s*-?\d+(?:\.(\d*))?')
 _SHAPE = re.compile(rb'<lane [^>]*?shape="([^"]*)"')
 
 
-def _precision(path: str) -> int:
+def network_precision(path: str) -> int:
     """Decimals the network's coordinates are written with: netconvert writes every
     coordinate, `<location netOffset>` included, with its --precision (default 2); without
     a `<location>` (a hand-written file), the most decimals of a lane shape's y values."""

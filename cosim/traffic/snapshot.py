@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from itertools import chain, compress
+from itertools import chain, compress, repeat
 from types import ModuleType
 from typing import Any
 
@@ -26,7 +26,7 @@ NEAR_MARGIN = 60.0  # m, most two vehicles' x distance can shrink in NEAR_REFRES
 INVALID = -1e9  # m, SUMO reports -1073741824 (INVALID_DOUBLE_VALUE) for vehicles off the network
 SIGNAL_BLINKER_RIGHT = 1  # SUMO signal bits
 SIGNAL_BLINKER_LEFT = 2
-GETTERS = ("getPosition", "getAngle", "getSpeed", "getAcceleration", "getLaneIndex",
+GETTERS = ("getPosition", "getAngle", "getSpeed", "getAcceleration", "getLaneID",
            "getLateralSpeed", "getSignals")  # fmt: skip
 
 
@@ -52,11 +52,27 @@ class TrafficSnapshot:
     heading: np.ndarray  # rad, math convention
     speed: np.ndarray  # m/s, along the lane
     accel: np.ndarray  # m/s^2, longitudinal
-    lane: np.ndarray  # int, SUMO lane index (-1: off the network)
+    # int, the through track the vehicle is on (cosim.traffic.route: the SV's lane k is
+    # track k; on the one-edge road SUMO's lane index); -1: on no through track of the
+    # route (a road crossing it on a bridge, another road, off the network, and until
+    # issue 24 a lane added or dropped along the route)
+    lane: np.ndarray
     lateral_speed: np.ndarray  # m/s, + to the left (non-zero while changing lanes)
     length: np.ndarray  # m
     width: np.ndarray  # m
     signals: np.ndarray  # int, SUMO signal bits (1 right blinker, 2 left blinker)
+    # seen in road coordinates (cosim.traffic.road_view): the Cartesian centre poses
+    # (x, y above are then s, d); None: x, y, heading are the Cartesian ones
+    cx: np.ndarray | None = None  # m
+    cy: np.ndarray | None = None  # m
+    ch: np.ndarray | None = None  # rad
+
+    @property
+    def cartesian(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(x, y, heading): the Cartesian centre poses, whichever view this is."""
+        if self.cx is None or self.cy is None or self.ch is None:
+            return self.x, self.y, self.heading
+        return self.cx, self.cy, self.ch
 
     @property
     def intention(self) -> np.ndarray:
@@ -93,6 +109,9 @@ class TrafficSnapshot:
             length=self.length[mask],
             width=self.width[mask],
             signals=self.signals[mask],
+            cx=None if self.cx is None else self.cx[mask],
+            cy=None if self.cy is None else self.cy[mask],
+            ch=None if self.ch is None else self.ch[mask],
         )
 
 
@@ -101,11 +120,14 @@ class SnapshotReader:
 
     `dims` (vehicle id -> (length, width), m) is shared with the adapter, which knows
     the sizes of the vehicles it adds; `lateral_speeds()` gives the sideways speeds
-    of the vehicles moved by moveToXY (SUMO reports 0 for them)."""
+    of the vehicles moved by moveToXY (SUMO reports 0 for them); `tracks` maps SUMO's
+    lane ids of the route's through tracks to their track ids (a vehicle's `lane`)."""
 
     def __init__(self, api: ModuleType, dims: dict[str, tuple[float, float]],
-                 lateral_speeds: Callable[[], Mapping[str, float]]) -> None:
+                 lateral_speeds: Callable[[], Mapping[str, float]],
+                 tracks: Mapping[str, int]) -> None:
         self.api = api
+        self.tracks = tracks
         self.dims = dims
         self.lateral_speeds = lateral_speeds
         self.getters = getters(api)
@@ -116,6 +138,10 @@ class SnapshotReader:
         # candidates gone since the refresh (arrived); None: not tracked (a teleport or
         # a removal), then each call asks SUMO who is present
         self.near_gone: set[str] | None = None
+        # the sizes of the last `read`'s vehicles (ids, length, width, length / 2): the
+        # candidates change only at a refresh or an arrival, their sizes never while they
+        # are on the network; cleared when a vehicle leaves (an id may come back)
+        self._sizes: tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def snapshot(self, exclude: Iterable[str] = ()) -> TrafficSnapshot:
         """Every vehicle now (except `exclude`), centre poses, in one pass."""
@@ -174,13 +200,16 @@ class SnapshotReader:
         others may have left too (teleports), see `untracked`."""
         if untracked:
             self.untracked()
-        elif self.near_gone is not None:
-            self.near_gone.update(vehicle_ids)
+        elif vehicle_ids:
+            self._sizes = None
+            if self.near_gone is not None:
+                self.near_gone.update(vehicle_ids)
 
     def untracked(self) -> None:
         """A vehicle may have left other than by arriving (teleport, removal, a lost
         controlled vehicle): snapshot_near reads the ID list until its next refresh."""
         self.near_gone = None
+        self._sizes = None
 
     def read(self, ids: tuple[str, ...], t: float | None = None, *, full: bool = True,
              near: tuple[str, float] | None = None) -> TrafficSnapshot:
@@ -194,14 +223,11 @@ class SnapshotReader:
         pos = np.fromiter(chain.from_iterable(map(get_pos, ids)), float, 2 * n).reshape(n, 2)
         xf, yf = pos[:, 0], pos[:, 1]
         angle = np.fromiter(map(get_angle, ids), float, n)
-        dims = self.dims
-        sizes = np.fromiter(chain.from_iterable(dims.get(vid) or self._read_dims(vid)
-                                                for vid in ids), float, 2 * n).reshape(n, 2)
-        length, width = sizes[:, 0].copy(), sizes[:, 1].copy()
+        length, width, half = self._sizes_of(ids)
         h = np.radians(90.0 - angle)
         h = np.arctan2(np.sin(h), np.cos(h))
-        x = xf - 0.5 * length * np.cos(h)
-        y = yf - 0.5 * length * np.sin(h)
+        x = xf - half * np.cos(h)
+        y = yf - half * np.sin(h)
         if near is not None:
             center_id, radius = near
             if center_id in ids:
@@ -212,8 +238,10 @@ class SnapshotReader:
             ids = tuple(compress(ids, keep.tolist()))
             xf, x, y, h, length, width = (a[keep] for a in (xf, x, y, h, length, width))
             n = len(ids)
+        else:  # the snapshot's own arrays, not the cache's
+            length, width = length.copy(), width.copy()
         speed = np.fromiter(map(get_speed, ids), float, n)
-        lane = np.fromiter(map(get_lane, ids), int, n)
+        lane = np.fromiter(map(self.tracks.get, map(get_lane, ids), repeat(-1)), int, n)
         lat = np.fromiter(map(get_lat, ids), float, n)
         if full:
             accel = np.fromiter(map(get_accel, ids), float, n)
@@ -221,11 +249,10 @@ class SnapshotReader:
         else:
             accel, signals = np.full(n, np.nan), np.zeros(n, dtype=int)
         lane[xf < INVALID] = -1
-        moved = self.lateral_speeds()
-        if moved:  # SUMO reports no sideways speed of a moved vehicle: dy/dt of its poses
-            for i, vid in enumerate(ids):
-                if vid in moved:
-                    lat[i] = moved[vid]
+        # SUMO reports no sideways speed of a moved vehicle: dy/dt of its poses
+        for vid, speed_y in self.lateral_speeds().items():
+            if vid in ids:
+                lat[ids.index(vid)] = speed_y
         return TrafficSnapshot(
             time=float(self.api.simulation.getTime()) if t is None else t,
             ids=ids,
@@ -259,10 +286,8 @@ class SnapshotReader:
         return float(self.api.vehicle.getSpeed(vehicle_id))
 
     def lane_index(self, vehicle_id: str) -> int:
-        """SUMO lane index of a vehicle (-1 off the network)."""
-        if self.api.vehicle.getLaneID(vehicle_id) == "":
-            return -1
-        return int(self.api.vehicle.getLaneIndex(vehicle_id))
+        """The through track a vehicle is on, as the snapshot's `lane` (-1: none)."""
+        return self.tracks.get(self.api.vehicle.getLaneID(vehicle_id), -1)
 
     def leader(self, vehicle_id: str, distance: float = 200.0) -> tuple[str, float] | None:
         """(id, gap in m bumper to bumper) of the leader in the vehicle's lane, or None."""
@@ -287,6 +312,19 @@ class SnapshotReader:
     def pending(self) -> tuple[str, ...]:
         """Vehicles added but not yet inserted (no room at their position yet)."""
         return tuple(self.api.simulation.getPendingVehicles())
+
+    def _sizes_of(self, ids: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """m, the vehicles' lengths, widths and half lengths, the last call's arrays when
+        the vehicles are the same (never modified: `read` hands out copies)."""
+        cached = self._sizes
+        if cached is None or cached[0] != ids:
+            dims = self.dims
+            sizes = np.fromiter(chain.from_iterable(dims.get(vid) or self._read_dims(vid)
+                                                    for vid in ids), float, 2 * len(ids))
+            sizes = sizes.reshape(len(ids), 2)
+            length, width = sizes[:, 0].copy(), sizes[:, 1].copy()
+            cached = self._sizes = (ids, length, width, 0.5 * length)
+        return cached[1], cached[2], cached[3]
 
     def _read_dims(self, vehicle_id: str) -> tuple[float, float]:
         vehicle = self.api.vehicle

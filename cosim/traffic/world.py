@@ -27,10 +27,11 @@ from numpy.typing import NDArray
 
 from cosim.errors import SimulationError
 from cosim.params import RoadParams
-from cosim.road.road import load_road
 from cosim.scenario.model import Scenario
 from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
+from cosim.traffic.road_view import cartesian_pose, is_identity, road_pose, road_view
+from cosim.traffic.route import route_road, sv_start
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
 Array = NDArray[np.float64]
@@ -55,6 +56,15 @@ class SVState:
     vy: float  # m/s, body lateral speed
     sumo_lane: float  # SUMO's lane index of the SV (-1: off the network)
     edge: str = ""  # SUMO's road id of the SV (a junction's internal edge too; "": off it)
+    # (x m, y m, heading rad) in the Cartesian plane when x, y, heading are road
+    # coordinates (cosim.traffic.road_view); None: they are the Cartesian ones
+    cartesian: tuple[float, float, float] | None = None
+    stretch: float = 1.0  # -, q of the frame at the SV: its speed is q vx (road_view)
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """(x m, y m, heading rad): the Cartesian centre pose."""
+        return self.cartesian if self.cartesian is not None else (self.x, self.y, self.heading)
 
 
 @dataclass(frozen=True)
@@ -99,16 +109,23 @@ class World:
                  fcd_output: Path | None = None) -> None:
         sc = scenario
         tr = sc.traffic
+        # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
+        # edge the identity StraightFrame); SUMO runs on its route
+        # (built once per process and network file: the scenario's loading built it)
+        self.route_road = route_road(sc.network, sc.route, source=str(sc.path))
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed,
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
-            fcd_output=fcd_output,
+            fcd_output=fcd_output, road=self.route_road,
         )
         self.scenario = sc
-        # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
-        # edge the identity StraightFrame); so far only the trace's s_m, d_m, track use it
-        self.route_road = load_road(sc.network, sc.route, source=str(sc.path))
+        # everything read and written is converted through the route's frame
+        # (cosim.traffic.road_view; the identity on the one straight edge)
+        self.frame = self.route_road.frame
+        self._s_hint: float | None = None  # m, the SV's s at the last read
+        # the SV's start: (track id, s in m) of [sv] edge, lane, position_m
+        self.sv_start = sv_start(self.route_road, sc.sv.edge, sc.sv.lane, sc.sv.position)
         self.started = False
         self.wall = 0.0
         self.wall_read = 0.0
@@ -124,6 +141,7 @@ class World:
         self.started = True
         road = sc.road  # lane geometry: the network's, read once by the scenario
         x0 = self.sv_start_x
+        track = self.sv_start_track
         if tr.density > 0:
             from cosim.traffic.demand import populate, start_zone
 
@@ -131,15 +149,23 @@ class World:
             # in its own lane the SV starts at its scenario speed, often faster than
             # the queue SUMO inserts: keep room to brake (and for its follower)
             zone = start_zone(x0, sc.vehicle.length, sc.sv.speed,
-                              road.speed_bands[sc.sv.lane][1])
+                              road.speed_bands[track][1])
             populate(self.sumo, road, tr.density, sc.seed, tr.length,
-                     exclude_zone=(x0 - margin, x0 + margin), lane_zones={sc.sv.lane: zone})
+                     exclude_zone=(x0 - margin, x0 + margin), lane_zones={track: zone})
         return road
 
     @property
     def sv_start_x(self) -> float:
-        """m, global x of the SV's centre at t = 0 (sv.position_m: from the road's start)."""
-        return self.sumo.highway.x_start + self.scenario.sv.position
+        """m, the SV's centre at t = 0 in road coordinates: s of ([sv] edge, [sv] lane,
+        [sv] position_m) along the route's road (`route_road`; on the one-edge road
+        s = x - the road's start x, on networks/highway.net.xml s = x exactly)."""
+        return self.sv_start[1]
+
+    @property
+    def sv_start_track(self) -> int:
+        """The track of `route_road` the SV starts on (its SV lane: [sv] lane is SUMO's
+        index on [sv] edge, which the track keeps across edges)."""
+        return self.sv_start[0]
 
     def insert(self) -> None:
         """The first step: SUMO inserts every vehicle added so far at its place; the
@@ -175,7 +201,19 @@ class World:
         if SV_ID not in snap.ids:  # the SUMO-driven SV reached the road's end
             raise SimulationError(snap.time - self.t_offset,
                                   "the SV is no longer on the network (end of the road?)")
-        return snap
+        if is_identity(self.frame):
+            return snap
+        seen = road_view(snap, self.frame, self._s_hint)
+        self._s_hint = float(seen.x[seen.index(SV_ID)])
+        return seen
+
+    def cartesian(self, s: float, d: float, heading: float) -> tuple[float, float, float, float]:
+        """(x, y, heading, q) of a pose in road coordinates (road_view.cartesian_pose)."""
+        return cartesian_pose(self.frame, s, d, heading)
+
+    def road_pose(self, x: float, y: float, heading: float) -> tuple[float, float, float, float]:
+        """(s, d, heading to the road, q) of a Cartesian pose (road_view.road_pose)."""
+        return road_pose(self.frame, x, y, heading, self._s_hint)
 
     def step(self) -> set[tuple[str, ...]]:
         """SUMO moves its vehicles to the next step; returns SUMO's collisions of that
@@ -194,14 +232,25 @@ class World:
     def add_controlled(self, vehicle_id: str, x: float, y: float, heading: float,
                        speed: float, length: float, width: float, lane: int,
                        vtype: str = "sv") -> None:
-        """A vehicle SUMO does not drive (the SV, a scripted TV) at its centre pose."""
-        self.sumo.add_controlled(vehicle_id, x, y, heading, speed, length, width, lane,
+        """A vehicle SUMO does not drive (the SV, a scripted TV) at its centre pose in road
+        coordinates (s, d, heading to the road, speed along s)."""
+        cx, cy, ch, q = self.cartesian(x, y, heading)
+        self.sumo.add_controlled(vehicle_id, cx, cy, ch, speed * q, length, width, lane,
                                  vtype=vtype)
 
     def move(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
              accel: float | None = None) -> None:
-        """A controlled vehicle's centre pose (holds from the next step)."""
-        self.sumo.move(vehicle_id, x, y, heading, speed, accel)
+        """A controlled vehicle's centre pose in road coordinates (holds from the next step)."""
+        cx, cy, ch, q = self.cartesian(x, y, heading)
+        self.sumo.move(vehicle_id, cx, cy, ch, speed * q, None if accel is None else accel * q,
+                       road=(x, y, heading))
+
+    def move_xy(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
+                accel: float | None = None,
+                road: tuple[float, float, float] | None = None) -> None:
+        """A controlled vehicle's Cartesian centre pose (the SV's plant; from the next step);
+        `road`: the same pose in road coordinates (s, d, heading to the road), if known."""
+        self.sumo.move(vehicle_id, x, y, heading, speed, accel, road=road)
 
     def replay_sv(self, x: list[float], y: list[float], heading: list[float],
                   speed: list[float], accel: list[float]) -> None:
@@ -214,10 +263,11 @@ class World:
 
     def add_sumo_driven_sv(self, lane: int, speed: float, desired_speed: float,
                            length: float, width: float, *, own_lane_changes: bool) -> None:
-        """The SV as a vehicle SUMO drives (controller "sumo") at its start in `lane`;
-        `hand_sv_to_sumo` after the inserting step gives it to SUMO."""
-        self.sumo.add_driven(SV_ID, lane, self.sv_start_x, speed, desired_speed, length,
-                             width, own_lane_changes=own_lane_changes)
+        """The SV as a vehicle SUMO drives (controller "sumo") at its start, on the
+        centre of track `lane`; `hand_sv_to_sumo` after the inserting step gives it to SUMO."""
+        pose = self.sumo.centre_pose(lane, self.sv_start_x)
+        self.sumo.add_driven(SV_ID, lane, pose, speed, desired_speed, length, width,
+                             own_lane_changes=own_lane_changes)
 
     def hand_sv_to_sumo(self) -> None:
         """From now on SUMO drives the SV (its own speed and lane-change modes)."""
@@ -247,11 +297,11 @@ class World:
 
     def read_all(self) -> TrafficSnapshot:
         """Every vehicle on the network, accelerations and signals included."""
-        return self.sumo.snapshot()
+        return road_view(self.sumo.snapshot(), self.frame, self._s_hint)
 
     def read_again(self, ids: tuple[str, ...]) -> TrafficSnapshot:
         """These vehicles again, accelerations and signals included."""
-        return self.sumo.reader.read(ids)
+        return road_view(self.sumo.reader.read(ids), self.frame, self._s_hint)
 
     # ------------------------------------------------ gap requests (cooperation)
     def open_gap_requests(self) -> None:

@@ -59,3 +59,15 @@ def test_trajectories_legend_names_markers_and_tvs(tmp_path: Path,
     labels = figures[0].axes[0].get_legend_handles_labels()[1]
     assert labels == ["TV pvc (ahead, lane 1)", "SV", "lane-change request",
                       "lane change starts (plan adopted)", "planned end (start + tau)"]
+
+
+def test_figure_path_takes_the_format_it_is_given(tmp_path: Path) -> None:
+    import cosim.plots as plots
+
+    assert plots.figure_path(tmp_path, "gaps") == tmp_path / "gaps.png"
+    assert plots.figure_path(tmp_path, "gaps", None) == tmp_path / "gaps.png"
+    assert plots.figure_path(tmp_path, "gaps", "pdf") == tmp_path / "gaps.pdf"
+    assert plots.figure_path(tmp_path, "gaps") == tmp_path / "gaps.png"  # nothing kept
+    with pytest.raises(ValueError, match="one of png, svg, pdf"):
+        plots.figure_path(tmp_path, "gaps", "jpg")
+    assert not hasattr(plots, "set_format")  # no process-wide setting left

@@ -268,3 +268,38 @@ def test_lanes_that_overlap_or_jog_at_a_junction_are_smoothed(
     s = np.linspace(0.0, frame.length, 500)
     x, _, _ = frame.to_cartesian(s, 0.0)
     assert np.all(np.diff(x) > 0)  # runs forwards all along
+
+
+def test_one_point_kernels_equal_the_array_conversions() -> None:
+    """pose_in_frame / point_of_frame (the controller's per-sample conversions) give what
+    to_frenet / to_cartesian / heading / curvature give, to 1e-9."""
+    from cosim.road.frame import point_of_frame, pose_in_frame
+
+    frame = curved().frame
+    fp, fr = frame.packed()
+    rng = np.random.default_rng(11)
+    s = rng.uniform(0.0, frame.length, 300)
+    d = rng.uniform(-4.0, 12.0, 300)
+    x, y, heading = frame.to_cartesian(s, d)
+    for i in range(s.size):
+        s1, d1, h1, k1 = pose_in_frame(fp, fr, x[i], y[i], math.nan)
+        assert abs(s1 - s[i]) < 1e-9 and abs(d1 - d[i]) < 1e-9
+        assert abs(h1 - float(frame.heading(s1))) < 1e-9
+        assert k1 == float(frame.curvature(s1))
+        # with a hint 30 m off the search still lands on the right arc
+        s2, _, _, _ = pose_in_frame(fp, fr, x[i], y[i], s[i] + 30.0)
+        assert abs(s2 - s[i]) < 1e-9
+        x1, y1, h2, _ = point_of_frame(fp, fr, s[i], d[i])
+        assert math.hypot(x1 - x[i], y1 - y[i]) < 1e-9 and abs(h2 - heading[i]) < 1e-9
+
+
+def test_one_point_kernels_on_the_straight_road_are_the_identity_bit_for_bit() -> None:
+    from cosim.road.frame import point_of_frame, pose_in_frame
+
+    fp, fr = StraightFrame(0.0, 0.0, 1000.0).packed()
+    for x, y in ((12.5, 1.875), (-0.0, -0.0), (1e5, -3.3)):
+        s, d, h, k = pose_in_frame(fp, fr, x, y, math.nan)
+        assert (s, d, h, k) == (x, y, 0.0, 0.0)
+        assert math.copysign(1.0, s) == math.copysign(1.0, x)
+        px, py, _, _ = point_of_frame(fp, fr, x, y)
+        assert (px, py) == (x, y) and math.copysign(1.0, px) == math.copysign(1.0, x)

@@ -70,11 +70,12 @@ def test_a_car_placed_at_speed_in_its_start_zone_does_not_hit_the_dense_queue(se
     before the start zone). With `start_zone` SUMO's own driver brakes in time."""
     speed, length = 100.0 / KMH, 4.32
     with make_sim(seed) as sim:
-        x0 = sim.highway.x_start + 600.0
+        x0 = 600.0  # m, s along the road
         zone = start_zone(x0, length, speed, sim.road().speed_bands[1][1])
         populate(sim, sim.road(), 50.0, seed, 1500.0, exclude_zone=(x0 - 8.64, x0 + 8.64),
                  lane_zones={1: zone})
-        sim.add_driven(SV_ID, 1, x0, speed, speed, length, 1.82, own_lane_changes=False)
+        sim.add_driven(SV_ID, 1, sim.centre_pose(1, x0), speed, speed, length, 1.82,
+                       own_lane_changes=False)
         sim.step()
         sim.controlled.release(SV_ID)
         hits = 0

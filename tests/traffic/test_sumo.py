@@ -103,7 +103,7 @@ def test_scripted_vehicle_shows_its_lateral_speed_and_blinker() -> None:
 
 def test_leaving_the_network_is_detected() -> None:
     with make_sim() as sim:
-        end = sim.highway.x_end
+        end = sim.lanes.length  # m, s of the road's end (s = x on this network)
         sim.add_controlled("sv", end - 30.0, 5.625, 0.0, 30.0, L, W, 1)
         sim.step()
         with pytest.raises(SimulationError, match=r"sv left the network at x = 59\d\d\.\d\d m"):
@@ -300,7 +300,7 @@ def test_snapshot_near_drops_vehicles_that_arrive_between_refreshes() -> None:
     """snapshot_near reads SUMO's ID list only at its refreshes: vehicles that reach the
     road's end in between must leave its answer the step they go, as a full read says."""
     with make_sim() as sim:
-        end = sim.highway.x_end
+        end = sim.lanes.length  # m, s of the road's end (s = x on this network)
         for i, x in enumerate(np.arange(end - 190.0, end - 20.0, 25.0)):
             sim.add_traffic(f"tv{i}", (0, 2)[i % 2], float(x), 1.0, speed=30.0)
         x_sv = end - 150.0
@@ -329,8 +329,30 @@ def test_every_vehicle_type_is_of_the_class_the_lane_check_assumes() -> None:
 
     with make_sim(1) as sim:
         sim.add_traffic("t0", 0, 500.0, 0.5)
-        sim.add_controlled("c0", 700.0, sim.highway.road().lane_center(1), 0.0, 25.0, 4.5, 1.8, 1)
-        sim.add_driven("d0", 2, 900.0, 30.0, 30.0, 4.5, 1.8)
+        sim.add_controlled("c0", 700.0, sim.road().lane_center(1), 0.0, 25.0, 4.5, 1.8, 1)
+        sim.add_driven("d0", 2, sim.centre_pose(2, 900.0), 30.0, 30.0, 4.5, 1.8)
         sim.step()
         classes = {vid: sim.api.vehicle.getVehicleClass(vid) for vid in ("t0", "c0", "d0")}
     assert classes == {"t0": PASSENGER, "c0": PASSENGER, "d0": PASSENGER}
+
+
+def test_snapshot_sizes_follow_a_vehicle_added_again_under_its_id() -> None:
+    """The scene read keeps its vehicles' sizes while they stay; a vehicle removed and
+    added again under the same id with another size is read with the new one."""
+    with make_sim() as sim:
+        y = sim.road().lane_center(1)
+        sim.add_controlled("sv", 200.0, y, 0.0, 20.0, L, W, 1)
+        sim.add_controlled("tv", 230.0, y, 0.0, 20.0, 4.0, 1.7, 1, vtype="tv_scripted")
+        sim.step()
+        for _ in range(2):  # the second read takes the sizes kept from the first
+            near = sim.snapshot_near("sv", 100.0)
+            i = near.index("tv")
+            assert (near.length[i], near.width[i]) == (4.0, 1.7)
+        sim.remove("tv")
+        sim.add_controlled("tv", 240.0, y, 0.0, 20.0, 12.0, 2.5, 1, vtype="truck")
+        sim.move("sv", 201.0, y, 0.0, 20.0)
+        sim.step()
+        near = sim.snapshot_near("sv", 100.0)
+        i = near.index("tv")
+        assert (near.length[i], near.width[i]) == (12.0, 2.5)
+        assert near.x[i] == pytest.approx(240.0, abs=1e-6)  # the centre from the new length

@@ -27,6 +27,7 @@ Vehicles are arrays (one entry per TV); no Python loop over vehicles.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
@@ -62,6 +63,7 @@ class GapDecision:
     leader_speed: float = math.inf  # m/s, its own leader's speed (inf: none)
 
 
+@functools.lru_cache(maxsize=8)  # one config per run, asked every step (replace is slow)
 def wanting_config(cfg: DecisionConfig) -> DecisionConfig:
     """the paper's rule without its free-lane pre-filter (every gap passes it)."""
     return replace(cfg, min_gap=-math.inf, time_gap_ahead=0.0, time_gap_behind=0.0,

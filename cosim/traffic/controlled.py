@@ -1,0 +1,204 @@
+"""The vehicles SUMO does not drive (the SV, scripted TVs) and the SUMO-driven SV until
+it is handed to SUMO (cosim.traffic.sumo's controlled part).
+
+Conventions at this boundary (SUMO_NOTES.md): SUMO positions are the centre of the
+front bumper and angles are navigational degrees (0 north, clockwise). cosim uses the
+centre of the body rectangle (= the CG, the body is centred on it) and math radians.
+So, with L the body length,
+
+    front = centre + L/2 (cos h, sin h),   angle = (90 - degrees(h)) mod 360.
+
+Controlled vehicles leave SUMO's control (speed mode 0, lane-change mode 0), are added
+on the route's road (cosim.traffic.route) and written with `vehicle.moveToXY(...,
+keepRoute=2)` with the edge and lane index of the track their front is in as the hint;
+one that SUMO takes off the network (it drops it silently) is caught after the step
+(`check`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from cosim.errors import InputError, SimulationError
+from cosim.road.tracks import TrackPiece
+from cosim.traffic.snapshot import SIGNAL_BLINKER_LEFT, SIGNAL_BLINKER_RIGHT
+
+
+def sumo_angle(heading: float) -> float:
+    """SUMO navigational degrees (0 north, clockwise) of a math heading in radians."""
+    return (90.0 - math.degrees(heading)) % 360.0
+
+
+def front_from_centre(x: float, y: float, heading: float, length: float) -> tuple[float, float]:
+    """m, the front-bumper centre SUMO uses, of a body rectangle centred on (x, y)."""
+    half = 0.5 * length
+    return x + half * math.cos(heading), y + half * math.sin(heading)
+
+
+@dataclass(frozen=True)
+class TrafficEvent:
+    """Something SUMO did that a run must record: a teleport, a vehicle lost."""
+
+    time: float  # s, simulation time
+    kind: str  # "teleport" | "lost" (a controlled vehicle SUMO dropped)
+    vehicle_id: str
+    detail: str
+
+
+@dataclass
+class _Controlled:
+    length: float  # m
+    width: float  # m
+    last: tuple[float, float, float]  # m, m, rad: the last centre pose written
+    inserted: bool = False  # SUMO has it on the network (it inserts it in the next step)
+    t_write: float = -1.0  # s, simulation time of the last write
+    y_before: float | None = None  # m, centre d (y) written in the step before that
+    lateral_speed: float = 0.0  # m/s, dd/dt of the written poses (SUMO reports 0 for them)
+    d_last: float = math.nan  # m, the centre's d (y on the straight road) last written
+    signals: int = -1  # SUMO signal bits to hold (-1: leave them to SUMO)
+    s_front: float = math.nan  # m, s of its front last written (where to look first)
+    hint: TrackPiece | None = None  # the SUMO lane of the track its front was in
+
+
+class ControlledVehicles:
+    """The vehicles SUMO does not drive (the SV, scripted TVs): added at a centre pose,
+    moved with moveToXY each step, their blinkers held, and caught when SUMO drops
+    one off the network."""
+
+    def __init__(self, sim: Any) -> None:  # sim: the SumoSim (it imports this module)
+        self.sim = sim
+        self.vehicles: dict[str, _Controlled] = {}
+        self.moved = False  # a moveToXY is pending (must be flushed before close)
+        self.release_modes: dict[str, tuple[float, int]] = {}  # add_driven: (desired m/s, lc mode)
+
+    def add(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
+            length: float, width: float, track: int, type_id: str) -> None:
+        """Insert it (in the next step) with speed mode 0 and lane-change mode 0 (out of
+        SUMO's control), at its centre pose, on `track` (a track id of the route: an SV
+        lane k is track k) and on the rest of the route from the edge its front is on."""
+        sim = self.sim
+        api = sim.api
+        lanes = sim.lanes
+        s, _ = lanes.road.frame.to_frenet(x, y)
+        place = lanes.place(track, s + 0.5 * length)
+        front = place.position
+        if place.route_index == 0:  # its whole body on the route
+            front = max(front, length)
+        piece_length = lanes.table(track).track.piece_on(place.edge).length
+        api.vehicle.add(
+            vehicle_id,
+            lanes.route_id(api, place.route_index),
+            typeID=type_id,
+            departLane=str(place.index),
+            departPos=repr(float(min(front, piece_length))),
+            departSpeed=repr(float(max(speed, 0.0))),
+        )
+        api.vehicle.setSpeedMode(vehicle_id, 0)
+        api.vehicle.setLaneChangeMode(vehicle_id, 0)
+        self.vehicles[vehicle_id] = _Controlled(length, width, (x, y, heading))
+        self.move(vehicle_id, x, y, heading, speed)
+
+    def move(
+        self,
+        vehicle_id: str,
+        x: float,
+        y: float,
+        heading: float,
+        speed: float,
+        accel: float | None = None, road: tuple[float, float, float] | None = None,
+    ) -> None:
+        """Write a controlled vehicle's centre pose (takes effect in the next step).
+
+        Also sets its speed (and acceleration), so the TVs that react to it in
+        the next step see the plant's speed, not last step's displacement. `road`: the
+        same pose's (s, d, heading to the road), when the caller has it (its lateral
+        speed is dd/dt, and the front's place along the road for the hint needs no
+        search); else it is found from the Cartesian pose.
+        """
+        ctl = self.vehicles.get(vehicle_id)
+        if ctl is None:
+            raise SimulationError(self.sim.time, f"{vehicle_id} is not a controlled vehicle")
+        xf, yf = front_from_centre(x, y, heading, ctl.length)
+        lanes = self.sim.lanes
+        if road is not None:
+            s_c, d_c, rel = road
+            half = 0.5 * ctl.length
+            s_f, d_f = s_c + half * math.cos(rel), d_c + half * math.sin(rel)
+        else:
+            s_f, d_f = lanes.road.frame.to_frenet(xf, yf, s_hint=ctl.s_front)
+            d_c = y if lanes.straight else d_f  # (the front's d: near enough for dd/dt)
+        if math.isfinite(s_f):  # NaN: no arc's normals reach it; keep the last hint
+            ctl.s_front, ctl.hint = s_f, lanes.hint(s_f, d_f)
+        vehicle = self.sim.api.vehicle
+        # the edge and lane of the track its front is in: keepRoute 2 then keeps it on its
+        # route, in that lane, across junctions (where SUMO's lane index may change)
+        edge, index = ("", -1) if ctl.hint is None else (ctl.hint.edge, ctl.hint.index)
+        vehicle.moveToXY(vehicle_id, edge, index, xf, yf, sumo_angle(heading), keepRoute=2)
+        if ctl.inserted:
+            if accel is None:
+                vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0))
+            else:
+                vehicle.setPreviousSpeed(vehicle_id, max(float(speed), 0.0), float(accel))
+        t = self.sim.time
+        if t > ctl.t_write:  # a new step: the previous write becomes the reference
+            ctl.y_before, t_before = ctl.d_last, ctl.t_write
+            ctl.lateral_speed = 0.0 if t_before < 0 else (d_c - ctl.y_before) / (t - t_before)
+        elif ctl.y_before is not None:  # written twice in one step: the latest counts
+            ctl.lateral_speed = (d_c - ctl.y_before) / self.sim.step_length
+        ctl.t_write = t
+        ctl.last = (float(x), float(y), float(heading))
+        ctl.d_last = float(d_c)
+        if ctl.signals >= 0:  # SUMO resets the signals of a moved vehicle: hold them
+            vehicle.setSignals(vehicle_id, ctl.signals)
+        self.moved = True
+
+    def set_blinker(self, vehicle_id: str, direction: int) -> None:
+        """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""
+        bits = {-1: SIGNAL_BLINKER_RIGHT, 0: 0, 1: SIGNAL_BLINKER_LEFT}.get(direction)
+        if bits is None:
+            raise InputError("blinker", "direction", direction, "-1, 0 or +1")
+        ctl = self.vehicles.get(vehicle_id)
+        if ctl is None:
+            raise SimulationError(self.sim.time, f"{vehicle_id} is not a controlled vehicle")
+        ctl.signals = bits
+        self.sim.api.vehicle.setSignals(vehicle_id, bits)
+
+    def check(self, t: float, teleported: set[str]) -> None:
+        """A moveToXY vehicle off the network is dropped silently by SUMO: catch it."""
+        if not self.vehicles:
+            return
+        vehicle = self.sim.api.vehicle
+        present = set(vehicle.getIDList()) if len(self.vehicles) > 1 else None
+        for vid, ctl in list(self.vehicles.items()):
+            try:
+                on_road = (present is None or vid in present) and vehicle.getLaneID(vid) != ""
+            except self.sim.api.TraCIException:  # an unknown vehicle id
+                on_road = False
+            if on_road:
+                ctl.inserted = True
+                continue
+            x, y, h = ctl.last
+            detail = f"{vid} left the network at x = {x:.2f} m, y = {y:.2f} m"
+            if vid in teleported:
+                detail += " (SUMO teleported it: a jam with --time-to-teleport set)"
+            self.sim.events.append(TrafficEvent(t, "lost", vid, detail))
+            self.sim.reader.untracked()
+            del self.vehicles[vid]
+            if self.sim.strict:
+                raise SimulationError(t, detail, f"heading {h:.4f} rad")
+
+    def release(self, vehicle_id: str) -> None:
+        """Hand a vehicle placed by `add_driven` to SUMO (call after it is inserted):
+        SUMO's speed and lane-change models from now on."""
+        desired, lc_mode = self.release_modes.pop(vehicle_id)
+        vehicle = self.sim.api.vehicle
+        vehicle.setSpeedMode(vehicle_id, 31)  # SUMO's default: all safety checks
+        vehicle.setLaneChangeMode(vehicle_id, lc_mode)
+        vehicle.setMaxSpeed(vehicle_id, desired)
+        self.vehicles.pop(vehicle_id, None)
+
+    def lateral_speeds(self) -> dict[str, float]:
+        """m/s, dy/dt of the poses written to each controlled vehicle."""
+        return {vid: ctl.lateral_speed for vid, ctl in self.vehicles.items()}

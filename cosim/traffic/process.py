@@ -1,0 +1,161 @@
+"""The SUMO process of one simulation: its command line, starting and closing it, and
+the warnings it wrote (cosim.traffic.sumo's lifecycle part).
+
+SUMO is started with `--collision.action warn --collision.mingap-factor 0` (the
+default teleport action silently ignores collisions of moved vehicles; a collision is
+then a real overlap, not a gap below minGap), `--time-to-teleport -1` (no jam
+teleports: every vehicle stays visible to the SV) and `--no-warnings` with an
+`--error-log` file: warnings are captured, readable through `warnings()`, and not
+printed.
+
+One libsumo simulation per process: a second start silently replaces the first, so
+`start` refuses while another simulation is running.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+from cosim.errors import SimulationError
+from cosim.traffic import gui as gui_window
+from cosim.traffic.gui import GuiSettings
+
+_active: SumoProcess | None = None  # the one running simulation of this process
+
+
+def _import_api(use_traci: bool) -> ModuleType:
+    if use_traci:
+        import traci  # sumo-gui needs the socket client; libsumo has no GUI
+
+        return traci
+    import libsumo
+
+    return libsumo
+
+
+@dataclass
+class SumoProcess:
+    """How SUMO is started for one simulation, and the running API while it is.
+
+    `gui`: sumo-gui's settings (None: headless); `use_traci`: the socket client instead
+    of libsumo (always with the GUI)."""
+
+    network: Path  # the .net.xml
+    step_length: float  # s
+    seed: int
+    lanechange_duration: float  # s, 0: instant changes
+    sublane: bool
+    gui: GuiSettings | None
+    use_traci: bool
+    extra_args: tuple[str, ...]
+    lateral_resolution: float  # m, the sublane model's
+    fcd_output: Path | None  # SUMO's --fcd-output (the caller's file)
+    api: ModuleType | None = None  # while running
+    _tmp: tempfile.TemporaryDirectory[str] | None = None
+    _log_text: str = ""
+
+    def command(self) -> list[str]:
+        """The SUMO command line this simulation starts with (warnings go to a
+        temporary log file that lives until close)."""
+        if self._tmp is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="cosim-sumo-")
+        binary = "sumo-gui" if self.gui else "sumo"
+        try:
+            import sumolib
+
+            binary = sumolib.checkBinary(binary)
+        except (ImportError, SystemExit):  # sumolib exits if the binary is missing
+            pass
+        options = [
+            ("-n", str(self.network)),
+            ("--step-length", repr(self.step_length)),
+            ("--seed", str(self.seed)),
+            ("--collision.action", "warn"),
+            ("--collision.mingap-factor", "0"),
+            ("--time-to-teleport", "-1"),
+            ("--no-step-log", "true"),
+            ("--no-warnings", "true"),
+            ("--error-log", str(Path(self._tmp.name) / "sumo-warnings.log")),
+            ("--duration-log.disable", "true"),
+        ]
+        if self.fcd_output is not None:
+            options.append(("--fcd-output", str(self.fcd_output)))
+        if self.sublane:
+            options.append(("--lateral-resolution", repr(self.lateral_resolution)))
+        elif self.lanechange_duration > 0:
+            options.append(("--lanechange.duration", repr(self.lanechange_duration)))
+        if self.gui:
+            options += gui_window.options(self.gui)
+        # SUMO refuses an option given twice: extra_args replace our defaults
+        overridden = {a for a in self.extra_args if a.startswith("-")}
+        cmd = [binary]
+        for name, value in options:
+            if name not in overridden:
+                cmd += [name, value]
+        return cmd + list(self.extra_args)
+
+    def start(self) -> ModuleType:
+        """Start SUMO (the GUI through traci); the API module it runs in."""
+        global _active
+        if _active is not None and _active is not self and _active.api is not None:
+            raise SimulationError(0.0, "another SUMO simulation is running in this process")
+        api = _import_api(self.use_traci)
+        if self.gui:
+            gui_window.start(api, self.command())
+        else:
+            api.start(self.command())
+        self.api = api
+        _active = self
+        return api
+
+    def close(self) -> None:
+        """Close SUMO (the GUI as its settings say) and keep the warnings it wrote."""
+        global _active
+        api = self.api
+        if api is None:
+            return
+        try:
+            if self.gui:
+                gui_window.close(api, self.gui)
+            else:
+                api.close()
+        finally:
+            self.api = None
+            _active = None
+            if self._tmp is not None:
+                self._log_text = self._read_log()
+                self._tmp.cleanup()
+                self._tmp = None
+
+    def _read_log(self) -> str:
+        if self._tmp is None:
+            return self._log_text
+        log = Path(self._tmp.name) / "sumo-warnings.log"
+        try:
+            return log.read_text(encoding="utf-8", errors="replace")
+        except FileNotFoundError:
+            return ""
+
+    def warnings(self) -> list[str]:
+        """SUMO's warnings and errors (captured in a log file, not printed).
+
+        SUMO buffers the file: the list is complete once the simulation is closed.
+        """
+        return [line for line in self._read_log().splitlines() if line.strip()]
+
+
+def process(network: Path, step: float, seed: int, *, lanechange_duration: float,
+            sublane: bool, gui: bool | GuiSettings, extra_args: Sequence[str],
+            lateral_resolution: float, traci: bool, fcd_output: Path | None) -> SumoProcess:
+    """The process settings of a SumoSim (`gui` True: sumo-gui's default settings)."""
+    settings = (gui if isinstance(gui, GuiSettings) else GuiSettings()) if gui else None
+    return SumoProcess(
+        network=Path(network), step_length=float(step), seed=int(seed),
+        lanechange_duration=float(lanechange_duration), sublane=bool(sublane),
+        gui=settings, use_traci=bool(traci) or settings is not None,
+        extra_args=tuple(extra_args), lateral_resolution=float(lateral_resolution),
+        fcd_output=None if fcd_output is None else Path(fcd_output))

@@ -1,0 +1,285 @@
+"""The SUMO side of the route's road (cosim.road.road.Road): which of its tracks are the
+SV's lanes, where a point (track, s) lies in SUMO's terms (edge, lane index, lane
+position), which track a Cartesian point is in (the moveToXY hint), and the planner's
+RoadParams of the road.
+
+A *through track* runs the whole route, from its first edge to its last; the SV's
+lanes ("lane k" in scenarios, the policy and RoadParams) are the through tracks, k
+their track id (on networks/curved_motorway.net.xml tracks 0, 1, 2; track 3, the lane
+added at j2 that ends at j3, is not one). Tracks that are not through tracks (lanes
+added or dropped along the route) carry traffic but are not SV lanes yet (issue 24:
+lane ends). The scenario's speed bands are per through track, in track id order; a
+track that is not a through track takes the band of the through track next to it
+(nearest by SUMO's lane index on the track's first route edge; on a tie the one on
+its right, the slower).
+
+On a one-edge straight road the track id is SUMO's lane index and every conversion is
+the exact arithmetic of the old one-edge code (s = x - x0, lane position = s - s of the
+lane's start), so results on it do not change.
+"""
+
+from __future__ import annotations
+
+import bisect
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from cosim.errors import InputError
+from cosim.params import RoadParams
+from cosim.road.frame import StraightFrame
+from cosim.road.lanes import LaneTable
+from cosim.road.road import Road, load_road
+from cosim.road.tracks import TrackPiece
+
+ROUTE_ID = "highway_route"  # SUMO's id of the whole route (of the rest from edge k: @k)
+SAMPLE_STEP = 2.0  # m, lane positions sampled along a curved lane to map s to them
+
+
+@dataclass(frozen=True)
+class Place:
+    """Where a point of a track lies in SUMO's terms."""
+
+    edge: str  # SUMO edge id (a route edge: never a junction's internal edge)
+    index: int  # SUMO lane index on it
+    position: float  # m, lane position (from the lane's start, as SUMO counts it)
+    route_index: int  # the edge's position in the route
+
+
+def route_road(network: Path | str, route: Sequence[str] | None = None,
+               source: str | None = None) -> Road:
+    """The Road of `route` on `network` (cosim.road.road.load_road), built once per
+    process for a file as it is (cached on its path, modification time and size); an
+    InputError names `source` (e.g. the scenario) if given."""
+    path = Path(network)
+    try:
+        st = path.stat()
+    except (OSError, ValueError):  # load_road says what is wrong with it, in one line
+        return load_road(network, route, source=source)
+    try:
+        return _road(str(path.resolve()), st.st_mtime_ns, st.st_size,
+                     None if route is None else tuple(route))
+    except InputError:
+        if source is None:
+            raise
+        return load_road(network, route, source=source)  # raises, naming `source`
+
+
+@functools.lru_cache(maxsize=8)
+def _road(path: str, mtime_ns: int, size: int, route: tuple[str, ...] | None) -> Road:
+    del mtime_ns, size  # part of the cache key only
+    return load_road(path, route)
+
+
+def through_tracks(road: Road) -> tuple[LaneTable, ...]:
+    """The tracks that run from the route's first edge to its last, in track id order."""
+    last = len(road.route.edges) - 1
+    return tuple(t for t in road.lanes
+                 if t.track.first_edge == 0 and t.track.last_edge == last
+                 and not t.track.pieces[0].internal)
+
+
+def lane_width(road: Road, source: str | None = None) -> float:
+    """m, the through tracks' common lane width (InputError, one line, if they differ)."""
+    widths = sorted({round(float(w), 6) for t in through_tracks(road) for w, p in
+                     zip(t.width, t.track.pieces, strict=True) if not p.internal})
+    if len(widths) != 1:
+        raise InputError(source or str(road.route.path), "lane widths", widths,
+                         "through lanes of one width along the route (the planner's lanes "
+                         f"are one width; these are {', '.join(f'{w:g}' for w in widths)} m)")
+    return widths[0]
+
+
+def road_params(road: Road, base: RoadParams | None = None,
+                source: str | None = None) -> RoadParams:
+    """The planner's view of the road in (s, d): the through tracks' lane width, y_right
+    = 0 (d is measured from the reference track's right border), speed bands and mu from
+    `base` (one band per through track)."""
+    base = base or RoadParams()
+    return RoadParams(lane_width=lane_width(road, source), speed_bands=base.speed_bands,
+                      mu=base.mu, y_right=0.0)
+
+
+class RouteLanes:
+    """The route's tracks as SUMO sees them (see the module docstring)."""
+
+    def __init__(self, road: Road) -> None:
+        self.road = road
+        self.through = through_tracks(road)
+        self.straight = isinstance(road.frame, StraightFrame)
+        # SUMO lane id -> through-track id, junction lanes included (the snapshot's lane)
+        self.through_lane: dict[str, int] = {
+            p.lane: t.id for t in self.through for p in t.track.pieces}
+        # the lanes of route edges, with their tracks (a TV's band changes only there)
+        self.edge_lanes: tuple[tuple[str, int], ...] = tuple(
+            (p.lane, t.id) for t in road.lanes for p in t.track.pieces if not p.internal)
+        self._s_end = {t.id: t.s_end.tolist() for t in road.lanes}
+        self._added: set[int] = set()  # route indices whose rest-of-route SUMO has
+        self._sampled: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+    @property
+    def length(self) -> float:
+        """m, the stretch of s every through track covers."""
+        return min(t.end for t in self.through) - max(t.begin for t in self.through)
+
+    @functools.cached_property
+    def band_index(self) -> dict[int, int]:
+        """Track id -> index of its speed band (a through track's rank; any other track:
+        its neighbouring through track's)."""
+        index = {t.id: k for k, t in enumerate(self.through)}
+        for table in self.road.lanes:
+            if table.id in index:
+                continue
+            piece = next(p for p in table.track.pieces if not p.internal)
+            beside = [(abs(q.index - piece.index), q.index, index[t.id]) for t in self.through
+                      if (q := t.track.piece_on(piece.edge)) is not None]
+            index[table.id] = min(beside)[2] if beside else 0
+        return index
+
+    def route_id(self, api: ModuleType, route_index: int) -> str:
+        """SUMO's id of the route from its `route_index`-th edge on (added on first use;
+        the whole route is added when SUMO starts)."""
+        rid = ROUTE_ID if route_index == 0 else f"{ROUTE_ID}@{route_index}"
+        if route_index not in self._added:
+            api.route.add(rid, list(self.road.route.edges[route_index:]))
+            self._added.add(route_index)
+        return rid
+
+    def forget_routes(self) -> None:
+        """SUMO closed: its routes are gone."""
+        self._added.clear()
+
+    def table(self, track: int) -> LaneTable:
+        """The lane table of a track (InputError: no such track on the route)."""
+        try:
+            return self.road.lane(track)
+        except KeyError:
+            ids = [t.id for t in self.road.lanes]
+            raise InputError("traffic", "track", track, f"a track of the route {ids}") from None
+
+    def place(self, track: int, s: float) -> Place:
+        """SUMO's edge, lane index and lane position of the point at `s` (m) on `track`.
+        On a junction's internal lane: the start of the next edge; beyond the track's
+        ends: its first (last) edge's start (end)."""
+        table = self.table(track)
+        pieces = table.track.pieces
+        k = min(bisect.bisect_left(self._s_end[track], s), len(pieces) - 1)
+        piece = pieces[k]
+        if piece.internal:
+            if k + 1 < len(pieces):
+                nxt = pieces[k + 1]
+                return Place(nxt.edge, nxt.index, 0.0, nxt.route_index)
+            piece = pieces[k - 1]
+            return Place(piece.edge, piece.index, piece.length, piece.route_index)
+        position = self._position(table, k, piece, s)
+        return Place(piece.edge, piece.index, min(max(position, 0.0), piece.length),
+                     piece.route_index)
+
+    def _position(self, table: LaneTable, k: int, piece: TrackPiece, s: float) -> float:
+        if self.straight:  # exact: s - s of the lane's start (SUMO's length = its shape's)
+            return (s - float(table.s_start[k])) * _stretch(piece)
+        s_knots, positions = self._samples(table.id, k)
+        return float(np.interp(s, s_knots, positions,
+                               left=positions[0] + s - s_knots[0],
+                               right=positions[-1] + s - s_knots[-1]))
+
+    def _samples(self, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """s of lane positions every ~SAMPLE_STEP m along piece k of a track (made on
+        first use)."""
+        found = self._sampled.get((track, k))
+        if found is None:
+            found = self._sampled[(track, k)] = self._sample(track, k)
+        return found
+
+    def _sample(self, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+        table = self.road.lane(track)
+        piece = table.track.pieces[k]
+        shape = np.asarray(piece.shape, dtype=np.float64)
+        seg = np.hypot(*np.diff(shape, axis=0).T)
+        cum = np.concatenate(([0.0], np.cumsum(seg)))
+        n = max(2, int(math.ceil(cum[-1] / SAMPLE_STEP)) + 1)
+        offsets = np.linspace(0.0, cum[-1], n)
+        x = np.interp(offsets, cum, shape[:, 0])
+        y = np.interp(offsets, cum, shape[:, 1])
+        hint = float(table.s_start[k]) + offsets
+        s, _ = self.road.frame.to_frenet(x, y, s_hint=hint)
+        positions = offsets * (piece.length / cum[-1] if cum[-1] > 0 else 1.0)
+        return np.maximum.accumulate(np.asarray(s)), positions
+
+    def s_of(self, lane_id: str, position: float) -> float:
+        """m, s of SUMO lane position `position` on lane `lane_id` (s_of_lane_position)."""
+        return s_of_lane_position(self.road, lane_id, position)
+
+    def track_at(self, s: float, d: float) -> LaneTable:
+        """The track whose lane holds (s, d) among those that exist at s (right border
+        inclusive, left exclusive); outside them all, the one whose centre is nearest."""
+        best, best_gap = None, math.inf
+        here = [t for t in self.road.lanes if t.begin <= s <= t.end] or self.road.lanes
+        for table in here:
+            k = min(bisect.bisect_left(self._s_end[table.id], s), len(table.s_end) - 1)
+            centre = float(table.d_start[k])
+            if table.track.pieces[k].internal:  # LaneTable.centre's smoothstep, on floats
+                a, b = float(table.s_start[k]), float(table.s_end[k])
+                u = min(max((s - a) / max(b - a, 1e-12), 0.0), 1.0)
+                centre += (float(table.d_end[k]) - centre) * u * u * (3.0 - 2.0 * u)
+            half = 0.5 * float(table.width[k])
+            if centre - half <= d < centre + half:
+                return table
+            gap = abs(d - centre)
+            if gap < best_gap:
+                best, best_gap = table, gap
+        return best if best is not None else self.through[0]
+
+    def hint(self, s: float, d: float) -> TrackPiece:
+        """SUMO's lane (edge, index) of the track holding (s, d): the moveToXY hint that
+        keeps a controlled vehicle on its route, in the right lane."""
+        table = self.track_at(s, d)
+        k = min(bisect.bisect_left(self._s_end[table.id], s), len(table.s_end) - 1)
+        return table.track.pieces[k]
+
+
+@functools.lru_cache(maxsize=1024)
+def _stretch(piece: TrackPiece) -> float:
+    """SUMO's lane length over its shape's length (1.0 when they agree)."""
+    from sumolib.geomhelper import polyLength
+
+    shape_length = polyLength(list(piece.shape))
+    return piece.length / shape_length if shape_length > 0 else 1.0
+
+
+def s_of_lane_position(road: Road, lane_id: str, position: float) -> float:
+    """m, s of SUMO lane position `position` on lane `lane_id` of a track (on the straight
+    road exactly the lane's start s plus the position, as x was)."""
+    if isinstance(road.frame, StraightFrame):
+        table = road.track_of_lane(lane_id)
+        k = next(i for i, p in enumerate(table.track.pieces) if p.lane == lane_id)
+        return float(table.s_start[k]) + position / _stretch(table.track.pieces[k])
+    return road.s_of_lane_position(lane_id, position)
+
+
+def sv_start(road: Road, edge: str | None, lane: int, position: float) -> tuple[int, float]:
+    """(track id, s in m) of the SV's start: SUMO lane `lane` (index) of `edge` (None:
+    the route's first edge) at lane position `position` (its centre)."""
+    edge_id = edge if edge is not None else road.route.edges[0]
+    for table in road.lanes:
+        piece = table.track.piece_on(edge_id)
+        if piece is not None and piece.index == lane:
+            return table.id, s_of_lane_position(road, piece.lane, position)
+    raise InputError(str(road.route.path), "sv.lane", lane,
+                     f"a lane of edge {edge_id!r} that a track of the route runs through")
+
+
+def check_through(road: Road, source: str) -> None:
+    """InputError unless the through tracks are tracks 0..n-1: the SV's lanes k are
+    track ids, and a lane of the first edge that ends on the route is issue 24's."""
+    ids = [t.id for t in through_tracks(road)]
+    if ids != list(range(len(ids))):
+        raise InputError(source, "road.route", list(road.route.edges),
+                         "a route whose lanes that run from its first edge to its last are its "
+                         f"rightmost lanes there (tracks {ids} run through: a lane that ends "
+                         "on the route is not supported yet)")

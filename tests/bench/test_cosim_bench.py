@@ -1,0 +1,28 @@
+"""`cosim bench cosim`'s parts: the floor replays the path the cosim run drove, and the
+phase split times every part of one run's loop."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cosim.bench.cosim import PHASES, cosim_run, phase_split, sumo_floor
+from cosim.scenario import load_scenario, project_root, with_overrides
+
+
+def _scenario():  # type: ignore[no-untyped-def]
+    return with_overrides(load_scenario(project_root() / "scenarios/traffic_high.toml"),
+                          duration=1.0)
+
+
+def test_floor_and_phase_split_of_a_short_dense_run() -> None:
+    sc = _scenario()
+    wall, cpu, timing = cosim_run(sc)
+    x = timing["path"][0]
+    assert x.size == sc.n_steps + 1 and np.all(np.diff(x) > 0)  # the SV's path, driven on
+    floor_wall, floor_cpu = sumo_floor(sc, timing["path"])
+    assert floor_wall > 0 and floor_cpu > 0
+    phases = phase_split(sc)
+    assert list(phases) == [name for name, _, _ in PHASES] + ["other"]
+    assert all(v > 0 for v in phases.values())
+    # SUMO's steps are a large part of a dense run, the per-step parts each less
+    assert phases["sumo_step"] > phases["record"]

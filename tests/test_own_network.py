@@ -1,0 +1,72 @@
+"""A run on a network cosim did not build (issue 23): a hand-drawn motorway the way real
+ones come from netconvert (a curve drawn as a coarse polyline that kinks at every
+vertex, netconvert's 2-decimal coordinates, a road crossing over the route on a
+bridge), random traffic, a scripted lane change on the curve: through real SUMO."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+from cosim.scenario import scenario_from_dict
+from cosim.sim import simulate
+from cosim.traffic.network import netconvert_binary
+
+
+def build(tmp: Path) -> Path:
+    """A -> B straight, B -> C a left curve of R 900 m drawn every 40 m (2.5 degree kinks),
+    three lanes throughout; a road X1 -> X2 crossing A-B (a bridge: no junction)."""
+    pts, h0, step, radius = [], 0.0, 40.0, 900.0
+    for i in range(1, int(round(800.0 / step)) + 1):
+        h = h0 + i * step / radius
+        pts.append((1000.0 + radius * math.sin(h), radius * (1.0 - math.cos(h))))
+    cx, cy = pts[-1]
+    (tmp / "n.nod.xml").write_text(
+        "<nodes>"
+        '<node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+        f'<node id="C" x="{cx:.2f}" y="{cy:.2f}"/>'
+        '<node id="X1" x="700" y="-200"/><node id="X2" x="700" y="200"/>'
+        "</nodes>", encoding="utf-8")
+    shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in [(1000.0, 0.0), *pts])
+    (tmp / "n.edg.xml").write_text(
+        "<edges>"
+        '<edge id="AB" from="A" to="B" numLanes="3" speed="36.1"/>'
+        f'<edge id="BC" from="B" to="C" numLanes="3" speed="36.1" shape="{shape}"/>'
+        '<edge id="X" from="X1" to="X2" numLanes="1" speed="13.9"/>'
+        "</edges>", encoding="utf-8")
+    out = tmp / "n.net.xml"
+    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o", out.name,
+                    "--no-turnarounds", "true"], cwd=tmp, check=True, capture_output=True)
+    return out
+
+
+def test_a_hand_drawn_motorway_with_kinks_and_a_bridge(tmp_path: Path) -> None:
+    net = build(tmp_path)
+    doc = {
+        "scenario": {"name": "own", "duration_s": 25.0, "seed": 3},
+        "road": {"network": str(net), "route": ["AB", "BC"], "mu": 0.8},
+        "sv": {"edge": "AB", "lane": 1, "position_m": 850.0, "speed_kmh": 100.0,
+               "lane_changes": [{"at_s": 6.0, "direction": "left"}]},
+        "traffic": {"density_veh_per_km_lane": 12.0, "length_m": 1500.0},
+    }
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "own.toml"))
+    m, tr = result.metrics, result.trace
+    assert result.route_road is not None and result.route_road.curved
+    assert m["lane_change_completed"] == 1 and m["final_lane"] == 2
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
+    assert set(result.edges) >= {"AB", "BC"}  # it drove onto the curve
+    assert float(tr["s_m"][-1]) > 1000.0 + 300.0
+    # the body inside SUMO's lanes at every step (its own lane shapes, kinks and all)
+    lanes = shapely.union_all([
+        shapely.LineString(p.shape).buffer(0.5 * p.width, cap_style="flat")
+        for t in result.route_road.tracks for p in t.pieces]).buffer(0.02)
+    sc = result.scenario
+    c, s = np.cos(np.radians(tr["psi_deg"])), np.sin(np.radians(tr["psi_deg"]))
+    for a, b in ((0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (-0.5, 0.5)):
+        x = tr["x_m"] + a * sc.vehicle.length * c - b * sc.vehicle.width * s
+        y = tr["y_m"] + a * sc.vehicle.length * s + b * sc.vehicle.width * c
+        assert shapely.contains(lanes, shapely.points(np.column_stack([x, y]))).all()
