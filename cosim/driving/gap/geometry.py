@@ -58,9 +58,11 @@ from cosim.driving.manoeuvre import PLANNER_MIN_SPEED
 from cosim.planning.interaction import (
     FollowerModel,
     accepted_gap,
+    check_follower,
     krauss_safe_speed,
     secure_gap,
 )
+from cosim.planning.trajectory import LaneChangeTrajectory
 
 Array = NDArray[np.float64]
 
@@ -101,6 +103,13 @@ class GapConfig:
     # check keeps MOBIL's b_safe as the hard limit
     plan_decel: float = 1.0  # m/s^2, the most a flown plan may ask of its new follower as
     # predicted (within b_safe)
+    patience: float = 1.0  # s, after seeking this long without an entry within plan_decel,
+    # the SV takes one that asks its new follower up to `insist_decel` (SUMO's own driver
+    # goes at once into gaps whose follower then brakes at its full decel: issue 22)
+    insist_decel: float = 4.5  # m/s^2, that limit: MOBIL's b_safe as SUMO's LC2013 asks
+    # it of a blocking follower (maxDecel x HELP_DECEL_FACTOR, interaction.B_SAFE)
+    nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the
+    # planner's eq. 13 optimum in the density study: 3.15-3.5 s at 7-31 m/s)
 
     def follow_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its own leader while it seeks a gap."""
@@ -307,3 +316,75 @@ def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: fl
         speed=float(gaps.speed[j]), reach_time=float(t[j]), target_speed=target,
         reachable=reachable and sv_speed >= cfg.min_speed,
     )
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A lane change started now, as the entry test predicts it (`entry_test`)."""
+
+    ok: bool  # plan it now: its new follower and new leader both keep their limits
+    vxf: float  # m/s, its end speed: the new leader's speed within the lane's band
+    leader: int  # index of the TV ahead of the SV when it enters (-1: none)
+    follower: int  # index of the TV behind it then (-1: none)
+    t_enter: float  # s after now, when the SV's centre crosses the lane line (nan: never)
+    follower_decel: float  # m/s^2, the new follower's predicted largest braking
+    leader_gap: float  # m, bumper gap to the new leader at the entry (inf: none)
+    secure: float  # m, the SV's secure gap to it then (GapConfig.headway)
+
+
+def entry_test(sv_x: float, sv_y: float, sv_speed: float, sv_length: float, width: float,
+               tv_x: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
+               in_lane: ArrayLike, lane_speed: float, cfg: GapConfig,
+               follower: FollowerModel, max_speed: float = math.inf) -> Entry:
+    """Whether a lane change started now (a nominal manoeuvre of `cfg.nominal_tau` from
+    the SV's speed to the new leader's, `width` m sideways) enters a usable gap: the TVs
+    with `in_lane` true keep their speeds until the SV's centre crosses the lane line
+    (they do not see it before, SUMO_NOTES.md); then
+    - its new follower, predicted by its model (`interaction.check_follower`, `follower`
+      limited to what the policy asks), brakes within the limit, and
+    - its new leader's rear is at least the SV's secure gap (`GapConfig.sv_model`, the
+      slot's headway) ahead of the SV's front, at the SV's speed then.
+    The test of the manoeuvre itself, not of where the SV is: a gap coming up from
+    behind is taken as soon as a change started now would end up in it (the paper's
+    manoeuvre enters the lane only about tau / 2 after its start), and no plan is
+    asked for that its own follower check would refuse (each refusal cost a 1 s retry
+    and 1-2 s from request to lane, issue 22). `lane_speed`, `max_speed`: as `lane_gaps`."""
+    x = np.asarray(tv_x, dtype=float)
+    v = np.asarray(tv_speed, dtype=float)
+    half = 0.5 * np.asarray(tv_length, dtype=float)
+    inside = np.asarray(in_lane, dtype=bool)
+    tau = cfg.nominal_tau
+    # the entry: the SV's centre half way across (the manoeuvre's lateral profile is
+    # symmetric in time: at tau / 2)
+    t_in = 0.5 * tau
+    probe = LaneChangeTrajectory(t0=0.0, tau=tau, x0=sv_x, y0=sv_y, vx0=sv_speed,
+                                 vxf=sv_speed, width=width)
+    x_in = float(probe.position(t_in)[0])
+    ahead = inside & (x + v * t_in > x_in)
+    lead = int(np.argmin(np.where(ahead, x + v * t_in, np.inf))) if ahead.any() else -1
+    if lead >= 0:
+        vxf = float(min(v[lead], max(max_speed, lane_speed)))
+    else:
+        vxf = float(lane_speed)
+    tr = LaneChangeTrajectory(t0=0.0, tau=tau, x0=sv_x, y0=sv_y, vx0=sv_speed, vxf=vxf,
+                              width=width)
+    xs, _ = tr.position(t_in)
+    vs, _ = tr.derivative(t_in, 1)
+    x_in, v_in = float(xs), float(vs)
+    if lead >= 0:
+        gap = float(x[lead] - half[lead] + v[lead] * t_in - x_in - 0.5 * sv_length)
+        # Krauss-secure, and never closer than the headway in time (a much faster
+        # leader's braking distance alone let the SV in 0.16 s behind it)
+        need = float(max(secure_gap(v_in, v[lead], cfg.sv_model()),
+                         cfg.min_gap + cfg.headway * v_in))
+    else:
+        gap, need = math.inf, 0.0
+    check = check_follower(tr, sv_length, x, v, np.asarray(tv_length, dtype=float), inside,
+                           follower)
+    # nobody beside the SV's body at the entry (neither leader nor follower: level with it)
+    beside = inside & (np.abs(x + v * t_in - x_in) < half + 0.5 * sv_length)
+    ok = (check.safe and not beside.any() and gap >= need and abs(sv_speed - vxf) <= cfg.max_speed_change
+          and sv_speed >= cfg.min_speed)
+    return Entry(ok=bool(ok), vxf=vxf, leader=lead, follower=check.follower,
+                 t_enter=check.t_enter, follower_decel=check.max_decel, leader_gap=gap,
+                 secure=need)

@@ -77,6 +77,7 @@ class GapPolicy:
         self.decision = ctx.sv.decision
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision (for inspection)
+        self.seeking_since: float | None = None  # s, since when it seeks a gap (None: not)
 
     @property
     def wall(self) -> float:
@@ -123,9 +124,13 @@ class GapPolicy:
             self.wanted = None
         wanted = scripted if scripted is not None else (
             self.wanted[1] if self.wanted is not None else None)
+        since = self.seeking_since
         d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg, self.gap_cfg,
                          self.follower, wanted_lane=wanted,
-                         allow_change=scripted is not None or self.decision)
+                         allow_change=scripted is not None or self.decision,
+                         insist=since is not None and t - since >= self.gap_cfg.patience - 1e-9)
+        self.seeking_since = (None if d.target_lane is None
+                              else (t if since is None else since))
         following.limit(d.accel, d.leader_gap, d.leader_speed)
         self.last = d
         if scripted is None and self.wanted is None and d.target_lane is not None:
@@ -146,14 +151,17 @@ class GapPolicy:
         follower would brake harder than the policy's limit within b_safe (MOBIL)."""
         assert target is not None and plan.trajectory is not None
         in_target = in_lane(target, traffic, self.lanes)
+        limit = self.last.follower_decel if self.last is not None else math.nan
+        follower = (self.follower.limited(limit) if math.isfinite(limit)
+                    else self.plan_follower)
         check = check_follower(plan.trajectory, self.sv_length, traffic.x, traffic.speed,
-                               traffic.length, in_target, self.plan_follower)
+                               traffic.length, in_target, follower)
         if check.safe:
             return ""
         # the follower that would brake too hard blocks: ask it to make room
         self.ask_gap(t, str(traffic.ids[check.follower]))
         return (f"follower {traffic.ids[check.follower]} would brake "
-                f"{check.max_decel:.2f} m/s^2 > {self.plan_follower.b_safe:g}")
+                f"{check.max_decel:.2f} m/s^2 > {follower.b_safe:g}")
 
     def summary(self, t: np.ndarray, y: np.ndarray) -> Manoeuvres:
         return self.manoeuvre.summary(t)
