@@ -362,10 +362,7 @@ def entry_test(sv_x: float, sv_y: float, sv_speed: float, sv_length: float, widt
     x_in = float(probe.position(t_in)[0])
     ahead = inside & (x + v * t_in > x_in)
     lead = int(np.argmin(np.where(ahead, x + v * t_in, np.inf))) if ahead.any() else -1
-    if lead >= 0:
-        vxf = float(min(v[lead], max(max_speed, lane_speed)))
-    else:
-        vxf = float(lane_speed)
+    vxf = float(min(v[lead], max(max_speed, lane_speed)) if lead >= 0 else lane_speed)
     tr = LaneChangeTrajectory(t0=0.0, tau=tau, x0=sv_x, y0=sv_y, vx0=sv_speed, vxf=vxf,
                               width=width)
     xs, _ = tr.position(t_in)
@@ -383,8 +380,8 @@ def entry_test(sv_x: float, sv_y: float, sv_speed: float, sv_length: float, widt
                            follower)
     # nobody beside the SV's body at the entry (neither leader nor follower: level with it)
     beside = inside & (np.abs(x + v * t_in - x_in) < half + 0.5 * sv_length)
-    ok = (check.safe and not beside.any() and gap >= need and abs(sv_speed - vxf) <= cfg.max_speed_change
-          and sv_speed >= cfg.min_speed)
+    ok = (check.safe and not beside.any() and gap >= need
+          and abs(sv_speed - vxf) <= cfg.max_speed_change and sv_speed >= cfg.min_speed)
     return Entry(ok=bool(ok), vxf=vxf, leader=lead, follower=check.follower,
                  t_enter=check.t_enter, follower_decel=check.max_decel, leader_gap=gap,
                  secure=need)
