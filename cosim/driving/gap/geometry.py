@@ -75,8 +75,10 @@ class GapConfig:
     approach_accel: float = 1.5  # m/s^2, bound on the relative acceleration of the approach
     approach_time: float = 3.0  # s, time constant of the approach near the aim
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
-    speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
-    headway: float = 0.8  # s, the SV's headway behind its new leader when it goes: the
+    speed_time: float = 0.5  # s, time constant of the SV's speed toward the approach speed
+    # (1 s took 2 s longer to the lane's limit, where a faster follower lets it in, issue 22;
+    # more than the 1.5 m/s^2 of approach_accel: the plan starts at ax = 0, a jump in ax)
+    headway: float = 0.6  # s, the SV's headway behind its new leader when it goes: the
     # slot's front end is the SV's Krauss secure gap with this tau (SUMO's lane changer
     # asks its own changers for the same with SUMO's tau 1 s: MSLaneChanger::checkChange,
     # secureFrontGap); from it
@@ -103,7 +105,7 @@ class GapConfig:
     # check keeps MOBIL's b_safe as the hard limit
     plan_decel: float = 1.0  # m/s^2, the most a flown plan may ask of its new follower as
     # predicted (within b_safe)
-    patience: float = 1.0  # s, after seeking this long without an entry within plan_decel,
+    patience: float = 3.0  # s, after seeking this long without an entry within plan_decel,
     # the SV takes one that asks its new follower up to `insist_decel` (SUMO's own driver
     # goes at once into gaps whose follower then brakes at its full decel: issue 22)
     insist_decel: float = 4.5  # m/s^2, that limit: MOBIL's b_safe as SUMO's LC2013 asks

@@ -47,6 +47,9 @@ STOP_GAP = 2.5  # m, IDM standstill gap s0 of this policy (SUMO's minGap; >= 2 m
 COOLNESS = 0.99  # -, its car following is the ACC model (IDM + CAH, rule.acc_blend): after
 # a merge into a slot of GapConfig.headway it reopens its 1.5 s gap braking about the
 # IDM's b = 2 m/s^2 at most while the new leader keeps its speed (plain IDM: up to 8)
+TIME_GAP = 1.0  # s, its IDM time gap T: SUMO's drivers' tau (the paper's rule: 1.5 s), so
+# that after a merge into a slot of GapConfig.headway it reopens less and makes its new
+# follower brake less (issue 22)
 
 
 @register("gap")
@@ -62,7 +65,7 @@ class GapPolicy:
     def __init__(self, ctx: DrivingContext, gap: GapConfig | None = None,
                  follower: FollowerModel | None = None) -> None:
         cfg = replace(ctx.decision, idm_min_gap=max(ctx.decision.idm_min_gap, STOP_GAP),
-                      idm_coolness=COOLNESS)
+                      idm_coolness=COOLNESS, idm_time_gap=TIME_GAP)
         self.lanes = ctx.lanes
         self.ask_gap = ctx.ports.ask_gap
         self._blinker = ctx.ports.blinker
