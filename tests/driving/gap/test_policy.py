@@ -145,3 +145,23 @@ def test_only_a_follower_behind_the_sv_that_blocks_the_gap_is_asked(
     assert [tv for _, tv in asked] == ([] if asked_tv is None else [asked_tv])
     assert d.policy.signal == 1  # it signals for lane 1 (left) while it seeks a gap
     assert d.policy.following.cfg.idm_min_gap == STOP_GAP >= 2.0
+
+
+
+def test_before_its_patience_it_plans_only_entries_within_plan_decel() -> None:
+    # a TV 30 m behind the SV in the target lane, another 45 m behind it, everybody at
+    # 25 m/s (lane 0's limit): an entry beside the first makes it brake at its decel
+    d = Drive([-75.0, -30.0, 150.0])
+    cfg = d.policy.gap_cfg
+    d.step()
+    assert d.policy.manoeuvre.mode == KEEPING and d.policy.manoeuvre.plans == []
+    while d.policy.manoeuvre.mode != CHANGING and d.t < 15.0:
+        d.step()
+        last = d.policy.last
+        if last is not None and last.plan_now:
+            # what the flown plan may ask of its follower: plan_decel until the SV has
+            # sought for `patience`, then b_safe (SUMO's LC2013 help decel)
+            limit = cfg.plan_decel if d.t - DT < cfg.patience - 1e-9 else cfg.insist_decel
+            assert last.follower_decel <= limit
+    assert d.policy.manoeuvre.mode == CHANGING
+    assert len(d.policy.manoeuvre.plans) == 1 and d.policy.manoeuvre.plans[0]["ok"] == 1
