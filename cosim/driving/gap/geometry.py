@@ -75,9 +75,7 @@ class GapConfig:
     approach_accel: float = 1.5  # m/s^2, bound on the relative acceleration of the approach
     approach_time: float = 3.0  # s, time constant of the approach near the aim
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
-    speed_time: float = 0.5  # s, time constant of the SV's speed toward the approach speed
-    # (1 s took 2 s longer to the lane's limit, where a faster follower lets it in, issue 22;
-    # more than the 1.5 m/s^2 of approach_accel: the plan starts at ax = 0, a jump in ax)
+    speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
     headway: float = 0.6  # s, the SV's headway behind its new leader when it goes: the
     # slot's front end is the SV's Krauss secure gap with this tau (SUMO's lane changer
     # asks its own changers for the same with SUMO's tau 1 s: MSLaneChanger::checkChange,
@@ -105,7 +103,7 @@ class GapConfig:
     # check keeps MOBIL's b_safe as the hard limit
     plan_decel: float = 1.0  # m/s^2, the most a flown plan may ask of its new follower as
     # predicted (within b_safe)
-    patience: float = 3.0  # s, after seeking this long without an entry within plan_decel,
+    patience: float = 1.0  # s, after seeking this long without an entry within plan_decel,
     # the SV takes one that asks its new follower up to `insist_decel` (SUMO's own driver
     # goes at once into gaps whose follower then brakes at its full decel: issue 22)
     insist_decel: float = 4.5  # m/s^2, that limit: MOBIL's b_safe as SUMO's LC2013 asks
@@ -209,11 +207,14 @@ def seeking_accel(sv_speed: float, target_speed: float, max_speed: float,
     up to its leader to reach the faster lane's speed instead of keeping its IDM's
     1.5 s time gap, which holds it below the target lane."""
     v = max(sv_speed, 0.0)
+    # the approach within +-approach_accel (it braked up to follow_decel, 4.5 m/s^2, to
+    # drop back to a gap behind: issue 22), its own leader within follow_decel
     want = min(target_speed, max_speed)
+    accel = min(max((want - v) / cfg.speed_time, -cfg.approach_accel), cfg.approach_accel)
     if math.isfinite(leader_gap):
         v_safe = float(krauss_safe_speed(leader_gap, leader_speed, cfg.follow_model()))
-        want = min(want, v_safe)
-    return min(max((want - v) / cfg.speed_time, -cfg.follow_decel), cfg.approach_accel)
+        accel = min(accel, max((v_safe - v) / cfg.speed_time, -cfg.follow_decel))
+    return accel
 
 
 def approach_speed(offset: ArrayLike, gap_speed: ArrayLike, cfg: GapConfig) -> Array:
