@@ -75,7 +75,8 @@ class GapConfig:
     approach_accel: float = 1.5  # m/s^2, bound on the relative acceleration of the approach
     approach_time: float = 3.0  # s, time constant of the approach near the aim
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
-    speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
+    speed_time: float = 0.5  # s, time constant of the SV's speed toward the approach speed
+    # (1 s: it reached its lane's limit, where a faster follower lets it in, later)
     headway: float = 0.6  # s, the SV's headway behind its new leader when it goes: the
     # slot's front end is the SV's Krauss secure gap with this tau (SUMO's lane changer
     # asks its own changers for the same with SUMO's tau 1 s: MSLaneChanger::checkChange,
@@ -92,7 +93,9 @@ class GapConfig:
     margin_share: float = 0.25  # -, ... or this share of the slot's length (half at most)
     entry_delay: float = 3.0  # s, from the start of the change to the SV entering the lane
     max_speed_change: float = 8.0  # m/s, largest |v_sv - v_g| to plan a change from
-    horizon: float = 20.0  # s, gaps reached later are not candidates
+    horizon: float = 8.0  # s, gaps reached later are not candidates (20 s: at 10
+    # veh/km/lane it dropped back 76 m behind a faster TV while the next one came up,
+    # 10-12 s from request to lane; without a gap it paces the lane and insists instead)
     reach: float = 80.0  # m, nor gaps whose aim is farther (the lane is seen to ~150 m)
     min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this
     follow_tau: float = 1.0  # s, the SV's Krauss headway behind its own leader while seeking
@@ -201,16 +204,18 @@ def seeking_accel(sv_speed: float, target_speed: float, max_speed: float,
     """m/s^2, the SV's acceleration while it seeks a gap: toward `target_speed` (the
     approach speed, m/s) but no faster than `max_speed` (its own lane's limit) and
     than Krauss's safe speed behind its own leader (bumper gap `leader_gap`, m, inf:
-    none; SUMO's tau and decel, `GapConfig.follow_model`), within the approach
-    acceleration and the follower model's decel. As SUMO's own SV does (LC2013 drives
+    none; SUMO's tau and decel, `GapConfig.follow_model`): toward the approach speed
+    within [-comfort_decel, approach_accel], for that leader down to the follower
+    model's decel. As SUMO's own SV does (LC2013 drives
     at its lane's speed behind its leader, Krauss-safe, before it changes), it closes
     up to its leader to reach the faster lane's speed instead of keeping its IDM's
     1.5 s time gap, which holds it below the target lane."""
     v = max(sv_speed, 0.0)
-    # the approach within +-approach_accel (it braked up to follow_decel, 4.5 m/s^2, to
-    # drop back to a gap behind: issue 22), its own leader within follow_decel
+    # the approach within approach_accel and the comfortable comfort_decel (it braked up
+    # to follow_decel, 4.5 m/s^2, to drop back to a gap behind: issue 22; 1.5 m/s^2 took
+    # 1.2 s longer at 40 veh/km/lane), its own leader within follow_decel
     want = min(target_speed, max_speed)
-    accel = min(max((want - v) / cfg.speed_time, -cfg.approach_accel), cfg.approach_accel)
+    accel = min(max((want - v) / cfg.speed_time, -cfg.comfort_decel), cfg.approach_accel)
     if math.isfinite(leader_gap):
         v_safe = float(krauss_safe_speed(leader_gap, leader_speed, cfg.follow_model()))
         accel = min(accel, max((v_safe - v) / cfg.speed_time, -cfg.follow_decel))

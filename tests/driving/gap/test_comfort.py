@@ -18,7 +18,7 @@ from cosim.params import RoadParams
 from cosim.planning.interaction import FollowerModel
 
 ROAD = RoadParams()  # lanes 0 / 1 / 2 at y = 1.875 / 5.625 / 9.375
-GAP = GapConfig()
+GAP = GapConfig(horizon=20.0)  # gaps up to 20 s away (the default, 8 s, leaves some out)
 KRAUSS = FollowerModel()
 L = 4.32
 
