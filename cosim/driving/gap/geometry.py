@@ -111,6 +111,8 @@ class GapConfig:
     # goes at once into gaps whose follower then brakes at its full decel: issue 22)
     insist_decel: float = 4.5  # m/s^2, that limit: MOBIL's b_safe as SUMO's LC2013 asks
     # it of a blocking follower (maxDecel x HELP_DECEL_FACTOR, interaction.B_SAFE)
+    insist_margin: float = 1.0  # m/s, an insisted entry must hold with the TVs behind
+    # the SV this much faster as well
     nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the
     # planner's eq. 13 optimum in the density study: 3.15-3.5 s at 7-31 m/s)
 
