@@ -109,8 +109,10 @@ class GapConfig:
     patience: float = 1.0  # s, after seeking this long without an entry within plan_decel,
     # the SV takes one that asks its new follower up to `insist_decel` (SUMO's own driver
     # goes at once into gaps whose follower then brakes at its full decel: issue 22)
-    insist_decel: float = 4.5  # m/s^2, that limit: MOBIL's b_safe as SUMO's LC2013 asks
-    # it of a blocking follower (maxDecel x HELP_DECEL_FACTOR, interaction.B_SAFE)
+    insist_decel: float = 4.0  # m/s^2, that limit: MOBIL's b_safe of its paper (4 m/s^2),
+    # below the Krauss follower's decel (4.5): an entry that makes it brake at its decel
+    # at once is never taken (4.5, what SUMO's LC2013 asks of a blocking follower: 1 of 20
+    # new followers at 60 veh/km/lane braked at its emergency decel, 9 m/s^2)
     insist_margin: float = 1.0  # m/s, an insisted entry must hold with the TVs behind
     # the SV this much faster as well
     nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the

@@ -5,6 +5,7 @@ when needed, and the car following that settles after a merge (ACC model)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -137,16 +138,23 @@ def test_the_sv_insists_on_an_entry_only_when_told_and_within_b_safe() -> None:
     lanes = LaneLayout(ROAD)
     sv = SV(0.0, ROAD.lane_center(1), 25.0, L, 25.0)
     # a TV 30 m behind in the target lane at the SV's speed: Krauss brakes at its decel
-    # for an entry now (its secure gap is 27.5 m + what it closes): not within plan_decel
+    # for an entry now (its secure gap is 27.5 m + what it closes): not within plan_decel,
+    # and not even when insisting (below the follower's decel: never a brake at b at once)
     tight = scene([-30.0, 150.0], [2, 2], [25.0, 25.0])
     d = gap_decision(sv, tight, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
     assert not d.plan_now
+    assert GAP.plan_decel < GAP.insist_decel < KRAUSS.decel <= KRAUSS.b_safe
     d = gap_decision(sv, tight, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2,
                      insist=True)
-    assert d.plan_now and d.follower_decel == GAP.insist_decel <= KRAUSS.b_safe
+    assert not d.plan_now
+    # with a limit at its decel (SUMO's LC2013 asks that much) it would go
+    bold = replace(GAP, insist_decel=KRAUSS.decel)
+    d = gap_decision(sv, tight, lanes, DecisionConfig(), bold, KRAUSS, wanted_lane=2,
+                     insist=True)
+    assert d.plan_now and d.follower_decel == KRAUSS.decel
     # 10 m behind it would need an emergency stop: never
     closer = scene([-10.0, 150.0], [2, 2], [25.0, 25.0])
-    d = gap_decision(sv, closer, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2,
+    d = gap_decision(sv, closer, lanes, DecisionConfig(), bold, KRAUSS, wanted_lane=2,
                      insist=True)
     assert not d.plan_now
     # 60 m behind: it goes at once, within plan_decel
