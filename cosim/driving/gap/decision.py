@@ -13,9 +13,12 @@ policy instead:
    ahead, alongside or behind, never past its own leader;
 3. drives that speed in its own lane (within the approach acceleration), the IDM of
    the paper's rule still keeping it behind its own leader (the smaller of the two);
-4. plans the paper's manoeuvre once the gap is reached, at the gap's speed (vxf)
-   and only at or above `GapConfig.min_speed`; the planner's collision check and
-   the new follower's check (planning.interaction.check_follower) then decide;
+4. plans the paper's manoeuvre as soon as a change started now enters a usable gap
+   (`geometry.entry_test`: its new follower and leader keep their limits when it
+   enters; after `GapConfig.patience` of seeking the follower's limit is
+   `insist_decel`, `insist` below), at the new leader's speed (vxf) and only at or
+   above `GapConfig.min_speed`; the planner's collision check and the new follower's
+   check on the plan itself (planning.interaction.check_follower) then decide;
 5. names the TV to ask to open the gap while it blocks it (the chosen gap's
    follower until the SV is inside the gap's slot, or without a gap in reach the TV
    nearest behind the SV in that lane), for the traffic's courtesy and cooperative

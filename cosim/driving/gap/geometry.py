@@ -37,11 +37,12 @@ open ends of the lane are open only as far as the SV sees) is not a candidate.
 The target speed takes the SV to the aim and brakes it to the gap's speed as it
 arrives: v_g + sign(e) min(|e| / approach_time, sqrt(2 a |e|), max_rel_speed) (near
 the aim a first-order approach, farther the curve along which the relative speed can
-still be braked away at a, far away a bounded relative speed). The gap is
-*reachable* (plan now) when the SV is inside the slot recomputed for the speed it
-will have when it enters the lane (half way from its speed to v_g: the manoeuvre
-changes speed from vx0 to vxf), within `max_speed_change` of v_g: an SV held
-below a faster lane by its own leader can still go when a long enough gap slides by.
+still be braked away at a, far away a bounded relative speed). When to plan is
+`entry_test`'s (a change started now, predicted to its entry into the lane); the
+chosen gap only steers the approach. The gap is *reachable* (no courtesy asked of its
+follower then) when the SV is inside the slot recomputed for the speed it will have
+when it enters the lane (half way from its speed to v_g: the manoeuvre changes speed
+from vx0 to vxf), within `max_speed_change` of v_g.
 
 Vehicles are arrays (one entry per TV or gap); no Python loop over vehicles.
 """

@@ -7,10 +7,12 @@ While keeping its lane the SV follows cosim.driving.gap.decision each step: it w
 (a due scripted request, or the decision rule's faster lane, held for WANT_HOLD
 while it is still in the lane it wanted to leave), picks a gap there and drives the
 speed that takes it into it (never faster than its own leader allows). It calls the
-planner only once the gap is reached (and at >= cosim.driving.manoeuvre.PLANNER_MIN_SPEED), with
-the gap's speed as vxf; a plan is flown only if its new follower, predicted as
-SUMO's Krauss follows (cosim.planning.interaction.check_follower), brakes no harder
-than `GapConfig.plan_decel` (within MOBIL's b_safe), else it counts as a failed plan
+planner only once a change started now enters a usable gap (the decision's entry test;
+and at >= cosim.driving.manoeuvre.PLANNER_MIN_SPEED), with the new leader's speed as
+vxf; a plan is flown only if its new follower, predicted as SUMO's Krauss follows
+(cosim.planning.interaction.check_follower), brakes no harder than
+`GapConfig.plan_decel` (`insist_decel` once it has sought a gap for
+`GapConfig.patience`), else it counts as a failed plan
 and its follower is asked to make room (retried after
 `retry_interval`, the approach going on). It stops behind a standing leader at
 STOP_GAP (IDM standstill gap). It signals while it seeks a gap, and asks the chosen
