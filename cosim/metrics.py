@@ -12,9 +12,10 @@ gap and time-to-collision (`gap_ttc`); this module reduces those columns:
 - max |lateral acceleration|, max jerk,
 - lane-change durations: from the start of a manoeuvre until the SV stays
   within a tolerance of its target lane's centre,
-- the largest deceleration of the SV's new follower in the target lane, from the
-  moment the SV enters that lane until FOLLOWER_WINDOW after the change settles
-  (`follower_max_decel`; what the manoeuvre asked of the traffic behind it).
+- the largest deceleration of the SV's new follower in the target lane (the nearest
+  TV behind the SV there when the SV enters that lane), from the start of the change
+  until FOLLOWER_WINDOW after it settles (`follower_max_decel`; what the manoeuvre
+  asked of the traffic behind it).
 """
 
 from __future__ import annotations
@@ -196,19 +197,25 @@ def lane_entry_time(t: ArrayLike, lane: ArrayLike, start: float, target_lane: in
     return float(tt[k[0]]) if k.size else math.nan
 
 
-def follower_max_decel(t: ArrayLike, speed: ArrayLike, enter: float, settled: float,
+def follower_max_decel(t: ArrayLike, speed: ArrayLike, start: float, settled: float,
                        window: float = FOLLOWER_WINDOW) -> float:
     """m/s^2 (>= 0), the largest deceleration -dv/dt of the new follower between two
-    consecutive samples, both in [enter, settled + window]; `speed` (m/s) is that one
+    consecutive samples, both in [start, settled + window]; `speed` (m/s) is that one
     vehicle's speed at times t, NaN where it is not known (not yet / no longer in the
-    simulation). NaN: no follower (enter NaN) or fewer than two known samples.
-    An unsettled change (settled NaN) is watched to the end of the record."""
-    if math.isnan(enter):
+    simulation). NaN: no follower (start NaN) or fewer than two known samples.
+    An unsettled change (settled NaN) is watched to the end of the record.
+
+    `start` is the start of the change, for our drivers and SUMO's alike (issue 22):
+    SUMO's own driver is in the target lane for its followers from the moment its
+    change begins and its new follower brakes then, 1.5 s before the SV's centre
+    crosses the line; a window from the crossing missed that braking (up to 5.3 m/s^2,
+    read as 0.2-0.6), while our SV is seen only from the crossing on, inside both."""
+    if math.isnan(start):
         return math.nan
     tt = np.asarray(t, dtype=float)
     v = np.asarray(speed, dtype=float)
     stop = settled + window if math.isfinite(settled) else math.inf
-    inside = (tt >= enter - 1e-9) & (tt <= stop + 1e-9) & np.isfinite(v)
+    inside = (tt >= start - 1e-9) & (tt <= stop + 1e-9) & np.isfinite(v)
     pair = inside[1:] & inside[:-1]
     if not pair.any():
         return math.nan

@@ -127,8 +127,8 @@ METRIC_DOCS: dict[str, str] = {
     "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
     "follower_max_decel_mps2": "largest deceleration of the SV's new follower in the target "
     "lane (the nearest TV behind the SV there when the SV's centre enters that lane; its "
-    "speed from SUMO's positions step to step), from that moment until 3 s after the change "
-    "settles, over all lane changes (m/s^2; NaN: no lane change with a follower)",
+    "speed from SUMO's positions step to step), from the start of the change until 3 s after "
+    "it settles, over all lane changes (m/s^2; NaN: no lane change with a follower)",
     "max_abs_lat_accel_mps2": "largest |body lateral acceleration| (m/s^2)",
     "max_abs_long_accel_mps2": "largest |body longitudinal acceleration| (m/s^2)",
     "max_jerk_mps3": "largest |d(ax, ay)/dt| between steps (m/s^3)",
@@ -350,7 +350,7 @@ class Recorder:
             # speed over each step (SUMO: x += v dt), only across consecutive samples
             v = np.where(np.abs(dt - step) < 1e-9, np.diff(xx) / np.where(dt > 0, dt, 1.0),
                          np.nan)
-            decel = mx.follower_max_decel(tt[1:], v, enter, s + d)
+            decel = mx.follower_max_decel(tt[1:], v, s, s + d)
             if math.isfinite(decel):
                 worst = decel if math.isnan(worst) else max(worst, decel)
         return worst

@@ -246,3 +246,17 @@ def test_a_collision_only_sumo_counts_is_reported_as_such() -> None:
     assert m["collision_seen_by"] == "sumo" and m["collisions_sv"] == 0
     assert m["min_gap_m"] < 0.0 and m["min_ttc_s"] == 0.0  # SUMO's gap along the lane
     assert m["lane_change_status"] == "unfinished" and m["lane_change_unfinished"] == 1
+
+
+def test_follower_max_decel_is_watched_from_the_change_start() -> None:
+    # SUMO's own driver is in the target lane for its followers from the start of its
+    # change: the follower brakes then, before the SV's centre crosses the line (issue
+    # 22); the window opens at the start, for both drivers
+    from cosim.metrics import follower_max_decel
+
+    dt = 0.05
+    t = np.arange(0.0, 12.0 + 1e-9, dt)
+    a = np.where((t >= 2.0) & (t < 2.7), -4.5, 0.0)  # the SV's change starts at 2.0 s
+    v = 31.0 + np.concatenate([[0.0], np.cumsum(a[:-1] * dt)])
+    assert follower_max_decel(t, v, 2.0, 5.0) == pytest.approx(4.5)
+    assert follower_max_decel(t, v, 3.5, 5.0) == 0.0  # from the crossing: unseen

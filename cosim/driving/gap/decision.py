@@ -13,9 +13,12 @@ policy instead:
    ahead, alongside or behind, never past its own leader;
 3. drives that speed in its own lane (within the approach acceleration), the IDM of
    the paper's rule still keeping it behind its own leader (the smaller of the two);
-4. plans the paper's manoeuvre once the gap is reached, at the gap's speed (vxf)
-   and only at or above `GapConfig.min_speed`; the planner's collision check and
-   the new follower's check (planning.interaction.check_follower) then decide;
+4. plans the paper's manoeuvre as soon as a change started now enters a usable gap
+   (`geometry.entry_test`: its new follower and leader keep their limits when it
+   enters; after `GapConfig.patience` of seeking the follower's limit is
+   `insist_decel`, `insist` below), at the new leader's speed (vxf) and only at or
+   above `GapConfig.min_speed`; the planner's collision check and the new follower's
+   check on the plan itself (planning.interaction.check_follower) then decide;
 5. names the TV to ask to open the gap while it blocks it (the chosen gap's
    follower until the SV is inside the gap's slot, or without a gap in reach the TV
    nearest behind the SV in that lane), for the traffic's courtesy and cooperative
@@ -37,7 +40,9 @@ from numpy.typing import NDArray
 from cosim.driving.gap.geometry import (
     GapChoice,
     GapConfig,
+    approach_speed,
     choose_gap,
+    entry_test,
     lane_gaps,
     seeking_accel,
     slot_ends,
@@ -45,7 +50,7 @@ from cosim.driving.gap.geometry import (
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.rule import DecisionConfig, decide, neighbours
 from cosim.driving.scene import SV, Traffic
-from cosim.planning.interaction import FollowerModel
+from cosim.planning.interaction import FollowerModel, secure_gap
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,7 @@ class GapDecision:
     cooperate_with: int  # TV index to ask to open the gap (-1: nobody)
     reason: str
     leader_speed: float = math.inf  # m/s, its own leader's speed (inf: none)
+    follower_decel: float = math.nan  # m/s^2, what the plan may ask of its new follower
 
 
 @functools.lru_cache(maxsize=8)  # one config per run, asked every step (replace is slow)
@@ -72,7 +78,8 @@ def wanting_config(cfg: DecisionConfig) -> DecisionConfig:
 
 def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig,
                  gap_cfg: GapConfig, follower: FollowerModel, *,
-                 wanted_lane: int | None = None, allow_change: bool = True) -> GapDecision:
+                 wanted_lane: int | None = None, allow_change: bool = True,
+                 insist: bool = False) -> GapDecision:
     """The module docstring's steps for `sv` among `traffic`. `wanted_lane`: a
     scripted request's lane (else the rule decides); `allow_change` False:
     car-following only."""
@@ -101,6 +108,36 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     choice = choose_gap(sv.x, sv.speed, sv.length, sv.desired_speed, gaps, gap_cfg, follower,
                         own_limit, own_speed, max_speed=lane_max)
     leader_speed = own.leader_speed if own.leader >= 0 else math.inf
+    # take the first acceptable gap: a change started now that enters a gap whose
+    # follower and leader keep their limits is planned now, wherever the chosen gap is
+    y0 = lanes.centre(lane)
+    limits = (gap_cfg.plan_decel, gap_cfg.insist_decel) if insist else (gap_cfg.plan_decel,)
+    speeds = np.asarray(traffic.speed, dtype=float)
+    for limit in limits:
+        entry = entry_test(sv.x, y0, sv.speed, sv.length, lanes.centre(target) - y0, x,
+                           speeds, traffic.length, in_target,
+                           lanes.end_speed(lane, target), gap_cfg, follower.limited(limit),
+                           lanes.speed_limit(target))
+        if entry.ok and limit > gap_cfg.plan_decel:
+            # insisting: the entry must hold with the TVs behind the SV a little faster
+            # too (a follower predicted to brake at exactly its decel braked at its
+            # emergency decel, 9 m/s^2, in 13 of 20 runs at 50 veh/km/lane: SUMO's
+            # dawdling and acceleration since the last sample are not in the prediction)
+            faster = np.where(x < sv.x, speeds + gap_cfg.insist_margin, speeds)
+            entry = replace(entry, ok=entry_test(
+                sv.x, y0, sv.speed, sv.length, lanes.centre(target) - y0, x, faster,
+                traffic.length, in_target, lanes.end_speed(lane, target), gap_cfg,
+                follower.limited(limit), lanes.speed_limit(target)).ok)
+        if entry.ok:
+            break
+    if entry.ok:
+        accel = seeking_accel(sv.speed, entry.vxf, lane_max, own.gap_ahead, leader_speed,
+                              gap_cfg)
+        return GapDecision(
+            target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=True,
+            vxf=entry.vxf, gap=choice, cooperate_with=-1,
+            reason=f"lane {target}: gap reached", leader_speed=d.leader_speed,
+            follower_decel=limit)
     if choice is None:
         # none in reach: the TV nearest behind the SV in that lane may be asked to yield
         # (if it has no room yet), and the SV keeps pace with that lane's traffic ahead
@@ -114,8 +151,17 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
             ask = -1  # it already has room: nothing to ask of it
         ahead = np.where(in_target & (x >= sv.x), x, np.inf)
         pace = int(np.argmin(ahead)) if ahead.size and np.isfinite(ahead.min()) else -1
-        v_lane = (float(traffic.speed[pace]) if pace >= 0
-                  else lanes.end_speed(lane, target))
+        if pace >= 0:
+            # ... with its front the SV's secure gap behind that TV's rear, where the
+            # entry test wants it (pacing it level left the SV too close behind it to go:
+            # 11 m where 24 were needed at 30 veh/km/lane, issue 22)
+            v_p = float(traffic.speed[pace])
+            rear = float(x[pace] - 0.5 * traffic.length[pace])
+            need = float(secure_gap(v_p, v_p, gap_cfg.sv_model()))
+            e = min(rear - need - 0.5 * sv.length - sv.x, 0.0)
+            v_lane = float(approach_speed(e, v_p, gap_cfg))
+        else:
+            v_lane = lanes.end_speed(lane, target)
         accel = seeking_accel(sv.speed, v_lane, lane_max, own.gap_ahead, leader_speed,
                               gap_cfg)
         return replace(keep, target_lane=target, accel=float(accel), cooperate_with=ask,
@@ -123,7 +169,7 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     # toward the approach speed, within the approach acceleration
     accel = seeking_accel(sv.speed, choice.target_speed, lane_max, own.gap_ahead,
                           leader_speed, gap_cfg)
-    plan_now = choice.reachable and sv.speed >= gap_cfg.min_speed
+    plan_now = False  # not yet: the entry test above decides
     # only a follower that blocks the gap is asked (SUMO's LC2013 informs the blocking
     # follower only): one behind the SV that it is not yet clear of (a gap's follower
     # ahead of the SV would have to brake for a car behind it)
@@ -133,8 +179,7 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     return GapDecision(
         target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=plan_now,
         vxf=choice.speed, gap=choice, cooperate_with=coop,
-        reason=f"lane {target}: gap {choice.index} {choice.relation}"
-        + (", reached" if plan_now else f", {choice.offset:+.1f} m"),
+        reason=f"lane {target}: gap {choice.index} {choice.relation}, {choice.offset:+.1f} m",
         leader_speed=d.leader_speed,
     )
 

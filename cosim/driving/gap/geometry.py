@@ -37,11 +37,12 @@ open ends of the lane are open only as far as the SV sees) is not a candidate.
 The target speed takes the SV to the aim and brakes it to the gap's speed as it
 arrives: v_g + sign(e) min(|e| / approach_time, sqrt(2 a |e|), max_rel_speed) (near
 the aim a first-order approach, farther the curve along which the relative speed can
-still be braked away at a, far away a bounded relative speed). The gap is
-*reachable* (plan now) when the SV is inside the slot recomputed for the speed it
-will have when it enters the lane (half way from its speed to v_g: the manoeuvre
-changes speed from vx0 to vxf), within `max_speed_change` of v_g: an SV held
-below a faster lane by its own leader can still go when a long enough gap slides by.
+still be braked away at a, far away a bounded relative speed). When to plan is
+`entry_test`'s (a change started now, predicted to its entry into the lane); the
+chosen gap only steers the approach. The gap is *reachable* (no courtesy asked of its
+follower then) when the SV is inside the slot recomputed for the speed it will have
+when it enters the lane (half way from its speed to v_g: the manoeuvre changes speed
+from vx0 to vxf), within `max_speed_change` of v_g.
 
 Vehicles are arrays (one entry per TV or gap); no Python loop over vehicles.
 """
@@ -58,9 +59,11 @@ from cosim.driving.manoeuvre import PLANNER_MIN_SPEED
 from cosim.planning.interaction import (
     FollowerModel,
     accepted_gap,
+    check_follower,
     krauss_safe_speed,
     secure_gap,
 )
+from cosim.planning.trajectory import LaneChangeTrajectory
 
 Array = NDArray[np.float64]
 
@@ -73,8 +76,9 @@ class GapConfig:
     approach_accel: float = 1.5  # m/s^2, bound on the relative acceleration of the approach
     approach_time: float = 3.0  # s, time constant of the approach near the aim
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
-    speed_time: float = 1.0  # s, time constant of the SV's speed toward the approach speed
-    headway: float = 0.8  # s, the SV's headway behind its new leader when it goes: the
+    speed_time: float = 0.5  # s, time constant of the SV's speed toward the approach speed
+    # (1 s: it reached its lane's limit, where a faster follower lets it in, later)
+    headway: float = 0.6  # s, the SV's headway behind its new leader when it goes: the
     # slot's front end is the SV's Krauss secure gap with this tau (SUMO's lane changer
     # asks its own changers for the same with SUMO's tau 1 s: MSLaneChanger::checkChange,
     # secureFrontGap); from it
@@ -90,7 +94,9 @@ class GapConfig:
     margin_share: float = 0.25  # -, ... or this share of the slot's length (half at most)
     entry_delay: float = 3.0  # s, from the start of the change to the SV entering the lane
     max_speed_change: float = 8.0  # m/s, largest |v_sv - v_g| to plan a change from
-    horizon: float = 20.0  # s, gaps reached later are not candidates
+    horizon: float = 8.0  # s, gaps reached later are not candidates (20 s: at 10
+    # veh/km/lane it dropped back 76 m behind a faster TV while the next one came up,
+    # 10-12 s from request to lane; without a gap it paces the lane and insists instead)
     reach: float = 80.0  # m, nor gaps whose aim is farther (the lane is seen to ~150 m)
     min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this
     follow_tau: float = 1.0  # s, the SV's Krauss headway behind its own leader while seeking
@@ -101,6 +107,17 @@ class GapConfig:
     # check keeps MOBIL's b_safe as the hard limit
     plan_decel: float = 1.0  # m/s^2, the most a flown plan may ask of its new follower as
     # predicted (within b_safe)
+    patience: float = 1.0  # s, after seeking this long without an entry within plan_decel,
+    # the SV takes one that asks its new follower up to `insist_decel` (SUMO's own driver
+    # goes at once into gaps whose follower then brakes at its full decel: issue 22)
+    insist_decel: float = 4.0  # m/s^2, that limit: MOBIL's b_safe of its paper (4 m/s^2),
+    # below the Krauss follower's decel (4.5): an entry that makes it brake at its decel
+    # at once is never taken (4.5, what SUMO's LC2013 asks of a blocking follower: 1 of 20
+    # new followers at 60 veh/km/lane braked at its emergency decel, 9 m/s^2)
+    insist_margin: float = 1.0  # m/s, an insisted entry must hold with the TVs behind
+    # the SV this much faster as well
+    nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the
+    # planner's eq. 13 optimum in the density study: 3.15-3.5 s at 7-31 m/s)
 
     def follow_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its own leader while it seeks a gap."""
@@ -192,17 +209,22 @@ def seeking_accel(sv_speed: float, target_speed: float, max_speed: float,
     """m/s^2, the SV's acceleration while it seeks a gap: toward `target_speed` (the
     approach speed, m/s) but no faster than `max_speed` (its own lane's limit) and
     than Krauss's safe speed behind its own leader (bumper gap `leader_gap`, m, inf:
-    none; SUMO's tau and decel, `GapConfig.follow_model`), within the approach
-    acceleration and the follower model's decel. As SUMO's own SV does (LC2013 drives
+    none; SUMO's tau and decel, `GapConfig.follow_model`): toward the approach speed
+    within [-comfort_decel, approach_accel], for that leader down to the follower
+    model's decel. As SUMO's own SV does (LC2013 drives
     at its lane's speed behind its leader, Krauss-safe, before it changes), it closes
     up to its leader to reach the faster lane's speed instead of keeping its IDM's
     1.5 s time gap, which holds it below the target lane."""
     v = max(sv_speed, 0.0)
+    # the approach within approach_accel and the comfortable comfort_decel (it braked up
+    # to follow_decel, 4.5 m/s^2, to drop back to a gap behind: issue 22; 1.5 m/s^2 took
+    # 1.2 s longer at 40 veh/km/lane), its own leader within follow_decel
     want = min(target_speed, max_speed)
+    accel = min(max((want - v) / cfg.speed_time, -cfg.comfort_decel), cfg.approach_accel)
     if math.isfinite(leader_gap):
         v_safe = float(krauss_safe_speed(leader_gap, leader_speed, cfg.follow_model()))
-        want = min(want, v_safe)
-    return min(max((want - v) / cfg.speed_time, -cfg.follow_decel), cfg.approach_accel)
+        accel = min(accel, max((v_safe - v) / cfg.speed_time, -cfg.follow_decel))
+    return accel
 
 
 def approach_speed(offset: ArrayLike, gap_speed: ArrayLike, cfg: GapConfig) -> Array:
@@ -307,3 +329,72 @@ def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: fl
         speed=float(gaps.speed[j]), reach_time=float(t[j]), target_speed=target,
         reachable=reachable and sv_speed >= cfg.min_speed,
     )
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A lane change started now, as the entry test predicts it (`entry_test`)."""
+
+    ok: bool  # plan it now: its new follower and new leader both keep their limits
+    vxf: float  # m/s, its end speed: the new leader's speed within the lane's band
+    leader: int  # index of the TV ahead of the SV when it enters (-1: none)
+    follower: int  # index of the TV behind it then (-1: none)
+    t_enter: float  # s after now, when the SV's centre crosses the lane line (nan: never)
+    follower_decel: float  # m/s^2, the new follower's predicted largest braking
+    leader_gap: float  # m, bumper gap to the new leader at the entry (inf: none)
+    secure: float  # m, the SV's secure gap to it then (GapConfig.headway)
+
+
+def entry_test(sv_x: float, sv_y: float, sv_speed: float, sv_length: float, width: float,
+               tv_x: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
+               in_lane: ArrayLike, lane_speed: float, cfg: GapConfig,
+               follower: FollowerModel, max_speed: float = math.inf) -> Entry:
+    """Whether a lane change started now (a nominal manoeuvre of `cfg.nominal_tau` from
+    the SV's speed to the new leader's, `width` m sideways) enters a usable gap: the TVs
+    with `in_lane` true keep their speeds until the SV's centre crosses the lane line
+    (they do not see it before, SUMO_NOTES.md); then
+    - its new follower, predicted by its model (`interaction.check_follower`, `follower`
+      limited to what the policy asks), brakes within the limit, and
+    - its new leader's rear is at least the SV's secure gap (`GapConfig.sv_model`, the
+      slot's headway) ahead of the SV's front, at the SV's speed then.
+    The test of the manoeuvre itself, not of where the SV is: a gap coming up from
+    behind is taken as soon as a change started now would end up in it (the paper's
+    manoeuvre enters the lane only about tau / 2 after its start), and no plan is
+    asked for that its own follower check would refuse (each refusal cost a 1 s retry
+    and 1-2 s from request to lane, issue 22). `lane_speed`, `max_speed`: as `lane_gaps`."""
+    x = np.asarray(tv_x, dtype=float)
+    v = np.asarray(tv_speed, dtype=float)
+    half = 0.5 * np.asarray(tv_length, dtype=float)
+    inside = np.asarray(in_lane, dtype=bool)
+    tau = cfg.nominal_tau
+    # the entry: the SV's centre half way across (the manoeuvre's lateral profile is
+    # symmetric in time: at tau / 2)
+    t_in = 0.5 * tau
+    probe = LaneChangeTrajectory(t0=0.0, tau=tau, x0=sv_x, y0=sv_y, vx0=sv_speed,
+                                 vxf=sv_speed, width=width)
+    x_in = float(probe.position(t_in)[0])
+    ahead = inside & (x + v * t_in > x_in)
+    lead = int(np.argmin(np.where(ahead, x + v * t_in, np.inf))) if ahead.any() else -1
+    vxf = float(min(v[lead], max(max_speed, lane_speed)) if lead >= 0 else lane_speed)
+    tr = LaneChangeTrajectory(t0=0.0, tau=tau, x0=sv_x, y0=sv_y, vx0=sv_speed, vxf=vxf,
+                              width=width)
+    xs, _ = tr.position(t_in)
+    vs, _ = tr.derivative(t_in, 1)
+    x_in, v_in = float(xs), float(vs)
+    if lead >= 0:
+        gap = float(x[lead] - half[lead] + v[lead] * t_in - x_in - 0.5 * sv_length)
+        # Krauss-secure, and never closer than the headway in time (a much faster
+        # leader's braking distance alone let the SV in 0.16 s behind it)
+        need = float(max(secure_gap(v_in, v[lead], cfg.sv_model()),
+                         cfg.min_gap + cfg.headway * v_in))
+    else:
+        gap, need = math.inf, 0.0
+    check = check_follower(tr, sv_length, x, v, np.asarray(tv_length, dtype=float), inside,
+                           follower)
+    # nobody beside the SV's body at the entry (neither leader nor follower: level with it)
+    beside = inside & (np.abs(x + v * t_in - x_in) < half + 0.5 * sv_length)
+    ok = (check.safe and not beside.any() and gap >= need
+          and abs(sv_speed - vxf) <= cfg.max_speed_change and sv_speed >= cfg.min_speed)
+    return Entry(ok=bool(ok), vxf=vxf, leader=lead, follower=check.follower,
+                 t_enter=check.t_enter, follower_decel=check.max_decel, leader_gap=gap,
+                 secure=need)

@@ -7,10 +7,12 @@ While keeping its lane the SV follows cosim.driving.gap.decision each step: it w
 (a due scripted request, or the decision rule's faster lane, held for WANT_HOLD
 while it is still in the lane it wanted to leave), picks a gap there and drives the
 speed that takes it into it (never faster than its own leader allows). It calls the
-planner only once the gap is reached (and at >= cosim.driving.manoeuvre.PLANNER_MIN_SPEED), with
-the gap's speed as vxf; a plan is flown only if its new follower, predicted as
-SUMO's Krauss follows (cosim.planning.interaction.check_follower), brakes no harder
-than `GapConfig.plan_decel` (within MOBIL's b_safe), else it counts as a failed plan
+planner only once a change started now enters a usable gap (the decision's entry test;
+and at >= cosim.driving.manoeuvre.PLANNER_MIN_SPEED), with the new leader's speed as
+vxf; a plan is flown only if its new follower, predicted as SUMO's Krauss follows
+(cosim.planning.interaction.check_follower), brakes no harder than
+`GapConfig.plan_decel` (`insist_decel` once it has sought a gap for
+`GapConfig.patience`), else it counts as a failed plan
 and its follower is asked to make room (retried after
 `retry_interval`, the approach going on). It stops behind a standing leader at
 STOP_GAP (IDM standstill gap). It signals while it seeks a gap, and asks the chosen
@@ -47,6 +49,9 @@ STOP_GAP = 2.5  # m, IDM standstill gap s0 of this policy (SUMO's minGap; >= 2 m
 COOLNESS = 0.99  # -, its car following is the ACC model (IDM + CAH, rule.acc_blend): after
 # a merge into a slot of GapConfig.headway it reopens its 1.5 s gap braking about the
 # IDM's b = 2 m/s^2 at most while the new leader keeps its speed (plain IDM: up to 8)
+TIME_GAP = 1.0  # s, its IDM time gap T: SUMO's drivers' tau (the paper's rule: 1.5 s), so
+# that after a merge into a slot of GapConfig.headway it reopens less and makes its new
+# follower brake less (issue 22)
 
 
 @register("gap")
@@ -62,7 +67,7 @@ class GapPolicy:
     def __init__(self, ctx: DrivingContext, gap: GapConfig | None = None,
                  follower: FollowerModel | None = None) -> None:
         cfg = replace(ctx.decision, idm_min_gap=max(ctx.decision.idm_min_gap, STOP_GAP),
-                      idm_coolness=COOLNESS)
+                      idm_coolness=COOLNESS, idm_time_gap=TIME_GAP)
         self.lanes = ctx.lanes
         self.ask_gap = ctx.ports.ask_gap
         self._blinker = ctx.ports.blinker
@@ -77,6 +82,7 @@ class GapPolicy:
         self.decision = ctx.sv.decision
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision (for inspection)
+        self.seeking_since: float | None = None  # s, since when it seeks a gap (None: not)
 
     @property
     def wall(self) -> float:
@@ -123,9 +129,13 @@ class GapPolicy:
             self.wanted = None
         wanted = scripted if scripted is not None else (
             self.wanted[1] if self.wanted is not None else None)
+        since = self.seeking_since
         d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg, self.gap_cfg,
                          self.follower, wanted_lane=wanted,
-                         allow_change=scripted is not None or self.decision)
+                         allow_change=scripted is not None or self.decision,
+                         insist=since is not None and t - since >= self.gap_cfg.patience - 1e-9)
+        self.seeking_since = (None if d.target_lane is None
+                              else (t if since is None else since))
         following.limit(d.accel, d.leader_gap, d.leader_speed)
         self.last = d
         if scripted is None and self.wanted is None and d.target_lane is not None:
@@ -146,14 +156,17 @@ class GapPolicy:
         follower would brake harder than the policy's limit within b_safe (MOBIL)."""
         assert target is not None and plan.trajectory is not None
         in_target = in_lane(target, traffic, self.lanes)
+        limit = self.last.follower_decel if self.last is not None else math.nan
+        follower = (self.follower.limited(limit) if math.isfinite(limit)
+                    else self.plan_follower)
         check = check_follower(plan.trajectory, self.sv_length, traffic.x, traffic.speed,
-                               traffic.length, in_target, self.plan_follower)
+                               traffic.length, in_target, follower)
         if check.safe:
             return ""
         # the follower that would brake too hard blocks: ask it to make room
         self.ask_gap(t, str(traffic.ids[check.follower]))
         return (f"follower {traffic.ids[check.follower]} would brake "
-                f"{check.max_decel:.2f} m/s^2 > {self.plan_follower.b_safe:g}")
+                f"{check.max_decel:.2f} m/s^2 > {follower.b_safe:g}")
 
     def summary(self, t: np.ndarray, y: np.ndarray) -> Manoeuvres:
         return self.manoeuvre.summary(t)

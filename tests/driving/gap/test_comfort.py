@@ -5,11 +5,13 @@ when needed, and the car following that settles after a merge (ACC model)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from cosim.driving.gap.decision import gap_decision, has_room
-from cosim.driving.gap.geometry import GapConfig, choose_gap, gap_cost, lane_gaps
+from cosim.driving.gap.geometry import GapConfig, choose_gap, entry_test, gap_cost, lane_gaps
+from cosim.driving.gap.policy import TIME_GAP
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.rule import DecisionConfig, idm_acceleration
 from cosim.driving.scene import SV, Traffic
@@ -17,7 +19,7 @@ from cosim.params import RoadParams
 from cosim.planning.interaction import FollowerModel
 
 ROAD = RoadParams()  # lanes 0 / 1 / 2 at y = 1.875 / 5.625 / 9.375
-GAP = GapConfig()
+GAP = GapConfig(horizon=20.0)  # gaps up to 20 s away (the default, 8 s, leaves some out)
 KRAUSS = FollowerModel()
 L = 4.32
 
@@ -38,13 +40,15 @@ def test_the_slot_leaves_at_least_the_headway_to_the_new_leader() -> None:
     # a faster SV needs more: what it must shed before it would close on the leader
     fast = lane_gaps(L, [-200.0, 200.0], [25.0, 25.0], [L, L], [True, True], 25.0, GAP,
                      KRAUSS)
-    assert GAP.headway >= 0.8  # near SUMO's tau: the slot LC2013 asks of its own changers
+    # SUMO's own driver merges 0.5-0.7 s behind its new leader at 30-40 veh/km/lane
+    assert GAP.headway >= 0.6
     assert fast.hi[1] < 200.0 - 0.5 * L - 25.0 * GAP.headway
 
 
 def test_the_sv_following_from_the_slot_brakes_within_the_comfort_limit() -> None:
-    # the gap policy's car following (ACC model) from the slot's time gap at equal speeds
-    cfg = DecisionConfig(idm_min_gap=2.5, idm_coolness=0.99)
+    # the gap policy's car following (ACC model, SUMO's tau as its time gap) from the
+    # slot's time gap at equal speeds
+    cfg = DecisionConfig(idm_min_gap=2.5, idm_coolness=0.99, idm_time_gap=TIME_GAP)
     for v in (10.0, 20.0, 30.0):
         gap = GAP.min_gap + GAP.headway * v
         assert idm_acceleration(v, v + 3.0, gap, v, cfg) >= -GAP.comfort_decel
@@ -128,3 +132,51 @@ def test_courtesy_is_asked_only_of_a_follower_without_room() -> None:
     d = gap_decision(sv, roomy, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
     assert d.cooperate_with == -1
     assert math.isfinite(d.vxf)
+
+
+def test_the_sv_insists_on_an_entry_only_when_told_and_within_b_safe() -> None:
+    lanes = LaneLayout(ROAD)
+    sv = SV(0.0, ROAD.lane_center(1), 25.0, L, 25.0)
+    # a TV 30 m behind in the target lane at the SV's speed: Krauss brakes at its decel
+    # for an entry now (its secure gap is 27.5 m + what it closes): not within plan_decel,
+    # and not even when insisting (below the follower's decel: never a brake at b at once)
+    tight = scene([-30.0, 150.0], [2, 2], [25.0, 25.0])
+    d = gap_decision(sv, tight, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
+    assert not d.plan_now
+    assert GAP.plan_decel < GAP.insist_decel < KRAUSS.decel <= KRAUSS.b_safe
+    d = gap_decision(sv, tight, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2,
+                     insist=True)
+    assert not d.plan_now
+    # with a limit at its decel (SUMO's LC2013 asks that much) it would go
+    bold = replace(GAP, insist_decel=KRAUSS.decel)
+    d = gap_decision(sv, tight, lanes, DecisionConfig(), bold, KRAUSS, wanted_lane=2,
+                     insist=True)
+    assert d.plan_now and d.follower_decel == KRAUSS.decel
+    # 10 m behind it would need an emergency stop: never
+    closer = scene([-10.0, 150.0], [2, 2], [25.0, 25.0])
+    d = gap_decision(sv, closer, lanes, DecisionConfig(), bold, KRAUSS, wanted_lane=2,
+                     insist=True)
+    assert not d.plan_now
+    # 60 m behind: it goes at once, within plan_decel
+    roomy = scene([-60.0, 150.0], [2, 2], [25.0, 25.0])
+    d = gap_decision(sv, roomy, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
+    assert d.plan_now and d.follower_decel == GAP.plan_decel
+
+
+def test_the_entry_test_anticipates_the_change_and_refuses_a_level_tv() -> None:
+    e = entry_test(0.0, ROAD.lane_center(1), 25.0, L, 3.75, [0.0, 150.0], [25.0, 25.0],
+                   [L, L], [True, True], 25.0, GAP, KRAUSS)
+    assert not e.ok and e.follower == -1  # level with the SV when it enters: refused
+    # a leader now 18 m ahead, 6 m/s faster than the SV: the SV is not yet in the slot
+    # behind it, but by its entry, 1.75 s on, that leader is far enough ahead: taken now
+    e = entry_test(0.0, ROAD.lane_center(1), 25.0, L, 3.75, [-150.0, 18.0], [25.0, 31.0],
+                   [L, L], [True, True], 31.0, GAP, KRAUSS.limited(GAP.plan_decel))
+    gaps = lane_gaps(L, [-150.0, 18.0], [25.0, 31.0], [L, L], [True, True], 31.0, GAP,
+                     KRAUSS)
+    assert gaps.hi[1] < 0.0  # the slot alone would have it wait
+    assert e.ok and e.leader == 1 and e.leader_gap >= e.secure
+    assert e.secure >= GAP.min_gap + GAP.headway * 25.0  # never closer than the headway
+    # the same leader at the SV's speed: too close, refused
+    e = entry_test(0.0, ROAD.lane_center(1), 25.0, L, 3.75, [-150.0, 18.0], [25.0, 25.0],
+                   [L, L], [True, True], 25.0, GAP, KRAUSS.limited(GAP.plan_decel))
+    assert not e.ok and e.leader_gap < e.secure

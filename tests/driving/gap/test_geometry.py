@@ -17,7 +17,7 @@ from cosim.driving.gap.geometry import (
 )
 from cosim.planning.interaction import FollowerModel, accepted_gap, entry_decel, secure_gap
 
-CFG = GapConfig()
+CFG = GapConfig(horizon=20.0)  # gaps up to 20 s away (the default, 8 s, leaves some out)
 KRAUSS = FollowerModel()
 SV_LEN = 4.32
 

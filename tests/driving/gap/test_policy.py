@@ -94,8 +94,10 @@ def test_blocked_beside_it_approaches_a_gap_then_plans() -> None:
     pol = d.policy
     d.step()
     assert pol.manoeuvre.mode == KEEPING and pol.manoeuvre.plans == []
-    assert pol.last is not None and pol.last.gap is not None
-    assert pol.last.gap.relation in ("ahead", "behind") and not pol.last.plan_now
+    # the gaps 100 m away are beyond its 8 s horizon: it paces the lane (its secure gap
+    # behind the TV beside it) instead of aiming at one
+    assert pol.last is not None and not pol.last.plan_now
+    assert pol.last.gap is None or pol.last.gap.relation in ("ahead", "behind")
     speeds = []
     while pol.manoeuvre.mode == KEEPING and d.t < 30.0:
         d.step()
@@ -133,8 +135,9 @@ def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
     # a TV beside: the gap behind it is taken; its follower, 100 m back, has room
     ([-100.0, 0.0, 100.0], None),
     # just ahead of a TV, too close, the gap ahead out of reach at the SV's lane limit
-    # (everybody at 25 m/s, lane 0's limit): it drops behind the TV, nobody is asked
-    ([-8.0, 60.0], None),
+    # (everybody at 25 m/s, lane 0's limit) and the one behind it beyond the 8 s
+    # horizon: no gap in reach, the TV blocking it behind is asked to make room
+    ([-8.0, 60.0], "tv0"),
     ([20.0, 100.0], None),  # the gap's follower is ahead of the SV: it is not asked to brake
 ])
 def test_only_a_follower_behind_the_sv_that_blocks_the_gap_is_asked(
@@ -145,3 +148,24 @@ def test_only_a_follower_behind_the_sv_that_blocks_the_gap_is_asked(
     assert [tv for _, tv in asked] == ([] if asked_tv is None else [asked_tv])
     assert d.policy.signal == 1  # it signals for lane 1 (left) while it seeks a gap
     assert d.policy.following.cfg.idm_min_gap == STOP_GAP >= 2.0
+
+
+
+def test_before_its_patience_it_plans_only_entries_within_plan_decel() -> None:
+    # a TV 30 m behind the SV in the target lane, another 45 m behind it, everybody at
+    # 25 m/s (lane 0's limit): an entry beside the first makes it brake at its decel
+    d = Drive([-75.0, -30.0, 150.0])
+    cfg = d.policy.gap_cfg
+    d.step()
+    assert d.policy.manoeuvre.mode == KEEPING and d.policy.manoeuvre.plans == []
+    while d.policy.manoeuvre.mode != CHANGING and d.t < 15.0:
+        d.step()
+        last = d.policy.last
+        if last is not None and last.plan_now:
+            # what the flown plan may ask of its follower: plan_decel until the SV has
+            # sought for `patience`, then b_safe (SUMO's LC2013 help decel)
+            limit = cfg.plan_decel if d.t - DT < cfg.patience - 1e-9 else cfg.insist_decel
+            assert last.follower_decel <= limit
+    # everybody at lane 0's limit, no gap ever comes: it may still be waiting; a plan
+    # it flew was accepted
+    assert all(p["ok"] == 1 for p in d.policy.manoeuvre.plans)
