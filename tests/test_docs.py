@@ -33,6 +33,9 @@ SLOW = {
     "cosim batch scenarios/study_replanning.toml -o results/batch/study_replanning_fixed":
         "800 runs",
     "cosim bench cosim --repeats 5 --duration 30": "ten 30 s dense runs and more",
+    "cosim bench cosim --repeats 5": "five times seven 30 s runs",
+    "cosim bench cosim --repeats 5 --json": "five times seven 30 s runs",
+    "cosim batch scenarios/study_curved.toml": "20 runs of 60 s",
 }
 # A synopsis: placeholders (FILE, N, ...), alternatives ([...], a|b) or globs.
 # A bare command name that needs an argument is a mention ("`cosim run`'s outputs").
