@@ -27,7 +27,6 @@ from cosim.params import RoadParams
 from cosim.proximity import gap_ttc_min
 from cosim.road.road import Road
 from cosim.scenario import Scenario
-from cosim.traffic.road_view import is_identity
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import Scene, SVState
 
@@ -241,7 +240,7 @@ class Recorder:
         self.sv_diag = math.hypot(sv_length, sv_width)  # m, body diagonal
         # m, the SV's reach for the exact check's candidates: in road coordinates
         # distances are stretched by up to 1 / q (<= 1 / 0.85, the frame's limit)
-        curved = route_road is not None and not is_identity(route_road.frame)
+        curved = route_road is not None and route_road.curved
         self.reach = self.sv_diag * (1.25 if curved else 1.0)
         self.collisions = 0  # collision onsets by our exact check
         self.hits: frozenset[str] = frozenset()  # TVs overlapping the SV at the last row

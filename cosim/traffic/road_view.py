@@ -54,20 +54,10 @@ def road_view(snap: TrafficSnapshot, frame: StraightFrame | ArcFrame,
                    cx=snap.x, cy=snap.y, ch=snap.heading)
 
 
-def road_pose(frame: StraightFrame | ArcFrame, x: float, y: float, heading: float,
-              s_hint: float | None = None) -> tuple[float, float, float, float]:
-    """(s, d, heading relative to the road, q) of one Cartesian pose."""
-    if is_identity(frame):
-        return x, y, heading, 1.0
-    s, d = frame.to_frenet(x, y, s_hint=s_hint)
-    rel = float(np.angle(np.exp(1j * (heading - float(frame.heading(s))))))
-    return float(s), float(d), rel, float(stretch(frame, s, d))
-
-
 def cartesian_pose(frame: StraightFrame | ArcFrame, s: float, d: float,
                    heading: float) -> tuple[float, float, float, float]:
     """(x, y, heading, q) of a pose given in road coordinates (heading relative to the
-    road): the inverse of `road_pose`."""
+    road): the inverse of `road_view` for one vehicle."""
     if is_identity(frame):
         return s, d, heading, 1.0
     x, y, theta = frame.to_cartesian(s, d)

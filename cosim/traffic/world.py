@@ -30,7 +30,7 @@ from cosim.params import RoadParams
 from cosim.scenario.model import Scenario
 from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
 from cosim.traffic.gui import GuiSettings
-from cosim.traffic.road_view import cartesian_pose, is_identity, road_pose, road_view
+from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
 from cosim.traffic.route import route_road, sv_start
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
@@ -210,10 +210,6 @@ class World:
     def cartesian(self, s: float, d: float, heading: float) -> tuple[float, float, float, float]:
         """(x, y, heading, q) of a pose in road coordinates (road_view.cartesian_pose)."""
         return cartesian_pose(self.frame, s, d, heading)
-
-    def road_pose(self, x: float, y: float, heading: float) -> tuple[float, float, float, float]:
-        """(s, d, heading to the road, q) of a Cartesian pose (road_view.road_pose)."""
-        return road_pose(self.frame, x, y, heading, self._s_hint)
 
     def step(self) -> set[tuple[str, ...]]:
         """SUMO moves its vehicles to the next step; returns SUMO's collisions of that
