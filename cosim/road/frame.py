@@ -98,29 +98,35 @@ class FrameQuality:
 
 # ---------------------------------------------------------------- compiled kernels
 @njit
+def _arc_point(s: float, d: float, s_min: float, h: float, x: Array, y: Array,
+               theta: Array, kappa: Array) -> tuple[float, float, float, float]:
+    """(x, y, heading of the reference line at s, its curvature) of the point at s, d off
+    the spline (d from the spline itself, not the frame's d); see the module docstring."""
+    n = kappa.shape[0]
+    k = min(max(int(math.floor((s - s_min) / h)), 0), n - 1)
+    u = s - (s_min + k * h)
+    kk = kappa[k]
+    t = kk * u
+    if kk == 0.0:
+        along, side = u, 0.0
+    else:
+        along = math.sin(t) / kk
+        half = math.sin(0.5 * t)
+        side = 2.0 * half * half / kk
+    along -= d * math.sin(t)
+    side += d * math.cos(t)
+    c, sn = math.cos(theta[k]), math.sin(theta[k])  # as the table's _cos, _sin
+    return x[k] + c * along - sn * side, y[k] + sn * along + c * side, theta[k] + t, kk
+
+
+@njit
 def _cartesian(s: Array, d: Array, s_min: float, h: float, x: Array, y: Array,
                theta: Array, kappa: Array, out_x: Array, out_y: Array,
                out_heading: Array) -> None:
-    """(s, d) -> (x, y, heading of the reference line at s); see the module docstring."""
-    n = kappa.shape[0]
+    """(s, d) -> (x, y, heading of the reference line at s), `_arc_point` per point."""
     for i in range(s.shape[0]):
-        k = int(math.floor((s[i] - s_min) / h))
-        k = min(max(k, 0), n - 1)
-        u = s[i] - (s_min + k * h)
-        kk = kappa[k]
-        t = kk * u
-        if kk == 0.0:
-            along, side = u, 0.0
-        else:
-            along = math.sin(t) / kk
-            half = math.sin(0.5 * t)
-            side = 2.0 * half * half / kk
-        along -= d[i] * math.sin(t)
-        side += d[i] * math.cos(t)
-        c, sn = math.cos(theta[k]), math.sin(theta[k])  # as the table's _cos, _sin
-        out_x[i] = x[k] + c * along - sn * side
-        out_y[i] = y[k] + sn * along + c * side
-        out_heading[i] = theta[k] + t
+        out_x[i], out_y[i], out_heading[i], _ = _arc_point(s[i], d[i], s_min, h, x, y,
+                                                           theta, kappa)
 
 
 @njit
@@ -187,25 +193,35 @@ def _nearest_knot(px: float, py: float, x: Array, y: Array) -> int:
 
 
 @njit
+def _foot(px: float, py: float, hint: float, window: int, s_min: float, h: float,
+          x: Array, y: Array, cth: Array, sth: Array, kappa: Array) -> tuple[float, float, int]:
+    """(u, d, k): the arc k whose normals cover the point, u along it, d off the spline.
+    From the arc of the hint s (NaN: the arc of the nearest knot) walk to it; failing
+    that, scan `window` arcs either way, then every arc (the smallest |d| wins); k = -1
+    if no arc's normals reach the point."""
+    n = kappa.shape[0]
+    if math.isnan(hint):
+        k0 = _nearest_knot(px, py, x, y)
+    else:
+        k0 = min(max(int(math.floor((hint - s_min) / h)), 0), n - 1)
+    u, d, k = _walk(px, py, k0, h, x, y, cth, sth, kappa)
+    if k < 0:
+        u, d, k = _scan(px, py, max(k0 - window, 0), min(k0 + window + 1, n), h,
+                        x, y, cth, sth, kappa)
+    if k < 0:
+        u, d, k = _scan(px, py, 0, n, h, x, y, cth, sth, kappa)
+    return u, d, k
+
+
+@njit
 def _frenet(px: Array, py: Array, hint: Array, window: int, s_min: float, h: float,
             x: Array, y: Array, cth: Array, sth: Array, kappa: Array, out_s: Array,
             out_d: Array) -> None:
-    """(x, y) -> (s, d). From the arc of each point's hint s (NaN: the arc of the nearest
-    knot) walk to the arc covering it; failing that, scan `window` arcs either way, then
-    every arc (the smallest |d| wins). NaN if no arc's normals reach the point."""
-    n = kappa.shape[0]
+    """(x, y) -> (s, d) by `_foot` per point; NaN if no arc's normals reach the point
+    (far inside a bend: not on this road)."""
     for i in range(px.shape[0]):
-        if math.isnan(hint[i]):
-            k0 = _nearest_knot(px[i], py[i], x, y)
-        else:
-            k0 = min(max(int(math.floor((hint[i] - s_min) / h)), 0), n - 1)
-        u, d, k = _walk(px[i], py[i], k0, h, x, y, cth, sth, kappa)
+        u, d, k = _foot(px[i], py[i], hint[i], window, s_min, h, x, y, cth, sth, kappa)
         if k < 0:
-            u, d, k = _scan(px[i], py[i], max(k0 - window, 0), min(k0 + window + 1, n), h,
-                            x, y, cth, sth, kappa)
-        if k < 0:
-            u, d, k = _scan(px[i], py[i], 0, n, h, x, y, cth, sth, kappa)
-        if k < 0:  # beyond every arc's normals (far inside a bend): not on this road
             out_s[i], out_d[i] = math.nan, math.nan
         else:
             out_s[i], out_d[i] = s_min + k * h + u, d
@@ -226,19 +242,8 @@ def pose_in_frame(fp: Array, fr: Array, px: float, py: float,
     d = y - y0, 0, 0 (exactly the identity when x0 = y0 = 0)."""
     if fp[FP_CURVED] == 0.0:
         return px - fp[FP_X0], py - fp[FP_Y0], 0.0, 0.0
-    x, y, cth, sth, kappa, theta = fr[0], fr[1], fr[2], fr[3], fr[4], fr[5]
-    s_min, h = fp[FP_S_MIN], fp[FP_H]
-    n = kappa.shape[0]
-    if math.isnan(s_hint):
-        k0 = _nearest_knot(px, py, x, y)
-    else:
-        k0 = min(max(int(math.floor((s_hint - s_min) / h)), 0), n - 1)
-    u, d, k = _walk(px, py, k0, h, x, y, cth, sth, kappa)
-    if k < 0:
-        u, d, k = _scan(px, py, max(k0 - WINDOW, 0), min(k0 + WINDOW + 1, n), h, x, y,
-                        cth, sth, kappa)
-    if k < 0:
-        u, d, k = _scan(px, py, 0, n, h, x, y, cth, sth, kappa)
+    s_min, h, kappa, theta = fp[FP_S_MIN], fp[FP_H], fr[4], fr[5]
+    u, d, k = _foot(px, py, s_hint, WINDOW, s_min, h, fr[0], fr[1], fr[2], fr[3], kappa)
     if k < 0:
         return math.nan, math.nan, math.nan, math.nan
     return s_min + k * h + u, d + fp[FP_D_OFFSET], theta[k] + kappa[k] * u, kappa[k]
@@ -252,24 +257,8 @@ def point_of_frame(fp: Array, fr: Array, s: float, d: float) -> tuple[float, flo
         if fp[FP_X0] == 0.0 and fp[FP_Y0] == 0.0:  # the identity (-0.0 + 0.0 would be 0.0)
             return s, d, 0.0, 0.0
         return s + fp[FP_X0], d + fp[FP_Y0], 0.0, 0.0
-    x, y, kappa, theta = fr[0], fr[1], fr[4], fr[5]
-    h = fp[FP_H]
-    n = kappa.shape[0]
-    k = min(max(int(math.floor((s - fp[FP_S_MIN]) / h)), 0), n - 1)
-    u = s - (fp[FP_S_MIN] + k * h)
-    kk = kappa[k]
-    t = kk * u
-    if kk == 0.0:
-        along, side = u, 0.0
-    else:
-        along = math.sin(t) / kk
-        half = math.sin(0.5 * t)
-        side = 2.0 * half * half / kk
-    dd = d - fp[FP_D_OFFSET]
-    along -= dd * math.sin(t)
-    side += dd * math.cos(t)
-    c, sn = math.cos(theta[k]), math.sin(theta[k])
-    return x[k] + c * along - sn * side, y[k] + sn * along + c * side, theta[k] + t, kk
+    return _arc_point(s, d - fp[FP_D_OFFSET], fp[FP_S_MIN], fp[FP_H], fr[0], fr[1], fr[5],
+                      fr[4])
 
 
 @register_warm_up

@@ -31,11 +31,13 @@ def is_identity(frame: StraightFrame | ArcFrame) -> bool:
 
 
 def stretch(frame: StraightFrame | ArcFrame, s: np.ndarray | float,
-            d: np.ndarray | float) -> np.ndarray | float:
+            d: np.ndarray | float, kappa: np.ndarray | float | None = None
+            ) -> np.ndarray | float:
     """-, q = 1 - kappa(s) (d - d_offset): a path at offset d is q times as long as the
-    reference line over the same s."""
+    reference line over the same s (`kappa`: the line's curvature at s, if known)."""
     offset = getattr(frame, "d_offset", 0.0)
-    return 1.0 - frame.curvature(s) * (np.asarray(d) - offset)
+    k = frame.curvature(s) if kappa is None else kappa
+    return 1.0 - k * (np.asarray(d) - offset)
 
 
 def road_view(snap: TrafficSnapshot, frame: StraightFrame | ArcFrame,
@@ -49,7 +51,7 @@ def road_view(snap: TrafficSnapshot, frame: StraightFrame | ArcFrame,
     s, d = np.asarray(s, dtype=np.float64), np.asarray(d, dtype=np.float64)
     theta, kappa = frame.tangent(s)
     rel = (snap.heading - theta + np.pi) % (2.0 * np.pi) - np.pi  # wrapped into [-pi, pi)
-    q = 1.0 - kappa * (d - getattr(frame, "d_offset", 0.0))
+    q = stretch(frame, s, d, kappa)
     return replace(snap, x=s, y=d, heading=rel, speed=snap.speed / q, accel=snap.accel / q,
                    cx=snap.x, cy=snap.y, ch=snap.heading)
 
