@@ -5,8 +5,7 @@ bridge), random traffic, a scripted lane change on the curve: through real SUMO.
 
 from __future__ import annotations
 
-import math
-import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,38 +13,16 @@ import shapely
 
 from cosim.scenario import scenario_from_dict
 from cosim.sim import simulate
-from cosim.traffic.network import netconvert_binary
 
-
-def build(tmp: Path) -> Path:
-    """A -> B straight, B -> C a left curve of R 900 m drawn every 40 m (2.5 degree kinks),
-    three lanes throughout; a road X1 -> X2 crossing A-B (a bridge: no junction)."""
-    pts, h0, step, radius = [], 0.0, 40.0, 900.0
-    for i in range(1, int(round(800.0 / step)) + 1):
-        h = h0 + i * step / radius
-        pts.append((1000.0 + radius * math.sin(h), radius * (1.0 - math.cos(h))))
-    cx, cy = pts[-1]
-    (tmp / "n.nod.xml").write_text(
-        "<nodes>"
-        '<node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
-        f'<node id="C" x="{cx:.2f}" y="{cy:.2f}"/>'
-        '<node id="X1" x="700" y="-200"/><node id="X2" x="700" y="200"/>'
-        "</nodes>", encoding="utf-8")
-    shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in [(1000.0, 0.0), *pts])
-    (tmp / "n.edg.xml").write_text(
-        "<edges>"
-        '<edge id="AB" from="A" to="B" numLanes="3" speed="36.1"/>'
-        f'<edge id="BC" from="B" to="C" numLanes="3" speed="36.1" shape="{shape}"/>'
-        '<edge id="X" from="X1" to="X2" numLanes="1" speed="13.9"/>'
-        "</edges>", encoding="utf-8")
-    out = tmp / "n.net.xml"
-    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o", out.name,
-                    "--no-turnarounds", "true"], cwd=tmp, check=True, capture_output=True)
-    return out
+sys.path.insert(0, str(Path(__file__).parent / "road"))
+from handdrawn import curved_route  # noqa: E402
 
 
 def test_a_hand_drawn_motorway_with_kinks_and_a_bridge(tmp_path: Path) -> None:
-    net = build(tmp_path)
+    # A -> B straight, B -> C a left curve of R 900 m drawn every 40 m (2.5 degree kinks),
+    # three lanes throughout; a road crossing A-B at x = 700 m on a bridge
+    net = curved_route(tmp_path, 40.0, radius=900.0, length=800.0, curve_lanes=3,
+                       bridge_x=700.0, speed=36.1)
     doc = {
         "scenario": {"name": "own", "duration_s": 25.0, "seed": 3},
         "road": {"network": str(net), "route": ["AB", "BC"], "mu": 0.8},

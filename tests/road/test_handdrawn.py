@@ -5,7 +5,7 @@ default connections)."""
 from __future__ import annotations
 
 import math
-import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,42 +15,14 @@ import shapely
 from cosim.errors import InputError
 from cosim.road.frame import FrameLimits
 from cosim.road.road import load_road
-from cosim.traffic.network import netconvert_binary
 
-
-def _arc(x0: float, y0: float, h0: float, radius: float, length: float, step: float):
-    pts, h = [], h0
-    n = int(round(length / step))
-    for i in range(1, n + 1):
-        h1 = h0 + (i * step) / radius
-        pts.append((x0 + radius * (math.sin(h1) - math.sin(h0)),
-                    y0 - radius * (math.cos(h1) - math.cos(h0))))
-        h = h1
-    return pts, h
+sys.path.insert(0, str(Path(__file__).parent))
+from handdrawn import curved_route, netconvert  # noqa: E402
 
 
 def build(tmp: Path, step: float) -> Path:
-    """A -> B straight 3 lanes; B -> C a left curve of R 2000 m drawn every `step` m with
-    2 lanes (the rightmost lane ends at B); a road X1 -> X2 crossing A-B (a bridge)."""
-    curve, _ = _arc(1000.0, 0.0, 0.0, 2000.0, 1000.0, step)
-    cx, cy = curve[-1]
-    (tmp / "n.nod.xml").write_text(
-        "<nodes>"
-        '<node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
-        f'<node id="C" x="{cx:.2f}" y="{cy:.2f}"/>'
-        '<node id="X1" x="500" y="-200"/><node id="X2" x="500" y="200"/>'
-        "</nodes>", encoding="utf-8")
-    shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in [(1000.0, 0.0), *curve])
-    (tmp / "n.edg.xml").write_text(
-        "<edges>"
-        '<edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
-        f'<edge id="BC" from="B" to="C" numLanes="2" speed="33.3" shape="{shape}"/>'
-        '<edge id="X" from="X1" to="X2" numLanes="1" speed="13.9"/>'
-        "</edges>", encoding="utf-8")
-    out = tmp / "n.net.xml"
-    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o", out.name,
-                    "--no-turnarounds", "true"], cwd=tmp, check=True, capture_output=True)
-    return out
+    """The curved route with a lane ending at B and a bridge over A-B (handdrawn.py)."""
+    return curved_route(tmp, step)
 
 
 def test_kinks_a_lane_drop_and_a_bridge(tmp_path: Path) -> None:
@@ -89,15 +61,11 @@ def test_a_coarse_curve_is_refused_with_the_number_that_fails(tmp_path: Path) ->
 
 
 def test_a_lane_cars_may_not_use_is_no_track(tmp_path: Path) -> None:
-    (tmp_path / "w.nod.xml").write_text(
-        '<nodes><node id="A" x="0" y="0"/><node id="B" x="500" y="0"/></nodes>',
-        encoding="utf-8")
-    (tmp_path / "w.edg.xml").write_text(
+    net = netconvert(
+        tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="500" y="0"/></nodes>',
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="30">'
-        '<lane index="0" allow="pedestrian" width="2.0"/></edge></edges>', encoding="utf-8")
-    subprocess.run([netconvert_binary(), "-n", "w.nod.xml", "-e", "w.edg.xml", "-o",
-                    "w.net.xml"], cwd=tmp_path, check=True, capture_output=True)
-    road = load_road(tmp_path / "w.net.xml")
+        '<lane index="0" allow="pedestrian" width="2.0"/></edge></edges>', name="w")
+    road = load_road(net)
     assert [t.id for t in road.lanes] == [1, 2]  # SUMO's indices: the sidewalk is lane 0
     assert road.reference.name == "AB_1"
     assert road.lane(2).track.name == "AB_2"

@@ -1,0 +1,55 @@
+"""Hand-drawn SUMO networks for tests, the way real ones come from netconvert: plain
+node and edge XML, curves drawn as coarse polylines that kink at every vertex,
+netconvert's default 2-decimal output (used by tests/road and tests/test_own_network)."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+from pathlib import Path
+
+from cosim.traffic.network import netconvert_binary
+
+
+def arc(x0: float, y0: float, h0: float, radius: float, length: float,
+        step: float) -> list[tuple[float, float]]:
+    """The vertices, every `step` m, of a left curve of `radius` and `length` from
+    (x0, y0) at heading h0 (the start itself not included)."""
+    n = int(round(length / step))
+    return [(x0 + radius * (math.sin(h0 + i * step / radius) - math.sin(h0)),
+             y0 - radius * (math.cos(h0 + i * step / radius) - math.cos(h0)))
+            for i in range(1, n + 1)]
+
+
+def netconvert(tmp: Path, nodes: str, edges: str, name: str = "n") -> Path:
+    """`tmp/<name>.net.xml` built by netconvert from the <nodes> and <edges> documents."""
+    (tmp / f"{name}.nod.xml").write_text(nodes, encoding="utf-8")
+    (tmp / f"{name}.edg.xml").write_text(edges, encoding="utf-8")
+    out = tmp / f"{name}.net.xml"
+    subprocess.run([netconvert_binary(), "-n", f"{name}.nod.xml", "-e", f"{name}.edg.xml",
+                    "-o", out.name, "--no-turnarounds", "true"], cwd=tmp, check=True,
+                   capture_output=True)
+    return out
+
+
+def curved_route(tmp: Path, step: float, *, radius: float = 2000.0, length: float = 1000.0,
+                 curve_lanes: int = 2, bridge_x: float = 500.0, speed: float = 33.3) -> Path:
+    """A -> B straight (1 km, 3 lanes); B -> C a left curve of `radius` and `length` drawn
+    every `step` m with `curve_lanes` lanes (2: the rightmost lane ends at B); a road
+    X1 -> X2 crossing A-B at x = `bridge_x` (a bridge: no junction)."""
+    curve = arc(1000.0, 0.0, 0.0, radius, length, step)
+    cx, cy = curve[-1]
+    shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in [(1000.0, 0.0), *curve])
+    return netconvert(
+        tmp,
+        "<nodes>"
+        '<node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+        f'<node id="C" x="{cx:.2f}" y="{cy:.2f}"/>'
+        f'<node id="X1" x="{bridge_x:g}" y="-200"/><node id="X2" x="{bridge_x:g}" y="200"/>'
+        "</nodes>",
+        "<edges>"
+        f'<edge id="AB" from="A" to="B" numLanes="3" speed="{speed:g}"/>'
+        f'<edge id="BC" from="B" to="C" numLanes="{curve_lanes}" speed="{speed:g}" '
+        f'shape="{shape}"/>'
+        '<edge id="X" from="X1" to="X2" numLanes="1" speed="13.9"/>'
+        "</edges>")
