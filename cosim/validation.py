@@ -210,6 +210,20 @@ def network_file(path: Any, max_bytes: int) -> Any:
     return st
 
 
+MAX_NETWORK_BYTES = 64 * 2**20  # a motorway net is kB to a few MB: refuse bigger unread
+
+
+def read_network_file(path: Any, reader: Any) -> Any:
+    """What `reader(path, mtime_ns, size)` (a function cached on those three, returning its
+    result or an InputError) makes of the SUMO network at `path`, after `network_file`'s
+    checks with MAX_NETWORK_BYTES: a file is parsed once per process as it stands."""
+    st = network_file(path, MAX_NETWORK_BYTES)
+    found = reader(str(path), st.st_mtime_ns, st.st_size)
+    if isinstance(found, InputError):
+        raise found
+    return found
+
+
 def file_kind(mode: int) -> str:
     """What a file of this st_mode is, in words ("a folder", "a character device", ...)."""
     import stat

@@ -17,10 +17,9 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
-from cosim.validation import network_file
+from cosim.validation import read_network_file
 
 VCLASS = "passenger"  # lanes a car may use: sidewalks, bike and bus lanes are no tracks
-MAX_NETWORK_BYTES = 256 * 2**20  # refuse bigger files before parsing them
 
 
 @dataclass(frozen=True)
@@ -39,12 +38,7 @@ class Route:
 def read_network(path: Path | str) -> Any:
     """The sumolib network at `path` with its internal lanes (cached on path, mtime,
     size). Raises InputError if it is missing, too big or not a SUMO network."""
-    path = Path(path)
-    st = network_file(path, MAX_NETWORK_BYTES)
-    found = _read(str(path), st.st_mtime_ns, st.st_size)
-    if isinstance(found, InputError):
-        raise found
-    return found
+    return read_network_file(Path(path), _read)
 
 
 @functools.lru_cache(maxsize=8)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from cosim.errors import InputError
 from cosim.params import RoadParams
-from cosim.validation import network_file
+from cosim.validation import MAX_NETWORK_BYTES, read_network_file
 
 NETWORK_DIR = Path(__file__).resolve().parents[2] / "networks"  # repository's networks/
 DEFAULT_NAME = "highway"
@@ -125,7 +125,6 @@ SUPPORTED = (
     "its lanes side by side with one width"
 )
 PASSENGER = "passenger"  # the vehicle class of every vehicle cosim puts into SUMO
-MAX_NETWORK_BYTES = 64 * 2**20  # a highway net is a few kB: refuse bigger files before reading
 
 
 def load_highway(path: Path = DEFAULT_NETWORK) -> Highway:
@@ -135,12 +134,7 @@ def load_highway(path: Path = DEFAULT_NETWORK) -> Highway:
     SUMO network or not of the supported shape (`SUPPORTED`). Cached on (path, mtime, size):
     validation, `cosim plan` and the simulation read a network once per process.
     """
-    path = Path(path)
-    st = network_file(path, MAX_NETWORK_BYTES)
-    found = _read_highway(str(path), st.st_mtime_ns, st.st_size)
-    if isinstance(found, InputError):
-        raise found
-    return found
+    return read_network_file(Path(path), _read_highway)
 
 
 @functools.lru_cache(maxsize=16)
