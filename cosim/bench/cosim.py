@@ -224,31 +224,21 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     plans: dict[str, list[float]] = {"ours": [], "curved": []}  # s, every plan() call
     walls: dict[str, list[float]] = {k: [] for k in keys}
     cpus: dict[str, list[float]] = {k: [] for k in keys}
+    def timed(key: str, measured: tuple[Any, ...]) -> tuple[Any, ...]:
+        walls[key].append(measured[0])
+        cpus[key].append(measured[1])
+        return measured
+
     timing: dict[str, Any] = {}
     for _ in range(repeats):
-        wall, cpu = sumo_alone(dense)
-        walls["alone"].append(wall)
-        cpus["alone"].append(cpu)
-        wall, cpu = sumo_alone(dense, with_sv=True)
-        walls["alone_sv"].append(wall)
-        cpus["alone_sv"].append(cpu)
-        wall, cpu, timing = cosim_run(dense)
-        walls["ours"].append(wall)
-        cpus["ours"].append(cpu)
+        timed("alone", sumo_alone(dense))
+        timed("alone_sv", sumo_alone(dense, with_sv=True))
+        timing = timed("ours", cosim_run(dense))[2]
         plans["ours"] += timing["plan_times"]
-        wall, cpu = sumo_floor(dense, timing["path"])  # the path just driven
-        walls["floor"].append(wall)
-        cpus["floor"].append(cpu)
-        wall, cpu, bent = cosim_run(curved)
-        walls["curved"].append(wall)
-        cpus["curved"].append(cpu)
-        plans["curved"] += bent["plan_times"]
-        wall, cpu, _ = cosim_run(baseline)
-        walls["baseline"].append(wall)
-        cpus["baseline"].append(cpu)
-        wall, cpu, _ = cosim_run(paper)
-        walls["paper"].append(wall)
-        cpus["paper"].append(cpu)
+        timed("floor", sumo_floor(dense, timing["path"]))  # the path just driven
+        plans["curved"] += timed("curved", cosim_run(curved))[2]["plan_times"]
+        timed("baseline", cosim_run(baseline))
+        timed("paper", cosim_run(paper))
     phases = phase_split(dense)
     w = {k: float(np.median(v)) for k, v in walls.items()}
     c = {k: float(np.median(v)) for k, v in cpus.items()}
