@@ -8,7 +8,7 @@ along its track by moveToXY to the route's end."""
 from __future__ import annotations
 
 import math
-import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +16,12 @@ import pytest
 
 from cosim.road.road import load_road
 from cosim.traffic.demand import populate
-from cosim.traffic.network import NETWORK_DIR, netconvert_binary
+from cosim.traffic.network import NETWORK_DIR
 from cosim.traffic.route import RouteLanes, sv_start
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "road"))
+from handdrawn import netconvert  # noqa: E402
+
 from cosim.traffic.sumo import SumoSim
 
 CURVED = NETWORK_DIR / "curved_motorway.net.xml"
@@ -128,18 +132,11 @@ def bridge_network(tmp: Path) -> Path:
     """A straight three-lane edge AB (1000 m along +x) and a road X crossing it at
     x = 500 m with no junction between them (a bridge), as tests/road/test_handdrawn.py
     draws it."""
-    (tmp / "n.nod.xml").write_text(
-        '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+    return netconvert(
+        tmp, '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
         '<node id="X1" x="500" y="-200"/><node id="X2" x="500" y="200"/></nodes>',
-        encoding="utf-8")
-    (tmp / "n.edg.xml").write_text(
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
-        '<edge id="X" from="X1" to="X2" numLanes="1" speed="13.9"/></edges>',
-        encoding="utf-8")
-    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o",
-                    "n.net.xml", "--no-turnarounds", "true"], cwd=tmp, check=True,
-                   capture_output=True)
-    return tmp / "n.net.xml"
+        '<edge id="X" from="X1" to="X2" numLanes="1" speed="13.9"/></edges>')
 
 
 def test_a_vehicle_on_a_bridge_over_the_route_is_on_no_lane(tmp_path: Path) -> None:
@@ -263,18 +260,13 @@ def test_a_route_whose_lanes_differ_in_width_is_refused_in_one_line(tmp_path: Pa
     from cosim.errors import InputError
     from cosim.traffic.route import road_params
 
-    (tmp_path / "n.nod.xml").write_text(
-        '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
-        '<node id="C" x="2000" y="0"/></nodes>', encoding="utf-8")
-    (tmp_path / "n.edg.xml").write_text(
+    net = netconvert(
+        tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+        '<node id="C" x="2000" y="0"/></nodes>',
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3" width="3.75"/>'
         '<edge id="BC" from="B" to="C" numLanes="3" speed="33.3" width="3.75">'
-        '<lane index="0" width="3.5"/></edge></edges>',
-        encoding="utf-8")
-    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o",
-                    "n.net.xml", "--no-turnarounds", "true"], cwd=tmp_path, check=True,
-                   capture_output=True)
-    road = load_road(tmp_path / "n.net.xml", ["AB", "BC"])
+        '<lane index="0" width="3.5"/></edge></edges>')
+    road = load_road(net, ["AB", "BC"])
     with pytest.raises(InputError, match=r"lane widths = \[3.5, 3.75\].*3.5, 3.75 m"):
         road_params(road)
 
@@ -350,17 +342,13 @@ def test_a_run_past_the_routes_end_and_a_route_whose_first_lane_ends_are_refused
     with pytest.raises(InputError, match=r"scenario.duration_s = 30.0: short enough for the SV "
                                          r"to stay on the 4807.9\d* m road"):
         scenario_from_dict(doc, path=DATA / "route_curved.toml")
-    (tmp_path / "n.nod.xml").write_text(
-        '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
-        '<node id="C" x="2000" y="0"/></nodes>', encoding="utf-8")
-    (tmp_path / "n.edg.xml").write_text(
+    net = netconvert(
+        tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+        '<node id="C" x="2000" y="0"/></nodes>',
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
-        '<edge id="BC" from="B" to="C" numLanes="2" speed="33.3"/></edges>', encoding="utf-8")
-    subprocess.run([netconvert_binary(), "-n", "n.nod.xml", "-e", "n.edg.xml", "-o",
-                    "n.net.xml", "--no-turnarounds", "true"], cwd=tmp_path, check=True,
-                   capture_output=True)
+        '<edge id="BC" from="B" to="C" numLanes="2" speed="33.3"/></edges>')
     with pytest.raises(InputError, match=r"tracks \[1, 2\] run through"):
-        check_through(load_road(tmp_path / "n.net.xml", ["AB", "BC"]), "s.toml")
+        check_through(load_road(net, ["AB", "BC"]), "s.toml")
 
 
 def test_lanes_named_on_an_edge_with_a_lane_added_count_as_tracks() -> None:
