@@ -7,6 +7,7 @@ are presets (`VEHICLE_PRESETS`): CommonRoad's vehicle1/2/3 (`COMMONROAD_CARS`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any
@@ -61,6 +62,9 @@ class RoadParams:
     )
     mu: float = 0.6  # -, road friction coefficient
     y_right: float = 0.0  # m, global y of the right road edge (lane 0's right line)
+    # m, s (x on the straight road) where lane k ends: an acceleration lane, a lane drop;
+    # a lane not listed, or listed as inf, runs on to the end of the route (issue 24)
+    lane_ends: tuple[float, ...] = ()
 
     @property
     def n_lanes(self) -> int:
@@ -69,6 +73,10 @@ class RoadParams:
     def lane_center(self, lane: int) -> float:
         """m, global y of a lane's centre line."""
         return self.y_right + (lane + 0.5) * self.lane_width
+
+    def lane_end(self, lane: int) -> float:
+        """m, s where `lane` ends (inf: it runs to the end of the route)."""
+        return self.lane_ends[lane] if lane < len(self.lane_ends) else math.inf
 
     def lane_of(self, y: float) -> int:
         """The lane whose strip holds global y (clipped to the road)."""

@@ -62,6 +62,10 @@ class LaneLayout:
         """m/s, the top of a lane's speed band."""
         return self.road.speed_bands[lane][1]
 
+    def end(self, lane: int) -> float:
+        """m, s where a lane ends (inf: it runs to the end of the route; issue 24)."""
+        return self.road.lane_end(lane)
+
     def end_speed(self, origin: int, target: int) -> float:
         """m/s, the band rule's speed at the end of a change from `origin` to `target`
         (Section 3.1, Fig. 5)."""
