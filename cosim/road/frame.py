@@ -40,7 +40,11 @@ unchanged, a circle of radius R shrinks by ell^6 / R^5, 3 nm for ell = 10 m and 
 from a straight into a curve, the spline overshoots by a few per cent). The least smoothing
 that reaches 90 % of the largest smallest-radius any smoothing within
 `target_deviation` of SUMO's polyline reaches is taken (more would bend SUMO's own
-curves); if the smallest radius is then below `min_radius`, more smoothing is taken
+curves). Where SUMO's vertices lie far apart (an OSM import: 60 m, 3 degree kinks) that
+line still bends at each vertex far tighter than the curve the vertices lie on
+(`polyline_radius`: segment length over turn angle); then the least smoothing within
+`max_deviation` that reaches 90 % of that radius (or of the largest reachable there) is
+taken. If the smallest radius is then below `min_radius`, more smoothing is taken
 up to `max_deviation`; a line that cannot reach `min_radius` within `max_deviation` is
 refused (InputError naming the radius and the deviation). The deviation is the
 Hausdorff distance between the smoothed line and SUMO's polyline.
@@ -565,6 +569,14 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
     within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
     reachable = max(t[3] for t in within)
     chosen = next(t for t in within if t[3] >= RADIUS_SHARE * reachable)
+    implied = polyline_radius(raw)
+    if math.isfinite(implied) and chosen[3] < RADIUS_SHARE * implied:
+        # coarse vertices (an OSM import: 60 m apart, 3 degree kinks): within the target
+        # the line still bends far tighter at each vertex than the curve the vertices
+        # lie on, so spend up to max_deviation to come nearer that curve's radius
+        wider = [t for t in tried if t[2] <= limits.max_deviation]
+        goal = RADIUS_SHARE * min(implied, max(t[3] for t in wider))
+        chosen = next(t for t in wider if t[3] >= goal)
     if chosen[3] < limits.min_radius:
         better = [t for t in tried if t[2] <= limits.max_deviation
                   and t[3] >= limits.min_radius]
@@ -588,6 +600,25 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
                     frame.length, limits.extension,
                     FrameQuality(dev, frame.quality.min_radius, ell,
                                  frame.quality.max_kink))
+
+
+def polyline_radius(points: Array) -> float:
+    """m, the radius of the curve a polyline's vertices lie on, as its turns imply: at a
+    vertex inside a run of turns one way (its neighbours turn the same way: a curve
+    drawn as a polyline, not one kink between straights), the mean length of its two
+    segments over its turn angle; the 10th percentile over those vertices (inf: none).
+    A percentile, not the minimum, so that one short segment does not speak for the
+    route."""
+    seg = np.diff(points, axis=0)
+    length = np.hypot(seg[:, 0], seg[:, 1])
+    turn = np.angle(np.exp(1j * np.diff(np.arctan2(seg[:, 1], seg[:, 0]))))
+    way = np.where(np.abs(turn) > 1e-4, np.sign(turn), 0.0)
+    inside = np.zeros(turn.size, dtype=bool)
+    inside[1:-1] = (way[1:-1] != 0.0) & (way[:-2] == way[1:-1]) & (way[2:] == way[1:-1])
+    if not inside.any():
+        return math.inf
+    radius = 0.5 * (length[:-1] + length[1:])[inside] / np.abs(turn[inside])
+    return float(np.percentile(radius, 10.0))
 
 
 def _forward(points: Array) -> Array:
