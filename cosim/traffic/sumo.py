@@ -98,7 +98,7 @@ class SumoSim:
         self.strict = bool(strict)
         base = RoadParams() if speed_bands is None else RoadParams(speed_bands=speed_bands)
         self._road = road_params(self.lanes.road, base, str(network))
-        n = len(self.lanes.through)
+        n = len(self.lanes.sv)
         if self._road.n_lanes != n:
             raise InputError(str(network), "speed_bands", speed_bands,
                              f"{n} (min, max) pairs (one per lane of the route)")
@@ -111,6 +111,9 @@ class SumoSim:
         self._hooks: list[Callable[[SumoSim], None]] = []
         self._types: set[str] = set()
         self._reader: SnapshotReader | None = None  # the reading side, while running
+        # vehicles SUMO drives that must stay until the run ends (the SUMO-driven SV):
+        # a teleport or a removal of one is a SimulationError (`step`), never silent
+        self.kept: set[str] = set()
 
     # ------------------------------------------------------------------ lifecycle
     @property
@@ -134,10 +137,11 @@ class SumoSim:
 
     def start(self) -> SumoSim:
         api = self.process.start()
+        self.kept.clear()
         if self.gui:
             self.add_hook(gui_window.Pacer(self.gui.speed))
         self._reader = SnapshotReader(api, self.dims, self.controlled.lateral_speeds,
-                                      self.lanes.through_lane)
+                                      self.lanes.sv_lane)
         self.lanes.forget_routes()
         self.lanes.route_id(api, 0)  # the whole route
         self._ensure_type(TV_TYPE, TV_LENGTH, TV_WIDTH, traffic=True)
@@ -210,11 +214,35 @@ class SumoSim:
         self.reader.left(arrived, untracked=bool(teleported))
         for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
+        if self.kept:
+            self._check_kept(t, teleported, arrived)
         self.reader.cached = None  # read on demand: snapshot() or snapshot_near()
         self.bands.keep(api)
         self.controlled.check(t, teleported)
         for hook in self._hooks:
             hook(self)
+
+    def _check_kept(self, t: float, teleported: set[str], arrived: Sequence[str]) -> None:
+        """SimulationError (if `strict`) when SUMO teleported, removed or lost a vehicle of
+        `kept` in the last step (an event is recorded either way)."""
+        gone = set(arrived)
+        for vid in sorted(self.kept):
+            if vid in teleported:
+                detail = (f"SUMO teleported {vid} (blocked too long; it must never be moved "
+                          "off its lane by SUMO)")
+            elif vid in gone:
+                detail = (f"SUMO removed {vid}: it arrived (the end of its route, or a "
+                          "lane it could not leave) before the run's end")
+            else:
+                try:  # one call: is it still there (an unknown id raises)
+                    self.api.vehicle.getLaneID(vid)
+                    continue
+                except self.api.TraCIException:
+                    detail = f"{vid} is no longer in SUMO (removed) before the run's end"
+            self.kept.discard(vid)
+            self.events.append(TrafficEvent(t, "lost", vid, detail))
+            if self.strict:
+                raise SimulationError(t, detail)
 
     # ------------------------------------------------------------------ traffic
     def _ensure_type(self, type_id: str, length: float, width: float, traffic: bool) -> None:
@@ -332,6 +360,7 @@ class SumoSim:
     def remove(self, vehicle_id: str) -> None:
         """Take a vehicle off the network (controlled or not)."""
         self.api.vehicle.remove(vehicle_id)
+        self.kept.discard(vehicle_id)  # asked for: no loss
         self.reader.untracked()
         self.controlled.vehicles.pop(vehicle_id, None)
         self.bands.forget(vehicle_id)
