@@ -160,6 +160,7 @@ METRIC_DOCS: dict[str, str] = {
     "drivers; else our driver's first decision-rule planner call) until the SV's centre is "
     "in the requested lane (s; NaN: no request, or never got there)",
     **mx.OUTCOME_DOCS,  # which check saw a collision; lane changes the end cut short
+    **mx.MERGE_DOCS,  # a start lane that ends (issue 24): the merge out of it
 }
 
 TIMING_DOCS: dict[str, str] = {
@@ -504,4 +505,32 @@ class Recorder:
             t_end=float(t[-1]), y_end=y_end,
             centres=np.array([self.road.lane_center(k) for k in range(self.road.n_lanes)]),
             tol=SETTLE_TOL, stopped=self.stopped))
+        m.update(self.merge(trace))
+        return m
+
+    def merge(self, trace: dict[str, Array]) -> dict[str, float]:
+        """The merge columns (metrics.MERGE_COLUMNS, METRIC_DOCS) from the trace: the SV's
+        start lane, where it ends (RoadParams.lane_ends), the first crossing out of it
+        before that end; the target lane's follower as for a lane change."""
+        t, lane = trace["t_s"], trace["lane"]
+        m = dict.fromkeys(mx.MERGE_COLUMNS, math.nan)
+        m["stopped_time_s"] = mx.stopped_time(t, trace["vx_mps"])
+        start_lane = int(lane[0])
+        end = self.road.lane_end(start_lane)
+        if not math.isfinite(end):
+            return m
+        cross, left, target = mx.merge_crossing(t, trace["s_m"], lane, end)
+        m["merge_success"] = 0.0 if math.isnan(cross) else 1.0
+        if math.isnan(cross):
+            return m
+        m["merge_distance_to_end_m"] = left
+        start = mx.merge_start(t, trace["d_m"], cross, self.road.lane_center(start_lane))
+        centre = self.road.lane_center(target)
+        # watched until the SV leaves the target lane again (a next change), else the end
+        later = np.flatnonzero((t > cross) & (lane != target))
+        t_end = float(t[later[0]]) if later.size else float(t[-1])
+        durations = mx.lane_change_durations(t, trace["d_m"], [start], [centre], [t_end],
+                                             SETTLE_TOL)
+        m["merge_follower_max_decel_mps2"] = self.follower_decel(
+            trace, [start], [centre], [t_end], durations)
         return m
