@@ -157,6 +157,7 @@ class RouteLanes:
             (p.lane, t.id) for t in road.lanes for p in t.track.pieces if not p.internal)
         self._s_end = {t.id: t.s_end.tolist() for t in road.lanes}
         self._added: set[int] = set()  # route indices whose rest-of-route SUMO has
+        self.extra_routes: set[str] = set()  # other routes added to SUMO (on-ramp traffic)
         self._sampled: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
 
     @property
@@ -190,6 +191,7 @@ class RouteLanes:
     def forget_routes(self) -> None:
         """SUMO closed: its routes are gone."""
         self._added.clear()
+        self.extra_routes.clear()
 
     def table(self, track: int) -> LaneTable:
         """The lane table of a track (InputError: no such track on the route)."""
