@@ -1,6 +1,6 @@
 """Random highway traffic by density, with the paper's lane speed bands.
 
-At t = 0 every SV lane (every through track of the route, cosim.traffic.route) gets
+At t = 0 every through track of the route (an SV lane that runs on, cosim.traffic.route) gets
 `density` vehicles per km spread along its first `length` metres of arc length s
 (about evenly, jittered), so the road is full from the start; then an inflow at the
 start of the route inserts the next vehicle of a track once the last one has driven a

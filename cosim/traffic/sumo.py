@@ -1,7 +1,7 @@
 """The SUMO adapter: the only module (with its parts below) that imports libsumo / traci.
 
 `SumoSim` starts SUMO on a route's road (cosim.road.road.Road: SUMO's route is its
-edges, the SV's lanes its through tracks, cosim.traffic.route), steps it, reads every
+edges, the SV's lanes the tracks of its first edge, cosim.traffic.route), steps it, reads every
 traffic vehicle (TV) in one pass into a `TrafficSnapshot`, and lets the co-simulation
 drive vehicles it controls itself (the SV and scripted TVs) with
 `vehicle.moveToXY(..., keepRoute=2)`.
@@ -69,9 +69,11 @@ class SumoSim:
     `lanechange_duration` (s) makes traffic lane changes continuous (constant
     lateral speed for that long); `sublane` uses SUMO's sublane model instead
     (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci; `traci`
-    the headless binary so. `speed_bands` (m/s per SV lane: per through track) set each
-    TV's desired speed on the track it is on. `strict`: a controlled vehicle leaving the
-    network raises SimulationError (else it is only recorded in `events`). `fcd_output`:
+    the headless binary so. `speed_bands` (m/s per SV lane, or per through track:
+    cosim.traffic.route.expand_bands) set each TV's desired speed on the track it is on.
+    `strict`: a controlled vehicle leaving the network, or SUMO teleporting or removing
+    the SUMO-driven SV, raises SimulationError (else it is only recorded in `events`).
+    `fcd_output`:
     the file SUMO writes its floating-car data to (--fcd-output), complete once closed.
     """
 
@@ -89,7 +91,7 @@ class SumoSim:
         if lanechange_duration < 0:
             raise InputError("SumoSim", "lanechange_duration", lanechange_duration, ">= 0 s")
         # the route's road (cosim.road): SUMO's route is its edges, the SV's lanes its
-        # through tracks (cosim.traffic.route); `road` if the caller has built it
+        # first edge's tracks (cosim.traffic.route); `road` if the caller has built it
         self.lanes = RouteLanes(road if road is not None else route_road(network, route))
         self.process: SumoProcess = process(
             self.lanes.road.route.path, step, seed, lanechange_duration=lanechange_duration,
