@@ -101,3 +101,32 @@ def test_ramp_traffic_comes_up_the_ramp_and_reads_lane_0_on_the_acceleration_lan
         merged = [v for v, seen in lanes.items() if {-1, 0, 1} <= seen]
         assert merged
         assert not sim.events  # nobody teleported
+
+
+def test_our_sv_on_the_acceleration_lane_is_moved_there_and_merges_by_a_scripted_change(
+) -> None:
+    """Our SV (MIMO) starts on the ending acceleration lane: moveToXY with that lane as
+    the hint keeps SUMO's SV on acc_0, then, as its scripted change to lane 1 crosses
+    the line, on acc_1 and main1_0; never lost; the merge metrics see the merge."""
+    from cosim.scenario.load import read_toml, scenario_from_dict
+
+    path = ROOT / "scenarios" / "ramp_merge.toml"
+    doc = read_toml(path)
+    doc["sv"].update(decision=False, lane_changes=[{"at_s": 1.0, "target_lane": 1}])
+    doc["traffic"].update(density_veh_per_km_lane=0.0, ramp_flow_veh_per_h=0.0)
+    doc["scenario"]["duration_s"] = 12.0
+    result = simulate(scenario_from_dict(doc, path=path))
+    assert not result.events
+    trace = result.trace
+    edges = [result.edges[int(k)] for k in trace["edge"]]
+    sumo_lane = [f"{e}_{int(i)}" for e, i in zip(edges, trace["sumo_lane"], strict=True)]
+    assert sumo_lane[0] == "acc_0" and trace["lane"][0] == 0
+    assert "acc_1" in sumo_lane and edges[-1] == "main1"
+    # SUMO's lane follows the SV (the hint is the lane its front is in): the acceleration
+    # lane while its centre is there, never once its centre is in lane 1
+    in_acc0 = np.array([s == "acc_0" for s in sumo_lane])
+    assert (trace["d_m"][in_acc0] < 0.0).all()
+    assert not in_acc0[trace["lane"] == 1].any()
+    m = result.metrics
+    assert m["merge_success"] == 1 and m["lane_changes"] == 1 and m["collisions"] == 0
+    assert 0.0 < m["merge_distance_to_end_m"] < result.road.lane_end(0)
