@@ -32,6 +32,8 @@ from cosim.traffic.route import (
     road_params,
     route_road,
     sv_start,
+    sv_tracks,
+    through_tracks,
 )
 from cosim.validation import (
     MISSING,
@@ -198,6 +200,7 @@ def scenario_from_dict(
     start: tuple[int, float] | None = None
     if found is None:  # another road: the rules read it through its one-edge view
         check_lanes(road_of_route, src, sv.edge, sv.lane)
+        _bands_per_through_lane(src, road_of_route, rd["speed_bands"])
         start = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
         found = route_view(road_of_route, sv.edge)
     highway = found
@@ -237,6 +240,21 @@ def scenario_from_dict(
         _lanes_run_through(src, scenario, ruled)
     check_scenario(src, ruled, highway)
     return scenario
+
+
+def _bands_per_through_lane(src: str, road: Road, bands: tuple[tuple[float, float], ...]
+                            ) -> None:
+    """InputError unless `[road] lane_speeds_kmh` has one band per lane that runs through
+    the route (or one per SV lane, the lanes that end included)."""
+    n_through, n_lanes = len(through_tracks(road)), len(sv_tracks(road))
+    if len(bands) not in (n_through, n_lanes):
+        ends = n_lanes - n_through
+        raise InputError(src, "road.lane_speeds_kmh", [[round(v * 3.6, 6) for v in b]
+                                                       for b in bands],
+                         f"{n_through} [min, max] pairs in km/h, one per lane that runs "
+                         f"through the route {list(road.route.edges)}"
+                         + (f" (its {ends} lane(s) that end take their neighbour's band)"
+                            if ends else ""))
 
 
 def _lanes_run_through(src: str, written: Scenario, ruled: Scenario) -> None:

@@ -130,3 +130,33 @@ def test_our_sv_on_the_acceleration_lane_is_moved_there_and_merges_by_a_scripted
     m = result.metrics
     assert m["merge_success"] == 1 and m["lane_changes"] == 1 and m["collisions"] == 0
     assert 0.0 < m["merge_distance_to_end_m"] < result.road.lane_end(0)
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    ({"route": '["ramp", "acc", "main1"]', "edge": '"ramp"'},
+     "a route starting on an on-ramp before its lane runs beside the mainline is not "
+     "supported"),
+    ({"route": '["main0", "acc", "main1", "main2"]', "edge": '"acc"'},
+     "lane 0 of 'acc' begins along the route"),
+    ({"lane_speeds_kmh": "[[60, 90], [90, 110]]"},
+     r"3 \[min, max\] pairs in km/h, one per lane that runs through the route"),
+])
+def test_what_cannot_be_driven_is_refused_in_one_line_exit_2(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], change: dict[str, str],
+        message: str) -> None:
+    import re
+
+    from cosim.cli import main
+
+    text = (ROOT / "scenarios" / "ramp_merge.toml").read_text(encoding="utf-8")
+    text = text.replace('"networks/onramp.net.xml"', repr(str(NET)).replace("'", '"'))
+    for key, value in change.items():
+        text, n = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+        assert n == 1, key
+    path = tmp_path / "bad.toml"
+    path.write_text(text, encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--no-figures", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and re.search(message, err), err
+    assert not out.exists()
