@@ -649,6 +649,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
             float(np.percentile(decel, FOLLOWER_PERCENTILE)) if len(decel) else math.nan)
         row["follower_decel_mps2_max"] = float(decel.max()) if len(decel) else math.nan
         row.update(comfort_summary(ok))
+        row.update(merge_summary(ok))
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -687,6 +688,39 @@ def comfort_summary(ok: pd.DataFrame) -> dict[str, float]:
     row["post_change_max_decel_mps2_max"] = float(decel.max()) if len(decel) else math.nan
     row["hard_post_change_brakes"] = (float(np.sum(decel > HARD_BRAKE))
                                       if "post_change_max_decel_mps2" in ok else math.nan)
+    return row
+
+
+# ------------------------------------------------------------------ merges (issue 24)
+MERGE_METRIC = "merge_success"  # 1 / 0; empty when the SV's start lane does not end
+
+
+def merge_summary(ok: pd.DataFrame) -> dict[str, float]:
+    """summary.csv's merge columns of one cell's finished runs (cosim.metrics.MERGE_DOCS):
+    `merge_n` runs whose start lane ends, `merge_success_rate` among them with its Wilson
+    interval, the medians of `merge_distance_to_end_m` and `stopped_time_s`, and the
+    target lane follower's largest deceleration: 95th percentile and maximum (all NaN
+    when no run started in a lane that ends)."""
+    import pandas as pd
+
+    def values(metric: str) -> np.ndarray:
+        if metric not in ok:
+            return np.empty(0)
+        v = pd.to_numeric(ok[metric], errors="coerce").to_numpy(float)
+        return v[np.isfinite(v)]
+
+    success = values(MERGE_METRIC)
+    n, hits = len(success), int(np.sum(success > 0.5))
+    row: dict[str, float] = {"merge_n": float(n),
+                             "merge_success_rate": hits / n if n else math.nan}
+    row["merge_success_ci_low"], row["merge_success_ci_high"] = wilson(hits, n)
+    for metric in ("merge_distance_to_end_m", "stopped_time_s"):
+        v = values(metric) if n else np.empty(0)
+        row[f"{metric}_p50"] = float(np.median(v)) if len(v) else math.nan
+    decel = values("merge_follower_max_decel_mps2")
+    row[f"merge_follower_decel_mps2_p{FOLLOWER_PERCENTILE}"] = (
+        float(np.percentile(decel, FOLLOWER_PERCENTILE)) if len(decel) else math.nan)
+    row["merge_follower_decel_mps2_max"] = float(decel.max()) if len(decel) else math.nan
     return row
 
 

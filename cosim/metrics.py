@@ -354,3 +354,64 @@ def outcome_columns(*, collisions: int, sumo_collisions: int, requests: int, com
             "collision_seen_by": collision_seen_by(collisions, sumo_collisions),
             "lane_change_status": status,
             "lane_change_unfinished": int(status == "unfinished")}
+
+
+# ----------------------------------------------------------------------------- merges
+# A lane that ends (an acceleration lane, a dropped lane: RoadParams.lane_ends, issue 24)
+# forces a lane change before its end. Read from the trace alone, for our drivers and
+# SUMO's alike: did the SV's centre leave the lane it started in before that lane's end,
+# how far from the end, and how long it stood still.
+STOP_SPEED = 0.1  # m/s, below it the SV counts as stopped
+MERGE_COLUMNS = ("merge_success", "merge_distance_to_end_m", "stopped_time_s",
+                 "merge_follower_max_decel_mps2")
+MERGE_DOCS: dict[str, str] = {
+    "merge_success": "1 if the SV started in a lane that ends on its route (an acceleration "
+    "lane, a dropped lane) and its centre crossed into another lane before that lane's end, "
+    "0 if it did not (still in it at the run's end), empty when the SV's start lane does not "
+    "end",
+    "merge_distance_to_end_m": "distance along s left to the end of the SV's start lane when "
+    "its centre crossed into the target lane (m; empty: no lane end, or no merge)",
+    "stopped_time_s": "time the SV's speed was below 0.1 m/s (s)",
+    "merge_follower_max_decel_mps2": "largest deceleration of the SV's follower in the target "
+    "lane of the merge (the nearest TV behind it there when its centre crossed; as "
+    "follower_max_decel_mps2), from the start of the merge until 3 s after it settles "
+    "(m/s^2; empty: no merge or no follower)",
+}
+
+
+def stopped_time(t: ArrayLike, speed: ArrayLike, threshold: float = STOP_SPEED) -> float:
+    """s, the time the speed was below `threshold` (each sample counts its step to the next)."""
+    tt = np.asarray(t, dtype=float)
+    v = np.asarray(speed, dtype=float)
+    if tt.size < 2:
+        return 0.0
+    return float(np.sum(np.diff(tt)[v[:-1] < threshold]))
+
+
+def merge_crossing(t: ArrayLike, s: ArrayLike, lane: ArrayLike, lane_end: float
+                   ) -> tuple[float, float, int]:
+    """(time s, distance to the end m, target lane) of the first sample whose lane (the
+    SV centre's) differs from the first sample's, before the start lane's end at s =
+    `lane_end` (m): the merge; (NaN, NaN, -1) if there is none (the SV still in its lane,
+    or out of it only at or past the end)."""
+    tt = np.asarray(t, dtype=float)
+    ss = np.asarray(s, dtype=float)
+    ln = np.asarray(lane)
+    if tt.size == 0 or not math.isfinite(lane_end):
+        return math.nan, math.nan, -1
+    out = np.flatnonzero((ln != ln[0]) & (ss < lane_end))
+    if not out.size:
+        return math.nan, math.nan, -1
+    k = int(out[0])
+    return float(tt[k]), float(lane_end - ss[k]), int(ln[k])
+
+
+def merge_start(t: ArrayLike, d: ArrayLike, cross: float, centre: float,
+                tol: float = SETTLE_TOL) -> float:
+    """s, the start of a merge that crossed out of its lane at `cross`: the last sample
+    before it at which the SV's d was within `tol` of its start lane's centre (the first
+    sample if it never was)."""
+    tt = np.asarray(t, dtype=float)
+    dd = np.asarray(d, dtype=float)
+    before = np.flatnonzero((tt <= cross) & (np.abs(dd - centre) < tol))
+    return float(tt[before[-1]]) if before.size else float(tt[0])

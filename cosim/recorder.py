@@ -160,6 +160,11 @@ METRIC_DOCS: dict[str, str] = {
     "drivers; else our driver's first decision-rule planner call) until the SV's centre is "
     "in the requested lane (s; NaN: no request, or never got there)",
     **mx.OUTCOME_DOCS,  # which check saw a collision; lane changes the end cut short
+    **mx.MERGE_DOCS,  # a start lane that ends (issue 24): the merge out of it
+    "lane_end_reached": "1 if the run stopped because our SV's front reached the end of "
+    "the lane it was in (an acceleration lane, a dropped lane: SUMO would drop a vehicle "
+    "moved past it; duration_s and steps are then up to it), else 0 (SUMO's own driver "
+    "stops there by itself)",
 }
 
 TIMING_DOCS: dict[str, str] = {
@@ -252,6 +257,7 @@ class Recorder:
         self.first_collision: tuple[float, str] | None = None  # (t s, TV ids) of the first onset
         self.last_row = n_steps  # the run's last trace row (earlier: stopped by a collision)
         self.stopped = False  # the run stopped at its first collision onset
+        self.at_lane_end = False  # the run stopped: our SV reached the end of its lane
 
     def record(self, k: int, scene: Scene, status: PolicyStatus) -> Array:
         """Row k: what every SV has (the ego adds its own columns); returns the row."""
@@ -317,6 +323,20 @@ class Recorder:
         if self.first_collision is None or self.stopped:
             return False
         self.stopped = True
+        self.last_row = k
+        return True
+
+    def stop_at_lane_end(self, k: int, sv: SVState, dt: float) -> bool:
+        """True if row k leaves our SV (driven by moveToXY) in a lane that ends with its
+        front within one step of that end: the run ends with this row, as SUMO would drop
+        a vehicle moved past the end of its lane (`lane_end_reached`, issue 24). A policy
+        that makes the mandatory lane change, or stops before the end, never meets it."""
+        end = self.road.lane_end(self.road.lane_of(sv.y))
+        if not math.isfinite(end) or self.stopped or self.at_lane_end:
+            return False
+        if sv.x + 0.5 * self.sv_length + max(sv.vx, 0.0) * dt < end:
+            return False
+        self.at_lane_end = True
         self.last_row = k
         return True
 
@@ -450,7 +470,7 @@ class Recorder:
             "controller": sc.sv.controller,
             "plant": plant,
             "duration_s": float(t[-1]),
-            "steps": self.last_row if self.stopped else n_steps,
+            "steps": self.last_row if self.stopped or self.at_lane_end else n_steps,
             "lane_change_requests": requests,
             "plans": done.planner_calls,
             "plans_failed": sum(1 for p in done.plans if p["ok"] == 0),
@@ -504,4 +524,33 @@ class Recorder:
             t_end=float(t[-1]), y_end=y_end,
             centres=np.array([self.road.lane_center(k) for k in range(self.road.n_lanes)]),
             tol=SETTLE_TOL, stopped=self.stopped))
+        m.update(self.merge(trace))
+        m["lane_end_reached"] = int(self.at_lane_end)
+        return m
+
+    def merge(self, trace: dict[str, Array]) -> dict[str, float]:
+        """The merge columns (metrics.MERGE_COLUMNS, METRIC_DOCS) from the trace: the SV's
+        start lane, where it ends (RoadParams.lane_ends), the first crossing out of it
+        before that end; the target lane's follower as for a lane change."""
+        t, lane = trace["t_s"], trace["lane"]
+        m = dict.fromkeys(mx.MERGE_COLUMNS, math.nan)
+        m["stopped_time_s"] = mx.stopped_time(t, trace["vx_mps"])
+        start_lane = int(lane[0])
+        end = self.road.lane_end(start_lane)
+        if not math.isfinite(end):
+            return m
+        cross, left, target = mx.merge_crossing(t, trace["s_m"], lane, end)
+        m["merge_success"] = 0.0 if math.isnan(cross) else 1.0
+        if math.isnan(cross):
+            return m
+        m["merge_distance_to_end_m"] = left
+        start = mx.merge_start(t, trace["d_m"], cross, self.road.lane_center(start_lane))
+        centre = self.road.lane_center(target)
+        # watched until the SV leaves the target lane again (a next change), else the end
+        later = np.flatnonzero((t > cross) & (lane != target))
+        t_end = float(t[later[0]]) if later.size else float(t[-1])
+        durations = mx.lane_change_durations(t, trace["d_m"], [start], [centre], [t_end],
+                                             SETTLE_TOL)
+        m["merge_follower_max_decel_mps2"] = self.follower_decel(
+            trace, [start], [centre], [t_end], durations)
         return m

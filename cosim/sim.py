@@ -144,6 +144,8 @@ class CoSimulation:
                 if k == self.n_steps or (self.sc.on_collision == "stop"
                                          and recorder.stop_at_collision(k)):
                     break  # the end, or the first collision onset (on_collision = "stop")
+                if ego.tracks_reference and recorder.stop_at_lane_end(k, scene.sv, self.dt):
+                    break  # our SV at the end of a lane that ends (issue 24)
                 reference = policy.update(t, scene, observer.inbox(scene))
                 if world.gap_requests:  # gap requests due reach their TVs
                     world.deliver_gap_requests(t, scene.tvs, scene.sv.x,

@@ -260,3 +260,23 @@ def test_follower_max_decel_is_watched_from_the_change_start() -> None:
     v = 31.0 + np.concatenate([[0.0], np.cumsum(a[:-1] * dt)])
     assert follower_max_decel(t, v, 2.0, 5.0) == pytest.approx(4.5)
     assert follower_max_decel(t, v, 3.5, 5.0) == 0.0  # from the crossing: unseen
+
+
+def test_merge_crossing_stopped_time_and_start() -> None:
+    """The merge columns' parts (issue 24) on a hand-made trace: the SV in lane 0, which
+    ends at s = 190 m, crosses into lane 1 at t = 3 s (s = 75 m), having stood still for
+    1 s; a crossing at or past the end is no merge."""
+    from cosim.metrics import merge_crossing, merge_start, stopped_time
+
+    t = np.arange(0.0, 6.0, 0.5)
+    speed = np.array([0.0, 0.05, 5.0, 10, 20, 20, 20, 20, 20, 20, 20, 20])
+    s = 20.0 + np.concatenate(([0.0], np.cumsum(speed[:-1] * 0.5)))
+    lane = np.where(t >= 3.0, 1, 0)
+    d = np.where(t < 2.0, -1.875, np.minimum(-1.875 + (t - 2.0) * 2.0, 1.875))
+    cross, left, target = merge_crossing(t, s, lane, 190.0)
+    assert cross == 3.0 and target == 1 and left == pytest.approx(190.0 - s[6])
+    assert stopped_time(t, speed) == pytest.approx(1.0)
+    assert merge_start(t, d, cross, -1.875) == pytest.approx(2.0)
+    assert merge_crossing(t, s, np.zeros(12, dtype=int), 190.0)[2] == -1
+    assert math.isnan(merge_crossing(t, s, lane, s[6])[0])  # crossed only at the end
+    assert math.isnan(merge_crossing(t, s, lane, math.inf)[0])  # no lane end

@@ -118,3 +118,21 @@ def test_road_columns_on_the_straight_road_are_x_and_y() -> None:
     row = rec.data[0]
     assert (row[COLUMN["s_m"]], row[COLUMN["d_m"]]) == (123.456, 5.625)  # bit for bit
     assert row[COLUMN["track"]] == 1 and rec.edges == ["highway"]
+
+
+def test_our_sv_at_the_end_of_a_lane_that_ends_stops_the_run() -> None:
+    """Issue 24: lane 0 ends at s = 194.5 m (y_right -3.75: an acceleration lane); the row
+    whose next step would take the SV's front past it is the run's last
+    (lane_end_reached); in a lane that runs on, or short of the end, nothing happens."""
+    from cosim.params import RoadParams
+    from cosim.recorder import Recorder
+    from cosim.traffic.world import SVState
+
+    road = RoadParams(speed_bands=((15.0, 25.0),) * 4, y_right=-3.75,
+                      lane_ends=(194.5, math.inf, math.inf, math.inf))
+    rec = Recorder(100, 4.32, 1.8, road)
+    assert not rec.stop_at_lane_end(10, SVState(190.0, -1.875, 0.0, 20.0, 0.0, 0), 0.05)
+    assert not rec.stop_at_lane_end(11, SVState(400.0, 1.875, 0.0, 20.0, 0.0, 1), 0.05)
+    assert rec.stop_at_lane_end(12, SVState(191.5, -1.875, 0.0, 20.0, 0.0, 0), 0.05)
+    assert rec.at_lane_end and rec.last_row == 12
+    assert not rec.stop_at_lane_end(13, SVState(192.0, -1.875, 0.0, 20.0, 0.0, 0), 0.05)

@@ -4,6 +4,7 @@ change started and ended."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -55,6 +56,14 @@ def global_trajectories(
     for k in range(road.n_lanes):
         ax.text(x_lo - 0.8 * pad, road.lane_center(k) + 0.3 * road.lane_width, f"lane {k}",
                 fontsize=7, va="center", ha="left", color="0.4")
+        end = road.lane_end(k)  # a lane that ends (issue 24): a bar across it there
+        if math.isfinite(end):
+            y_lo = road.y_right + k * road.lane_width
+            ax.plot([end, end], [y_lo, y_lo + road.lane_width], color="k", lw=3.0,
+                    solid_capstyle="butt", zorder=1)
+            ax.text(end, y_lo + 0.5 * road.lane_width, f" lane {k} ends", fontsize=7,
+                    va="center", ha="left", color="0.2")
+            x_hi = max(x_hi, end) if end < x_hi + 500.0 else x_hi
     colour = 1
     for tid, (tt, xx, yy) in sorted(tv_tracks.items()):
         if tid in highlight:

@@ -183,5 +183,7 @@ def reference_track(route: Route, tracks: tuple[Track, ...], source: str | None 
     if not through:
         raise InputError(source or str(route.path), "route", list(route.edges),
                          "a route along which at least one lane runs from the first edge to "
-                         "the last (no lane of it does)")
+                         "the last (no lane of it does; a route starting on an on-ramp before "
+                         "its lane runs beside the mainline is not supported: start it on the "
+                         "edge that carries the acceleration lane)")
     return min(through, key=lambda t: t.pieces[0].index)

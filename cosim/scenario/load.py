@@ -27,11 +27,13 @@ from cosim.scenario.model import (
 from cosim.traffic.network import SUPPORTED, Highway, load_highway, network_precision
 from cosim.traffic.route import (
     RouteLanes,
-    check_through,
+    check_lanes,
     lane_width,
     road_params,
     route_road,
     sv_start,
+    sv_tracks,
+    through_tracks,
 )
 from cosim.validation import (
     MISSING,
@@ -197,7 +199,8 @@ def scenario_from_dict(
     road = road_params(road_of_route, base, src)
     start: tuple[int, float] | None = None
     if found is None:  # another road: the rules read it through its one-edge view
-        check_through(road_of_route, src)
+        check_lanes(road_of_route, src, sv.edge, sv.lane)
+        _bands_per_through_lane(src, road_of_route, rd["speed_bands"])
         start = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
         found = route_view(road_of_route, sv.edge)
     highway = found
@@ -237,6 +240,21 @@ def scenario_from_dict(
         _lanes_run_through(src, scenario, ruled)
     check_scenario(src, ruled, highway)
     return scenario
+
+
+def _bands_per_through_lane(src: str, road: Road, bands: tuple[tuple[float, float], ...]
+                            ) -> None:
+    """InputError unless `[road] lane_speeds_kmh` has one band per lane that runs through
+    the route (or one per SV lane, the lanes that end included)."""
+    n_through, n_lanes = len(through_tracks(road)), len(sv_tracks(road))
+    if len(bands) not in (n_through, n_lanes):
+        ends = n_lanes - n_through
+        raise InputError(src, "road.lane_speeds_kmh", [[round(v * 3.6, 6) for v in b]
+                                                       for b in bands],
+                         f"{n_through} [min, max] pairs in km/h, one per lane that runs "
+                         f"through the route {list(road.route.edges)}"
+                         + (f" (its {ends} lane(s) that end take their neighbour's band)"
+                            if ends else ""))
 
 
 def _lanes_run_through(src: str, written: Scenario, ruled: Scenario) -> None:
@@ -284,11 +302,12 @@ def route_view(road: Road, sv_edge: str | None) -> Highway:
     (cosim.scenario.rules reads positions along one edge from its start): x is s, from 0
     to where the through tracks end, a lane's speed limit is its track's on the SV's start
     edge, every lane is open to cars (tracks are the lanes cars may use). The rules then
-    read the SV's s as its sv.position_m (a message about it names that s)."""
+    read the SV's s as its sv.position_m (a message about it names that s). Its lanes are
+    the SV lanes (cosim.traffic.route.sv_tracks: through or ending on the route)."""
     lanes = RouteLanes(road)
     edge = sv_edge if sv_edge is not None else road.route.edges[0]
     speeds = []
-    for table in lanes.through:
+    for table in lanes.sv:
         piece = table.track.piece_on(edge) or table.track.pieces[0]
         speeds.append(piece.speed)
     end = min(t.end for t in lanes.through)

@@ -202,6 +202,11 @@ class TrafficSpec:
         "courtesy", bool, default=True, override="courtesy",
         doc="target-lane TVs make room for the signalling SV of the gap policy, as SUMO's "
             "traffic does for its own lane changers (cosim.traffic.cooperation)"), True)
+    ramp_flow: float = declare(number_key(
+        "ramp_flow_veh_per_h", "veh/h", 0.0, 3600.0, 0.0,
+        "SUMO-driven traffic from each on-ramp of the route (an edge off it feeding a lane "
+        "that begins or ends on it: an acceleration lane), then along the rest of the route "
+        "(0: none; cosim.traffic.demand.RampFlow)", override="ramp_flow"), 0.0)
 
 
 @dataclass(frozen=True)

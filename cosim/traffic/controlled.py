@@ -198,6 +198,7 @@ class ControlledVehicles:
         vehicle.setLaneChangeMode(vehicle_id, lc_mode)
         vehicle.setMaxSpeed(vehicle_id, desired)
         self.vehicles.pop(vehicle_id, None)
+        self.sim.kept.add(vehicle_id)  # SUMO may never teleport or remove it (SumoSim.step)
 
     def lateral_speeds(self) -> dict[str, float]:
         """m/s, dy/dt of the poses written to each controlled vehicle."""

@@ -1,6 +1,6 @@
 """Random highway traffic by density, with the paper's lane speed bands.
 
-At t = 0 every SV lane (every through track of the route, cosim.traffic.route) gets
+At t = 0 every through track of the route (an SV lane that runs on, cosim.traffic.route) gets
 `density` vehicles per km spread along its first `length` metres of arc length s
 (about evenly, jittered), so the road is full from the start; then an inflow at the
 start of the route inserts the next vehicle of a track once the last one has driven a
@@ -32,7 +32,7 @@ import numpy as np
 
 from cosim.errors import InputError
 from cosim.params import G, RoadParams
-from cosim.traffic.sumo import TV_LENGTH, SumoSim
+from cosim.traffic.sumo import TV_LENGTH, TV_TYPE, TV_WIDTH, SumoSim
 
 QUANTILE_RANGE = (0.1, 0.95)  # -, desired speeds stay off the band's edges (drivers dawdle)
 SPACING_JITTER = 0.25  # -, spacing varies by +-25 % of 1000/density
@@ -260,3 +260,97 @@ def sample_lane_speeds(
         duration=duration,
         lane_changes=changes,
     )
+
+
+# ----------------------------------------------------------------------------- ramps
+RAMP_JITTER = 0.5  # -, a ramp vehicle's headway varies by +-50 % of 3600/flow
+
+
+@dataclass(frozen=True)
+class Ramp:
+    """An on-ramp of the route: an edge off it whose lane feeds a track that begins on
+    the route edge `route_index` (an acceleration lane, a lane added by the ramp)."""
+
+    edge: str  # SUMO id of the ramp edge (off the route)
+    lane: int  # its lane index the vehicles depart on
+    track: int  # the route's track it feeds (its speed band is the ramp vehicles' first)
+    route_index: int  # the route edge the track begins on
+
+
+def ramps(sim: SumoSim) -> tuple[Ramp, ...]:
+    """The route's on-ramps (`Ramp`): for every track that begins on a route edge and does
+    not run through (every lane of the route's first edge that ends, every lane that
+    begins later), the edges off the route connected into its first lane."""
+    road = sim.lanes.road
+    through = {t.id for t in sim.lanes.through}
+    on_route = set(road.route.edges)
+    found: list[Ramp] = []
+    for table in road.lanes:
+        first = table.track.pieces[0]
+        if table.id in through or first.internal:
+            continue
+        lane = road.route.net.getLane(first.lane)
+        for conn in sorted(lane.getIncoming(), key=lambda ln: ln.getID()):
+            edge = conn.getEdge()
+            if edge.getID() in on_route or edge.getFunction() == "internal":
+                continue
+            found.append(Ramp(edge.getID(), conn.getIndex(), table.id, first.route_index))
+    return tuple(found)
+
+
+@dataclass
+class RampFlow:
+    """SUMO-driven traffic from the route's on-ramps (`ramps`): `flow` vehicles per hour
+    from each, headways 3600/flow +-RAMP_JITTER, each on its ramp and then the rest of the
+    route, its desired speed at a random place in the band of the track it joins. A SumoSim
+    hook: a vehicle is added when its time has come (SUMO inserts it at the ramp's start as
+    soon as there is room)."""
+
+    flow: float  # veh/h per ramp
+    rng: np.random.Generator
+    traffic: Traffic  # the random traffic: ids from its counter (tv1, tv2, ...)
+    ramps: tuple[Ramp, ...] = ()
+    _next: list[float] = field(default_factory=list)  # s, each ramp's next departure
+
+    def headway(self) -> float:
+        mean = 3600.0 / self.flow
+        return mean * (1.0 + RAMP_JITTER * (2.0 * self.rng.random() - 1.0))
+
+    def __call__(self, sim: SumoSim) -> None:
+        t = sim.time
+        for i, ramp in enumerate(self.ramps):
+            if t < self._next[i]:
+                continue
+            api = sim.api
+            rid = f"ramp_{ramp.edge}@{ramp.route_index}"
+            if rid not in sim.lanes.extra_routes:
+                api.route.add(rid, [ramp.edge, *sim.lanes.road.route.edges[ramp.route_index:]])
+                sim.lanes.extra_routes.add(rid)
+            vid = self.traffic.new_id()
+            lo, hi = QUANTILE_RANGE
+            q = lo + (hi - lo) * self.rng.random()
+            desired = sim.bands.speed(ramp.track, q)
+            api.vehicle.add(vid, rid, typeID=TV_TYPE, departLane=str(ramp.lane),
+                            departPos="base", departSpeed="max")
+            api.vehicle.setMaxSpeed(vid, desired)
+            sim.bands.add(vid, ramp.track, q)
+            sim.dims[vid] = (TV_LENGTH, TV_WIDTH)
+            self._next[i] = t + self.headway()
+
+
+def ramp_flow(sim: SumoSim, flow: float, seed: int, traffic: Traffic | None = None
+              ) -> RampFlow | None:
+    """Start the on-ramp traffic (`RampFlow`, `flow` veh/h per ramp; its own random stream
+    of `seed`) as a step hook of `sim`; None when `flow` is 0 or the route has no ramp."""
+    if flow <= 0.0:
+        return None
+    found = ramps(sim)
+    if not found:
+        return None
+    rng = np.random.default_rng([seed, 24])
+    if traffic is None:
+        traffic = Traffic(density=0.0, length=0.0, rng=rng, inflow=False)
+    hook = RampFlow(flow, rng, traffic, found)
+    hook._next = [float(rng.random()) * 3600.0 / flow for _ in found]
+    sim.add_hook(hook)
+    return hook

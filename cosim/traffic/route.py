@@ -3,15 +3,20 @@ SV's lanes, where a point (track, s) lies in SUMO's terms (edge, lane index, lan
 position), which track a Cartesian point is in (the moveToXY hint), and the planner's
 RoadParams of the road.
 
-A *through track* runs the whole route, from its first edge to its last; the SV's
-lanes ("lane k" in scenarios, the policy and RoadParams) are the through tracks, k
-their track id (on networks/curved_motorway.net.xml tracks 0, 1, 2; track 3, the lane
-added at j2 that ends at j3, is not one). Tracks that are not through tracks (lanes
-added or dropped along the route) carry traffic but are not SV lanes yet (issue 24:
-lane ends). The scenario's speed bands are per through track, in track id order; a
-track that is not a through track takes the band of the through track next to it
-(nearest by SUMO's lane index on the track's first route edge; on a tie the one on
-its right, the slower).
+A *through track* runs the whole route, from its first edge to its last. The SV's lanes
+("lane k" in scenarios, the policy and RoadParams) are the tracks present on the
+route's first edge, k their track id (SUMO's lane index there): each runs through or
+ends on the route (an acceleration lane on the right, a lane dropped on the left or
+right; issue 24), and RoadParams.lane_ends says where. On
+networks/curved_motorway.net.xml they are tracks 0, 1, 2 (all through); on
+networks/onramp.net.xml along `acc main1 main2` tracks 0-3, track 0 the acceleration
+lane that ends after 194.5 m. Tracks that begin later (a lane added along the route)
+carry traffic but are no SV lanes (the snapshot's lane -1). What is refused
+(`check_lanes`): no lane running through, an SV lane ending between two that run on,
+lanes of different widths. The scenario's speed bands are per through track, in
+track id order; an SV lane that ends takes the band of the through lane beside it, any
+other track the band of the SV lane next to it (nearest by SUMO's lane index on the
+track's first route edge; on a tie the one on its right, the slower).
 
 On a one-edge straight road the track id is SUMO's lane index and every conversion is
 the exact arithmetic of the old one-edge code (s = x - x0, lane position = s - s of the
@@ -79,30 +84,61 @@ def _road(path: str, mtime_ns: int, size: int, route: tuple[str, ...] | None) ->
 def through_tracks(road: Road) -> tuple[LaneTable, ...]:
     """The tracks that run from the route's first edge to its last, in track id order."""
     last = len(road.route.edges) - 1
+    return tuple(t for t in sv_tracks(road) if t.track.last_edge == last)
+
+
+def sv_tracks(road: Road) -> tuple[LaneTable, ...]:
+    """The SV's lanes: the tracks present on the route's first edge (running through or
+    ending on the route), in track id order (SUMO's lane index on that edge)."""
     return tuple(t for t in road.lanes
-                 if t.track.first_edge == 0 and t.track.last_edge == last
-                 and not t.track.pieces[0].internal)
+                 if t.track.first_edge == 0 and not t.track.pieces[0].internal)
 
 
 def lane_width(road: Road, source: str | None = None) -> float:
-    """m, the through tracks' common lane width (InputError, one line, if they differ)."""
-    widths = sorted({round(float(w), 6) for t in through_tracks(road) for w, p in
+    """m, the SV lanes' common width (InputError, one line, if they differ)."""
+    widths = sorted({round(float(w), 6) for t in sv_tracks(road) for w, p in
                      zip(t.width, t.track.pieces, strict=True) if not p.internal})
     if len(widths) != 1:
         raise InputError(source or str(road.route.path), "lane widths", widths,
-                         "through lanes of one width along the route (the planner's lanes "
+                         "lanes of one width along the route (the planner's lanes "
                          f"are one width; these are {', '.join(f'{w:g}' for w in widths)} m)")
     return widths[0]
 
 
+def expand_bands(road: Road, bands: tuple[tuple[float, float], ...]
+                 ) -> tuple[tuple[float, float], ...]:
+    """One speed band per SV lane from `bands`, one per through lane (the scenario's):
+    an SV lane that ends takes its nearest through lane's band. `bands` of another
+    length are returned as they are (one per SV lane already, or a count the scenario
+    rules refuse)."""
+    lanes = sv_tracks(road)
+    through = [t.id for t in through_tracks(road)]
+    if len(bands) != len(through) or len(lanes) == len(through):
+        return bands
+    rank = {tid: k for k, tid in enumerate(through)}
+    out = []
+    for t in lanes:
+        nearest = min(through, key=lambda tid: (abs(tid - t.id), tid))
+        out.append(bands[rank[t.id if t.id in rank else nearest]])
+    return tuple(out)
+
+
 def road_params(road: Road, base: RoadParams | None = None,
                 source: str | None = None) -> RoadParams:
-    """The planner's view of the road in (s, d): the through tracks' lane width, y_right
-    = 0 (d is measured from the reference track's right border), speed bands and mu from
-    `base` (one band per through track)."""
+    """The planner's view of the road in (s, d): one lane per SV lane (`sv_tracks`), their
+    width, y_right the d of lane 0's right border (d = 0 is the reference track's right
+    border: 0 unless lanes that end lie right of it, an acceleration lane: -width),
+    lane_ends where each ends (s, m; () when none does), speed bands (`base`'s, one per
+    through lane, `expand_bands`) and mu from `base`."""
     base = base or RoadParams()
-    return RoadParams(lane_width=lane_width(road, source), speed_bands=base.speed_bands,
-                      mu=base.mu, y_right=0.0)
+    width = lane_width(road, source)
+    lanes = sv_tracks(road)
+    through = {t.id for t in through_tracks(road)}
+    below = sum(1 for t in lanes if t.id < road.reference.id)
+    ends = tuple(math.inf if t.id in through else t.end for t in lanes)
+    return RoadParams(lane_width=width, speed_bands=expand_bands(road, base.speed_bands),
+                      mu=base.mu, y_right=-below * width if below else 0.0,
+                      lane_ends=ends if any(math.isfinite(e) for e in ends) else ())
 
 
 class RouteLanes:
@@ -111,15 +147,17 @@ class RouteLanes:
     def __init__(self, road: Road) -> None:
         self.road = road
         self.through = through_tracks(road)
+        self.sv = sv_tracks(road)  # the SV's lanes (through or ending on the route)
         self.straight = isinstance(road.frame, StraightFrame)
-        # SUMO lane id -> through-track id, junction lanes included (the snapshot's lane)
-        self.through_lane: dict[str, int] = {
-            p.lane: t.id for t in self.through for p in t.track.pieces}
+        # SUMO lane id -> SV-lane (track) id, junction lanes included (the snapshot's lane)
+        self.sv_lane: dict[str, int] = {
+            p.lane: t.id for t in self.sv for p in t.track.pieces}
         # the lanes of route edges, with their tracks (a TV's band changes only there)
         self.edge_lanes: tuple[tuple[str, int], ...] = tuple(
             (p.lane, t.id) for t in road.lanes for p in t.track.pieces if not p.internal)
         self._s_end = {t.id: t.s_end.tolist() for t in road.lanes}
         self._added: set[int] = set()  # route indices whose rest-of-route SUMO has
+        self.extra_routes: set[str] = set()  # other routes added to SUMO (on-ramp traffic)
         self._sampled: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
 
     @property
@@ -129,14 +167,14 @@ class RouteLanes:
 
     @functools.cached_property
     def band_index(self) -> dict[int, int]:
-        """Track id -> index of its speed band (a through track's rank; any other track:
-        its neighbouring through track's)."""
-        index = {t.id: k for k, t in enumerate(self.through)}
+        """Track id -> index of its speed band in RoadParams.speed_bands (an SV lane's
+        own; any other track: its neighbouring SV lane's)."""
+        index = {t.id: k for k, t in enumerate(self.sv)}
         for table in self.road.lanes:
             if table.id in index:
                 continue
             piece = next(p for p in table.track.pieces if not p.internal)
-            beside = [(abs(q.index - piece.index), q.index, index[t.id]) for t in self.through
+            beside = [(abs(q.index - piece.index), q.index, index[t.id]) for t in self.sv
                       if (q := t.track.piece_on(piece.edge)) is not None]
             index[table.id] = min(beside)[2] if beside else 0
         return index
@@ -153,6 +191,7 @@ class RouteLanes:
     def forget_routes(self) -> None:
         """SUMO closed: its routes are gone."""
         self._added.clear()
+        self.extra_routes.clear()
 
     def table(self, track: int) -> LaneTable:
         """The lane table of a track (InputError: no such track on the route)."""
@@ -274,12 +313,32 @@ def sv_start(road: Road, edge: str | None, lane: int, position: float) -> tuple[
                      f"a lane of edge {edge_id!r} that a track of the route runs through")
 
 
-def check_through(road: Road, source: str) -> None:
-    """InputError unless the through tracks are tracks 0..n-1: the SV's lanes k are
-    track ids, and a lane of the first edge that ends on the route is issue 24's."""
-    ids = [t.id for t in through_tracks(road)]
-    if ids != list(range(len(ids))):
-        raise InputError(source, "road.route", list(road.route.edges),
-                         "a route whose lanes that run from its first edge to its last are its "
-                         f"rightmost lanes there (tracks {ids} run through: a lane that ends "
-                         "on the route is not supported yet)")
+def check_lanes(road: Road, source: str, sv_edge: str | None = None,
+                sv_lane: int | None = None) -> None:
+    """InputError (one line) unless the route's SV lanes (`sv_tracks`) can be driven: they
+    are tracks 0..n-1 (no lane closed to cars among them), those that run through the
+    whole route lie side by side (a lane that ends does so on the right or left of them,
+    not between two that run on) and the SV starts on one of them (`sv_edge`, `sv_lane`:
+    [sv] edge and lane; a lane that begins along the route is none)."""
+    lanes = [t.id for t in sv_tracks(road)]
+    through = [t.id for t in through_tracks(road)]
+    edges = list(road.route.edges)
+    if lanes != list(range(len(lanes))):
+        raise InputError(source, "road.route", edges,
+                         f"a route whose first edge {edges[0]!r} has only lanes open to cars "
+                         f"(its tracks are {lanes})")
+    if through != list(range(through[0], through[-1] + 1)):
+        middle = [k for k in range(through[0], through[-1]) if k not in through]
+        raise InputError(source, "road.route", edges,
+                         f"a route whose lanes that end on it lie right or left of those that "
+                         f"run through (lane {middle[0]} of edge {edges[0]!r} ends between "
+                         "two that run on: not supported)")
+    if sv_lane is not None:
+        edge = sv_edge if sv_edge is not None else edges[0]
+        track = next((t for t in road.lanes if (p := t.track.piece_on(edge)) is not None
+                      and p.index == sv_lane), None)
+        if track is not None and track.id not in lanes:
+            raise InputError(source, "sv.lane", sv_lane,
+                             f"a lane of the route's first edge {edges[0]!r} (lane {sv_lane} "
+                             f"of {edge!r} begins along the route; start the route on the "
+                             "edge where it begins)")

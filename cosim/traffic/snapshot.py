@@ -52,10 +52,10 @@ class TrafficSnapshot:
     heading: np.ndarray  # rad, math convention
     speed: np.ndarray  # m/s, along the lane
     accel: np.ndarray  # m/s^2, longitudinal
-    # int, the through track the vehicle is on (cosim.traffic.route: the SV's lane k is
-    # track k; on the one-edge road SUMO's lane index); -1: on no through track of the
-    # route (a road crossing it on a bridge, another road, off the network, and until
-    # issue 24 a lane added or dropped along the route)
+    # int, the SV lane the vehicle is on (cosim.traffic.route: the SV's lane k is track
+    # k, a track of the route's first edge, running through or ending on the route; on
+    # the one-edge road SUMO's lane index); -1: on none (a road crossing the route on a
+    # bridge, another road such as an on-ramp, off the network, a lane added along it)
     lane: np.ndarray
     lateral_speed: np.ndarray  # m/s, + to the left (non-zero while changing lanes)
     length: np.ndarray  # m
@@ -121,7 +121,8 @@ class SnapshotReader:
     `dims` (vehicle id -> (length, width), m) is shared with the adapter, which knows
     the sizes of the vehicles it adds; `lateral_speeds()` gives the sideways speeds
     of the vehicles moved by moveToXY (SUMO reports 0 for them); `tracks` maps SUMO's
-    lane ids of the route's through tracks to their track ids (a vehicle's `lane`)."""
+    lane ids of the route's SV lanes (cosim.traffic.route.sv_tracks) to their track ids
+    (a vehicle's `lane`)."""
 
     def __init__(self, api: ModuleType, dims: dict[str, tuple[float, float]],
                  lateral_speeds: Callable[[], Mapping[str, float]],
@@ -286,7 +287,7 @@ class SnapshotReader:
         return float(self.api.vehicle.getSpeed(vehicle_id))
 
     def lane_index(self, vehicle_id: str) -> int:
-        """The through track a vehicle is on, as the snapshot's `lane` (-1: none)."""
+        """The SV lane (track) a vehicle is on, as the snapshot's `lane` (-1: none)."""
         return self.tracks.get(self.api.vehicle.getLaneID(vehicle_id), -1)
 
     def leader(self, vehicle_id: str, distance: float = 200.0) -> tuple[str, float] | None:

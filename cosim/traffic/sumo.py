@@ -1,7 +1,7 @@
 """The SUMO adapter: the only module (with its parts below) that imports libsumo / traci.
 
 `SumoSim` starts SUMO on a route's road (cosim.road.road.Road: SUMO's route is its
-edges, the SV's lanes its through tracks, cosim.traffic.route), steps it, reads every
+edges, the SV's lanes the tracks of its first edge, cosim.traffic.route), steps it, reads every
 traffic vehicle (TV) in one pass into a `TrafficSnapshot`, and lets the co-simulation
 drive vehicles it controls itself (the SV and scripted TVs) with
 `vehicle.moveToXY(..., keepRoute=2)`.
@@ -69,9 +69,11 @@ class SumoSim:
     `lanechange_duration` (s) makes traffic lane changes continuous (constant
     lateral speed for that long); `sublane` uses SUMO's sublane model instead
     (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci; `traci`
-    the headless binary so. `speed_bands` (m/s per SV lane: per through track) set each
-    TV's desired speed on the track it is on. `strict`: a controlled vehicle leaving the
-    network raises SimulationError (else it is only recorded in `events`). `fcd_output`:
+    the headless binary so. `speed_bands` (m/s per SV lane, or per through track:
+    cosim.traffic.route.expand_bands) set each TV's desired speed on the track it is on.
+    `strict`: a controlled vehicle leaving the network, or SUMO teleporting or removing
+    the SUMO-driven SV, raises SimulationError (else it is only recorded in `events`).
+    `fcd_output`:
     the file SUMO writes its floating-car data to (--fcd-output), complete once closed.
     """
 
@@ -89,7 +91,7 @@ class SumoSim:
         if lanechange_duration < 0:
             raise InputError("SumoSim", "lanechange_duration", lanechange_duration, ">= 0 s")
         # the route's road (cosim.road): SUMO's route is its edges, the SV's lanes its
-        # through tracks (cosim.traffic.route); `road` if the caller has built it
+        # first edge's tracks (cosim.traffic.route); `road` if the caller has built it
         self.lanes = RouteLanes(road if road is not None else route_road(network, route))
         self.process: SumoProcess = process(
             self.lanes.road.route.path, step, seed, lanechange_duration=lanechange_duration,
@@ -98,7 +100,7 @@ class SumoSim:
         self.strict = bool(strict)
         base = RoadParams() if speed_bands is None else RoadParams(speed_bands=speed_bands)
         self._road = road_params(self.lanes.road, base, str(network))
-        n = len(self.lanes.through)
+        n = len(self.lanes.sv)
         if self._road.n_lanes != n:
             raise InputError(str(network), "speed_bands", speed_bands,
                              f"{n} (min, max) pairs (one per lane of the route)")
@@ -111,6 +113,9 @@ class SumoSim:
         self._hooks: list[Callable[[SumoSim], None]] = []
         self._types: set[str] = set()
         self._reader: SnapshotReader | None = None  # the reading side, while running
+        # vehicles SUMO drives that must stay until the run ends (the SUMO-driven SV):
+        # a teleport or a removal of one is a SimulationError (`step`), never silent
+        self.kept: set[str] = set()
 
     # ------------------------------------------------------------------ lifecycle
     @property
@@ -134,10 +139,11 @@ class SumoSim:
 
     def start(self) -> SumoSim:
         api = self.process.start()
+        self.kept.clear()
         if self.gui:
             self.add_hook(gui_window.Pacer(self.gui.speed))
         self._reader = SnapshotReader(api, self.dims, self.controlled.lateral_speeds,
-                                      self.lanes.through_lane)
+                                      self.lanes.sv_lane)
         self.lanes.forget_routes()
         self.lanes.route_id(api, 0)  # the whole route
         self._ensure_type(TV_TYPE, TV_LENGTH, TV_WIDTH, traffic=True)
@@ -210,11 +216,35 @@ class SumoSim:
         self.reader.left(arrived, untracked=bool(teleported))
         for vid in sorted(teleported):
             self.events.append(TrafficEvent(t, "teleport", vid, "SUMO teleported it"))
+        if self.kept:
+            self._check_kept(t, teleported, arrived)
         self.reader.cached = None  # read on demand: snapshot() or snapshot_near()
         self.bands.keep(api)
         self.controlled.check(t, teleported)
         for hook in self._hooks:
             hook(self)
+
+    def _check_kept(self, t: float, teleported: set[str], arrived: Sequence[str]) -> None:
+        """SimulationError (if `strict`) when SUMO teleported, removed or lost a vehicle of
+        `kept` in the last step (an event is recorded either way)."""
+        gone = set(arrived)
+        for vid in sorted(self.kept):
+            if vid in teleported:
+                detail = (f"SUMO teleported {vid} (blocked too long; it must never be moved "
+                          "off its lane by SUMO)")
+            elif vid in gone:
+                detail = (f"SUMO removed {vid}: it arrived (the end of its route, or a "
+                          "lane it could not leave) before the run's end")
+            else:
+                try:  # one call: is it still there (an unknown id raises)
+                    self.api.vehicle.getLaneID(vid)
+                    continue
+                except self.api.TraCIException:
+                    detail = f"{vid} is no longer in SUMO (removed) before the run's end"
+            self.kept.discard(vid)
+            self.events.append(TrafficEvent(t, "lost", vid, detail))
+            if self.strict:
+                raise SimulationError(t, detail)
 
     # ------------------------------------------------------------------ traffic
     def _ensure_type(self, type_id: str, length: float, width: float, traffic: bool) -> None:
@@ -332,6 +362,7 @@ class SumoSim:
     def remove(self, vehicle_id: str) -> None:
         """Take a vehicle off the network (controlled or not)."""
         self.api.vehicle.remove(vehicle_id)
+        self.kept.discard(vehicle_id)  # asked for: no loss
         self.reader.untracked()
         self.controlled.vehicles.pop(vehicle_id, None)
         self.bands.forget(vehicle_id)

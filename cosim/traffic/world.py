@@ -142,6 +142,7 @@ class World:
         road = sc.road  # lane geometry: the network's, read once by the scenario
         x0 = self.sv_start_x
         track = self.sv_start_track
+        traffic = None
         if tr.density > 0:
             from cosim.traffic.demand import populate, start_zone
 
@@ -150,8 +151,13 @@ class World:
             # the queue SUMO inserts: keep room to brake (and for its follower)
             zone = start_zone(x0, sc.vehicle.length, sc.sv.speed,
                               road.speed_bands[track][1])
-            populate(self.sumo, road, tr.density, sc.seed, tr.length,
-                     exclude_zone=(x0 - margin, x0 + margin), lane_zones={track: zone})
+            traffic = populate(self.sumo, road, tr.density, sc.seed, tr.length,
+                               exclude_zone=(x0 - margin, x0 + margin),
+                               lane_zones={track: zone})
+        if tr.ramp_flow > 0:  # on-ramp traffic (issue 24), its own random stream
+            from cosim.traffic.demand import ramp_flow
+
+            ramp_flow(self.sumo, tr.ramp_flow, sc.seed, traffic)
         return road
 
     @property

@@ -330,11 +330,11 @@ def test_the_world_starts_traffic_around_the_sv_on_its_track() -> None:
         world.close()
 
 
-def test_a_run_past_the_routes_end_and_a_route_whose_first_lane_ends_are_refused(
+def test_a_run_past_the_routes_end_is_refused_and_a_first_lane_that_ends_is_an_sv_lane(
         tmp_path: Path) -> None:
     from cosim.errors import InputError
     from cosim.scenario.load import scenario_from_dict
-    from cosim.traffic.route import check_through
+    from cosim.traffic.route import check_lanes, road_params
 
     doc = _curved_doc(edge="e4", lane=1, position_m=500.0, lane_changes=[])
     doc["tv"] = []
@@ -347,8 +347,11 @@ def test_a_run_past_the_routes_end_and_a_route_whose_first_lane_ends_are_refused
         '<node id="C" x="2000" y="0"/></nodes>',
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
         '<edge id="BC" from="B" to="C" numLanes="2" speed="33.3"/></edges>')
-    with pytest.raises(InputError, match=r"tracks \[1, 2\] run through"):
-        check_through(load_road(net, ["AB", "BC"]), "s.toml")
+    road = load_road(net, ["AB", "BC"])
+    check_lanes(road, "s.toml")  # issue 24: lane 0 ends at B, an SV lane like the others
+    rp = road_params(road)
+    assert rp.n_lanes == 3 and rp.y_right == pytest.approx(-rp.lane_width)
+    assert rp.lane_end(0) <= 1000.0 and rp.lane_end(1) == rp.lane_end(2) == math.inf
 
 
 def test_lanes_named_on_an_edge_with_a_lane_added_count_as_tracks() -> None:

@@ -1,0 +1,162 @@
+"""Lanes that end, in real SUMO (issue 24): the SUMO-driven SV merges from the on-ramp's
+acceleration lane and is never teleported or removed (a removal fails the run); TVs on
+an ending SV lane read that lane; on-ramp traffic; the merge metrics of a SUMO-native
+ramp run."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim.errors import SimulationError
+from cosim.scenario.load import load_scenario
+from cosim.sim import simulate
+from cosim.traffic.demand import ramp_flow, ramps
+from cosim.traffic.network import NETWORK_DIR
+from cosim.traffic.sumo import SumoSim
+
+ROOT = Path(__file__).resolve().parents[2]
+NET = NETWORK_DIR / "onramp.net.xml"
+
+
+def _ramp_merge(**traffic: float):
+    sc = load_scenario(ROOT / "scenarios" / "ramp_merge.toml")
+    sc = dataclasses.replace(sc, sv=dataclasses.replace(sc.sv, controller="sumo"))
+    if traffic:
+        sc = dataclasses.replace(sc, traffic=dataclasses.replace(sc.traffic, **traffic))
+    return sc
+
+
+@pytest.mark.parametrize("density", [20.0, 45.0])
+def test_the_sumo_driven_sv_merges_from_the_acceleration_lane_and_stays(density: float
+                                                                        ) -> None:
+    """SUMO-native on ramp_merge: never teleported or removed (SumoSim.step raises a
+    SimulationError if it were: this run would fail), no event about the SV, the merge
+    metrics of the trace."""
+    sc = _ramp_merge(density=density)
+    result = simulate(sc)
+    assert not [e for e in result.events if " sv:" in e or " sv " in e]
+    m = result.metrics
+    assert m["duration_s"] == pytest.approx(sc.duration) and m["collisions"] == 0
+    end = result.road.lane_end(0)
+    assert 180.0 < end < 200.0
+    assert m["merge_success"] == 1
+    t, s, lane = result.trace["t_s"], result.trace["s_m"], result.trace["lane"]
+    k = int(np.flatnonzero(lane != 0)[0])
+    assert lane[0] == 0 and lane[k] == 1  # from the acceleration lane into lane 1
+    assert m["merge_distance_to_end_m"] == pytest.approx(end - s[k])
+    assert 0.0 < m["merge_distance_to_end_m"] < end
+    assert m["stopped_time_s"] == pytest.approx(
+        float(np.sum(np.diff(t)[result.trace["vx_mps"][:-1] < 0.1])))
+    decel = m["merge_follower_max_decel_mps2"]
+    assert math.isnan(decel) or 0.0 <= decel < 9.0
+
+
+def test_a_removed_sumo_driven_sv_fails_the_run() -> None:
+    """The detection is live: the SV gone from SUMO (removed behind our back, as SUMO
+    removes a vehicle it cannot place) raises at the next step."""
+    with SumoSim(NET, 0.05, 1, route=["acc", "main1", "main2"]) as sim:
+        pose = sim.centre_pose(0, 30.0)
+        sim.add_driven("sv", 0, pose, 20.0, 25.0, 4.32, 1.8, own_lane_changes=True)
+        sim.step()
+        sim.controlled.release("sv")
+        sim.step()
+        assert sim.api.vehicle.getLaneID("sv") == "acc_0"
+        assert sim.snapshot().lane[0] == 0  # the acceleration lane is SV lane 0
+        sim.api.vehicle.remove("sv")
+        with pytest.raises(SimulationError, match="sv is no longer in SUMO"):
+            sim.step()
+        assert [e.kind for e in sim.events] == ["lost"]
+    with SumoSim(NET, 0.05, 1, route=["acc", "main1", "main2"]) as sim:
+        end = sim.lanes.table(1).end  # SUMO removes it at the end of its route
+        sim.add_driven("sv", 1, sim.centre_pose(1, end - 10.0), 25.0, 25.0, 4.32, 1.8,
+                       own_lane_changes=True)
+        sim.step()
+        sim.controlled.release("sv")
+        with pytest.raises(SimulationError, match="SUMO removed sv: it arrived"):
+            for _ in range(40):
+                sim.step()
+
+
+def test_ramp_traffic_comes_up_the_ramp_and_reads_lane_0_on_the_acceleration_lane() -> None:
+    with SumoSim(NET, 0.1, 3, route=["acc", "main1", "main2"]) as sim:
+        found = ramps(sim)
+        assert [(r.edge, r.lane, r.track, r.route_index) for r in found] == \
+            [("ramp", 0, 0, 0)]
+        hook = ramp_flow(sim, 1800.0, 3)
+        assert hook is not None
+        lanes: dict[str, set[int]] = {}
+        for _ in range(400):  # 40 s: 400 m of ramp, then the acceleration lane
+            sim.step()
+            snap = sim.snapshot()
+            for vid, lane in zip(snap.ids, snap.lane, strict=True):
+                lanes.setdefault(vid, set()).add(int(lane))
+        assert 10 <= len(lanes) <= 30  # ~20 at 1800 veh/h
+        assert all(vid.startswith("tv") for vid in lanes)
+        # off the route on the ramp (-1), then lane 0 (acc_0) and into lane 1
+        merged = [v for v, seen in lanes.items() if {-1, 0, 1} <= seen]
+        assert merged
+        assert not sim.events  # nobody teleported
+
+
+def test_our_sv_on_the_acceleration_lane_is_moved_there_and_merges_by_a_scripted_change(
+) -> None:
+    """Our SV (MIMO) starts on the ending acceleration lane: moveToXY with that lane as
+    the hint keeps SUMO's SV on acc_0, then, as its scripted change to lane 1 crosses
+    the line, on acc_1 and main1_0; never lost; the merge metrics see the merge."""
+    from cosim.scenario.load import read_toml, scenario_from_dict
+
+    path = ROOT / "scenarios" / "ramp_merge.toml"
+    doc = read_toml(path)
+    doc["sv"].update(decision=False, lane_changes=[{"at_s": 1.0, "target_lane": 1}])
+    doc["traffic"].update(density_veh_per_km_lane=0.0, ramp_flow_veh_per_h=0.0)
+    doc["scenario"]["duration_s"] = 12.0
+    result = simulate(scenario_from_dict(doc, path=path))
+    assert not result.events
+    trace = result.trace
+    edges = [result.edges[int(k)] for k in trace["edge"]]
+    sumo_lane = [f"{e}_{int(i)}" for e, i in zip(edges, trace["sumo_lane"], strict=True)]
+    assert sumo_lane[0] == "acc_0" and trace["lane"][0] == 0
+    assert "acc_1" in sumo_lane and edges[-1] == "main1"
+    # SUMO's lane follows the SV (the hint is the lane its front is in): the acceleration
+    # lane while its centre is there, never once its centre is in lane 1
+    in_acc0 = np.array([s == "acc_0" for s in sumo_lane])
+    assert (trace["d_m"][in_acc0] < 0.0).all()
+    assert not in_acc0[trace["lane"] == 1].any()
+    m = result.metrics
+    assert m["merge_success"] == 1 and m["lane_changes"] == 1 and m["collisions"] == 0
+    assert 0.0 < m["merge_distance_to_end_m"] < result.road.lane_end(0)
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    ({"route": '["ramp", "acc", "main1"]', "edge": '"ramp"'},
+     "a route starting on an on-ramp before its lane runs beside the mainline is not "
+     "supported"),
+    ({"route": '["main0", "acc", "main1", "main2"]', "edge": '"acc"'},
+     "lane 0 of 'acc' begins along the route"),
+    ({"lane_speeds_kmh": "[[60, 90], [90, 110]]"},
+     r"3 \[min, max\] pairs in km/h, one per lane that runs through the route"),
+])
+def test_what_cannot_be_driven_is_refused_in_one_line_exit_2(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], change: dict[str, str],
+        message: str) -> None:
+    import re
+
+    from cosim.cli import main
+
+    text = (ROOT / "scenarios" / "ramp_merge.toml").read_text(encoding="utf-8")
+    text = text.replace('"networks/onramp.net.xml"', repr(str(NET)).replace("'", '"'))
+    for key, value in change.items():
+        text, n = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+        assert n == 1, key
+    path = tmp_path / "bad.toml"
+    path.write_text(text, encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--no-figures", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and re.search(message, err), err
+    assert not out.exists()
