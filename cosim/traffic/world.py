@@ -118,6 +118,8 @@ class World:
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
             fcd_output=fcd_output, road=self.route_road,
+            route_files=sc.demand.route_files if sc.demand else (),
+            additional_files=sc.demand.additional_files if sc.demand else (),
         )
         self.scenario = sc
         # everything read and written is converted through the route's frame
@@ -131,6 +133,7 @@ class World:
         self.wall_read = 0.0
         self.t_offset = 0.0  # s, SUMO's clock when the run's t = 0
         self.gap_requests: list[CooperationChannel] = []  # open_gap_requests
+        self.cleared: list[str] = []  # the user's vehicles taken off at the SV's entry
 
     def start(self) -> RoadParams:
         """Start SUMO and place the random traffic around the SV's start; returns the
@@ -152,7 +155,41 @@ class World:
                               road.speed_bands[track][1])
             populate(self.sumo, road, tr.density, sc.seed, tr.length,
                      exclude_zone=(x0 - margin, x0 + margin), lane_zones={track: zone})
+        if sc.demand is not None:
+            self.warm_up(sc.demand.warmup)
         return road
+
+    def warm_up(self, warmup: float) -> list[str]:
+        """The user's own demand (cosim.traffic.own_demand) runs alone for `warmup` s
+        (whole steps), then its vehicles inside the zones the SV and the scripted TVs start
+        in are taken off the road (the zones random traffic leaves free: `start_zone` in
+        their own lane, SV_LENGTH_MARGIN SV lengths around the SV in every lane), so no one
+        starts overlapping or too close; returns the ids taken off, in order."""
+        sc = self.scenario
+        for _ in range(int(round(warmup / sc.step))):
+            self.sumo.step()
+        from cosim.traffic.demand import start_zone
+
+        bands = sc.road.speed_bands
+        x0, track = self.sv_start_x, self.sv_start_track
+        margin = SV_LENGTH_MARGIN * sc.vehicle.length
+        zones = [(-1, x0 - margin, x0 + margin),
+                 (track, *start_zone(x0, sc.vehicle.length, sc.sv.speed, bands[track][1]))]
+        for tv in sc.in_tracks(track).tvs:
+            if 0 <= tv.lane < len(bands):
+                zones.append((tv.lane, *start_zone(x0 + tv.gap, tv.length, tv.speed,
+                                                   bands[tv.lane][1])))
+        snap = self.read_all()
+        lo, hi = snap.x - 0.5 * snap.length, snap.x + 0.5 * snap.length
+        inside = np.zeros(len(snap), dtype=bool)
+        for lane, z_lo, z_hi in zones:
+            on = (snap.lane >= 0) if lane < 0 else (snap.lane == lane)
+            inside |= on & (hi >= z_lo) & (lo <= z_hi)
+        removed = sorted(vid for vid, hit in zip(snap.ids, inside, strict=True) if hit)
+        for vid in removed:
+            self.sumo.remove(vid)
+        self.cleared = removed
+        return removed
 
     @property
     def sv_start_x(self) -> float:
@@ -183,9 +220,14 @@ class World:
 
         vehicle = self.sumo.api.vehicle
         found = vehicle.getLeader(SV_ID, 1000.0)  # gap from the SV's front + its minGap
-        if not found or not found[0] or not RANDOM_ID.fullmatch(found[0]):
+        if not found or not found[0]:
             return speed, "", float("inf"), float("nan")
         leader = str(found[0])
+        sc = self.scenario
+        # SUMO's traffic: cosim's random vehicles, or any of the user's own demand
+        theirs = sc.demand is not None and leader not in {tv.id for tv in sc.tvs}
+        if not (RANDOM_ID.fullmatch(leader) or theirs):
+            return speed, "", float("inf"), float("nan")
         gap = float(found[1]) + float(vehicle.getMinGap(SV_ID))
         leader_speed = float(vehicle.getSpeed(leader))
         return safe_start_speed(speed, gap, leader_speed, mu), leader, gap, leader_speed
