@@ -26,7 +26,13 @@ from cosim.scenario.model import (
     V2VSpec,
 )
 from cosim.traffic.network import SUPPORTED, Highway, load_highway, network_precision
-from cosim.traffic.own_demand import OwnDemand, SumoConfig, check_demand, read_sumocfg
+from cosim.traffic.own_demand import (
+    OwnDemand,
+    SumoConfig,
+    check_demand,
+    dry_load,
+    read_sumocfg,
+)
 from cosim.traffic.route import (
     RouteLanes,
     check_through,
@@ -207,7 +213,8 @@ def scenario_from_dict(
     # on the one straight edge of networks/highway.net.xml the RoadParams of before)
     road_of_route = route_road(network, rd["route"], source=src)
     traffic = _traffic(src, tables["traffic"], base_dir)
-    demand = _own_demand(src, traffic, config, network, [tv.id for tv in tvs])
+    demand = _own_demand(src, traffic, tables["traffic"]["routes"], rd["sumocfg"], config,
+                         network, [tv.id for tv in tvs])
     base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
     road = road_params(road_of_route, base, src)
     start: tuple[int, float] | None = None
@@ -317,18 +324,21 @@ def route_view(road: Road, sv_edge: str | None) -> Highway:
     )
 
 
-def _own_demand(src: str, traffic: TrafficSpec, config: SumoConfig | None, network: Path,
+def _own_demand(src: str, traffic: TrafficSpec, written_routes: tuple[str, ...] | None,
+                written_cfg: str | None, config: SumoConfig | None, network: Path,
                 scripted: list[str]) -> OwnDemand | None:
     """The user's demand ([road] sumocfg's route and additional files, then [traffic]
-    routes), every file read and checked before SUMO starts (cosim.traffic.own_demand);
-    None without any. Their demand is the traffic: cosim's random traffic is refused with
-    it, and a warm-up without it."""
+    routes: `traffic.routes` resolved, `written_*` as the file wrote them), every file read
+    and checked before SUMO starts (cosim.traffic.own_demand); None without any. Their
+    demand is the traffic: cosim's random traffic is refused with it, and a warm-up
+    without it."""
     files: list[tuple[str, str, Path]] = []
     if config is not None:
-        cfg = f"road.sumocfg ({config.path.name})"
-        files += [(cfg, str(f), f) for f in (*config.route_files, *config.additional_files)]
-    written = traffic.routes or ()
-    files += [(f"traffic.routes[{i}]", w, Path(w)) for i, w in enumerate(written)]
+        files += [("road.sumocfg", str(written_cfg), f)
+                  for f in (*config.route_files, *config.additional_files)]
+    resolved = traffic.routes or ()
+    files += [(f"traffic.routes[{i}]", w, Path(r)) for i, (w, r) in
+              enumerate(zip(written_routes or (), resolved, strict=True))]
     warmup = traffic.warmup or 0.0
     if not files:
         if warmup > 0:
@@ -343,9 +353,15 @@ def _own_demand(src: str, traffic: TrafficSpec, config: SumoConfig | None, netwo
     net = read_sumo_network(network)
     check_demand(src, files, {e.getID() for e in net.getEdges(withInternal=False)},
                  network.name, scripted)
-    return OwnDemand(
-        route_files=(*(config.route_files if config else ()), *(Path(w) for w in written)),
+    demand = OwnDemand(
+        route_files=(*(config.route_files if config else ()), *(Path(r) for r in resolved)),
         additional_files=config.additional_files if config else (), warmup=warmup)
+    # what only SUMO knows (attribute values, ...): it loads them once, before the run
+    key, value = ("road.sumocfg", written_cfg) if not resolved else (
+        "traffic.routes", list(written_routes or ())) if config is None else (
+        "road.sumocfg and traffic.routes", [written_cfg, *(written_routes or ())])
+    dry_load(src, key, value, network, demand.route_files, demand.additional_files)
+    return demand
 
 
 def _traffic(src: str, values: dict[str, Any], base_dir: Path) -> TrafficSpec:

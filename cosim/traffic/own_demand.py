@@ -24,6 +24,7 @@ other option in it is ignored (README "Running cosim in your own SUMO scenario" 
 
 from __future__ import annotations
 
+import functools
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
@@ -97,7 +98,7 @@ def _parse(source: str, key: str, written: str, path: Path, what: str) -> ET.Ele
 def _file_list(value: str, base: Path) -> tuple[Path, ...]:
     """SUMO's comma-separated file list, each relative to `base` unless absolute."""
     names = [n.strip() for n in value.split(",") if n.strip()]
-    return tuple((base / Path(n).expanduser()).resolve() for n in names)
+    return tuple((base / n).resolve() for n in names)  # as SUMO: no ~ expansion
 
 
 def read_sumocfg(source: str, key: str, written: str, path: Path) -> SumoConfig:
@@ -214,6 +215,78 @@ def _read_file(source: str, key: str, written: str, name: str, root: ET.Element,
                 seen.refs.append((key, f"{name}: {who}", "route", attrib["route"]))
             if "type" in attrib:
                 seen.refs.append((key, f"{name}: {who}", "type", attrib["type"]))
+
+
+DEMAND_TAGS = ("vType", "vTypeDistribution", "route", "routeDistribution", *VEHICLE_TAGS,
+               *PERSON_TAGS)
+
+
+def demand_only(path: Path, out_dir: Path) -> Path:
+    """A copy of an additional file in `out_dir` holding only its demand (DEMAND_TAGS:
+    vTypes, routes, vehicles, flows, ...): what cosim takes from a .sumocfg's
+    additional-files. Detectors and other outputs would write files of their own (shared
+    by a batch's workers), and TLS programs, rerouters or speed signs are the network's
+    business, not the demand's: they are left out (README)."""
+    root = ET.parse(path).getroot()
+    kept = ET.Element("additional")
+    kept.extend(child for child in root if child.tag in DEMAND_TAGS)
+    out = out_dir / f"demand_{len(list(out_dir.iterdir()))}_{path.name}"
+    ET.ElementTree(kept).write(out, encoding="utf-8", xml_declaration=True)
+    return out
+
+
+def dry_load(source: str, key: str, value: object, network: Path,
+             route_files: Sequence[Path], additional_files: Sequence[Path]) -> None:
+    """SUMO itself loads the demand (all of it at once: `--route-steps 0`) on the network
+    and runs no step; InputError with SUMO's first error if it refuses (what the checks
+    above do not know: attribute values, distributions, ...). Cached per files as they
+    stand."""
+    stamp = tuple((str(p), *_stamp(p)) for p in (network, *route_files, *additional_files))
+    error = _dry_load(stamp, len(route_files))
+    if error:
+        raise InputError(source, key, value,
+                         f"demand files SUMO loads without an error (SUMO says: {error})")
+
+
+def _stamp(path: Path) -> tuple[int, int]:
+    st = path.stat()
+    return st.st_mtime_ns, st.st_size
+
+
+@functools.lru_cache(maxsize=16)
+def _dry_load(stamp: tuple[tuple[str, int, int], ...], n_routes: int) -> str:
+    """SUMO's first error line loading the files of `stamp` (network, route files, then
+    additional files), "" if none."""
+    import subprocess
+    import tempfile
+
+    paths = [Path(p) for p, _, _ in stamp]
+    network, routes, additional = paths[0], paths[1:1 + n_routes], paths[1 + n_routes:]
+    binary = "sumo"
+    try:
+        import sumolib
+
+        binary = sumolib.checkBinary("sumo")
+    except (ImportError, SystemExit):
+        pass
+    with tempfile.TemporaryDirectory(prefix="cosim-demand-") as tmp:
+        cmd = [binary, "-n", str(network), "--route-steps", "0", "--begin", "0", "--end", "0",
+               "--no-step-log", "true", "--no-warnings", "true",
+               "--duration-log.disable", "true"]
+        if routes:
+            cmd += ["--route-files", ",".join(map(str, routes))]
+        if additional:
+            cmd += ["--additional-files",
+                    ",".join(str(demand_only(p, Path(tmp))) for p in additional)]
+        try:
+            done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=tmp)
+        except (OSError, subprocess.SubprocessError) as exc:
+            return f"SUMO could not be run ({exc})"
+    if done.returncode == 0:
+        return ""
+    lines = [ln.strip() for ln in (done.stderr + done.stdout).splitlines() if ln.strip()]
+    errors = [ln for ln in lines if ln.startswith("Error")] or lines or ["(no message)"]
+    return errors[0].removeprefix("Error: ")
 
 
 def _walk(element: ET.Element, parent: ET.Element | None
