@@ -118,9 +118,10 @@ ROAD_FIELDS = (
     Field("sumocfg", str, default=None, parse=_parse_sumocfg, export=str,
           describe="the path of a SUMO .sumocfg file",
           default_doc="none", doc="a SUMO configuration instead of `network`: its net-file is "
-          "the network, its route-files and additional-files the traffic (relative to it; "
-          "every other option is ignored: README \"Running cosim in your own SUMO "
-          "scenario\"); relative to the file, then the project root"),
+          "the network, its route-files (and the vTypes, routes and flows of its "
+          "additional-files) the traffic, relative to it; every other option is ignored "
+          "(README \"Running cosim in your own SUMO scenario\"); relative to the file, "
+          "then the project root"),
     Field("route", list, default=None, parse=_parse_route, export=list,
           describe=f"a list of 1 to {MAX_ROUTE_EDGES} SUMO edge ids",
           default_doc="the network's only edge",
