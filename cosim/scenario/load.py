@@ -343,8 +343,9 @@ def _own_demand(src: str, traffic: TrafficSpec, written_routes: tuple[str, ...] 
     if not files:
         if warmup > 0:
             raise InputError(src, "traffic.warmup_s", warmup,
-                             "0 or absent without traffic.routes or road.sumocfg (the "
-                             "warm-up runs the user's own demand)")
+                             "0 or absent without route files (traffic.routes, or a "
+                             "road.sumocfg's route-files: the warm-up runs the user's own "
+                             "demand)")
         return None
     if traffic.density > 0:
         raise InputError(src, "traffic.density_veh_per_km_lane", traffic.density,

@@ -279,7 +279,7 @@ def _dry_load(stamp: tuple[tuple[str, int, int], ...], n_routes: int) -> str:
             cmd += ["--additional-files",
                     ",".join(str(demand_only(p, Path(tmp))) for p in additional)]
         try:
-            done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=tmp)
+            done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp)
         except (OSError, subprocess.SubprocessError) as exc:
             return f"SUMO could not be run ({exc})"
     if done.returncode == 0:

@@ -136,8 +136,9 @@ class World:
         self.cleared: list[str] = []  # the user's vehicles taken off at the SV's entry
 
     def start(self) -> RoadParams:
-        """Start SUMO and place the random traffic around the SV's start; returns the
-        road (lane width and centres from the network, the scenario's bands and mu)."""
+        """Start SUMO and place the random traffic around the SV's start, or run the
+        user's own demand for its warm-up (`warm_up`); returns the road (lane width and
+        centres from the network, the scenario's bands and mu)."""
         sc = self.scenario
         tr = sc.traffic
         self.sumo.start()
@@ -213,7 +214,8 @@ class World:
 
     def start_speed(self, speed: float, mu: float) -> tuple[float, str, float, float]:
         """(m/s, leader id, gap m, leader speed m/s): the SV's start speed, `speed` or, when
-        its leader in its lane right after insertion is random traffic, at most the speed
+        its leader in its lane right after insertion is SUMO's traffic (random, or the
+        user's own demand: any vehicle but a scripted TV), at most the speed
         from which it can brake for that leader (`demand.safe_start_speed`: SUMO's
         departSpeed rule). A scripted leader's place and speed are the scenario's: kept."""
         from cosim.traffic.demand import RANDOM_ID, safe_start_speed

@@ -78,6 +78,22 @@ def test_the_sumo_driven_sv_joins_their_traffic(tmp_path: Path) -> None:
     assert metrics["collisions"] == "0"
 
 
+def test_own_demand_scenarios_round_trip() -> None:
+    """scenario_to_dict gives the same scenario back (route files and the .sumocfg as
+    absolute paths, the network left out beside a .sumocfg)."""
+    import json
+
+    from cosim.scenario import scenario_from_dict
+
+    for path in (ROUTES, SUMOCFG):
+        s = load_scenario(path)
+        d = json.loads(json.dumps(scenario_to_dict(s), default=str))
+        assert ("network" in d["road"]) == (s.sumocfg is None)
+        back = scenario_from_dict(d, path=s.path)
+        assert back == s and back.demand == s.demand and s.demand is not None
+        assert s.demand.warmup == 120.0
+
+
 def test_a_sumocfg_gives_its_input_files_only(tmp_path: Path) -> None:
     """From a .sumocfg: net-file, route-files (comma-separated) and additional-files,
     relative to it; every other option is ignored. From additional-files SUMO gets the
