@@ -214,7 +214,7 @@ def scenario_from_dict(
     road_of_route = route_road(network, rd["route"], source=src)
     traffic = _traffic(src, tables["traffic"], base_dir)
     demand = _own_demand(src, traffic, tables["traffic"]["routes"], rd["sumocfg"], config,
-                         network, [tv.id for tv in tvs])
+                         network, [tv.id for tv in tvs], sc["step"])
     base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
     road = road_params(road_of_route, base, src)
     start: tuple[int, float] | None = None
@@ -326,7 +326,7 @@ def route_view(road: Road, sv_edge: str | None) -> Highway:
 
 def _own_demand(src: str, traffic: TrafficSpec, written_routes: tuple[str, ...] | None,
                 written_cfg: str | None, config: SumoConfig | None, network: Path,
-                scripted: list[str]) -> OwnDemand | None:
+                scripted: list[str], step: float) -> OwnDemand | None:
     """The user's demand ([road] sumocfg's route and additional files, then [traffic]
     routes: `traffic.routes` resolved, `written_*` as the file wrote them), every file read
     and checked before SUMO starts (cosim.traffic.own_demand); None without any. Their
@@ -347,6 +347,12 @@ def _own_demand(src: str, traffic: TrafficSpec, written_routes: tuple[str, ...] 
                              "road.sumocfg's route-files: the warm-up runs the user's own "
                              "demand)")
         return None
+    from cosim.scenario.rules import STEP_TOLERANCE
+
+    ratio = warmup / step
+    if abs(ratio - round(ratio)) > STEP_TOLERANCE * max(1.0, ratio):
+        raise InputError(src, "traffic.warmup_s", warmup,
+                         f"a whole multiple of scenario.step_s = {step:g} s")
     if traffic.density > 0:
         raise InputError(src, "traffic.density_veh_per_km_lane", traffic.density,
                          "0 with traffic.routes or road.sumocfg (their demand is the "

@@ -170,6 +170,7 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "routes_with_density.toml": ("traffic.density_veh_per_km_lane", "10.0"),
     "warmup_without_routes.toml": ("traffic.warmup_s", "60.0"),
     "warmup_negative.toml": ("traffic.warmup_s", "-1.0"),
+    "warmup_not_multiple_of_step.toml": ("traffic.warmup_s", "10.01"),
     "sumocfg_missing.toml": ("road.sumocfg", "'no_such.sumocfg'"),
     "sumocfg_not_config.toml": ("road.sumocfg", "'demand_ok.rou.xml'"),
     "sumocfg_net_missing.toml": ("road.sumocfg", "'demand_no_net.sumocfg'"),

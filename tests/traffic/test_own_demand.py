@@ -8,6 +8,7 @@ import csv
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cosim.scenario import load_scenario, project_root, scenario_to_dict, with_overrides
@@ -139,3 +140,66 @@ def test_a_sumocfg_gives_its_input_files_only(tmp_path: Path) -> None:
     assert s.demand is not None and s.demand.route_files == found.route_files
     assert s.step == 0.05  # the scenario's, not the .sumocfg's
     assert not (tmp_path / "sub" / "d1.xml").exists() and not (tmp_path / "fcd.xml").exists()
+
+
+def test_their_flows_on_the_curved_motorway(tmp_path: Path) -> None:
+    """Their flows over a route of four edges with a lane added and dropped (the shipped
+    curved motorway), one of them entering on the second edge: after the warm-up the SV
+    starts among them (their vehicles taken off its start zone), no collision, and their
+    vehicles are the only traffic around it."""
+    (tmp_path / "flows.rou.xml").write_text(
+        '<routes>\n'
+        '  <vType id="car" length="4.5" sigma="0.5" maxSpeed="36"/>\n'
+        '  <flow id="cars" type="car" from="e1" to="e4" begin="0" end="3600" '
+        'vehsPerHour="3300" departLane="random" departSpeed="max"/>\n'
+        '  <flow id="joining" type="car" begin="0" end="3600" vehsPerHour="300" '
+        'departLane="0" departSpeed="max"><route edges="e2 e3 e4"/></flow>\n'
+        '</routes>\n')
+    curved = load_scenario(ROOT / "scenarios" / "curved_traffic_high.toml")
+    doc = scenario_to_dict(curved)
+    doc["traffic"].update(density_veh_per_km_lane=0.0, routes=["flows.rou.xml"],
+                          warmup_s=100.0)
+    doc["scenario"].update(duration_s=6.0, name="curved_own")
+    from cosim.scenario import scenario_from_dict
+    from cosim.sim import simulate
+
+    s = scenario_from_dict(doc, path=tmp_path / "curved_own.toml")
+    result = simulate(s)
+    n_tvs = result.trace["n_tvs"]
+    assert n_tvs[0] >= 3 and n_tvs.min() >= 1
+    assert result.metrics["collisions"] == 0 and result.metrics["sumo_events"] == 0
+    assert result.metrics["min_gap_m"] > 2.0
+
+
+def test_the_warm_up_leaves_the_start_zone_free() -> None:
+    """After the warm-up SUMO's clock is at warmup_s and their vehicles that were inside
+    the SV's start zone (its lane: room to brake at its speed ahead, for its follower
+    behind; two SV lengths around it in the others) are gone; the rest of the road keeps
+    theirs."""
+    from cosim.traffic.demand import start_zone
+    from cosim.traffic.world import SV_LENGTH_MARGIN, World
+
+    s = _short(ROUTES)
+    world = World(s)
+    try:
+        world.start()
+        assert world.sumo.time == pytest.approx(WARMUP)
+        assert world.cleared  # 3000 veh/h: some were in the zone
+        # what SUMO has now (a snapshot is read at a step: it would still show them);
+        # on the straight highway x is s, SUMO's position the front bumper
+        vehicle = world.sumo.api.vehicle
+        ids = list(vehicle.getIDList())
+        hi = np.array([vehicle.getPosition(v)[0] for v in ids])
+        lo = hi - np.array([vehicle.getLength(v) for v in ids])
+        lanes = np.array([vehicle.getLaneIndex(v) for v in ids])
+        x0, lane = world.sv_start_x, world.sv_start_track
+        margin = SV_LENGTH_MARGIN * s.vehicle.length
+        z_lo, z_hi = start_zone(x0, s.vehicle.length, s.sv.speed, s.road.speed_bands[lane][1])
+        assert not ((hi >= x0 - margin) & (lo <= x0 + margin)).any()
+        assert not ((lanes == lane) & (hi >= z_lo) & (lo <= z_hi)).any()
+        assert len(ids) > 40 and not set(world.cleared) & set(ids)
+        # without the clearing they were there
+        snap = world.read_all()
+        assert set(world.cleared) <= set(snap.ids)
+    finally:
+        world.close()
