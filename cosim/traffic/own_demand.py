@@ -12,14 +12,19 @@ InputError line naming the scenario, the key, the value and what is allowed:
 - every edge a route, trip or flow names (`edges`, `from`, `to`, `via`) is an edge of
   the network; every `route` and `type` a vehicle or flow refers to is defined in the
   files (or is one of SUMO's default types);
-- no id clashes with cosim's own (`reserved_clash`): the SV (`sv`), the scenario's
+- no id clashes with cosim's own (`check_demand`): the SV (`sv`), the scenario's
   scripted TVs, cosim's vTypes (`tv`, `sv`, `sv_*`, `tv_scripted*`, `driven_*`) and its
   routes (`highway_route`, `highway_route@*`); a file may not redefine
   `DEFAULT_VEHTYPE`, which cosim's own types are copied from.
 
+Then SUMO itself loads the whole demand once, without running a step (`dry_load`:
+`--route-steps 0`, cached per files as they stand), and its first error is the line:
+what only SUMO knows (attribute values, a negative length, ...).
+
 From a `.sumocfg` (`read_sumocfg`) only the input files are read: `net-file`,
 `route-files`, `additional-files`, relative to the `.sumocfg` as SUMO resolves them; every
 other option in it is ignored (README "Running cosim in your own SUMO scenario" says why).
+From additional files SUMO gets a copy of their demand only (`demand_only`).
 """
 
 from __future__ import annotations
