@@ -19,7 +19,7 @@ SUMO-driven SV, gap requests to TVs through the cooperation channels).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -134,6 +134,7 @@ class World:
         self.t_offset = 0.0  # s, SUMO's clock when the run's t = 0
         self.gap_requests: list[CooperationChannel] = []  # open_gap_requests
         self.cleared: list[str] = []  # the user's vehicles taken off at the SV's entry
+        self.t_warmup = 0.0  # s, SUMO's clock at the end of the warm-up (none: 0)
 
     def start(self) -> RoadParams:
         """Start SUMO and place the random traffic around the SV's start, or run the
@@ -169,6 +170,7 @@ class World:
         sc = self.scenario
         for _ in range(int(round(warmup / sc.step))):
             self.sumo.step()
+        self.t_warmup = self.sumo.time
         from cosim.traffic.demand import start_zone
 
         bands = sc.road.speed_bands
@@ -246,10 +248,17 @@ class World:
             raise SimulationError(snap.time - self.t_offset,
                                   "the SV is no longer on the network (end of the road?)")
         if is_identity(self.frame):
-            return snap
+            return self._run_clock(snap)
         seen = road_view(snap, self.frame, self._s_hint)
         self._s_hint = float(seen.x[seen.index(SV_ID)])
-        return seen
+        return self._run_clock(seen)
+
+    def _run_clock(self, snap: TrafficSnapshot) -> TrafficSnapshot:
+        """The snapshot timed on the run's clock past the warm-up (SUMO's time minus the
+        warm-up: the V2V messages' and the policy's times); as read without one."""
+        if not self.t_warmup:
+            return snap
+        return replace(snap, time=snap.time - self.t_warmup)
 
     def cartesian(self, s: float, d: float, heading: float) -> tuple[float, float, float, float]:
         """(x, y, heading, q) of a pose in road coordinates (road_view.cartesian_pose)."""
@@ -337,11 +346,11 @@ class World:
 
     def read_all(self) -> TrafficSnapshot:
         """Every vehicle on the network, accelerations and signals included."""
-        return road_view(self.sumo.snapshot(), self.frame, self._s_hint)
+        return self._run_clock(road_view(self.sumo.snapshot(), self.frame, self._s_hint))
 
     def read_again(self, ids: tuple[str, ...]) -> TrafficSnapshot:
         """These vehicles again, accelerations and signals included."""
-        return road_view(self.sumo.reader.read(ids), self.frame, self._s_hint)
+        return self._run_clock(road_view(self.sumo.reader.read(ids), self.frame, self._s_hint))
 
     # ------------------------------------------------ gap requests (cooperation)
     def open_gap_requests(self) -> None:

@@ -201,5 +201,10 @@ def test_the_warm_up_leaves_the_start_zone_free() -> None:
         # without the clearing they were there
         snap = world.read_all()
         assert set(world.cleared) <= set(snap.ids)
+        # what the policy and V2V read is timed on the run's clock (SUMO's minus the
+        # warm-up): a message stamped in SUMO's would be extrapolated 60 s back
+        assert snap.time == pytest.approx(0.0)
+        world.sumo.step()
+        assert world.read_all().time == pytest.approx(s.step)
     finally:
         world.close()
