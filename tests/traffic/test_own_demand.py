@@ -208,3 +208,17 @@ def test_the_warm_up_leaves_the_start_zone_free() -> None:
         assert world.read_all().time == pytest.approx(s.step)
     finally:
         world.close()
+
+
+def test_a_scripted_tv_among_their_traffic() -> None:
+    """A [[tv]] of the scenario starts where the file puts it among their vehicles (its
+    start zone cleared like the SV's): no collision, their vehicles around both."""
+    from cosim.scenario import scenario_from_dict
+    from cosim.sim import simulate
+
+    s = _short(ROUTES)
+    doc = scenario_to_dict(s)
+    doc["tv"] = [{"id": "slow", "lane": 1, "gap_m": 40.0, "speed_kmh": 80.0}]
+    result = simulate(scenario_from_dict(doc, path=s.path))
+    assert result.metrics["collisions"] == 0 and result.metrics["sumo_events"] == 0
+    assert result.trace["n_tvs"][0] >= 4  # the scripted TV and theirs
