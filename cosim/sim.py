@@ -114,7 +114,8 @@ class CoSimulation:
         ego.inserted()
         # the SV starts at a speed it can brake from for the random traffic ahead (SUMO's
         # departSpeed rule, `World.start_speed`); the policy is built from that speed
-        self.start = world.start_speed(sc.sv.speed, road.mu) if sc.traffic.density > 0 else (
+        sumo_traffic = sc.traffic.density > 0 or sc.demand is not None
+        self.start = world.start_speed(sc.sv.speed, road.mu) if sumo_traffic else (
             sc.sv.speed, "", math.inf, math.nan)
         if self.start[0] < sc.sv.speed:
             v0 = self.start[0]

@@ -75,7 +75,8 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     """
     s = scenario
     road = {"lane_width": s.road.lane_width, "speed_bands": s.road.speed_bands,
-            "mu": s.road.mu, "network": s.network, "route": s.route}
+            "mu": s.road.mu, "network": None if s.sumocfg is not None else s.network,
+            "route": s.route, "sumocfg": s.sumocfg}
     objects: dict[str, Any] = {
         "scenario": s, "road": road, "sv": s.sv, "planner": s.planner, "vehicle": s.vehicle,
         "controller": s.gains, "traffic": s.traffic, "v2v": s.v2v,

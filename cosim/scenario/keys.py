@@ -83,6 +83,12 @@ def _parse_network(source: str, key: str, value: Any) -> str:
     return value
 
 
+def _parse_sumocfg(source: str, key: str, value: Any) -> str:
+    if not isinstance(value, str) or not value.strip() or "\x00" in value or len(value) > 4096:
+        raise InputError(source, key, value, "the path of a SUMO .sumocfg file")
+    return value
+
+
 def _parse_route(source: str, key: str, value: Any) -> tuple[str, ...]:
     """A list of SUMO edge ids (the network check is cosim.road.route.make_route's)."""
     allowed = (f"a list of 1 to {MAX_ROUTE_EDGES} SUMO edge ids (strings), in driving order")
@@ -109,6 +115,13 @@ ROAD_FIELDS = (
           default_doc=f"`{DEFAULT_NETWORK}`",
           doc="SUMO network: one straight edge along +x (README, Guarantees); relative to "
               "the file, then the project root"),
+    Field("sumocfg", str, default=None, parse=_parse_sumocfg, export=str,
+          describe="the path of a SUMO .sumocfg file",
+          default_doc="none", doc="a SUMO configuration instead of `network`: its net-file is "
+          "the network, its route-files (and the vTypes, routes and flows of its "
+          "additional-files) the traffic, relative to it; every other option is ignored "
+          "(README \"Running cosim in your own SUMO scenario\"); relative to the file, "
+          "then the project root"),
     Field("route", list, default=None, parse=_parse_route, export=list,
           describe=f"a list of 1 to {MAX_ROUTE_EDGES} SUMO edge ids",
           default_doc="the network's only edge",

@@ -15,6 +15,7 @@ from typing import Any
 from cosim.errors import InputError
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, vehicle_from_table
 from cosim.road.road import Road
+from cosim.road.route import read_network as read_sumo_network
 from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS, VEHICLE_FIELDS
 from cosim.scenario.model import (
     NAME_PATTERN,
@@ -25,6 +26,13 @@ from cosim.scenario.model import (
     V2VSpec,
 )
 from cosim.traffic.network import SUPPORTED, Highway, load_highway, network_precision
+from cosim.traffic.own_demand import (
+    OwnDemand,
+    SumoConfig,
+    check_demand,
+    dry_load,
+    read_sumocfg,
+)
 from cosim.traffic.route import (
     RouteLanes,
     check_lanes,
@@ -183,18 +191,32 @@ def scenario_from_dict(
     sc, rd = tables["scenario"], tables["road"]
     base_dir = p.parent if p.is_absolute() else Path.cwd() / p.parent
     network = _resolve(base_dir, rd["network"])
+    config = None  # [road] sumocfg: its net-file is the network (cosim.traffic.own_demand)
+    net_key, net_written = "road.network", rd["network"]
+    if rd["sumocfg"] is not None:
+        if "network" in doc.get("road", {}):
+            raise InputError(src, "road.network", rd["network"],
+                             "absent with road.sumocfg (the .sumocfg's net-file is the "
+                             "network)")
+        sumocfg = _resolve(base_dir, rd["sumocfg"])
+        config = read_sumocfg(src, "road.sumocfg", rd["sumocfg"], sumocfg)
+        network = config.net_file
+        net_key, net_written = "road.sumocfg", rd["sumocfg"]
     sv = _lane_changes_in_lanes(src, SVSpec(**tables["sv"]))
     vehicle = vehicle_from_table(tables["vehicle"], {  # a preset, then the file's keys
         f.attr for f in VEHICLE_FIELDS if f.key in doc.get("vehicle", {})})
     if rd["route"] is not None or sv.edge is not None:
-        _network_file(src, "road.network", rd["network"], network, base_dir)
+        _network_file(src, net_key, net_written, network, base_dir)
         # before the one-edge rules below
         check_route(src, network, rd["route"], sv, vehicle.length)
-    found = read_network(src, "road.network", rd["network"], network, base_dir,
+    found = read_network(src, net_key, net_written, network, base_dir,
                          route=rd["route"])
     # the planner's road in (s, d) from the route's road (cosim.traffic.route.road_params;
     # on the one straight edge of networks/highway.net.xml the RoadParams of before)
     road_of_route = route_road(network, rd["route"], source=src)
+    traffic = _traffic(src, tables["traffic"], base_dir)
+    demand = _own_demand(src, traffic, tables["traffic"]["routes"], rd["sumocfg"], config,
+                         network, [tv.id for tv in tvs], sc["step"])
     base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
     road = road_params(road_of_route, base, src)
     start: tuple[int, float] | None = None
@@ -227,10 +249,12 @@ def scenario_from_dict(
         planner=PlannerConfig(**tables["planner"]),
         sv=sv,
         tvs=tvs,
-        traffic=_traffic(src, tables["traffic"]),
+        traffic=traffic,
         v2v=V2VSpec(**tables["v2v"]),
         document=copy.deepcopy(dict(doc)),
         route=rd["route"],
+        sumocfg=None if config is None else config.path,
+        demand=demand,
     )
     ruled = scenario
     if start is not None:  # the rules' lane k is track k (every lane the file names
@@ -319,8 +343,60 @@ def route_view(road: Road, sv_edge: str | None) -> Highway:
     )
 
 
-def _traffic(src: str, values: dict[str, Any]) -> TrafficSpec:
-    """SUMO cannot combine --lanechange.duration with the sublane model."""
+def _own_demand(src: str, traffic: TrafficSpec, written_routes: tuple[str, ...] | None,
+                written_cfg: str | None, config: SumoConfig | None, network: Path,
+                scripted: list[str], step: float) -> OwnDemand | None:
+    """The user's demand ([road] sumocfg's route and additional files, then [traffic]
+    routes: `traffic.routes` resolved, `written_*` as the file wrote them), every file read
+    and checked before SUMO starts (cosim.traffic.own_demand); None without any. Their
+    demand is the traffic: cosim's random traffic is refused with it, and a warm-up
+    without it."""
+    files: list[tuple[str, str, Path]] = []
+    if config is not None:
+        files += [("road.sumocfg", str(written_cfg), f)
+                  for f in (*config.route_files, *config.additional_files)]
+    resolved = traffic.routes or ()
+    files += [(f"traffic.routes[{i}]", w, Path(r)) for i, (w, r) in
+              enumerate(zip(written_routes or (), resolved, strict=True))]
+    warmup = traffic.warmup or 0.0
+    if not files:
+        if warmup > 0:
+            raise InputError(src, "traffic.warmup_s", warmup,
+                             "0 or absent without route files (traffic.routes, or a "
+                             "road.sumocfg's route-files: the warm-up runs the user's own "
+                             "demand)")
+        return None
+    from cosim.scenario.rules import STEP_TOLERANCE
+
+    ratio = warmup / step
+    if abs(ratio - round(ratio)) > STEP_TOLERANCE * max(1.0, ratio):
+        raise InputError(src, "traffic.warmup_s", warmup,
+                         f"a whole multiple of scenario.step_s = {step:g} s")
+    if traffic.density > 0:
+        raise InputError(src, "traffic.density_veh_per_km_lane", traffic.density,
+                         "0 with traffic.routes or road.sumocfg (their demand is the "
+                         "traffic; cosim's random traffic would be placed on top of it)")
+    net = read_sumo_network(network)
+    check_demand(src, files, {e.getID() for e in net.getEdges(withInternal=False)},
+                 network.name, scripted)
+    demand = OwnDemand(
+        route_files=(*(config.route_files if config else ()), *(Path(r) for r in resolved)),
+        additional_files=config.additional_files if config else (), warmup=warmup)
+    # what only SUMO knows (attribute values, ...): it loads them once, before the run
+    key, value = ("road.sumocfg", written_cfg) if not resolved else (
+        "traffic.routes", list(written_routes or ())) if config is None else (
+        "road.sumocfg and traffic.routes", [written_cfg, *(written_routes or ())])
+    dry_load(src, key, value, network, demand.route_files, demand.additional_files)
+    return demand
+
+
+def _traffic(src: str, values: dict[str, Any], base_dir: Path) -> TrafficSpec:
+    """SUMO cannot combine --lanechange.duration with the sublane model. Route files are
+    resolved like the network (absolute, else the file's directory, else the project
+    root)."""
+    if values["routes"] is not None:
+        values = {**values, "routes": tuple(str(_resolve(base_dir, r)) for r in
+                                            values["routes"])}
     duration = values["lanechange_duration"]
     if values["sublane"] and duration not in (None, 0.0):
         raise InputError(

@@ -12,8 +12,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from cosim.errors import InputError
 from cosim.output import NAME_PATTERN  # a folder name: no "", ".", "..", "/"
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, VehicleParams
+from cosim.traffic.own_demand import OwnDemand
 from cosim.validation import REQUIRED, Field, declare, parse_tables, table_to_dict
 
 KMH = 3.6  # si_divisor of a km/h field
@@ -39,6 +41,15 @@ def speed_key(key: str, default: Any, doc: str, *, lo_open: bool = True, overrid
     """A speed key in km/h (SI inside: m/s)."""
     return number_key(key, "km/h", 0.0, MAX_SPEED_KMH, default, doc, lo_open=lo_open,
                   si_divisor=KMH, override=override, default_doc=default_doc)
+
+
+def parse_paths(source: str, key: str, value: Any, most: int) -> tuple[str, ...]:
+    """A list of 1 to `most` file paths (strings), as written."""
+    if (not isinstance(value, list) or not 1 <= len(value) <= most
+            or not all(isinstance(v, str) and v.strip() and "\x00" not in v and len(v) <= 4096
+                       for v in value)):
+        raise InputError(source, key, value, f"a list of 1 to {most} file paths (strings)")
+    return tuple(value)
 
 
 def lane_key(key: str, doc: str, override: str = "") -> Field:
@@ -207,6 +218,19 @@ class TrafficSpec:
         "SUMO-driven traffic from each on-ramp of the route (an edge off it feeding a lane "
         "that begins or ends on it: an acceleration lane), then along the rest of the route "
         "(0: none; cosim.traffic.demand.RampFlow)", override="ramp_flow"), 0.0)
+    # the user's own SUMO demand (issue 24; cosim.traffic.own_demand): absolute paths
+    # once loaded (cosim.scenario.load), as the file wrote them before
+    routes: tuple[str, ...] | None = declare(Field(
+        "routes", list, default=None, parse=lambda src, key, v: parse_paths(src, key, v, 64),
+        export=list, describe="a list of 1 to 64 paths of SUMO route files (.rou.xml)",
+        default_doc="none: cosim's random traffic only",
+        doc="SUMO route / flow / vType files used as they are (README \"Running cosim in "
+            "your own SUMO scenario\"), relative to the file, then the project root; with "
+            "them density_veh_per_km_lane must be 0 (their traffic only)"), None)
+    warmup: float | None = declare(number_key(
+        "warmup_s", "s", 0.0, 3600.0, None,
+        "SUMO runs the user's demand (`routes`, `road.sumocfg`) alone this long before the "
+        "SV enters; the run's t = 0 is the SV's entry", default_doc="`0`"), None)
 
 
 @dataclass(frozen=True)
@@ -294,6 +318,10 @@ class Scenario:
     # [road] route: the SUMO edges the SV drives, as the file gives them (None: absent,
     # the network's one edge); checked against the network by cosim.scenario.load
     route: tuple[str, ...] | None = None
+    # [road] sumocfg (absolute; None: absent), the network being its net-file, and the
+    # user's demand SUMO loads with cosim's own (cosim.traffic.own_demand; None: none)
+    sumocfg: Path | None = None
+    demand: OwnDemand | None = None
 
     @property
     def n_steps(self) -> int:

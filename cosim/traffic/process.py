@@ -23,6 +23,7 @@ from types import ModuleType
 from cosim.errors import SimulationError
 from cosim.traffic import gui as gui_window
 from cosim.traffic.gui import GuiSettings
+from cosim.traffic.own_demand import demand_only
 
 _active: SumoProcess | None = None  # the one running simulation of this process
 
@@ -54,6 +55,9 @@ class SumoProcess:
     extra_args: tuple[str, ...]
     lateral_resolution: float  # m, the sublane model's
     fcd_output: Path | None  # SUMO's --fcd-output (the caller's file)
+    # the user's own demand (cosim.traffic.own_demand), loaded with cosim's vehicles
+    route_files: tuple[Path, ...] = ()  # --route-files
+    additional_files: tuple[Path, ...] = ()  # --additional-files
     api: ModuleType | None = None  # while running
     _tmp: tempfile.TemporaryDirectory[str] | None = None
     _log_text: str = ""
@@ -84,6 +88,12 @@ class SumoProcess:
         ]
         if self.fcd_output is not None:
             options.append(("--fcd-output", str(self.fcd_output)))
+        if self.route_files:
+            options.append(("--route-files", ",".join(map(str, self.route_files))))
+        if self.additional_files:  # their demand only (own_demand.demand_only)
+            tmp = Path(self._tmp.name)
+            options.append(("--additional-files", ",".join(
+                str(demand_only(p, tmp)) for p in self.additional_files)))
         if self.sublane:
             options.append(("--lateral-resolution", repr(self.lateral_resolution)))
         elif self.lanechange_duration > 0:
@@ -150,7 +160,9 @@ class SumoProcess:
 
 def process(network: Path, step: float, seed: int, *, lanechange_duration: float,
             sublane: bool, gui: bool | GuiSettings, extra_args: Sequence[str],
-            lateral_resolution: float, traci: bool, fcd_output: Path | None) -> SumoProcess:
+            lateral_resolution: float, traci: bool, fcd_output: Path | None,
+            route_files: Sequence[Path] = (), additional_files: Sequence[Path] = ()
+            ) -> SumoProcess:
     """The process settings of a SumoSim (`gui` True: sumo-gui's default settings)."""
     settings = (gui if isinstance(gui, GuiSettings) else GuiSettings()) if gui else None
     return SumoProcess(
@@ -158,4 +170,6 @@ def process(network: Path, step: float, seed: int, *, lanechange_duration: float
         lanechange_duration=float(lanechange_duration), sublane=bool(sublane),
         gui=settings, use_traci=bool(traci) or settings is not None,
         extra_args=tuple(extra_args), lateral_resolution=float(lateral_resolution),
-        fcd_output=None if fcd_output is None else Path(fcd_output))
+        fcd_output=None if fcd_output is None else Path(fcd_output),
+        route_files=tuple(map(Path, route_files)),
+        additional_files=tuple(map(Path, additional_files)))

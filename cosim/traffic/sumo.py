@@ -75,6 +75,8 @@ class SumoSim:
     the SUMO-driven SV, raises SimulationError (else it is only recorded in `events`).
     `fcd_output`:
     the file SUMO writes its floating-car data to (--fcd-output), complete once closed.
+    `route_files` / `additional_files`: the user's own demand (cosim.traffic.own_demand,
+    checked before), loaded by SUMO with cosim's vehicles.
     """
 
     def __init__(
@@ -84,7 +86,8 @@ class SumoSim:
         speed_bands: tuple[tuple[float, float], ...] | None = None,
         lateral_resolution: float = 0.8, strict: bool = True, traci: bool = False,
         fcd_output: Path | None = None, route: Sequence[str] | None = None,
-        road: Road | None = None,
+        road: Road | None = None, route_files: Sequence[Path] = (),
+        additional_files: Sequence[Path] = (),
     ) -> None:
         if step <= 0:
             raise InputError("SumoSim", "step", step, "a positive step length in s")
@@ -96,7 +99,8 @@ class SumoSim:
         self.process: SumoProcess = process(
             self.lanes.road.route.path, step, seed, lanechange_duration=lanechange_duration,
             sublane=sublane, gui=gui, extra_args=extra_args,
-            lateral_resolution=lateral_resolution, traci=traci, fcd_output=fcd_output)
+            lateral_resolution=lateral_resolution, traci=traci, fcd_output=fcd_output,
+            route_files=route_files, additional_files=additional_files)
         self.strict = bool(strict)
         base = RoadParams() if speed_bands is None else RoadParams(speed_bands=speed_bands)
         self._road = road_params(self.lanes.road, base, str(network))

@@ -19,7 +19,7 @@ SUMO-driven SV, gap requests to TVs through the cooperation channels).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -118,6 +118,8 @@ class World:
             lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
             fcd_output=fcd_output, road=self.route_road,
+            route_files=sc.demand.route_files if sc.demand else (),
+            additional_files=sc.demand.additional_files if sc.demand else (),
         )
         self.scenario = sc
         # everything read and written is converted through the route's frame
@@ -131,10 +133,13 @@ class World:
         self.wall_read = 0.0
         self.t_offset = 0.0  # s, SUMO's clock when the run's t = 0
         self.gap_requests: list[CooperationChannel] = []  # open_gap_requests
+        self.cleared: list[str] = []  # the user's vehicles taken off at the SV's entry
+        self.t_warmup = 0.0  # s, SUMO's clock at the end of the warm-up (none: 0)
 
     def start(self) -> RoadParams:
-        """Start SUMO and place the random traffic around the SV's start; returns the
-        road (lane width and centres from the network, the scenario's bands and mu)."""
+        """Start SUMO and place the random traffic around the SV's start, or run the
+        user's own demand for its warm-up (`warm_up`); returns the road (lane width and
+        centres from the network, the scenario's bands and mu)."""
         sc = self.scenario
         tr = sc.traffic
         self.sumo.start()
@@ -158,7 +163,42 @@ class World:
             from cosim.traffic.demand import ramp_flow
 
             ramp_flow(self.sumo, tr.ramp_flow, sc.seed, traffic)
+        if sc.demand is not None:
+            self.warm_up(sc.demand.warmup)
         return road
+
+    def warm_up(self, warmup: float) -> list[str]:
+        """The user's own demand (cosim.traffic.own_demand) runs alone for `warmup` s
+        (whole steps), then its vehicles inside the zones the SV and the scripted TVs start
+        in are taken off the road (the zones random traffic leaves free: `start_zone` in
+        their own lane, SV_LENGTH_MARGIN SV lengths around the SV in every lane), so no one
+        starts overlapping or too close; returns the ids taken off, in order."""
+        sc = self.scenario
+        for _ in range(int(round(warmup / sc.step))):
+            self.sumo.step()
+        self.t_warmup = self.sumo.time
+        from cosim.traffic.demand import start_zone
+
+        bands = sc.road.speed_bands
+        x0, track = self.sv_start_x, self.sv_start_track
+        margin = SV_LENGTH_MARGIN * sc.vehicle.length
+        zones = [(-1, x0 - margin, x0 + margin),
+                 (track, *start_zone(x0, sc.vehicle.length, sc.sv.speed, bands[track][1]))]
+        for tv in sc.in_tracks(track).tvs:
+            if 0 <= tv.lane < len(bands):
+                zones.append((tv.lane, *start_zone(x0 + tv.gap, tv.length, tv.speed,
+                                                   bands[tv.lane][1])))
+        snap = self.read_all()
+        lo, hi = snap.x - 0.5 * snap.length, snap.x + 0.5 * snap.length
+        inside = np.zeros(len(snap), dtype=bool)
+        for lane, z_lo, z_hi in zones:
+            on = (snap.lane >= 0) if lane < 0 else (snap.lane == lane)
+            inside |= on & (hi >= z_lo) & (lo <= z_hi)
+        removed = sorted(vid for vid, hit in zip(snap.ids, inside, strict=True) if hit)
+        for vid in removed:
+            self.sumo.remove(vid)
+        self.cleared = removed
+        return removed
 
     @property
     def sv_start_x(self) -> float:
@@ -182,16 +222,22 @@ class World:
 
     def start_speed(self, speed: float, mu: float) -> tuple[float, str, float, float]:
         """(m/s, leader id, gap m, leader speed m/s): the SV's start speed, `speed` or, when
-        its leader in its lane right after insertion is random traffic, at most the speed
+        its leader in its lane right after insertion is SUMO's traffic (random, or the
+        user's own demand: any vehicle but a scripted TV), at most the speed
         from which it can brake for that leader (`demand.safe_start_speed`: SUMO's
         departSpeed rule). A scripted leader's place and speed are the scenario's: kept."""
         from cosim.traffic.demand import RANDOM_ID, safe_start_speed
 
         vehicle = self.sumo.api.vehicle
         found = vehicle.getLeader(SV_ID, 1000.0)  # gap from the SV's front + its minGap
-        if not found or not found[0] or not RANDOM_ID.fullmatch(found[0]):
+        if not found or not found[0]:
             return speed, "", float("inf"), float("nan")
         leader = str(found[0])
+        sc = self.scenario
+        # SUMO's traffic: cosim's random vehicles, or any of the user's own demand
+        theirs = sc.demand is not None and leader not in {tv.id for tv in sc.tvs}
+        if not (RANDOM_ID.fullmatch(leader) or theirs):
+            return speed, "", float("inf"), float("nan")
         gap = float(found[1]) + float(vehicle.getMinGap(SV_ID))
         leader_speed = float(vehicle.getSpeed(leader))
         return safe_start_speed(speed, gap, leader_speed, mu), leader, gap, leader_speed
@@ -208,10 +254,17 @@ class World:
             raise SimulationError(snap.time - self.t_offset,
                                   "the SV is no longer on the network (end of the road?)")
         if is_identity(self.frame):
-            return snap
+            return self._run_clock(snap)
         seen = road_view(snap, self.frame, self._s_hint)
         self._s_hint = float(seen.x[seen.index(SV_ID)])
-        return seen
+        return self._run_clock(seen)
+
+    def _run_clock(self, snap: TrafficSnapshot) -> TrafficSnapshot:
+        """The snapshot timed on the run's clock past the warm-up (SUMO's time minus the
+        warm-up: the V2V messages' and the policy's times); as read without one."""
+        if not self.t_warmup:
+            return snap
+        return replace(snap, time=snap.time - self.t_warmup)
 
     def cartesian(self, s: float, d: float, heading: float) -> tuple[float, float, float, float]:
         """(x, y, heading, q) of a pose in road coordinates (road_view.cartesian_pose)."""
@@ -299,11 +352,11 @@ class World:
 
     def read_all(self) -> TrafficSnapshot:
         """Every vehicle on the network, accelerations and signals included."""
-        return road_view(self.sumo.snapshot(), self.frame, self._s_hint)
+        return self._run_clock(road_view(self.sumo.snapshot(), self.frame, self._s_hint))
 
     def read_again(self, ids: tuple[str, ...]) -> TrafficSnapshot:
         """These vehicles again, accelerations and signals included."""
-        return road_view(self.sumo.reader.read(ids), self.frame, self._s_hint)
+        return self._run_clock(road_view(self.sumo.reader.read(ids), self.frame, self._s_hint))
 
     # ------------------------------------------------ gap requests (cooperation)
     def open_gap_requests(self) -> None:

@@ -152,6 +152,31 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "sv_lane_not_on_edge.toml": ("sv.lane", "4"),
     "sv_position_past_edge.toml": ("sv.position_m", "3000.0"),
     "sv_edge_on_straight_road.toml": ("sv.edge", "'e1'"),
+    # issue 24: the user's own SUMO demand, every file read before SUMO starts
+    "routes_missing.toml": ("traffic.routes[0]", "'no_such.rou.xml'"),
+    "routes_not_xml.toml": ("traffic.routes[0]", "'demand_not_xml.rou.xml'"),
+    "routes_is_a_network.toml": ("traffic.routes[0]", "'two_edges.net.xml'"),
+    "routes_not_a_list.toml": ("traffic.routes", "'demand_ok.rou.xml'"),
+    "routes_unknown_edge.toml": ("traffic.routes[1]", "flow 'g' to='nowhere'"),
+    "routes_unknown_type.toml": ("traffic.routes[0]", "vehicle 'v' type='lorry'"),
+    "routes_unknown_route.toml": ("traffic.routes[0]", "flow 'f' route='main'"),
+    "routes_vehicle_is_sv.toml": ("traffic.routes[0]", "vehicle id='sv'"),
+    "routes_vehicle_is_scripted_tv.toml": ("traffic.routes[0]", "vehicle id='lead'"),
+    "routes_vtype_is_cosims.toml": ("traffic.routes[0]", "vType id='tv'"),
+    "routes_redefine_default_vtype.toml": ("traffic.routes[0]", "vType id='DEFAULT_VEHTYPE'"),
+    "routes_route_is_cosims.toml": ("traffic.routes[0]", "route id='highway_route'"),
+    "routes_id_twice.toml": ("traffic.routes[0]", "flow id='a'"),
+    "routes_sumo_refuses.toml": ("traffic.routes", "['demand_sumo_refuses.rou.xml']"),
+    "routes_with_density.toml": ("traffic.density_veh_per_km_lane", "10.0"),
+    "warmup_without_routes.toml": ("traffic.warmup_s", "60.0"),
+    "warmup_negative.toml": ("traffic.warmup_s", "-1.0"),
+    "warmup_not_multiple_of_step.toml": ("traffic.warmup_s", "10.01"),
+    "sumocfg_missing.toml": ("road.sumocfg", "'no_such.sumocfg'"),
+    "sumocfg_not_config.toml": ("road.sumocfg", "'demand_ok.rou.xml'"),
+    "sumocfg_net_missing.toml": ("road.sumocfg", "'demand_no_net.sumocfg'"),
+    "sumocfg_without_net.toml": ("road.sumocfg", "'demand_without_net.sumocfg'"),
+    "sumocfg_route_missing.toml": ("road.sumocfg", "'demand_route_missing.sumocfg'"),
+    "sumocfg_and_network.toml": ("road.network", "'two_edges.net.xml'"),
 }
 
 # A few messages must also say what is allowed (the suggestion, the range, the rule).
@@ -189,6 +214,13 @@ ALLOWED_HINTS: dict[str, str] = {
     "sv_lane_not_on_edge.toml": "edge 'e3' has 4 lanes",
     "sv_position_past_edge.toml": "on lane 'e2_1'",
     "sv_edge_on_straight_road.toml": "an edge of road.route (highway)",
+    "routes_missing.toml": "not found",
+    "routes_is_a_network.toml": "<routes> or <additional> root",
+    "routes_unknown_edge.toml": "edges of the network highway.net.xml",
+    "routes_vtype_is_cosims.toml": "cosim's are tv, sv",
+    "routes_sumo_refuses.toml": "SUMO says: length must be greater than 0",
+    "sumocfg_net_missing.toml": "net-file 'no_such.net.xml': not found",
+    "sumocfg_route_missing.toml": "no_such.rou.xml",
 }
 
 

@@ -1,0 +1,305 @@
+"""The user's own SUMO demand (issue 24): route, flow and vType files used as they are
+(`[traffic] routes`) or a `.sumocfg`'s input files (`[road] sumocfg`), read and checked
+before SUMO starts.
+
+SUMO itself finds a missing file, a route over an edge the network lacks or an id given
+twice only when it loads that part of the demand (at its start, or minutes into the run
+for a vehicle that departs late: `--route-steps`), and then stops the whole simulation.
+So every file is read here first (ElementTree, bounded in size) and each problem is one
+InputError line naming the scenario, the key, the value and what is allowed:
+
+- the file exists, is XML, and its root is SUMO's `<routes>` or `<additional>`;
+- every edge a route, trip or flow names (`edges`, `from`, `to`, `via`) is an edge of
+  the network; every `route` and `type` a vehicle or flow refers to is defined in the
+  files (or is one of SUMO's default types);
+- no id clashes with cosim's own (`check_demand`): the SV (`sv`), the scenario's
+  scripted TVs, cosim's vTypes (`tv`, `sv`, `sv_*`, `tv_scripted*`, `driven_*`) and its
+  routes (`highway_route`, `highway_route@*`); a file may not redefine
+  `DEFAULT_VEHTYPE`, which cosim's own types are copied from.
+
+Then SUMO itself loads the whole demand once, without running a step (`dry_load`:
+`--route-steps 0`, cached per files as they stand), and its first error is the line:
+what only SUMO knows (attribute values, a negative length, ...).
+
+From a `.sumocfg` (`read_sumocfg`) only the input files are read: `net-file`,
+`route-files`, `additional-files`, relative to the `.sumocfg` as SUMO resolves them; every
+other option in it is ignored (README "Running cosim in your own SUMO scenario" says why).
+From additional files SUMO gets a copy of their demand only (`demand_only`).
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from cosim.errors import InputError
+from cosim.validation import not_a_file
+
+MAX_DEMAND_BYTES = 64 * 2**20  # a route file of a motorway study is kB to a few MB
+ROOTS = ("routes", "additional")  # what SUMO reads as route or additional files
+VEHICLE_TAGS = ("vehicle", "trip", "flow")  # what enters the road as a car-like vehicle
+PERSON_TAGS = ("person", "personFlow", "container", "containerFlow")
+# SUMO's built-in vTypes: a vehicle may name them without defining them
+SUMO_TYPES = ("DEFAULT_VEHTYPE", "DEFAULT_PEDTYPE", "DEFAULT_BIKETYPE",
+              "DEFAULT_CONTAINERTYPE", "DEFAULT_TAXITYPE", "DEFAULT_RAILTYPE")
+COSIM_COPIES = "DEFAULT_VEHTYPE"  # cosim's own vTypes are copies of it (cosim.traffic.sumo)
+# cosim's own SUMO ids (cosim.traffic.sumo, .route, .traffic_vehicles, cosim.observer)
+COSIM_TYPES = re.compile(r"tv|sv|sv_.*|tv_scripted.*|driven_.*")
+COSIM_ROUTES = re.compile(r"highway_route(@.*)?")
+COSIM_VEHICLES = ("sv",)
+# the .sumocfg options read (long name and SUMO's short synonym)
+CFG_NET = ("net-file", "n")
+CFG_ROUTES = ("route-files", "r")
+CFG_ADDITIONAL = ("additional-files", "a")
+
+
+@dataclass(frozen=True)
+class OwnDemand:
+    """The user's demand as SUMO gets it (absolute paths) and the warm-up before the SV."""
+
+    # --route-files, in order: [road] sumocfg's, then [traffic] routes
+    route_files: tuple[Path, ...]
+    additional_files: tuple[Path, ...]  # --additional-files (a .sumocfg's)
+    warmup: float  # s, SUMO runs the demand alone this long before the SV enters
+
+
+@dataclass(frozen=True)
+class SumoConfig:
+    """The input files a `.sumocfg` names, resolved relative to it."""
+
+    path: Path
+    net_file: Path
+    route_files: tuple[Path, ...]
+    additional_files: tuple[Path, ...]
+
+
+def _file_problem(path: Path) -> str | None:
+    """Why `path` is not a readable demand file of at most MAX_DEMAND_BYTES (None: it is)."""
+    problem = not_a_file(path)
+    if problem is not None:
+        return f"not found: {path}" if problem == "not found" else f"{path} is {problem}"
+    size = path.stat().st_size
+    if size > MAX_DEMAND_BYTES:
+        return f"{path} has {size} bytes, at most {MAX_DEMAND_BYTES // 2**20} MiB allowed"
+    return None
+
+
+def _parse(source: str, key: str, written: str, path: Path, what: str) -> ET.Element:
+    """The XML root of a file the scenario names, or InputError (one line)."""
+    problem = _file_problem(path)
+    if problem is not None:
+        raise InputError(source, key, written, f"an existing {what} ({problem})")
+    try:
+        return ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise InputError(source, key, written,
+                         f"a {what} in XML ({path.name}: {exc})") from None
+
+
+def _file_list(value: str, base: Path) -> tuple[Path, ...]:
+    """SUMO's comma-separated file list, each relative to `base` unless absolute."""
+    names = [n.strip() for n in value.split(",") if n.strip()]
+    return tuple((base / n).resolve() for n in names)  # as SUMO: no ~ expansion
+
+
+def read_sumocfg(source: str, key: str, written: str, path: Path) -> SumoConfig:
+    """The net, route and additional files of a `.sumocfg` (InputError naming `key` if it
+    is missing, not XML, not a SUMO configuration, or names no net-file or a missing one)."""
+    root = _parse(source, key, written, path, "SUMO configuration file (.sumocfg)")
+    if root.tag not in ("configuration", "sumoConfiguration"):
+        raise InputError(source, key, written,
+                         f"a SUMO configuration file (<configuration> root; {path.name} "
+                         f"has <{root.tag}>)")
+    found: dict[str, str] = {}
+    for element in root.iter():
+        for names in (CFG_NET, CFG_ROUTES, CFG_ADDITIONAL):
+            if element.tag in names and "value" in element.attrib:
+                found[names[0]] = element.attrib["value"]
+    base = path.parent
+    nets = _file_list(found.get("net-file", ""), base)
+    if len(nets) != 1:
+        raise InputError(source, key, written,
+                         f"a .sumocfg naming one net-file ({path.name} names "
+                         f"{len(nets) or 'none'})")
+    problem = _file_problem(nets[0])
+    if problem is not None:
+        raise InputError(source, key, written,
+                         f"a .sumocfg whose net-file exists ({path.name}: net-file "
+                         f"{found['net-file']!r}: {problem})")
+    return SumoConfig(path=path, net_file=nets[0],
+                      route_files=_file_list(found.get("route-files", ""), base),
+                      additional_files=_file_list(found.get("additional-files", ""), base))
+
+
+@dataclass
+class _Seen:
+    """What the demand files define and refer to, gathered over all of them."""
+
+    types: set[str]
+    routes: set[str]
+    vehicles: dict[str, str]  # vehicle / trip / flow / person id -> its tag
+    refs: list[tuple[str, str, str, str]]  # (file key, what refers, "route"/"type", id)
+
+
+def check_demand(source: str, files: Sequence[tuple[str, str, Path]], net_edges: set[str],
+                 net_name: str, scripted: Iterable[str]) -> None:
+    """Read every demand file (`(key, written value, path)`, keys like
+    `traffic.routes[0]`) and raise InputError on the first fault (module docstring)."""
+    seen = _Seen(types=set(SUMO_TYPES), routes=set(), vehicles={}, refs=[])
+    reserved = set(COSIM_VEHICLES) | set(scripted)
+    for key, written, path in files:
+        root = _parse(source, key, written, path, "SUMO route file")
+        if root.tag not in ROOTS:
+            raise InputError(source, key, written,
+                             f"a SUMO route or additional file (<routes> or <additional> "
+                             f"root; {path.name} has <{root.tag}>)")
+        _read_file(source, key, written, path.name, root, seen, net_edges, net_name,
+                   reserved)
+    for key, who, kind, ref in seen.refs:
+        known = seen.routes if kind == "route" else seen.types
+        if ref not in known:
+            raise InputError(source, key, f"{who} {kind}={ref!r}",
+                             f"a {'route' if kind == 'route' else 'vType'} defined in the "
+                             "demand files" + ("" if kind == "route" else
+                                               " or one of SUMO's DEFAULT_* types"))
+
+
+def _read_file(source: str, key: str, written: str, name: str, root: ET.Element,
+               seen: _Seen, net_edges: set[str], net_name: str, reserved: set[str]) -> None:
+    def clash(what: str, ident: str, allowed: str) -> InputError:
+        return InputError(source, key, f"{name}: {what} id={ident!r}", allowed)
+
+    def edges(who: str, attr: str, value: str) -> None:
+        for edge in value.split():
+            if edge not in net_edges:
+                raise InputError(source, key, f"{name}: {who} {attr}={edge!r}",
+                                 f"edges of the network {net_name}")
+
+    for element, parent in _walk(root, None):
+        tag, attrib = element.tag, element.attrib
+        ident = attrib.get("id", "")
+        if tag in ("vType", "vTypeDistribution"):
+            if ident == COSIM_COPIES:
+                raise clash(tag, ident, "no redefinition of DEFAULT_VEHTYPE (cosim's own "
+                            "vTypes are copies of it): give your type another id")
+            if COSIM_TYPES.fullmatch(ident):
+                raise clash(tag, ident, "a vType id cosim does not use (cosim's are tv, sv, "
+                            "sv_*, tv_scripted*, driven_*)")
+            seen.types.add(ident)
+            for member in attrib.get("vTypes", "").split():
+                seen.refs.append((key, f"{name}: {tag} {ident!r}", "type", member))
+        elif tag in ("route", "routeDistribution"):
+            if ident and COSIM_ROUTES.fullmatch(ident):
+                raise clash(tag, ident, "a route id cosim does not use (cosim's are "
+                            "highway_route, highway_route@*)")
+            who = (f"{tag} {ident!r}" if ident or parent is None
+                   else f"the route of {parent.tag} {parent.attrib.get('id', '')!r}")
+            edges(who, "edges", attrib.get("edges", ""))
+            if ident:
+                seen.routes.add(ident)
+        elif tag in VEHICLE_TAGS or tag in PERSON_TAGS:
+            if ident in reserved:
+                raise clash(tag, ident, "a vehicle id cosim does not use (cosim's SV is 'sv', "
+                            "its scripted TVs are the [[tv]] ids)")
+            if tag == "flow" and any(re.fullmatch(re.escape(ident) + r"\.\d+", r)
+                                     for r in reserved):
+                raise clash(tag, ident, "a flow whose vehicles (id.0, id.1, ...) do not take "
+                            "the id of cosim's SV or a [[tv]]")
+            if ident in seen.vehicles:
+                raise clash(tag, ident, "ids given once across the demand files")
+            seen.vehicles[ident] = tag
+            who = f"{tag} {ident!r}"
+            for attr in ("from", "to", "via"):
+                if attr in attrib:
+                    edges(who, attr, attrib[attr])
+            if "route" in attrib and tag in VEHICLE_TAGS:
+                seen.refs.append((key, f"{name}: {who}", "route", attrib["route"]))
+            if "type" in attrib:
+                seen.refs.append((key, f"{name}: {who}", "type", attrib["type"]))
+
+
+DEMAND_TAGS = ("vType", "vTypeDistribution", "route", "routeDistribution", *VEHICLE_TAGS,
+               *PERSON_TAGS)
+
+
+def demand_only(path: Path, out_dir: Path) -> Path:
+    """A copy of an additional file in `out_dir` holding only its demand (DEMAND_TAGS:
+    vTypes, routes, vehicles, flows, ...): what cosim takes from a .sumocfg's
+    additional-files. Detectors and other outputs would write files of their own (shared
+    by a batch's workers), and TLS programs, rerouters or speed signs are the network's
+    business, not the demand's: they are left out (README)."""
+    root = ET.parse(path).getroot()
+    kept = ET.Element("additional")
+    kept.extend(child for child in root if child.tag in DEMAND_TAGS)
+    out = out_dir / f"demand_{len(list(out_dir.iterdir()))}_{path.name}"
+    ET.ElementTree(kept).write(out, encoding="utf-8", xml_declaration=True)
+    return out
+
+
+def dry_load(source: str, key: str, value: object, network: Path,
+             route_files: Sequence[Path], additional_files: Sequence[Path]) -> None:
+    """SUMO itself loads the demand (all of it at once: `--route-steps 0`) on the network
+    and runs no step; InputError with SUMO's first error if it refuses (what the checks
+    above do not know: attribute values, distributions, ...). Cached per files as they
+    stand."""
+    stamp = tuple((str(p), *_stamp(p)) for p in (network, *route_files, *additional_files))
+    error = _dry_load(stamp, len(route_files))
+    if error:
+        raise InputError(source, key, value,
+                         f"demand files SUMO loads without an error (SUMO says: {error})")
+
+
+def _stamp(path: Path) -> tuple[int, int]:
+    st = path.stat()
+    return st.st_mtime_ns, st.st_size
+
+
+@functools.lru_cache(maxsize=16)
+def _dry_load(stamp: tuple[tuple[str, int, int], ...], n_routes: int) -> str:
+    """SUMO's first error line loading the files of `stamp` (network, route files, then
+    additional files), "" if none."""
+    import subprocess
+    import tempfile
+
+    paths = [Path(p) for p, _, _ in stamp]
+    network, routes, additional = paths[0], paths[1:1 + n_routes], paths[1 + n_routes:]
+    binary = "sumo"
+    try:
+        import sumolib
+
+        binary = sumolib.checkBinary("sumo")
+    except (ImportError, SystemExit):
+        pass
+    with tempfile.TemporaryDirectory(prefix="cosim-demand-") as tmp:
+        cmd = [binary, "-n", str(network), "--route-steps", "0", "--begin", "0", "--end", "0",
+               "--no-step-log", "true", "--no-warnings", "true",
+               "--duration-log.disable", "true"]
+        if routes:
+            cmd += ["--route-files", ",".join(map(str, routes))]
+        if additional:
+            cmd += ["--additional-files",
+                    ",".join(str(demand_only(p, Path(tmp))) for p in additional)]
+        try:
+            done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp)
+        except (OSError, subprocess.SubprocessError) as exc:
+            return f"SUMO could not be run ({exc})"
+    if done.returncode == 0:
+        return ""
+    lines = [ln.strip() for ln in (done.stderr + done.stdout).splitlines() if ln.strip()]
+    errors = [ln for ln in lines if ln.startswith("Error")] or lines or ["(no message)"]
+    return errors[0].removeprefix("Error: ")
+
+
+def _walk(element: ET.Element, parent: ET.Element | None
+          ) -> Iterable[tuple[ET.Element, ET.Element | None]]:
+    """Every element below `element` (itself first) with its parent, in document order
+    (a stack, not recursion: nesting depth is the file's)."""
+    stack = [(element, parent)]
+    while stack:
+        node, above = stack.pop()
+        yield node, above
+        stack.extend((child, node) for child in reversed(list(node)))
