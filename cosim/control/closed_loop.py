@@ -74,6 +74,7 @@ from cosim.vehicle.plant import Plant, check_finite
 from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
 from .allocation import allocate_core
+from .cornering import cornering_params, curve_feed_forward
 from .longitudinal import longitudinal_core, speed_gain, speed_gain_inverse_lag
 from .reference import PathErrors, ReferencePath, frame_path_errors
 from .triple_step import check_gains, law_params, mimo_core, siso_core
@@ -140,7 +141,7 @@ def curve_yaw_moment(cp: Array, kappa: float, vx: float) -> float:
 
 @njit
 def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Array,
-                 cs: Array, t: float, h_ctrl: float) -> int:
+                 ff: Array, cs: Array, t: float, h_ctrl: float) -> int:
     """Sample state s at time t, compute and limit the inputs into cs (held until the
     next call): projection and errors (eq. 16; the reference in the road frame fp, fr),
     MIMO (eq. 22-24) or SISO law, Fa (eq. 28), allocation (eq. 30), actuator limits,
@@ -161,6 +162,14 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
     else:
         delta_cmd = siso_core(lp, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, cs[1])
         dmz = 0.0
+    if k_lane != 0.0:
+        # on a curve: what the tyres need beyond eq. 21's linear model for the path's
+        # curvature, less what they would need for it without the road's (`cornering`:
+        # the part the road's curve adds; 0 on a straight road, as the paper's law)
+        d_delta, d_dmz = curve_feed_forward(ff, vx, kappa, k_lane)
+        delta_cmd += d_delta
+        if cp[CP_MIMO] != 0.0:
+            dmz += d_dmz * slow
     # eq. 28 with its gain held below the tyres' force build-up rate (`longitudinal`)
     kx1 = speed_gain(cp[CP_KX1], s[3], cp[CP_KX1_SLOPE])
     fa = longitudinal_core(cp[CP_MASS], kx1, s[3], vx_ref, ax_ref)
@@ -200,7 +209,8 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
 
 @njit
 def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Array,
-                 coef: Array, fp: Array, fr: Array, lp: Array, cp: Array, cs: Array,
+                 coef: Array, fp: Array, fr: Array, lp: Array, cp: Array, ff: Array,
+                 cs: Array,
                  t: float, h: float,
                  substeps: int, control_every: int, counter: int) -> tuple[int, int, bool]:
     """`substeps` substeps of h from time t: the controller every `control_every`-th
@@ -211,7 +221,7 @@ def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Ar
     for k in range(substeps):
         tk = t + k * h
         if counter % control_every == 0:
-            if control_core(s, coef, fp, fr, lp, cp, cs, tk, h * control_every) != OK:
+            if control_core(s, coef, fp, fr, lp, cp, ff, cs, tk, h * control_every) != OK:
                 return BAD_CONTROL, counter, saturated
             saturated = saturated or cs[10] != 0.0
         counter += 1
@@ -296,6 +306,8 @@ class ClosedLoop:
             speed_gain_inverse_lag(ch.tyre.relaxation_long) if low_speed_gain else 0.0,
             vehicle.wheelbase * vehicle.lr * vehicle.cr, vehicle.lf * vehicle.mass,
         ])
+        # the two-track car's tyres on curves (`cornering`; the bicycle's are linear)
+        self._ff = cornering_params(vehicle, ch, mu, plant == "twotrack")
         self._cs = np.zeros(CS_SIZE)
         self._cs[CS_S_ROAD] = math.nan
         self.frame = frame or StraightFrame(0.0, 0.0, 0.0)
@@ -363,7 +375,8 @@ class ClosedLoop:
         plant = self.plant
         status, self._counter, saturated = advance_core(
             self._kind, plant.state, plant._const, plant._inputs, self._pforces,
-            self._path.coef, self._fp, self._fr, self._lp, self._cp, self._cs, float(t),
+            self._path.coef, self._fp, self._fr, self._lp, self._cp, self._ff, self._cs,
+            float(t),
             dt / substeps,
             substeps, self.control_every, self._counter,
         )

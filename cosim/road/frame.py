@@ -565,6 +565,14 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
     within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
     reachable = max(t[3] for t in within)
     chosen = next(t for t in within if t[3] >= RADIUS_SHARE * reachable)
+    # and at least SUMO's vertex spacing where the target deviation allows: shorter
+    # smoothing leaves the curvature rippling between the vertices (+-10 % at 10 m
+    # spacing and ell = 2.8 m on the curved motorway), which the smallest radius does not
+    # show but the controller follows
+    spacing = float(np.median(np.hypot(*np.diff(raw, axis=0).T)))
+    smoother = [t for t in within if t[0] >= max(spacing, chosen[0])]
+    if smoother:
+        chosen = smoother[0]
     if chosen[3] < limits.min_radius:
         better = [t for t in tried if t[2] <= limits.max_deviation
                   and t[3] >= limits.min_radius]
