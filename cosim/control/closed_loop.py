@@ -162,17 +162,18 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
     else:
         delta_cmd = siso_core(lp, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, cs[1])
         dmz = 0.0
-    if k_lane != 0.0:
-        # on a curve: what the tyres need beyond eq. 21's linear model for the path's
-        # curvature, less what they would need for it without the road's (`cornering`:
-        # the part the road's curve adds; 0 on a straight road, as the paper's law)
-        d_delta, d_dmz = curve_feed_forward(ff, vx, kappa, k_lane)
-        delta_cmd += d_delta
-        if cp[CP_MIMO] != 0.0:
-            dmz += d_dmz * slow
     # eq. 28 with its gain held below the tyres' force build-up rate (`longitudinal`)
     kx1 = speed_gain(cp[CP_KX1], s[3], cp[CP_KX1_SLOPE])
     fa = longitudinal_core(cp[CP_MASS], kx1, s[3], vx_ref, ax_ref)
+    if k_lane != 0.0:
+        # on a curve: what the tyres need beyond eq. 21's linear model for the path's
+        # curvature, less what they would need for it without the road's (`cornering`:
+        # the part the road's curve adds; 0 on a straight road, as the paper's law), at
+        # the acceleration Fa asks for
+        d_delta, d_dmz = curve_feed_forward(ff, vx, kappa, k_lane, fa / cp[CP_MASS])
+        delta_cmd += d_delta
+        if cp[CP_MIMO] != 0.0:
+            dmz += d_dmz * slow
     if not (math.isfinite(delta_cmd) and math.isfinite(dmz) and math.isfinite(fa)):
         cs[11], cs[12], cs[13], cs[14], cs[15] = delta_cmd, dmz, fa, ye, phi_e
         return BAD_CONTROL
@@ -260,6 +261,7 @@ class ClosedLoop:
         yaw_moment_share: float | None = YAW_MOMENT_SHARE,  # -, friction share of dMz (None: off)
         low_speed_gain: bool = True,  # eq. 28's gain within the tyres' lag (False: as printed)
         frame: Frame | None = None,  # the road frame the references are given in (None: x, y)
+        yaw_rate: float = 0.0,  # rad/s at the start (on a curve: the lane's, speed x kappa)
     ) -> None:
         if plant not in PLANTS:
             raise InputError("closed loop", "plant", plant, f"one of {', '.join(PLANTS)}")
@@ -291,9 +293,10 @@ class ClosedLoop:
         ch = chassis or chassis_for(vehicle)
         self.plant: Plant
         if plant == "twotrack":
-            self.plant = TwoTrackPlant(vehicle, mu, x, y, heading, speed, chassis=ch)
+            self.plant = TwoTrackPlant(vehicle, mu, x, y, heading, speed, 0.0, yaw_rate,
+                                       chassis=ch)
         else:
-            self.plant = BicyclePlant(vehicle, x, y, heading, speed)
+            self.plant = BicyclePlant(vehicle, x, y, heading, speed, 0.0, yaw_rate)
         self._kind = PLANT_CODES[plant]
         self._pforces = getattr(self.plant, "_forces", np.zeros(1))
         # both plants get the force the same motors could deliver through wheels of radius R

@@ -38,7 +38,7 @@ from cosim.vehicle.tyre import combined_forces
 
 # Layout of the feed-forward's constant array; the tyre's coefficients follow at F_TYRE.
 (F_ON, F_MASS, F_LF, F_LR, F_KAF, F_KAR, F_FZ0F, F_FZ0R, F_DLAT_F, F_DLAT_R, F_MU,
- F_TYRE) = range(12)
+ F_DLONG, F_TYRE) = range(13)
 CAP = 0.25  # -, the largest feed-forward as a share of the linear front slip
 NEWTON_STEPS = 6  # the front slip converges to 1e-12 rad in 3 at 40 % of the friction
 
@@ -50,44 +50,49 @@ def cornering_params(vehicle: VehicleParams, chassis: ChassisParams, mu: float,
 
     fz0f, fz0r = static_wheel_loads(vehicle)
     dlat = vehicle.mass * chassis.cg_height / (2.0 * vehicle.half_track)  # N per m/s^2
+    dlong = vehicle.mass * chassis.cg_height / (2.0 * vehicle.wheelbase)  # N per m/s^2
     head = [1.0 if enabled else 0.0, vehicle.mass, vehicle.lf, vehicle.lr,
             vehicle.cf / 2.0, vehicle.cr / 2.0, fz0f, fz0r,
-            dlat * chassis.roll_share_front, dlat * (1.0 - chassis.roll_share_front), mu]
+            dlat * chassis.roll_share_front, dlat * (1.0 - chassis.roll_share_front), mu,
+            dlong]
     return np.array(head + chassis.tyre.array(), dtype=float)
 
 
 @njit
-def axle_force(f: Array, tan_alpha: float, fz0: float, dlat: float, ay: float,
-               k_alpha: float) -> float:
-    """N, the lateral force of one axle's two wheels at the same slip, their loads
-    shifted by the lateral load transfer dlat * ay (left loses, right gains for ay > 0),
-    no longitudinal slip."""
+def axle_force(f: Array, tan_alpha: float, fz0: float, dlong: float, dlat: float,
+               ay: float, k_alpha: float) -> float:
+    """N, the lateral force of one axle's two wheels at the same slip, their static load
+    fz0 shifted by the longitudinal transfer dlong (N, + onto this axle) and the lateral
+    one dlat * ay (left loses, right gains for ay > 0), no longitudinal slip."""
     inv = 1.0 / fz0
     mu = f[F_MU]
-    _, left = combined_forces(0.0, tan_alpha, fz0 - dlat * ay, inv, k_alpha, mu, f, F_TYRE)
-    _, right = combined_forces(0.0, tan_alpha, fz0 + dlat * ay, inv, k_alpha, mu, f, F_TYRE)
+    fz = fz0 + dlong
+    _, left = combined_forces(0.0, tan_alpha, fz - dlat * ay, inv, k_alpha, mu, f, F_TYRE)
+    _, right = combined_forces(0.0, tan_alpha, fz + dlat * ay, inv, k_alpha, mu, f, F_TYRE)
     return left + right
 
 
 @njit
-def steady_cornering(f: Array, vx: float, kappa: float) -> tuple[float, float]:
+def steady_cornering(f: Array, vx: float, kappa: float, ax: float) -> tuple[float, float]:
     """(d_delta rad, d_dMz N m): what the tyres need on a circle of curvature kappa at
-    speed vx beyond the linear model's steady-state inputs (module docstring); (0, 0)
-    when disabled or on a straight line."""
+    speed vx beyond the linear model's steady-state inputs (module docstring), the car
+    accelerating at ax (m/s^2: load moves to the rear axle); (0, 0) when disabled or on a
+    straight line."""
     if f[F_ON] == 0.0 or kappa == 0.0:
         return 0.0, 0.0
     m, lf, lr, kaf, kar = f[F_MASS], f[F_LF], f[F_LR], f[F_KAF], f[F_KAR]
     ay = vx * vx * kappa
     rear_lin = 2.0 * kar * lr * kappa
-    rear = axle_force(f, lr * kappa, f[F_FZ0R], f[F_DLAT_R], ay, kar)
+    shift = f[F_DLONG] * ax
+    rear = axle_force(f, lr * kappa, f[F_FZ0R], shift, f[F_DLAT_R], ay, kar)
     need = m * ay - rear
     alpha_lin = (m * ay - rear_lin) / (2.0 * kaf)
     fz0f, dlat_f = f[F_FZ0F], f[F_DLAT_F]
     alpha = need / (2.0 * kaf)
     for _ in range(NEWTON_STEPS):
-        g = axle_force(f, alpha, fz0f, dlat_f, ay, kaf) - need
+        g = axle_force(f, alpha, fz0f, -shift, dlat_f, ay, kaf) - need
         da = 1e-6 * (abs(alpha) + 1e-6)
-        slope = (axle_force(f, alpha + da, fz0f, dlat_f, ay, kaf) - g - need) / da
+        slope = (axle_force(f, alpha + da, fz0f, -shift, dlat_f, ay, kaf) - g - need) / da
         if not slope > 0.0:  # past the tyres' peak: no steady state to aim at
             break
         step = g / slope
@@ -102,7 +107,7 @@ def steady_cornering(f: Array, vx: float, kappa: float) -> tuple[float, float]:
 
 
 @njit
-def curve_feed_forward(f: Array, vx: float, kappa: float, k_road: float
+def curve_feed_forward(f: Array, vx: float, kappa: float, k_road: float, ax: float
                        ) -> tuple[float, float]:
     """(d_delta rad, d_dMz N m) the closed loop adds on a road of curvature k_road (the
     road's line through the car) while its path curves at kappa (KL, the road's curve
@@ -113,6 +118,6 @@ def curve_feed_forward(f: Array, vx: float, kappa: float, k_road: float
     this is 0 (k_road = 0: the paper's law, unchanged)."""
     if k_road == 0.0:
         return 0.0, 0.0
-    d1, m1 = steady_cornering(f, vx, kappa)
-    d0, m0 = steady_cornering(f, vx, kappa - k_road)
+    d1, m1 = steady_cornering(f, vx, kappa, ax)
+    d0, m0 = steady_cornering(f, vx, kappa - k_road, ax)
     return d1 - d0, m1 - m0
