@@ -227,6 +227,31 @@ def _frenet(px: Array, py: Array, hint: Array, window: int, s_min: float, h: flo
             out_s[i], out_d[i] = s_min + k * h + u, d
 
 
+@njit
+def _view(px: Array, py: Array, heading: Array, hint: float, window: int, s_min: float,
+          h: float, x: Array, y: Array, cth: Array, sth: Array, kappa: Array, theta: Array,
+          d_offset: float, out_s: Array, out_d: Array, out_rel: Array, out_q: Array) -> None:
+    """Cartesian poses -> (s, d, heading relative to the line, stretch q) in one pass
+    (`ArcFrame.view`): `_frenet`'s s and d, then the line's heading and curvature at s
+    as `ArcFrame.tangent` takes them and q as `road_view.stretch`, operation by
+    operation; NaN for a point no arc's normals reach."""
+    n = kappa.shape[0]
+    two_pi = 2.0 * math.pi
+    for i in range(px.shape[0]):
+        u, d, k = _foot(px[i], py[i], hint, window, s_min, h, x, y, cth, sth, kappa)
+        if k < 0:
+            out_s[i] = out_d[i] = out_rel[i] = out_q[i] = math.nan
+            continue
+        s = s_min + k * h + u
+        dd = d + d_offset
+        j = min(max(int(math.floor((s - s_min) / h)), 0), n - 1)
+        kap = kappa[j]
+        th = theta[j] + kap * (s - (s_min + j * h))
+        out_s[i], out_d[i] = s, dd
+        out_rel[i] = (heading[i] - th + math.pi) % two_pi - math.pi
+        out_q[i] = 1.0 - kap * (dd - d_offset)
+
+
 # ---------------------------------------------------------------- one point, packed frame
 # A frame packed for compiled callers (`packed`): `fp` = [curved (0/1), s_min, h, d_offset,
 # x0, y0] and `fr` = rows x, y, cos theta, sin theta, kappa, theta of the arc table (one
@@ -268,6 +293,8 @@ def _warm_up() -> None:
     _cartesian(z[:1], z[:1], 0.0, 1.0, z, z, z, one, z[:1].copy(), z[:1].copy(), z[:1].copy())
     _frenet(z[:1], z[:1], np.full(1, np.nan), 1, 0.0, 1.0, z, z, one[:1].repeat(2), z, one,
             z[:1].copy(), z[:1].copy())
+    _view(z[:1], z[:1], z[:1], math.nan, 1, 0.0, 1.0, z, z, one[:1].repeat(2), z, one, z, 0.0,
+          z[:1].copy(), z[:1].copy(), z[:1].copy(), z[:1].copy())
     for curved in (0.0, 1.0):
         fp = np.array([curved, 0.0, 1.0, 0.0, 0.0, 0.0])
         fr = np.zeros((6, 2))
@@ -380,6 +407,22 @@ class ArcFrame:
         _frenet(x_, y_, h_, WINDOW, self.s_min, self.h, self.x, self.y, self._cos,
                 self._sin, self.kappa, os_, od)
         return _shaped(shape, os_, od + self.d_offset)
+
+    def view(self, x: Array, y: Array, heading: Array, s_hint: float | None
+             ) -> tuple[Array, Array, Array, Array]:
+        """(s, d, heading relative to the line, stretch q = 1 - kappa(s) (d - d_offset))
+        of Cartesian poses (arrays), all searched from one hint (m; None: none): what
+        `to_frenet`, `tangent` and `cosim.traffic.road_view.stretch` give, in one
+        compiled pass (the scene's conversion every step)."""
+        px = np.ascontiguousarray(x, dtype=np.float64)
+        n = px.shape[0]
+        out = np.empty((4, n))
+        _view(px, np.ascontiguousarray(y, dtype=np.float64),
+              np.ascontiguousarray(heading, dtype=np.float64),
+              math.nan if s_hint is None else float(s_hint), WINDOW, self.s_min, self.h,
+              self.x, self.y, self._cos, self._sin, self.kappa, self.theta, self.d_offset,
+              out[0], out[1], out[2], out[3])
+        return out[0], out[1], out[2], out[3]
 
     def packed(self) -> tuple[Array, Array]:
         """(fp, fr) for compiled callers (`pose_in_frame`, `point_of_frame`)."""
