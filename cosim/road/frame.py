@@ -433,7 +433,10 @@ class ArcFrame:
                                              self.theta[:len(self.kappa)]]))
         return fp, fr
 
-    def _arc(self, s: ArrayLike) -> tuple[Array, Array]:
+    def _arc(self, s: ArrayLike) -> tuple[Any, Any]:
+        if isinstance(s, float) and not math.isnan(s):  # one point (the SV's, each step)
+            k = min(max(int(math.floor((s - self.s_min) / self.h)), 0), len(self.kappa) - 1)
+            return k, s - (self.s_min + k * self.h)
         s_ = np.asarray(s, dtype=np.float64)
         k = np.clip(np.floor((s_ - self.s_min) / self.h).astype(np.int64), 0,
                     len(self.kappa) - 1)
