@@ -66,7 +66,7 @@ from cosim.compiled import Array, njit, register_warm_up
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.road.frame import Frame, StraightFrame, pose_in_frame
+from cosim.road.frame import FP_D_OFFSET, FP_H, FP_S_MIN, Frame, StraightFrame, pose_in_frame
 from cosim.vehicle.actuators import ActuatorLimits, steer_core
 from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
 from cosim.vehicle.chassis import ChassisParams, chassis_for
@@ -119,6 +119,7 @@ CP_FLOOR, CP_MIMO, CP_MAX_STEER, CP_STEER_RATE, CP_DMZ_LIMIT = 0, 1, 2, 3, 4
 CP_FORCE_LO, CP_FORCE_HI, CP_LS, CP_LF, CP_EPS, CP_MASS, CP_KX1 = 5, 6, 7, 8, 9, 10, 11
 CP_KX1_SLOPE = 12  # 1/(m s), eq. 28's low-speed form (`longitudinal.speed_gain`; 0: off)
 CP_CURVE_STIFF, CP_CURVE_MASS = 13, 14  # N m, kg m: L lr Cr and lf M (`curve_yaw_moment`)
+CP_IZ = 15  # kg m^2, Iz (`road_yaw_acceleration`)
 # cs: 0 projection (path parameter, s), 1 int(ye) (m s), 2 int(phi_e) (rad s),
 # 3 delta_f applied (rad), 4 dMz (N m), 5 Fa (N), 6-9 wheel forces (N),
 # 10 last control saturated (0/1), 11-15 a non-finite control output
@@ -139,6 +140,28 @@ def curve_yaw_moment(cp: Array, kappa: float, vx: float) -> float:
     return kappa * (cp[CP_CURVE_STIFF] - cp[CP_CURVE_MASS] * vx * vx)
 
 
+KAPPA_SPAN = 2.5  # m, either side of the car: the road's curvature's slope taken over it
+
+
+@njit
+def road_yaw_acceleration(fp: Array, fr: Array, s: float, d: float, vx: float) -> float:
+    """rad/s^2, how fast the yaw rate of a car following its lane at speed vx must change
+    where the road's curvature changes: the lane's heading turns at kappa(s) ds/dt, with
+    ds/dt = vx / q (q = 1 - kappa (d - d_offset)), so its yaw acceleration is
+    kappa'(s) (ds/dt)^2 (at a steady speed). Eq. 21 takes the path's curvature as
+    constant (phi_e'' has no kappa' term): fed forward as Iz times this, the yaw moment
+    a transition into or out of a curve needs does not have to come from phi_e. kappa'
+    is the slope of the frame's curvature over +-KAPPA_SPAN."""
+    s_min, h = fp[FP_S_MIN], fp[FP_H]
+    n = fr.shape[1]
+    j0 = min(max(int(math.floor((s - KAPPA_SPAN - s_min) / h)), 0), n - 1)
+    j1 = min(max(int(math.floor((s + KAPPA_SPAN - s_min) / h)), 0), n - 1)
+    slope = (fr[4, j1] - fr[4, j0]) / (2.0 * KAPPA_SPAN)
+    j = min(max(int(math.floor((s - s_min) / h)), 0), n - 1)
+    sdot = vx / (1.0 - fr[4, j] * (d - fp[FP_D_OFFSET]))
+    return slope * sdot * sdot
+
+
 @njit
 def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Array,
                  ff: Array, cs: Array, t: float, h_ctrl: float) -> int:
@@ -147,7 +170,7 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
     MIMO (eq. 22-24) or SISO law, Fa (eq. 28), allocation (eq. 30), actuator limits,
     conditional integration. Returns OK, or BAD_CONTROL with the non-finite outputs in
     cs[11:16]."""
-    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _, s_road, _,
+    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _, s_road, d_road,
      _, k_lane) = frame_path_errors(coef, fp, fr, t, s[0], s[1], s[2], s[3], s[4], s[5],
                                     cs[0], cs[CS_S_ROAD])
     cs[0] = sproj
@@ -173,7 +196,7 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
         d_delta, d_dmz = curve_feed_forward(ff, vx, kappa, k_lane, fa / cp[CP_MASS])
         delta_cmd += d_delta
         if cp[CP_MIMO] != 0.0:
-            dmz += d_dmz * slow
+            dmz += (d_dmz + cp[CP_IZ] * road_yaw_acceleration(fp, fr, s_road, d_road, vx)) * slow
     if not (math.isfinite(delta_cmd) and math.isfinite(dmz) and math.isfinite(fa)):
         cs[11], cs[12], cs[13], cs[14], cs[15] = delta_cmd, dmz, fa, ye, phi_e
         return BAD_CONTROL
@@ -308,6 +331,7 @@ class ClosedLoop:
             vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
             speed_gain_inverse_lag(ch.tyre.relaxation_long) if low_speed_gain else 0.0,
             vehicle.wheelbase * vehicle.lr * vehicle.cr, vehicle.lf * vehicle.mass,
+            vehicle.yaw_inertia,
         ])
         # the two-track car's tyres on curves (`cornering`; the bicycle's are linear)
         self._ff = cornering_params(vehicle, ch, mu, plant == "twotrack")
