@@ -28,6 +28,12 @@ anti-windup); a non-finite plant state or control output raises
 `SimulationError` naming the state. The two-track plant itself has ABS /
 traction control (`TwoTrackPlant._slip_limited`).
 
+On a curved road (beyond the paper; 0 where the road is straight, so the paper's law
+there is unchanged, bit for bit): the steady-cornering feed-forward of `cornering`
+(what the two-track car's nonlinear tyres need beyond eq. 21's linear model) on the
+steering and yaw moment, and Iz times the yaw acceleration a lane asks for where the
+road's curvature changes (`road_yaw_acceleration`: eq. 21 takes kappa as constant).
+
 Yaw-moment limit (beyond the paper): the MIMO law asks for the yaw moment that
 keeps the heading on the path tangent (zero sideslip). For the oversteering
 Table 1 car this grows with lateral acceleration as KL (L lr Cr - lf M Vx^2)
