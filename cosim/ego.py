@@ -74,8 +74,12 @@ class PlannedEgo:
         # the plant is Cartesian; the reference and the scene are in road coordinates
         # (speed along s: at the start's offset the car drives q times it)
         cx, cy, ch, q = self.world.cartesian(x0, y0, 0.0)
+        # on a curve the car starts turning with its lane (the lane's curvature is the
+        # line's over q, its speed q times the plan's: speed x the line's curvature)
+        yaw_rate = speed * float(self.world.frame.curvature(x0))
         self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
-                               sc.road.mu, cx, cy, ch, speed * q, frame=self.world.frame)
+                               sc.road.mu, cx, cy, ch, speed * q, frame=self.world.frame,
+                               yaw_rate=yaw_rate)
         self.loop.set_reference(reference)
         self.record = self.loop.record(0.0)
         self.records: list[Any] = [self.record]

@@ -28,6 +28,12 @@ anti-windup); a non-finite plant state or control output raises
 `SimulationError` naming the state. The two-track plant itself has ABS /
 traction control (`TwoTrackPlant._slip_limited`).
 
+On a curved road (beyond the paper; 0 where the road is straight, so the paper's law
+there is unchanged, bit for bit): the steady-cornering feed-forward of `cornering`
+(what the two-track car's nonlinear tyres need beyond eq. 21's linear model) on the
+steering and yaw moment, and Iz times the yaw acceleration a lane asks for where the
+road's curvature changes (`road_yaw_acceleration`: eq. 21 takes kappa as constant).
+
 Yaw-moment limit (beyond the paper): the MIMO law asks for the yaw moment that
 keeps the heading on the path tangent (zero sideslip). For the oversteering
 Table 1 car this grows with lateral acceleration as KL (L lr Cr - lf M Vx^2)
@@ -66,7 +72,7 @@ from cosim.compiled import Array, njit, register_warm_up
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.road.frame import Frame, StraightFrame, pose_in_frame
+from cosim.road.frame import FP_D_OFFSET, FP_H, FP_S_MIN, Frame, StraightFrame, pose_in_frame
 from cosim.vehicle.actuators import ActuatorLimits, steer_core
 from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
 from cosim.vehicle.chassis import ChassisParams, chassis_for
@@ -74,6 +80,7 @@ from cosim.vehicle.plant import Plant, check_finite
 from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
 from .allocation import allocate_core
+from .cornering import cornering_params, curve_feed_forward
 from .longitudinal import longitudinal_core, speed_gain, speed_gain_inverse_lag
 from .reference import PathErrors, ReferencePath, frame_path_errors
 from .triple_step import check_gains, law_params, mimo_core, siso_core
@@ -118,6 +125,7 @@ CP_FLOOR, CP_MIMO, CP_MAX_STEER, CP_STEER_RATE, CP_DMZ_LIMIT = 0, 1, 2, 3, 4
 CP_FORCE_LO, CP_FORCE_HI, CP_LS, CP_LF, CP_EPS, CP_MASS, CP_KX1 = 5, 6, 7, 8, 9, 10, 11
 CP_KX1_SLOPE = 12  # 1/(m s), eq. 28's low-speed form (`longitudinal.speed_gain`; 0: off)
 CP_CURVE_STIFF, CP_CURVE_MASS = 13, 14  # N m, kg m: L lr Cr and lf M (`curve_yaw_moment`)
+CP_IZ = 15  # kg m^2, Iz (`road_yaw_acceleration`)
 # cs: 0 projection (path parameter, s), 1 int(ye) (m s), 2 int(phi_e) (rad s),
 # 3 delta_f applied (rad), 4 dMz (N m), 5 Fa (N), 6-9 wheel forces (N),
 # 10 last control saturated (0/1), 11-15 a non-finite control output
@@ -138,15 +146,37 @@ def curve_yaw_moment(cp: Array, kappa: float, vx: float) -> float:
     return kappa * (cp[CP_CURVE_STIFF] - cp[CP_CURVE_MASS] * vx * vx)
 
 
+KAPPA_SPAN = 2.5  # m, either side of the car: the road's curvature's slope taken over it
+
+
+@njit
+def road_yaw_acceleration(fp: Array, fr: Array, s: float, d: float, vx: float) -> float:
+    """rad/s^2, how fast the yaw rate of a car following its lane at speed vx must change
+    where the road's curvature changes: the lane's heading turns at kappa(s) ds/dt, with
+    ds/dt = vx / q (q = 1 - kappa (d - d_offset)), so its yaw acceleration is
+    kappa'(s) (ds/dt)^2 (at a steady speed). Eq. 21 takes the path's curvature as
+    constant (phi_e'' has no kappa' term): fed forward as Iz times this, the yaw moment
+    a transition into or out of a curve needs does not have to come from phi_e. kappa'
+    is the slope of the frame's curvature over +-KAPPA_SPAN."""
+    s_min, h = fp[FP_S_MIN], fp[FP_H]
+    n = fr.shape[1]
+    j0 = min(max(int(math.floor((s - KAPPA_SPAN - s_min) / h)), 0), n - 1)
+    j1 = min(max(int(math.floor((s + KAPPA_SPAN - s_min) / h)), 0), n - 1)
+    slope = (fr[4, j1] - fr[4, j0]) / (2.0 * KAPPA_SPAN)
+    j = min(max(int(math.floor((s - s_min) / h)), 0), n - 1)
+    sdot = vx / (1.0 - fr[4, j] * (d - fp[FP_D_OFFSET]))
+    return slope * sdot * sdot
+
+
 @njit
 def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Array,
-                 cs: Array, t: float, h_ctrl: float) -> int:
+                 ff: Array, cs: Array, t: float, h_ctrl: float) -> int:
     """Sample state s at time t, compute and limit the inputs into cs (held until the
     next call): projection and errors (eq. 16; the reference in the road frame fp, fr),
     MIMO (eq. 22-24) or SISO law, Fa (eq. 28), allocation (eq. 30), actuator limits,
     conditional integration. Returns OK, or BAD_CONTROL with the non-finite outputs in
     cs[11:16]."""
-    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _, s_road, _,
+    (ye, phi_e, ye_dot, phi_e_dot, kappa, sproj, vx_ref, ax_ref, _, _, _, s_road, d_road,
      _, k_lane) = frame_path_errors(coef, fp, fr, t, s[0], s[1], s[2], s[3], s[4], s[5],
                                     cs[0], cs[CS_S_ROAD])
     cs[0] = sproj
@@ -164,6 +194,15 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
     # eq. 28 with its gain held below the tyres' force build-up rate (`longitudinal`)
     kx1 = speed_gain(cp[CP_KX1], s[3], cp[CP_KX1_SLOPE])
     fa = longitudinal_core(cp[CP_MASS], kx1, s[3], vx_ref, ax_ref)
+    if k_lane != 0.0:
+        # on a curve: what the tyres need beyond eq. 21's linear model for the path's
+        # curvature, less what they would need for it without the road's (`cornering`:
+        # the part the road's curve adds; 0 on a straight road, as the paper's law), at
+        # the acceleration Fa asks for
+        d_delta, d_dmz = curve_feed_forward(ff, vx, kappa, k_lane, fa / cp[CP_MASS])
+        delta_cmd += d_delta
+        if cp[CP_MIMO] != 0.0:
+            dmz += (d_dmz + cp[CP_IZ] * road_yaw_acceleration(fp, fr, s_road, d_road, vx)) * slow
     if not (math.isfinite(delta_cmd) and math.isfinite(dmz) and math.isfinite(fa)):
         cs[11], cs[12], cs[13], cs[14], cs[15] = delta_cmd, dmz, fa, ye, phi_e
         return BAD_CONTROL
@@ -200,7 +239,8 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
 
 @njit
 def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Array,
-                 coef: Array, fp: Array, fr: Array, lp: Array, cp: Array, cs: Array,
+                 coef: Array, fp: Array, fr: Array, lp: Array, cp: Array, ff: Array,
+                 cs: Array,
                  t: float, h: float,
                  substeps: int, control_every: int, counter: int) -> tuple[int, int, bool]:
     """`substeps` substeps of h from time t: the controller every `control_every`-th
@@ -211,7 +251,7 @@ def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Ar
     for k in range(substeps):
         tk = t + k * h
         if counter % control_every == 0:
-            if control_core(s, coef, fp, fr, lp, cp, cs, tk, h * control_every) != OK:
+            if control_core(s, coef, fp, fr, lp, cp, ff, cs, tk, h * control_every) != OK:
                 return BAD_CONTROL, counter, saturated
             saturated = saturated or cs[10] != 0.0
         counter += 1
@@ -250,6 +290,7 @@ class ClosedLoop:
         yaw_moment_share: float | None = YAW_MOMENT_SHARE,  # -, friction share of dMz (None: off)
         low_speed_gain: bool = True,  # eq. 28's gain within the tyres' lag (False: as printed)
         frame: Frame | None = None,  # the road frame the references are given in (None: x, y)
+        yaw_rate: float = 0.0,  # rad/s at the start (on a curve: the lane's, speed x kappa)
     ) -> None:
         if plant not in PLANTS:
             raise InputError("closed loop", "plant", plant, f"one of {', '.join(PLANTS)}")
@@ -281,9 +322,10 @@ class ClosedLoop:
         ch = chassis or chassis_for(vehicle)
         self.plant: Plant
         if plant == "twotrack":
-            self.plant = TwoTrackPlant(vehicle, mu, x, y, heading, speed, chassis=ch)
+            self.plant = TwoTrackPlant(vehicle, mu, x, y, heading, speed, 0.0, yaw_rate,
+                                       chassis=ch)
         else:
-            self.plant = BicyclePlant(vehicle, x, y, heading, speed)
+            self.plant = BicyclePlant(vehicle, x, y, heading, speed, 0.0, yaw_rate)
         self._kind = PLANT_CODES[plant]
         self._pforces = getattr(self.plant, "_forces", np.zeros(1))
         # both plants get the force the same motors could deliver through wheels of radius R
@@ -295,7 +337,10 @@ class ClosedLoop:
             vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
             speed_gain_inverse_lag(ch.tyre.relaxation_long) if low_speed_gain else 0.0,
             vehicle.wheelbase * vehicle.lr * vehicle.cr, vehicle.lf * vehicle.mass,
+            vehicle.yaw_inertia,
         ])
+        # the two-track car's tyres on curves (`cornering`; the bicycle's are linear)
+        self._ff = cornering_params(vehicle, ch, mu, plant == "twotrack")
         self._cs = np.zeros(CS_SIZE)
         self._cs[CS_S_ROAD] = math.nan
         self.frame = frame or StraightFrame(0.0, 0.0, 0.0)
@@ -363,7 +408,8 @@ class ClosedLoop:
         plant = self.plant
         status, self._counter, saturated = advance_core(
             self._kind, plant.state, plant._const, plant._inputs, self._pforces,
-            self._path.coef, self._fp, self._fr, self._lp, self._cp, self._cs, float(t),
+            self._path.coef, self._fp, self._fr, self._lp, self._cp, self._ff, self._cs,
+            float(t),
             dt / substeps,
             substeps, self.control_every, self._counter,
         )

@@ -40,7 +40,9 @@ unchanged, a circle of radius R shrinks by ell^6 / R^5, 3 nm for ell = 10 m and 
 from a straight into a curve, the spline overshoots by a few per cent). The least smoothing
 that reaches 90 % of the largest smallest-radius any smoothing within
 `target_deviation` of SUMO's polyline reaches is taken (more would bend SUMO's own
-curves). Where SUMO's vertices lie far apart (an OSM import: 60 m, 3 degree kinks) that
+curves), lengthened to SUMO's vertex spacing (median) where that stays within the
+target (shorter smoothing leaves the curvature rippling between the vertices). Where
+SUMO's vertices lie far apart (an OSM import: 60 m, 3 degree kinks) that
 line still bends at each vertex far tighter than the curve the vertices lie on
 (`polyline_radius`: segment length over turn angle); then the least smoothing within
 `max_deviation` that reaches 90 % of that radius (or of the largest reachable there) is
@@ -231,6 +233,31 @@ def _frenet(px: Array, py: Array, hint: Array, window: int, s_min: float, h: flo
             out_s[i], out_d[i] = s_min + k * h + u, d
 
 
+@njit
+def _view(px: Array, py: Array, heading: Array, hint: float, window: int, s_min: float,
+          h: float, x: Array, y: Array, cth: Array, sth: Array, kappa: Array, theta: Array,
+          d_offset: float, out_s: Array, out_d: Array, out_rel: Array, out_q: Array) -> None:
+    """Cartesian poses -> (s, d, heading relative to the line, stretch q) in one pass
+    (`ArcFrame.view`): `_frenet`'s s and d, then the line's heading and curvature at s
+    as `ArcFrame.tangent` takes them and q as `road_view.stretch`, operation by
+    operation; NaN for a point no arc's normals reach."""
+    n = kappa.shape[0]
+    two_pi = 2.0 * math.pi
+    for i in range(px.shape[0]):
+        u, d, k = _foot(px[i], py[i], hint, window, s_min, h, x, y, cth, sth, kappa)
+        if k < 0:
+            out_s[i] = out_d[i] = out_rel[i] = out_q[i] = math.nan
+            continue
+        s = s_min + k * h + u
+        dd = d + d_offset
+        j = min(max(int(math.floor((s - s_min) / h)), 0), n - 1)
+        kap = kappa[j]
+        th = theta[j] + kap * (s - (s_min + j * h))
+        out_s[i], out_d[i] = s, dd
+        out_rel[i] = (heading[i] - th + math.pi) % two_pi - math.pi
+        out_q[i] = 1.0 - kap * (dd - d_offset)
+
+
 # ---------------------------------------------------------------- one point, packed frame
 # A frame packed for compiled callers (`packed`): `fp` = [curved (0/1), s_min, h, d_offset,
 # x0, y0] and `fr` = rows x, y, cos theta, sin theta, kappa, theta of the arc table (one
@@ -272,6 +299,8 @@ def _warm_up() -> None:
     _cartesian(z[:1], z[:1], 0.0, 1.0, z, z, z, one, z[:1].copy(), z[:1].copy(), z[:1].copy())
     _frenet(z[:1], z[:1], np.full(1, np.nan), 1, 0.0, 1.0, z, z, one[:1].repeat(2), z, one,
             z[:1].copy(), z[:1].copy())
+    _view(z[:1], z[:1], z[:1], math.nan, 1, 0.0, 1.0, z, z, one[:1].repeat(2), z, one, z, 0.0,
+          z[:1].copy(), z[:1].copy(), z[:1].copy(), z[:1].copy())
     for curved in (0.0, 1.0):
         fp = np.array([curved, 0.0, 1.0, 0.0, 0.0, 0.0])
         fr = np.zeros((6, 2))
@@ -385,6 +414,22 @@ class ArcFrame:
                 self._sin, self.kappa, os_, od)
         return _shaped(shape, os_, od + self.d_offset)
 
+    def view(self, x: Array, y: Array, heading: Array, s_hint: float | None
+             ) -> tuple[Array, Array, Array, Array]:
+        """(s, d, heading relative to the line, stretch q = 1 - kappa(s) (d - d_offset))
+        of Cartesian poses (arrays), all searched from one hint (m; None: none): what
+        `to_frenet`, `tangent` and `cosim.traffic.road_view.stretch` give, in one
+        compiled pass (the scene's conversion every step)."""
+        px = np.ascontiguousarray(x, dtype=np.float64)
+        n = px.shape[0]
+        out = np.empty((4, n))
+        _view(px, np.ascontiguousarray(y, dtype=np.float64),
+              np.ascontiguousarray(heading, dtype=np.float64),
+              math.nan if s_hint is None else float(s_hint), WINDOW, self.s_min, self.h,
+              self.x, self.y, self._cos, self._sin, self.kappa, self.theta, self.d_offset,
+              out[0], out[1], out[2], out[3])
+        return out[0], out[1], out[2], out[3]
+
     def packed(self) -> tuple[Array, Array]:
         """(fp, fr) for compiled callers (`pose_in_frame`, `point_of_frame`)."""
         fp = np.array([1.0, self.s_min, self.h, self.d_offset, 0.0, 0.0])
@@ -394,7 +439,10 @@ class ArcFrame:
                                              self.theta[:len(self.kappa)]]))
         return fp, fr
 
-    def _arc(self, s: ArrayLike) -> tuple[Array, Array]:
+    def _arc(self, s: ArrayLike) -> tuple[Any, Any]:
+        if isinstance(s, float) and not math.isnan(s):  # one point (the SV's, each step)
+            k = min(max(int(math.floor((s - self.s_min) / self.h)), 0), len(self.kappa) - 1)
+            return k, s - (self.s_min + k * self.h)
         s_ = np.asarray(s, dtype=np.float64)
         k = np.clip(np.floor((s_ - self.s_min) / self.h).astype(np.int64), 0,
                     len(self.kappa) - 1)
@@ -569,6 +617,14 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
     within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
     reachable = max(t[3] for t in within)
     chosen = next(t for t in within if t[3] >= RADIUS_SHARE * reachable)
+    # and at least SUMO's vertex spacing where the target deviation allows: shorter
+    # smoothing leaves the curvature rippling between the vertices (+-10 % at 10 m
+    # spacing and ell = 2.8 m on the curved motorway), which the smallest radius does not
+    # show but the controller follows
+    spacing = float(np.median(np.hypot(*np.diff(raw, axis=0).T)))
+    smoother = [t for t in within if t[0] >= max(spacing, chosen[0])]
+    if smoother:
+        chosen = smoother[0]
     implied = polyline_radius(raw)
     if math.isfinite(implied) and chosen[3] < RADIUS_SHARE * implied:
         # coarse vertices (an OSM import: 60 m apart, 3 degree kinks): within the target

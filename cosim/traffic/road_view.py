@@ -47,11 +47,14 @@ def road_view(snap: TrafficSnapshot, frame: StraightFrame | ArcFrame,
     reach (far inside a bend, on another road) gets NaN."""
     if is_identity(frame) or not len(snap):
         return snap
-    s, d = frame.to_frenet(snap.x, snap.y, s_hint=s_hint)
-    s, d = np.asarray(s, dtype=np.float64), np.asarray(d, dtype=np.float64)
-    theta, kappa = frame.tangent(s)
-    rel = (snap.heading - theta + np.pi) % (2.0 * np.pi) - np.pi  # wrapped into [-pi, pi)
-    q = stretch(frame, s, d, kappa)
+    if isinstance(frame, ArcFrame):  # one compiled pass (ArcFrame.view)
+        s, d, rel, q = frame.view(snap.x, snap.y, snap.heading, s_hint)
+    else:
+        s, d = frame.to_frenet(snap.x, snap.y, s_hint=s_hint)
+        s, d = np.asarray(s, dtype=np.float64), np.asarray(d, dtype=np.float64)
+        theta, kappa = frame.tangent(s)
+        rel = (snap.heading - theta + np.pi) % (2.0 * np.pi) - np.pi  # into [-pi, pi)
+        q = stretch(frame, s, d, kappa)
     return replace(snap, x=s, y=d, heading=rel, speed=snap.speed / q, accel=snap.accel / q,
                    cx=snap.x, cy=snap.y, ch=snap.heading)
 

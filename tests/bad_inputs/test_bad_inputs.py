@@ -209,7 +209,7 @@ ALLOWED_HINTS: dict[str, str] = {
     "network_lane_speed_zero.toml": "lane 1 speed = 0",
     "route_not_connected.toml": "e1 leads to e2",
     "route_unknown_edge.toml": "an edge of highway.net.xml a car may use (highway)",
-    "route_past_end.toml": "short enough for the SV to stay on the 1502.02 m road",
+    "route_past_end.toml": "short enough for the SV to stay on the 1502 m road",
     "sv_edge_not_on_route.toml": "an edge of road.route (e1, e2)",
     "sv_lane_not_on_edge.toml": "edge 'e3' has 4 lanes",
     "sv_position_past_edge.toml": "on lane 'e2_1'",

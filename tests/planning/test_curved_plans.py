@@ -15,13 +15,13 @@ planner checked that pair over. The accepted candidates at both ends of every
 collision-free interval, the ones the check lets come closest, are judged too.
 
 The situations are random (fixed seeds) on networks/curved_motorway.net.xml (route
-e1 e2 e3 e4): on its first left curve (R ~960 m), both halves of the S-bend (R 738 m
-to the right, the route's tightest, then R ~1120 m to the left) and across junction j2
-(in a R ~1500 m curve), where SUMO's index of every through lane goes up by one
-(the added lane e3_0 on the right): there the TVs are placed as SUMO reports them
-(edge, lane index, lane position; the added lane's too) and converted to (s, d)
-through the road's tracks, and the SV's plans run through j2 in a lane whose SUMO
-index changes under it.
+e1 e2 e3 e4): on its first left curve (R ~960 m), both halves of the S-bend (R ~770 m
+to the right, then R ~1120 m to the left; the route's tightest, R 728 m, is where it
+turns) and across junction j2 (in a R ~1500 m curve), where SUMO's index of every
+through lane goes up by one (the added lane e3_0 on the right): there the TVs are
+placed as SUMO reports them (edge, lane index, lane position; the added lane's too)
+and converted to (s, d) through the road's tracks, and the SV's plans run through j2
+in a lane whose SUMO index changes under it.
 
 The check can fail: without the margin (curve=None) a situation built to sit at the
 (s, d) check's edge (a TV closing from behind in the target lane on the inside of a
@@ -71,7 +71,7 @@ NEAR = 1.0
 # the SV's start s (m) per region (the curvature there is asserted below)
 REGIONS = {
     "left curve R 960": (440.0, 560.0),
-    "S-bend right R 738": (1390.0, 1560.0),
+    "S-bend right R 770": (1390.0, 1560.0),
     "S-bend left R 1120": (1800.0, 2050.0),
     "junction j2 (SUMO index +1), R 1500": (3035.0, 3080.0),
 }
@@ -353,8 +353,10 @@ def test_the_regions_are_curved_and_the_junction_shifts_sumos_index(road: Road) 
     for region, (lo, hi) in REGIONS.items():
         k = np.abs(frame.curvature(np.linspace(lo, hi, 50)))
         assert k.min() > 1.0 / 1700.0, region
-    tight = np.abs(frame.curvature(np.linspace(*REGIONS["S-bend right R 738"], 50)))
-    assert tight.max() == pytest.approx(kappa, rel=0.02)
+    # the route's largest curvature (R 728 m) is the smoothing spline's overshoot where
+    # the S-bend turns from right to left (s 1718 m), 6 % above the right half's
+    tight = np.abs(frame.curvature(np.linspace(*REGIONS["S-bend right R 770"], 50)))
+    assert tight.max() == pytest.approx(kappa, rel=0.07)
     for track in (0, 1, 2):
         table = road.lane(track)
         assert table.piece_at(J2[0] - 20.0).index + 1 == table.piece_at(J2[1] + 20.0).index

@@ -1,0 +1,133 @@
+"""Steady-cornering feed-forward on curved roads (beyond the paper): the steering and
+yaw moment the two-track car's tyres need on a curve beyond what the MIMO law's
+linear single-track model (eq. 21) gives it.
+
+The law's steady-state term (us = -B^-1 A0) is exact for tyres whose lateral force is
+Cf alpha, Cr alpha. The two-track plant's tyres (`cosim.vehicle.tyre`: Magic Formula,
+load-sensitive cornering stiffness, lateral load transfer) give less force at the same
+slip as the lateral acceleration grows: on the curved motorway (R 800 m at 31 m/s,
+1.2 m/s^2) the front axle needs 7 % more slip than the linear model says. The law's
+integrators make up the difference, but only after ye has built up (their poles decay
+at ~0.25 /s with the paper's gains), so each change of the road's curvature left a
+few millimetres of ye that took seconds to fade: on curves the lane-keeping error was
+6x that of the straight road (issue 23). This is Rajamani's lane-keeping feed-forward
+(Vehicle Dynamics and Control, 2nd ed., sec. 3.2: delta_ff = L kappa + K_v a_y), with
+the understeer gradient K_v taken from the tyres' own curve instead of a constant.
+
+On a circle of curvature kappa at speed vx with zero sideslip (what the MIMO law
+aims at, phi_e = 0), the rear tyres' slip is fixed by the kinematics, tan(alpha_r) =
+lr kappa; the rear axle gives Fyr(alpha_r) at its loads (static, plus the longitudinal
+transfer of the acceleration Fa asks for, -+ the lateral transfer of ay), the front
+axle must give M vx^2 kappa - Fyr, which fixes its slip alpha_f (Newton on the front
+tyres' curve at their loads), and the steering is alpha_f + lf kappa. The linear model
+gives Fyr = Cr lr kappa and alpha_f = (M vx^2 kappa - Cr lr kappa) / Cf. The
+feed-forward is the difference: d_delta = alpha_f - alpha_f,lin and, from the yaw
+moment balance dMz = -(lf Fyf - lr Fyr), d_dMz = L (Fyr - Cr lr kappa). Near the front
+tyres' peak (or past it: then no circle is held with zero sideslip, the car will slip)
+d_delta is held at CAP of the linear front slip: a brisk lane change on a curve (tau
+3.35 s, 2.9 m/s^2 on mu 0.6) otherwise oscillated (IAE ye 0.18 m s against 0.11 without
+the feed-forward; 0.075 with the cap).
+
+`curve_feed_forward` is what the closed loop adds: this at the path's curvature less
+this at the path's curvature without the road's (the curve's own need and what it adds
+to a lane change's; a lane change's own is left to the integrators, as on the
+straight road, where it is 0 and the paper's law is unchanged).
+
+The controller's model of the tyres: the chassis' tyre curve and load transfer with
+Table 1's Cf, Cr as the cornering stiffness at the static load (a plant built with
+`ChassisParams.cornering_scale` != 1 differs from it, as it differs from eq. 21). The
+bicycle plant's tyres are linear: no feed-forward (`enabled` 0).
+"""
+
+from __future__ import annotations
+
+from cosim.compiled import Array, njit
+from cosim.params import VehicleParams
+from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
+from cosim.vehicle.tyre import combined_forces
+
+# Layout of the feed-forward's constant array; the tyre's coefficients follow at F_TYRE.
+(F_ON, F_MASS, F_LF, F_LR, F_KAF, F_KAR, F_FZ0F, F_FZ0R, F_DLAT_F, F_DLAT_R, F_MU,
+ F_DLONG, F_TYRE) = range(13)
+CAP = 0.25  # -, the largest feed-forward as a share of the linear front slip
+NEWTON_STEPS = 6  # the front slip converges to 1e-12 rad in 3 at 40 % of the friction
+
+
+def cornering_params(vehicle: VehicleParams, chassis: ChassisParams, mu: float,
+                     enabled: bool) -> Array:
+    """The feed-forward's constants for `steady_cornering` (enabled False: it gives 0)."""
+    import numpy as np
+
+    fz0f, fz0r = static_wheel_loads(vehicle)
+    dlat = vehicle.mass * chassis.cg_height / (2.0 * vehicle.half_track)  # N per m/s^2
+    dlong = vehicle.mass * chassis.cg_height / (2.0 * vehicle.wheelbase)  # N per m/s^2
+    head = [1.0 if enabled else 0.0, vehicle.mass, vehicle.lf, vehicle.lr,
+            vehicle.cf / 2.0, vehicle.cr / 2.0, fz0f, fz0r,
+            dlat * chassis.roll_share_front, dlat * (1.0 - chassis.roll_share_front), mu,
+            dlong]
+    return np.array(head + chassis.tyre.array(), dtype=float)
+
+
+@njit
+def axle_force(f: Array, tan_alpha: float, fz0: float, dlong: float, dlat: float,
+               ay: float, k_alpha: float) -> float:
+    """N, the lateral force of one axle's two wheels at the same slip, their static load
+    fz0 shifted by the longitudinal transfer dlong (N, + onto this axle) and the lateral
+    one dlat * ay (left loses, right gains for ay > 0), no longitudinal slip."""
+    inv = 1.0 / fz0
+    mu = f[F_MU]
+    fz = fz0 + dlong
+    _, left = combined_forces(0.0, tan_alpha, fz - dlat * ay, inv, k_alpha, mu, f, F_TYRE)
+    _, right = combined_forces(0.0, tan_alpha, fz + dlat * ay, inv, k_alpha, mu, f, F_TYRE)
+    return left + right
+
+
+@njit
+def steady_cornering(f: Array, vx: float, kappa: float, ax: float) -> tuple[float, float]:
+    """(d_delta rad, d_dMz N m): what the tyres need on a circle of curvature kappa at
+    speed vx beyond the linear model's steady-state inputs (module docstring), the car
+    accelerating at ax (m/s^2: load moves to the rear axle); (0, 0) when disabled or on a
+    straight line."""
+    if f[F_ON] == 0.0 or kappa == 0.0:
+        return 0.0, 0.0
+    m, lf, lr, kaf, kar = f[F_MASS], f[F_LF], f[F_LR], f[F_KAF], f[F_KAR]
+    ay = vx * vx * kappa
+    rear_lin = 2.0 * kar * lr * kappa
+    shift = f[F_DLONG] * ax
+    rear = axle_force(f, lr * kappa, f[F_FZ0R], shift, f[F_DLAT_R], ay, kar)
+    need = m * ay - rear
+    alpha_lin = (m * ay - rear_lin) / (2.0 * kaf)
+    fz0f, dlat_f = f[F_FZ0F], f[F_DLAT_F]
+    alpha = need / (2.0 * kaf)
+    for _ in range(NEWTON_STEPS):
+        g = axle_force(f, alpha, fz0f, -shift, dlat_f, ay, kaf) - need
+        da = 1e-6 * (abs(alpha) + 1e-6)
+        slope = (axle_force(f, alpha + da, fz0f, -shift, dlat_f, ay, kaf) - g - need) / da
+        if not slope > 0.0:  # past the tyres' peak: no steady state to aim at
+            break
+        step = g / slope
+        alpha -= step
+        if abs(step) < 1e-12:
+            break
+    # where the tyres need much more than the linear model (near the front axle's peak,
+    # or past it: no steady state with zero sideslip) the car will sideslip anyway;
+    # the feed-forward is held at CAP of the linear slip there (it stays continuous)
+    cap = CAP * abs(alpha_lin)
+    return min(max(alpha - alpha_lin, -cap), cap), (lf + lr) * (rear - rear_lin)
+
+
+@njit
+def curve_feed_forward(f: Array, vx: float, kappa: float, k_road: float, ax: float
+                       ) -> tuple[float, float]:
+    """(d_delta rad, d_dMz N m) the closed loop adds on a road of curvature k_road (the
+    road's line through the car) while its path curves at kappa (KL, the road's curve
+    and a lane change's together): `steady_cornering` at kappa less at kappa - k_road.
+    So the curve's own need is fed forward, and so is what it adds to a lane change's
+    (the tyres give less at the curve's slip than at none), while a lane change's own
+    need beyond eq. 21 is left to the law's integrators as on the straight road, where
+    this is 0 (k_road = 0: the paper's law, unchanged)."""
+    if k_road == 0.0:
+        return 0.0, 0.0
+    d1, m1 = steady_cornering(f, vx, kappa, ax)
+    d0, m0 = steady_cornering(f, vx, kappa - k_road, ax)
+    return d1 - d0, m1 - m0
