@@ -150,6 +150,8 @@ class Manoeuvre:
         self.next_check = math.inf  # s, next re-check of the plan under way
         self.outcomes = {"replan": 0, "abort": 0, "brake": 0}  # re-check outcomes
         self.wall = 0.0  # s, wall time in the planner
+        self.due_lane = -1  # the lane whose mandatory change became due (-1: none)
+        self.due_horizon = 0.0  # m, the longest look-ahead since
 
     # ------------------------------------------------------------------ the step
     def begin(self, t: float) -> LaneChange | None:
@@ -180,6 +182,23 @@ class Manoeuvre:
         and the retry passed, from MERGE_MIN_SPEED up (a standstill at the stop line)."""
         return (self.active is None and sv.vx >= MERGE_MIN_SPEED
                 and self.timer.may_request(t, decision=False))
+
+    def mandatory(self, lane: int, sv: SVState) -> LaneEnd | None:
+        """The end of the SV's `lane` once the mandatory change is due, else None. Once
+        due it stays due while the SV is on that lane, its look-ahead the longest it had
+        (LC2013's look-ahead speed decays slowly for the same reason: slowing down, or
+        standing at the stop line, must not call the change off nor make it less urgent)."""
+        end = self.lane_end(lane, sv)
+        if end is None:
+            return None
+        if self.due_lane != lane:
+            self.due_horizon = 0.0
+        if end.due:
+            self.due_lane = lane
+        if self.due_lane != lane:
+            return None
+        self.due_horizon = max(self.due_horizon, end.horizon)
+        return replace(end, horizon=self.due_horizon)
 
     def lane_end(self, lane: int, sv: SVState | None = None, *, x: float = math.nan,
                  speed: float = math.nan) -> LaneEnd | None:
@@ -241,12 +260,16 @@ class Manoeuvre:
         vx0 = sv.vx
         end = self.lane_end(lane, sv)
         x_limit = math.inf if end is None else end.x_limit(self.sv_length)
+        slower = None  # m/s, the end speed of a second try (a mandatory change)
         if trigger == MANDATORY:
             # from a standstill at the stop line: the reference pulls away at CREEP_SPEED
-            # (the planner needs a positive speed), its end speed what the room allows
+            # (the planner needs a positive speed); if no plan at the wanted end speed
+            # ends in time, one at the speed a MERGE_TAU change fits in the room
             vx0 = max(vx0, CREEP_SPEED)
             band = self.lanes.end_speed(lane, target) if vxf is None else vxf
-            vxf = min(band, max(fit_speed(x_limit - sv.x, vx0, MERGE_TAU), CREEP_SPEED))
+            vxf = band
+            fit = max(fit_speed(x_limit - sv.x, vx0, MERGE_TAU), CREEP_SPEED)
+            slower = fit if fit < band - 1e-6 else None
         # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans
         # only while keeping its lane, where these are ~0; the measured values carry
         # the plant's transients (at t = 0: drag with no force yet) into the plan
@@ -257,20 +280,10 @@ class Manoeuvre:
             trigger = "retry"
         if trigger != "retry" and not (trigger == MANDATORY and repeat):
             self.requests += 1
-        w0 = time.perf_counter()
-        if math.isfinite(x_limit):
-            plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf,
-                                     x_limit=x_limit)
-        else:
-            plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf)
-        why = accept(plan) if accept is not None and plan.trajectory is not None else ""
-        self.wall += time.perf_counter() - w0
-        row = plan_row(plan, trigger, state.vx)
-        if why:
-            row.update(ok=0, rejections=why)
-        self.plans.append(row)
-        if self.first_plan is None:
-            self.first_plan = plan
+        plan, why = self._plan(t, state, target, trigger, messages, vxf, x_limit, accept)
+        if (plan.trajectory is None or why) and slower is not None:
+            plan, why = self._plan(t, state, target, trigger, messages, slower, x_limit,
+                                   accept)
         if plan.trajectory is None or why:
             self.timer.planning_failed(t)
             self.last_failed = (lane, target)
@@ -288,6 +301,26 @@ class Manoeuvre:
         self.mode = CHANGING
         self.blinker(1 if target > lane else -1)
         self.next_check = t + self.recheck_interval
+
+    def _plan(self, t: float, state: SVPlanState, target: int, trigger: str,
+              messages: list[Any], vxf: float | None, x_limit: float,
+              accept: Acceptance | None) -> tuple[Plan, str]:
+        """One planner call and its plans.csv row: (the plan, why `accept` refused it)."""
+        w0 = time.perf_counter()
+        if math.isfinite(x_limit):
+            plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf,
+                                     x_limit=x_limit)
+        else:
+            plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf)
+        why = accept(plan) if accept is not None and plan.trajectory is not None else ""
+        self.wall += time.perf_counter() - w0
+        row = plan_row(plan, trigger, state.vx)
+        if why:
+            row.update(ok=0, rejections=why)
+        self.plans.append(row)
+        if self.first_plan is None:
+            self.first_plan = plan
+        return plan, why
 
     # ------------------------------------------------------------------ replanning
     def recheck(self, t: float, messages: list[Any]) -> None:

@@ -64,7 +64,7 @@ class PaperPolicy:
         end = m.lane_end(lane, sv)  # its lane ends ahead: stop before it, change lanes
         d = self.following.update(sv, scene, allow_decision, stop_gap(end))
         target, trigger = None, ""
-        if end is not None and end.due:
+        if end is not None and m.mandatory(lane, sv) is not None:
             if m.may_merge(t, sv):
                 target, trigger = end.target, MANDATORY
         elif allow_scripted:

@@ -133,22 +133,22 @@ class GapPolicy:
         following, m = self.following, self.manoeuvre
         lane = self.lanes.lane_of(sv.y)
         end = m.lane_end(lane, sv)  # its lane ends ahead: stop before it, change lanes
-        mandatory = end is not None and end.due
+        due = None if end is None else m.mandatory(lane, sv)
+        mandatory = due is not None
         scripted = m.due_scripted(t, sv)
         if self.wanted is not None and (self.wanted[0] != lane or t > self.wanted[2]):
             self.wanted = None
         wanted = scripted if scripted is not None else (
             self.wanted[1] if self.wanted is not None else None)
-        if mandatory:
-            assert end is not None
-            wanted = end.target
+        if due is not None:
+            wanted = due.target
         since = self.seeking_since
         insist = since is not None and t - since >= self.gap_cfg.patience - 1e-9
         d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg,
                          mandatory_config(self.gap_cfg) if mandatory else self.gap_cfg,
                          self.follower, wanted_lane=wanted,
                          allow_change=mandatory or scripted is not None or self.decision,
-                         insist=insist, urgency=end.urgency if mandatory and end else 0.0)
+                         insist=insist, urgency=0.0 if due is None else due.urgency)
         if (wanted is None and d.target_lane is not None
                 and m.ends_soon(d.target_lane, sv)):
             # the rule's faster lane ends within the look-ahead: not a lane to change into
