@@ -18,14 +18,24 @@ before the end, as every policy that flies planned manoeuvres uses them.
   brakes only once it must), stops there behind it at its standstill gap (the car
   following's hold) and waits for a gap: the change is planned again every
   `retry_interval` and from a standstill.
+- Letting merging traffic in (the gap policy): a TV ahead of the SV that must merge
+  into its lane from a lane that ends is followed as if it were already its leader
+  while that asks no more than YIELD_DECEL of the SV (`yield_accel`), as SUMO's
+  cooperative followers make room for a strategic changer (LC2013's
+  `informFollower`, within their decel); one too close to let in comfortably merges
+  behind it.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from cosim.driving.lanes import LaneLayout
-from cosim.planning.deadline import LaneEnd, lane_end
+from cosim.driving.rule import DecisionConfig, idm_acceleration
+from cosim.driving.scene import Traffic
+from cosim.planning.deadline import LaneEnd, continuing_lane, lane_end, look_ahead
 from cosim.planning.interaction import FollowerModel, krauss_safe_speed
 
 WAIT_ROOM = 20.0  # m, the virtual standing leader's rear this far before the lane's end:
@@ -37,6 +47,8 @@ STOP_TIME = 0.5  # s, time constant of the speed towards the stop law's safe spe
 MERGE_TAU = 4.0  # s, the manoeuvre's duration the end-speed cap assumes (`fit_speed`)
 MERGE_MIN_SPEED = 0.0  # m/s, a mandatory change is asked for from this speed up
 CREEP_SPEED = 1.0  # m/s, a mandatory change starts at least at this speed
+YIELD_DECEL = 2.0  # m/s^2, the most the gap policy's SV brakes to let a merging TV in
+# (the IDM's comfortable b)
 
 
 def sv_lane_end(lanes: LaneLayout, lane: int, x: float, speed: float,
@@ -62,3 +74,48 @@ def stop_accel(speed: float, gap: float, min_gap: float) -> float:
     model = FollowerModel(decel=STOP_DECEL, tau=STOP_TAU, min_gap=min_gap)
     v_safe = float(krauss_safe_speed(gap, 0.0, model))
     return (v_safe - max(speed, 0.0)) / STOP_TIME
+
+
+def merging_ahead(lanes: LaneLayout, lane: int, sv_x: float, sv_length: float,
+                  traffic: Traffic) -> tuple[int, float]:
+    """(index, bumper gap m) of the nearest TV ahead of the SV's front that must merge
+    into the SV's `lane` from a neighbouring lane that ends (its change due: within its
+    LC2013 look-ahead, cosim.planning.deadline), or (-1, inf). Arrays over TVs."""
+    n = lanes.n_lanes
+    ends = np.array([lanes.end(k) for k in range(n)], dtype=float)
+    x = np.asarray(traffic.x, dtype=float)
+    if not np.isfinite(ends).any() or x.size == 0:
+        return -1, math.inf
+    target = np.full(n, -1)
+    crossings = np.ones(n)
+    for k in range(n):  # lanes, not vehicles
+        nxt = continuing_lane(ends, k)
+        if nxt is not None:
+            target[k], crossings[k] = nxt
+    length = np.asarray(traffic.length, dtype=float)
+    lo, _ = lanes.lanes_touched(traffic.y, np.zeros(x.size))
+    tv_lane = np.clip(lo, 0, n - 1).astype(int)
+    remaining = ends[tv_lane] - (x + 0.5 * length)
+    horizon = look_ahead(traffic.speed, length, lane > tv_lane, crossings[tv_lane])
+    gap = x - 0.5 * length - (sv_x + 0.5 * sv_length)
+    merging = ((target[tv_lane] == lane) & (tv_lane != lane) & (remaining > 0.0)
+               & (remaining <= horizon) & (gap > 0.0))
+    if not merging.any():
+        return -1, math.inf
+    k = int(np.argmin(np.where(merging, gap, np.inf)))
+    return k, float(gap[k])
+
+
+def yield_accel(speed: float, desired_speed: float, lanes: LaneLayout, lane: int,
+                sv_x: float, sv_length: float, traffic: Traffic,
+                cfg: DecisionConfig) -> float:
+    """m/s^2, the courtesy of the SV to a TV that must merge into its lane ahead of it
+    (`merging_ahead`): its car following's acceleration behind that TV as if it were
+    already its leader, when that asks no more braking than YIELD_DECEL (LC2013's
+    cooperative follower helps only within its decel); inf: nobody to let in, or too
+    late to let it in comfortably (it merges behind the SV)."""
+    k, gap = merging_ahead(lanes, lane, sv_x, sv_length, traffic)
+    if k < 0:
+        return math.inf
+    a = idm_acceleration(speed, desired_speed, gap, float(traffic.speed[k]), cfg)
+    return a if a >= -YIELD_DECEL else math.inf

@@ -360,3 +360,40 @@ def test_the_decision_rule_does_not_change_into_a_lane_that_ends() -> None:
                   Stream(np.array([90.0]), 10.0, lane=1), road=road, lane=1)
         d.run(2.0)
         assert all(p["target_lane"] != 0 for p in d.plans), name
+
+
+# ------------------------------------------------------------------ letting TVs in
+
+
+def ramp_tv_scene(d: Drive, x: float, speed: float) -> Scene:
+    """The SV on lane 1 and one TV on the ramp (lane 0) at x."""
+    snap = TrafficSnapshot(d.t, ("ramp",), np.array([x]), np.array([RAMP.lane_center(0)]),
+                           np.zeros(1), np.array([speed]), np.zeros(1), np.zeros(1, int),
+                           np.zeros(1), np.array([4.32]), np.array([1.8]), np.zeros(1, int))
+    return Scene(d.t, d.sv, snap, snap, np.array([speed]))
+
+
+@pytest.mark.parametrize(("gap", "tv_speed", "yields"), [
+    (20.0, 19.0, True),  # ahead, a little slower: the SV makes room (ACC: -1.6 m/s^2)
+    (2.0, 10.0, False),  # too close and much slower: it would brake hard; not let in
+])
+def test_the_gap_policy_lets_a_merging_tv_in(gap: float, tv_speed: float,
+                                             yields: bool) -> None:
+    accels = {}
+    for road in (RAMP, replace(RAMP, lane_ends=())):
+        d = Drive("gap", scenario(20.0, road=road), 100.0, road=road, lane=1)
+        x_tv = 100.0 + HALF + gap + 2.16
+        d.policy.update(0.0, ramp_tv_scene(d, x_tv, tv_speed), d.inbox)
+        accels[bool(road.lane_ends)] = d.policy.following.accel
+    if yields:
+        assert accels[True] < accels[False] - 0.1  # it brakes for the ramp's TV
+        assert accels[True] >= -2.0 - 1e-9
+    else:
+        assert accels[True] == accels[False]
+    # the paper's SV does not (its car following is the paper's rule)
+    p = Drive("paper", scenario(20.0), 100.0, lane=1)
+    p.policy.update(0.0, ramp_tv_scene(p, 100.0 + HALF + gap + 2.16, tv_speed), p.inbox)
+    q = Drive("paper", scenario(20.0, road=replace(RAMP, lane_ends=())), 100.0,
+              road=replace(RAMP, lane_ends=()), lane=1)
+    q.policy.update(0.0, ramp_tv_scene(q, 100.0 + HALF + gap + 2.16, tv_speed), q.inbox)
+    assert p.policy.following.accel == q.policy.following.accel

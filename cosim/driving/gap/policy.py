@@ -25,7 +25,8 @@ standing leader) and, once the end is within its look-ahead, seeks a gap in the
 continuing lane before anything else ("mandatory"), with the urgency law of
 cosim.driving.gap.decision (what it may ask of its new follower grows as the end
 nears) and from any speed (`mandatory_config`); every plan ends before the end. It
-signals and asks the blocking follower to make room as for any change.
+signals and asks the blocking follower to make room as for any change. On the
+mainline it lets a TV that must merge ahead of it in (`lane_end.yield_accel`).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatu
 from cosim.driving.following import CarFollowing
 from cosim.driving.gap.decision import GapDecision, gap_decision, in_lane, mandatory_config
 from cosim.driving.gap.geometry import GapConfig
-from cosim.driving.lane_end import stop_gap
+from cosim.driving.lane_end import stop_gap, yield_accel
 from cosim.driving.manoeuvre import MANDATORY, LaneChangeTimer, Manoeuvre
 from cosim.driving.registry import register
 from cosim.driving.scene import Traffic
@@ -87,6 +88,8 @@ class GapPolicy:
         # what a flown plan may ask of its new follower: the policy's own limit within b_safe
         self.plan_follower = self.follower.limited(self.gap_cfg.plan_decel)
         self.sv_length = ctx.sv_length
+        self.lanes_end = any(math.isfinite(self.lanes.end(k))
+                             for k in range(self.lanes.n_lanes))  # a lane ends on this road
         self.decision = ctx.sv.decision
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision (for inspection)
@@ -156,7 +159,13 @@ class GapPolicy:
                              self.gap_cfg, self.follower, allow_change=False)
         self.seeking_since = (None if d.target_lane is None
                               else (t if since is None else since))
-        following.limit(*following.with_stop(d.accel, d.leader_gap, d.leader_speed,
+        accel = d.accel
+        if self.lanes_end and due is None:
+            # courtesy: a TV that must merge into its lane ahead of it is let in
+            accel = min(accel, yield_accel(following.v_ref, following.desired_speed(lane),
+                                           self.lanes, lane, sv.x, self.sv_length, traffic,
+                                           following.cfg))
+        following.limit(*following.with_stop(accel, d.leader_gap, d.leader_speed,
                                              stop_gap(end)))
         self.last = d
         if (not mandatory and scripted is None and self.wanted is None
