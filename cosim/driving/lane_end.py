@@ -8,10 +8,11 @@ before the end, as every policy that flies planned manoeuvres uses them.
   (`MERGE_MIN_SPEED`: the plan starts at CREEP_SPEED at least, the planner needs a
   positive speed).
 - The deadline: the manoeuvre (cosim.driving.manoeuvre) plans only changes that end
-  with the SV's front `deadline.END_MARGIN` before the end (`LaneEnd.x_limit`), and
-  caps the end speed so that a change of MERGE_TAU fits in the room left
-  (`deadline.fit_speed`): from a standstill at the stop line it merges at the speed
-  that room allows.
+  with the SV's front `deadline.END_MARGIN` before the end (`LaneEnd.x_limit`); when
+  none at the wanted end speed does, it tries the end speeds at which a change of
+  each of MERGE_TAUS fits in the room left (`deadline.fit_speed`): from a standstill
+  at the stop line it merges at the speed that room allows. A mandatory plan's path
+  bends at most MERGE_CURVATURE (the planner's `max_curvature`).
 - The stop before the end: while the SV keeps an ending lane it follows a virtual
   standing leader whose rear is WAIT_ROOM before the end (`stop_gap`, `stop_accel`:
   Krauss's safe speed towards it with STOP_DECEL, a comfortable braking, so that it
@@ -44,7 +45,12 @@ WAIT_ROOM = 20.0  # m, the virtual standing leader's rear this far before the la
 STOP_DECEL = 2.0  # m/s^2, the braking the stop law plans with (the IDM's comfortable b)
 STOP_TAU = 1.0  # s, its reaction time (SUMO's tau)
 STOP_TIME = 0.5  # s, time constant of the speed towards the stop law's safe speed
-MERGE_TAU = 4.0  # s, the manoeuvre's duration the end-speed cap assumes (`fit_speed`)
+MERGE_TAUS = (4.0, 10.0)  # s, the durations the end-speed caps assume (`fit_speed`):
+# from the stop line a 4 s change ends at ~9 m/s, a 10 s one at ~3 m/s (the one a car
+# can steer from a standstill: MERGE_CURVATURE)
+MERGE_CURVATURE = 0.2  # 1/m, the sharpest path a mandatory plan may take (R 5 m; the
+# plant's 0.6 rad road-wheel limit on its 2.51 m wheelbase allows 0.27): from 1 m/s a
+# 4 s change to 9 m/s bends at 0.56 1/m, the envelope's yaw-rate bound allows it
 MERGE_MIN_SPEED = 0.0  # m/s, a mandatory change is asked for from this speed up
 CREEP_SPEED = 1.0  # m/s, a mandatory change starts at least at this speed
 YIELD_DECEL = 2.0  # m/s^2, the most the gap policy's SV brakes to let a merging TV in

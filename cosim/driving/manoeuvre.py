@@ -42,8 +42,9 @@ import numpy as np
 from cosim.driving.base import DrivingContext, Manoeuvres, PolicyStatus
 from cosim.driving.lane_end import (
     CREEP_SPEED,
+    MERGE_CURVATURE,
     MERGE_MIN_SPEED,
-    MERGE_TAU,
+    MERGE_TAUS,
     WAIT_ROOM,
     sv_lane_end,
 )
@@ -260,16 +261,19 @@ class Manoeuvre:
         vx0 = sv.vx
         end = self.lane_end(lane, sv)
         x_limit = math.inf if end is None else end.x_limit(self.sv_length)
-        slower = None  # m/s, the end speed of a second try (a mandatory change)
+        slower: list[float] = []  # m/s, the end speeds of further tries (mandatory)
+        curvature = math.inf
         if trigger == MANDATORY:
             # from a standstill at the stop line: the reference pulls away at CREEP_SPEED
             # (the planner needs a positive speed); if no plan at the wanted end speed
-            # ends in time, one at the speed a MERGE_TAU change fits in the room
+            # ends in time, one at the speed a change of each MERGE_TAUS fits in the room
             vx0 = max(vx0, CREEP_SPEED)
-            band = self.lanes.end_speed(lane, target) if vxf is None else vxf
-            vxf = band
-            fit = max(fit_speed(x_limit - sv.x, vx0, MERGE_TAU), CREEP_SPEED)
-            slower = fit if fit < band - 1e-6 else None
+            vxf = self.lanes.end_speed(lane, target) if vxf is None else vxf
+            curvature = MERGE_CURVATURE
+            for tau in MERGE_TAUS:
+                fit = max(fit_speed(x_limit - sv.x, vx0, tau), CREEP_SPEED)
+                if fit < (slower[-1] if slower else vxf) - 1e-6:
+                    slower.append(fit)
         # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans
         # only while keeping its lane, where these are ~0; the measured values carry
         # the plant's transients (at t = 0: drag with no force yet) into the plan
@@ -280,10 +284,13 @@ class Manoeuvre:
             trigger = "retry"
         if trigger != "retry" and not (trigger == MANDATORY and repeat):
             self.requests += 1
-        plan, why = self._plan(t, state, target, trigger, messages, vxf, x_limit, accept)
-        if (plan.trajectory is None or why) and slower is not None:
-            plan, why = self._plan(t, state, target, trigger, messages, slower, x_limit,
-                                   accept)
+        plan, why = self._plan(t, state, target, trigger, messages, vxf, x_limit,
+                               curvature, accept)
+        for speed in slower:
+            if plan.trajectory is not None and not why:
+                break
+            plan, why = self._plan(t, state, target, trigger, messages, speed, x_limit,
+                                   curvature, accept)
         if plan.trajectory is None or why:
             self.timer.planning_failed(t)
             self.last_failed = (lane, target)
@@ -303,13 +310,13 @@ class Manoeuvre:
         self.next_check = t + self.recheck_interval
 
     def _plan(self, t: float, state: SVPlanState, target: int, trigger: str,
-              messages: list[Any], vxf: float | None, x_limit: float,
+              messages: list[Any], vxf: float | None, x_limit: float, curvature: float,
               accept: Acceptance | None) -> tuple[Plan, str]:
         """One planner call and its plans.csv row: (the plan, why `accept` refused it)."""
         w0 = time.perf_counter()
         if math.isfinite(x_limit):
             plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf,
-                                     x_limit=x_limit)
+                                     x_limit=x_limit, max_curvature=curvature)
         else:
             plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf)
         why = accept(plan) if accept is not None and plan.trajectory is not None else ""

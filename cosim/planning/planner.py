@@ -46,7 +46,11 @@ from cosim.planning.prediction import (
     predict_lazy,
 )
 from cosim.planning.selection import choose, intervals, omega
-from cosim.planning.trajectory import LaneChangeTrajectory, longitudinal_coefficients
+from cosim.planning.trajectory import (
+    LaneChangeTrajectory,
+    cluster_derivatives,
+    longitudinal_coefficients,
+)
 from cosim.road.frame import distortion_margin
 from cosim.traffic.v2v import V2VMessage
 
@@ -439,12 +443,16 @@ class LaneChangePlanner:
     def plan(
         self, t: float, sv: SVPlanState, target_lane: int, messages: Sequence[V2VMessage],
         occupant: float, vxf: float | None = None, x_limit: float = math.inf,
+        max_curvature: float = math.inf,
     ) -> Plan:
         """Plan a lane change from sv.lane to `target_lane` at simulation time t, ending
         at `vxf` (m/s; None: the band rule's target speed). `x_limit` (m): the latest
         centre x at the plan's end (a lane that ends, cosim.planning.deadline): longer
         plans are rejected ("lane end"). On a road with lanes that end, a TV that must
-        leave its lane is predicted as signalling it (`deadline.merging_messages`)."""
+        leave its lane is predicted as signalling it (`deadline.merging_messages`).
+        `max_curvature` (1/m): plans whose path bends more sharply anywhere are not
+        stable (a steering limit the envelope does not have at low speed: a merge from a
+        standstill, cosim.driving.lane_end)."""
         start = time.perf_counter()
         self._validate(sv, target_lane, occupant)
         cfg, road = self.config, self.road
@@ -462,6 +470,8 @@ class LaneChangePlanner:
             at = int(np.searchsorted(taus, st.tau_min))
             taus = np.concatenate((taus[:at], [st.tau_min], taus[at:]))
             stable = np.concatenate((stable[:at], [True], stable[at:]))
+        if math.isfinite(max_curvature):
+            stable = stable & (path_curvature(sv, vxf, width, taus) <= max_curvature)
         late = None
         if math.isfinite(x_limit):
             # each plan's end x (eq. 2 with a general start), against the deadline
@@ -527,6 +537,21 @@ class LaneChangePlanner:
             return None
         return Rejection(trajectory.tau, "collision", futures.vehicle_ids[vehicle[0]],
                          float(when[0]))
+
+
+CURVATURE_SAMPLES = 41  # samples per candidate of `path_curvature`
+
+
+def path_curvature(sv: SVPlanState, vxf: float, width: float, taus: Array) -> Array:
+    """1/m, (n_tau,) the largest |curvature| of each candidate's path (eq. 2 / eq. 4 from
+    the SV's start), sampled CURVATURE_SAMPLES times over [0, tau]."""
+    s = np.linspace(0.0, 1.0, CURVATURE_SAMPLES)
+    tau = np.asarray(taus, dtype=float)[:, None]
+    d = cluster_derivatives(sv.vx, vxf, width, tau, tau * s[None, :], (1, 2), ax0=sv.ax,
+                            vy0=sv.vy, ay0=sv.ay)
+    (xd, yd), (xdd, ydd) = d[1], d[2]
+    speed2 = np.maximum(xd * xd + yd * yd, 1e-12)
+    return (np.abs(xd * ydd - yd * xdd) / speed2**1.5).max(axis=1)
 
 
 @functools.lru_cache(maxsize=64)

@@ -19,14 +19,14 @@ import numpy as np
 import pytest
 
 from cosim.driving.base import DrivingContext, WorldPorts
-from cosim.driving.lane_end import WAIT_ROOM, stop_accel, sv_lane_end
+from cosim.driving.lane_end import MERGE_CURVATURE, WAIT_ROOM, stop_accel, sv_lane_end
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.manoeuvre import BRAKING, CHANGING, MANDATORY
 from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig
 from cosim.params import RoadParams
 from cosim.planning.deadline import END_MARGIN
-from cosim.planning.planner import LaneChangePlanner, Rejection
+from cosim.planning.planner import LaneChangePlanner, Rejection, path_curvature
 from cosim.scenario import LaneChangeCommand, Scenario, load_scenario, project_root
 from cosim.traffic.snapshot import TrafficSnapshot
 from cosim.traffic.v2v import V2VMessage
@@ -286,6 +286,11 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
     assert front[:, 1].max() <= END - END_MARGIN + 1e-6
     # it merged behind the platoon's last car (level with the SV at about t = 49 s)
     assert ok[0]["t_s"] > 45.0
+    # slowly, on a path a car can steer from a standstill
+    lc = m.lane_changes[0]
+    tr = lc.plan.trajectory
+    kappa = path_curvature(lc.plan.sv, tr.vxf, tr.width, np.array([tr.tau]))
+    assert kappa[0] <= MERGE_CURVATURE + 1e-9 and tr.vxf < 5.0
 
 
 # ------------------------------------------------------------------ abort near the end
@@ -302,9 +307,11 @@ class Forced:
     calls: list[tuple[str, int]] = field(default_factory=list)
 
     def plan(self, t: float, state: Any, target: int, messages: list[Any], occupant: float,
-             vxf: float | None = None, x_limit: float = math.inf) -> Any:
+             vxf: float | None = None, x_limit: float = math.inf,
+             max_curvature: float = math.inf) -> Any:
         self.calls.append(("plan", target))
-        plan = self.real.plan(t, state, target, messages, occupant, vxf, x_limit=x_limit)
+        plan = self.real.plan(t, state, target, messages, occupant, vxf, x_limit=x_limit,
+                              max_curvature=max_curvature)
         if target in self.no_tau:
             return replace(plan, tau=None, trajectory=None)
         return plan

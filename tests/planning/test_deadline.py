@@ -22,7 +22,7 @@ from cosim.planning.deadline import (
     look_ahead,
     merging_messages,
 )
-from cosim.planning.planner import LANE_END, LaneChangePlanner, SVPlanState
+from cosim.planning.planner import LANE_END, LaneChangePlanner, SVPlanState, path_curvature
 from cosim.planning.prediction import predict
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.v2v import V2VMessage
@@ -137,3 +137,17 @@ def test_the_planner_sees_a_merging_tv_as_c2() -> None:
                      ay=0.0, lane=1)
     plan = planner.plan(0.0, sv, 2, [msg("ramp", 110.0, 0)], 0.5)
     assert plan.categories == {"ramp": "C2"}
+
+
+def test_max_curvature_leaves_only_paths_a_car_can_steer() -> None:
+    # from 1 m/s (a standstill at the stop line) to 9 m/s: the envelope allows 2.1 s on,
+    # whose paths bend at up to 1/m; with 0.2 1/m only the long ones are stable
+    planner = LaneChangePlanner(VEH, RAMP, PlannerConfig())
+    sv = sv_state(150.0, 1.0)
+    free = planner.plan(0.0, sv, 1, [], 0.5, vxf=3.0)
+    bent = planner.plan(0.0, sv, 1, [], 0.5, vxf=3.0, max_curvature=0.2)
+    kappa = path_curvature(sv, 3.0, 3.75, free.taus)
+    assert kappa[free.stable].max() > 0.5
+    np.testing.assert_array_equal(bent.stable, free.stable & (kappa <= 0.2))
+    assert bent.tau is not None and kappa[np.isclose(bent.taus, bent.tau)][0] <= 0.2
+    assert path_curvature(sv_state(0.0, 20.0), 20.0, 3.75, np.array([3.0]))[0] < 0.02
