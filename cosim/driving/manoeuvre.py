@@ -266,13 +266,16 @@ class Manoeuvre:
         if trigger == MANDATORY:
             # from a standstill at the stop line: the reference pulls away at CREEP_SPEED
             # (the planner needs a positive speed); if no plan at the wanted end speed
-            # ends in time, one at the speed a change of each MERGE_TAUS fits in the room
+            # ends in time, one at the speed a change of each MERGE_TAUS fits in the room,
+            # if that is no slower than the SV (a change that brakes hard into the target
+            # lane surprises its new follower: the paper's SV, 17.7 -> 3.8 m/s into a
+            # braking queue, was hit from behind; the stop law slows it and it asks again)
             vx0 = max(vx0, CREEP_SPEED)
             vxf = self.lanes.end_speed(lane, target) if vxf is None else vxf
             curvature = MERGE_CURVATURE
             for tau in MERGE_TAUS:
                 fit = max(fit_speed(x_limit - sv.x, vx0, tau), CREEP_SPEED)
-                if fit < (slower[-1] if slower else vxf) - 1e-6:
+                if vx0 - 1e-6 <= fit < (slower[-1] if slower else vxf) - 1e-6:
                     slower.append(fit)
         # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans
         # only while keeping its lane, where these are ~0; the measured values carry
