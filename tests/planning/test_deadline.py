@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from cosim.params import PlannerConfig, RoadParams, VehicleParams
 from cosim.planning.deadline import (
@@ -34,6 +36,7 @@ VEH = VehicleParams()
 GRID = np.arange(1.0, 10.0001, 0.05)
 T_REL = np.arange(0.0, 14.0001, 0.05)
 INF = math.inf
+PLANNER = LaneChangePlanner(VEH, RAMP, PlannerConfig())
 
 
 def msg(vid: str, x: float, lane: int, speed: float = 20.0, intention: int = 0,
@@ -151,3 +154,19 @@ def test_max_curvature_leaves_only_paths_a_car_can_steer() -> None:
     np.testing.assert_array_equal(bent.stable, free.stable & (kappa <= 0.2))
     assert bent.tau is not None and kappa[np.isclose(bent.taus, bent.tau)][0] <= 0.2
     assert path_curvature(sv_state(0.0, 20.0), 20.0, 3.75, np.array([3.0]))[0] < 0.02
+
+
+@settings(max_examples=25, deadline=None)
+@given(x0=st.floats(0.0, 180.0), vx0=st.floats(1.0, 30.0), vxf=st.floats(1.0, 30.0),
+       room=st.floats(5.0, 200.0))
+def test_no_plan_ever_ends_past_its_limit(x0: float, vx0: float, vxf: float,
+                                          room: float) -> None:
+    plan = PLANNER.plan(0.0, sv_state(x0, vx0), 1, [], 0.5, vxf=vxf, x_limit=x0 + room)
+    assert plan.late is not None
+    if plan.trajectory is not None:
+        tr = plan.trajectory
+        assert float(tr.position(tr.t0 + tr.tau)[0]) <= x0 + room + 1e-6
+    # exactly the stable taus whose end (eq. 2) lies past the limit are late
+    x_end = x0 + 0.5 * (vx0 + vxf) * plan.taus
+    np.testing.assert_array_equal(plan.late, plan.stable & (x_end > x0 + room + 1e-9))
+    assert not (plan.collision_free & plan.late).any()
