@@ -39,15 +39,16 @@ from cosim.driving.scene import Traffic
 from cosim.planning.deadline import LaneEnd, continuing_lane, lane_end, look_ahead
 from cosim.planning.interaction import FollowerModel, krauss_safe_speed
 
-WAIT_ROOM = 20.0  # m, the virtual standing leader's rear this far before the lane's end:
-# the room a merge from a standstill starts with (a change of MERGE_TAU ends at up to
-# ~9 m/s in it)
+WAIT_ROOM = 45.0  # m, the virtual standing leader's rear this far before the lane's end:
+# the room a merge from a standstill starts with: within MERGE_CURVATURE a change from
+# 1 m/s ends at up to 13 m/s in it (7 s); with 20 m, at 3 m/s (10 s), too slow to be let
+# into traffic at 20 m/s (a whole-loop run at 25 veh/km/lane waited 40 s)
 STOP_DECEL = 2.0  # m/s^2, the braking the stop law plans with (the IDM's comfortable b)
 STOP_TAU = 1.0  # s, its reaction time (SUMO's tau)
 STOP_TIME = 0.5  # s, time constant of the speed towards the stop law's safe speed
-MERGE_TAUS = (4.0, 10.0)  # s, the durations the end-speed caps assume (`fit_speed`):
-# from the stop line a 4 s change ends at ~9 m/s, a 10 s one at ~3 m/s (the one a car
-# can steer from a standstill: MERGE_CURVATURE)
+MERGE_TAUS = (4.0, 7.0, 10.0)  # s, the durations the end-speed caps assume (`fit_speed`):
+# from the stop line (47 m of room) a 4 s change ends at ~23 m/s, a 7 s one at ~13 m/s
+# (the first a car can steer from a standstill: MERGE_CURVATURE), a 10 s one at ~8 m/s
 MERGE_CURVATURE = 0.2  # 1/m, the sharpest path a mandatory plan may take (R 5 m; the
 # plant's 0.6 rad road-wheel limit on its 2.51 m wheelbase allows 0.27): from 1 m/s a
 # 4 s change to 9 m/s bends at 0.56 1/m, the envelope's yaw-rate bound allows it

@@ -23,8 +23,8 @@ Deadline: a manoeuvre out of the lane ends with the vehicle's front at least
 END_MARGIN before the lane's end (`LaneEnd.x_limit`, the latest centre x at its end):
 the planner drops every tau whose plan ends past it (`LaneChangePlanner.plan`'s
 `x_limit`), and a TV's predicted change (C2) lists only durations that end before it
-(`cosim.planning.prediction`). A TV on an ending lane within its look-ahead that does
-not signal is predicted as if it signalled towards the continuing lane
+(`cosim.planning.prediction`). A TV on an ending lane within FORCE_TIME of its end that
+does not signal is predicted as if it signalled towards the continuing lane
 (`merging_messages`).
 
 Vehicles are arrays where there are many (`merging_messages`); no loop over TVs.
@@ -50,6 +50,14 @@ LOOKAHEAD_LEFT = 2.0  # -, LC2013's lcLookaheadLeft default (a change to the lef
 MIN_GAP = 2.5  # m, SUMO's minGap in LC2013's 2 (length + minGap)
 END_MARGIN = 2.0  # m, a manoeuvre out of an ending lane ends with the front this far
 # before the end
+FORCE_TIME = 5.0  # s, a TV that does not signal is predicted to merge once its lane's end
+# is this close (v FORCE_TIME + 2 (length + minGap) per lane to cross): SUMO's drivers
+# signal a strategic change as soon as they want it, so this is the fallback for one that
+# has not; forcing every TV within LC2013's look-ahead (20 s to the left) made 25 C2
+# clusters of ~180 durations in a dense lane and one plan take over 30 s
+FORCE_MIN_SPEED = 1.0  # m/s, nor a TV slower than this (one standing in a queue stays C1
+# until it signals: a C2 cluster from a standstill made one collision check run for
+# minutes in a whole-loop run, docs/gap_policy.md)
 
 
 def lane_ends(road: RoadParams) -> Array:
@@ -131,10 +139,10 @@ def fit_speed(room: float, vx0: float, tau: float) -> float:
 def merging_messages(messages: Sequence[V2VMessage], road: RoadParams,
                      t: float) -> list[V2VMessage]:
     """The messages with every TV that must leave its lane signalling it: a TV without a
-    broadcast motion or intention, on a lane that ends ahead of it within its
-    look-ahead, is given the intention towards the continuing lane (C2; its predicted
-    change then ends before the lane's end: cosim.planning.prediction). Unchanged when
-    no lane ends."""
+    broadcast motion or intention, on a lane that ends ahead of it within FORCE_TIME
+    (`look_ahead`'s law with FORCE_TIME for LOOK_FORWARD, no left factor), is given the
+    intention towards the continuing lane (C2; its predicted change then ends before
+    the lane's end: cosim.planning.prediction). Unchanged when no lane ends."""
     out = list(messages)
     if not road.lane_ends or not out:
         return out
@@ -155,8 +163,8 @@ def merging_messages(messages: Sequence[V2VMessage], road: RoadParams,
     quiet = np.array([m.motion is None and m.intention == 0 for m in out])
     d = direction[lane]
     remaining = ends[lane] - (x + 0.5 * length)
-    due = quiet & (d != 0) & (remaining > 0.0) & (
-        remaining <= look_ahead(v, length, d > 0, crossings[lane]))
+    near = crossings[lane] * (np.maximum(v, 0.0) * FORCE_TIME + 2.0 * (length + MIN_GAP))
+    due = quiet & (d != 0) & (remaining > 0.0) & (remaining <= near) & (v >= FORCE_MIN_SPEED)
     for i in np.flatnonzero(due):
         out[i] = replace(out[i], intention=int(d[i]))
     return out

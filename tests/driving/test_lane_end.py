@@ -284,13 +284,14 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
     assert abs(d.sv.y - RAMP.lane_center(1)) < 1e-6  # merged
     front = d.in_ending_lane()
     assert front[:, 1].max() <= END - END_MARGIN + 1e-6
-    # it merged behind the platoon's last car (level with the SV at about t = 49 s)
-    assert ok[0]["t_s"] > 45.0
-    # slowly, on a path a car can steer from a standstill
+    # it merged behind the platoon's last car (level with the SV's stop line, 47 m
+    # before the end, at about t = 47 s)
+    assert ok[0]["t_s"] > 40.0
+    # on a path a car can steer from a standstill, to 8-13 m/s (the room's 7-10 s plans)
     lc = m.lane_changes[0]
     tr = lc.plan.trajectory
     kappa = path_curvature(lc.plan.sv, tr.vxf, tr.width, np.array([tr.tau]))
-    assert kappa[0] <= MERGE_CURVATURE + 1e-9 and tr.vxf < 5.0
+    assert kappa[0] <= MERGE_CURVATURE + 1e-9 and 5.0 < tr.vxf < 13.0
 
 
 # ------------------------------------------------------------------ abort near the end
