@@ -9,6 +9,7 @@ import math
 from typing import TYPE_CHECKING
 
 from cosim.driving.base import DrivingContext
+from cosim.driving.lane_end import stop_accel
 from cosim.driving.rule import Decision, DecisionConfig, decide
 from cosim.driving.scene import SV, Traffic
 from cosim.params import G
@@ -63,13 +64,27 @@ class CarFollowing:
         return SV(sv.x, sv.y, self.v_ref, self.sv_length,
                   self.desired_speed(self.lanes.lane_of(sv.y)))
 
-    def update(self, sv: SVState, scene: Scene, allow_change: bool) -> Decision:
+    def update(self, sv: SVState, scene: Scene, allow_change: bool,
+               stop_gap: float = math.inf) -> Decision:
         """This step's car-following acceleration; the decision rule's lane change
-        (only with `allow_change` and `[sv] decision`)."""
+        (only with `allow_change` and `[sv] decision`). `stop_gap` (m): bumper gap to a
+        virtual standing leader (a lane that ends: cosim.driving.lane_end; inf: none)."""
         d = decide(self.view(sv), Traffic.of(scene), self.lanes, self.cfg,
                    allow_change=allow_change and self.sv.decision)
-        self.limit(d.accel, d.leader_gap, d.leader_speed)
+        self.limit(*self.with_stop(d.accel, d.leader_gap, d.leader_speed, stop_gap))
         return d
+
+    def with_stop(self, accel: float, leader_gap: float, leader_speed: float,
+                  stop_gap: float) -> tuple[float, float, float]:
+        """(accel, leader gap, leader speed) with a virtual standing leader at bumper gap
+        `stop_gap` (m; inf: none) as well: the smaller acceleration of the two
+        (`lane_end.stop_accel`), the nearer of the two leaders."""
+        if not math.isfinite(stop_gap):
+            return accel, leader_gap, leader_speed
+        accel = min(accel, stop_accel(self.v_ref, stop_gap, self.cfg.idm_min_gap))
+        if stop_gap < leader_gap:
+            return accel, stop_gap, 0.0
+        return accel, leader_gap, leader_speed
 
     def limit(self, accel: float, leader_gap: float, leader_speed: float = math.inf) -> None:
         """Take `accel` (m/s^2) as this step's car-following acceleration, as a reference

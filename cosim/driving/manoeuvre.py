@@ -15,7 +15,15 @@ manoeuvre does the rest and is in one of four states:
   re-checked.
 - waiting: the planner found no collision-free tau (or the policy's own check
   refused the plan); the SV keeps its lane and asks again `retry_interval` later
-  (the row says "retry").
+  (the row says "retry"; a mandatory change's row keeps saying "mandatory").
+
+On a lane that ends (issue 24, cosim.driving.lane_end) every plan out of it must end
+before the end (`LaneEnd.x_limit`, the planner's `x_limit`), a replan of the change
+under way too; a mandatory change ("mandatory") may start from a standstill at
+CREEP_SPEED with its end speed capped to what the room allows. A re-check that finds
+no replan while the lane it would return to ends within its look-ahead does not abort
+into it with the planner's plan (whose end speed would carry it on): it brakes
+(`brake_trajectory`) to a stop before that lane's stop line when it can.
 
 It also keeps the scripted requests not yet served (`due_scripted`), the plans.csv
 rows, the counts of the metrics row, and when the SV may ask again (`LaneChangeTimer`).
@@ -32,9 +40,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cosim.driving.base import DrivingContext, Manoeuvres, PolicyStatus
+from cosim.driving.lane_end import (
+    CREEP_SPEED,
+    MERGE_CURVATURE,
+    MERGE_MIN_SPEED,
+    MERGE_TAUS,
+    WAIT_ROOM,
+    sv_lane_end,
+)
 from cosim.driving.plans import plan_row, request_row
 from cosim.driving.rule import DecisionConfig
 from cosim.params import G
+from cosim.planning.deadline import END_MARGIN, LaneEnd, fit_speed
 from cosim.planning.trajectory import LaneChangeTrajectory
 
 if TYPE_CHECKING:
@@ -48,6 +65,7 @@ BRAKE_TAU = 3.0  # s, emergency brake's duration when the planner gave no tau_mi
 BRAKE_TAU_MIN = 1.5  # s, shortest emergency brake (lateral move to the nearest centre)
 
 KEEPING, CHANGING, BRAKING, WAITING = "keeping", "changing", "braking", "waiting"
+MANDATORY = "mandatory"  # the trigger of a change off a lane that ends (plans.csv)
 
 # a plan the policy refuses although it has a trajectory: (plan) -> why ("": fly it)
 Acceptance = Callable[["Plan"], str]
@@ -114,6 +132,7 @@ class Manoeuvre:
     def __init__(self, ctx: DrivingContext, timer: LaneChangeTimer,
                  blinker: Callable[[int], None]) -> None:
         self.lanes = ctx.lanes
+        self.sv_length = ctx.sv_length
         self.mu = ctx.mu
         self.planner = ctx.planner
         self.blinker = blinker
@@ -132,6 +151,8 @@ class Manoeuvre:
         self.next_check = math.inf  # s, next re-check of the plan under way
         self.outcomes = {"replan": 0, "abort": 0, "brake": 0}  # re-check outcomes
         self.wall = 0.0  # s, wall time in the planner
+        self.due_lane = -1  # the lane whose mandatory change became due (-1: none)
+        self.due_horizon = 0.0  # m, the longest look-ahead since
 
     # ------------------------------------------------------------------ the step
     def begin(self, t: float) -> LaneChange | None:
@@ -156,6 +177,42 @@ class Manoeuvre:
         free = self.active is None and sv.vx >= PLANNER_MIN_SPEED
         return (free and self.timer.may_request(t, decision=False),
                 free and self.timer.may_request(t))
+
+    def may_merge(self, t: float, sv: SVState) -> bool:
+        """Whether a mandatory change may go to the planner now: no manoeuvre under way
+        and the retry passed, from MERGE_MIN_SPEED up (a standstill at the stop line)."""
+        return (self.active is None and sv.vx >= MERGE_MIN_SPEED
+                and self.timer.may_request(t, decision=False))
+
+    def mandatory(self, lane: int, sv: SVState) -> LaneEnd | None:
+        """The end of the SV's `lane` once the mandatory change is due, else None. Once
+        due it stays due while the SV is on that lane, its look-ahead the longest it had
+        (LC2013's look-ahead speed decays slowly for the same reason: slowing down, or
+        standing at the stop line, must not call the change off nor make it less urgent)."""
+        end = self.lane_end(lane, sv)
+        if end is None:
+            return None
+        if self.due_lane != lane:
+            self.due_horizon = 0.0
+        if end.due:
+            self.due_lane = lane
+        if self.due_lane != lane:
+            return None
+        self.due_horizon = max(self.due_horizon, end.horizon)
+        return replace(end, horizon=self.due_horizon)
+
+    def lane_end(self, lane: int, sv: SVState | None = None, *, x: float = math.nan,
+                 speed: float = math.nan) -> LaneEnd | None:
+        """The end of `lane` ahead of the SV (at sv, or at centre x, speed), or None."""
+        if sv is not None:
+            x, speed = sv.x, sv.vx
+        return sv_lane_end(self.lanes, lane, x, speed, self.sv_length)
+
+    def ends_soon(self, lane: int, sv: SVState) -> bool:
+        """`lane` ends within the SV's look-ahead (or has ended): no lane to change into
+        for a change the SV wants (a mandatory change would have to leave it again)."""
+        end = self.lane_end(lane, sv)
+        return end is not None and end.due
 
     def advance(self, t: float, sv: SVState, target: int | None, trigger: str,
                 messages: Any, *, vxf: float | None = None,
@@ -201,32 +258,49 @@ class Manoeuvre:
         from cosim.planning.planner import SVPlanState
 
         lane = self.lanes.lane_of(sv.y)
+        vx0 = sv.vx
+        end = self.lane_end(lane, sv)
+        x_limit = math.inf if end is None else end.x_limit(self.sv_length)
+        slower: list[float] = []  # m/s, the end speeds of further tries (mandatory)
+        curvature = math.inf
+        if trigger == MANDATORY:
+            # from a standstill at the stop line: the reference pulls away at CREEP_SPEED
+            # (the planner needs a positive speed); if no plan at the wanted end speed
+            # ends in time, one at the speed a change of each MERGE_TAUS fits in the room,
+            # if that is no slower than the SV (a change that brakes hard into the target
+            # lane surprises its new follower: the paper's SV, 17.7 -> 3.8 m/s into a
+            # braking queue, was hit from behind; the stop law slows it and it asks again)
+            vx0 = max(vx0, CREEP_SPEED)
+            vxf = self.lanes.end_speed(lane, target) if vxf is None else vxf
+            curvature = MERGE_CURVATURE
+            for tau in MERGE_TAUS:
+                fit = max(fit_speed(x_limit - sv.x, vx0, tau), CREEP_SPEED)
+                if vx0 - 1e-6 <= fit < (slower[-1] if slower else vxf) - 1e-6:
+                    slower.append(fit)
         # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans
         # only while keeping its lane, where these are ~0; the measured values carry
         # the plant's transients (at t = 0: drag with no force yet) into the plan
-        state = SVPlanState(x=sv.x, y=sv.y, heading=sv.heading, vx=sv.vx, ax=0.0, vy=0.0,
+        state = SVPlanState(x=sv.x, y=sv.y, heading=sv.heading, vx=vx0, ax=0.0, vy=0.0,
                             ay=0.0, lane=lane)
-        if trigger != "decision" and self.last_failed == (lane, target):
+        repeat = self.last_failed == (lane, target)
+        if trigger not in ("decision", MANDATORY) and repeat:
             trigger = "retry"
-        if trigger != "retry":
+        if trigger != "retry" and not (trigger == MANDATORY and repeat):
             self.requests += 1
-        w0 = time.perf_counter()
-        plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf)
-        why = accept(plan) if accept is not None and plan.trajectory is not None else ""
-        self.wall += time.perf_counter() - w0
-        row = plan_row(plan, trigger, state.vx)
-        if why:
-            row.update(ok=0, rejections=why)
-        self.plans.append(row)
-        if self.first_plan is None:
-            self.first_plan = plan
+        plan, why = self._plan(t, state, target, trigger, messages, vxf, x_limit,
+                               curvature, accept)
+        for speed in slower:
+            if plan.trajectory is not None and not why:
+                break
+            plan, why = self._plan(t, state, target, trigger, messages, speed, x_limit,
+                                   curvature, accept)
         if plan.trajectory is None or why:
             self.timer.planning_failed(t)
             self.last_failed = (lane, target)
             self.mode = WAITING
             return
         self.last_failed = None
-        if trigger != "decision" and self.pending:
+        if trigger not in ("decision", MANDATORY) and self.pending:
             self.pending.pop(0)
         self.active = LaneChange(
             t0=t, tau=float(plan.tau), origin_lane=lane, target_lane=target,
@@ -237,6 +311,26 @@ class Manoeuvre:
         self.mode = CHANGING
         self.blinker(1 if target > lane else -1)
         self.next_check = t + self.recheck_interval
+
+    def _plan(self, t: float, state: SVPlanState, target: int, trigger: str,
+              messages: list[Any], vxf: float | None, x_limit: float, curvature: float,
+              accept: Acceptance | None) -> tuple[Plan, str]:
+        """One planner call and its plans.csv row: (the plan, why `accept` refused it)."""
+        w0 = time.perf_counter()
+        if math.isfinite(x_limit):
+            plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf,
+                                     x_limit=x_limit, max_curvature=curvature)
+        else:
+            plan = self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf)
+        why = accept(plan) if accept is not None and plan.trajectory is not None else ""
+        self.wall += time.perf_counter() - w0
+        row = plan_row(plan, trigger, state.vx)
+        if why:
+            row.update(ok=0, rejections=why)
+        self.plans.append(row)
+        if self.first_plan is None:
+            self.first_plan = plan
+        return plan, why
 
     # ------------------------------------------------------------------ replanning
     def recheck(self, t: float, messages: list[Any]) -> None:
@@ -257,12 +351,19 @@ class Manoeuvre:
         reason = f"re-check: collision with {rejection.vehicle_id} at {when:.2f} s"
         frm, to = lc.origin_lane, lc.target_lane
         state = reference_state(lc.trajectory, t, frm)
+        # a lane that ends: the replan leaves it before its end too; no abort back into
+        # it within its look-ahead (the brake below stops before its end instead)
+        frm_end = self.lane_end(frm, x=state.x, speed=state.vx)
         w0 = time.perf_counter()
         # continuing keeps the SV's intent, so it is tried first; the abort only when
         # no collision-free tau to the target lane is left
-        again = self.planner.plan(t, state, to, messages, self.occupant)
+        if frm_end is not None:
+            again = self.planner.plan(t, state, to, messages, self.occupant,
+                                      x_limit=frm_end.x_limit(self.sv_length))
+        else:
+            again = self.planner.plan(t, state, to, messages, self.occupant)
         back = None
-        if again.trajectory is None:
+        if again.trajectory is None and not (frm_end is not None and frm_end.due):
             back = self.planner.plan(t, replace(state, lane=to), frm, messages, self.occupant)
         self.wall += time.perf_counter() - w0
         if again.trajectory is not None:
@@ -292,6 +393,7 @@ class Manoeuvre:
         was_aborted = lc.aborted
         lc.aborted = lc.target_lane == lc.start_lane  # back where it started: no lane change
         if lc.aborted and not was_aborted and lc.trigger in ("scripted", "retry"):
+            # (a mandatory change is asked again by its trigger once due)
             # ask again once back in the lane
             self.pending.insert(0, LaneChangeCommand(at=t, target_lane=lc.wanted_lane))
 
@@ -306,10 +408,33 @@ class Manoeuvre:
         # the quartic from a = ax0 to a(tau) = 0 peaks at about 1.5x its mean deceleration
         decel = BRAKE_GRIP * self.mu * G / 1.5
         vxf = max(st.vx - decel * tau, 0.0)
+        end = self.lane_end(lane, x=st.x, speed=st.vx)
+        if end is not None and st.vx > 0.0:
+            tau, vxf = self.brake_to_stop(st.x, st.vx, st.ax, tau, vxf, decel, end)
         return LaneChangeTrajectory(
             t0=t, tau=tau, x0=st.x, y0=st.y, vx0=st.vx, vxf=vxf,
             width=self.lanes.centre(lane) - st.y, ax0=st.ax, vy0=st.vy, ay0=st.ay,
         )
+
+    def brake_to_stop(self, x: float, vx: float, ax: float, tau: float, vxf: float,
+                      decel: float, end: LaneEnd) -> tuple[float, float]:
+        """(tau, vxf) of a brake in a lane that ends: the brake's own (tau, vxf) when the
+        SV can still stop after it at STOP_DECEL-like braking before the stop line
+        (its front WAIT_ROOM before the end), else a brake to a standstill that ends at
+        the stop line if the grip allows (a quartic to rest over tau travels
+        (vx0 + ax0 tau / 6) tau / 2), at most at the grip (then as far as it must)."""
+        from cosim.driving.lane_end import STOP_DECEL
+
+        room = end.remaining - WAIT_ROOM  # m, front to the stop line
+        x_end = 0.5 * (vx + vxf) * tau + ax * tau * tau / 12.0
+        if x_end + vxf * vxf / (2.0 * STOP_DECEL) <= room:
+            return tau, vxf
+        tau_grip = max(vx / decel, BRAKE_TAU_MIN)  # shortest brake to rest within the grip
+        # (the quartic's ax0 term is small next to vx0: the stop is found from vx0 alone)
+        # the gentlest stop at the stop line, within 2 BRAKE_TAU (an earlier stop leaves
+        # the car following to close up to it)
+        tau_stop = 2.0 * max(room, END_MARGIN) / vx
+        return max(tau_grip, min(tau_stop, 2.0 * BRAKE_TAU)), 0.0
 
     # ------------------------------------------------------------------ the run
     def summary(self, t: np.ndarray) -> Manoeuvres:

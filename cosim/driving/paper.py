@@ -7,6 +7,12 @@ already satisfied is dropped, one to a lane not adjacent is logged and dropped) 
 with `[sv] decision`, when the paper's trigger (cosim.driving.rule) wants one (not
 within `cooldown` after a manoeuvre). The manoeuvre (cosim.driving.manoeuvre) plans
 it at the band rule's end speed and flies, re-checks, replans, aborts or brakes.
+
+On a lane that ends (cosim.driving.lane_end) it stops before the end (a virtual
+standing leader), and once the end is within its look-ahead it asks for the change
+into the continuing lane ("mandatory") instead of any other, every `retry_interval`
+until a plan that ends before the end is found, from a standstill too; the decision
+rule never changes into a lane that ends within the look-ahead.
 """
 
 from __future__ import annotations
@@ -17,7 +23,8 @@ import numpy as np
 
 from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
 from cosim.driving.following import CarFollowing
-from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre
+from cosim.driving.lane_end import stop_gap
+from cosim.driving.manoeuvre import MANDATORY, LaneChangeTimer, Manoeuvre
 from cosim.driving.registry import register
 
 if TYPE_CHECKING:
@@ -53,13 +60,19 @@ class PaperPolicy:
         if ended is not None:
             self.following.resume(float(ended.trajectory.vxf))
         allow_scripted, allow_decision = m.may_request(t, sv)
-        d = self.following.update(sv, scene, allow_decision)
+        lane = self.following.lanes.lane_of(sv.y)
+        end = m.lane_end(lane, sv)  # its lane ends ahead: stop before it, change lanes
+        d = self.following.update(sv, scene, allow_decision, stop_gap(end))
         target, trigger = None, ""
-        if allow_scripted:
+        if end is not None and m.mandatory(lane, sv) is not None:
+            if m.may_merge(t, sv):
+                target, trigger = end.target, MANDATORY
+        elif allow_scripted:
             target = m.due_scripted(t, sv)
             if target is not None:
                 trigger = "scripted"
-            elif allow_decision and d.target_lane is not None:
+            elif (allow_decision and d.target_lane is not None
+                  and not m.ends_soon(d.target_lane, sv)):
                 target, trigger = d.target_lane, "decision"
         trajectory = m.advance(t, sv, target, trigger, messages)
         return trajectory if trajectory is not None else self.following.reference(t, sv)

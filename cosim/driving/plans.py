@@ -7,9 +7,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from cosim.planning.planner import LANE_END
+
 PLAN_COLUMNS: dict[str, str] = {
     "t_s": "simulation time of the planning request (s)",
-    "trigger": "scripted | decision | retry",
+    "trigger": "scripted | decision | retry | mandatory (the SV's lane ends ahead: "
+    "cosim.planning.deadline) | replan | abort | brake (re-check outcomes)",
     "origin_lane": "lane the SV is in (SUMO index)",
     "target_lane": "lane requested (SUMO index)",
     "vx0_mps": "SV speed at the request (m/s)",
@@ -23,7 +26,8 @@ PLAN_COLUMNS: dict[str, str] = {
     "ok": "1: a plan was adopted, 0: no collision-free tau (the SV keeps its lane)",
     "rejected_unstable": "candidates rejected by the handling envelope",
     "rejected_collision": "candidates rejected for a collision",
-    "rejections": "collisions per TV id, id:count;id:count (or why the request was dropped)",
+    "rejections": "collisions per TV id, id:count;id:count, and 'lane end:count' for taus "
+    "whose plan would end past the lane's end (or why the request was dropped)",
     "reason": "replan | abort | brake rows: why the plan under way was dropped (the re-check's "
     "first collision); else empty",
 }
@@ -36,10 +40,12 @@ def _fmt_intervals(spans: list[tuple[float, float]]) -> str:
 def plan_row(plan: Any, trigger: str, vx0: float) -> dict[str, Any]:
     """One plans.csv row of a planner's Plan (see PLAN_COLUMNS)."""
     per_tv: dict[str, int] = {}
-    n_unstable = 0
+    n_unstable = n_late = 0
     for rej in plan.rejections:
         if rej.reason == "unstable":
             n_unstable += 1
+        elif rej.reason == LANE_END:
+            n_late += 1
         else:
             key = rej.vehicle_id or "?"
             per_tv[key] = per_tv.get(key, 0) + 1
@@ -59,7 +65,8 @@ def plan_row(plan: Any, trigger: str, vx0: float) -> dict[str, Any]:
         "ok": int(plan.tau is not None),
         "rejected_unstable": n_unstable,
         "rejected_collision": sum(per_tv.values()),
-        "rejections": ";".join(f"{k}:{v}" for k, v in sorted(per_tv.items())),
+        "rejections": ";".join([f"{k}:{v}" for k, v in sorted(per_tv.items())]
+                               + ([f"{LANE_END}:{n_late}"] if n_late else [])),
         "reason": "",
     }
 

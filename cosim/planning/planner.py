@@ -28,6 +28,7 @@ from cosim.planning.collision import (
     TVHypotheses,
     check_candidates,
 )
+from cosim.planning.deadline import merging_messages
 from cosim.planning.envelope import (
     ENVELOPES,
     MODES,
@@ -45,7 +46,11 @@ from cosim.planning.prediction import (
     predict_lazy,
 )
 from cosim.planning.selection import choose, intervals, omega
-from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.planning.trajectory import (
+    LaneChangeTrajectory,
+    cluster_derivatives,
+    longitudinal_coefficients,
+)
 from cosim.road.frame import distortion_margin
 from cosim.traffic.v2v import V2VMessage
 
@@ -59,6 +64,7 @@ FOLLOW_STANDSTILL_M = 2.0  # m, gap kept at standstill
 FOLLOW_HEADWAY_S = 1.0  # s, time gap kept behind it
 FOLLOW_DECEL_G = 0.3  # -, share of mu g the SV brakes with to fall in behind it
 HORIZON_CAP_S = 30.0  # s, at most this much past the usual horizon
+LANE_END = "lane end"  # a Rejection's reason: the plan would end past `plan`'s x_limit
 
 
 @dataclass(frozen=True)
@@ -89,7 +95,7 @@ class Rejection(NamedTuple):
     """Why one tau was not taken (a named tuple: a plan holds one per rejected tau)."""
 
     tau: float  # s
-    reason: str  # "unstable" | "collision"
+    reason: str  # "unstable" | "collision" | LANE_END
     vehicle_id: str | None = None  # the TV it would hit first
     time: float | None = None  # s, simulation time of that first overlap
 
@@ -119,6 +125,8 @@ class Plan:
     # the TVs' futures (LazyFutures: arrays x, y, heading computed on first access)
     futures: TVFutures | LazyFutures | None = field(default=None, repr=False, compare=False)
     sv: SVPlanState | None = field(default=None, repr=False, compare=False)  # planned from
+    # (n_tau,) stable but ending past the plan's `x_limit` (a lane that ends; None: no limit)
+    late: NDArray[np.bool_] | None = field(default=None, repr=False, compare=False)
 
     @functools.cached_property
     def categories(self) -> dict[str, str]:
@@ -139,14 +147,16 @@ class Plan:
     def rejections(self) -> list[Rejection]:
         """Why each tau not collision-free was rejected, in tau order."""
         ids = self.vehicle_ids
+        off = ~self.collision_free
+        late = (self.late[off] if self.late is not None
+                else np.zeros(int(off.sum()), dtype=bool)).tolist()
         return [
             Rejection(tau, "unstable") if not stable
+            else Rejection(tau, LANE_END) if past
             else Rejection(tau, "collision", ids[v], when)
-            for tau, stable, v, when in zip(
-                self.taus[~self.collision_free].tolist(),
-                self.stable[~self.collision_free].tolist(),
-                self.hit_vehicle[~self.collision_free].tolist(),
-                self.hit_time[~self.collision_free].tolist(), strict=True)
+            for tau, stable, past, v, when in zip(
+                self.taus[off].tolist(), self.stable[off].tolist(), late,
+                self.hit_vehicle[off].tolist(), self.hit_time[off].tolist(), strict=True)
         ]
 
     @property
@@ -432,13 +442,21 @@ class LaneChangePlanner:
 
     def plan(
         self, t: float, sv: SVPlanState, target_lane: int, messages: Sequence[V2VMessage],
-        occupant: float, vxf: float | None = None,
+        occupant: float, vxf: float | None = None, x_limit: float = math.inf,
+        max_curvature: float = math.inf,
     ) -> Plan:
         """Plan a lane change from sv.lane to `target_lane` at simulation time t, ending
-        at `vxf` (m/s; None: the band rule's target speed)."""
+        at `vxf` (m/s; None: the band rule's target speed). `x_limit` (m): the latest
+        centre x at the plan's end (a lane that ends, cosim.planning.deadline): longer
+        plans are rejected ("lane end"). On a road with lanes that end, a TV that must
+        leave its lane is predicted as signalling it (`deadline.merging_messages`).
+        `max_curvature` (1/m): plans whose path bends more sharply anywhere are not
+        stable (a steering limit the envelope does not have at low speed: a merge from a
+        standstill, cosim.driving.lane_end)."""
         start = time.perf_counter()
         self._validate(sv, target_lane, occupant)
         cfg, road = self.config, self.road
+        messages = merging_messages(messages, road, t)
         if vxf is None:
             vxf = road.target_speed(sv.lane, target_lane)
         width = road.lane_center(target_lane) - sv.y
@@ -452,7 +470,15 @@ class LaneChangePlanner:
             at = int(np.searchsorted(taus, st.tau_min))
             taus = np.concatenate((taus[:at], [st.tau_min], taus[at:]))
             stable = np.concatenate((stable[:at], [True], stable[at:]))
-        cand = np.flatnonzero(stable)
+        if math.isfinite(max_curvature):
+            stable = stable & (path_curvature(sv, vxf, width, taus) <= max_curvature)
+        late = None
+        if math.isfinite(x_limit):
+            # each plan's end x (eq. 2 with a general start), against the deadline
+            c3, c4 = longitudinal_coefficients(sv.vx, vxf, taus, sv.ax)
+            x_end = sv.x + taus * (sv.vx + taus * (0.5 * sv.ax + taus * (c3 + taus * c4)))
+            late = stable & (x_end > x_limit + 1e-9)
+        cand = np.flatnonzero(stable if late is None else stable & ~late)
         t_rel, follow = self._horizon(t, 0.0, sv.x, sv.vx, vxf, target_lane, messages)
         futures = predict_lazy(
             messages, t, t_rel, road, self.vehicle, self.grid,
@@ -481,7 +507,7 @@ class LaneChangePlanner:
             tau_opt=t_opt, tau=tau, trajectory=trajectory, hit_vehicle=hit_vehicle,
             hit_time=hit_time, planning_time_s=time.perf_counter() - start, vxf=vxf,
             vehicle_ids=futures.vehicle_ids, tv_categories=futures.categories,
-            futures=futures, sv=sv,
+            futures=futures, sv=sv, late=late,
         )
 
     def check(
@@ -490,6 +516,7 @@ class LaneChangePlanner:
         """Re-check a committed trajectory from time t on against fresh predictions:
         the first collision it would now have, or None."""
         cfg = self.config
+        messages = merging_messages(messages, self.road, t)
         remaining = max(trajectory.t_end - t, 0.0)
         tr = trajectory
         x_now = float(tr.position(t)[0])
@@ -510,6 +537,21 @@ class LaneChangePlanner:
             return None
         return Rejection(trajectory.tau, "collision", futures.vehicle_ids[vehicle[0]],
                          float(when[0]))
+
+
+CURVATURE_SAMPLES = 41  # samples per candidate of `path_curvature`
+
+
+def path_curvature(sv: SVPlanState, vxf: float, width: float, taus: Array) -> Array:
+    """1/m, (n_tau,) the largest |curvature| of each candidate's path (eq. 2 / eq. 4 from
+    the SV's start), sampled CURVATURE_SAMPLES times over [0, tau]."""
+    s = np.linspace(0.0, 1.0, CURVATURE_SAMPLES)
+    tau = np.asarray(taus, dtype=float)[:, None]
+    d = cluster_derivatives(sv.vx, vxf, width, tau, tau * s[None, :], (1, 2), ax0=sv.ax,
+                            vy0=sv.vy, ay0=sv.ay)
+    (xd, yd), (xdd, ydd) = d[1], d[2]
+    speed2 = np.maximum(xd * xd + yd * yd, 1e-12)
+    return (np.abs(xd * ydd - yd * xdd) / speed2**1.5).max(axis=1)
 
 
 @functools.lru_cache(maxsize=64)

@@ -8,6 +8,9 @@
   duration, the first a lower bound of the TV's tau_min, then the stable grid
   points; from rest, neighbouring ones bound a cell (`LazyFutures.cell`) that the
   collision check covers for every duration in between.
+  On a lane that ends (issue 24) only the durations that end before the lane's end
+  are listed (cosim.planning.deadline; the planner signals for a TV that must merge
+  and does not: `deadline.merging_messages`).
 - C3, motion broadcast: the reference it sends (quintic min-jerk, eq. 2 and 4, or
   SUMO's linear lateral motion).
 
@@ -25,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cosim.params import RoadParams, VehicleParams
+from cosim.planning.deadline import c2_deadline
 from cosim.planning.envelope import MODES, envelope_margin, paper_map_tau_min
 from cosim.planning.trajectory import (
     LANE_CHANGE,
@@ -318,6 +322,13 @@ def predict_lazy(
                 yaw_model=envelope, vy0=np.repeat(vy0, n_tau),
             )
             stable = (margin <= 1.0).reshape(len(c2), n_tau)
+        if road.lane_ends:
+            # a TV on a lane that ends changes before its end: only the durations that
+            # end in time (cosim.planning.deadline; none does: all, it must squeeze in)
+            end = np.array([road.lane_end(o) for _, _, o, _ in c2])
+            length = np.array([m.length for _, m, _, _ in c2])
+            fits = c2_deadline(x0, v0, vxf, length, end, taus) & stable
+            stable = np.where(fits.any(axis=1)[:, None], fits, stable)
         still = np.abs(vy0) < 1e-12
         for j, (i, m, _, _) in enumerate(c2):
             ok = taus[stable[j]]

@@ -47,6 +47,7 @@ from cosim.driving.gap.geometry import (
     seeking_accel,
     slot_ends,
 )
+from cosim.driving.lane_end import MERGE_MIN_SPEED
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.rule import DecisionConfig, decide, neighbours
 from cosim.driving.scene import SV, Traffic
@@ -76,13 +77,31 @@ def wanting_config(cfg: DecisionConfig) -> DecisionConfig:
                    closing_time=0.0)
 
 
+@functools.lru_cache(maxsize=8)
+def mandatory_config(cfg: GapConfig) -> GapConfig:
+    """The gap choice of a mandatory change (a lane that ends): from any speed (a
+    standstill at the stop line, cosim.driving.lane_end) and into a gap at any speed
+    (its end speed is capped to the room left; the new follower's check decides)."""
+    return replace(cfg, min_speed=MERGE_MIN_SPEED, max_speed_change=math.inf)
+
+
+def urgent_decel(cfg: GapConfig, urgency: float) -> float:
+    """m/s^2, what an entry may ask of its new follower at `urgency` (0: the change just
+    became due, 1: at the lane's end; cosim.planning.deadline): plan_decel growing
+    linearly to insist_decel (MOBIL's b_safe), as LC2013's urgent strategic change
+    asks more of the blocking follower as the remaining distance shrinks."""
+    u = min(max(urgency, 0.0), 1.0)
+    return cfg.plan_decel + u * (cfg.insist_decel - cfg.plan_decel)
+
+
 def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig,
                  gap_cfg: GapConfig, follower: FollowerModel, *,
                  wanted_lane: int | None = None, allow_change: bool = True,
-                 insist: bool = False) -> GapDecision:
+                 insist: bool = False, urgency: float = 0.0) -> GapDecision:
     """The module docstring's steps for `sv` among `traffic`. `wanted_lane`: a
     scripted request's lane (else the rule decides); `allow_change` False:
-    car-following only."""
+    car-following only. `urgency` (0-1, a mandatory change): the follower's limit
+    before the SV insists grows with it (`urgent_decel`)."""
     lane = lanes.lane_of(sv.y)
     d = decide(sv, traffic, lanes, wanting_config(cfg),
                allow_change=allow_change and wanted_lane is None)
@@ -111,7 +130,8 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     # take the first acceptable gap: a change started now that enters a gap whose
     # follower and leader keep their limits is planned now, wherever the chosen gap is
     y0 = lanes.centre(lane)
-    limits = (gap_cfg.plan_decel, gap_cfg.insist_decel) if insist else (gap_cfg.plan_decel,)
+    first = urgent_decel(gap_cfg, urgency) if urgency > 0.0 else gap_cfg.plan_decel
+    limits = (first, gap_cfg.insist_decel) if insist else (first,)
     speeds = np.asarray(traffic.speed, dtype=float)
     for limit in limits:
         entry = entry_test(sv.x, y0, sv.speed, sv.length, lanes.centre(target) - y0, x,

@@ -19,6 +19,14 @@ STOP_GAP (IDM standstill gap). It signals while it seeks a gap, and asks the cho
 gap's follower to open the gap (the context's `ask_gap` port: the traffic's courtesy
 and cooperative V2V, cosim.traffic.cooperation). Its planner predicts a C2 TV to end
 its change no faster than its new leader, as this SV does (`prediction`).
+
+On a lane that ends (cosim.driving.lane_end) it stops before the end (a virtual
+standing leader) and, once the end is within its look-ahead, seeks a gap in the
+continuing lane before anything else ("mandatory"), with the urgency law of
+cosim.driving.gap.decision (what it may ask of its new follower grows as the end
+nears) and from any speed (`mandatory_config`); every plan ends before the end. It
+signals and asks the blocking follower to make room as for any change. On the
+mainline it lets a TV that must merge ahead of it in (`lane_end.yield_accel`).
 """
 
 from __future__ import annotations
@@ -31,9 +39,10 @@ import numpy as np
 
 from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
 from cosim.driving.following import CarFollowing
-from cosim.driving.gap.decision import GapDecision, gap_decision, in_lane
+from cosim.driving.gap.decision import GapDecision, gap_decision, in_lane, mandatory_config
 from cosim.driving.gap.geometry import GapConfig
-from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre
+from cosim.driving.lane_end import stop_gap, yield_accel
+from cosim.driving.manoeuvre import MANDATORY, LaneChangeTimer, Manoeuvre
 from cosim.driving.registry import register
 from cosim.driving.scene import Traffic
 from cosim.planning.interaction import FollowerModel, check_follower
@@ -79,6 +88,8 @@ class GapPolicy:
         # what a flown plan may ask of its new follower: the policy's own limit within b_safe
         self.plan_follower = self.follower.limited(self.gap_cfg.plan_decel)
         self.sv_length = ctx.sv_length
+        self.lanes_end = any(math.isfinite(self.lanes.end(k))
+                             for k in range(self.lanes.n_lanes))  # a lane ends on this road
         self.decision = ctx.sv.decision
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision (for inspection)
@@ -124,21 +135,41 @@ class GapPolicy:
         once the gap is reached ("scripted" | "decision"; "": do not plan now)."""
         following, m = self.following, self.manoeuvre
         lane = self.lanes.lane_of(sv.y)
+        end = m.lane_end(lane, sv)  # its lane ends ahead: stop before it, change lanes
+        due = None if end is None else m.mandatory(lane, sv)
+        mandatory = due is not None
         scripted = m.due_scripted(t, sv)
         if self.wanted is not None and (self.wanted[0] != lane or t > self.wanted[2]):
             self.wanted = None
         wanted = scripted if scripted is not None else (
             self.wanted[1] if self.wanted is not None else None)
+        if due is not None:
+            wanted = due.target
         since = self.seeking_since
-        d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg, self.gap_cfg,
+        insist = since is not None and t - since >= self.gap_cfg.patience - 1e-9
+        d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg,
+                         mandatory_config(self.gap_cfg) if mandatory else self.gap_cfg,
                          self.follower, wanted_lane=wanted,
-                         allow_change=scripted is not None or self.decision,
-                         insist=since is not None and t - since >= self.gap_cfg.patience - 1e-9)
+                         allow_change=mandatory or scripted is not None or self.decision,
+                         insist=insist, urgency=0.0 if due is None else due.urgency)
+        if (wanted is None and d.target_lane is not None
+                and m.ends_soon(d.target_lane, sv)):
+            # the rule's faster lane ends within the look-ahead: not a lane to change into
+            d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg,
+                             self.gap_cfg, self.follower, allow_change=False)
         self.seeking_since = (None if d.target_lane is None
                               else (t if since is None else since))
-        following.limit(d.accel, d.leader_gap, d.leader_speed)
+        accel = d.accel
+        if self.lanes_end and due is None:
+            # courtesy: a TV that must merge into its lane ahead of it is let in
+            accel = min(accel, yield_accel(following.v_ref, following.desired_speed(lane),
+                                           self.lanes, lane, sv.x, self.sv_length, traffic,
+                                           following.cfg))
+        following.limit(*following.with_stop(accel, d.leader_gap, d.leader_speed,
+                                             stop_gap(end)))
         self.last = d
-        if scripted is None and self.wanted is None and d.target_lane is not None:
+        if (not mandatory and scripted is None and self.wanted is None
+                and d.target_lane is not None):
             self.wanted = (lane, d.target_lane, t + WANT_HOLD)
         # it signals while it seeks a gap, as SUMO's drivers do while they wait for one:
         # what the traffic's courtesy answers (cosim.traffic.cooperation)
@@ -147,6 +178,8 @@ class GapPolicy:
             self.ask_gap(t, str(traffic.ids[d.cooperate_with]))
         if not d.plan_now or d.target_lane is None:
             return d, ""
+        if mandatory:
+            return d, MANDATORY if m.may_merge(t, sv) else ""
         if scripted is not None:
             return d, "scripted" if allow_scripted else ""
         return d, "decision" if allow_decision else ""

@@ -1,0 +1,407 @@
+"""The SV on a lane that ends (cosim.driving.lane_end, issue 24) on hand-made scenes,
+without SUMO: an acceleration lane at d < 0 (lane 0, y_right = -lane width) ending at
+END beside a three-lane mainline; the real planner and policies ("paper", "gap"); the
+mainline's TVs at constant speed in lane 1 (given both as the scene and as V2V
+messages); the SV follows its reference exactly.
+
+It shows: the mandatory trigger fires once the end is within the LC2013 look-ahead and
+not before; every adopted plan ends before the end; with the mainline blocked the SV
+stops before the end and merges once a gap opens; a change aborted near the end still
+stops before it; the decision rule does not change into a lane that ends."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from cosim.driving.base import DrivingContext, WorldPorts
+from cosim.driving.lane_end import MERGE_CURVATURE, WAIT_ROOM, stop_accel, sv_lane_end
+from cosim.driving.lanes import LaneLayout
+from cosim.driving.manoeuvre import BRAKING, CHANGING, MANDATORY
+from cosim.driving.registry import policy_class
+from cosim.driving.rule import DecisionConfig
+from cosim.params import RoadParams
+from cosim.planning.deadline import END_MARGIN
+from cosim.planning.planner import LaneChangePlanner, Rejection, path_curvature
+from cosim.scenario import LaneChangeCommand, Scenario, load_scenario, project_root
+from cosim.traffic.snapshot import TrafficSnapshot
+from cosim.traffic.v2v import V2VMessage
+from cosim.traffic.world import Scene, SVState
+
+BANDS = ((60 / 3.6, 90 / 3.6),) * 4
+END = 200.0
+RAMP = RoadParams(mu=0.8, y_right=-3.75, speed_bands=BANDS, lane_ends=(END,))
+DT = 0.05
+BASE = load_scenario(project_root() / "scenarios/paper_case1_overtaking.toml")
+L = BASE.vehicle.length
+HALF = 0.5 * L
+NEAR = 150.0  # m, TVs this close to the SV are in the scene and the messages
+
+
+def scenario(speed: float, *, requests: tuple[tuple[float, int], ...] = (),
+             decision: bool = False, replanning: bool = False,
+             road: RoadParams = RAMP) -> Scenario:
+    sv = replace(BASE.sv, lane_changes=tuple(LaneChangeCommand(at=a, target_lane=b)
+                                             for a, b in requests),
+                 decision=decision, lane=0, speed=speed, desired_speed=speed)
+    return replace(BASE, sv=sv, tvs=(), road=road,
+                   planner=replace(BASE.planner, replanning=replanning, recheck_interval=0.5))
+
+
+@dataclass
+class Stream:
+    """TVs in one lane at x0 + v t; `until`: the stream's tail (a TV whose x0 is below
+    it does not exist: the gap behind the last one is open)."""
+
+    x0: np.ndarray
+    v: float
+    lane: int = 1
+    tail: float = -math.inf
+
+    def at(self, t: float, near: float) -> tuple[np.ndarray, np.ndarray]:
+        keep = self.x0 >= self.tail
+        x = self.x0[keep] + self.v * t
+        ids = np.flatnonzero(keep)
+        sel = np.abs(x - near) <= NEAR
+        return x[sel], ids[sel]
+
+
+@dataclass
+class Inbox:
+    messages: list[V2VMessage] = field(default_factory=list)
+
+    def read(self) -> list[V2VMessage]:
+        return list(self.messages)
+
+
+class Drive:
+    """A policy on the ramp; the SV is exactly where its reference says."""
+
+    def __init__(self, name: str, sc: Scenario, x0: float, stream: Stream | None = None,
+                 planner: Any = None, road: RoadParams = RAMP, lane: int = 0) -> None:
+        self.road = road
+        self.planner = planner or LaneChangePlanner(sc.vehicle, road, sc.planner)
+        self.asked: list[tuple[float, str]] = []
+        ports = WorldPorts(ask_gap=lambda t, tv: self.asked.append((t, tv)))
+        self.policy = policy_class(name)(DrivingContext.of(
+            sc, road, decision=DecisionConfig(), planner=self.planner, ports=ports))
+        self.sv = SVState(x0, road.lane_center(lane), 0.0, sc.sv.speed, 0.0, 0.0)
+        self.stream = stream
+        self.inbox = Inbox()
+        self.t = 0.0
+        self.track: list[tuple[float, float, float, float]] = []  # t, x, y, vx
+
+    def scene(self) -> Scene:
+        t, road = self.t, self.road
+        if self.stream is None:
+            xs, ids = np.zeros(0), np.zeros(0, int)
+            v, lane = 0.0, 1
+        else:
+            xs, ids = self.stream.at(t, self.sv.x)
+            v, lane = self.stream.v, self.stream.lane
+        n = xs.size
+        z = np.zeros(n)
+        names = tuple(f"tv{i}" for i in ids)
+        snap = TrafficSnapshot(t, names, xs, np.full(n, road.lane_center(lane)), z,
+                               np.full(n, v), z, np.full(n, lane), z, np.full(n, 4.32),
+                               np.full(n, 1.8), np.zeros(n, int))
+        self.inbox.messages = [
+            V2VMessage(vehicle_id=names[i], t=t, x=float(xs[i]), y=road.lane_center(lane),
+                       heading=0.0, speed=v, accel=0.0, lane=lane, lateral_speed=0.0,
+                       length=4.32, width=1.8, intention=0) for i in range(n)]
+        return Scene(t, self.sv, snap, snap, np.full(n, v))
+
+    def step(self) -> None:
+        t = self.t
+        ref = self.policy.update(t, self.scene(), self.inbox)
+        t1 = t + DT
+        x, y = ref.position(t1)
+        xd, yd = ref.derivative(t1, 1)
+        self.sv = SVState(float(x), float(y), math.atan2(float(yd), float(xd)), float(xd),
+                          0.0, 0.0)
+        self.t = round(t1, 9)
+        self.track.append((self.t, self.sv.x, self.sv.y, self.sv.vx))
+
+    def run(self, t_end: float) -> None:
+        while self.t < t_end - 1e-9:
+            self.step()
+
+    @property
+    def plans(self) -> list[dict[str, Any]]:
+        return self.policy.manoeuvre.plans
+
+    def in_ending_lane(self) -> np.ndarray:
+        """(t, front x) of every step where the SV's body touches lane 0."""
+        tr = np.array(self.track)
+        lo, _ = LaneLayout(self.road).lanes_touched(tr[:, 2], 0.9)
+        on = lo <= 0
+        return np.column_stack([tr[on, 0], tr[on, 1] + HALF])
+
+
+def assert_plans_end_before_the_end(d: Drive) -> None:
+    """Every adopted plan out of lane 0 ends with the front END_MARGIN before END."""
+    flown = [lc for lc in d.policy.manoeuvre.lane_changes if lc.start_lane == 0]
+    for lc in flown:
+        tr = lc.plan.trajectory
+        x_end = float(tr.position(tr.t0 + tr.tau)[0])
+        assert x_end + HALF + END_MARGIN <= END + 1e-6, (lc.trigger, x_end)
+
+
+# ------------------------------------------------------------------ the trigger
+
+
+@pytest.mark.parametrize("name", ["paper", "gap"])
+def test_the_mandatory_trigger_fires_within_the_look_ahead_and_not_before(name: str) -> None:
+    road = replace(RAMP, lane_ends=(2000.0,))
+    v = 20.0
+    horizon = v * 10.0 * 2.0 + 2.0 * (L + 2.5)  # LC2013's, to the left: 417.3 m
+    x0 = 2000.0 - HALF - horizon - 30.0  # 30 m (1.5 s) before it is due
+    d = Drive(name, scenario(v, road=road), x0, road=road)
+    end = sv_lane_end(d.policy.manoeuvre.lanes, 0, x0, v, L)
+    assert end is not None and end.horizon == pytest.approx(horizon) and not end.due
+    d.run(1.45)
+    assert d.plans == [] and d.policy.manoeuvre.active is None
+    d.run(1.6)
+    assert [p["trigger"] for p in d.plans] == [MANDATORY] and d.plans[0]["ok"] == 1
+    assert d.plans[0]["t_s"] == pytest.approx(1.5, abs=DT + 1e-9)
+    lc = d.policy.manoeuvre.active
+    assert lc is not None and (lc.start_lane, lc.target_lane, lc.trigger) == (0, 1, MANDATORY)
+
+
+def test_it_overrides_a_scripted_request_and_the_speed_band_rule() -> None:
+    # a scripted request for lane 1 later, and the paper's rule on: the change is asked
+    # for as mandatory at once, the scripted request stays pending (served: same lane)
+    d = Drive("paper", scenario(20.0, requests=((5.0, 1),), decision=True), 60.0)
+    d.step()
+    assert [p["trigger"] for p in d.plans] == [MANDATORY]
+    assert [c.target_lane for c in d.policy.manoeuvre.pending] == [1]
+
+
+def test_no_trigger_without_lane_ends_and_none_on_the_mainline() -> None:
+    d = Drive("gap", scenario(20.0, road=replace(RAMP, lane_ends=())), 150.0,
+              road=replace(RAMP, lane_ends=()))
+    d.run(1.0)
+    assert d.plans == []
+    m = Drive("gap", scenario(20.0), 150.0, lane=1)
+    m.run(1.0)
+    assert m.plans == []
+
+
+# ------------------------------------------------------------------ the deadline
+
+
+@pytest.mark.parametrize("name", ["paper", "gap"])
+@pytest.mark.parametrize("x0", [60.0, 140.0, 150.0])
+def test_every_plan_ends_before_the_lane_end(name: str, x0: float) -> None:
+    # a free mainline: it goes at once; the nearer the end, the shorter the plan
+    d = Drive(name, scenario(20.0), x0)
+    d.step()
+    assert d.plans[0]["trigger"] == MANDATORY and d.plans[0]["ok"] == 1
+    assert_plans_end_before_the_end(d)
+    lc = d.policy.manoeuvre.active
+    assert lc is not None
+    if x0 >= 140.0:
+        assert "lane end:" in d.plans[0]["rejections"]  # the long taus were cut
+    d.run(lc.t0 + lc.tau + DT)
+    assert abs(d.sv.y - RAMP.lane_center(1)) < 1e-6
+    front = d.in_ending_lane()
+    assert front[:, 1].max() <= END - END_MARGIN + 1e-6
+
+
+@pytest.mark.parametrize("name", ["paper", "gap"])
+def test_a_change_that_cannot_end_in_time_is_not_flown(name: str) -> None:
+    # 28 m to the end at 20 m/s: no stable plan ends before it, at any end speed
+    d = Drive(name, scenario(20.0), 170.0)
+    d.step()
+    assert d.plans and all(p["trigger"] == MANDATORY and p["ok"] == 0 for p in d.plans)
+    assert all("lane end:" in p["rejections"] for p in d.plans)
+    assert d.policy.manoeuvre.active is None
+
+
+def test_the_urgency_law_asks_more_of_the_follower_as_the_end_nears() -> None:
+    from cosim.driving.gap.decision import urgent_decel
+    from cosim.driving.gap.geometry import GapConfig
+
+    cfg = GapConfig()
+    assert urgent_decel(cfg, 0.0) == cfg.plan_decel
+    assert urgent_decel(cfg, 1.0) == cfg.insist_decel
+    assert urgent_decel(cfg, 0.5) == pytest.approx(0.5 * (cfg.plan_decel + cfg.insist_decel))
+    # in the policy: a TV 50 m behind in lane 1 at the SV's 20 m/s would brake about
+    # 1.5 m/s^2 for an entry now: refused just after the change became due (urgency
+    # 0.04: 1.1 m/s^2 allowed), taken 50 m before the end (urgency 0.88: 3.65 m/s^2)
+    road = replace(RAMP, lane_ends=(430.0,))
+    went = {}
+    for x0 in (20.0, 380.0):
+        d = Drive("gap", scenario(20.0, road=road), x0,
+                  Stream(np.array([x0 - 50.0, x0 + 300.0]), 20.0), road=road)
+        d.step()
+        due = d.policy.manoeuvre.mandatory(0, d.sv)
+        assert due is not None
+        last = d.policy.last
+        assert last is not None
+        went[x0] = (last.plan_now, due.urgency)
+        if last.plan_now:
+            assert last.follower_decel == pytest.approx(urgent_decel(cfg, due.urgency), abs=0.02)
+            assert d.plans[-1]["trigger"] == MANDATORY and d.plans[-1]["ok"] == 1
+    assert not went[20.0][0] and went[20.0][1] < 0.1
+    assert went[380.0][0] and went[380.0][1] > 0.8
+
+
+# ------------------------------------------------------------------ the stop
+
+
+def test_the_stop_law_stops_at_the_stop_line() -> None:
+    assert stop_accel(20.0, math.inf, 2.0) == math.inf
+    assert stop_accel(20.0, 300.0, 2.0) > 0.0  # far: no braking
+    assert stop_accel(20.0, 60.0, 2.0) < -1.0  # near: braking
+    assert stop_accel(0.0, 2.0, 2.0) == 0.0  # at its standstill gap: stays
+
+
+@pytest.mark.parametrize("name", ["paper", "gap"])
+def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap_opens(
+        name: str) -> None:
+    # a platoon at 15 m/s, 12 m apart (bumper gaps 7.7 m: no gap for the SV), its last
+    # car starting at x = -560: it passes the end of the ramp at about t = 50 s
+    stream = Stream(np.arange(-560.0, 400.0, 12.0), 15.0, tail=-560.0)
+    d = Drive(name, scenario(15.0), 40.0, stream)
+    d.run(40.0)
+    m = d.policy.manoeuvre
+    assert m.active is None and m.lane_changes == []  # no gap: it has not gone
+    assert all(p["trigger"] == MANDATORY and p["ok"] == 0 for p in m.plans)
+    # it stopped before the end, WAIT_ROOM short of it, and waits there
+    assert d.sv.vx < 0.05
+    assert d.sv.x + HALF < END - WAIT_ROOM + 0.5
+    assert d.sv.x + HALF > END - WAIT_ROOM - 5.0
+    d.run(75.0)
+    ok = [p for p in m.plans if p["ok"] == 1]
+    assert ok and ok[0]["trigger"] == MANDATORY
+    assert ok[0]["vx0_mps"] >= 1.0 - 1e-9  # from a standstill: the creep speed
+    assert_plans_end_before_the_end(d)
+    assert abs(d.sv.y - RAMP.lane_center(1)) < 1e-6  # merged
+    front = d.in_ending_lane()
+    assert front[:, 1].max() <= END - END_MARGIN + 1e-6
+    # it merged behind the platoon's last car (level with the SV's stop line, 47 m
+    # before the end, at about t = 47 s)
+    assert ok[0]["t_s"] > 40.0
+    # on a path a car can steer from a standstill, to 8-13 m/s (the room's 7-10 s plans)
+    lc = m.lane_changes[0]
+    tr = lc.plan.trajectory
+    kappa = path_curvature(lc.plan.sv, tr.vxf, tr.width, np.array([tr.tau]))
+    assert kappa[0] <= MERGE_CURVATURE + 1e-9 and 5.0 < tr.vxf < 13.0
+
+
+# ------------------------------------------------------------------ abort near the end
+
+
+@dataclass
+class Forced:
+    """The real planner; `collide` makes the next re-checks report a collision; a target
+    lane in `no_tau` gets a plan without a trajectory."""
+
+    real: LaneChangePlanner
+    collide: int = 0
+    no_tau: set[int] = field(default_factory=set)
+    calls: list[tuple[str, int]] = field(default_factory=list)
+
+    def plan(self, t: float, state: Any, target: int, messages: list[Any], occupant: float,
+             vxf: float | None = None, x_limit: float = math.inf,
+             max_curvature: float = math.inf) -> Any:
+        self.calls.append(("plan", target))
+        plan = self.real.plan(t, state, target, messages, occupant, vxf, x_limit=x_limit,
+                              max_curvature=max_curvature)
+        if target in self.no_tau:
+            return replace(plan, tau=None, trajectory=None)
+        return plan
+
+    def check(self, trajectory: Any, t: float, messages: list[Any]) -> Rejection | None:
+        self.calls.append(("check", -1))
+        if self.collide:
+            self.collide -= 1
+            return Rejection(tau=trajectory.tau, reason="collision", vehicle_id="tv",
+                             time=t + 1)
+        return None
+
+
+@pytest.mark.parametrize("name", ["paper", "gap"])
+@pytest.mark.parametrize(("x0", "speed"), [(100.0, 20.0), (130.0, 15.0)])
+def test_an_aborted_change_near_the_end_still_stops_before_it(name: str, x0: float,
+                                                               speed: float) -> None:
+    sc = scenario(speed, replanning=True)
+    forced = Forced(LaneChangePlanner(sc.vehicle, RAMP, sc.planner))
+    d = Drive(name, sc, x0, planner=forced)
+    d.step()
+    m = d.policy.manoeuvre
+    assert m.mode == CHANGING and m.active is not None
+    forced.collide, forced.no_tau = 1, {1}  # the re-check fails, no replan into lane 1
+    d.run(0.5 + DT)
+    assert m.outcomes == {"replan": 0, "abort": 0, "brake": 1}
+    # no planner abort back into the ending lane: the brake, to the nearest centre
+    assert ("plan", 0) not in forced.calls
+    assert m.mode == BRAKING and m.plans[-1]["trigger"] == "brake"
+    d.run(20.0)
+    # it stopped in lane 0 before the end and waits (lane 1 still refused)
+    assert d.sv.vx < 0.05 and abs(d.sv.y - RAMP.lane_center(0)) < 1e-3
+    front = d.in_ending_lane()
+    assert front[:, 1].max() <= END - END_MARGIN
+    assert m.plans[-1]["trigger"] == MANDATORY and m.plans[-1]["ok"] == 0
+    # lane 1 opens: it merges from the standstill
+    forced.no_tau = set()
+    d.run(30.0)
+    assert abs(d.sv.y - RAMP.lane_center(1)) < 1e-6
+    assert d.in_ending_lane()[:, 1].max() <= END - END_MARGIN
+
+
+# ------------------------------------------------------------------ into an ending lane
+
+
+def test_the_decision_rule_does_not_change_into_a_lane_that_ends() -> None:
+    # on lane 1 behind a slow leader, lane 2 blocked by a TV beside: lane 0 (the ramp,
+    # ending within the look-ahead) is free and faster by its band, but not taken
+    bands = ((60 / 3.6, 120 / 3.6),) + ((60 / 3.6, 90 / 3.6),) * 3
+    road = replace(RAMP, speed_bands=bands)
+    for name in ("paper", "gap"):
+        d = Drive(name, scenario(25.0, decision=True, road=road), 60.0,
+                  Stream(np.array([90.0]), 10.0, lane=1), road=road, lane=1)
+        d.run(2.0)
+        assert all(p["target_lane"] != 0 for p in d.plans), name
+
+
+# ------------------------------------------------------------------ letting TVs in
+
+
+def ramp_tv_scene(d: Drive, x: float, speed: float) -> Scene:
+    """The SV on lane 1 and one TV on the ramp (lane 0) at x."""
+    snap = TrafficSnapshot(d.t, ("ramp",), np.array([x]), np.array([RAMP.lane_center(0)]),
+                           np.zeros(1), np.array([speed]), np.zeros(1), np.zeros(1, int),
+                           np.zeros(1), np.array([4.32]), np.array([1.8]), np.zeros(1, int))
+    return Scene(d.t, d.sv, snap, snap, np.array([speed]))
+
+
+@pytest.mark.parametrize(("gap", "tv_speed", "yields"), [
+    (20.0, 19.0, True),  # ahead, a little slower: the SV makes room (ACC: -1.6 m/s^2)
+    (2.0, 10.0, False),  # too close and much slower: it would brake hard; not let in
+])
+def test_the_gap_policy_lets_a_merging_tv_in(gap: float, tv_speed: float,
+                                             yields: bool) -> None:
+    accels = {}
+    for road in (RAMP, replace(RAMP, lane_ends=())):
+        d = Drive("gap", scenario(20.0, road=road), 100.0, road=road, lane=1)
+        x_tv = 100.0 + HALF + gap + 2.16
+        d.policy.update(0.0, ramp_tv_scene(d, x_tv, tv_speed), d.inbox)
+        accels[bool(road.lane_ends)] = d.policy.following.accel
+    if yields:
+        assert accels[True] < accels[False] - 0.1  # it brakes for the ramp's TV
+        assert accels[True] >= -2.0 - 1e-9
+    else:
+        assert accels[True] == accels[False]
+    # the paper's SV does not (its car following is the paper's rule)
+    p = Drive("paper", scenario(20.0), 100.0, lane=1)
+    p.policy.update(0.0, ramp_tv_scene(p, 100.0 + HALF + gap + 2.16, tv_speed), p.inbox)
+    q = Drive("paper", scenario(20.0, road=replace(RAMP, lane_ends=())), 100.0,
+              road=replace(RAMP, lane_ends=()), lane=1)
+    q.policy.update(0.0, ramp_tv_scene(q, 100.0 + HALF + gap + 2.16, tv_speed), q.inbox)
+    assert p.policy.following.accel == q.policy.following.accel
