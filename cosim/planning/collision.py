@@ -56,6 +56,11 @@ COLLISION_TESTS = ("exact", "col")
 RESOLUTION = 1e-4
 _BOX_TOLERANCE = 1e-6  # m, a closed-form cluster's box from its two extreme trajectories
 _STACK = 96  # cells a refinement holds at once (depth-first: about two per level)
+# cells one refinement may judge; past them the pair counts as overlapping (sound: a
+# candidate is only ever rejected by it). Bodies that creep side by side within a few
+# mm of the margin for seconds (a merge from a standstill beside a queue, issue 24)
+# otherwise split cells for minutes in one plan() call
+_MAX_CELLS = 20000
 _RUN = 4  # neighbouring durations of a C2 cluster given one grown test first
 
 
@@ -621,7 +626,8 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
     `extra`, m, how far a stored row may be from its linear pieces. A cell whose grown
     test overlaps is split in the dimension that moves more, until a real overlap
     (True) or every piece clears (False); a piece whose bound is below RESOLUTION and
-    still overlaps counts as an overlap."""
+    still overlaps counts as an overlap, and so does a pair not settled within
+    `_MAX_CELLS` cells."""
     hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
     # (closed forms evaluated from scalars: no arrays passed in the loop)
     p = sv.par
@@ -631,9 +637,12 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
     v0, vxf, w, x0, y0, start = q["v0"], q["vxf"], q["width"], q["x0"], q["y0"], q["start"]
     stack = np.empty((_STACK, 4))
     stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3] = tau_a, tau_b, lo, hi
-    n = 1
+    n, cells = 1, 0
     while n > 0:
         n -= 1
+        cells += 1
+        if cells > _MAX_CELLS:
+            return True
         ta, tb, t0, t1 = stack[n, 0], stack[n, 1], stack[n, 2], stack[n, 3]
         tm = 0.5 * (t0 + t1)
         ax, ay, ca, sa, avx, avy = _candidate_pose(general, sv.cx, sv.cy, c, tau_c, p[0], p[1],

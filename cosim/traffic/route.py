@@ -94,6 +94,25 @@ def sv_tracks(road: Road) -> tuple[LaneTable, ...]:
                  if t.track.first_edge == 0 and not t.track.pieces[0].internal)
 
 
+def upstream_lanes(road: Road, tracks: Sequence[LaneTable]) -> dict[str, int]:
+    """SUMO lane id -> track id of the lanes (and their junction lanes) that SUMO
+    connects into the first lane of each of `tracks` from the edges before the route's
+    first edge (none on a route that starts where the network does)."""
+    first = road.route.edge(0)
+    feeds: dict[str, int] = {}
+    for table in tracks:
+        lane = table.track.pieces[0].lane
+        for edge in first.getIncoming():
+            for conn in edge.getConnections(first):
+                if conn.getToLane().getID() != lane:
+                    continue
+                feeds.setdefault(conn.getFromLane().getID(), table.id)
+                via = conn.getViaLaneID()
+                if via:
+                    feeds.setdefault(via, table.id)
+    return feeds
+
+
 def lane_width(road: Road, source: str | None = None) -> float:
     """m, the SV lanes' common width (InputError, one line, if they differ)."""
     widths = sorted({round(float(w), 6) for t in sv_tracks(road) for w, p in
@@ -152,6 +171,11 @@ class RouteLanes:
         # SUMO lane id -> SV-lane (track) id, junction lanes included (the snapshot's lane)
         self.sv_lane: dict[str, int] = {
             p.lane: t.id for t in self.sv for p in t.track.pieces}
+        # ... and the lanes feeding the route's first edge (a mainline's upstream edge):
+        # the traffic coming up behind an SV that starts near the route's start (on an
+        # acceleration lane: its new follower, issue 24) is seen at s < 0 on the frame's
+        # extension, never taken for traffic in other lanes
+        self.sv_lane |= upstream_lanes(road, self.sv)
         # the lanes of route edges, with their tracks (a TV's band changes only there)
         self.edge_lanes: tuple[tuple[str, int], ...] = tuple(
             (p.lane, t.id) for t in road.lanes for p in t.track.pieces if not p.internal)

@@ -356,3 +356,32 @@ def test_a_started_manoeuvre_is_checked_at_its_own_time() -> None:
     both = np.concatenate(outcomes)
     assert 0.05 < both.mean() < 0.95  # both verdicts
     assert refined > 0  # the looks between samples took part
+
+
+def test_a_merge_from_a_creep_beside_a_creeping_queue_is_planned_at_once() -> None:
+    """A planner call recorded in the merge study (ramp_merge, 50 veh/km/lane, seed 2,
+    t = 33.1 s): the SV creeps at 1 m/s 25 m before its acceleration lane's end beside
+    a queue creeping at 0-3 m/s, whose drivers signal. Each candidate then passes within
+    millimetres of the margin for seconds, and the exact test's refinement split cells
+    for minutes in this one call (issue 24). It is cut at `_MAX_CELLS` cells per pair,
+    as an overlap: the call returns, and every candidate it rejects for a collision is
+    one the refinement could not clear."""
+    import json
+
+    from cosim.params import PlannerConfig, RoadParams, VehicleParams
+    from cosim.planning.planner import LaneChangePlanner, PredictionOptions, RoadCurve, SVPlanState
+    from cosim.scenario import project_root
+    from cosim.traffic.v2v import V2VMessage
+
+    rec = json.loads((project_root() / "tests" / "data" / "creep_merge_plan.json").read_text())
+    bands = ((50 / 3.6, 90 / 3.6),) * 2 + ((90 / 3.6, 110 / 3.6), (110 / 3.6, 120 / 3.6))
+    road = RoadParams(mu=0.6, y_right=-3.75, speed_bands=bands,
+                      lane_ends=(194.5, np.inf, np.inf, np.inf))
+    planner = LaneChangePlanner(VehicleParams(), road, PlannerConfig(policy="gap"),
+                                prediction=PredictionOptions(gap_end_speed=True),
+                                curve=RoadCurve(0.0, 9.375, 120 / 3.6, 2.34))
+    plan = planner.plan(rec["t"], SVPlanState(**rec["sv"]), rec["target_lane"],
+                        [V2VMessage(**m) for m in rec["messages"]], rec["occupant"],
+                        **rec["kwargs"])
+    assert plan.trajectory is None  # no gap beside the queue
+    assert {r.reason for r in plan.rejections} >= {"collision"}
