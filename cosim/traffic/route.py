@@ -171,11 +171,12 @@ class RouteLanes:
         # SUMO lane id -> SV-lane (track) id, junction lanes included (the snapshot's lane)
         self.sv_lane: dict[str, int] = {
             p.lane: t.id for t in self.sv for p in t.track.pieces}
-        # ... and the lanes feeding the route's first edge (a mainline's upstream edge):
-        # the traffic coming up behind an SV that starts near the route's start (on an
-        # acceleration lane: its new follower, issue 24) is seen at s < 0 on the frame's
-        # extension, never taken for traffic in other lanes
-        self.sv_lane |= upstream_lanes(road, self.sv)
+        # ... and the lanes feeding the through lanes from before the route's first edge
+        # (the mainline's upstream edge): the traffic coming up behind an SV that starts
+        # near the route's start (on an acceleration lane: its new follower, issue 24) is
+        # seen at s < 0 on the frame's straight extension; not a ramp feeding a lane that
+        # ends (it joins at an angle: off the frame's extension)
+        self.sv_lane |= upstream_lanes(road, self.through)
         # the lanes of route edges, with their tracks (a TV's band changes only there)
         self.edge_lanes: tuple[tuple[str, int], ...] = tuple(
             (p.lane, t.id) for t in road.lanes for p in t.track.pieces if not p.internal)

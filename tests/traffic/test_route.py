@@ -379,14 +379,14 @@ def test_lanes_named_on_an_edge_with_a_lane_added_count_as_tracks() -> None:
 
 def test_the_lanes_feeding_the_routes_first_edge_map_to_its_tracks() -> None:
     """A route that starts on the on-ramp's acceleration-lane edge sees the mainline
-    behind it (main0's lanes and their junction lanes: tracks 1-3) and the ramp (track
-    0, the acceleration lane it feeds); a route that starts where the network does sees
-    nothing more."""
+    behind it (main0's lanes and their junction lanes: tracks 1-3), not the ramp (it
+    feeds the acceleration lane, which ends, at an angle); a route that starts where the
+    network does sees nothing more."""
     lanes = RouteLanes(load_road(NETWORK_DIR / "onramp.net.xml", ["acc", "main1", "main2"]))
     upstream = {k: v for k, v in lanes.sv_lane.items() if not k.startswith("acc_")
                 and not k.startswith("main")}  # junction lanes
     assert {lanes.sv_lane[f"main0_{i}"] for i in range(3)} == {1, 2, 3}
     assert all(lanes.sv_lane[f"main0_{i}"] == i + 1 for i in range(3))
-    assert lanes.sv_lane["ramp_0"] == 0 and upstream
+    assert "ramp_0" not in lanes.sv_lane and upstream
     straight = RouteLanes(load_road(NETWORK_DIR / "highway.net.xml"))
     assert set(straight.sv_lane) == {p.lane for t in straight.sv for p in t.track.pieces}
