@@ -137,8 +137,11 @@ def envelope_margin(
     d = cluster_derivatives(col(vx0), col(vxf), col(width), tau[:, None], t, (1, 2), **kw)
     (xd, yd), (xdd, ydd) = d[1], d[2]
     V = np.hypot(xd, yd)  # Vx* (eq. 14)
-    Ax = (xd * xdd + yd * ydd) / V  # dVx*/dt
-    a_n = (xd * ydd - yd * xdd) / V  # V^2 KL (eq. 15)
+    # a candidate that comes to rest (a C2 TV predicted from a standstill) has V = 0
+    # there: NaN, which the ratio below reads as leaving the envelope (unstable)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        Ax = (xd * xdd + yd * ydd) / V  # dVx*/dt
+        a_n = (xd * ydd - yd * xdd) / V  # V^2 KL (eq. 15)
     if yaw_model == "kinematic":
         omega = a_n / V
     else:
