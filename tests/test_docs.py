@@ -36,7 +36,7 @@ SLOW = {
     "cosim bench cosim --repeats 5": "five times seven 30 s runs",
     "cosim bench cosim --repeats 5 --json": "five times seven 30 s runs",
     "cosim batch scenarios/study_curved.toml": "20 runs of 60 s",
-    "cosim batch scenarios/study_merge.toml --drivers sumo": "100 runs of 40 s",
+    "cosim batch scenarios/study_merge.toml": "200 runs of 40 s",
 }
 # A synopsis: placeholders (FILE, N, ...), alternatives ([...], a|b) or globs.
 # A bare command name that needs an argument is a mention ("`cosim run`'s outputs").
