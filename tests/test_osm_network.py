@@ -9,12 +9,12 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import shapely
 
 from cosim.scenario import scenario_from_dict
 from cosim.sim import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "road"))
+from handdrawn import corners_in_lanes  # noqa: E402
 from osm import ROUTE, import_osm, motorway_osm  # noqa: E402
 
 
@@ -39,12 +39,4 @@ def test_an_osm_motorway_with_coarse_curves_ramps_and_a_bridge(tmp_path: Path) -
     assert np.diff(tr["lane"]).nonzero()[0].size >= 2
     assert {"101", "101-AddedOnRampEdge"} <= set(result.edges)  # past the on-ramp, on the curve
     # the body inside SUMO's lanes at every step, within the frame's deviation
-    lanes = shapely.union_all([
-        shapely.LineString(p.shape).buffer(0.5 * p.width, cap_style="flat")
-        for t in road.tracks for p in t.pieces]).buffer(quality.max_deviation + 0.02)
-    sc = result.scenario
-    c, s = np.cos(np.radians(tr["psi_deg"])), np.sin(np.radians(tr["psi_deg"]))
-    for a, b in ((0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (-0.5, 0.5)):
-        x = tr["x_m"] + a * sc.vehicle.length * c - b * sc.vehicle.width * s
-        y = tr["y_m"] + a * sc.vehicle.length * s + b * sc.vehicle.width * c
-        assert shapely.contains(lanes, shapely.points(np.column_stack([x, y]))).all()
+    assert corners_in_lanes(result, quality.max_deviation + 0.02)

@@ -174,20 +174,27 @@ def stale_files(name: str, builder: Callable[[Path], Path], directory: Path) -> 
                 != (Path(tmp) / f"{name}{suffix}").read_bytes()]
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cosim.road.build",
-                                     description=f"Rebuild networks/{NAME}.*.xml.")
+def network_cli(name: str, module: str, builder: Callable[[], Path],
+                stale_of: Callable[[], list[str]], argv: list[str] | None) -> int:
+    """`python -m <module> [--check]` of a shipped network: rebuild networks/<name>.*.xml,
+    or (--check) exit 1 naming the files a fresh build would change."""
+    parser = argparse.ArgumentParser(prog=f"python -m {module}",
+                                     description=f"Rebuild networks/{name}.*.xml.")
     parser.add_argument("--check", action="store_true", help="fail if a shipped file is stale")
     args = parser.parse_args(argv)
     if args.check:
-        bad = stale()
+        bad = stale_of()
         if bad:
-            print(f"stale: {', '.join(bad)}: run python -m cosim.road.build", file=sys.stderr)
+            print(f"stale: {', '.join(bad)}: run python -m {module}", file=sys.stderr)
             return 1
-        print(f"networks/{NAME}.*.xml are up to date")
+        print(f"networks/{name}.*.xml are up to date")
         return 0
-    print(f"wrote {build()}")
+    print(f"wrote {builder()}")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    return network_cli(NAME, "cosim.road.build", build, stale, argv)
 
 
 if __name__ == "__main__":

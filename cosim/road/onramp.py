@@ -30,11 +30,10 @@ The output is byte-for-byte reproducible (cosim.road.build.write_network).
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
-from cosim.road.build import stale_files, write_network
+from cosim.road.build import network_cli, stale_files, write_network
 from cosim.traffic.network import NETWORK_DIR
 
 NAME = "onramp"
@@ -125,19 +124,7 @@ def stale(directory: Path = NETWORK_DIR) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cosim.road.onramp",
-                                     description=f"Rebuild networks/{NAME}.*.xml.")
-    parser.add_argument("--check", action="store_true", help="fail if a shipped file is stale")
-    args = parser.parse_args(argv)
-    if args.check:
-        bad = stale()
-        if bad:
-            print(f"stale: {', '.join(bad)}: run python -m cosim.road.onramp", file=sys.stderr)
-            return 1
-        print(f"networks/{NAME}.*.xml are up to date")
-        return 0
-    print(f"wrote {build()}")
-    return 0
+    return network_cli(NAME, "cosim.road.onramp", build, stale, argv)
 
 
 if __name__ == "__main__":

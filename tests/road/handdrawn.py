@@ -7,8 +7,12 @@ from __future__ import annotations
 import math
 import subprocess
 from pathlib import Path
+from typing import Any
 
-from cosim.traffic.network import netconvert_binary
+import numpy as np
+import shapely
+
+from cosim.traffic.network import NETWORK_DIR, netconvert_binary
 
 
 def arc(x0: float, y0: float, h0: float, radius: float, length: float,
@@ -53,3 +57,31 @@ def curved_route(tmp: Path, step: float, *, radius: float = 2000.0, length: floa
         f'shape="{shape}"/>'
         '<edge id="X" from="X1" to="X2" numLanes="1" speed="13.9"/>'
         "</edges>")
+
+
+def corners_in_lanes(result: Any, grow: float = 0.02) -> bool:
+    """The SV's four corners inside the union of SUMO's lanes of the run's route (each
+    lane shape buffered by half its width, the union grown by `grow` m) at every step."""
+    lanes = shapely.union_all([
+        shapely.LineString(p.shape).buffer(0.5 * p.width, cap_style="flat")
+        for t in result.route_road.tracks for p in t.pieces]).buffer(grow)
+    tr, veh = result.trace, result.scenario.vehicle
+    c, s = np.cos(np.radians(tr["psi_deg"])), np.sin(np.radians(tr["psi_deg"]))
+    for a, b in ((0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (-0.5, 0.5)):
+        x = tr["x_m"] + a * veh.length * c - b * veh.width * s
+        y = tr["y_m"] + a * veh.length * s + b * veh.width * c
+        if not shapely.contains(lanes, shapely.points(np.column_stack([x, y]))).all():
+            return False
+    return True
+
+
+def assert_rebuilt(tmp: Path, name: str, build: Any, stale: Any, main: Any) -> None:
+    """A shipped network's builder writes networks/<name>.* byte for byte, and its
+    staleness check and `--check` agree."""
+    out = build(tmp)
+    for suffix in (".nod.xml", ".edg.xml", ".con.xml", ".net.xml"):
+        assert (tmp / f"{name}{suffix}").read_bytes() == \
+            (NETWORK_DIR / f"{name}{suffix}").read_bytes(), suffix
+    assert out.name == f"{name}.net.xml"
+    assert stale() == []
+    assert main(["--check"]) == 0

@@ -17,19 +17,13 @@ from cosim.traffic.network import NETWORK_DIR
 from cosim.traffic.route import RouteLanes, check_lanes, road_params, sv_tracks
 
 sys.path.insert(0, str(Path(__file__).parent))
-from handdrawn import netconvert  # noqa: E402
+from handdrawn import assert_rebuilt, netconvert  # noqa: E402
 
 NET = NETWORK_DIR / f"{NAME}.net.xml"
 
 
 def test_the_shipped_network_is_up_to_date(tmp_path: Path) -> None:
-    out = build(tmp_path)
-    for suffix in (".nod.xml", ".edg.xml", ".con.xml", ".net.xml"):
-        assert (tmp_path / f"{NAME}{suffix}").read_bytes() == \
-            (NETWORK_DIR / f"{NAME}{suffix}").read_bytes(), suffix
-    assert out.name == f"{NAME}.net.xml"
-    assert stale() == []
-    assert main(["--check"]) == 0
+    assert_rebuilt(tmp_path, NAME, build, stale, main)
     (tmp_path / f"{NAME}.con.xml").write_text("<connections/>\n", encoding="utf-8")
     assert stale(tmp_path) == [f"{NAME}.con.xml"]
 
