@@ -43,7 +43,7 @@ from __future__ import annotations
 
 from cosim.compiled import Array, njit
 from cosim.params import VehicleParams
-from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
+from cosim.vehicle.chassis import ChassisParams, static_wheel_loads, transfer_per_wheel
 from cosim.vehicle.tyre import combined_forces
 
 # Layout of the feed-forward's constant array; the tyre's coefficients follow at F_TYRE.
@@ -59,8 +59,7 @@ def cornering_params(vehicle: VehicleParams, chassis: ChassisParams, mu: float,
     import numpy as np
 
     fz0f, fz0r = static_wheel_loads(vehicle)
-    dlat = vehicle.mass * chassis.cg_height / (2.0 * vehicle.half_track)  # N per m/s^2
-    dlong = vehicle.mass * chassis.cg_height / (2.0 * vehicle.wheelbase)  # N per m/s^2
+    dlat, dlong = transfer_per_wheel(vehicle, chassis)  # N per m/s^2
     head = [1.0 if enabled else 0.0, vehicle.mass, vehicle.lf, vehicle.lr,
             vehicle.cf / 2.0, vehicle.cr / 2.0, fz0f, fz0r,
             dlat * chassis.roll_share_front, dlat * (1.0 - chassis.roll_share_front), mu,

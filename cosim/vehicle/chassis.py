@@ -26,6 +26,11 @@ class ChassisParams:
     wheel_radius: float = 0.31  # m, rolling radius (205/55 R16: 0.316)
     wheel_inertia: float = 1.2  # kg m^2, wheel + tyre + in-wheel motor rotor, per wheel
     roll_share_front: float = 0.55  # -, share of lateral load transfer taken by the front axle
+    # -, lateral load transfer over the rigid car's m h ay / track: a body that rolls on its
+    # springs and tyres moves its CG outwards (m_s g h_s phi) and transfers more; 1: rigid
+    lateral_transfer_gain: float = 1.0
+    # -, longitudinal load transfer over m h ax / wheelbase (1: the CG height's)
+    longitudinal_transfer_gain: float = 1.0
     load_lag: float = 0.08  # s, first-order lag of load transfer (pitch/roll of the body)
     slip_speed_floor: float = 1.0  # m/s, the ABS / traction control's slip reference floor
     anti_lock: bool = True  # -, ABS / traction control cut the torque of a wheel past its peak
@@ -43,6 +48,8 @@ class ChassisParams:
             "load_lag": self.load_lag,
             "slip_speed_floor": self.slip_speed_floor,
             "cornering_scale": self.cornering_scale,
+            "lateral_transfer_gain": self.lateral_transfer_gain,
+            "longitudinal_transfer_gain": self.longitudinal_transfer_gain,
         }
         for key, value in positive.items():
             if not value > 0.0:
@@ -58,6 +65,16 @@ def static_wheel_loads(vehicle: VehicleParams) -> tuple[float, float]:
     return weight * vehicle.lr / (2.0 * vehicle.wheelbase), weight * vehicle.lf / (
         2.0 * vehicle.wheelbase
     )
+
+
+def transfer_per_wheel(vehicle: VehicleParams, chassis: ChassisParams) -> tuple[float, float]:
+    """N per m/s^2, (lateral, longitudinal) load moved onto one wheel by a unit lateral
+    (summed over both axles: the roll split shares it out) and longitudinal acceleration:
+    m h / (2 half track) and m h / (2 wheelbase), times the chassis' transfer gains."""
+    lateral = vehicle.mass * chassis.cg_height / (2.0 * vehicle.half_track)
+    longitudinal = vehicle.mass * chassis.cg_height / (2.0 * vehicle.wheelbase)
+    return (lateral * chassis.lateral_transfer_gain,
+            longitudinal * chassis.longitudinal_transfer_gain)
 
 
 def commonroad_roll_share(car: CommonRoadCar) -> float:
@@ -76,6 +93,43 @@ def commonroad_roll_share(car: CommonRoadCar) -> float:
     front = car.m_s * car.h_s * roll_f / (roll_f + roll_r) + car.m_uf * car.R_w
     rear = car.m_s * car.h_s * roll_r / (roll_f + roll_r) + car.m_ur * car.R_w
     return front / (front + rear)
+
+
+def commonroad_lateral_transfer_gain(car: CommonRoadCar) -> float:
+    """-, the steady lateral load transfer of the car's body rolling on its suspensions
+    and tyres, over the rigid car's m h_cg ay (the moments about the ground; our plant's
+    `ChassisParams.lateral_transfer_gain`). A linear roll model with the car's parameters:
+    the sprung mass rolls by phi about an axis on the ground (CommonRoad's h_raf = h_rar =
+    0) and its CG moves outwards, so its moment is m_s h_s (ay + g phi); each axle's
+    suspension carries K (phi - phi_u) (K = K_s T^2 / 2 + |K_ts|, as
+    `commonroad_roll_share`) onto its unsprung mass, which rolls phi_u on its tyres (K_zt
+    T^2 / 2) and adds m_u R_w (ay + g phi_u). The tyres carry the sum, Kt phi_u per axle.
+
+    vehicle2: 1.160 (phi 0.0158 rad per m/s^2). CommonRoad's multi-body model (MB) in a
+    steady turn: 1.139 at 0.1 g, 1.148 at 0.3 g, 1.166 at 0.5 g (tests/vehicle/
+    test_commonroad.py); MB's own make-up differs (its tyres' lateral compliance K_lt moves
+    the contact patches inwards, about 8 %; its gravity term is smaller), but the rigid car's
+    m h_cg ay / track, which our plant had, is 14-17 % short of it."""
+    roll_f = car.K_sf * car.T_f**2 / 2.0 - car.K_tsf
+    roll_r = car.K_sr * car.T_r**2 / 2.0 - car.K_tsr
+    tyre_f, tyre_r = car.K_zt * car.T_f**2 / 2.0, car.K_zt * car.T_r**2 / 2.0
+    ms_hs, uf, ur = car.m_s * car.h_s, car.m_uf * car.R_w, car.m_ur * car.R_w
+    # phi_u = (K phi + m_u R_w ay) / (Kt + K - m_u g R_w) per axle, ay = 1 m/s^2
+    den_f, den_r = tyre_f + roll_f - uf * G, tyre_r + roll_r - ur * G
+    # the sprung mass: K_f (phi - phi_uf) + K_r (phi - phi_ur) = m_s h_s (1 + g phi)
+    phi = (ms_hs + roll_f * uf / den_f + roll_r * ur / den_r) / (
+        roll_f * (1.0 - roll_f / den_f) + roll_r * (1.0 - roll_r / den_r) - ms_hs * G)
+    moment = tyre_f * (roll_f * phi + uf) / den_f + tyre_r * (roll_r * phi + ur) / den_r
+    return moment / (car.m * car.h_cg)
+
+
+def commonroad_longitudinal_transfer_gain(car: CommonRoadCar) -> float:
+    """-, the steady longitudinal load transfer of CommonRoad's multi-body model over m
+    h_cg ax / L: its pitch equation (sumM_s) takes the whole car's tyre force at the sprung
+    CG, h_s above the ground less the sprung mass's static sag (about the tyres' static
+    deflection m g / (4 K_zt)); its unsprung masses have no inertia along x of their own.
+    vehicle2: 1.038 (MB braking straight: 0.5966 m against 0.5968 m here)."""
+    return (car.h_s - car.m * G / (4.0 * car.K_zt)) / car.h_cg
 
 
 def commonroad_tyre(**changes: float) -> TyreParams:
@@ -98,10 +152,14 @@ def commonroad_tyre(**changes: float) -> TyreParams:
 
 def commonroad_chassis(car: CommonRoadCar) -> ChassisParams:
     """Our chassis of a CommonRoad car: its CG height, wheel radius and inertia, roll split
-    (`commonroad_roll_share`) and tyre (`commonroad_tyre`)."""
+    (`commonroad_roll_share`), load transfers (`commonroad_lateral_transfer_gain`,
+    `commonroad_longitudinal_transfer_gain`) and tyre (`commonroad_tyre`)."""
     return ChassisParams(
         cg_height=car.h_cg, wheel_radius=car.R_w, wheel_inertia=car.I_y_w,
-        roll_share_front=commonroad_roll_share(car), tyre=commonroad_tyre(),
+        roll_share_front=commonroad_roll_share(car),
+        lateral_transfer_gain=commonroad_lateral_transfer_gain(car),
+        longitudinal_transfer_gain=commonroad_longitudinal_transfer_gain(car),
+        tyre=commonroad_tyre(),
     )
 
 

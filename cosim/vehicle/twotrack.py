@@ -53,7 +53,12 @@ import numpy as np
 from cosim.compiled import Array, njit
 from cosim.errors import InputError
 from cosim.params import G, VehicleParams
-from cosim.vehicle.chassis import ChassisParams, chassis_for, static_wheel_loads
+from cosim.vehicle.chassis import (
+    ChassisParams,
+    chassis_for,
+    static_wheel_loads,
+    transfer_per_wheel,
+)
 from cosim.vehicle.plant import PlantOutputs
 from cosim.vehicle.tyre import N_TYRE, combined_forces, peak_slip
 
@@ -324,8 +329,7 @@ class TwoTrackPlant:
         # (times cornering_scale, 1 by default)
         self.k_alpha_front = ch.cornering_scale * vehicle.cf / 2.0
         self.k_alpha_rear = ch.cornering_scale * vehicle.cr / 2.0
-        dlat = vehicle.mass * ch.cg_height / (2.0 * vehicle.half_track)  # N per m/s^2
-        dlong = vehicle.mass * ch.cg_height / (2.0 * vehicle.wheelbase)  # N per m/s^2
+        dlat, dlong = transfer_per_wheel(vehicle, ch)
         fz_max = 1.2 * max(self.fz0_front, self.fz0_rear)
         # low-speed damping as slip per slip speed (k_Vlow / K at the static load)
         ck = ty.slip_stiffness

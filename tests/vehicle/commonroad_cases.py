@@ -5,8 +5,10 @@ in a turn on mu 1.0 and 0.4.
 
 Set-up "as MB is": our plant takes CommonRoad's car (`commonroad_vehicle`: Cf, Cr =
 |p_ky1| x axle load = 21.92 x axle load) and chassis (`commonroad_chassis`: CG height,
-wheels, the lateral load-transfer split of MB's roll stiffnesses, CommonRoad's tyre with
-its MF coefficients and no load sensitivity), the wheel torques MB makes of its
+wheels, the lateral load-transfer split of MB's roll stiffnesses, its load transfers (the
+body rolling on springs and tyres: 1.161 x the rigid car's laterally; MB's pitch lever:
+1.038 x longitudinally), CommonRoad's tyre with its MF coefficients and no load
+sensitivity), the wheel torques MB makes of its
 acceleration input (brakes 66 % front, drive on the rear axle) and small relaxation
 lengths (MB has none). Our anti-lock logic stays on unless asked (it is part of our
 plant; MB has none, and its inner wheels lock when braking in a turn). Road friction mu
@@ -231,15 +233,17 @@ def side_slip_deg(a: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(a[:, 3], a[:, 2]))
 
 
-def mb_steady_roll_share(mu: float = 1.0, delta: float = 0.0, end: float = 3.0) -> float:
-    """-, the front share of MB's lateral load transfer in a steady turn (80 km/h, speed
-    held, the steering of 0.5 mu g for a neutral-steer car): (F_z outer - inner) front
-    over the sum of both axles', the tyre loads as vehicle_dynamics_mb computes them."""
+def mb_steady_transfer(mu: float = 1.0, ay: float = 0.5 * G, end: float = 3.0
+                       ) -> tuple[float, float, float]:
+    """(front, rear in N, ay in m/s^2): the lateral load transfer (F_z outer - inner per
+    axle) of MB in a steady turn at 80 km/h, speed held, with the steering of `ay` for a
+    neutral-steer car, and the lateral acceleration it reaches; the tyre loads as
+    vehicle_dynamics_mb computes them."""
     from vehiclemodels.init_mb import init_mb
     from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
 
     p = _params(mu)
-    delta = delta or neutral_steer(0.5 * mu * G)
+    delta = neutral_steer(ay)
     ramp = delta / STEER_RATE
 
     def f(t: float, x: np.ndarray) -> list[float]:
@@ -248,7 +252,7 @@ def mb_steady_roll_share(mu: float = 1.0, delta: float = 0.0, end: float = 3.0) 
 
     x = np.asarray(init_mb([0.0, 0.0, 0.0, V0, 0.0, 0.0, 0.0], p), dtype=float)
     for a, b in ((0.0, ramp), (ramp, end)):
-        x = solve_ivp(f, (a, b), x, method="LSODA", rtol=1e-6, atol=1e-8).y[:, -1]
+        x = solve_ivp(f, (a, b), x, method="LSODA", rtol=1e-7, atol=1e-9).y[:, -1]
 
     def load(z: float, roll: float, track: float, side: float) -> float:  # MB's F_z
         return (z + p.R_w * (math.cos(roll) - 1.0) + side * 0.5 * track * math.sin(roll)) \
@@ -256,7 +260,47 @@ def mb_steady_roll_share(mu: float = 1.0, delta: float = 0.0, end: float = 3.0) 
 
     front = load(x[16], x[13], p.T_f, -1.0) - load(x[16], x[13], p.T_f, 1.0)
     rear = load(x[21], x[18], p.T_r, -1.0) - load(x[21], x[18], p.T_r, 1.0)
+    lateral = x[5] * x[3] + f(end, x)[10]  # r vx + dvy/dt
+    return front, rear, lateral
+
+
+def mb_steady_roll_share(mu: float = 1.0) -> float:
+    """-, the front share of MB's lateral load transfer in a steady 0.5 mu g turn."""
+    front, rear, _ = mb_steady_transfer(mu, 0.5 * mu * G)
     return front / (front + rear)
+
+
+def ours_steady_transfer(chassis: ChassisParams | None = None, ay: float = 0.5 * G,
+                         end: float = 3.0) -> tuple[float, float]:
+    """(N, m/s^2): our plant's lateral load transfer (F_z outer - inner, both axles) in
+    the steady turn of `mb_steady_transfer`, and its lateral acceleration."""
+    vehicle = commonroad_vehicle(CAR)
+    plant = TwoTrackPlant(vehicle, COMMONROAD_TYRE["p_dy1"], vx=V0,
+                          chassis=chassis or our_chassis())
+    m = Manoeuvre("steady", 1.0, neutral_steer(ay), end)
+    for k in range(int(round(end / DT))):
+        u = accel_input(m, k * DT, plant.state[3])
+        plant.step(DT, steer_at(m, (k + 1) * DT), wheel_forces(u, vehicle.mass))
+    out = plant.outputs()
+    return (out.fz[1] - out.fz[0]) + (out.fz[3] - out.fz[2]), out.ay  # right wheels outer
+
+
+def mb_pitch_height(decel: float = 2.0, end: float = 3.0) -> float:
+    """m, MB's steady longitudinal load transfer braking straight at `decel`, as the
+    height h of m ax h / L: (front axle load - its static) L / (m |ax|)."""
+    from vehiclemodels.init_mb import init_mb
+    from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
+
+    p = _params(1.0)
+
+    def f(t: float, x: np.ndarray) -> list[float]:
+        return vehicle_dynamics_mb(list(x), [0.0, -decel], p)
+
+    x0 = np.asarray(init_mb([0.0, 0.0, 0.0, V0, 0.0, 0.0, 0.0], p), dtype=float)
+    x = solve_ivp(f, (0.0, end), x0, method="LSODA", rtol=1e-8, atol=1e-10).y[:, -1]
+    ax = f(end, x)[3]
+    front = 2.0 * (x[16] + p.R_w * (math.cos(x[13]) - 1.0)) * p.K_zt
+    return (front - 2.0 * x0[16] * p.K_zt) * (p.a + p.b) / (-ax * p.m)
 
 
 def rms(a: np.ndarray, b: np.ndarray, start: float = 0.0) -> float:
