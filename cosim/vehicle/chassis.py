@@ -3,7 +3,7 @@
 Table 1 gives mass, yaw inertia, axle positions, half track, drag and axle
 cornering stiffnesses. A four-wheel model also needs the CG height, the wheels'
 radius and spin inertia, the tyres (`cosim.vehicle.tyre.TyreParams`), and how load
-transfer is split and delayed. The defaults are plausible values for a mid-size
+transfer is split, scaled and delayed. The defaults are plausible values for a mid-size
 sedan with in-wheel motors (the paper's Remark 5: the yaw moment is made by
 differential in-wheel motor torque). A preset car (`cosim.params.VEHICLE_PRESETS`)
 brings its own chassis (`chassis_for`).

@@ -11,7 +11,11 @@ accelerations ax_load, ay_load (m/s^2) that set the load transfer, and the tyres
 relaxed slips kappa_1..4 (-) and alpha_1..4 (tangent of the slip angle). The load
 accelerations follow the real ones through a first-order lag
 (`ChassisParams.load_lag`), which stands for the body's pitch and roll and breaks
-the algebraic loop between loads and forces.
+the algebraic loop between loads and forces. The steady transfers are the rigid car's,
+m h a over the track (lateral) and the wheelbase (longitudinal), times
+`ChassisParams.lateral_transfer_gain` / `longitudinal_transfer_gain` (1 by default; a
+body that rolls on compliant springs and tyres transfers more: the CommonRoad presets
+take their multi-body model's, docs/control_results.md).
 
 Relaxation (Pacejka, 3rd ed., sec. 7.2): sigma dkappa'/dt + |u| kappa' = omega R - u,
 sigma dalpha'/dt + |u| alpha' = -v (u, v: the wheel centre's velocity along and
