@@ -41,14 +41,16 @@ bicycle plant's tyres are linear: no feed-forward (`enabled` 0).
 
 from __future__ import annotations
 
+import math
+
 from cosim.compiled import Array, njit
 from cosim.params import VehicleParams
 from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
-from cosim.vehicle.tyre import combined_forces
+from cosim.vehicle.tyre import T_CK, T_CX, T_MUX, T_PD2, combined_forces
 
 # Layout of the feed-forward's constant array; the tyre's coefficients follow at F_TYRE.
 (F_ON, F_MASS, F_LF, F_LR, F_KAF, F_KAR, F_FZ0F, F_FZ0R, F_DLAT_F, F_DLAT_R, F_MU,
- F_DLONG, F_TYRE) = range(13)
+ F_DLONG, F_PREVIEW, F_DRAG, F_LS, F_TYRE) = range(16)
 CAP = 0.25  # -, the largest feed-forward as a share of the linear front slip
 NEWTON_STEPS = 6  # the front slip converges to 1e-12 rad in 3 at 40 % of the friction
 
@@ -64,45 +66,72 @@ def cornering_params(vehicle: VehicleParams, chassis: ChassisParams, mu: float,
     head = [1.0 if enabled else 0.0, vehicle.mass, vehicle.lf, vehicle.lr,
             vehicle.cf / 2.0, vehicle.cr / 2.0, fz0f, fz0r,
             dlat * chassis.roll_share_front, dlat * (1.0 - chassis.roll_share_front), mu,
-            dlong]
+            dlong, chassis.tyre.relaxation_lat, vehicle.drag, vehicle.half_track]
     return np.array(head + chassis.tyre.array(), dtype=float)
 
 
 @njit
+def long_slip(f: Array, fx: float, fz: float, fz0: float) -> float:
+    """-, the longitudinal slip at which one wheel at load fz (static fz0) gives fx (N)
+    at zero slip angle: the pure-slip curve inverted (its E taken as 0)."""
+    if fx == 0.0 or fz <= 0.0:
+        return 0.0
+    o = F_TYRE
+    scale = 1.0 + f[o + T_PD2] * (fz / fz0 - 1.0)
+    mu_x = f[F_MU] * (scale if scale > 0.05 else 0.05) * f[o + T_MUX]
+    cx = f[o + T_CX]
+    u = min(max(fx / (mu_x * fz), -0.95), 0.95)
+    return math.tan(math.asin(u) / cx) * cx * mu_x / f[o + T_CK]
+
+
+@njit
 def axle_force(f: Array, tan_alpha: float, fz0: float, dlong: float, dlat: float,
-               ay: float, k_alpha: float) -> float:
+               ay: float, k_alpha: float, fx_left: float, fx_right: float) -> float:
     """N, the lateral force of one axle's two wheels at the same slip, their static load
     fz0 shifted by the longitudinal transfer dlong (N, + onto this axle) and the lateral
-    one dlat * ay (left loses, right gains for ay > 0), no longitudinal slip."""
+    one dlat * ay (left loses, right gains for ay > 0), the left and right wheel driving
+    with fx_left, fx_right (N: their longitudinal slip takes lateral grip, `long_slip`)."""
     inv = 1.0 / fz0
     mu = f[F_MU]
     fz = fz0 + dlong
-    _, left = combined_forces(0.0, tan_alpha, fz - dlat * ay, inv, k_alpha, mu, f, F_TYRE)
-    _, right = combined_forces(0.0, tan_alpha, fz + dlat * ay, inv, k_alpha, mu, f, F_TYRE)
+    fzl, fzr = fz - dlat * ay, fz + dlat * ay
+    kl, kr = long_slip(f, fx_left, fzl, fz0), long_slip(f, fx_right, fzr, fz0)
+    _, left = combined_forces(kl, tan_alpha, fzl, inv, k_alpha, mu, f, F_TYRE)
+    _, right = combined_forces(kr, tan_alpha, fzr, inv, k_alpha, mu, f, F_TYRE)
     return left + right
 
 
 @njit
-def steady_cornering(f: Array, vx: float, kappa: float, ax: float) -> tuple[float, float]:
+def steady_cornering(f: Array, vx: float, kappa: float, ax: float, fa: float
+                     ) -> tuple[float, float]:
     """(d_delta rad, d_dMz N m): what the tyres need on a circle of curvature kappa at
     speed vx beyond the linear model's steady-state inputs (module docstring), the car
-    accelerating at ax (m/s^2: load moves to the rear axle); (0, 0) when disabled or on a
-    straight line."""
+    accelerating at ax (m/s^2: load moves to the rear axle) with the wheels driving with
+    Fa (N, a quarter each) plus the differential forces of the linear model's yaw
+    moment; (0, 0) when disabled or on a straight line."""
     if f[F_ON] == 0.0 or kappa == 0.0:
         return 0.0, 0.0
     m, lf, lr, kaf, kar = f[F_MASS], f[F_LF], f[F_LR], f[F_KAF], f[F_KAR]
     ay = vx * vx * kappa
     rear_lin = 2.0 * kar * lr * kappa
     shift = f[F_DLONG] * ax
-    rear = axle_force(f, lr * kappa, f[F_FZ0R], shift, f[F_DLAT_R], ay, kar)
+    # the wheels' longitudinal forces: Fa shared, the yaw moment the law asks for on this
+    # circle (`closed_loop.curve_yaw_moment`) made by left / right differences (eq. 30)
+    dfx = kappa * (2.0 * kar * lr * (lf + lr) - lf * m * vx * vx) / (4.0 * f[F_LS])
+    fxq = 0.25 * fa
+    fx_l, fx_r = fxq - dfx, fxq + dfx
+    rear = axle_force(f, lr * kappa, f[F_FZ0R], shift, f[F_DLAT_R], ay, kar, fx_l, fx_r)
     need = m * ay - rear
     alpha_lin = (m * ay - rear_lin) / (2.0 * kaf)
     fz0f, dlat_f = f[F_FZ0F], f[F_DLAT_F]
+    # the front wheels' drive force turned with them pushes sideways (sin delta ~ delta)
+    need = need - (fx_l + fx_r) * (alpha_lin + lf * kappa)
     alpha = need / (2.0 * kaf)
     for _ in range(NEWTON_STEPS):
-        g = axle_force(f, alpha, fz0f, -shift, dlat_f, ay, kaf) - need
+        g = axle_force(f, alpha, fz0f, -shift, dlat_f, ay, kaf, fx_l, fx_r) - need
         da = 1e-6 * (abs(alpha) + 1e-6)
-        slope = (axle_force(f, alpha + da, fz0f, -shift, dlat_f, ay, kaf) - g - need) / da
+        slope = (axle_force(f, alpha + da, fz0f, -shift, dlat_f, ay, kaf, fx_l, fx_r)
+                 - g - need) / da
         if not slope > 0.0:  # past the tyres' peak: no steady state to aim at
             break
         step = g / slope
@@ -117,8 +146,8 @@ def steady_cornering(f: Array, vx: float, kappa: float, ax: float) -> tuple[floa
 
 
 @njit
-def curve_feed_forward(f: Array, vx: float, kappa: float, k_road: float, ax: float
-                       ) -> tuple[float, float]:
+def curve_feed_forward(f: Array, vx: float, kappa: float, k_road: float, ax: float,
+                       fa: float) -> tuple[float, float]:
     """(d_delta rad, d_dMz N m) the closed loop adds on a road of curvature k_road (the
     road's line through the car) while its path curves at kappa (KL, the road's curve
     and a lane change's together): `steady_cornering` at kappa less at kappa - k_road.
@@ -128,6 +157,6 @@ def curve_feed_forward(f: Array, vx: float, kappa: float, k_road: float, ax: flo
     this is 0 (k_road = 0: the paper's law, unchanged)."""
     if k_road == 0.0:
         return 0.0, 0.0
-    d1, m1 = steady_cornering(f, vx, kappa, ax)
-    d0, m0 = steady_cornering(f, vx, kappa - k_road, ax)
+    d1, m1 = steady_cornering(f, vx, kappa, ax, fa)
+    d0, m0 = steady_cornering(f, vx, kappa - k_road, ax, fa)
     return d1 - d0, m1 - m0
