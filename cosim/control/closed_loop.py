@@ -32,7 +32,10 @@ On a curved road (beyond the paper; 0 where the road is straight, so the paper's
 there is unchanged, bit for bit): the steady-cornering feed-forward of `cornering`
 (what the two-track car's nonlinear tyres need beyond eq. 21's linear model) on the
 steering and yaw moment, and Iz times the yaw acceleration a lane asks for where the
-road's curvature changes (`road_yaw_acceleration`: eq. 21 takes kappa as constant).
+road's curvature changes (`road_yaw_acceleration`: eq. 21 takes kappa as constant);
+for the two-track car the road's curvature in both and in the law is taken one tyre
+relaxation length ahead of the car (`lane_curvature`: the tyres' force lags their slip
+by that distance).
 
 Yaw-moment limit (beyond the paper): the MIMO law asks for the yaw moment that
 keeps the heading on the path tangent (zero sideslip). For the oversteering

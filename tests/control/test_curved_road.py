@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 
 from cosim.control.closed_loop import ClosedLoop
-from cosim.control.cornering import CAP, F_PREVIEW, cornering_params, curve_feed_forward, steady_cornering
+from cosim.control.cornering import (
+    CAP,
+    F_PREVIEW,
+    cornering_params,
+    curve_feed_forward,
+    steady_cornering,
+)
 from cosim.control.reference import ReferencePath, frame_path_errors
 from cosim.driving.following import lane_keeping_reference
 from cosim.params import ControllerGains, VehicleParams
