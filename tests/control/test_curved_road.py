@@ -205,3 +205,19 @@ def test_the_cornering_feed_forward_is_zero_on_a_straight_road_and_for_linear_ty
     k = 3e-3
     alpha_lin = (m * 31.0**2 * k - cr * lr * k) / cf
     assert steady_cornering(on, 31.0, k, 0.0, 350.0)[0] == pytest.approx(CAP * alpha_lin)
+
+
+def test_on_a_straight_road_the_curve_terms_change_nothing_bit_for_bit() -> None:
+    """Where the road is straight (StraightFrame) the relaxation-length preview and the
+    cornering feed-forward are never taken: a lane change on the two-track car gives the
+    same records, bit for bit, with them (the default) and with both switched off."""
+    out = []
+    for on in (True, False):
+        loop = ClosedLoop("twotrack", "mimo", VehicleParams(), ControllerGains(), 0.6, 0.0,
+                          5.625, 0.0, V)
+        if not on:
+            loop._ff[:] = 0.0
+        ref = LaneChangeTrajectory(t0=1.0, tau=4.0, x0=V, y0=5.625, vx0=V, vxf=V,
+                                   width=3.75)
+        out.append([loop.advance(k * 0.05, 0.05, 10, ref) for k in range(160)])
+    assert out[0] == out[1]
