@@ -32,7 +32,10 @@ On a curved road (beyond the paper; 0 where the road is straight, so the paper's
 there is unchanged, bit for bit): the steady-cornering feed-forward of `cornering`
 (what the two-track car's nonlinear tyres need beyond eq. 21's linear model) on the
 steering and yaw moment, and Iz times the yaw acceleration a lane asks for where the
-road's curvature changes (`road_yaw_acceleration`: eq. 21 takes kappa as constant).
+road's curvature changes (`road_yaw_acceleration`: eq. 21 takes kappa as constant);
+for the two-track car the road's curvature in both and in the law is taken one tyre
+relaxation length ahead of the car (`lane_curvature`: the tyres' force lags their slip
+by that distance).
 
 Yaw-moment limit (beyond the paper): the MIMO law asks for the yaw moment that
 keeps the heading on the path tangent (zero sideslip). For the oversteering
@@ -72,7 +75,15 @@ from cosim.compiled import Array, njit, register_warm_up
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.road.frame import FP_D_OFFSET, FP_H, FP_S_MIN, Frame, StraightFrame, pose_in_frame
+from cosim.road.frame import (
+    FP_CURVED,
+    FP_D_OFFSET,
+    FP_H,
+    FP_S_MIN,
+    Frame,
+    StraightFrame,
+    pose_in_frame,
+)
 from cosim.vehicle.actuators import ActuatorLimits, steer_core
 from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
 from cosim.vehicle.chassis import ChassisParams, chassis_for
@@ -80,7 +91,7 @@ from cosim.vehicle.plant import Plant, check_finite
 from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
 from .allocation import allocate_core
-from .cornering import cornering_params, curve_feed_forward
+from .cornering import F_DRAG, F_ON, F_PREVIEW, cornering_params, curve_feed_forward
 from .longitudinal import longitudinal_core, speed_gain, speed_gain_inverse_lag
 from .reference import PathErrors, ReferencePath, frame_path_errors
 from .triple_step import check_gains, law_params, mimo_core, siso_core
@@ -150,6 +161,17 @@ KAPPA_SPAN = 2.5  # m, either side of the car: the road's curvature's slope take
 
 
 @njit
+def lane_curvature(fp: Array, fr: Array, s: float, d: float) -> float:
+    """1/m, the curvature of the road's line at offset d through road position s (the
+    frame's arc there: kappa / (1 - kappa (d - d_offset)), as `frame_path_errors`' k_lane)."""
+    s_min, h = fp[FP_S_MIN], fp[FP_H]
+    n = fr.shape[1]
+    j = min(max(int(math.floor((s - s_min) / h)), 0), n - 1)
+    k = fr[4, j]
+    return k / (1.0 - k * (d - fp[FP_D_OFFSET])) if k != 0.0 else 0.0
+
+
+@njit
 def road_yaw_acceleration(fp: Array, fr: Array, s: float, d: float, vx: float) -> float:
     """rad/s^2, how fast the yaw rate of a car following its lane at speed vx must change
     where the road's curvature changes: the lane's heading turns at kappa(s) ds/dt, with
@@ -181,6 +203,14 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
                                     cs[0], cs[CS_S_ROAD])
     cs[0] = sproj
     cs[CS_S_ROAD] = s_road
+    if fp[FP_CURVED] != 0.0 and ff[F_ON] != 0.0:
+        # the tyres' lateral force lags their slip by the relaxation length sigma (a lag
+        # in distance, not time): the road's curvature is taken sigma ahead, so the
+        # force the lane's curve asks for arrives where it is needed (`cornering`; a
+        # straight road, StraightFrame, and the bicycle's lag-free tyres: unchanged)
+        dk = lane_curvature(fp, fr, s_road + ff[F_PREVIEW], d_road) - k_lane
+        kappa += dk
+        k_lane += dk
     vx = max(s[3], cp[CP_FLOOR])
     # below the floor the lateral errors barely move: integrate over distance, not time,
     # and fade the yaw moment (at rest it would only pivot the car); 1 above the floor
@@ -198,8 +228,10 @@ def control_core(s: Array, coef: Array, fp: Array, fr: Array, lp: Array, cp: Arr
         # on a curve: what the tyres need beyond eq. 21's linear model for the path's
         # curvature, less what they would need for it without the road's (`cornering`:
         # the part the road's curve adds; 0 on a straight road, as the paper's law), at
-        # the acceleration Fa asks for
-        d_delta, d_dmz = curve_feed_forward(ff, vx, kappa, k_lane, fa / cp[CP_MASS])
+        # the acceleration Fa gives beyond the air's drag (the load moves with that, not
+        # with Fa: at a steady 31 m/s Fa is all drag) and with Fa on the wheels
+        ax_ff = (fa - ff[F_DRAG] * s[3] * abs(s[3])) / cp[CP_MASS]
+        d_delta, d_dmz = curve_feed_forward(ff, vx, kappa, k_lane, ax_ff, fa)
         delta_cmd += d_delta
         if cp[CP_MIMO] != 0.0:
             dmz += (d_dmz + cp[CP_IZ] * road_yaw_acceleration(fp, fr, s_road, d_road, vx)) * slow
