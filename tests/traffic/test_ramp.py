@@ -15,7 +15,7 @@ import pytest
 from cosim.errors import SimulationError
 from cosim.scenario.load import load_scenario
 from cosim.sim import simulate
-from cosim.traffic.demand import ramp_flow, ramps
+from cosim.traffic.demand import UPSTREAM_LENGTH, populate, ramp_flow, ramps
 from cosim.traffic.network import NETWORK_DIR
 from cosim.traffic.sumo import SumoSim
 
@@ -101,6 +101,32 @@ def test_ramp_traffic_comes_up_the_ramp_and_reads_lane_0_on_the_acceleration_lan
         merged = [v for v, seen in lanes.items() if {-1, 0, 1} <= seen]
         assert merged
         assert not sim.events  # nobody teleported
+
+
+def test_random_traffic_enters_before_the_route_out_of_the_svs_sight() -> None:
+    """Route `acc main1 main2` (the ramp merge): the mainline that feeds it from `main0`
+    is filled UPSTREAM_LENGTH m back at t = 0 at the density, and the inflow enters there,
+    so no TV first appears within 300 m behind the route's start (issue 24: the inflow
+    at s = 0 put TVs 18 m behind an SV that started 20 m into the acceleration lane)."""
+    density = 20.0
+    with SumoSim(NET, 0.1, 3, route=["acc", "main1", "main2"]) as sim:
+        start = sim.lanes.road.frame.to_cartesian(0.0, 0.0)[0]  # x of the route's start
+        populate(sim, sim.road(), density, 3, 1500.0)
+        sim.step()
+        snap = sim.snapshot()
+        before = (snap.x < start) & (snap.x >= start - UPSTREAM_LENGTH)
+        expected = density * UPSTREAM_LENGTH / 1000.0 * 3  # three mainline lanes
+        assert abs(int(before.sum()) - expected) <= 0.15 * expected
+        placed = {str(v) for v in snap.ids}
+        first: dict[str, float] = {}  # where each TV of the inflow is first seen
+        for _ in range(300):  # 30 s
+            sim.step()
+            snap = sim.snapshot()
+            for vid, x in zip(snap.ids, snap.x, strict=True):
+                if str(vid) not in placed:
+                    first.setdefault(str(vid), float(x))
+    assert len(first) >= 0.5 * density * 30.0 * 25.0 / 1000.0 * 3  # ~25 m/s, 3 lanes
+    assert max(first.values()) < start - 300.0
 
 
 def test_our_sv_on_the_acceleration_lane_is_moved_there_and_merges_by_a_scripted_change(
