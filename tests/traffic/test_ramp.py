@@ -129,6 +129,33 @@ def test_random_traffic_enters_before_the_route_out_of_the_svs_sight() -> None:
     assert max(first.values()) < start - 300.0
 
 
+@pytest.mark.parametrize("density", [10.0, 40.0])
+def test_our_gap_driver_merges_from_the_shipped_ramp_by_its_mandatory_change(
+        density: float) -> None:
+    """Our SV (gap policy, MIMO) on the shipped ramp_merge, as the merge study runs it
+    (seed 1): its lane's end asks for the change ("mandatory": the acceleration lane is
+    inside LC2013's look-ahead from its start), it merges into a gap in lane 1
+    before the end with no collision by either check and is never dropped; the merge's
+    follower is watched until the SV's next change begins, not to the run's end (at
+    10 veh/km/lane it braked 6.8 m/s^2 22 s later, for another vehicle)."""
+    sc = load_scenario(ROOT / "scenarios" / "ramp_merge.toml")
+    sc = dataclasses.replace(sc, duration=25.0, traffic=dataclasses.replace(
+        sc.traffic, density=density))
+    result = simulate(sc)
+    m = result.metrics
+    assert m["merge_success"] == 1 and m["lane_end_reached"] == 0
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0
+    plans = result.plans
+    out = [p for p in plans if p["origin_lane"] == 0]  # the plans out of the ending lane
+    assert out and out[0]["trigger"] == "mandatory"  # then re-checks under way (replan)
+    assert {p["trigger"] for p in out} <= {"mandatory", "replan"}
+    end = result.road.lane_end(0)
+    assert 0.0 < m["merge_distance_to_end_m"] < end - 20.0
+    assert m["stopped_time_s"] == 0.0
+    # the merge's new follower brakes no harder than a Krauss follower's decel
+    assert m["merge_follower_max_decel_mps2"] <= 4.5 + 1e-6
+
+
 def test_our_sv_on_the_acceleration_lane_is_moved_there_and_merges_by_a_scripted_change(
 ) -> None:
     """Our SV (MIMO) starts on the ending acceleration lane: moveToXY with that lane as
