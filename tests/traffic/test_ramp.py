@@ -156,6 +156,30 @@ def test_our_gap_driver_merges_from_the_shipped_ramp_by_its_mandatory_change(
     assert m["merge_follower_max_decel_mps2"] <= 4.5 + 1e-6
 
 
+def test_with_no_gap_our_sv_stops_before_the_end_of_the_ramp_and_waits_there() -> None:
+    """The shipped ramp at 60 veh/km/lane with no courtesy from the mainline (nobody
+    makes room): our SV stops at its stop line, WAIT_ROOM before the end of the
+    acceleration lane, and waits there; a merge started from the standstill that the
+    re-check no longer finds free is not aborted back into the ending lane (an abort
+    drives to the band's speed: it drove to the lane's end) but braked; never past the
+    end, no collision by either check."""
+    from cosim.driving.lane_end import WAIT_ROOM
+
+    sc = load_scenario(ROOT / "scenarios" / "ramp_merge.toml")
+    sc = dataclasses.replace(sc, traffic=dataclasses.replace(
+        sc.traffic, density=60.0, courtesy=False))
+    result = simulate(sc)
+    m, tr = result.metrics, result.trace
+    assert m["duration_s"] == pytest.approx(sc.duration)  # ran to its end
+    assert m["lane_end_reached"] == 0 and m["merge_success"] == 0
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0
+    assert m["stopped_time_s"] > 15.0
+    end = result.road.lane_end(0)
+    front = tr["s_m"] + 0.5 * sc.vehicle.length
+    assert front.max() < end - WAIT_ROOM + 2.0  # at its stop line at most
+    assert "abort" not in {p["trigger"] for p in result.plans}
+
+
 def test_our_sv_on_the_acceleration_lane_is_moved_there_and_merges_by_a_scripted_change(
 ) -> None:
     """Our SV (MIMO) starts on the ending acceleration lane: moveToXY with that lane as
