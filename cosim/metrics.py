@@ -374,8 +374,8 @@ MERGE_DOCS: dict[str, str] = {
     "stopped_time_s": "time the SV's speed was below 0.1 m/s (s)",
     "merge_follower_max_decel_mps2": "largest deceleration of the SV's follower in the target "
     "lane of the merge (the nearest TV behind it there when its centre crossed; as "
-    "follower_max_decel_mps2), from the start of the merge until 3 s after it settles "
-    "(m/s^2; empty: no merge or no follower)",
+    "follower_max_decel_mps2), from the start of the merge until 3 s after it settles, "
+    "or until the SV's next change begins (m/s^2; empty: no merge or no follower)",
 }
 
 

@@ -15,8 +15,8 @@ before the end, as every policy that flies planned manoeuvres uses them.
   bends at most MERGE_CURVATURE (the planner's `max_curvature`).
 - The stop before the end: while the SV keeps an ending lane it follows a virtual
   standing leader whose rear is WAIT_ROOM before the end (`stop_gap`, `stop_accel`:
-  Krauss's safe speed towards it with STOP_DECEL, a comfortable braking, so that it
-  brakes only once it must), stops there behind it at its standstill gap (the car
+  Krauss's safe speed towards it with STOP_DECEL and STOP_TAU, so that it brakes only
+  once it must), stops there behind it at its standstill gap (the car
   following's hold) and waits for a gap: the change is planned again every
   `retry_interval` and from a standstill.
 - Letting merging traffic in (the gap policy): a TV ahead of the SV that must merge
@@ -43,8 +43,12 @@ WAIT_ROOM = 45.0  # m, the virtual standing leader's rear this far before the la
 # the room a merge from a standstill starts with: within MERGE_CURVATURE a change from
 # 1 m/s ends at up to 13 m/s in it (7 s); with 20 m, at 3 m/s (10 s), too slow to be let
 # into traffic at 20 m/s (a whole-loop run at 25 veh/km/lane waited 40 s)
-STOP_DECEL = 2.0  # m/s^2, the braking the stop law plans with (the IDM's comfortable b)
-STOP_TAU = 1.0  # s, its reaction time (SUMO's tau)
+STOP_DECEL = 3.5  # m/s^2, the braking the stop law plans with, and ...
+STOP_TAU = 0.5  # s, ... its reaction time: it brakes only once it must, so that the SV
+# keeps the mainline's speed along the acceleration lane while it seeks a gap (with the
+# IDM's comfortable 2 m/s^2 and SUMO's tau 1 s it braked from the lane's start, at 70 km/h
+# 165 m before the end of a 194.5 m lane, fell below the mainline's speed before a gap
+# came and stopped: 1 of 5 sample merges at 40 veh/km/lane)
 STOP_TIME = 0.5  # s, time constant of the speed towards the stop law's safe speed
 MERGE_TAUS = (4.0, 7.0, 10.0)  # s, the durations the end-speed caps assume (`fit_speed`):
 # from the stop line (47 m of room) a 4 s change ends at ~23 m/s, a 7 s one at ~13 m/s
@@ -54,6 +58,11 @@ MERGE_CURVATURE = 0.2  # 1/m, the sharpest path a mandatory plan may take (R 5 m
 # 4 s change to 9 m/s bends at 0.56 1/m, the envelope's yaw-rate bound allows it
 MERGE_MIN_SPEED = 0.0  # m/s, a mandatory change is asked for from this speed up
 CREEP_SPEED = 1.0  # m/s, a mandatory change starts at least at this speed
+MERGE_INSIST_DECEL = 4.5  # m/s^2, the most a mandatory change may ask of its new follower
+# (the urgency law's top, cosim.driving.gap.decision.mandatory_config): the Krauss
+# follower's decel, what LC2013 asks of a blocking follower; a Krauss follower either
+# keeps its speed or drops what it must in one step, at its decel (its predicted braking
+# is ~0 or 4.5), so GapConfig.insist_decel's 4.0 let no blocked merge go (issue 24)
 YIELD_DECEL = 2.0  # m/s^2, the most the gap policy's SV brakes to let a merging TV in
 # (the IDM's comfortable b)
 

@@ -352,8 +352,12 @@ class Manoeuvre:
         frm, to = lc.origin_lane, lc.target_lane
         state = reference_state(lc.trajectory, t, frm)
         # a lane that ends: the replan leaves it before its end too; no abort back into
-        # it within its look-ahead (the brake below stops before its end instead)
+        # it once its change has been due (the brake below stops before its end
+        # instead): an abort plans to the band's speed with no end in sight (issue 24: a
+        # merge from the stop line at 1 m/s, within 47 m of the end but outside that
+        # speed's look-ahead, aborted to 25 m/s and drove to the lane's end)
         frm_end = self.lane_end(frm, x=state.x, speed=state.vx)
+        was_due = frm_end is not None and (frm_end.due or self.due_lane == frm)
         w0 = time.perf_counter()
         # continuing keeps the SV's intent, so it is tried first; the abort only when
         # no collision-free tau to the target lane is left
@@ -363,7 +367,7 @@ class Manoeuvre:
         else:
             again = self.planner.plan(t, state, to, messages, self.occupant)
         back = None
-        if again.trajectory is None and not (frm_end is not None and frm_end.due):
+        if again.trajectory is None and not was_due:
             back = self.planner.plan(t, replace(state, lane=to), frm, messages, self.occupant)
         self.wall += time.perf_counter() - w0
         if again.trajectory is not None:

@@ -4,7 +4,10 @@ At t = 0 every through track of the route (an SV lane that runs on, cosim.traffi
 `density` vehicles per km spread along its first `length` metres of arc length s
 (about evenly, jittered), so the road is full from the start; then an inflow at the
 start of the route inserts the next vehicle of a track once the last one has driven a
-spacing of about 1000/density m, so the density holds. Lanes that are not through
+spacing of about 1000/density m, so the density holds. Where the network feeds a
+through track from an edge before the route (the mainline upstream of an acceleration
+lane), that edge's last UPSTREAM_LENGTH m are filled too and the inflow enters there,
+out of the SV's sight. Lanes that are not through
 tracks (a lane added along the route) get no traffic of their own: TVs change into
 them. Each traffic vehicle (TV) draws where its desired speed sits in a band
 (`quantile`); SumoSim sets its desired speed from the band of whatever track it is on
@@ -43,6 +46,10 @@ TV_HEADWAY = 1.0  # s, SUMO's default tau of the TV type (Krauss safe headway)
 START_DECEL = 4.5  # m/s^2, SUMO's `decel` of its passenger car, what its departSpeed rules use
 START_GRIP = 0.7  # -, share of mu g the SV's car-following may brake with (policy FOLLOW_GRIP)
 START_REACTION = 0.5  # s, the SV's car-following ramps its braking up (15 m/s^3) first
+UPSTREAM_LENGTH = 400.0  # m, on a route whose first edge the mainline feeds from an edge
+# before it, the random traffic also fills this much of that edge and enters there: beyond
+# the SV's sight (world.NEAR_RANGE 150 m, V2V up to 300 m), so a TV never appears beside
+# an SV that starts near the route's start (issue 24's acceleration lane, 20 m in)
 RANDOM_ID_PREFIX = "tv"  # random traffic is tv1, tv2, ... (scenario TV ids may not be)
 RANDOM_ID = re.compile(rf"{RANDOM_ID_PREFIX}\d+")
 
@@ -59,7 +66,9 @@ class Traffic:
     _last: dict[int, str] = field(default_factory=dict)  # lane -> last vehicle inserted
     _next_gap: dict[int, float] = field(default_factory=dict)  # lane -> m before the next one
     _count: int = 0
-    _begin: dict[int, float] = field(default_factory=dict)  # track -> s where it begins
+    _begin: dict[int, float] = field(default_factory=dict)  # track -> s where TVs enter
+    _odometer: set[int] = field(default_factory=set)  # tracks entered before the route:
+    # the last TV's distance driven tells when the next one enters (it changes edges)
 
     def new_id(self) -> str:
         self._count += 1
@@ -82,7 +91,9 @@ class Traffic:
             # front position of the last one inserted; a vehicle still waiting for room
             # reads INVALID (< any gap); one that has left the road raises: insert then
             try:
-                if last and sim.reader.lane_position(last) < self._next_gap[lane]:
+                driven = (sim.api.vehicle.getDistance(last) if lane in self._odometer
+                          else sim.reader.lane_position(last)) if last else 0.0
+                if last and driven < self._next_gap[lane]:
                     continue
             except sim.api.TraCIException:
                 pass
@@ -178,10 +189,18 @@ def populate(
     del road  # its lanes are the route's through tracks (sim.road() is built of them)
     for table in sim.lanes.through:
         lane = table.id
-        traffic._begin[lane] = table.begin
         # front to back: each one is inserted behind its leader
         xs = placement(rng, density, table.begin, length)[::-1]
         qs = QUANTILE_RANGE[0] + (QUANTILE_RANGE[1] - QUANTILE_RANGE[0]) * rng.random(len(xs))
+        traffic._begin[lane] = table.begin
+        up = sim.lanes.upstream_room(lane, UPSTREAM_LENGTH)
+        if up > 0.0:  # the stretch before the route, filled alike: the inflow enters there
+            xs_up = placement(rng, density, table.begin - up, up)[::-1]
+            qs_up = QUANTILE_RANGE[0] + (QUANTILE_RANGE[1] - QUANTILE_RANGE[0]) \
+                * rng.random(len(xs_up))
+            xs, qs = np.concatenate((xs, xs_up)), np.concatenate((qs, qs_up))
+            traffic._begin[lane] = table.begin - up
+            traffic._odometer.add(lane)
         keep = np.ones(len(xs), dtype=bool)
         zones = [exclude_zone] if exclude_zone is not None else []
         if lane_zones and lane in lane_zones:

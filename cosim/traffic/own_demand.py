@@ -30,6 +30,7 @@ From additional files SUMO gets a copy of their demand only (`demand_only`).
 from __future__ import annotations
 
 import functools
+import gzip
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
@@ -94,8 +95,11 @@ def _parse(source: str, key: str, written: str, path: Path, what: str) -> ET.Ele
     if problem is not None:
         raise InputError(source, key, written, f"an existing {what} ({problem})")
     try:
+        if path.suffix == ".gz":  # SUMO reads gzipped XML as it is (e.g. .rou.xml.gz)
+            with gzip.open(path, "rb") as stream:
+                return ET.parse(stream).getroot()
         return ET.parse(path).getroot()
-    except ET.ParseError as exc:
+    except (ET.ParseError, OSError, EOFError) as exc:
         raise InputError(source, key, written,
                          f"a {what} in XML ({path.name}: {exc})") from None
 

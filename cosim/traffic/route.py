@@ -113,6 +113,36 @@ def upstream_lanes(road: Road, tracks: Sequence[LaneTable]) -> dict[str, int]:
     return feeds
 
 
+@dataclass(frozen=True)
+class Upstream:
+    """The lane before the route's first edge that feeds a through track's first lane
+    (the mainline's upstream edge): where the random traffic enters the road, so that it
+    comes up from behind the SV's horizon instead of appearing beside the route's start
+    (issue 24: an SV starting 20 m into an acceleration lane planned its merge with nobody
+    behind it, and inflow inserted at s = 0 appeared 18 m behind it at 23 m/s)."""
+
+    edge: str  # SUMO edge id
+    index: int  # SUMO lane index on it
+    length: float  # m, SUMO's length of the lane
+
+
+def upstream_entries(road: Road, tracks: Sequence[LaneTable]) -> dict[int, Upstream]:
+    """Track id -> the `Upstream` lane feeding it, for each of `tracks` fed from an edge
+    before the route's first edge (the first such connection in SUMO's order; none on a
+    route that starts where the network does)."""
+    first = road.route.edge(0)
+    entries: dict[int, Upstream] = {}
+    for table in tracks:
+        lane = table.track.pieces[0].lane
+        for edge in first.getIncoming():
+            for conn in edge.getConnections(first):
+                if conn.getToLane().getID() == lane and table.id not in entries:
+                    source = conn.getFromLane()
+                    entries[table.id] = Upstream(edge.getID(), source.getIndex(),
+                                                 float(source.getLength()))
+    return entries
+
+
 def lane_width(road: Road, source: str | None = None) -> float:
     """m, the SV lanes' common width (InputError, one line, if they differ)."""
     widths = sorted({round(float(w), 6) for t in sv_tracks(road) for w, p in
@@ -177,6 +207,7 @@ class RouteLanes:
         # seen at s < 0 on the frame's straight extension; not a ramp feeding a lane that
         # ends (it joins at an angle: off the frame's extension)
         self.sv_lane |= upstream_lanes(road, self.through)
+        self.upstream = upstream_entries(road, self.through)  # where the inflow enters
         # the lanes of route edges, with their tracks (a TV's band changes only there)
         self.edge_lanes: tuple[tuple[str, int], ...] = tuple(
             (p.lane, t.id) for t in road.lanes for p in t.track.pieces if not p.internal)
@@ -212,6 +243,35 @@ class RouteLanes:
             api.route.add(rid, list(self.road.route.edges[route_index:]))
             self._added.add(route_index)
         return rid
+
+    def route_id_of(self, api: ModuleType, place: Place) -> str:
+        """SUMO's id of the route from `place` on: the rest of the route from its edge,
+        or (an `upstream_place`) that edge followed by the whole route (added on first
+        use)."""
+        if place.route_index >= 0:
+            return self.route_id(api, place.route_index)
+        rid = f"{ROUTE_ID}^{place.edge}"
+        if rid not in self.extra_routes:
+            api.route.add(rid, [place.edge, *self.road.route.edges])
+            self.extra_routes.add(rid)
+        return rid
+
+    def upstream_place(self, track: int, s: float) -> Place | None:
+        """The point at `s` (m) on `track` before the track's start, on its `Upstream` lane
+        (route_index -1; `route_id_of` gives its route): s - begin metres before the lane's
+        end, at least its start. None when `s` is on the route or the track has no
+        upstream lane."""
+        up = self.upstream.get(track)
+        begin = self.table(track).begin
+        if up is None or s >= begin:
+            return None
+        return Place(up.edge, up.index, max(up.length + (s - begin), 0.0), -1)
+
+    def upstream_room(self, track: int, wanted: float) -> float:
+        """m, the stretch before `track`'s start on its upstream lane, up to `wanted` (0:
+        none)."""
+        up = self.upstream.get(track)
+        return 0.0 if up is None else min(wanted, up.length)
 
     def forget_routes(self) -> None:
         """SUMO closed: its routes are gone."""

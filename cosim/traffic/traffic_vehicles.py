@@ -33,19 +33,22 @@ class TrafficVehicles:
             speed: float | None = None) -> None:
         """Insert a TV with its centre at arc length `s` (m) on `track`, desired speed
         from the track's band; it departs on the rest of the route from the edge its
-        front is on (a junction's internal lane: the next edge).
+        front is on (a junction's internal lane: the next edge), or, before the track's
+        start (s < its begin), on the lane that feeds it from before the route
+        (RouteLanes.upstream_place), where there is one.
 
         It is inserted in the next step at `speed` (default: its desired speed),
         reduced by SUMO if that is unsafe behind its leader.
         """
         sim = self.sim
         lanes = sim.lanes
-        place = lanes.place(track, s + 0.5 * TV_LENGTH)
+        front = s + 0.5 * TV_LENGTH
+        place = lanes.upstream_place(track, front) or lanes.place(track, front)
         desired = self.bands.speed(track, quantile)
         api = sim.api
         api.vehicle.add(
             vehicle_id,
-            lanes.route_id(api, place.route_index),
+            lanes.route_id_of(api, place),
             typeID=TV_TYPE,
             departLane=str(place.index),
             departPos=repr(float(place.position)),

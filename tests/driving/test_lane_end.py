@@ -19,7 +19,13 @@ import numpy as np
 import pytest
 
 from cosim.driving.base import DrivingContext, WorldPorts
-from cosim.driving.lane_end import MERGE_CURVATURE, WAIT_ROOM, stop_accel, sv_lane_end
+from cosim.driving.lane_end import (
+    MERGE_CURVATURE,
+    MERGE_INSIST_DECEL,
+    WAIT_ROOM,
+    stop_accel,
+    sv_lane_end,
+)
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.manoeuvre import BRAKING, CHANGING, MANDATORY
 from cosim.driving.registry import policy_class
@@ -85,8 +91,9 @@ class Drive:
                  planner: Any = None, road: RoadParams = RAMP, lane: int = 0) -> None:
         self.road = road
         self.planner = planner or LaneChangePlanner(sc.vehicle, road, sc.planner)
-        self.asked: list[tuple[float, str]] = []
-        ports = WorldPorts(ask_gap=lambda t, tv: self.asked.append((t, tv)))
+        self.asked: list[tuple[float, str, bool]] = []  # t, TV id, urgent
+        ports = WorldPorts(ask_gap=lambda t, tv, urgent=False: self.asked.append(
+            (t, tv, urgent)))
         self.policy = policy_class(name)(DrivingContext.of(
             sc, road, decision=DecisionConfig(), planner=self.planner, ports=ports))
         self.sv = SVState(x0, road.lane_center(lane), 0.0, sc.sv.speed, 0.0, 0.0)
@@ -223,16 +230,20 @@ def test_a_change_that_cannot_end_in_time_is_not_flown(name: str) -> None:
 
 
 def test_the_urgency_law_asks_more_of_the_follower_as_the_end_nears() -> None:
-    from cosim.driving.gap.decision import urgent_decel
+    from cosim.driving.gap.decision import mandatory_config, urgent_decel
     from cosim.driving.gap.geometry import GapConfig
 
     cfg = GapConfig()
     assert urgent_decel(cfg, 0.0) == cfg.plan_decel
     assert urgent_decel(cfg, 1.0) == cfg.insist_decel
     assert urgent_decel(cfg, 0.5) == pytest.approx(0.5 * (cfg.plan_decel + cfg.insist_decel))
-    # in the policy: a TV 50 m behind in lane 1 at the SV's 20 m/s would brake about
-    # 1.5 m/s^2 for an entry now: refused just after the change became due (urgency
-    # 0.04: 1.1 m/s^2 allowed), taken 50 m before the end (urgency 0.88: 3.65 m/s^2)
+    # in the policy (a mandatory change's settings: up to the follower's decel, 4.5
+    # m/s^2, as LC2013 asks of a blocking follower): a TV 50 m behind in lane 1 at the
+    # SV's 20 m/s would brake about 1.5 m/s^2 for an entry now: refused just after the
+    # change became due (urgency 0.04: 1.1 m/s^2 allowed), taken 50 m before the end
+    # (urgency 0.88: 4.1 m/s^2)
+    cfg = mandatory_config(cfg)
+    assert cfg.insist_decel == MERGE_INSIST_DECEL
     road = replace(RAMP, lane_ends=(430.0,))
     went = {}
     for x0 in (20.0, 380.0):
@@ -276,6 +287,8 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
     assert d.sv.vx < 0.05
     assert d.sv.x + HALF < END - WAIT_ROOM + 0.5
     assert d.sv.x + HALF > END - WAIT_ROOM - 5.0
+    if name == "gap":  # it asked the platoon to make room, urgently (a mandatory change)
+        assert d.asked and all(urgent for _, _, urgent in d.asked)
     d.run(75.0)
     ok = [p for p in m.plans if p["ok"] == 1]
     assert ok and ok[0]["trigger"] == MANDATORY

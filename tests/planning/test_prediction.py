@@ -7,7 +7,13 @@ import pytest
 
 from cosim.params import RoadParams, VehicleParams, kmh
 from cosim.planning.envelope import stable_set
-from cosim.planning.prediction import c2_lanes, category, predict, predict_lazy
+from cosim.planning.prediction import (
+    LEADER_SPEED_STEP,
+    c2_lanes,
+    category,
+    predict,
+    predict_lazy,
+)
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.v2v import LateralMotion, V2VMessage
 
@@ -116,6 +122,9 @@ def test_c2_under_the_gap_policy_ends_no_faster_than_its_target_lane_leader() ->
         return (f.x[rows, -1] - f.x[rows, -2]) / (T_REL[-1] - T_REL[-2])
 
     np.testing.assert_allclose(end_speed([tv, ahead, far, own], True), 12.0, rtol=1e-9)
+    # a leader's speed is taken down to the LEADER_SPEED_STEP grid (one tau_min map each)
+    odd = msg("ahead", x=90.0, lane=2, speed=12.0 + 0.9 * LEADER_SPEED_STEP)
+    np.testing.assert_allclose(end_speed([tv, odd, far, own], True), 12.0, rtol=1e-9)
     np.testing.assert_allclose(end_speed([tv, far, own], True), ROAD.target_speed(1, 2), rtol=1e-9)
     np.testing.assert_allclose(end_speed([tv, ahead, far, own], False), ROAD.target_speed(1, 2),
                                rtol=1e-9)

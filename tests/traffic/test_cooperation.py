@@ -8,7 +8,12 @@ import numpy as np
 import pytest
 
 from cosim.planning.interaction import FollowerModel, predict_follower
-from cosim.traffic.cooperation import CooperationChannel, CooperationConfig
+from cosim.traffic.cooperation import (
+    COURTESY,
+    URGENT_DECEL,
+    CooperationChannel,
+    CooperationConfig,
+)
 from cosim.traffic.network import DEFAULT_NETWORK
 from cosim.traffic.sumo import TV_TYPE, SumoSim
 
@@ -18,7 +23,7 @@ V = 22.0  # m/s
 
 
 def run_side_by_side(cfg: CooperationConfig, seconds: float = 14.0, request_at: float = 2.0,
-                     changing_at: float = np.inf
+                     changing_at: float = np.inf, urgent: bool = False
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """SV (moved by us) in lane 1 at V; a SUMO-driven TV in lane 0 alongside it at V
     (no dawdling); the SV's change (for the channel) begins at `changing_at`. Returns
@@ -38,7 +43,7 @@ def run_side_by_side(cfg: CooperationConfig, seconds: float = 14.0, request_at: 
             sim.step()
             t = sim.time
             if abs(t - request_at) < 1e-6:
-                channel.request(t, "tv")
+                channel.request(t, "tv", urgent)
             present = set(sim.api.vehicle.getIDList())
             channel.changing(sim.api, "sv", t >= changing_at - 1e-9, present)
             channel.deliver(t, sim.api, "sv", present)
@@ -80,6 +85,21 @@ def test_a_yielding_tv_brakes_gently_once_the_sv_changes_lanes() -> None:
     after = t[1:] > 5.0 + STEP + 1e-9  # the new request acts from the next step
     assert decel[after].max() == pytest.approx(cfg.changing_decel, abs=1e-6)
     assert gap[-1] < cfg.space_headway + cfg.time_headway * v[-1]  # still making room
+
+
+def test_an_urgent_request_makes_room_at_the_urgent_braking() -> None:
+    """A mandatory change's request (the SV's lane ends): the TV brakes at URGENT_DECEL
+    while the SV waits, not at the 0.5 m/s^2 of any request, and opens the gap sooner."""
+    cfg = COURTESY
+    t, gap, v, _ = run_side_by_side(cfg, seconds=8.0)
+    tu, gap_u, vu, honoured = run_side_by_side(cfg, seconds=8.0, urgent=True)
+    assert honoured == 1
+    decel = -np.diff(v) / np.diff(t)
+    decel_u = -np.diff(vu) / np.diff(tu)
+    assert decel.max() == pytest.approx(cfg.max_decel, abs=0.02)
+    assert decel_u.max() == pytest.approx(URGENT_DECEL, abs=0.02)
+    # the TV's front falls behind the SV's rear 1.1 s after the request, not 2.2
+    assert tu[np.argmax(gap_u > 0.0)] < t[np.argmax(gap > 0.0)] - 0.5
 
 
 @pytest.mark.parametrize("cfg", [CooperationConfig(enabled=True, compliance=0.0),

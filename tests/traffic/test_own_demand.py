@@ -5,12 +5,14 @@ the SV enters. Real SUMO runs of the shipped scenarios (scenarios/own_demand_*.t
 from __future__ import annotations
 
 import csv
+import gzip
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from cosim.errors import InputError
 from cosim.scenario import load_scenario, project_root, scenario_to_dict, with_overrides
 from cosim.sim import run_scenario
 from cosim.traffic.own_demand import demand_only, read_sumocfg
@@ -68,6 +70,24 @@ def test_routes_and_sumocfg_give_the_same_run_and_the_seed_decides(tmp_path: Pat
     theirs = {vid: t for vid, t in first.items() if vid != "sv"}
     assert min(theirs.values()) < 5.0
     assert all(vid.startswith(("cars.", "trucks.")) for vid in theirs)
+
+
+def test_gzipped_route_files_are_read_as_sumo_reads_them(tmp_path: Path) -> None:
+    """Their flows as a .rou.xml.gz (SUMO reads gzipped XML): the same run, byte for byte;
+    a .gz that is not gzip is refused in one line before SUMO starts."""
+    plain = _run(ROUTES, tmp_path / "plain")
+    flows = ROOT / "scenarios" / "own_demand" / "flows.rou.xml"
+    packed = tmp_path / "flows.rou.xml.gz"
+    packed.write_bytes(gzip.compress(flows.read_bytes()))
+    sc = with_overrides(_short(ROUTES), **{"traffic.routes": [str(packed)]})
+    run_scenario(sc, tmp_path / "gz", write_figures=False)
+    assert {n: (tmp_path / "gz" / n).read_bytes() for n in OUTPUTS} == plain
+    broken = tmp_path / "broken.rou.xml.gz"
+    broken.write_bytes(flows.read_bytes())
+    with pytest.raises(InputError, match=r"broken\.rou\.xml\.gz"):
+        run_scenario(with_overrides(_short(ROUTES), **{"traffic.routes": [str(broken)]}),
+                     tmp_path / "broken", write_figures=False)
+    assert not (tmp_path / "broken").exists()
 
 
 def test_the_sumo_driven_sv_joins_their_traffic(tmp_path: Path) -> None:

@@ -15,7 +15,7 @@ import pytest
 from cosim.errors import SimulationError
 from cosim.scenario.load import load_scenario
 from cosim.sim import simulate
-from cosim.traffic.demand import ramp_flow, ramps
+from cosim.traffic.demand import UPSTREAM_LENGTH, populate, ramp_flow, ramps
 from cosim.traffic.network import NETWORK_DIR
 from cosim.traffic.sumo import SumoSim
 
@@ -101,6 +101,83 @@ def test_ramp_traffic_comes_up_the_ramp_and_reads_lane_0_on_the_acceleration_lan
         merged = [v for v, seen in lanes.items() if {-1, 0, 1} <= seen]
         assert merged
         assert not sim.events  # nobody teleported
+
+
+def test_random_traffic_enters_before_the_route_out_of_the_svs_sight() -> None:
+    """Route `acc main1 main2` (the ramp merge): the mainline that feeds it from `main0`
+    is filled UPSTREAM_LENGTH m back at t = 0 at the density, and the inflow enters there,
+    so no TV first appears within 300 m behind the route's start (issue 24: the inflow
+    at s = 0 put TVs 18 m behind an SV that started 20 m into the acceleration lane)."""
+    density = 20.0
+    with SumoSim(NET, 0.1, 3, route=["acc", "main1", "main2"]) as sim:
+        start = sim.lanes.road.frame.to_cartesian(0.0, 0.0)[0]  # x of the route's start
+        populate(sim, sim.road(), density, 3, 1500.0)
+        sim.step()
+        snap = sim.snapshot()
+        before = (snap.x < start) & (snap.x >= start - UPSTREAM_LENGTH)
+        expected = density * UPSTREAM_LENGTH / 1000.0 * 3  # three mainline lanes
+        assert abs(int(before.sum()) - expected) <= 0.15 * expected
+        placed = {str(v) for v in snap.ids}
+        first: dict[str, float] = {}  # where each TV of the inflow is first seen
+        for _ in range(300):  # 30 s
+            sim.step()
+            snap = sim.snapshot()
+            for vid, x in zip(snap.ids, snap.x, strict=True):
+                if str(vid) not in placed:
+                    first.setdefault(str(vid), float(x))
+    assert len(first) >= 0.5 * density * 30.0 * 25.0 / 1000.0 * 3  # ~25 m/s, 3 lanes
+    assert max(first.values()) < start - 300.0
+
+
+@pytest.mark.parametrize("density", [10.0, 40.0])
+def test_our_gap_driver_merges_from_the_shipped_ramp_by_its_mandatory_change(
+        density: float) -> None:
+    """Our SV (gap policy, MIMO) on the shipped ramp_merge, as the merge study runs it
+    (seed 1): its lane's end asks for the change ("mandatory": the acceleration lane is
+    inside LC2013's look-ahead from its start), it merges into a gap in lane 1
+    before the end with no collision by either check and is never dropped; the merge's
+    follower is watched until the SV's next change begins, not to the run's end (at
+    10 veh/km/lane it braked 6.8 m/s^2 22 s later, for another vehicle)."""
+    sc = load_scenario(ROOT / "scenarios" / "ramp_merge.toml")
+    sc = dataclasses.replace(sc, duration=25.0, traffic=dataclasses.replace(
+        sc.traffic, density=density))
+    result = simulate(sc)
+    m = result.metrics
+    assert m["merge_success"] == 1 and m["lane_end_reached"] == 0
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0
+    plans = result.plans
+    out = [p for p in plans if p["origin_lane"] == 0]  # the plans out of the ending lane
+    assert out and out[0]["trigger"] == "mandatory"  # then re-checks under way (replan)
+    assert {p["trigger"] for p in out} <= {"mandatory", "replan"}
+    end = result.road.lane_end(0)
+    assert 0.0 < m["merge_distance_to_end_m"] < end - 20.0
+    assert m["stopped_time_s"] == 0.0
+    # the merge's new follower brakes no harder than a Krauss follower's decel
+    assert m["merge_follower_max_decel_mps2"] <= 4.5 + 1e-6
+
+
+def test_with_no_gap_our_sv_stops_before_the_end_of_the_ramp_and_waits_there() -> None:
+    """The shipped ramp at 60 veh/km/lane with no courtesy from the mainline (nobody
+    makes room): our SV stops at its stop line, WAIT_ROOM before the end of the
+    acceleration lane, and waits there; a merge started from the standstill that the
+    re-check no longer finds free is not aborted back into the ending lane (an abort
+    drives to the band's speed: it drove to the lane's end) but braked; never past the
+    end, no collision by either check."""
+    from cosim.driving.lane_end import WAIT_ROOM
+
+    sc = load_scenario(ROOT / "scenarios" / "ramp_merge.toml")
+    sc = dataclasses.replace(sc, traffic=dataclasses.replace(
+        sc.traffic, density=60.0, courtesy=False))
+    result = simulate(sc)
+    m, tr = result.metrics, result.trace
+    assert m["duration_s"] == pytest.approx(sc.duration)  # ran to its end
+    assert m["lane_end_reached"] == 0 and m["merge_success"] == 0
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0
+    assert m["stopped_time_s"] > 15.0
+    end = result.road.lane_end(0)
+    front = tr["s_m"] + 0.5 * sc.vehicle.length
+    assert front.max() < end - WAIT_ROOM + 2.0  # at its stop line at most
+    assert "abort" not in {p["trigger"] for p in result.plans}
 
 
 def test_our_sv_on_the_acceleration_lane_is_moved_there_and_merges_by_a_scripted_change(

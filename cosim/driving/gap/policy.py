@@ -25,7 +25,8 @@ standing leader) and, once the end is within its look-ahead, seeks a gap in the
 continuing lane before anything else ("mandatory"), with the urgency law of
 cosim.driving.gap.decision (what it may ask of its new follower grows as the end
 nears) and from any speed (`mandatory_config`); every plan ends before the end. It
-signals and asks the blocking follower to make room as for any change. On the
+signals and asks the blocking follower to make room as for any change, urgently
+(cosim.traffic.cooperation.URGENT_DECEL). On the
 mainline it lets a TV that must merge ahead of it in (`lane_end.yield_accel`).
 """
 
@@ -94,6 +95,7 @@ class GapPolicy:
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision (for inspection)
         self.seeking_since: float | None = None  # s, since when it seeks a gap (None: not)
+        self.mandatory = False  # this step's change is mandatory (its lane ends)
 
     @property
     def wall(self) -> float:
@@ -174,8 +176,9 @@ class GapPolicy:
         # it signals while it seeks a gap, as SUMO's drivers do while they wait for one:
         # what the traffic's courtesy answers (cosim.traffic.cooperation)
         self._signal(0 if d.target_lane is None else (1 if d.target_lane > lane else -1))
+        self.mandatory = mandatory
         if d.cooperate_with >= 0:
-            self.ask_gap(t, str(traffic.ids[d.cooperate_with]))
+            self.ask_gap(t, str(traffic.ids[d.cooperate_with]), mandatory)
         if not d.plan_now or d.target_lane is None:
             return d, ""
         if mandatory:
@@ -197,7 +200,7 @@ class GapPolicy:
         if check.safe:
             return ""
         # the follower that would brake too hard blocks: ask it to make room
-        self.ask_gap(t, str(traffic.ids[check.follower]))
+        self.ask_gap(t, str(traffic.ids[check.follower]), self.mandatory)
         return (f"follower {traffic.ids[check.follower]} would brake "
                 f"{check.max_decel:.2f} m/s^2 > {follower.b_safe:g}")
 

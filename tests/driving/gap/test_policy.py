@@ -54,7 +54,7 @@ class Drive:
         planner = LaneChangePlanner(sc.vehicle, ROAD, sc.planner)
         self.asked = asked
         ports = WorldPorts() if asked is None else WorldPorts(
-            ask_gap=lambda t, tv: asked.append((t, tv)))
+            ask_gap=lambda t, tv, urgent=False: asked.append((t, tv)))
         self.policy = GapPolicy(DrivingContext.of(sc, ROAD, planner=planner, ports=ports))
         self.x0 = np.array(x0)
         self.sv = SVState(0.0, ROAD.lane_center(0), 0.0, V, 0.0, 0.0)
