@@ -57,13 +57,19 @@ class CooperationConfig:
     change_rate: float = 0.5  # 1/s, SUMO's openGap rate of change (fraction per second)
     max_decel: float = 0.5  # m/s^2, the hardest it brakes to open the gap while the SV
     # waits for it (before the SV's change begins) ...
-    changing_decel: float = 0.1  # m/s^2, ... and once the SV's change is under way: the
+    changing_decel: float = 0.01  # m/s^2, ... and once the SV's change is under way: the
     # braking a TV that still yields may go on with when the SV moves over (re-issued at
-    # the change's start; SUMO's dawdling, up to 0.52 m/s^2 a step, comes on top).
+    # the change's start): next to nothing, so that it only holds its speed (it does not
+    # close in on the SV before SUMO sees the SV in its lane) and asks nothing of a
+    # follower that already has room; one that has not brakes for the SV as its own
+    # Krauss does once the SV is in its lane (what the policy's entry test predicts).
+    # SUMO's dawdling, up to 0.52 m/s^2 a step, comes on top. 0.1 made every new follower
+    # brake 0.1 m/s^2 through the whole change for a 2 s gap it did not need: 0.1 plus
+    # dawdling, 0.61-0.62 m/s^2 in every run of the density study (issue 22); released
+    # instead, a held-back TV sped up at 2.6 m/s^2 and then braked at 5.7 for the SV.
     # Sample of study_gap (densities 10-60, 20 seeds, gap / gap_lossy / gap_perception):
     # 0.1 throughout opened gaps too slowly at 20 veh/km/lane (18-19 of 20 lane changes);
-    # 0.5 while waiting, 0.1 changing: 20 of 20, the new follower's braking unchanged
-    # (docs/gap_policy.md)
+    # 0.5 while waiting: 20 of 20 (docs/gap_policy.md)
 
     def check(self, source: str = "cooperation") -> None:
         """Raise InputError naming the first bad field."""
