@@ -9,7 +9,8 @@ gaps, `asks_for_gaps`: the gap policy):
   SUMO's default). That request travels between SUMO's lane-change models and never
   leaves SUMO for a vehicle moved by moveToXY, so our SV would be the only driver on
   the road nobody makes room for. `COURTESY` restores it: the TV the SV signals to
-  is asked at once, always (lcCooperative 1), through the same openGap. No radio:
+  is asked at once, always (lcCooperative 1), through the same openGap, braking up to
+  `COURTESY_DECEL` (2 m/s^2, a comfortable deceleration) while the SV waits. No radio:
   it holds with perception only.
 - cooperative V2V (`[v2v] cooperation`, optional, off by default): a request sent by
   radio, with its own compliance and latency.
@@ -23,9 +24,10 @@ car-following then treats the SV as its leader while it raises its time headway 
 `change_rate`, braking at most `max_decel`) and keeps them for `duration` after
 reaching them (TraCI's openGap; SUMO_NOTES.md "Cooperation"). This only changes how
 the TV follows; who goes where is still the planner's decision. A TV makes room
-firmly while the SV waits beside the gap (`max_decel`) and gently once the SV moves
-over (`changing_decel`): as SUMO's informed followers do, most of the room is made
-before the change, and the change itself asks little of them.
+firmly while the SV waits beside the gap (`max_decel`) and, once the SV moves over,
+only holds its speed (`changing_decel`, next to nothing): as SUMO's informed followers
+do, the room is made before the change, and the change itself asks nothing more of
+a follower that has it.
 
 The API handle is the SUMO adapter's (`SumoSim.api`): this module does not import
 libsumo itself.
@@ -105,7 +107,15 @@ def open_gap(api: ModuleType, tv_id: str, sv_id: str, cfg: CooperationConfig,
 
 
 # the traffic's courtesy to the SV's blinker (module docstring): at once, always honoured
-COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0)
+COURTESY_DECEL = 2.0  # m/s^2, the most a TV brakes to let the signalling SV in while it
+# waits (before its change begins): a comfortable deceleration (the IDM's b, MOBIL's; the
+# gap policy's own GapConfig.comfort_decel), below what SUMO's LC2013 lets its blocking
+# followers brake (their decel, 4.5) and what the policy's insisting entry may ask at
+# its entry (GapConfig.insist_decel, 4). At 0.5 a follower 5 m/s faster than the SV took
+# 3-5 s to make room: 2.3-6.3 s from request to lane at 10-40 veh/km/lane, SUMO's driver
+# 1.6-3.8 s (issue 22; 1.0: 2.2-4.6 s, 2.0: 2.0-4.0 s, seeds 1-8)
+COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0,
+                             max_decel=COURTESY_DECEL)
 
 
 @dataclass
