@@ -8,7 +8,12 @@ import numpy as np
 import pytest
 
 from cosim.planning.interaction import FollowerModel, predict_follower
-from cosim.traffic.cooperation import CooperationChannel, CooperationConfig
+from cosim.traffic.cooperation import (
+    COURTESY,
+    COURTESY_DECEL,
+    CooperationChannel,
+    CooperationConfig,
+)
 from cosim.traffic.network import DEFAULT_NETWORK
 from cosim.traffic.sumo import TV_TYPE, SumoSim
 
@@ -80,6 +85,24 @@ def test_a_yielding_tv_brakes_gently_once_the_sv_changes_lanes() -> None:
     after = t[1:] > 5.0 + STEP + 1e-9  # the new request acts from the next step
     assert decel[after].max() == pytest.approx(cfg.changing_decel, abs=1e-6)
     assert gap[-1] < cfg.space_headway + cfg.time_headway * v[-1]  # still making room
+
+
+def test_the_courtesy_makes_room_before_the_change_and_then_only_holds_its_speed() -> None:
+    """The traffic's courtesy (COURTESY): up to a comfortable 2 m/s^2 while the SV waits;
+    once its change is under way the TV neither brakes for the rest of its 2 s gap
+    (0.1 m/s^2 there was the new follower's 0.6 m/s^2 in every run, issue 22) nor
+    speeds up toward the SV."""
+    t, gap, v, honoured = run_side_by_side(COURTESY, seconds=8.0, changing_at=4.0)
+    assert honoured == 1
+    assert COURTESY.max_decel == COURTESY_DECEL == 2.0
+    decel = -np.diff(v) / np.diff(t)
+    waiting = (t[1:] > 2.0 + 1e-9) & (t[1:] < 4.0 - 1e-9)
+    assert decel[waiting].max() == pytest.approx(COURTESY_DECEL, abs=0.05)
+    after = t[1:] > 4.0 + STEP + 1e-9
+    assert decel[after].max() <= COURTESY.changing_decel + 1e-6 <= 0.01 + 1e-6
+    held = v[t > 4.0 + STEP + 1e-9]
+    assert held.max() - held.min() < 0.05  # holds its speed: no braking, no closing in
+    assert held[0] < V - 2.0  # the room made while the SV waited is kept
 
 
 @pytest.mark.parametrize("cfg", [CooperationConfig(enabled=True, compliance=0.0),
