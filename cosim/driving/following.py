@@ -26,7 +26,9 @@ STANDING = 0.1  # m/s, a leader slower than this stands (for the standstill hold
 HOLD_DECEL = 1.5  # m/s^2, the standstill hold begins where braking at this stops the
 # reference at the standstill gap (it began only at s0: an SV that got there still at
 # 0.41 m/s had its reference speed set to 0 at once, a 2.9 m/s^2 jump in ax;
-# scenarios/traffic_jam.toml, issue 22's third session)
+# scenarios/traffic_jam.toml, issue 22's third session) ...
+HOLD_SPEED = 1.0  # m/s, ... from this speed down only (the IDM's last creep; faster, the
+# IDM and a lane end's stop law brake for the standing leader themselves)
 
 
 def lane_keeping_reference(
@@ -119,7 +121,8 @@ class CarFollowing:
         # anti-windup of the reference: never far from the speed the car has
         self.v_ref = min(max(self.v_ref, sv.vx - REF_SPEED_BAND), sv.vx + REF_SPEED_BAND)
         # the hold begins where braking at HOLD_DECEL brings the reference to rest at s0
-        if self.holding(max(self.v_ref, 0.0) ** 2 / (2.0 * HOLD_DECEL)):
+        creep = max(self.v_ref, 0.0)
+        if self.holding(creep ** 2 / (2.0 * HOLD_DECEL) if creep <= HOLD_SPEED else 0.0):
             room = self.leader_gap - self.cfg.idm_min_gap
             if room > 1e-3:  # short of s0: brake to rest there, within HOLD_DECEL
                 self.accel = min(self.accel, 0.0,
