@@ -92,6 +92,8 @@ def parse_list(text: str | None, flag: str, element: Field) -> tuple[Any, ...] |
     """A comma-separated flag value, each element checked like the study file's."""
     if text is None:
         return None
+    if isinstance(text, list):  # argparse turns a value of "--" ("--seeds=--") into []
+        text = ",".join(text)
     items = [s.strip() for s in text.split(",")]
     if not all(items):
         raise InputError(SOURCE, flag, text, f"a comma-separated list, each {element.allowed()}")

@@ -53,8 +53,7 @@ class WorldPorts:
 
     blinker: Callable[[int], None] = _nothing  # the SV's blinker: -1 right, 0 off, +1 left
     change_lane: Callable[[int], None] = _nothing  # SUMO changes the SV to this lane
-    ask_gap: Callable[[float, str, bool], None] = _nothing  # (t, TV id, urgent): ask a
-    # TV to open a gap (urgent: for a mandatory change, it brakes harder while the SV waits)
+    ask_gap: Callable[[float, str], None] = _nothing  # (t, TV id): ask a TV to open a gap
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,12 @@ FOLLOW_GRIP = 0.7  # -, share of mu g the car-following reference may brake with
 MAX_FOLLOW_JERK = 15.0  # m/s^3, rate limit of the car-following acceleration
 REF_SPEED_BAND = 0.5  # m/s, the lane-keeping reference speed stays this close to Vx
 STANDING = 0.1  # m/s, a leader slower than this stands (for the standstill hold)
+HOLD_DECEL = 1.5  # m/s^2, the standstill hold begins where braking at this stops the
+# reference at the standstill gap (it began only at s0: an SV that got there still at
+# 0.41 m/s had its reference speed set to 0 at once, a 2.9 m/s^2 jump in ax;
+# scenarios/traffic_jam.toml, issue 22's third session) ...
+HOLD_SPEED = 1.0  # m/s, ... from this speed down only (the IDM's last creep; faster, the
+# IDM and a lane end's stop law brake for the standing leader themselves)
 
 
 def lane_keeping_reference(
@@ -96,11 +102,13 @@ class CarFollowing:
         self.leader_gap = leader_gap
         self.leader_speed = leader_speed
 
-    def holding(self) -> bool:
-        """Behind a standing leader within the IDM's standstill gap: the reference speed
-        is held at 0 (the IDM alone would creep on at the speed its integration leaves
-        and close ~1 cm inside s0; SUMO's Krauss stops at minGap the same way)."""
-        return self.leader_speed < STANDING and self.leader_gap <= self.cfg.idm_min_gap
+    def holding(self, reach: float = 0.0) -> bool:
+        """Behind a standing leader within the IDM's standstill gap (plus `reach`, m):
+        the reference speed is held at 0 (the IDM alone would creep on at the speed its
+        integration leaves and close ~1 cm inside s0; SUMO's Krauss stops at minGap the
+        same way)."""
+        return (self.leader_speed < STANDING
+                and self.leader_gap <= self.cfg.idm_min_gap + reach)
 
     def resume(self, speed: float) -> None:
         """A manoeuvre ended at `speed` (m/s): follow on from it, and cruise at it."""
@@ -112,9 +120,16 @@ class CarFollowing:
         lane = self.lanes.lane_of(sv.y)
         # anti-windup of the reference: never far from the speed the car has
         self.v_ref = min(max(self.v_ref, sv.vx - REF_SPEED_BAND), sv.vx + REF_SPEED_BAND)
-        if self.holding():
-            self.v_ref = 0.0
-            self.accel = min(self.accel, 0.0)
+        # the hold begins where braking at HOLD_DECEL brings the reference to rest at s0
+        creep = max(self.v_ref, 0.0)
+        if self.holding(creep ** 2 / (2.0 * HOLD_DECEL) if creep <= HOLD_SPEED else 0.0):
+            room = self.leader_gap - self.cfg.idm_min_gap
+            if room > 1e-3:  # short of s0: brake to rest there, within HOLD_DECEL
+                self.accel = min(self.accel, 0.0,
+                                 -min(self.v_ref / self.dt, self.v_ref ** 2 / (2.0 * room)))
+            else:
+                self.v_ref = 0.0
+                self.accel = min(self.accel, 0.0)
         reference = lane_keeping_reference(t, sv.x, self.lanes.centre(lane), self.v_ref,
                                            self.accel)
         self.v_ref = max(self.v_ref + self.accel * self.dt, 0.0)

@@ -9,7 +9,8 @@ gaps, `asks_for_gaps`: the gap policy):
   SUMO's default). That request travels between SUMO's lane-change models and never
   leaves SUMO for a vehicle moved by moveToXY, so our SV would be the only driver on
   the road nobody makes room for. `COURTESY` restores it: the TV the SV signals to
-  is asked at once, always (lcCooperative 1), through the same openGap. No radio:
+  is asked at once, always (lcCooperative 1), through the same openGap, braking up to
+  `COURTESY_DECEL` (2 m/s^2, a comfortable deceleration) while the SV waits. No radio:
   it holds with perception only.
 - cooperative V2V (`[v2v] cooperation`, optional, off by default): a request sent by
   radio, with its own compliance and latency.
@@ -23,9 +24,10 @@ car-following then treats the SV as its leader while it raises its time headway 
 `change_rate`, braking at most `max_decel`) and keeps them for `duration` after
 reaching them (TraCI's openGap; SUMO_NOTES.md "Cooperation"). This only changes how
 the TV follows; who goes where is still the planner's decision. A TV makes room
-firmly while the SV waits beside the gap (`max_decel`) and gently once the SV moves
-over (`changing_decel`): as SUMO's informed followers do, most of the room is made
-before the change, and the change itself asks little of them.
+firmly while the SV waits beside the gap (`max_decel`) and, once the SV moves over,
+only holds its speed (`changing_decel`, next to nothing): as SUMO's informed followers
+do, the room is made before the change, and the change itself asks nothing more of
+a follower that has it.
 
 The API handle is the SUMO adapter's (`SumoSim.api`): this module does not import
 libsumo itself.
@@ -57,13 +59,19 @@ class CooperationConfig:
     change_rate: float = 0.5  # 1/s, SUMO's openGap rate of change (fraction per second)
     max_decel: float = 0.5  # m/s^2, the hardest it brakes to open the gap while the SV
     # waits for it (before the SV's change begins) ...
-    changing_decel: float = 0.1  # m/s^2, ... and once the SV's change is under way: the
+    changing_decel: float = 0.01  # m/s^2, ... and once the SV's change is under way: the
     # braking a TV that still yields may go on with when the SV moves over (re-issued at
-    # the change's start; SUMO's dawdling, up to 0.52 m/s^2 a step, comes on top).
+    # the change's start): next to nothing, so that it only holds its speed (it does not
+    # close in on the SV before SUMO sees the SV in its lane) and asks nothing of a
+    # follower that already has room; one that has not brakes for the SV as its own
+    # Krauss does once the SV is in its lane (what the policy's entry test predicts).
+    # SUMO's dawdling, up to 0.52 m/s^2 a step, comes on top. 0.1 made every new follower
+    # brake 0.1 m/s^2 through the whole change for a 2 s gap it did not need: 0.1 plus
+    # dawdling, 0.61-0.62 m/s^2 in every run of the density study (issue 22); released
+    # instead, a held-back TV sped up at 2.6 m/s^2 and then braked at 5.7 for the SV.
     # Sample of study_gap (densities 10-60, 20 seeds, gap / gap_lossy / gap_perception):
     # 0.1 throughout opened gaps too slowly at 20 veh/km/lane (18-19 of 20 lane changes);
-    # 0.5 while waiting, 0.1 changing: 20 of 20, the new follower's braking unchanged
-    # (docs/gap_policy.md)
+    # 0.5 while waiting: 20 of 20 (docs/gap_policy.md)
 
     def check(self, source: str = "cooperation") -> None:
         """Raise InputError naming the first bad field."""
@@ -80,32 +88,34 @@ class CooperationConfig:
                 raise InputError(source, name, v, "a finite number > 0")
 
 
-URGENT_DECEL = 2.0  # m/s^2, the braking an urgent request (a mandatory change: the SV's
-# lane ends, cosim.driving.lane_end) asks of a TV while the SV waits: LC2013's
-# informFollower asks the blocking follower of a strategic change to make room within its
-# decel; the comfortable b here. With the 0.5 of any request the SV on the ramp merge's
-# acceleration lane merged in 9 of 15 sample runs at 30-50 veh/km/lane, with 2.0 in 13
-# (its new followers' hardest braking 4.5 m/s^2 both, SUMO's LC2013 driver's too)
 # 1/s, an openGap rate that reaches the target headway in one step: SUMO adds
 # rate x step x (target - own) a step, capped at the target (MSVehicle::Influencer)
 AT_ONCE = 1e6
 
 
 def open_gap(api: ModuleType, tv_id: str, sv_id: str, cfg: CooperationConfig,
-             changing: bool = False, urgent: bool = False) -> None:
+             changing: bool = False) -> None:
     """Make `tv_id` open a gap behind `sv_id` (SUMO's openGap, the SV as reference),
-    braking at most cfg.max_decel (at least URGENT_DECEL for an `urgent` request), or
-    cfg.changing_decel once the SV is `changing`. A request during the change takes the
-    target headway at once: a TV told again would otherwise spread it anew from its own
-    (shorter) headway, speed up toward the SV for a while and then brake for it."""
-    waiting = max(cfg.max_decel, URGENT_DECEL) if urgent else cfg.max_decel
-    rate, decel = (AT_ONCE, cfg.changing_decel) if changing else (cfg.change_rate, waiting)
+    braking at most cfg.max_decel, or cfg.changing_decel once the SV is `changing`.
+    A request during the change takes the target headway at once: a TV told again
+    would otherwise spread it anew from its own (shorter) headway, speed up toward
+    the SV for a while and then brake for it."""
+    rate, decel = (AT_ONCE, cfg.changing_decel) if changing else (cfg.change_rate,
+                                                                  cfg.max_decel)
     api.vehicle.openGap(tv_id, cfg.time_headway, cfg.space_headway, cfg.duration, rate,
                         decel, sv_id)
 
 
 # the traffic's courtesy to the SV's blinker (module docstring): at once, always honoured
-COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0)
+COURTESY_DECEL = 2.0  # m/s^2, the most a TV brakes to let the signalling SV in while it
+# waits (before its change begins): a comfortable deceleration (the IDM's b, MOBIL's; the
+# gap policy's own GapConfig.comfort_decel), below what SUMO's LC2013 lets its blocking
+# followers brake (their decel, 4.5) and what the policy's insisting entry may ask at
+# its entry (GapConfig.insist_decel, 4). At 0.5 a follower 5 m/s faster than the SV took
+# 3-5 s to make room: 2.3-6.3 s from request to lane at 10-40 veh/km/lane, SUMO's driver
+# 1.6-3.8 s (issue 22; 1.0: 2.2-4.6 s, 2.0: 2.0-4.0 s, seeds 1-8)
+COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0,
+                             max_decel=COURTESY_DECEL)
 
 
 @dataclass
@@ -113,7 +123,6 @@ class _Request:
     due: float  # s, when it reaches the TV
     tv_id: str
     honoured: bool
-    urgent: bool = False  # a mandatory change's request (URGENT_DECEL)
 
 
 @dataclass
@@ -131,15 +140,14 @@ class CooperationChannel:
     _yielding: set[str] = field(default_factory=set)
     _changing: bool = False  # the SV's change is under way
 
-    def request(self, t: float, tv_id: str, urgent: bool = False) -> bool:
+    def request(self, t: float, tv_id: str) -> bool:
         """Send a request to `tv_id` at time t (once per TV: a repeated request is not
-        sent; `urgent`: for a mandatory change, `open_gap`). Returns whether it was
-        sent."""
+        sent). Returns whether it was sent."""
         if not self.cfg.enabled or tv_id in self._asked:
             return False
         self._asked.add(tv_id)
         honoured = bool(self.rng.random() < self.cfg.compliance)
-        self._queue.append(_Request(t + self.cfg.latency, tv_id, honoured, urgent))
+        self._queue.append(_Request(t + self.cfg.latency, tv_id, honoured))
         self.sent += 1
         return True
 
@@ -154,7 +162,7 @@ class CooperationChannel:
         yielding = []
         for r in due:  # a handful of requests per run, not a loop over traffic
             if r.honoured and (present is None or r.tv_id in present):
-                open_gap(api, r.tv_id, sv_id, self.cfg, self._changing, r.urgent)
+                open_gap(api, r.tv_id, sv_id, self.cfg, self._changing)
                 yielding.append(r.tv_id)
         self.honoured += len(yielding)
         self._yielding.update(yielding)

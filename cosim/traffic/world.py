@@ -363,11 +363,10 @@ class World:
         """Open the scenario's gap-request channels (a policy that asks TVs for gaps)."""
         self.gap_requests = cooperation_channels(self.scenario)
 
-    def ask_gap(self, t: float, tv_id: str, urgent: bool = False) -> None:
-        """Ask the TV `tv_id` to open a gap behind the SV, through every open channel
-        (`urgent`: for a mandatory change, cooperation.open_gap)."""
+    def ask_gap(self, t: float, tv_id: str) -> None:
+        """Ask the TV `tv_id` to open a gap behind the SV, through every open channel."""
         for channel in self.gap_requests:
-            channel.request(t, tv_id, urgent)
+            channel.request(t, tv_id)
 
     def deliver_gap_requests(self, t: float, tvs: TrafficSnapshot, sv_x: float,
                              changing: bool) -> None:

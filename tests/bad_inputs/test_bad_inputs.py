@@ -829,6 +829,19 @@ _flag_text = st.text(max_size=12) | st.sampled_from(
 )
 
 
+@pytest.mark.parametrize("flag", ["--seeds", "--densities", "--mu", "--drivers", "--name"])
+def test_a_batch_flag_of_two_dashes_is_an_input_error(flag: str) -> None:
+    """`--seeds=--` (found by the property test below): argparse hands the value over as
+    [], which must read as an empty list, not crash."""
+    from cosim.cli import build_parser
+    from cosim.commands.batch import specs_of, study_from_args
+
+    argv = ["batch", "--scenario", str(BASE), "--densities", "0", "--seeds", "1", f"{flag}=--"]
+    args = build_parser().parse_args(argv)
+    with pytest.raises(InputError, match=flag):
+        specs_of(study_from_args(args))
+
+
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     st.dictionaries(

@@ -80,3 +80,30 @@ def test_behind_a_standing_leader_within_the_standstill_gap_it_holds_at_zero() -
     h = following()
     h.update(sv, scene(sv, 4.32 + s0 + 1.0, 0.0), allow_change=False)
     assert not h.holding()
+
+
+def test_near_the_standstill_gap_it_brakes_to_rest_there_without_a_jump() -> None:
+    # 0.41 m/s, 5.6 cm short of s0 behind a standing leader (scenarios/traffic_jam.toml):
+    # the reference brakes to rest at s0 within HOLD_DECEL instead of dropping to 0 at
+    # once (a 2.9 m/s^2 jump in ax)
+    from cosim.driving.following import HOLD_DECEL
+
+    f = following()
+    s0 = f.cfg.idm_min_gap
+    sv = SVState(0.0, ROAD.lane_center(0), 0.0, 0.41, 0.0, 0.0)
+    f.v_ref = 0.41
+    f.update(sv, scene(sv, 4.32 + s0 + 0.056, 0.0), allow_change=False)
+    assert not f.holding()  # not yet within s0 ...
+    ref = f.reference(0.0, sv)
+    assert ref.vx0 == pytest.approx(0.41)  # ... so no step to 0
+    # braking to stop at s0: v^2 / (2 room), about HOLD_DECEL where the hold begins
+    assert f.accel == pytest.approx(-0.41 ** 2 / (2.0 * 0.056))
+    assert -1.01 * HOLD_DECEL <= f.accel < -1.0
+    assert 0.0 < f.v_ref < 0.41
+    # farther back it is the IDM's business alone
+    g = following()
+    g.v_ref = 0.41
+    g.update(sv, scene(sv, 4.32 + s0 + 1.0, 0.0), allow_change=False)
+    before = g.accel
+    g.reference(0.0, sv)
+    assert g.accel == before

@@ -91,9 +91,8 @@ class Drive:
                  planner: Any = None, road: RoadParams = RAMP, lane: int = 0) -> None:
         self.road = road
         self.planner = planner or LaneChangePlanner(sc.vehicle, road, sc.planner)
-        self.asked: list[tuple[float, str, bool]] = []  # t, TV id, urgent
-        ports = WorldPorts(ask_gap=lambda t, tv, urgent=False: self.asked.append(
-            (t, tv, urgent)))
+        self.asked: list[tuple[float, str]] = []  # t, TV id
+        ports = WorldPorts(ask_gap=lambda t, tv: self.asked.append((t, tv)))
         self.policy = policy_class(name)(DrivingContext.of(
             sc, road, decision=DecisionConfig(), planner=self.planner, ports=ports))
         self.sv = SVState(x0, road.lane_center(lane), 0.0, sc.sv.speed, 0.0, 0.0)
@@ -287,8 +286,8 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
     assert d.sv.vx < 0.05
     assert d.sv.x + HALF < END - WAIT_ROOM + 0.5
     assert d.sv.x + HALF > END - WAIT_ROOM - 5.0
-    if name == "gap":  # it asked the platoon to make room, urgently (a mandatory change)
-        assert d.asked and all(urgent for _, _, urgent in d.asked)
+    if name == "gap":  # it asked the platoon to make room (the traffic's courtesy)
+        assert d.asked
     d.run(75.0)
     ok = [p for p in m.plans if p["ok"] == 1]
     assert ok and ok[0]["trigger"] == MANDATORY

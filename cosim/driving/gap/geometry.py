@@ -88,6 +88,13 @@ class GapConfig:
     # slot in 70 m gaps at 31.8 m/s: requests waited 8-15 s in a 40-run sample)
     comfort_decel: float = 2.0  # m/s^2, the SV's comfortable braking limit after a merge
     # (the IDM's b, MOBIL's comfortable deceleration): the slot's headway keeps within it
+    approach_decel: float = 3.0  # m/s^2, the hardest the SV brakes toward the approach
+    # speed while it seeks a gap (a target lane much slower than its own, a gap behind):
+    # below ACC's 3.5 m/s^2 limit above 20 m/s (ISO 15622) and SUMO's own driver's decel
+    # (4.5), which matches a slower target lane before it changes. 2 m/s^2 (comfort_decel)
+    # took 3-4 s to shed the 6-8 m/s between lanes 1 and 2 at 40 veh/km/lane and left
+    # the SV too close behind the TV it paced: 3.95 s from request to lane against 3.25
+    # (seeds 1-8; SUMO's driver 3.50), issue 22
     min_gap: float = 2.5  # m, the SV's standstill gap to its new leader
     decel: float = 4.5  # m/s^2, the SV's braking assumed in its secure gap
     margin: float = 2.0  # m, aim at least this far inside the slot's ends ...
@@ -210,17 +217,17 @@ def seeking_accel(sv_speed: float, target_speed: float, max_speed: float,
     approach speed, m/s) but no faster than `max_speed` (its own lane's limit) and
     than Krauss's safe speed behind its own leader (bumper gap `leader_gap`, m, inf:
     none; SUMO's tau and decel, `GapConfig.follow_model`): toward the approach speed
-    within [-comfort_decel, approach_accel], for that leader down to the follower
+    within [-approach_decel, approach_accel], for that leader down to the follower
     model's decel. As SUMO's own SV does (LC2013 drives
     at its lane's speed behind its leader, Krauss-safe, before it changes), it closes
     up to its leader to reach the faster lane's speed instead of keeping its IDM's
     1.5 s time gap, which holds it below the target lane."""
     v = max(sv_speed, 0.0)
-    # the approach within approach_accel and the comfortable comfort_decel (it braked up
-    # to follow_decel, 4.5 m/s^2, to drop back to a gap behind: issue 22; 1.5 m/s^2 took
+    # the approach within approach_accel and approach_decel (it braked up to
+    # follow_decel, 4.5 m/s^2, to drop back to a gap behind: issue 22; 1.5 m/s^2 took
     # 1.2 s longer at 40 veh/km/lane), its own leader within follow_decel
     want = min(target_speed, max_speed)
-    accel = min(max((want - v) / cfg.speed_time, -cfg.comfort_decel), cfg.approach_accel)
+    accel = min(max((want - v) / cfg.speed_time, -cfg.approach_decel), cfg.approach_accel)
     if math.isfinite(leader_gap):
         v_safe = float(krauss_safe_speed(leader_gap, leader_speed, cfg.follow_model()))
         accel = min(accel, max((v_safe - v) / cfg.speed_time, -cfg.follow_decel))

@@ -25,8 +25,7 @@ standing leader) and, once the end is within its look-ahead, seeks a gap in the
 continuing lane before anything else ("mandatory"), with the urgency law of
 cosim.driving.gap.decision (what it may ask of its new follower grows as the end
 nears) and from any speed (`mandatory_config`); every plan ends before the end. It
-signals and asks the blocking follower to make room as for any change, urgently
-(cosim.traffic.cooperation.URGENT_DECEL). On the
+signals and asks the blocking follower to make room as for any change. On the
 mainline it lets a TV that must merge ahead of it in (`lane_end.yield_accel`).
 """
 
@@ -62,6 +61,10 @@ COOLNESS = 0.99  # -, its car following is the ACC model (IDM + CAH, rule.acc_bl
 TIME_GAP = 1.0  # s, its IDM time gap T: SUMO's drivers' tau (the paper's rule: 1.5 s), so
 # that after a merge into a slot of GapConfig.headway it reopens less and makes its new
 # follower brake less (issue 22)
+RETRY = 0.1  # s, a plan refused although the entry test passed is asked for again this soon
+# (DecisionConfig.retry_interval, 1 s, cost 1 s from request to lane each time: the entry
+# test's nominal manoeuvre and the planned one differ a little, e.g. 1.47 against 1.0
+# m/s^2 for the same follower at 10 veh/km/lane; issue 22)
 
 
 @register("gap")
@@ -77,7 +80,8 @@ class GapPolicy:
     def __init__(self, ctx: DrivingContext, gap: GapConfig | None = None,
                  follower: FollowerModel | None = None) -> None:
         cfg = replace(ctx.decision, idm_min_gap=max(ctx.decision.idm_min_gap, STOP_GAP),
-                      idm_coolness=COOLNESS, idm_time_gap=TIME_GAP)
+                      idm_coolness=COOLNESS, idm_time_gap=TIME_GAP,
+                      retry_interval=min(ctx.decision.retry_interval, RETRY))
         self.lanes = ctx.lanes
         self.ask_gap = ctx.ports.ask_gap
         self._blinker = ctx.ports.blinker
@@ -95,7 +99,6 @@ class GapPolicy:
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision (for inspection)
         self.seeking_since: float | None = None  # s, since when it seeks a gap (None: not)
-        self.mandatory = False  # this step's change is mandatory (its lane ends)
 
     @property
     def wall(self) -> float:
@@ -176,9 +179,8 @@ class GapPolicy:
         # it signals while it seeks a gap, as SUMO's drivers do while they wait for one:
         # what the traffic's courtesy answers (cosim.traffic.cooperation)
         self._signal(0 if d.target_lane is None else (1 if d.target_lane > lane else -1))
-        self.mandatory = mandatory
         if d.cooperate_with >= 0:
-            self.ask_gap(t, str(traffic.ids[d.cooperate_with]), mandatory)
+            self.ask_gap(t, str(traffic.ids[d.cooperate_with]))
         if not d.plan_now or d.target_lane is None:
             return d, ""
         if mandatory:
@@ -200,7 +202,7 @@ class GapPolicy:
         if check.safe:
             return ""
         # the follower that would brake too hard blocks: ask it to make room
-        self.ask_gap(t, str(traffic.ids[check.follower]), self.mandatory)
+        self.ask_gap(t, str(traffic.ids[check.follower]))
         return (f"follower {traffic.ids[check.follower]} would brake "
                 f"{check.max_decel:.2f} m/s^2 > {follower.b_safe:g}")
 

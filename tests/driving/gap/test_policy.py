@@ -54,7 +54,7 @@ class Drive:
         planner = LaneChangePlanner(sc.vehicle, ROAD, sc.planner)
         self.asked = asked
         ports = WorldPorts() if asked is None else WorldPorts(
-            ask_gap=lambda t, tv, urgent=False: asked.append((t, tv)))
+            ask_gap=lambda t, tv: asked.append((t, tv)))
         self.policy = GapPolicy(DrivingContext.of(sc, ROAD, planner=planner, ports=ports))
         self.x0 = np.array(x0)
         self.sv = SVState(0.0, ROAD.lane_center(0), 0.0, V, 0.0, 0.0)
@@ -169,3 +169,15 @@ def test_before_its_patience_it_plans_only_entries_within_plan_decel() -> None:
     # everybody at lane 0's limit, no gap ever comes: it may still be waiting; a plan
     # it flew was accepted
     assert all(p["ok"] == 1 for p in d.policy.manoeuvre.plans)
+
+
+def test_a_refused_plan_is_asked_for_again_soon() -> None:
+    # the entry test's nominal manoeuvre and the planned one differ a little: a plan
+    # refused although the entry test passed is asked for again after RETRY, not after
+    # the paper's rule's 1 s (each refusal cost 1 s from request to lane, issue 22)
+    from cosim.driving.gap.policy import RETRY
+    from cosim.driving.rule import DecisionConfig
+
+    pol = Drive([-120.0, 120.0]).policy
+    assert pol.following.cfg.retry_interval == RETRY <= 0.1
+    assert DecisionConfig().retry_interval == 1.0  # the paper's policy keeps its own
