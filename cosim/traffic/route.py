@@ -28,10 +28,11 @@ from __future__ import annotations
 import bisect
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -94,22 +95,29 @@ def sv_tracks(road: Road) -> tuple[LaneTable, ...]:
                  if t.track.first_edge == 0 and not t.track.pieces[0].internal)
 
 
-def upstream_lanes(road: Road, tracks: Sequence[LaneTable]) -> dict[str, int]:
-    """SUMO lane id -> track id of the lanes (and their junction lanes) that SUMO
-    connects into the first lane of each of `tracks` from the edges before the route's
-    first edge (none on a route that starts where the network does)."""
+def _feeding(road: Road, tracks: Sequence[LaneTable]) -> Iterator[tuple[LaneTable, Any]]:
+    """(track, sumolib connection) of each connection SUMO makes into the first lane of
+    each of `tracks` from the edges before the route's first edge, in SUMO's order (none
+    on a route that starts where the network does)."""
     first = road.route.edge(0)
-    feeds: dict[str, int] = {}
     for table in tracks:
         lane = table.track.pieces[0].lane
         for edge in first.getIncoming():
             for conn in edge.getConnections(first):
-                if conn.getToLane().getID() != lane:
-                    continue
-                feeds.setdefault(conn.getFromLane().getID(), table.id)
-                via = conn.getViaLaneID()
-                if via:
-                    feeds.setdefault(via, table.id)
+                if conn.getToLane().getID() == lane:
+                    yield table, conn
+
+
+def upstream_lanes(road: Road, tracks: Sequence[LaneTable]) -> dict[str, int]:
+    """SUMO lane id -> track id of the lanes (and their junction lanes) that SUMO
+    connects into the first lane of each of `tracks` from the edges before the route's
+    first edge (`_feeding`)."""
+    feeds: dict[str, int] = {}
+    for table, conn in _feeding(road, tracks):
+        feeds.setdefault(conn.getFromLane().getID(), table.id)
+        via = conn.getViaLaneID()
+        if via:
+            feeds.setdefault(via, table.id)
     return feeds
 
 
@@ -128,18 +136,13 @@ class Upstream:
 
 def upstream_entries(road: Road, tracks: Sequence[LaneTable]) -> dict[int, Upstream]:
     """Track id -> the `Upstream` lane feeding it, for each of `tracks` fed from an edge
-    before the route's first edge (the first such connection in SUMO's order; none on a
-    route that starts where the network does)."""
-    first = road.route.edge(0)
+    before the route's first edge (the first connection `_feeding` gives)."""
     entries: dict[int, Upstream] = {}
-    for table in tracks:
-        lane = table.track.pieces[0].lane
-        for edge in first.getIncoming():
-            for conn in edge.getConnections(first):
-                if conn.getToLane().getID() == lane and table.id not in entries:
-                    source = conn.getFromLane()
-                    entries[table.id] = Upstream(edge.getID(), source.getIndex(),
-                                                 float(source.getLength()))
+    for table, conn in _feeding(road, tracks):
+        if table.id not in entries:
+            source = conn.getFromLane()
+            entries[table.id] = Upstream(source.getEdge().getID(), source.getIndex(),
+                                         float(source.getLength()))
     return entries
 
 
