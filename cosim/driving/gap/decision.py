@@ -47,7 +47,7 @@ from cosim.driving.gap.geometry import (
     seeking_accel,
     slot_ends,
 )
-from cosim.driving.lane_end import MERGE_INSIST_DECEL, MERGE_MIN_SPEED
+from cosim.driving.lane_end import MERGE_APPROACH_DECEL, MERGE_INSIST_DECEL, MERGE_MIN_SPEED
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.rule import DecisionConfig, decide, neighbours
 from cosim.driving.scene import SV, Traffic
@@ -81,9 +81,11 @@ def wanting_config(cfg: DecisionConfig) -> DecisionConfig:
 def mandatory_config(cfg: GapConfig) -> GapConfig:
     """The gap choice of a mandatory change (a lane that ends): from any speed (a
     standstill at the stop line, cosim.driving.lane_end) and into a gap at any speed
-    (its end speed is capped to the room left; the new follower's check decides)."""
+    (its end speed is capped to the room left; the new follower's check decides); its
+    new follower asked for up to MERGE_INSIST_DECEL; its approach braking no harder than
+    MERGE_APPROACH_DECEL."""
     return replace(cfg, min_speed=MERGE_MIN_SPEED, max_speed_change=math.inf,
-                   insist_decel=MERGE_INSIST_DECEL)
+                   insist_decel=MERGE_INSIST_DECEL, approach_decel=MERGE_APPROACH_DECEL)
 
 
 def urgent_decel(cfg: GapConfig, urgency: float) -> float:
