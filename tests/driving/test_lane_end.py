@@ -12,7 +12,9 @@ stops before it; the decision rule does not change into a lane that ends."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+import sys
+from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -32,11 +34,14 @@ from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig
 from cosim.params import RoadParams
 from cosim.planning.deadline import END_MARGIN
-from cosim.planning.planner import LaneChangePlanner, Rejection, path_curvature
+from cosim.planning.planner import LaneChangePlanner, path_curvature
 from cosim.scenario import LaneChangeCommand, Scenario, load_scenario, project_root
 from cosim.traffic.snapshot import TrafficSnapshot
 from cosim.traffic.v2v import V2VMessage
 from cosim.traffic.world import Scene, SVState
+
+sys.path.insert(0, str(Path(__file__).parent))
+from doubles import Forced, Inbox, fly  # noqa: E402
 
 BANDS = ((60 / 3.6, 90 / 3.6),) * 4
 END = 200.0
@@ -74,14 +79,6 @@ class Stream:
         ids = np.flatnonzero(keep)
         sel = np.abs(x - near) <= NEAR
         return x[sel], ids[sel]
-
-
-@dataclass
-class Inbox:
-    messages: list[V2VMessage] = field(default_factory=list)
-
-    def read(self) -> list[V2VMessage]:
-        return list(self.messages)
 
 
 class Drive:
@@ -125,10 +122,7 @@ class Drive:
         t = self.t
         ref = self.policy.update(t, self.scene(), self.inbox)
         t1 = t + DT
-        x, y = ref.position(t1)
-        xd, yd = ref.derivative(t1, 1)
-        self.sv = SVState(float(x), float(y), math.atan2(float(yd), float(xd)), float(xd),
-                          0.0, 0.0)
+        self.sv = fly(ref, t1)
         self.t = round(t1, 9)
         self.track.append((self.t, self.sv.x, self.sv.y, self.sv.vx))
 
@@ -307,35 +301,6 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
 
 
 # ------------------------------------------------------------------ abort near the end
-
-
-@dataclass
-class Forced:
-    """The real planner; `collide` makes the next re-checks report a collision; a target
-    lane in `no_tau` gets a plan without a trajectory."""
-
-    real: LaneChangePlanner
-    collide: int = 0
-    no_tau: set[int] = field(default_factory=set)
-    calls: list[tuple[str, int]] = field(default_factory=list)
-
-    def plan(self, t: float, state: Any, target: int, messages: list[Any], occupant: float,
-             vxf: float | None = None, x_limit: float = math.inf,
-             max_curvature: float = math.inf) -> Any:
-        self.calls.append(("plan", target))
-        plan = self.real.plan(t, state, target, messages, occupant, vxf, x_limit=x_limit,
-                              max_curvature=max_curvature)
-        if target in self.no_tau:
-            return replace(plan, tau=None, trajectory=None)
-        return plan
-
-    def check(self, trajectory: Any, t: float, messages: list[Any]) -> Rejection | None:
-        self.calls.append(("check", -1))
-        if self.collide:
-            self.collide -= 1
-            return Rejection(tau=trajectory.tau, reason="collision", vehicle_id="tv",
-                             time=t + 1)
-        return None
 
 
 @pytest.mark.parametrize("name", ["paper", "gap"])

@@ -9,7 +9,9 @@ branch of replan / abort / brake runs on the same scene."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+import sys
+from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -21,11 +23,14 @@ from cosim.driving.paper import PaperPolicy
 from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig
 from cosim.params import RoadParams
-from cosim.planning.planner import LaneChangePlanner, Rejection
+from cosim.planning.planner import LaneChangePlanner
 from cosim.scenario import LaneChangeCommand, Scenario, load_scenario, project_root
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.v2v import V2VMessage
 from cosim.traffic.world import SV_ID, Scene, SVState
+
+sys.path.insert(0, str(Path(__file__).parent))
+from doubles import Forced, Inbox, fly  # noqa: E402
 
 ROAD = RoadParams(mu=0.8)
 CFG = DecisionConfig()
@@ -59,42 +64,6 @@ def tv_message(t: float, x: float, lane: int, speed: float, vid: str = "tv") -> 
                       width=1.8, intention=0)
 
 
-@dataclass
-class Inbox:
-    messages: list[Any] = field(default_factory=list)
-    reads: int = 0
-
-    def read(self) -> list[Any]:
-        self.reads += 1
-        return list(self.messages)
-
-
-@dataclass
-class Forced:
-    """The real planner, with forced outcomes: `collide` makes the next re-checks report
-    a collision; a target lane in `no_tau` gets a plan without a trajectory."""
-
-    real: LaneChangePlanner
-    collide: int = 0
-    no_tau: set[int] = field(default_factory=set)
-    calls: list[tuple[str, int]] = field(default_factory=list)
-
-    def plan(self, t: float, state: Any, target: int, messages: list[Any],
-             occupant: float, vxf: float | None = None) -> Any:
-        self.calls.append(("plan", target))
-        plan = self.real.plan(t, state, target, messages, occupant, vxf)
-        if target in self.no_tau:
-            return replace(plan, tau=None, trajectory=None)
-        return plan
-
-    def check(self, trajectory: Any, t: float, messages: list[Any]) -> Rejection | None:
-        self.calls.append(("check", -1))
-        if self.collide:
-            self.collide -= 1
-            return Rejection(tau=trajectory.tau, reason="collision", vehicle_id="tv", time=t + 1)
-        return None
-
-
 class Drive:
     """A policy on hand-made scenes; the SV is exactly where its reference says."""
 
@@ -114,10 +83,7 @@ class Drive:
         ref = self.policy.update(t, scene_of(t, self.sv), self.inbox)
         self.modes.append(self.policy.manoeuvre.mode)
         t1 = t + DT
-        x, y = ref.position(t1)
-        xd, yd = ref.derivative(t1, 1)
-        self.sv = SVState(float(x), float(y), math.atan2(float(yd), float(xd)), float(xd),
-                          0.0, 0.0)
+        self.sv = fly(ref, t1)
         self.t = round(t1, 9)
 
     def run_until(self, t_end: float) -> None:

@@ -4,8 +4,9 @@ as V2V messages); the SV follows its reference exactly."""
 
 from __future__ import annotations
 
-import math
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +22,9 @@ from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.v2v import V2VMessage
 from cosim.traffic.world import Scene, SVState
 
+sys.path.insert(0, str(Path(__file__).parents[1]))
+from doubles import Inbox, fly  # noqa: E402
+
 ROAD = RoadParams(mu=0.8)
 DT = 0.05
 BASE = load_scenario(project_root() / "scenarios/paper_case1_overtaking.toml")
@@ -34,14 +38,6 @@ def snapshot(t: float, xs: np.ndarray, lane: int) -> TrafficSnapshot:
                            np.full(n, ROAD.lane_center(lane)), z, np.full(n, V), z,
                            np.full(n, lane), z, np.full(n, 4.32), np.full(n, 1.8),
                            np.zeros(n, int))
-
-
-class Inbox:
-    def __init__(self) -> None:
-        self.messages: list[V2VMessage] = []
-
-    def read(self) -> list[V2VMessage]:
-        return list(self.messages)
 
 
 class Drive:
@@ -72,10 +68,7 @@ class Drive:
         ref = self.policy.update(t, Scene(t, self.sv, snap, snap, np.full(len(snap), V)),
                                  self.inbox)
         t1 = t + DT
-        x, y = ref.position(t1)
-        xd, yd = ref.derivative(t1, 1)
-        self.sv = SVState(float(x), float(y), math.atan2(float(yd), float(xd)), float(xd),
-                          0.0, 0.0)
+        self.sv = fly(ref, t1)
         self.t = round(t1, 9)
 
 
