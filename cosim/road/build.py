@@ -124,15 +124,26 @@ def sources() -> dict[str, str]:
         for i in range(na):
             j = i + shift
             if 0 <= j < nb:
-                con.append(f'    <connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>')
+                con.append(connection(a, b, i, j))
     con.append("</connections>")
-    return {".nod.xml": "\n".join(nod) + "\n", ".edg.xml": "\n".join(edg) + "\n",
-            ".con.xml": "\n".join(con) + "\n"}
+    return plain_xml(nod, edg, con)
 
 
 def build(directory: Path = NETWORK_DIR) -> Path:
     """Write the plain-XML sources and `curved_motorway.net.xml` into `directory`."""
     return write_network(NAME, sources(), directory, "cosim.road.build")
+
+
+def connection(from_edge: str, to_edge: str, from_lane: int, to_lane: int) -> str:
+    """One plain-XML <connection> line (netconvert's .con.xml)."""
+    return (f'    <connection from="{from_edge}" to="{to_edge}" fromLane="{from_lane}" '
+            f'toLane="{to_lane}"/>')
+
+
+def plain_xml(nod: list[str], edg: list[str], con: list[str]) -> dict[str, str]:
+    """The three plain-XML sources by suffix (`write_network`'s texts) from their lines."""
+    return {".nod.xml": "\n".join(nod) + "\n", ".edg.xml": "\n".join(edg) + "\n",
+            ".con.xml": "\n".join(con) + "\n"}
 
 
 def write_network(name: str, texts: dict[str, str], directory: Path, generator: str) -> Path:

@@ -33,7 +33,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from cosim.road.build import network_cli, stale_files, write_network
+from cosim.road.build import connection, network_cli, plain_xml, stale_files, write_network
 from cosim.traffic.network import NETWORK_DIR
 
 NAME = "onramp"
@@ -107,10 +107,9 @@ def sources() -> dict[str, str]:
              ("main2", "main3", [(k, k) for k in range(2)])]
     for a, b, pairs in links:
         for i, j in pairs:
-            con.append(f'    <connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>')
+            con.append(connection(a, b, i, j))
     con.append("</connections>")
-    return {".nod.xml": "\n".join(nod) + "\n", ".edg.xml": "\n".join(edg) + "\n",
-            ".con.xml": "\n".join(con) + "\n"}
+    return plain_xml(nod, edg, con)
 
 
 def build(directory: Path = NETWORK_DIR) -> Path:
