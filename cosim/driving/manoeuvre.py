@@ -103,6 +103,10 @@ class LaneChangeTimer:
         due = t >= self.next_retry - 1e-9
         return due and (not decision or t >= self.next_decision - 1e-9)
 
+    def cooling(self, t: float) -> bool:
+        """Whether the cooldown after a finished manoeuvre still runs at t."""
+        return t < self.next_decision - 1e-9
+
     def planning_failed(self, t: float) -> None:
         self.next_retry = t + self.cfg.retry_interval
 
