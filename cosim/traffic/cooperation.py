@@ -125,6 +125,13 @@ class _Request:
     honoured: bool
 
 
+def past_rear(tv_x: NDArray[np.float64], tv_length: NDArray[np.float64], sv_x: float,
+              sv_length: float) -> NDArray[np.bool_]:
+    """Which TVs (centres tv_x, m) have their front past the SV's rear (centre sv_x):
+    level with it or ahead, they can no longer open a gap behind it (`release`)."""
+    return np.asarray(tv_x) + 0.5 * np.asarray(tv_length) > sv_x - 0.5 * sv_length
+
+
 @dataclass
 class CooperationChannel:
     """Requests in flight: `request` sends one, `deliver` applies those that are due,
@@ -180,10 +187,12 @@ class CooperationChannel:
         self._changing = changing
 
     def release(self, api: ModuleType, ids: Sequence[str], ahead: NDArray[np.bool_]) -> None:
-        """End the yielding of the TVs now ahead of the SV (`ids` of the TVs present in
-        SUMO, `ahead` true for those ahead of it): openGap keeps the SV as their leader,
-        and a TV that has got ahead of it would otherwise stop and wait for it, for good
-        (it never reaches the gap it is told to open). Looks only at the yielding TVs."""
+        """End the yielding of the TVs level with the SV or ahead of it (`ids` of the TVs
+        present in SUMO, `ahead` true for those: `past_rear`): openGap keeps the SV as
+        their leader, and such a TV would otherwise stop and wait for it, for good (it
+        never reaches the gap it is told to open; one asked while the SV stood at its
+        stop line stopped level with it, and the SV never found an entry: issue 24).
+        Looks only at the yielding TVs."""
         done = {tv for tv in self._yielding if tv in ids and ahead[ids.index(tv)]}
         for tv_id in sorted(done):  # sorted: the same order every run
             api.vehicle.deactivateGapControl(tv_id)
