@@ -15,8 +15,9 @@ policy instead:
    the paper's rule still keeping it behind its own leader (the smaller of the two);
 4. plans the paper's manoeuvre as soon as a change started now enters a usable gap
    (`geometry.entry_test`: its new follower and leader keep their limits when it
-   enters; after `GapConfig.patience` of seeking the follower's limit is
-   `insist_decel`, `insist` below), at the new leader's speed (vxf) and only at or
+   enters; for a change by choice or a scripted one, after `GapConfig.patience` of
+   seeking the follower's limit is `insist_decel`, `insist` below; for a mandatory one
+   it is the urgency law's, `urgent_decel`), at the new leader's speed (vxf) and only at or
    above `GapConfig.min_speed`; the planner's collision check and the new follower's
    check on the plan itself (planning.interaction.check_follower) then decide;
 5. names the TV to ask to open the gap while it blocks it (the chosen gap's

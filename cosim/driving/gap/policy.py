@@ -24,7 +24,8 @@ On a lane that ends (cosim.driving.lane_end) it stops before the end (a virtual
 standing leader) and, once the end is within its look-ahead, seeks a gap in the
 continuing lane before anything else ("mandatory"), with the urgency law of
 cosim.driving.gap.decision (what it may ask of its new follower grows as the end
-nears) and from any speed (`mandatory_config`); every plan ends before the end. It
+nears, and only so: it does not insist after its patience) and from any speed
+(`mandatory_config`); every plan ends before the end. It
 signals and asks the blocking follower to make room as for any change. On the
 mainline it lets a TV that must merge ahead of it in (`lane_end.yield_accel`).
 """
