@@ -125,11 +125,20 @@ class _Request:
     honoured: bool
 
 
-def past_rear(tv_x: NDArray[np.float64], tv_length: NDArray[np.float64], sv_x: float,
-              sv_length: float) -> NDArray[np.bool_]:
-    """Which TVs (centres tv_x, m) have their front past the SV's rear (centre sv_x):
-    level with it or ahead, they can no longer open a gap behind it (`release`)."""
-    return np.asarray(tv_x) + 0.5 * np.asarray(tv_length) > sv_x - 0.5 * sv_length
+STANDING = 0.1  # m/s, a yielding TV this slow level with the SV has stopped beside it
+
+
+def done_yielding(tv_x: NDArray[np.float64], tv_length: NDArray[np.float64],
+                  tv_speed: NDArray[np.float64], sv_x: float,
+                  sv_length: float) -> NDArray[np.bool_]:
+    """Which TVs (centres tv_x, m) can no longer open a gap behind the SV (centre sv_x):
+    ahead of it (centre past its centre), or standing level with it (front past its
+    rear, slower than STANDING). One still rolling level with it is not let go: the SV
+    may be setting off in front of it (released at 1.4 m/s while the SV merged from its
+    stop line, it sped up beside the SV into a collision, 50 veh/km/lane), `release`."""
+    x = np.asarray(tv_x, dtype=float)
+    level = x + 0.5 * np.asarray(tv_length, dtype=float) > sv_x - 0.5 * sv_length
+    return (x > sv_x) | (level & (np.asarray(tv_speed, dtype=float) < STANDING))
 
 
 @dataclass
@@ -187,9 +196,9 @@ class CooperationChannel:
         self._changing = changing
 
     def release(self, api: ModuleType, ids: Sequence[str], ahead: NDArray[np.bool_]) -> None:
-        """End the yielding of the TVs level with the SV or ahead of it (`ids` of the TVs
-        present in SUMO, `ahead` true for those: `past_rear`): openGap keeps the SV as
-        their leader, and such a TV would otherwise stop and wait for it, for good (it
+        """End the yielding of the TVs ahead of the SV or standing level with it (`ids` of
+        the TVs present in SUMO, `ahead` true for those: `done_yielding`): openGap keeps
+        the SV as their leader, and such a TV would otherwise stop and wait for it, for good (it
         never reaches the gap it is told to open; one asked while the SV stood at its
         stop line stopped level with it, and the SV never found an entry: issue 24).
         Looks only at the yielding TVs."""

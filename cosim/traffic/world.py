@@ -32,7 +32,7 @@ from cosim.traffic.cooperation import (
     COURTESY,
     CooperationChannel,
     CooperationConfig,
-    past_rear,
+    done_yielding,
 )
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
@@ -376,10 +376,11 @@ class World:
     def deliver_gap_requests(self, t: float, tvs: TrafficSnapshot, sv_x: float,
                              changing: bool) -> None:
         """The step's gap requests: the yielding TVs told when the SV's change begins,
-        the requests due reach their TVs, TVs level with the SV or ahead of it stop
-        yielding (cooperation.past_rear)."""
+        the requests due reach their TVs, TVs ahead of the SV or standing level with it
+        stop yielding (cooperation.done_yielding)."""
         api = self.sumo.api
-        ahead = past_rear(tvs.x, tvs.length, sv_x, self.scenario.vehicle.length)
+        ahead = done_yielding(tvs.x, tvs.length, tvs.speed, sv_x,
+                              self.scenario.vehicle.length)
         for channel in self.gap_requests:
             channel.changing(api, SV_ID, changing, tvs.ids)
             channel.deliver(t, api, SV_ID, tvs.ids)
