@@ -67,6 +67,11 @@ MERGE_APPROACH_DECEL = 2.0  # m/s^2, the hardest a mandatory change brakes towar
 # (GapConfig.approach_decel, 3 for a change by choice): on an acceleration lane braking
 # for a slower gap loses the speed the merge needs, and the stop law brakes for the end
 # (merge study, 20 seeds: 17 of 20 merges at 50 veh/km/lane with 3, 20 of 20 with 2)
+MERGE_ASK_DECEL = 2.0  # m/s^2, a mandatory change with no gap in reach asks the nearest TV
+# behind that can still fall back behind the SV braking this hard (the traffic's courtesy,
+# cosim.traffic.cooperation.COURTESY_DECEL): the nearest one, asked while the SV stood at
+# its stop line, could not stop behind it, drove past, and so did the next ones (a merge
+# at 20 veh/km/lane waited 31 s and never went, issue 24)
 YIELD_DECEL = 2.0  # m/s^2, the most the gap policy's SV brakes to let a merging TV in
 # (the IDM's comfortable b)
 

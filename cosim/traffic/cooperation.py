@@ -125,6 +125,22 @@ class _Request:
     honoured: bool
 
 
+STANDING = 0.1  # m/s, a yielding TV this slow level with the SV has stopped beside it
+
+
+def done_yielding(tv_x: NDArray[np.float64], tv_length: NDArray[np.float64],
+                  tv_speed: NDArray[np.float64], sv_x: float,
+                  sv_length: float) -> NDArray[np.bool_]:
+    """Which TVs (centres tv_x, m) can no longer open a gap behind the SV (centre sv_x):
+    ahead of it (centre past its centre), or standing level with it (front past its
+    rear, slower than STANDING). One still rolling level with it is not let go: the SV
+    may be setting off in front of it (released at 1.4 m/s while the SV merged from its
+    stop line, it sped up beside the SV into a collision, 50 veh/km/lane), `release`."""
+    x = np.asarray(tv_x, dtype=float)
+    level = x + 0.5 * np.asarray(tv_length, dtype=float) > sv_x - 0.5 * sv_length
+    return (x > sv_x) | (level & (np.asarray(tv_speed, dtype=float) < STANDING))
+
+
 @dataclass
 class CooperationChannel:
     """Requests in flight: `request` sends one, `deliver` applies those that are due,
@@ -180,10 +196,12 @@ class CooperationChannel:
         self._changing = changing
 
     def release(self, api: ModuleType, ids: Sequence[str], ahead: NDArray[np.bool_]) -> None:
-        """End the yielding of the TVs now ahead of the SV (`ids` of the TVs present in
-        SUMO, `ahead` true for those ahead of it): openGap keeps the SV as their leader,
-        and a TV that has got ahead of it would otherwise stop and wait for it, for good
-        (it never reaches the gap it is told to open). Looks only at the yielding TVs."""
+        """End the yielding of the TVs ahead of the SV or standing level with it (`ids` of
+        the TVs present in SUMO, `ahead` true for those: `done_yielding`): openGap keeps
+        the SV as their leader, and such a TV would otherwise stop and wait for it, for good (it
+        never reaches the gap it is told to open; one asked while the SV stood at its
+        stop line stopped level with it, and the SV never found an entry: issue 24).
+        Looks only at the yielding TVs."""
         done = {tv for tv in self._yielding if tv in ids and ahead[ids.index(tv)]}
         for tv_id in sorted(done):  # sorted: the same order every run
             api.vehicle.deactivateGapControl(tv_id)

@@ -28,7 +28,12 @@ from numpy.typing import NDArray
 from cosim.errors import SimulationError
 from cosim.params import RoadParams
 from cosim.scenario.model import Scenario
-from cosim.traffic.cooperation import COURTESY, CooperationChannel, CooperationConfig
+from cosim.traffic.cooperation import (
+    COURTESY,
+    CooperationChannel,
+    CooperationConfig,
+    done_yielding,
+)
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
 from cosim.traffic.route import route_road, sv_start
@@ -371,9 +376,11 @@ class World:
     def deliver_gap_requests(self, t: float, tvs: TrafficSnapshot, sv_x: float,
                              changing: bool) -> None:
         """The step's gap requests: the yielding TVs told when the SV's change begins,
-        the requests due reach their TVs, TVs now ahead of the SV stop yielding."""
+        the requests due reach their TVs, TVs ahead of the SV or standing level with it
+        stop yielding (cooperation.done_yielding)."""
         api = self.sumo.api
-        ahead = tvs.x > sv_x
+        ahead = done_yielding(tvs.x, tvs.length, tvs.speed, sv_x,
+                              self.scenario.vehicle.length)
         for channel in self.gap_requests:
             channel.changing(api, SV_ID, changing, tvs.ids)
             channel.deliver(t, api, SV_ID, tvs.ids)

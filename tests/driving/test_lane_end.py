@@ -255,6 +255,25 @@ def test_the_urgency_law_asks_more_of_the_follower_as_the_end_nears() -> None:
     assert went[380.0][0] and went[380.0][1] > 0.8
 
 
+def test_a_mandatory_change_asks_no_more_than_the_urgency_law_however_long_it_seeks() -> None:
+    # the scene above just after the change became due: the entry would ask the TV 50 m
+    # behind for ~1.5 m/s^2, more than the urgency law allows yet; seeking longer than
+    # GapConfig.patience does not make it insist (a change by choice would ask for
+    # insist_decel then): its follower's limit grows only as the end nears (issue 24: an
+    # insisted merge made its new follower brake at its full 4.5 m/s^2 in 8 of 20 runs
+    # at 50 veh/km/lane, SUMO's driver in 1)
+    from cosim.driving.gap.geometry import GapConfig
+
+    road = replace(RAMP, lane_ends=(430.0,))
+    d = Drive("gap", scenario(20.0, road=road), 20.0,
+              Stream(np.array([-30.0, 320.0]), 20.0), road=road)
+    d.policy.seeking_since = -2.0 * GapConfig().patience  # it has sought a while already
+    d.step()
+    last = d.policy.last
+    assert last is not None and last.target_lane == 1 and not last.plan_now
+    assert d.plans == []
+
+
 # ------------------------------------------------------------------ the stop
 
 
@@ -298,6 +317,15 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
     tr = lc.plan.trajectory
     kappa = path_curvature(lc.plan.sv, tr.vxf, tr.width, np.array([tr.tau]))
     assert kappa[0] <= MERGE_CURVATURE + 1e-9 and 5.0 < tr.vxf < 13.0
+
+
+def test_a_standstill_read_a_hair_below_zero_may_still_merge() -> None:
+    # the two-track plant standing at the stop line reads vx = -1e-12 m/s: a standstill
+    # (refused as below MERGE_MIN_SPEED, a stopped SV never merged: issue 24)
+    d = Drive("gap", scenario(0.0), END - WAIT_ROOM - HALF)
+    m = d.policy.manoeuvre
+    assert m.may_merge(0.0, replace(d.sv, vx=-1e-12))
+    assert m.may_merge(0.0, replace(d.sv, vx=0.0))
 
 
 # ------------------------------------------------------------------ abort near the end

@@ -13,6 +13,7 @@ from cosim.traffic.cooperation import (
     COURTESY_DECEL,
     CooperationChannel,
     CooperationConfig,
+    done_yielding,
 )
 from cosim.traffic.network import DEFAULT_NETWORK
 from cosim.traffic.sumo import TV_TYPE, SumoSim
@@ -199,3 +200,52 @@ def test_a_yielding_tv_that_passes_the_sv_is_released() -> None:
     t, v_held = run_passing(release=False)
     # SUMO without it: still slowing down for the SV far behind it
     assert v_held[-1] < V - 5.0 and np.all(np.diff(v_held[t > 8.0]) <= 1e-9)
+
+
+def run_beside_standing_sv(rule: str, seconds: float = 14.0) -> tuple[float, float]:
+    """The SV stands (at a stop line, say); a TV 15 m behind it in the next lane at 7 m/s
+    is asked to yield (courtesy, at once, 2 m/s^2): too close to stop behind the SV's rear.
+    `rule` says which TVs are released: "centre" (past the SV's centre) or "level" (also
+    standing level with it, `done_yielding`). Returns the TV's speed and x offset to the
+    SV."""
+    with SumoSim(DEFAULT_NETWORK, STEP, 1, lanechange_duration=3.0) as sim:
+        road = sim.road()
+        sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
+        x_sv = 600.0
+        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, 0.0, L, W, 1)
+        sim.add_traffic("tv", 0, x_sv - 15.0, 1.0, speed=7.0)
+        sim.api.vehicle.setMaxSpeed("tv", 7.0)
+        sim.api.vehicle.setLaneChangeMode("tv", 0)
+        channel = CooperationChannel(COURTESY, np.random.default_rng(7))
+        channel.request(0.0, "tv")
+        t = 0.0
+        while t < seconds:
+            sim.step()
+            t = sim.time
+            channel.deliver(t, sim.api, "sv", ("tv",))
+            x_tv = sim.api.vehicle.getPosition("tv")[0] - 0.5 * L  # centre
+            v_tv = sim.api.vehicle.getSpeed("tv")
+            ahead = (done_yielding(np.array([x_tv]), np.array([L]), np.array([v_tv]), x_sv, L)
+                     if rule == "level" else np.array([x_tv > x_sv]))
+            channel.release(sim.api, ("tv",), ahead)
+            sim.move("sv", x_sv, road.lane_center(1), 0.0, 0.0)
+        return sim.api.vehicle.getSpeed("tv"), x_tv - x_sv
+
+
+def test_a_yielding_tv_level_with_a_standing_sv_is_released() -> None:
+    """A TV asked to yield that cannot stop behind the standing SV stops level with it
+    (openGap: the SV is its leader) and stays there for good, and the SV beside it never
+    finds an entry (a merge at 50 veh/km/lane, issue 24); released once it stands there,
+    it drives on."""
+    v, dx = run_beside_standing_sv("level")
+    assert v > 6.5 and dx > 30.0
+    v, dx = run_beside_standing_sv("centre")
+    assert v < 0.1 and abs(dx) < L  # without it: standing beside the SV
+
+
+def test_only_a_tv_standing_level_with_the_sv_or_ahead_of_it_is_done_yielding() -> None:
+    # centres -3, -3, -10 and +1 m from the SV's (both 4.32 m long): level and standing,
+    # level and still rolling (the SV may be setting off in front of it), behind, ahead
+    x = np.array([-3.0, -3.0, -10.0, 1.0])
+    done = done_yielding(x, np.full(4, L), np.array([0.0, 1.4, 0.0, 5.0]), 0.0, L)
+    assert list(done) == [True, False, False, True]

@@ -15,13 +15,15 @@ policy instead:
    the paper's rule still keeping it behind its own leader (the smaller of the two);
 4. plans the paper's manoeuvre as soon as a change started now enters a usable gap
    (`geometry.entry_test`: its new follower and leader keep their limits when it
-   enters; after `GapConfig.patience` of seeking the follower's limit is
-   `insist_decel`, `insist` below), at the new leader's speed (vxf) and only at or
+   enters; for a change by choice or a scripted one, after `GapConfig.patience` of
+   seeking the follower's limit is `insist_decel`, `insist` below; for a mandatory one
+   it is the urgency law's, `urgent_decel`), at the new leader's speed (vxf) and only at or
    above `GapConfig.min_speed`; the planner's collision check and the new follower's
    check on the plan itself (planning.interaction.check_follower) then decide;
 5. names the TV to ask to open the gap while it blocks it (the chosen gap's
    follower until the SV is inside the gap's slot, or without a gap in reach the TV
-   nearest behind the SV in that lane), for the traffic's courtesy and cooperative
+   nearest behind the SV in that lane that can still fall back behind it,
+   `can_fall_back`), for the traffic's courtesy and cooperative
    V2V (cosim.traffic.cooperation); only a TV that does not already have room for
    the SV (`has_room`) is asked.
 
@@ -47,7 +49,12 @@ from cosim.driving.gap.geometry import (
     seeking_accel,
     slot_ends,
 )
-from cosim.driving.lane_end import MERGE_APPROACH_DECEL, MERGE_INSIST_DECEL, MERGE_MIN_SPEED
+from cosim.driving.lane_end import (
+    MERGE_APPROACH_DECEL,
+    MERGE_ASK_DECEL,
+    MERGE_INSIST_DECEL,
+    MERGE_MIN_SPEED,
+)
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.rule import DecisionConfig, decide, neighbours
 from cosim.driving.scene import SV, Traffic
@@ -83,9 +90,11 @@ def mandatory_config(cfg: GapConfig) -> GapConfig:
     standstill at the stop line, cosim.driving.lane_end) and into a gap at any speed
     (its end speed is capped to the room left; the new follower's check decides); its
     new follower asked for up to MERGE_INSIST_DECEL; its approach braking no harder than
-    MERGE_APPROACH_DECEL."""
+    MERGE_APPROACH_DECEL; with no gap in reach, the TV asked to make room one that can
+    (MERGE_ASK_DECEL)."""
     return replace(cfg, min_speed=MERGE_MIN_SPEED, max_speed_change=math.inf,
-                   insist_decel=MERGE_INSIST_DECEL, approach_decel=MERGE_APPROACH_DECEL)
+                   insist_decel=MERGE_INSIST_DECEL, approach_decel=MERGE_APPROACH_DECEL,
+                   ask_decel=MERGE_ASK_DECEL)
 
 
 def urgent_decel(cfg: GapConfig, urgency: float) -> float:
@@ -162,13 +171,15 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
             reason=f"lane {target}: gap reached", leader_speed=d.leader_speed,
             follower_decel=limit)
     if choice is None:
-        # none in reach: the TV nearest behind the SV in that lane may be asked to yield
-        # (if it has no room yet), and the SV keeps pace with that lane's traffic ahead
-        # of it (the nearest TV ahead in that lane), so that the gap the asked TV opens
+        # none in reach: the TV nearest behind the SV in that lane (of those that can
+        # still fall back behind it) may be asked to yield (if it has no room yet), and
+        # the SV keeps pace with that lane's traffic ahead of it (the nearest TV ahead
+        # in that lane), so that the gap the asked TV opens
         # behind it comes up beside it (driving toward the lane's band speed instead ran
         # away from the gap being opened: 8-16 s from request to lane, issue 22; pacing
         # the asked TV itself slowed both down together); none ahead: the band speed
-        behind = np.where(in_target & (x < sv.x), x, -np.inf)
+        behind = np.where(in_target & (x < sv.x) & can_fall_back(sv, traffic, gap_cfg),
+                          x, -np.inf)
         ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
         if ask >= 0 and has_room(sv, traffic, ask, gap_cfg, follower):
             ask = -1  # it already has room: nothing to ask of it
@@ -218,6 +229,18 @@ def has_room(sv: SV, traffic: Traffic, k: int, cfg: GapConfig,
                       float(traffic.speed[k]), math.inf, math.inf, sv.speed, sv.speed,
                       sv.length, cfg, follower)
     return bool(sv.x >= float(lo))
+
+
+def can_fall_back(sv: SV, traffic: Traffic, cfg: GapConfig) -> NDArray[np.bool_]:
+    """Which TVs can still come down to the SV's speed behind its rear, their standstill
+    gap short of it, braking at `cfg.ask_decel` (all of them with inf): the ones worth
+    asking to make room. Arrays over TVs."""
+    x = np.asarray(traffic.x, dtype=float)
+    if math.isinf(cfg.ask_decel):
+        return np.ones(x.size, dtype=bool)
+    closing = np.maximum(np.asarray(traffic.speed, dtype=float) - max(sv.speed, 0.0), 0.0)
+    room = (sv.x - 0.5 * sv.length) - (x + 0.5 * np.asarray(traffic.length, dtype=float))
+    return closing * closing / (2.0 * cfg.ask_decel) <= room - cfg.min_gap
 
 
 def in_lane(lane: int, traffic: Traffic, lanes: LaneLayout) -> NDArray[np.bool_]:

@@ -146,3 +146,22 @@ def test_seeking_a_faster_lane_closes_up_to_the_own_leader() -> None:
     # 20 m behind its leader it brakes, whatever the target lane runs
     d_close = drive(42.0, 29.0, tvs, wanted_lane=2)
     assert d_close.accel < 0.0
+
+
+def test_a_mandatory_change_asks_a_tv_that_can_still_fall_back_behind_the_sv() -> None:
+    # the SV standing at its stop line (lane 1 here), lane 2 beside it: a TV 10 m behind
+    # at 12 m/s cannot stop behind it at the courtesy's 2 m/s^2 (36 m), one 45 m behind
+    # at 12 m/s can; a change by choice asks the nearest, a mandatory one the one that can
+    from cosim.driving.gap.decision import can_fall_back, mandatory_config
+
+    tvs = scene([-10.0, -45.0], [2, 2], [12.0, 12.0])
+    sv = SV(0.0, ROAD.lane_center(1), 0.0, L, 30.0)
+    assert list(can_fall_back(sv, tvs, mandatory_config(GAP))) == [False, True]
+    assert list(can_fall_back(sv, tvs, GAP)) == [True, True]  # ask_decel inf: everybody
+    lanes = LaneLayout(ROAD)
+    asked = {}
+    for name, cfg in (("choice", GAP), ("mandatory", mandatory_config(GAP))):
+        d = gap_decision(sv, tvs, lanes, CFG, cfg, KRAUSS, wanted_lane=2)
+        assert d.target_lane == 2 and not d.plan_now and d.gap is None
+        asked[name] = d.cooperate_with
+    assert asked == {"choice": 0, "mandatory": 1}

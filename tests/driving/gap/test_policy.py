@@ -174,3 +174,30 @@ def test_a_refused_plan_is_asked_for_again_soon() -> None:
     pol = Drive([-120.0, 120.0]).policy
     assert pol.following.cfg.retry_interval == RETRY <= 0.1
     assert DecisionConfig().retry_interval == 1.0  # the paper's policy keeps its own
+
+
+def test_a_lane_by_choice_is_sought_only_after_the_last_change_settled() -> None:
+    # the decision rule wants the faster lane 1 (a slow leader ahead in lane 0) where a TV
+    # beside it blocks; a change has just ended: within its cooldown the
+    # SV neither seeks a gap (no approach braking) nor asks the TV to make room (issue 24:
+    # the next change's courtesy within 3 s of a merge made the merge's follower brake)
+    asked: list[tuple[float, str]] = []
+    sv = replace(BASE.sv, decision=True, lane=0, speed=V, desired_speed=V, lane_changes=())
+    sc = replace(BASE, sv=sv, tvs=(), road=ROAD)
+    pol = GapPolicy(DrivingContext.of(
+        sc, ROAD, planner=LaneChangePlanner(sc.vehicle, ROAD, sc.planner),
+        ports=WorldPorts(ask_gap=lambda t, tv: asked.append((t, tv)))))
+    cooldown = pol.manoeuvre.timer.cfg.cooldown
+    pol.manoeuvre.timer.manoeuvre_done(0.0)
+    me = SVState(0.0, ROAD.lane_center(0), 0.0, V, 0.0, 0.0)
+    lanes = np.array([1, 1, 0])
+    speed = np.array([V, V, V - 8.0])
+    z = np.zeros(3)
+    snap = TrafficSnapshot(0.0, ("tv0", "tv1", "tv2"), np.array([-3.0, 60.0, 30.0]),
+                           np.array([ROAD.lane_center(k) for k in lanes]), z, speed, z,
+                           lanes, z, np.full(3, 4.32), np.full(3, 1.8), np.zeros(3, int))
+    traffic = Traffic.of(Scene(0.0, me, snap, snap, speed))
+    d, trigger = pol.seek(cooldown - 0.5, me, traffic, True, False)
+    assert d.target_lane is None and trigger == "" and asked == []
+    d, _ = pol.seek(cooldown + 0.05, me, traffic, True, True)
+    assert d.target_lane == 1 and asked  # then it seeks, and asks the blocking TV
