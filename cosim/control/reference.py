@@ -38,11 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from cosim.compiled import Array, njit
-from cosim.planning.trajectory import (
-    LaneChangeTrajectory,
-    lateral_coefficients,
-    longitudinal_coefficients,
-)
+from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.road.frame import FP_D_OFFSET, point_of_frame, pose_in_frame
 
 Point = tuple[float, float, float, float, float, float]
