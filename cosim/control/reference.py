@@ -38,11 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from cosim.compiled import Array, njit
-from cosim.planning.trajectory import (
-    LaneChangeTrajectory,
-    lateral_coefficients,
-    longitudinal_coefficients,
-)
+from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.road.frame import FP_D_OFFSET, point_of_frame, pose_in_frame
 
 Point = tuple[float, float, float, float, float, float]
@@ -210,19 +206,39 @@ def road_path_errors(
             vx_ref, (rdx * rddx + rdy * rddy) / rv, rx, ry, along)
 
 
+@functools.lru_cache(maxsize=64)
+def _powers(tau: float) -> tuple[float, float, float, float]:
+    """tau^2 .. tau^5 as `longitudinal_coefficients` and `lateral_coefficients` get them
+    (numpy on a 0-d array: tau^2 squared, the others numpy's own power, which can differ
+    from Python's pow in the last bit), once per tau (lane keeping: always the same)."""
+    t = np.asarray(tau, dtype=float)
+    return float(t * t), float(t**3), float(t**4), float(t**5)
+
+
 @functools.lru_cache(maxsize=256)
 def _longitudinal(vx0: float, vxf: float, tau: float, ax0: float) -> tuple[float, float]:
     """`longitudinal_coefficients` as floats, remembered: the lane-keeping reference is
-    rebuilt every step and often repeats them (cruising), and numpy on scalars is slow."""
-    c3, c4 = longitudinal_coefficients(vx0, vxf, tau, ax0)
-    return float(c3), float(c4)
+    rebuilt every step and often repeats them (cruising). The same operations in the
+    same order on Python floats (the powers from `_powers`), so bit for bit the same
+    (tests/control/test_reference.py) without numpy's cost on scalars (a miss: about
+    a fifth of it)."""
+    t2, t3, _, _ = _powers(tau)
+    d = vxf - vx0 - ax0 * tau
+    e = -ax0
+    b3 = (e * tau - 2.0 * d) / t3
+    b2 = (3.0 * d - e * tau) / t2
+    return b2 / 3.0, b3 / 4.0
 
 
 @functools.lru_cache(maxsize=256)
 def _lateral(width: float, tau: float, vy0: float, ay0: float) -> tuple[float, float, float]:
-    """`lateral_coefficients` as floats, remembered (lane keeping: always width 0)."""
-    c3, c4, c5 = lateral_coefficients(width, tau, vy0, ay0)
-    return float(c3), float(c4), float(c5)
+    """`lateral_coefficients` as floats, remembered (lane keeping: always width 0); bit
+    for bit, as `_longitudinal`."""
+    t2, t3, t4, t5 = _powers(tau)
+    c3 = (20.0 * width - 12.0 * vy0 * tau - 3.0 * ay0 * t2) / (2.0 * t3)
+    c4 = (-30.0 * width + 16.0 * vy0 * tau + 3.0 * ay0 * t2) / (2.0 * t4)
+    c5 = (12.0 * width - 6.0 * vy0 * tau - ay0 * t2) / (2.0 * t5)
+    return c3, c4, c5
 
 
 class ReferencePath:

@@ -94,24 +94,26 @@ class TrafficSnapshot:
         return self.ids.index(vehicle_id)
 
     def select(self, mask: np.ndarray) -> TrafficSnapshot:
-        """The rows where `mask` is true."""
+        """The rows where `mask` is true (taken by their indices: on a few dozen rows
+        half the cost of masking each array, the same arrays)."""
         mask = np.asarray(mask, dtype=bool)
+        rows = np.flatnonzero(mask)
         return TrafficSnapshot(
             time=self.time,
             ids=tuple(compress(self.ids, mask.tolist())),
-            x=self.x[mask],
-            y=self.y[mask],
-            heading=self.heading[mask],
-            speed=self.speed[mask],
-            accel=self.accel[mask],
-            lane=self.lane[mask],
-            lateral_speed=self.lateral_speed[mask],
-            length=self.length[mask],
-            width=self.width[mask],
-            signals=self.signals[mask],
-            cx=None if self.cx is None else self.cx[mask],
-            cy=None if self.cy is None else self.cy[mask],
-            ch=None if self.ch is None else self.ch[mask],
+            x=self.x[rows],
+            y=self.y[rows],
+            heading=self.heading[rows],
+            speed=self.speed[rows],
+            accel=self.accel[rows],
+            lane=self.lane[rows],
+            lateral_speed=self.lateral_speed[rows],
+            length=self.length[rows],
+            width=self.width[rows],
+            signals=self.signals[rows],
+            cx=None if self.cx is None else self.cx[rows],
+            cy=None if self.cy is None else self.cy[rows],
+            ch=None if self.ch is None else self.ch[rows],
         )
 
 
@@ -237,7 +239,8 @@ class SnapshotReader:
             else:
                 keep = np.zeros(n, dtype=bool)
             ids = tuple(compress(ids, keep.tolist()))
-            xf, x, y, h, length, width = (a[keep] for a in (xf, x, y, h, length, width))
+            rows = np.flatnonzero(keep)  # (indices: cheaper than masks on a few dozen)
+            xf, x, y, h, length, width = (a[rows] for a in (xf, x, y, h, length, width))
             n = len(ids)
         else:  # the snapshot's own arrays, not the cache's
             length, width = length.copy(), width.copy()

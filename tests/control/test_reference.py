@@ -66,3 +66,24 @@ def test_error_signs_left_is_positive_heading_ccw_is_positive() -> None:
 def test_wrap_angle() -> None:
     assert wrap_angle(3 * math.pi / 2) == pytest.approx(-math.pi / 2)
     assert wrap_angle(-0.1) == pytest.approx(-0.1)
+
+
+def test_float_coefficients_are_numpys_bit_for_bit() -> None:
+    """The reference's float coefficients (`_longitudinal`, `_lateral`: lane keeping
+    rebuilds them every step) equal the trajectory's numpy ones exactly, not nearly: a
+    last-bit difference would change every run's trace."""
+    from cosim.control.reference import _lateral, _longitudinal
+    from cosim.planning.trajectory import lateral_coefficients, longitudinal_coefficients
+
+    rng = np.random.default_rng(7)
+    for i in range(3000):
+        tau = float(rng.choice([rng.uniform(0.5, 12.0), 2.0, 3.0]))
+        vx0, vxf = (float(v) for v in rng.uniform(0.0, 40.0, 2))
+        ax0 = float(rng.uniform(-5.0, 3.0)) if i % 3 else 0.0
+        width = float(rng.choice([0.0, 3.75, rng.uniform(-4.0, 4.0)]))
+        vy0 = float(rng.uniform(-1.0, 1.0)) if i % 2 else 0.0
+        ay0 = float(rng.uniform(-2.0, 2.0)) if i % 5 else 0.0
+        ours = _longitudinal.__wrapped__(vx0, vxf, tau, ax0)
+        assert ours == tuple(float(c) for c in longitudinal_coefficients(vx0, vxf, tau, ax0))
+        ours_y = _lateral.__wrapped__(width, tau, vy0, ay0)
+        assert ours_y == tuple(float(c) for c in lateral_coefficients(width, tau, vy0, ay0))

@@ -356,3 +356,27 @@ def test_snapshot_sizes_follow_a_vehicle_added_again_under_its_id() -> None:
         i = near.index("tv")
         assert (near.length[i], near.width[i]) == (12.0, 2.5)
         assert near.x[i] == pytest.approx(240.0, abs=1e-6)  # the centre from the new length
+
+
+def test_select_keeps_the_masked_rows_of_every_column_in_order() -> None:
+    """`TrafficSnapshot.select` (rows taken by index) equals masking each column, on
+    strided columns (a read's x, y are views into one position array) and with the
+    Cartesian columns of a road-coordinate view."""
+    from cosim.traffic.snapshot import TrafficSnapshot
+
+    rng = np.random.default_rng(3)
+    n = 9
+    pos = rng.uniform(-50.0, 50.0, (n, 2))
+    cols = {k: rng.uniform(-1.0, 1.0, n) for k in ("heading", "speed", "accel", "lateral_speed",
+                                                   "length", "width", "cx", "cy", "ch")}
+    snap = TrafficSnapshot(time=1.5, ids=tuple(f"v{i}" for i in range(n)), x=pos[:, 0],
+                           y=pos[:, 1], lane=rng.integers(-1, 3, n),
+                           signals=rng.integers(0, 3, n), **cols)
+    mask = rng.random(n) < 0.5
+    got = snap.select(mask)
+    assert got.ids == tuple(v for v, m in zip(snap.ids, mask, strict=True) if m)
+    for name in ("x", "y", "heading", "speed", "accel", "lane", "lateral_speed", "length",
+                 "width", "signals", "cx", "cy", "ch"):
+        assert np.array_equal(getattr(got, name), getattr(snap, name)[mask]), name
+        assert getattr(got, name).dtype == getattr(snap, name).dtype
+    assert len(snap.select(np.zeros(n, dtype=bool))) == 0
