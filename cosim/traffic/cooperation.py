@@ -198,10 +198,10 @@ class CooperationChannel:
     def release(self, api: ModuleType, ids: Sequence[str], ahead: NDArray[np.bool_]) -> None:
         """End the yielding of the TVs ahead of the SV or standing level with it (`ids` of
         the TVs present in SUMO, `ahead` true for those: `done_yielding`): openGap keeps
-        the SV as their leader, and such a TV would otherwise stop and wait for it, for good (it
-        never reaches the gap it is told to open; one asked while the SV stood at its
-        stop line stopped level with it, and the SV never found an entry: issue 24).
-        Looks only at the yielding TVs."""
+        the SV as their leader, and such a TV would otherwise stop and wait for it, for
+        good (it never reaches the gap it is told to open; one asked while the SV stood
+        at its stop line stopped level with it, and the SV never found an entry: issue
+        24). Looks only at the yielding TVs."""
         done = {tv for tv in self._yielding if tv in ids and ahead[ids.index(tv)]}
         for tv_id in sorted(done):  # sorted: the same order every run
             api.vehicle.deactivateGapControl(tv_id)

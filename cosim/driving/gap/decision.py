@@ -174,10 +174,10 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
         # none in reach: the TV nearest behind the SV in that lane (of those that can
         # still fall back behind it) may be asked to yield (if it has no room yet), and
         # the SV keeps pace with that lane's traffic ahead of it (the nearest TV ahead
-        # in that lane), so that the gap the asked TV opens
-        # behind it comes up beside it (driving toward the lane's band speed instead ran
-        # away from the gap being opened: 8-16 s from request to lane, issue 22; pacing
-        # the asked TV itself slowed both down together); none ahead: the band speed
+        # in that lane), so that the gap the asked TV opens behind it comes up beside it
+        # (driving toward the lane's band speed instead ran away from the gap being
+        # opened: 8-16 s from request to lane, issue 22; pacing the asked TV itself
+        # slowed both down together); none ahead: the band speed
         behind = np.where(in_target & (x < sv.x) & can_fall_back(sv, traffic, gap_cfg),
                           x, -np.inf)
         ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
