@@ -231,17 +231,17 @@ def test_the_urgency_law_asks_more_of_the_follower_as_the_end_nears() -> None:
     assert urgent_decel(cfg, 1.0) == cfg.insist_decel
     assert urgent_decel(cfg, 0.5) == pytest.approx(0.5 * (cfg.plan_decel + cfg.insist_decel))
     # in the policy (a mandatory change's settings: up to the follower's decel, 4.5
-    # m/s^2, as LC2013 asks of a blocking follower): a TV 50 m behind in lane 1 at the
-    # SV's 20 m/s would brake about 1.5 m/s^2 for an entry now: refused just after the
-    # change became due (urgency 0.04: 1.1 m/s^2 allowed), taken 50 m before the end
-    # (urgency 0.88: 4.1 m/s^2)
+    # m/s^2, as LC2013 asks of a blocking follower): a TV 50 m behind in lane 1 at 21
+    # m/s, 1 m/s faster than the SV, would brake more than 1 m/s^2 for an entry now:
+    # refused just after the change became due (urgency 0.02: 1.05 m/s^2 allowed),
+    # taken 50 m before the end (urgency 0.89: 4.1 m/s^2)
     cfg = mandatory_config(cfg)
     assert cfg.insist_decel == MERGE_INSIST_DECEL
     road = replace(RAMP, lane_ends=(430.0,))
     went = {}
     for x0 in (20.0, 380.0):
         d = Drive("gap", scenario(20.0, road=road), x0,
-                  Stream(np.array([x0 - 50.0, x0 + 300.0]), 20.0), road=road)
+                  Stream(np.array([x0 - 50.0, x0 + 300.0]), 21.0), road=road)
         d.step()
         due = d.policy.manoeuvre.mandatory(0, d.sv)
         assert due is not None
@@ -257,7 +257,7 @@ def test_the_urgency_law_asks_more_of_the_follower_as_the_end_nears() -> None:
 
 def test_a_mandatory_change_asks_no_more_than_the_urgency_law_however_long_it_seeks() -> None:
     # the scene above just after the change became due: the entry would ask the TV 50 m
-    # behind for ~1.5 m/s^2, more than the urgency law allows yet; seeking longer than
+    # behind for more than the urgency law allows yet; seeking longer than
     # GapConfig.patience does not make it insist (a change by choice would ask for
     # insist_decel then): its follower's limit grows only as the end nears (issue 24: an
     # insisted merge made its new follower brake at its full 4.5 m/s^2 in 8 of 20 runs
@@ -266,12 +266,30 @@ def test_a_mandatory_change_asks_no_more_than_the_urgency_law_however_long_it_se
 
     road = replace(RAMP, lane_ends=(430.0,))
     d = Drive("gap", scenario(20.0, road=road), 20.0,
-              Stream(np.array([-30.0, 320.0]), 20.0), road=road)
+              Stream(np.array([-30.0, 320.0]), 21.0), road=road)
     d.policy.seeking_since = -2.0 * GapConfig().patience  # it has sought a while already
     d.step()
     last = d.policy.last
     assert last is not None and last.target_lane == 1 and not last.plan_now
     assert d.plans == []
+
+
+def test_an_urgent_entry_that_asks_its_follower_nothing_is_not_held_to_the_insist_margin(
+) -> None:
+    # the shipped ramp's start (a 194.5 m acceleration lane, the SV 20 m in at 70 km/h):
+    # lane 1 holds a TV 54 m behind and one 62 m ahead, both at 24.4 m/s. An entry now
+    # asks the one behind for nothing; the check an insisting entry also passes (the TVs
+    # behind 1 m/s faster) would flip its predicted braking to 4.5 m/s^2. Not insisting,
+    # it goes (it was refused, and the SV stopped at its stop line on a near-empty
+    # mainline: 20 veh/km/lane, seed 19, issue 24)
+    road = replace(RAMP, lane_ends=(194.5,))
+    d = Drive("gap", scenario(19.44, road=road), 20.0,
+              Stream(np.array([20.0 - 54.0, 20.0 + 62.0]), 24.4), road=road)
+    d.step()
+    due = d.policy.manoeuvre.mandatory(0, d.sv)
+    assert due is not None and due.urgency > 0.5
+    assert d.policy.last is not None and d.policy.last.plan_now
+    assert [p["ok"] for p in d.plans] == [1] and d.plans[0]["trigger"] == MANDATORY
 
 
 # ------------------------------------------------------------------ the stop
