@@ -27,6 +27,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cosim.params import STANDSTILL_SPEED
+
 Array = NDArray[np.float64]
 
 
@@ -361,7 +363,6 @@ def outcome_columns(*, collisions: int, sumo_collisions: int, requests: int, com
 # forces a lane change before its end. Read from the trace alone, for our drivers and
 # SUMO's alike: did the SV's centre leave the lane it started in before that lane's end,
 # how far from the end, and how long it stood still.
-STOP_SPEED = 0.1  # m/s, below it the SV counts as stopped
 MERGE_COLUMNS = ("merge_success", "merge_distance_to_end_m", "stopped_time_s",
                  "merge_follower_max_decel_mps2")
 MERGE_DOCS: dict[str, str] = {
@@ -371,7 +372,7 @@ MERGE_DOCS: dict[str, str] = {
     "end",
     "merge_distance_to_end_m": "distance along s left to the end of the SV's start lane when "
     "its centre crossed into the target lane (m; empty: no lane end, or no merge)",
-    "stopped_time_s": "time the SV's speed was below 0.1 m/s (s)",
+    "stopped_time_s": f"time the SV's speed was below {STANDSTILL_SPEED:g} m/s (s)",
     "merge_follower_max_decel_mps2": "largest deceleration of the SV's follower in the target "
     "lane of the merge (the nearest TV behind it there when its centre crossed; as "
     "follower_max_decel_mps2), from the start of the merge until 3 s after it settles, "
@@ -379,7 +380,7 @@ MERGE_DOCS: dict[str, str] = {
 }
 
 
-def stopped_time(t: ArrayLike, speed: ArrayLike, threshold: float = STOP_SPEED) -> float:
+def stopped_time(t: ArrayLike, speed: ArrayLike, threshold: float = STANDSTILL_SPEED) -> float:
     """s, the time the speed was below `threshold` (each sample counts its step to the next)."""
     tt = np.asarray(t, dtype=float)
     v = np.asarray(speed, dtype=float)

@@ -13,6 +13,8 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 G = 9.81  # m/s^2, gravity
+STANDSTILL_SPEED = 0.1  # m/s, a vehicle slower than this stands: the SV's stopped time, a
+# standing leader of the car following, a yielding TV stopped beside the SV
 
 
 def kmh(v_kmh: float) -> float:

@@ -12,7 +12,7 @@ from cosim.driving.base import DrivingContext
 from cosim.driving.lane_end import stop_accel
 from cosim.driving.rule import Decision, DecisionConfig, decide
 from cosim.driving.scene import SV, Traffic
-from cosim.params import G
+from cosim.params import STANDSTILL_SPEED, G
 from cosim.planning.trajectory import LaneChangeTrajectory
 
 if TYPE_CHECKING:
@@ -22,7 +22,6 @@ FOLLOW_HORIZON = 1.0  # s, horizon of the straight lane-keeping reference
 FOLLOW_GRIP = 0.7  # -, share of mu g the car-following reference may brake with
 MAX_FOLLOW_JERK = 15.0  # m/s^3, rate limit of the car-following acceleration
 REF_SPEED_BAND = 0.5  # m/s, the lane-keeping reference speed stays this close to Vx
-STANDING = 0.1  # m/s, a leader slower than this stands (for the standstill hold)
 HOLD_DECEL = 1.5  # m/s^2, the standstill hold begins where braking at this stops the
 # reference at the standstill gap (it began only at s0: an SV that got there still at
 # 0.41 m/s had its reference speed set to 0 at once, a 2.9 m/s^2 jump in ax;
@@ -107,7 +106,7 @@ class CarFollowing:
         the reference speed is held at 0 (the IDM alone would creep on at the speed its
         integration leaves and close ~1 cm inside s0; SUMO's Krauss stops at minGap the
         same way)."""
-        return (self.leader_speed < STANDING
+        return (self.leader_speed < STANDSTILL_SPEED
                 and self.leader_gap <= self.cfg.idm_min_gap + reach)
 
     def resume(self, speed: float) -> None:

@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim.errors import InputError
+from cosim.params import STANDSTILL_SPEED
 
 
 @dataclass(frozen=True)
@@ -125,20 +126,17 @@ class _Request:
     honoured: bool
 
 
-STANDING = 0.1  # m/s, a yielding TV this slow level with the SV has stopped beside it
-
-
 def done_yielding(tv_x: NDArray[np.float64], tv_length: NDArray[np.float64],
                   tv_speed: NDArray[np.float64], sv_x: float,
                   sv_length: float) -> NDArray[np.bool_]:
     """Which TVs (centres tv_x, m) can no longer open a gap behind the SV (centre sv_x):
     ahead of it (centre past its centre), or standing level with it (front past its
-    rear, slower than STANDING). One still rolling level with it is not let go: the SV
+    rear, slower than STANDSTILL_SPEED). One still rolling level with it is not let go: the SV
     may be setting off in front of it (released at 1.4 m/s while the SV merged from its
     stop line, it sped up beside the SV into a collision, 50 veh/km/lane), `release`."""
     x = np.asarray(tv_x, dtype=float)
     level = x + 0.5 * np.asarray(tv_length, dtype=float) > sv_x - 0.5 * sv_length
-    return (x > sv_x) | (level & (np.asarray(tv_speed, dtype=float) < STANDING))
+    return (x > sv_x) | (level & (np.asarray(tv_speed, dtype=float) < STANDSTILL_SPEED))
 
 
 @dataclass
