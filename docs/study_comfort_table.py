@@ -11,7 +11,6 @@ new follower's median braking, each for the gap policy / SUMO's driver."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pandas as pd
@@ -54,10 +53,9 @@ def figure(folder: Path, path: Path) -> None:
     """Medians against density, the gap policy vs SUMO's driver: peak jerk, request to
     the target lane, the merge's time gap, braking after the change, the new
     follower's braking (and the per-run maximum of the braking after the change)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from cosim.plots import save_figure
 
     runs = pd.read_csv(folder / "runs.csv")
     runs = runs[runs["status"] == "ok"]
@@ -87,11 +85,10 @@ def figure(folder: Path, path: Path) -> None:
     fig.suptitle(f"{folder.name}: the gap policy vs SUMO's driver, "
                  f"mu {', '.join(f'{m:g}' for m in sorted(runs['mu'].unique()))}")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 4 and sys.argv[2] == "--figure":
-        figure(Path(sys.argv[1]), Path(sys.argv[3]))
-    else:
-        print(table(Path(sys.argv[1])), end="")
+    from study_cli import run  # docs/ itself is on the path of a script run from it
+
+    run(__doc__, table, figure)

@@ -6,57 +6,53 @@ study", docs/merge_study.md) from a batch folder of scenarios/study_merge.toml:
 
 Per mainline density, our gap driver (MIMO) / SUMO-native: merges out of the
 acceleration lane, the median distance left to its end at the merge, the median time
-stopped, the p95 and largest braking of the merge's new follower, and the collisions by
+stopped, the p95 and largest braking of the merge's new follower (each cell's figures
+as the batch's summary.csv has them: cosim.batch.merge_summary), and the collisions by
 our check and by SUMO's."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
-FOLLOWER_PERCENTILE = 95  # as cosim.batch's summary (merge_follower_decel_mps2_p95)
+from cosim.batch import FOLLOWER_PERCENTILE, merge_summary
+
+P95 = f"merge_follower_decel_mps2_p{FOLLOWER_PERCENTILE}"
 
 
-def _runs(folder: Path) -> pd.DataFrame:
+def cells(folder: Path) -> pd.DataFrame:
+    """One row per (driver, density) of the finished runs: merge_summary's columns and
+    the runs with a collision by our check (`ours`) and by SUMO's (`sumo`)."""
     runs = pd.read_csv(folder / "runs.csv")
-    return runs[runs["status"] == "ok"]
-
-
-def _p95(values: pd.Series) -> float:
-    v = values.dropna().to_numpy(dtype=float)
-    return float(np.percentile(v, FOLLOWER_PERCENTILE)) if v.size else float("nan")
+    runs = runs[runs["status"] == "ok"]
+    rows = {key: {**merge_summary(g), "ours": int((g["collisions"] > 0).sum()),
+                  "sumo": int((g["sumo_collisions"] > 0).sum())}
+            for key, g in runs.groupby(["driver", "density"])}
+    return pd.DataFrame.from_dict(rows, orient="index")
 
 
 def table(folder: Path) -> str:
-    runs = _runs(folder)
-    ours = runs[runs["driver"] != "sumo"]
-    sumo = runs[runs["driver"] == "sumo"]
+    c = cells(folder)
     head = ["mainline density (veh/km/lane)", "merges, ours / SUMO's",
             "distance left to the end, median (m)", "stopped, median (s)",
             "follower's max decel p95 (m/s^2)", "follower's max decel, max (m/s^2)",
             "collisions, our check / SUMO's"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for dens in sorted(runs["density"].unique()):
-        a, b = ours[ours["density"] == dens], sumo[sumo["density"] == dens]
+    for dens in sorted(c.index.get_level_values(1).unique()):
+        a, b = c.loc[("mimo", dens)], c.loc[("sumo", dens)]
 
-        def pair(col: str, how: str, digits: int = 1, a=a, b=b) -> str:
-            va, vb = getattr(a[col], how)(), getattr(b[col], how)()
-            return f"{va:.{digits}f} / {vb:.{digits}f}"
+        def pair(col: str, digits: int, a: pd.Series = a, b: pd.Series = b) -> str:
+            return f"{a[col]:.{digits}f} / {b[col]:.{digits}f}"
 
-        f = "merge_follower_max_decel_mps2"
+        def merges(r: pd.Series) -> str:
+            return f"{round(r['merge_success_rate'] * r['merge_n'])}/{int(r['merge_n'])}"
+
         lines.append("| " + " | ".join([
-            f"{dens:g}",
-            f"{int(a['merge_success'].sum())}/{len(a)} / "
-            f"{int(b['merge_success'].sum())}/{len(b)}",
-            pair("merge_distance_to_end_m", "median"),
-            pair("stopped_time_s", "median"),
-            f"{_p95(a[f]):.2f} / {_p95(b[f]):.2f}",
-            pair(f, "max", 2),
-            f"{int((a['collisions'] > 0).sum())}, {int((a['sumo_collisions'] > 0).sum())} / "
-            f"{int((b['collisions'] > 0).sum())}, {int((b['sumo_collisions'] > 0).sum())}",
+            f"{dens:g}", f"{merges(a)} / {merges(b)}",
+            pair("merge_distance_to_end_m_p50", 1), pair("stopped_time_s_p50", 1),
+            pair(P95, 2), pair("merge_follower_decel_mps2_max", 2),
+            f"{a['ours']:.0f}, {a['sumo']:.0f} / {b['ours']:.0f}, {b['sumo']:.0f}",
         ]) + " |")
     return "\n".join(lines) + "\n"
 
@@ -65,22 +61,18 @@ def figure(folder: Path, path: Path) -> None:
     """Against mainline density, our gap driver vs SUMO-native: the share of merges, the
     distance left to the lane's end at the merge (median) and the merge's new
     follower's braking (p95)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    runs = _runs(folder)
+    from cosim.plots import save_figure
+
+    c = cells(folder)
     fig, axes = plt.subplots(1, 3, figsize=(15, 4))
     for driver, style, label in (("mimo", "o-", "gap driver (MIMO)"),
                                  ("sumo", "s--", "SUMO-native (LC2013)")):
-        d = runs[runs["driver"] == driver].groupby("density")
-        axes[0].plot(d.size().index, 100.0 * d["merge_success"].mean().to_numpy(), style,
-                     label=label)
-        med = d["merge_distance_to_end_m"].median()
-        axes[1].plot(med.index, med.to_numpy(), style, label=label)
-        p95 = d["merge_follower_max_decel_mps2"].apply(_p95)
-        axes[2].plot(p95.index, p95.to_numpy(), style, label=label)
+        d = c.loc[driver]
+        for ax, values in zip(axes, (100.0 * d["merge_success_rate"],
+                                     d["merge_distance_to_end_m_p50"], d[P95]), strict=True):
+            ax.plot(d.index, values.to_numpy(), style, label=label)
     for ax, ylabel in zip(axes, ("merges (% of runs)",
                                  "distance left to the lane's end (m), median",
                                  "merge's new follower: max decel p95 (m/s^2)"), strict=True):
@@ -92,11 +84,10 @@ def figure(folder: Path, path: Path) -> None:
     fig.suptitle(f"{folder.name}: merging from the 194.5 m acceleration lane "
                  "(networks/onramp.net.xml), 20 seeds per density")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 4 and sys.argv[2] == "--figure":
-        figure(Path(sys.argv[1]), Path(sys.argv[3]))
-    else:
-        print(table(Path(sys.argv[1])), end="")
+    from study_cli import run  # docs/ itself is on the path of a script run from it
+
+    run(__doc__, table, figure)

@@ -1,0 +1,54 @@
+"""The docs' study scripts (docs/study_merge_table.py, docs/study_comfort_table.py) on a
+hand-made batch folder: the merge table's cells are cosim.batch.merge_summary's, and a
+folder without runs.csv is refused in one line with exit status 2, nothing written."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from cosim.scenario import project_root
+
+DOCS = project_root() / "docs"
+
+
+def script(name: str, *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(DOCS / name), *args], capture_output=True,
+                          text=True, check=False, cwd=DOCS.parent)
+
+
+def test_the_merge_table_reads_each_cell_as_the_batch_summary_does(tmp_path: Path) -> None:
+    # ours: 2 of 3 merge (one run has no follower), one collision by SUMO's count only;
+    # SUMO's: 3 of 3; a failed run is left out
+    pd.DataFrame({
+        "driver": ["mimo"] * 4 + ["sumo"] * 3,
+        "density": [20.0] * 7,
+        "status": ["ok", "ok", "ok", "failed", "ok", "ok", "ok"],
+        "merge_success": [1, 1, 0, 1, 1, 1, 1],
+        "merge_distance_to_end_m": [100.0, 120.0, None, 1.0, 140.0, 130.0, 150.0],
+        "stopped_time_s": [0.0, 2.0, 40.0, 0.0, 0.0, 0.0, 0.0],
+        "merge_follower_max_decel_mps2": [0.5, None, None, 9.0, 0.4, 4.5, 0.5],
+        "collisions": [0, 0, 0, 1, 0, 0, 0],
+        "sumo_collisions": [0, 1, 0, 1, 0, 0, 0],
+    }).to_csv(tmp_path / "runs.csv", index=False)
+    out = script("study_merge_table.py", str(tmp_path))
+    assert out.returncode == 0, out.stderr
+    row = out.stdout.splitlines()[2]
+    # medians 110.0 / 140.0 m and 2.0 / 0.0 s; p95 of one value 0.5, of (0.4, 0.5, 4.5)
+    # 4.1 (numpy's linear interpolation, as summary.csv)
+    assert row == ("| 20 | 2/3 / 3/3 | 110.0 / 140.0 | 2.0 / 0.0 | 0.50 / 4.10 "
+                   "| 0.50 / 4.50 | 0, 1 / 0, 0 |")
+
+
+@pytest.mark.parametrize("name", ["study_merge_table.py", "study_comfort_table.py"])
+def test_a_folder_without_runs_is_refused_in_one_line(name: str, tmp_path: Path) -> None:
+    figure = tmp_path / "fig.png"
+    out = script(name, str(tmp_path / "none"), "--figure", str(figure))
+    assert out.returncode == 2 and out.stdout == ""
+    assert out.stderr.splitlines()[-1].endswith(
+        "none: no runs.csv in it (a cosim batch output folder is expected)")
+    assert not figure.exists()
