@@ -77,19 +77,23 @@ def transfer_per_wheel(vehicle: VehicleParams, chassis: ChassisParams) -> tuple[
             longitudinal * chassis.longitudinal_transfer_gain)
 
 
+def commonroad_roll_stiffness(car: CommonRoadCar) -> tuple[float, float]:
+    """N m/rad, (front, rear) roll stiffness of each axle's suspension as CommonRoad's
+    `vehicle_dynamics_mb` has it: its suspension forces F_SL,R = ... -/+ z K_s -/+ (phi -
+    phi_u) K_ts / T, with z = +/- (phi - phi_u) T / 2, give the sprung mass the roll
+    moment T/2 (F_SL - F_SR) (sumL) = -(phi - phi_u) (K_s T^2 / 2 - K_ts): the springs'
+    K_s T^2 / 2 plus |K_ts| (CommonRoad's K_ts are negative: the torsion bar stiffens the
+    axle)."""
+    return (car.K_sf * car.T_f**2 / 2.0 - car.K_tsf, car.K_sr * car.T_r**2 / 2.0 - car.K_tsr)
+
+
 def commonroad_roll_share(car: CommonRoadCar) -> float:
     """-, front share of the steady lateral load transfer of CommonRoad's multi-body model
     with this car's parameters: its roll axis is on the ground (h_raf = h_rar = 0), so the
     sprung mass's roll moment m_s h_s ay goes through the suspensions in the ratio of their
-    roll stiffnesses, and each unsprung mass moves its own m_u R_w ay across its own track.
-
-    An axle's roll stiffness as `vehicle_dynamics_mb` has it: its suspension forces
-    F_SL,R = ... -/+ z K_s -/+ (phi - phi_u) K_ts / T, with z = +/- (phi - phi_u) T / 2,
-    give the sprung mass the roll moment T/2 (F_SL - F_SR) (sumL) = -(phi - phi_u)
-    (K_s T^2 / 2 - K_ts): the springs' K_s T^2 / 2 plus |K_ts| (CommonRoad's K_ts are
-    negative: the torsion bar stiffens the axle; vehicle2: front share 0.59)."""
-    roll_f = car.K_sf * car.T_f**2 / 2.0 - car.K_tsf
-    roll_r = car.K_sr * car.T_r**2 / 2.0 - car.K_tsr
+    roll stiffnesses (`commonroad_roll_stiffness`), and each unsprung mass moves its own
+    m_u R_w ay across its own track (vehicle2: front share 0.59)."""
+    roll_f, roll_r = commonroad_roll_stiffness(car)
     front = car.m_s * car.h_s * roll_f / (roll_f + roll_r) + car.m_uf * car.R_w
     rear = car.m_s * car.h_s * roll_r / (roll_f + roll_r) + car.m_ur * car.R_w
     return front / (front + rear)
@@ -101,17 +105,16 @@ def commonroad_lateral_transfer_gain(car: CommonRoadCar) -> float:
     `ChassisParams.lateral_transfer_gain`). A linear roll model with the car's parameters:
     the sprung mass rolls by phi about an axis on the ground (CommonRoad's h_raf = h_rar =
     0) and its CG moves outwards, so its moment is m_s h_s (ay + g phi); each axle's
-    suspension carries K (phi - phi_u) (K = K_s T^2 / 2 + |K_ts|, as
-    `commonroad_roll_share`) onto its unsprung mass, which rolls phi_u on its tyres (K_zt
-    T^2 / 2) and adds m_u R_w (ay + g phi_u). The tyres carry the sum, Kt phi_u per axle.
+    suspension carries K (phi - phi_u) (K: `commonroad_roll_stiffness`) onto its unsprung
+    mass, which rolls phi_u on its tyres (K_zt T^2 / 2) and adds m_u R_w (ay + g phi_u).
+    The tyres carry the sum, Kt phi_u per axle.
 
     vehicle2: 1.160 (phi 0.0158 rad per m/s^2). CommonRoad's multi-body model (MB) in a
     steady turn: 1.139 at 0.1 g, 1.148 at 0.3 g, 1.166 at 0.5 g (tests/vehicle/
     test_commonroad.py); MB's own make-up differs (its tyres' lateral compliance K_lt moves
     the contact patches inwards, about 8 %; its gravity term is smaller), but the rigid car's
     m h_cg ay / track, which our plant had, is 14-17 % short of it."""
-    roll_f = car.K_sf * car.T_f**2 / 2.0 - car.K_tsf
-    roll_r = car.K_sr * car.T_r**2 / 2.0 - car.K_tsr
+    roll_f, roll_r = commonroad_roll_stiffness(car)
     tyre_f, tyre_r = car.K_zt * car.T_f**2 / 2.0, car.K_zt * car.T_r**2 / 2.0
     ms_hs, uf, ur = car.m_s * car.h_s, car.m_uf * car.R_w, car.m_ur * car.R_w
     # phi_u = (K phi + m_u R_w ay) / (Kt + K - m_u g R_w) per axle, ay = 1 m/s^2
