@@ -152,20 +152,17 @@ class GapPolicy:
         if due is not None:
             wanted = due.target
         since = self.seeking_since
-        # a change by choice insists after its patience; a mandatory one asks what the
-        # urgency law allows, however long it has sought (insisting at once asked the
-        # merge's new follower for its full 4.5 m/s^2 in 8 of 20 runs at 50 veh/km/lane,
-        # SUMO's driver 1; its courtesy opens the gap instead, issue 24)
-        insist = (not mandatory and since is not None
-                  and t - since >= self.gap_cfg.patience - 1e-9)
+        # a mandatory change's settings (`mandatory_config`: it never insists after a
+        # patience, what it asks grows with its urgency alone)
+        gap_cfg = mandatory_config(self.gap_cfg) if mandatory else self.gap_cfg
+        insist = since is not None and t - since >= gap_cfg.patience - 1e-9
         # a lane by choice is sought only once the last change has settled (its
         # cooldown): seeking at once asked the next lane's follower for courtesy and
         # braked toward its gaps within 3 s of a merge, and the TV behind the SV, which
         # SUMO keeps from passing a slower car on its left, braked with it (2.4-2.6
         # m/s^2 in 5 of 20 merges at 10 veh/km/lane, issue 24)
         by_choice = self.decision and not m.timer.cooling(t)
-        d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg,
-                         mandatory_config(self.gap_cfg) if mandatory else self.gap_cfg,
+        d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg, gap_cfg,
                          self.follower, wanted_lane=wanted,
                          allow_change=mandatory or scripted is not None or by_choice,
                          insist=insist, urgency=0.0 if due is None else due.urgency)
