@@ -39,7 +39,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from statistics import NormalDist
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -56,6 +56,8 @@ from cosim.output import (
     make_output_dir,
     stale_temp_files,
 )
+
+T = TypeVar("T")
 
 # Grid parameters, in the order runs.csv lists (and sorts) them.
 PARAMETERS = ("driver", "variant", "plant", "occupant", "mu", "density", "seed")
@@ -302,7 +304,7 @@ PRELOAD = (
     "cosim.batch", "cosim.sim", "cosim.scenario", "cosim.planning.planner",
     "cosim.control.closed_loop", "cosim.traffic.demand", "cosim.traffic.sumo",
     "cosim.vehicle.twotrack", "cosim.vehicle.bicycle", "libsumo", "sumolib",
-    "cosim.control.warm",
+    "cosim.control.warm", "cosim.fork_server",
 )
 
 
@@ -313,19 +315,20 @@ def _pool(workers: int) -> cf.ProcessPoolExecutor:
     # (a missing module in PRELOAD is skipped by the fork server).
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(PRELOAD))
-    return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1,
-                                  initializer=_worker_signals)
+    # The workers ignore Ctrl-C and SIGHUP from birth (cosim.fork_server): the parent
+    # ends them itself.
+    return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1)
 
 
-def _worker_signals() -> None:
-    """A worker leaves Ctrl-C and a closed terminal's SIGHUP to the parent (a terminal sends
-    them to the whole group): the parent ends every worker itself (`_ending_pool`), so no
-    worker prints a traceback or dies as a failed run."""
-    import signal
+def _submit(pool: cf.ProcessPoolExecutor, fn: Callable[..., T], /, *args: Any) -> cf.Future[T]:
+    """`pool.submit` with Ctrl-C and SIGTERM held. A submit may start a worker; cut short
+    between the fork server's fork and the pool's record of it, that worker would be no
+    one's to end: it would outlive the batch and, unpickling from a parent that is gone,
+    print a traceback."""
+    from cosim.errors import signals_deferred
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if hasattr(signal, "SIGHUP"):
-        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    with signals_deferred():
+        return pool.submit(fn, *args)
 
 
 @contextlib.contextmanager
@@ -382,7 +385,7 @@ def _end_pool_now(pool: cf.ProcessPoolExecutor, timeout: float) -> None:
 def warm_up() -> None:
     """Start the fork server (imports included) now, e.g. before timing a study."""
     with _ending_pool(1) as pool:
-        pool.submit(os.getpid).result()
+        _submit(pool, os.getpid).result()
 
 
 def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: OnRecord) -> None:
@@ -400,7 +403,7 @@ def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: 
             while (queue or running) and not broken:
                 while queue and len(running) < workers:
                     spec = queue.pop()
-                    running[pool.submit(execute_run, spec, str(out_dir))] = spec
+                    running[_submit(pool, execute_run, spec, str(out_dir))] = spec
                 done, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
                 for future in done:
                     spec = running.pop(future)
@@ -413,7 +416,7 @@ def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: 
             start = time.perf_counter()
             with _ending_pool(1) as alone:
                 try:
-                    record = alone.submit(execute_run, spec, str(out_dir)).result()
+                    record = _submit(alone, execute_run, spec, str(out_dir)).result()
                 except cf.process.BrokenProcessPool as exc:
                     record = failed_record(
                         spec, f"worker process died: {error_text(exc)}",

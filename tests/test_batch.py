@@ -386,6 +386,44 @@ def test_a_run_whose_process_dies_is_recorded_failed(tmp_path: Path) -> None:
     assert again.ran == 1 and again.failed == 0
 
 
+def test_a_worker_ignores_ctrl_c_and_sighup_from_its_start() -> None:
+    # The fork server sets this before it forks (cosim.fork_server), so no moment of a
+    # worker's start-up lets a terminal's Ctrl-C, sent to the whole group, end it with a
+    # traceback; the command's own process keeps its handlers.
+    from cosim.batch import _ending_pool
+
+    with _ending_pool(1) as pool:
+        seen = pool.submit(signal.getsignal, signal.SIGINT).result()
+    assert seen == signal.SIG_IGN
+    assert signal.getsignal(signal.SIGINT) != signal.SIG_IGN
+    if hasattr(signal, "SIGHUP"):
+        with _ending_pool(1) as pool:
+            assert pool.submit(signal.getsignal, signal.SIGHUP).result() == signal.SIG_IGN
+
+
+def test_ctrl_c_while_a_worker_starts_is_held_until_the_pool_can_end_it(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # CI, 2026-11: a Ctrl-C landing between the fork server's fork and the pool's record of
+    # the new worker left that worker to no one; it outlived the batch and printed a
+    # traceback. The interrupt is sent here from inside the worker's start: held, it lands
+    # once the pool has the worker, and the pool's end ends it.
+    from cosim.batch import _ending_pool, _submit
+
+    started: list[object] = []
+    with pytest.raises(KeyboardInterrupt), _ending_pool(1) as pool:
+        spawn = pool._spawn_process
+
+        def spawn_interrupted() -> None:
+            os.kill(os.getpid(), signal.SIGINT)
+            spawn()
+            started.extend(pool._processes.values())
+
+        monkeypatch.setattr(pool, "_spawn_process", spawn_interrupted)
+        _submit(pool, time.sleep, 30)
+    assert len(started) == 1
+    assert not started[0].is_alive()  # type: ignore[attr-defined]
+
+
 def test_variants_are_a_grid_dimension_for_our_drivers_only(tmp_path: Path) -> None:
     grid = {"densities": [10.0], "seeds": [1, 2], "occupants": [0.5], "mus": [0.8],
             "drivers": ["mimo", "sumo"], "plants": ["twotrack"]}
