@@ -416,3 +416,23 @@ def merge_start(t: ArrayLike, d: ArrayLike, cross: float, centre: float,
     dd = np.asarray(d, dtype=float)
     before = np.flatnonzero((tt <= cross) & (np.abs(dd - centre) < tol))
     return float(tt[before[-1]]) if before.size else float(tt[0])
+
+
+def merge_end(t: ArrayLike, d: ArrayLike, lane: ArrayLike, cross: float, centre: float,
+              tol: float = SETTLE_TOL) -> float:
+    """s, the end of the watch of a merge that crossed into the lane of centre `centre`
+    at `cross`: the last sample at that centre (within `tol`) before the SV leaves it
+    again, its next change beginning (an aborted one too: it leaves the centre and comes
+    back); the run's last sample if it stays. A merge that never reaches the centre is
+    watched until the SV's centre crosses out of the lane it entered at `cross`, else to
+    the run's last sample."""
+    tt = np.asarray(t, dtype=float)
+    off = np.abs(np.asarray(d, dtype=float) - centre) >= tol
+    after = tt >= cross
+    reached = np.flatnonzero(after & ~off)
+    if reached.size:
+        left = np.flatnonzero(off[reached[0]:])
+        return float(tt[reached[0] + left[0] - 1]) if left.size else float(tt[-1])
+    ln = np.asarray(lane)
+    out = np.flatnonzero(after & (ln != ln[np.flatnonzero(after)[0]]))
+    return float(tt[out[0]]) if out.size else float(tt[-1])

@@ -280,3 +280,22 @@ def test_merge_crossing_stopped_time_and_start() -> None:
     assert merge_crossing(t, s, np.zeros(12, dtype=int), 190.0)[2] == -1
     assert math.isnan(merge_crossing(t, s, lane, s[6])[0])  # crossed only at the end
     assert math.isnan(merge_crossing(t, s, lane, math.inf)[0])  # no lane end
+
+
+def test_a_merge_is_watched_until_the_sv_leaves_the_lane_centre_again() -> None:
+    """merge_end: the SV reaches lane 1's centre (1.875 m) at 4 s, an aborted change
+    takes it 0.5 m off from 8.0 to 9.0 s and back; the merge's watch ends at 7.5 s, the
+    last sample at the centre (a window ended only by a change crossing out ran on to
+    the run's end). Staying: the last sample; never reaching the centre: the crossing
+    out of the lane entered."""
+    from cosim.metrics import merge_end
+
+    t = np.arange(0.0, 12.0, 0.5)
+    d = np.minimum(-1.875 + t, 1.875)
+    lane = np.where(d > 0.0, 1, 0)
+    aborted = d + np.where((t >= 8.0) & (t <= 9.0), 0.5, 0.0)
+    assert merge_end(t, aborted, lane, 2.0, 1.875) == 7.5
+    assert merge_end(t, d, lane, 2.0, 1.875) == 11.5
+    passing = -1.875 + t  # on into lane 2 (d > 3.75) without settling in lane 1
+    lanes = np.digitize(passing, [0.0, 3.75])
+    assert merge_end(t, passing, lanes, 2.0, 1.875) == 6.0
