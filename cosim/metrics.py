@@ -375,8 +375,10 @@ MERGE_DOCS: dict[str, str] = {
     "stopped_time_s": f"time the SV's speed was below {STANDSTILL_SPEED:g} m/s (s)",
     "merge_follower_max_decel_mps2": "largest deceleration of the SV's follower in the target "
     "lane of the merge (the nearest TV behind it there when its centre crossed; as "
-    "follower_max_decel_mps2), from the start of the merge until 3 s after it settles, "
-    "or until the SV's next change begins (m/s^2; empty: no merge or no follower)",
+    "follower_max_decel_mps2), from the start of the merge until 3 s after it settles "
+    f"at that lane's centre (within {SETTLE_TOL:g} m; settling is looked for until the SV leaves "
+    "the centre again, as a next change begins, an aborted one too) (m/s^2; empty: no "
+    "merge or no follower)",
 }
 
 
