@@ -83,7 +83,9 @@ def excursions(t: Array, y: Array, lanes: LaneLayout) -> tuple[list[float], list
                                                                list[float]]:
     """Lane changes read off a path: each time the SV leaves one lane centre band
     (|y - centre| < SETTLE_TOL) and next enters another's. Returns starts, target
-    centres and window ends (the run's end)."""
+    centres and window ends: the next change's start, the run's end for the last (as a
+    manoeuvre log has them: a change followed by another read as never settled, its run
+    as failed; the merge study's SUMO-native runs, 29 of 100)."""
     centres = np.array([lanes.centre(k) for k in range(lanes.n_lanes)])
     dist = np.abs(y[:, None] - centres[None, :])
     home = np.where(dist.min(axis=1) < SETTLE_TOL, dist.argmin(axis=1), -1)
@@ -96,4 +98,4 @@ def excursions(t: Array, y: Array, lanes: LaneLayout) -> tuple[list[float], list
             starts.append(last_t)
             targets.append(float(centres[k]))
         last_home, last_t = k, float(t[i])
-    return starts, targets, [float(t[-1])] * len(starts)
+    return starts, targets, [*starts[1:], float(t[-1])]

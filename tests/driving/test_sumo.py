@@ -66,3 +66,21 @@ def test_lane_changes_are_read_off_the_path() -> None:
     y[12:] = lanes.centre(1)
     starts, targets, ends = excursions(t, y, lanes)
     assert starts == [t[7]] and targets == [lanes.centre(1)] and ends == [t[-1]]
+
+
+def test_a_change_read_off_the_path_is_watched_until_the_next_one_starts() -> None:
+    """Lane 0 -> 1 (settled at 4 s) -> 2 (from 6 s): the first change's window ends where
+    the second starts, so it reads as settled and the run as completed (a window to the
+    run's end read the first as never settled, the run as failed)."""
+    from cosim.metrics import lane_change_durations
+
+    lanes = LaneLayout(ROAD)
+    t = np.arange(0.0, 12.0, 0.5)
+    y = np.interp(t, [0.0, 1.0, 4.0, 6.0, 9.0],
+                  [lanes.centre(0), lanes.centre(0), lanes.centre(1), lanes.centre(1),
+                   lanes.centre(2)])
+    starts, targets, ends = excursions(t, y, lanes)
+    assert starts == [1.0, 6.0] and ends == [6.0, t[-1]]
+    assert targets == [lanes.centre(1), lanes.centre(2)]
+    durations = lane_change_durations(t, y, starts, targets, ends)
+    assert durations.tolist() == [3.0, 3.0]
