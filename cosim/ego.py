@@ -89,12 +89,12 @@ class PlannedEgo:
 
     def state(self, everyone: TrafficSnapshot) -> SVState:
         r = self.record
-        lane = float(everyone.lane[everyone.index(SV_ID)])
+        road_id, lane = self.world.sv_lane()
         if is_identity(self.world.frame):
-            return SVState(r.x, r.y, r.heading, r.vx, r.vy, lane, self.world.sv_road_id())
+            return SVState(r.x, r.y, r.heading, r.vx, r.vy, lane, road_id)
         s, d, rel = self.loop.road_pose
         q = float(stretch(self.world.frame, s, d))
-        return SVState(s, d, rel, r.vx / q, r.vy, lane, self.world.sv_road_id(),
+        return SVState(s, d, rel, r.vx / q, r.vy, lane, road_id,
                        cartesian=(r.x, r.y, r.heading), stretch=q)
 
     def write_trace(self, row: Array) -> None:
@@ -160,7 +160,7 @@ class SumoDrivenEgo:
         i = everyone.index(SV_ID)
         self.ax = self.world.sv_acceleration()  # not in every read
         x, y, h = float(everyone.x[i]), float(everyone.y[i]), float(everyone.heading[i])
-        lane, road_id = float(everyone.lane[i]), self.world.sv_road_id()
+        road_id, lane = self.world.sv_lane()
         speed, lateral = float(everyone.speed[i]), float(everyone.lateral_speed[i])
         if everyone.cx is None:
             return SVState(x, y, h, speed, lateral, lane, road_id)

@@ -63,7 +63,9 @@ TRACE_COLUMNS: dict[str, str] = {
     "fx_rr_n": "rear-right wheel longitudinal force (N)",
     "fx_total_n": "sum of the four wheel longitudinal forces (N)",
     "lane": "lane the SV's centre is in, from its y (SUMO index)",
-    "sumo_lane": "SV's lane index as SUMO has it (-1 off the network)",
+    "sumo_lane": "SV's lane index as SUMO has it: SUMO's index on the road in `edge` "
+    "(where that index shifts, past an acceleration lane, it differs from `lane` and "
+    "`track`; -1 off the network)",
     "target_lane": "lane the SV is heading for (= lane when keeping its lane)",
     "changing": "1 while a planned lane change is under way, else 0",
     "leader_gap_m": "bumper-to-bumper gap to the leader in the SV's lane (m; inf: none)",

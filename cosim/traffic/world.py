@@ -333,10 +333,15 @@ class World:
         """From now on SUMO drives the SV (its own speed and lane-change modes)."""
         self.sumo.controlled.release(SV_ID)
 
-    def sv_road_id(self) -> str:
-        """SUMO's road id of the SV now: an edge of the route or a junction's internal
-        edge between two of them ("" off the network)."""
-        return str(self.sumo.api.vehicle.getRoadID(SV_ID))
+    def sv_lane(self) -> tuple[str, int]:
+        """(road id, lane index on it) of the SV now as SUMO has it: an edge of the route or
+        a junction's internal edge between two of them, and SUMO's own per-edge index
+        (not the route's track; ("", -1): off the network)."""
+        lane_id = str(self.sumo.api.vehicle.getLaneID(SV_ID))
+        if not lane_id:
+            return "", -1
+        road, index = lane_id.rsplit("_", 1)  # SUMO's lane ids: <road id>_<index>
+        return road, int(index)
 
     def sv_acceleration(self) -> float:
         """m/s^2, SUMO's longitudinal acceleration of the SV now (not in every read)."""

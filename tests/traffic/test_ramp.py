@@ -156,6 +156,18 @@ def test_our_gap_driver_merges_from_the_shipped_ramp_by_its_mandatory_change(
     assert m["stopped_time_s"] == 0.0
     # the merge's new follower brakes no harder than a Krauss follower's decel
     assert m["merge_follower_max_decel_mps2"] <= 4.5 + 1e-6
+    # the trace's SUMO lane is SUMO's index on its edge, the track the route's: at a lane
+    # centre the track is the lane the SV is in, and past the acceleration lane (gone
+    # from main1) SUMO's index is one less (the track read from the route's numbering
+    # as if it were SUMO's was one more, or none, on main1)
+    tr = result.trace
+    settled = np.abs(tr["d_m"] - result.road.lane_center(1)) < 0.2
+    for k in range(2, result.road.n_lanes):
+        settled |= np.abs(tr["d_m"] - result.road.lane_center(k)) < 0.2
+    assert settled.sum() > 100 and np.array_equal(tr["track"][settled], tr["lane"][settled])
+    on_main1 = settled & (tr["edge"] == result.edges.index("main1"))
+    assert on_main1.sum() > 100
+    assert np.array_equal(tr["sumo_lane"][on_main1], tr["lane"][on_main1] - 1)
 
 
 def test_with_no_gap_our_sv_stops_before_the_end_of_the_ramp_and_waits_there() -> None:
