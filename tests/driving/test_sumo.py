@@ -84,3 +84,4 @@ def test_a_change_read_off_the_path_is_watched_until_the_next_one_starts() -> No
     assert targets == [lanes.centre(1), lanes.centre(2)]
     durations = lane_change_durations(t, y, starts, targets, ends)
     assert durations.tolist() == [3.0, 3.0]
+    assert excursions(t, np.full(t.size, lanes.centre(1)), lanes) == ([], [], [])
