@@ -1,5 +1,6 @@
-"""The docs' study scripts (docs/study_merge_table.py, docs/study_comfort_table.py) on a
-hand-made batch folder: the merge table's cells are cosim.batch.merge_summary's, and a
+"""The docs' study scripts (docs/study_merge_table.py, docs/study_comfort_table.py,
+docs/study_gap_table.py) on hand-made batch folders: the merge table's cells are
+cosim.batch.merge_summary's, the gap table's rows follow the study's variants, and a
 folder without runs.csv is refused in one line with exit status 2, nothing written."""
 
 from __future__ import annotations
@@ -44,7 +45,33 @@ def test_the_merge_table_reads_each_cell_as_the_batch_summary_does(tmp_path: Pat
                    "| 0.50 / 4.50 | 0, 1 / 0, 0 |")
 
 
-@pytest.mark.parametrize("name", ["study_merge_table.py", "study_comfort_table.py"])
+def test_the_gap_table_has_a_row_per_variant_and_a_cell_per_density(tmp_path: Path) -> None:
+    # the gap policy: 2 densities x 2 runs, one lane change unfinished, one run without a
+    # follower; SUMO's: one run SUMO saw collide; a failed run is left out
+    pd.DataFrame({
+        "driver": ["mimo"] * 5 + ["sumo"] * 2,
+        "variant": ["gap"] * 5 + [None] * 2,
+        "density": [10.0, 10.0, 20.0, 20.0, 20.0, 10.0, 20.0],
+        "status": ["ok"] * 4 + ["failed"] + ["ok"] * 2,
+        "lane_change_completed": [1, 1, 1, 0, 1, 1, 1],
+        "collisions_sv": [0, 0, 1, 0, 0, 0, 0],
+        "sumo_collision": [0, 0, 1, 0, 0, 1, 0],
+        "follower_max_decel_mps2": [0.5, 1.5, None, 0.4, 9.0, 0.3, 4.5],
+        "lane_change_duration_s": [3.0, 4.0, 2.0, None, 1.0, 3.0, 3.0],
+        "min_ttc_s": [10.0, 20.0, 5.0, 7.0, 1.0, 30.0, 8.0],
+    }).to_csv(tmp_path / "runs.csv", index=False)
+    out = script("study_gap_table.py", str(tmp_path))
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    assert "at 10 / 20 veh/km/lane" in lines[0] and len(lines) == 4
+    # p95 of (0.5, 1.5) is 1.45 (numpy's linear interpolation); 20: one value, 0.4
+    assert lines[2] == ("| gap (courtesy), perfect V2V | 2 / 1 | 1 / 1 | 1.45 / 0.40 | 3.00 "
+                        "| 15.0 / 6.0 |")
+    assert lines[3] == "| SUMO-native | 1 / 1 | 0 / 1 | 0.30 / 4.50 | 3.00 | 30.0 / 8.0 |"
+
+
+@pytest.mark.parametrize("name", ["study_merge_table.py", "study_comfort_table.py",
+                                  "study_gap_table.py"])
 def test_a_folder_without_runs_is_refused_in_one_line(name: str, tmp_path: Path) -> None:
     figure = tmp_path / "fig.png"
     out = script(name, str(tmp_path / "none"), "--figure", str(figure))

@@ -98,4 +98,5 @@ def excursions(t: Array, y: Array, lanes: LaneLayout) -> tuple[list[float], list
             starts.append(last_t)
             targets.append(float(centres[k]))
         last_home, last_t = k, float(t[i])
-    return starts, targets, [*starts[1:], float(t[-1])][:len(starts)]
+    ends = [*starts[1:], float(t[-1])] if starts else []
+    return starts, targets, ends
