@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from cosim.batch import PARAMETERS
 from cosim.errors import InputError
+from cosim.run_table import PARAMETERS
 from cosim.scenario import OVERRIDES
 from cosim.study import GRID, check_study, load_study
 

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from cosim.batch import summarize
 from cosim.plots.replanning import plot_replanning
+from cosim.summary import summarize
 
 
 def test_figure_from_a_summary(tmp_path: Path) -> None:

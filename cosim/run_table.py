@@ -1,0 +1,25 @@
+"""The vocabulary of a study's runs.csv, shared by the runs (cosim.batch) and their
+summary (cosim.summary): the grid parameters in the order runs.csv lists them, the
+values of a run without a variant or a plant, a record's status, and the columns a
+clock measured."""
+
+from __future__ import annotations
+
+# Grid parameters, in the order runs.csv lists (and sorts) them.
+PARAMETERS = ("driver", "variant", "plant", "occupant", "mu", "density", "seed")
+# The variant of runs without one (and of the SUMO-native driver, which no variant
+# changes): the base scenario as it is.
+NO_VARIANT = ""
+STATUS_OK = "ok"
+STATUS_FAILED = "failed"
+# Columns of runs.csv measured by a clock (`wall_time_s` and the run's own
+# `wall_*` and `cpu_*` columns from cosim.sim): they differ between two
+# executions of the same run; everything else is reproducible.
+TIMING_PREFIXES = ("wall_", "cpu_")
+# The plant of the SUMO-native driver: SUMO moves the SV, no plant of ours runs.
+NO_PLANT = "none"
+
+
+def is_timing_column(name: str) -> bool:
+    """Whether a runs.csv column is a wall-clock measurement (not reproducible)."""
+    return name.startswith(TIMING_PREFIXES)

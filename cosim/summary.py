@@ -1,0 +1,308 @@
+"""A study's summary: per grid cell of runs.csv (every parameter but the seed), the rates
+of success and of both collision checks with Wilson intervals, lane-change duration and
+minimum TTC as means, percentiles and medians with distribution-free intervals, the new
+follower's braking, and the comfort (issue 22) and merge (issue 24) figures; written as
+summary.csv, summary.md and comfort.md beside runs.csv (`write_tables`).
+
+Rates are over the runs that finished (status ok): a failed run is a fault of the tool,
+not an outcome of the manoeuvre, and is counted apart."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from statistics import NormalDist
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from cosim.metrics import FOLLOWER_PERCENTILE
+from cosim.output import atomic_write_csv, atomic_write_text
+from cosim.run_table import NO_PLANT, NO_VARIANT, STATUS_OK
+
+# Parameters that define a grid cell of summary.csv (every parameter but the seed).
+CELL = ("driver", "variant", "plant", "occupant", "mu", "density")
+# Metrics summarised per grid cell (names as cosim.metrics writes them).
+SUCCESS_METRIC = "lane_change_completed"  # bool: the commanded lane change ended in its lane
+COLLISION_METRIC = "collision"  # bool: our geometric check saw an overlap
+SUMO_COLLISION_METRIC = "sumo_collision"  # bool: SUMO's getCollisions saw one (cross-check)
+UNFINISHED_METRIC = "lane_change_unfinished"  # bool: the run ended during the lane change
+SV_COLLISION_METRIC = "collisions_sv"  # count: collisions the SV caused (cosim.sim)
+MANOEUVRE_COLLISION_METRIC = "collisions_manoeuvre"  # count: ... while changing lanes
+DURATION_METRIC = "lane_change_duration_s"  # s
+TTC_METRIC = "min_ttc_s"  # s
+FOLLOWER_METRIC = "follower_max_decel_mps2"  # m/s^2, the SV's new follower (issue 16)
+PERCENTILES = (10, 50, 90)
+CONFIDENCE = 0.95
+
+
+def wilson(successes: int, n: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (NaNs for n = 0)."""
+    if n == 0:
+        return (math.nan, math.nan)
+    z = NormalDist().inv_cdf(0.5 + confidence / 2)
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    # exact at the ends (0 successes: from 0; all: up to 1), whatever the rounding
+    low = 0.0 if successes == 0 else max(0.0, centre - half)
+    high = 1.0 if successes == n else min(1.0, centre + half)
+    return (low, high)
+
+
+def mean_ci(values: np.ndarray, confidence: float = CONFIDENCE) -> tuple[float, float, float]:
+    """Mean and Student-t confidence interval (NaN where undefined). For quantities
+    that may take either sign; positive ones (durations, TTC) use `median_ci`."""
+    values = values[np.isfinite(values)]
+    n = len(values)
+    if n == 0:
+        return (math.nan, math.nan, math.nan)
+    mean = float(values.mean())
+    if n == 1:
+        return (mean, math.nan, math.nan)
+    from scipy import stats
+
+    half = float(stats.t.ppf(0.5 + confidence / 2, n - 1) * values.std(ddof=1) / math.sqrt(n))
+    return (mean, mean - half, mean + half)
+
+
+def median_ci(values: np.ndarray, confidence: float = CONFIDENCE
+              ) -> tuple[float, float, float, float]:
+    """Median, a distribution-free confidence interval for it and that interval's
+    coverage: the order statistics (x_(j), x_(n+1-j)) with the largest j whose
+    binomial coverage is at least `confidence`. The bounds are observed values, so
+    a positive quantity (a duration, a TTC) never gets a negative bound, and a
+    skewed one an honest asymmetric interval. Below 6 values no pair reaches 95 %:
+    the interval is then the range, and its coverage (1 - 2 / 2^n) says so.
+    NaN where undefined (no finite value; one value: no interval)."""
+    x = np.sort(values[np.isfinite(values)])
+    n = len(x)
+    if n == 0:
+        return (math.nan, math.nan, math.nan, math.nan)
+    median = float(np.median(x))
+    if n == 1:
+        return (median, math.nan, math.nan, math.nan)
+    from scipy import stats
+
+    # coverage of (x_(j), x_(n+1-j)): P(j <= B < n+1-j), B ~ Binomial(n, 1/2)
+    j = np.arange(1, n // 2 + 1)
+    coverage = stats.binom.cdf(n - j, n, 0.5) - stats.binom.cdf(j - 1, n, 0.5)
+    ok = np.flatnonzero(coverage >= confidence)
+    k = int(ok[-1]) if ok.size else 0
+    return (median, float(x[j[k] - 1]), float(x[n - j[k]]), float(coverage[k]))
+
+
+def _finite(ok: pd.DataFrame, metric: str) -> np.ndarray:
+    """The finite values of a metric column (none if the runs predate it)."""
+    if metric not in ok:
+        return np.empty(0)
+    v = pd.to_numeric(ok[metric], errors="coerce").to_numpy(float)
+    return v[np.isfinite(v)]
+
+
+def _p95_max(decel: np.ndarray, prefix: str) -> dict[str, float]:
+    """`<prefix>_p95` (FOLLOWER_PERCENTILE) and `<prefix>_max` of a follower's largest
+    decelerations, one per run (NaN: none)."""
+    return {f"{prefix}_p{FOLLOWER_PERCENTILE}": (float(np.percentile(decel, FOLLOWER_PERCENTILE))
+                                                  if len(decel) else math.nan),
+            f"{prefix}_max": float(decel.max()) if len(decel) else math.nan}
+
+
+def _as_bool(column: pd.Series) -> pd.Series:
+    if column.dtype == object:
+        return column.map(lambda v: str(v).strip().lower() in ("true", "1", "1.0", "yes"))
+    return column.fillna(0).astype(float) != 0
+
+
+def summarize(runs: pd.DataFrame) -> pd.DataFrame:
+    """summary.csv: per grid cell (all parameters but the seed), the number of
+    runs, failed runs, runs whose lane change the end cut short (`unfinished`), the
+    success rate over the other (finished) runs, the collision rates of both checks
+    (ours `collision`, SUMO's `sumo_collision`) and the SV-caused one, with Wilson
+    intervals, and
+    lane-change duration and minimum TTC: mean, percentiles, and the median's
+    distribution-free interval (`median_ci`); the new follower's largest deceleration:
+    count, 95th percentile and maximum.
+
+    Rates are over the runs that finished (status ok): a failed run is a fault
+    of the tool, not an outcome of the manoeuvre, and is counted apart."""
+    rows = []
+    if "variant" not in runs:
+        runs = runs.assign(variant=NO_VARIANT)
+    runs = runs.assign(variant=runs["variant"].fillna(NO_VARIANT).astype(str))
+    for cell, group in runs.groupby(list(CELL), sort=True):
+        ok = group[group["status"] == STATUS_OK]
+        n = len(ok)
+        row: dict[str, Any] = dict(zip(CELL, cell, strict=True))
+        row.update(runs=len(group), ok=n, failed=len(group) - n)
+        # lane changes the run's end cut short are neither successes nor failures
+        unfinished = (int(_as_bool(ok[UNFINISHED_METRIC]).sum())
+                      if UNFINISHED_METRIC in ok and n else 0)
+        row["unfinished"] = unfinished
+        for name, metric in (("success", SUCCESS_METRIC), ("collision", COLLISION_METRIC),
+                             ("sumo_collision", SUMO_COLLISION_METRIC),
+                             ("sv_collision", SV_COLLISION_METRIC),
+                             ("manoeuvre_collision", MANOEUVRE_COLLISION_METRIC)):
+            hits = int(_as_bool(ok[metric]).sum()) if metric in ok and n else 0
+            known = metric in ok or name in ("success", "collision")  # older records lack some
+            of = n - unfinished if name == "success" else n
+            row[f"{name}_rate"] = hits / of if of and known else math.nan
+            row[f"{name}_ci_low"], row[f"{name}_ci_high"] = wilson(hits, of if known else 0)
+        for name, metric in (("lc_duration_s", DURATION_METRIC), ("min_ttc_s", TTC_METRIC)):
+            finite = _finite(ok, metric)
+            row[f"{name}_n"] = len(finite)
+            row[f"{name}_mean"] = float(finite.mean()) if len(finite) else math.nan
+            for q in PERCENTILES:
+                row[f"{name}_p{q}"] = float(np.percentile(finite, q)) if len(finite) else math.nan
+            # the median and its interval: the statistic of summary.md and the plots
+            (_, row[f"{name}_ci_low"], row[f"{name}_ci_high"],
+             row[f"{name}_ci_coverage"]) = median_ci(finite)
+        decel = _finite(ok, FOLLOWER_METRIC)
+        row["follower_decel_mps2_n"] = len(decel)
+        row.update(_p95_max(decel, "follower_decel_mps2"))
+        row.update(comfort_summary(ok))
+        row.update(merge_summary(ok))
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+# ------------------------------------------------------------------ comfort (issue 22)
+# Per grid cell: medians (p50) and worst values of the SV's comfort metrics
+# (cosim.metrics.COMFORT_COLUMNS), over the finished runs where the metric is finite.
+COMFORT_MEDIANS = ("rms_long_accel_mps2", "rms_long_jerk_mps3", "max_long_jerk_mps3",
+                   "long_accel_jump_share", "merge_time_gap_s", "post_change_max_decel_mps2",
+                   "request_to_lane_s")
+HARD_BRAKE = 3.0  # m/s^2, a deceleration after the change this large counts as hard braking
+
+
+def comfort_summary(ok: pd.DataFrame) -> dict[str, float]:
+    """summary.csv's comfort columns of one cell's finished runs: `<metric>_p50` for each
+    of COMFORT_MEDIANS, `max_long_jerk_mps3_max`, `merge_time_gap_s_min`,
+    `post_change_max_decel_mps2_max` and `hard_post_change_brakes` (runs that braked
+    harder than HARD_BRAKE after a change; NaN before these metrics existed)."""
+    row: dict[str, float] = {}
+    for metric in COMFORT_MEDIANS:
+        v = _finite(ok, metric)
+        row[f"{metric}_p50"] = float(np.median(v)) if len(v) else math.nan
+    jerk, gap, decel = (_finite(ok, m) for m in ("max_long_jerk_mps3", "merge_time_gap_s",
+                                                 "post_change_max_decel_mps2"))
+    row["max_long_jerk_mps3_max"] = float(jerk.max()) if len(jerk) else math.nan
+    row["merge_time_gap_s_min"] = float(gap.min()) if len(gap) else math.nan
+    row["post_change_max_decel_mps2_max"] = float(decel.max()) if len(decel) else math.nan
+    row["hard_post_change_brakes"] = (float(np.sum(decel > HARD_BRAKE))
+                                      if "post_change_max_decel_mps2" in ok else math.nan)
+    return row
+
+
+# ------------------------------------------------------------------ merges (issue 24)
+MERGE_METRIC = "merge_success"  # 1 / 0; empty when the SV's start lane does not end
+
+
+def merge_summary(ok: pd.DataFrame) -> dict[str, float]:
+    """summary.csv's merge columns of one cell's finished runs (cosim.metrics.MERGE_DOCS):
+    `merge_n` runs whose start lane ends, `merge_success_rate` among them with its Wilson
+    interval, the medians of `merge_distance_to_end_m` and `stopped_time_s`, and the
+    target lane follower's largest deceleration: 95th percentile and maximum (all NaN
+    when no run started in a lane that ends)."""
+    success = _finite(ok, MERGE_METRIC)
+    n, hits = len(success), int(np.sum(success > 0.5))
+    row: dict[str, float] = {"merge_n": float(n),
+                             "merge_success_rate": hits / n if n else math.nan}
+    row["merge_success_ci_low"], row["merge_success_ci_high"] = wilson(hits, n)
+    for metric in ("merge_distance_to_end_m", "stopped_time_s"):
+        v = _finite(ok, metric) if n else np.empty(0)
+        row[f"{metric}_p50"] = float(np.median(v)) if len(v) else math.nan
+    row.update(_p95_max(_finite(ok, "merge_follower_max_decel_mps2"),
+                        "merge_follower_decel_mps2"))
+    return row
+
+
+def comfort_markdown(summary: pd.DataFrame) -> str:
+    """The comfort columns of summary.csv as a Markdown table (comfort.md)."""
+    head = ["driver", "variant", "mu", "density (veh/km/lane)",
+            "max jerk m/s^3: median / max", "ax jumps > 5 m/s^2: median share",
+            "merge time gap s: median / min", "decel after change m/s^2: median / max",
+            "runs braking > 3 m/s^2 after change", "request to target lane s: median"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+
+    def num(value: Any, digits: int = 2) -> str:
+        return "-" if not (isinstance(value, float | int) and math.isfinite(value)) \
+            else f"{value:.{digits}f}"
+
+    for _, r in summary.iterrows():
+        if "max_long_jerk_mps3_p50" not in r:
+            continue
+        lines.append("| " + " | ".join([
+            str(r["driver"]), str(r["variant"]), f"{r['mu']:g}", f"{r['density']:g}",
+            f"{num(r['max_long_jerk_mps3_p50'], 0)} / {num(r['max_long_jerk_mps3_max'], 0)}",
+            num(r["long_accel_jump_share_p50"], 3),
+            f"{num(r['merge_time_gap_s_p50'])} / {num(r['merge_time_gap_s_min'])}",
+            f"{num(r['post_change_max_decel_mps2_p50'])} / "
+            f"{num(r['post_change_max_decel_mps2_max'])}",
+            num(r["hard_post_change_brakes"], 0), num(r["request_to_lane_s_p50"])]) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def interval(low: float, high: float, digits: int = 2, scale: float = 1.0) -> str:
+    """A confidence interval as "[low, high]": no hyphen that could read as a minus."""
+    return f"[{scale * low:.{digits}f}, {scale * high:.{digits}f}]"
+
+
+def summary_markdown(summary: pd.DataFrame) -> str:
+    """The main figures of summary.csv as a Markdown table (for docs and READMEs):
+    rates with Wilson intervals, durations and TTC as medians with the median's
+    distribution-free interval (the statistic the plots show too)."""
+
+    def pct(row: pd.Series, name: str) -> str:
+        if not math.isfinite(row[f"{name}_rate"]):
+            return "-"
+        return (f"{100 * row[f'{name}_rate']:.0f} "
+                + interval(row[f"{name}_ci_low"], row[f"{name}_ci_high"], 0, 100.0))
+
+    def median(row: pd.Series, name: str) -> str:
+        if not math.isfinite(row[f"{name}_p50"]):
+            return "-"
+        text = f"{row[f'{name}_p50']:.2f}"
+        if math.isfinite(row[f"{name}_ci_low"]):
+            text += " " + interval(row[f"{name}_ci_low"], row[f"{name}_ci_high"])
+            if row[f"{name}_ci_coverage"] < CONFIDENCE:  # too few runs for 95 %
+                text += f" ({100 * row[f'{name}_ci_coverage']:.0f} %)"
+        return text
+
+    def follower(row: pd.Series) -> str:
+        p95 = row.get(f"follower_decel_mps2_p{FOLLOWER_PERCENTILE}", math.nan)
+        if not math.isfinite(p95):
+            return "-"
+        return f"{p95:.2f} / {row['follower_decel_mps2_max']:.2f}"
+
+    def collisions(row: pd.Series) -> str:  # ours, then SUMO's in parentheses
+        ours = pct(row, "collision")
+        sumo = row.get("sumo_collision_rate", math.nan)
+        return ours if not math.isfinite(sumo) else f"{ours} ({100 * sumo:.0f})"
+
+    ours = summary[summary["plant"] != NO_PLANT]
+    varying = [c for c in ("variant", "plant", "occupant", "mu")
+               if (ours if c == "plant" else summary)[c].nunique() > 1]
+    head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
+            "unfinished", "success % of finished [95 % CI]",
+            "collision % [95 % CI] (SUMO's %)", "SV-caused collision % [95 % CI]",
+            "lane-change duration s: median [95 % CI]", "min TTC s: median [95 % CI]",
+            "new follower's max decel m/s^2: p95 / max"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for _, row in summary.iterrows():
+        cells = [str(row["driver"]), *(f"{row[c]}" for c in varying), f"{row['density']:g}",
+                 f"{row['ok']} / {row['failed']}", f"{row.get('unfinished', 0)}",
+                 pct(row, "success"), collisions(row),
+                 pct(row, "sv_collision"), median(row, "lc_duration_s"),
+                 median(row, "min_ttc_s"), follower(row)]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_tables(runs: pd.DataFrame, summary: pd.DataFrame, out_dir: Path) -> None:
+    """runs.csv, summary.csv, summary.md and comfort.md, each replaced atomically."""
+    atomic_write_csv(out_dir / "runs.csv", runs)
+    atomic_write_csv(out_dir / "summary.csv", summary)
+    atomic_write_text(out_dir / "summary.md", summary_markdown(summary))
+    atomic_write_text(out_dir / "comfort.md", comfort_markdown(summary))
