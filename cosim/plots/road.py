@@ -11,6 +11,8 @@ import numpy as np
 
 from cosim.plots import save_figure
 
+STRETCH_BELOW = 0.05  # -, a map narrower than this share of its length is drawn stretched
+
 
 def plot_road(road: Any, path: Path, *, title: str = "",
               sv_path: tuple[Any, Any] | None = None) -> Path:
@@ -44,9 +46,14 @@ def plot_road(road: Any, path: Path, *, title: str = "",
         ax_map.plot(sv_path[0], sv_path[1], color="tab:red", lw=1.5, zorder=3, label="SV")
     ax_map.legend(fontsize=7, loc="best", title="frame's lane borders (SUMO's lanes grey)",
                   title_fontsize=7)
-    ax_map.set_aspect("equal", adjustable="datalim")
     ax_map.set_xlabel("x (m)")
-    ax_map.set_ylabel("y (m)")
+    shapes = np.concatenate([np.asarray(p.shape) for t in road.tracks for p in t.pieces])
+    width, length = np.ptp(shapes, axis=0)[::-1]  # across and along the map's x
+    if width >= STRETCH_BELOW * length:
+        ax_map.set_aspect("equal", adjustable="datalim")
+        ax_map.set_ylabel("y (m)")
+    else:  # a near-straight road to scale is a line: show its lanes
+        ax_map.set_ylabel("y (m; stretched, not to scale)")
     q = frame.quality
     ax_map.set_title(title or f"route {' '.join(road.route.edges)}: deviation "
                      f"{road.max_deviation * 100:.1f} cm, smallest radius "

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
+
+import pytest
 
 from cosim.plots.road import plot_road
 from cosim.road.road import load_road
@@ -15,3 +18,28 @@ def test_the_curved_motorway_is_drawn(tmp_path: Path) -> None:
     assert out.stat().st_size > 20_000
     straight = plot_road(load_road(NETWORK_DIR / "highway.net.xml"), tmp_path / "h.png")
     assert straight.stat().st_size > 10_000
+
+
+def test_a_straight_route_is_stretched_across_a_curved_one_is_to_scale(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # to scale, the shipped on-ramp's 2.5 km by 15 m is a line with 1600 m of empty map
+    # above and below it; the curved motorway stays an x-y map to scale
+    import cosim.plots.road as road_plots
+    from cosim.scenario import project_root
+
+    maps: list[Any] = []
+
+    def keep(fig: Any, path: Path) -> Path:
+        maps.append(fig.axes[0])
+        return path
+
+    monkeypatch.setattr(road_plots, "save_figure", keep)
+    plot_road(load_road(project_root() / "networks" / "onramp.net.xml",
+                        ["acc", "main1", "main2"]), tmp_path / "ramp.png")
+    plot_road(load_road(NETWORK_DIR / "curved_motorway.net.xml", ["e1", "e2", "e3", "e4"]),
+              tmp_path / "curved.png")
+    ramp, curved = maps
+    assert ramp.get_aspect() == "auto" and "stretched" in ramp.get_ylabel()
+    assert curved.get_aspect() == 1.0 and curved.get_ylabel() == "y (m)"
+    low, high = ramp.get_ylim()
+    assert high - low < 50.0  # the lanes fill the map
