@@ -548,12 +548,10 @@ class Recorder:
         m["merge_distance_to_end_m"] = left
         start = mx.merge_start(t, trace["d_m"], cross, self.road.lane_center(start_lane))
         centre = self.road.lane_center(target)
-        # watched until the SV leaves the target lane's centre again (its next change
-        # begins, an aborted one too), else to the run's end (the crossing itself left
-        # the merge unsettled and its follower watched to the end, where it braked 6.8
-        # m/s^2 for something else 22 s later; a window that only a change crossing out
-        # of the lane ended ran on through an aborted one: 2.96 m/s^2, 10 s after the
-        # merge, ramp_merge at 20 veh/km/lane, seed 19)
+        # settling is looked for until the SV leaves the target lane's centre again (a
+        # next change begins, an aborted one too): to the run's end, its follower was
+        # watched through later manoeuvres (6.8 m/s^2 for another vehicle 22 s later;
+        # 2.96 through an aborted change 10 s later)
         t_end = mx.merge_end(t, trace["d_m"], lane, cross, centre)
         durations = mx.lane_change_durations(t, trace["d_m"], [start], [centre], [t_end],
                                              SETTLE_TOL)
