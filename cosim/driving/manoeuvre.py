@@ -406,7 +406,7 @@ class Manoeuvre:
         self.outcomes["brake"] += 1
         self.mode = BRAKING
         self.next_check = t + self.recheck_interval if gentle else math.inf
-        row = plan_row(plan, "brake", reference_state(lc.trajectory, t, lc.origin_lane).vx)
+        row = plan_row(plan, "brake", trajectory.vx0)
         row.update(reason=reason, tau_s=trajectory.tau, ok=1,
                    target_lane=self.lanes.lane_of(trajectory.y_final))
         self.plans.append(row)
@@ -447,56 +447,17 @@ class Manoeuvre:
         # the quartic from a = ax0 to a(tau) = 0 peaks at about 1.5x its mean deceleration
         grip = BRAKE_GRIP * self.mu * G / 1.5
         end = self.lane_end(lane, x=st.x, speed=st.vx)
-
-        def brake(decel: float) -> LaneChangeTrajectory:
-            tau, vxf = base_tau, max(st.vx - decel * base_tau, 0.0)
-            if end is not None and st.vx > 0.0:
-                tau, vxf = self.brake_to_stop(st.x, st.vx, st.ax, tau, vxf, decel, end)
-            return LaneChangeTrajectory(
-                t0=t, tau=tau, x0=st.x, y0=st.y, vx0=st.vx, vxf=vxf,
-                width=self.lanes.centre(lane) - st.y, ax0=st.ax, vy0=st.vy, ay0=st.ay,
-            )
-
+        centre = self.lanes.centre(lane)
         for decel in (d for d in BRAKE_DECELS if d < grip):
-            trajectory = brake(decel)
-            if end is not None and not self.stops_before(trajectory, end):
+            trajectory = brake_reference(t, st, centre, base_tau, decel, end)
+            if end is not None and not stops_before(trajectory, end):
                 continue  # a lane that ends: only a brake that still stops before its end
             w0 = time.perf_counter()
             passes = self.planner.check(trajectory, t, messages) is None
             self.wall += time.perf_counter() - w0
             if passes:
                 return trajectory, True
-        return brake(grip), False
-
-    @staticmethod
-    def stops_before(trajectory: LaneChangeTrajectory, end: LaneEnd) -> bool:
-        """Whether the SV, flying `trajectory` and then braking at STOP_DECEL, stops with
-        its front WAIT_ROOM before the end `end` (measured from the trajectory's start)."""
-        from cosim.driving.lane_end import STOP_DECEL
-
-        travel = float(trajectory.position(trajectory.t_end)[0]) - trajectory.x0
-        stop = trajectory.vxf * trajectory.vxf / (2.0 * STOP_DECEL)
-        return travel + stop <= end.remaining - WAIT_ROOM + 1e-6
-
-    def brake_to_stop(self, x: float, vx: float, ax: float, tau: float, vxf: float,
-                      decel: float, end: LaneEnd) -> tuple[float, float]:
-        """(tau, vxf) of a brake in a lane that ends: the brake's own (tau, vxf) when the
-        SV can still stop after it at STOP_DECEL-like braking before the stop line
-        (its front WAIT_ROOM before the end), else a brake to a standstill that ends at
-        the stop line if the grip allows (a quartic to rest over tau travels
-        (vx0 + ax0 tau / 6) tau / 2), at most at the grip (then as far as it must)."""
-        from cosim.driving.lane_end import STOP_DECEL
-
-        room = end.remaining - WAIT_ROOM  # m, front to the stop line
-        x_end = 0.5 * (vx + vxf) * tau + ax * tau * tau / 12.0
-        if x_end + vxf * vxf / (2.0 * STOP_DECEL) <= room:
-            return tau, vxf
-        tau_grip = max(vx / decel, BRAKE_TAU_MIN)  # shortest brake to rest within the grip
-        # (the quartic's ax0 term is small next to vx0: the stop is found from vx0 alone)
-        # the gentlest stop at the stop line, within 2 BRAKE_TAU (an earlier stop leaves
-        # the car following to close up to it)
-        tau_stop = 2.0 * max(room, END_MARGIN) / vx
-        return max(tau_grip, min(tau_stop, 2.0 * BRAKE_TAU)), 0.0
+        return brake_reference(t, st, centre, base_tau, grip, end), False
 
     # ------------------------------------------------------------------ the run
     def summary(self, t: np.ndarray) -> Manoeuvres:
@@ -512,3 +473,46 @@ class Manoeuvre:
             planner_calls=len(self.plans), outcomes=dict(self.outcomes),
             first_start=changes[0].t0 if changes else None, plans=self.plans,
             first_plan=self.first_plan)
+
+
+def stops_before(trajectory: LaneChangeTrajectory, end: LaneEnd) -> bool:
+    """Whether the SV, flying `trajectory` and then braking at STOP_DECEL, stops with
+    its front WAIT_ROOM before the end `end` (measured from the trajectory's start)."""
+    from cosim.driving.lane_end import STOP_DECEL
+
+    travel = float(trajectory.position(trajectory.t_end)[0]) - trajectory.x0
+    stop = trajectory.vxf * trajectory.vxf / (2.0 * STOP_DECEL)
+    return travel + stop <= end.remaining - WAIT_ROOM + 1e-6
+
+
+def brake_to_stop(vx: float, ax: float, tau: float, vxf: float, decel: float,
+                  end: LaneEnd) -> tuple[float, float]:
+    """(tau, vxf) of a brake in a lane that ends: the brake's own (tau, vxf) when the
+    SV can still stop after it at STOP_DECEL-like braking before the stop line
+    (its front WAIT_ROOM before the end), else a brake to a standstill that ends at
+    the stop line if the grip allows (a quartic to rest over tau travels
+    (vx0 + ax0 tau / 6) tau / 2), at most at `decel` (then as far as it must)."""
+    from cosim.driving.lane_end import STOP_DECEL
+
+    room = end.remaining - WAIT_ROOM  # m, front to the stop line
+    x_end = 0.5 * (vx + vxf) * tau + ax * tau * tau / 12.0
+    if x_end + vxf * vxf / (2.0 * STOP_DECEL) <= room:
+        return tau, vxf
+    tau_grip = max(vx / decel, BRAKE_TAU_MIN)  # shortest brake to rest within the grip
+    # (the quartic's ax0 term is small next to vx0: the stop is found from vx0 alone)
+    # the gentlest stop at the stop line, within 2 BRAKE_TAU (an earlier stop leaves
+    # the car following to close up to it)
+    tau_stop = 2.0 * max(room, END_MARGIN) / vx
+    return max(tau_grip, min(tau_stop, 2.0 * BRAKE_TAU)), 0.0
+
+
+def brake_reference(t: float, st: SVPlanState, centre: float, tau: float, decel: float,
+                    end: LaneEnd | None) -> LaneChangeTrajectory:
+    """A brake from the reference state `st` at t to the lane centre `centre` (m) over
+    tau at mean deceleration `decel` (m/s^2); in a lane that ends (`end`), as
+    `brake_to_stop` has it."""
+    vxf = max(st.vx - decel * tau, 0.0)
+    if end is not None and st.vx > 0.0:
+        tau, vxf = brake_to_stop(st.vx, st.ax, tau, vxf, decel, end)
+    return LaneChangeTrajectory(t0=t, tau=tau, x0=st.x, y0=st.y, vx0=st.vx, vxf=vxf,
+                                width=centre - st.y, ax0=st.ax, vy0=st.vy, ay0=st.ay)
