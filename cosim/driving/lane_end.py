@@ -4,9 +4,9 @@ before the end, as every policy that flies planned manoeuvres uses them.
 - `sv_lane_end`: the end of the SV's lane ahead, the lane to change into and the
   LC2013 look-ahead within which the change is due (cosim.planning.deadline). Once
   due, the policy asks for that change with trigger "mandatory" (plans.csv), before
-  any scripted request or lane the speed-band rule wants; it may ask from a standstill
-  (`MERGE_MIN_SPEED`: the plan starts at CREEP_SPEED at least, the planner needs a
-  positive speed).
+  any scripted request or lane the speed-band rule wants; it may ask from any speed, a
+  standstill too (the plan starts at CREEP_SPEED at least, the planner needs a positive
+  speed).
 - The deadline: the manoeuvre (cosim.driving.manoeuvre) plans only changes that end
   with the SV's front `deadline.END_MARGIN` before the end (`LaneEnd.x_limit`); when
   none at the wanted end speed does, it tries the end speeds at which a change of
@@ -56,7 +56,6 @@ MERGE_TAUS = (4.0, 7.0, 10.0)  # s, the durations the end-speed caps assume (`fi
 MERGE_CURVATURE = 0.2  # 1/m, the sharpest path a mandatory plan may take (R 5 m; the
 # plant's 0.6 rad road-wheel limit on its 2.51 m wheelbase allows 0.27): from 1 m/s a
 # 4 s change to 9 m/s bends at 0.56 1/m, the envelope's yaw-rate bound allows it
-MERGE_MIN_SPEED = 0.0  # m/s, a mandatory change is asked for from this speed up
 CREEP_SPEED = 1.0  # m/s, a mandatory change starts at least at this speed
 MERGE_INSIST_DECEL = 4.5  # m/s^2, the most a mandatory change may ask of its new follower
 # (the urgency law's top, cosim.driving.gap.decision.mandatory_config): the Krauss
@@ -67,11 +66,6 @@ MERGE_APPROACH_DECEL = 2.0  # m/s^2, the hardest a mandatory change brakes towar
 # (GapConfig.approach_decel, 3 for a change by choice): on an acceleration lane braking
 # for a slower gap loses the speed the merge needs, and the stop law brakes for the end
 # (merge study, 20 seeds: 17 of 20 merges at 50 veh/km/lane with 3, 20 of 20 with 2)
-MERGE_ASK_DECEL = 2.0  # m/s^2, a mandatory change with no gap in reach asks the nearest TV
-# behind that can still fall back behind the SV braking this hard (the traffic's courtesy,
-# cosim.traffic.cooperation.COURTESY_DECEL): the nearest one, asked while the SV stood at
-# its stop line, could not stop behind it, drove past, and so did the next ones (a merge
-# at 20 veh/km/lane waited 31 s and never went, issue 24)
 YIELD_DECEL = 2.0  # m/s^2, the most the gap policy's SV brakes to let a merging TV in
 # (the IDM's comfortable b)
 

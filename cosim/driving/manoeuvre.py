@@ -44,7 +44,6 @@ from cosim.driving.base import DrivingContext, Manoeuvres, PolicyStatus
 from cosim.driving.lane_end import (
     CREEP_SPEED,
     MERGE_CURVATURE,
-    MERGE_MIN_SPEED,
     MERGE_TAUS,
     WAIT_ROOM,
     sv_lane_end,
@@ -186,15 +185,14 @@ class Manoeuvre:
         return (free and self.timer.may_request(t, decision=False),
                 free and self.timer.may_request(t))
 
-    def may_merge(self, t: float, sv: SVState) -> bool:
+    def may_merge(self, t: float) -> bool:
         """Whether a mandatory change may go to the planner now: no manoeuvre under way
-        and the retry passed, from MERGE_MIN_SPEED up (a standstill at the stop line).
-        The plant standing still may read a speed a hair below 0 (-1e-12 m/s): that is a
-        standstill too (read as below 0, it kept a stopped SV from ever merging while the
-        queue it had asked to make room stood beside it: 3 of 20 runs at 40 veh/km/lane,
-        issue 24)."""
-        return (self.active is None and max(sv.vx, 0.0) >= MERGE_MIN_SPEED
-                and self.timer.may_request(t, decision=False))
+        and the retry passed, at any speed (a standstill at the stop line: the plan
+        starts at CREEP_SPEED). No speed test: one asking vx >= 0 read the plant standing
+        still at -1e-12 m/s as moving backwards and kept a stopped SV from ever merging
+        while the queue it had asked to make room stood beside it (3 of 20 runs at 40
+        veh/km/lane, issue 24)."""
+        return self.active is None and self.timer.may_request(t, decision=False)
 
     def mandatory(self, lane: int, sv: SVState) -> LaneEnd | None:
         """The end of the SV's `lane` once the mandatory change is due, else None. Once

@@ -65,7 +65,7 @@ class PaperPolicy:
         d = self.following.update(sv, scene, allow_decision, stop_gap(end))
         target, trigger = None, ""
         if end is not None and m.mandatory(lane, sv) is not None:
-            if m.may_merge(t, sv):
+            if m.may_merge(t):
                 target, trigger = end.target, MANDATORY
         elif allow_scripted:
             target = m.due_scripted(t, sv)

@@ -337,13 +337,19 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
     assert kappa[0] <= MERGE_CURVATURE + 1e-9 and 5.0 < tr.vxf < 13.0
 
 
-def test_a_standstill_read_a_hair_below_zero_may_still_merge() -> None:
-    # the two-track plant standing at the stop line reads vx = -1e-12 m/s: a standstill
-    # (refused as below MERGE_MIN_SPEED, a stopped SV never merged: issue 24)
-    d = Drive("gap", scenario(0.0), END - WAIT_ROOM - HALF)
+@pytest.mark.parametrize("name", ["paper", "gap"])
+def test_a_standstill_read_a_hair_below_zero_still_merges(name: str) -> None:
+    # the two-track plant standing at the stop line reads vx = -1e-12 m/s: a standstill.
+    # A speed test on the merge (vx >= 0) kept such an SV from ever merging while the
+    # queue it had asked to make room stood beside it (issue 24); lane 1 is free here
+    d = Drive(name, scenario(0.0), END - WAIT_ROOM - HALF)
     m = d.policy.manoeuvre
-    assert m.may_merge(0.0, replace(d.sv, vx=-1e-12))
-    assert m.may_merge(0.0, replace(d.sv, vx=0.0))
+    assert m.mandatory(0, replace(d.sv, vx=20.0)) is not None  # due since it came at speed
+    d.sv = replace(d.sv, vx=-1e-12)
+    d.step()
+    # planned at once (at the slower end speed that fits the room) and flying it
+    assert {p["trigger"] for p in d.plans} == {MANDATORY} and d.plans[-1]["ok"] == 1
+    assert m.mode == CHANGING
 
 
 # ------------------------------------------------------------------ abort near the end

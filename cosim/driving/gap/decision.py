@@ -49,16 +49,12 @@ from cosim.driving.gap.geometry import (
     seeking_accel,
     slot_ends,
 )
-from cosim.driving.lane_end import (
-    MERGE_APPROACH_DECEL,
-    MERGE_ASK_DECEL,
-    MERGE_INSIST_DECEL,
-    MERGE_MIN_SPEED,
-)
+from cosim.driving.lane_end import MERGE_APPROACH_DECEL, MERGE_INSIST_DECEL
 from cosim.driving.lanes import LaneLayout
 from cosim.driving.rule import DecisionConfig, decide, neighbours
 from cosim.driving.scene import SV, Traffic
 from cosim.planning.interaction import FollowerModel, secure_gap
+from cosim.traffic.cooperation import COURTESY_DECEL
 
 
 @dataclass(frozen=True)
@@ -94,10 +90,13 @@ def mandatory_config(cfg: GapConfig) -> GapConfig:
     after 1 s made the merge's new follower brake at its full 4.5 m/s^2 in 8 of 20 runs
     at 50 veh/km/lane, SUMO's driver's in 1; the courtesy opens the gap instead, issue
     24); its approach braking no harder than MERGE_APPROACH_DECEL; with no gap in reach,
-    the TV asked to make room one that can (MERGE_ASK_DECEL)."""
-    return replace(cfg, min_speed=MERGE_MIN_SPEED, max_speed_change=math.inf,
+    the TV asked to make room one that can still fall back behind the SV at the
+    courtesy's own braking (COURTESY_DECEL: the nearest one, asked while the SV stood at
+    its stop line, could not stop behind it, drove past, and so did the next ones; a
+    merge at 20 veh/km/lane waited 31 s and never went)."""
+    return replace(cfg, min_speed=0.0, max_speed_change=math.inf,
                    insist_decel=MERGE_INSIST_DECEL, approach_decel=MERGE_APPROACH_DECEL,
-                   ask_decel=MERGE_ASK_DECEL, patience=math.inf)
+                   ask_decel=COURTESY_DECEL, patience=math.inf)
 
 
 def urgent_decel(cfg: GapConfig, urgency: float) -> float:

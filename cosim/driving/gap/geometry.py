@@ -125,7 +125,7 @@ class GapConfig:
     # the SV this much faster as well
     ask_decel: float = math.inf  # m/s^2, with no gap in reach, the TV asked to make room
     # is the nearest behind the SV that can still fall back behind its rear braking this
-    # hard (inf: the nearest; a mandatory change: the courtesy's 2 m/s^2, lane_end)
+    # hard (inf: the nearest; a mandatory change: the courtesy's, decision.mandatory_config)
     nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the
     # planner's eq. 13 optimum in the density study: 3.15-3.5 s at 7-31 m/s)
 

@@ -193,7 +193,7 @@ class GapPolicy:
         if not d.plan_now or d.target_lane is None:
             return d, ""
         if mandatory:
-            return d, MANDATORY if m.may_merge(t, sv) else ""
+            return d, MANDATORY if m.may_merge(t) else ""
         if scripted is not None:
             return d, "scripted" if allow_scripted else ""
         return d, "decision" if allow_decision else ""
