@@ -447,15 +447,15 @@ class Manoeuvre:
         end = self.lane_end(lane, x=st.x, speed=st.vx)
         centre = self.lanes.centre(lane)
         for decel in (d for d in BRAKE_DECELS if d < grip):
-            trajectory = brake_reference(t, st, centre, base_tau, decel, end)
-            if end is not None and not stops_before(trajectory, end):
+            trajectory, stops = brake_reference(t, st, centre, base_tau, decel, end)
+            if not stops:
                 continue  # a lane that ends: only a brake that still stops before its end
             w0 = time.perf_counter()
             passes = self.planner.check(trajectory, t, messages) is None
             self.wall += time.perf_counter() - w0
             if passes:
                 return trajectory, True
-        return brake_reference(t, st, centre, base_tau, grip, end), False
+        return brake_reference(t, st, centre, base_tau, grip, end)[0], False
 
     # ------------------------------------------------------------------ the run
     def summary(self, t: np.ndarray) -> Manoeuvres:
@@ -473,44 +473,40 @@ class Manoeuvre:
             first_plan=self.first_plan)
 
 
-def stops_before(trajectory: LaneChangeTrajectory, end: LaneEnd) -> bool:
-    """Whether the SV, flying `trajectory` and then braking at STOP_DECEL, stops with
-    its front WAIT_ROOM before the end `end` (measured from the trajectory's start)."""
-    from cosim.driving.lane_end import STOP_DECEL
-
-    travel = float(trajectory.position(trajectory.t_end)[0]) - trajectory.x0
-    stop = trajectory.vxf * trajectory.vxf / (2.0 * STOP_DECEL)
-    return travel + stop <= end.remaining - WAIT_ROOM + 1e-6
-
-
 def brake_to_stop(vx: float, ax: float, tau: float, vxf: float, decel: float,
-                  end: LaneEnd) -> tuple[float, float]:
-    """(tau, vxf) of a brake in a lane that ends: the brake's own (tau, vxf) when the
-    SV can still stop after it at STOP_DECEL-like braking before the stop line
-    (its front WAIT_ROOM before the end), else a brake to a standstill that ends at
-    the stop line if the grip allows (a quartic to rest over tau travels
-    (vx0 + ax0 tau / 6) tau / 2), at most at `decel` (then as far as it must)."""
+                  end: LaneEnd) -> tuple[float, float, bool]:
+    """(tau, vxf) of a brake in a lane that ends, and whether the SV then stops with its
+    front WAIT_ROOM before the end (braking on at STOP_DECEL after it): the brake's own
+    (tau, vxf) when it does, else a brake to a standstill that ends at the stop line if
+    `decel` allows, at most at `decel` (then as far as it must, and past the line). A
+    quartic from ax0 with a(tau) = 0 travels (vx0 + vxf) tau / 2 + ax0 tau^2 / 12."""
     from cosim.driving.lane_end import STOP_DECEL
 
     room = end.remaining - WAIT_ROOM  # m, front to the stop line
-    x_end = 0.5 * (vx + vxf) * tau + ax * tau * tau / 12.0
-    if x_end + vxf * vxf / (2.0 * STOP_DECEL) <= room:
-        return tau, vxf
-    tau_grip = max(vx / decel, BRAKE_TAU_MIN)  # shortest brake to rest within the grip
+
+    def stops(tau: float, vxf: float) -> bool:
+        travel = 0.5 * (vx + vxf) * tau + ax * tau * tau / 12.0
+        return travel + vxf * vxf / (2.0 * STOP_DECEL) <= room + 1e-6
+
+    if stops(tau, vxf):
+        return tau, vxf, True
+    tau_grip = max(vx / decel, BRAKE_TAU_MIN)  # shortest brake to rest within `decel`
     # (the quartic's ax0 term is small next to vx0: the stop is found from vx0 alone)
     # the gentlest stop at the stop line, within 2 BRAKE_TAU (an earlier stop leaves
     # the car following to close up to it)
     tau_stop = 2.0 * max(room, END_MARGIN) / vx
-    return max(tau_grip, min(tau_stop, 2.0 * BRAKE_TAU)), 0.0
+    tau = max(tau_grip, min(tau_stop, 2.0 * BRAKE_TAU))
+    return tau, 0.0, stops(tau, 0.0)
 
 
 def brake_reference(t: float, st: SVPlanState, centre: float, tau: float, decel: float,
-                    end: LaneEnd | None) -> LaneChangeTrajectory:
+                    end: LaneEnd | None) -> tuple[LaneChangeTrajectory, bool]:
     """A brake from the reference state `st` at t to the lane centre `centre` (m) over
-    tau at mean deceleration `decel` (m/s^2); in a lane that ends (`end`), as
-    `brake_to_stop` has it."""
-    vxf = max(st.vx - decel * tau, 0.0)
+    tau at mean deceleration `decel` (m/s^2), and whether it stops before the end of a
+    lane that ends (`end`; as `brake_to_stop` has it; True without one)."""
+    vxf, stops = max(st.vx - decel * tau, 0.0), True
     if end is not None and st.vx > 0.0:
-        tau, vxf = brake_to_stop(st.vx, st.ax, tau, vxf, decel, end)
+        tau, vxf, stops = brake_to_stop(st.vx, st.ax, tau, vxf, decel, end)
     return LaneChangeTrajectory(t0=t, tau=tau, x0=st.x, y0=st.y, vx0=st.vx, vxf=vxf,
-                                width=centre - st.y, ax0=st.ax, vy0=st.vy, ay0=st.ay)
+                                width=centre - st.y, ax0=st.ax, vy0=st.vy,
+                                ay0=st.ay), stops
