@@ -88,15 +88,10 @@ def excursions(t: Array, y: Array, lanes: LaneLayout) -> tuple[list[float], list
     as failed; the merge study's SUMO-native runs, 29 of 100)."""
     centres = np.array([lanes.centre(k) for k in range(lanes.n_lanes)])
     dist = np.abs(y[:, None] - centres[None, :])
-    home = np.where(dist.min(axis=1) < SETTLE_TOL, dist.argmin(axis=1), -1)
-    starts: list[float] = []
-    targets: list[float] = []
-    last_home, last_t = -1, 0.0
-    for i in np.flatnonzero(home >= 0):
-        k = int(home[i])
-        if last_home >= 0 and k != last_home:
-            starts.append(last_t)
-            targets.append(float(centres[k]))
-        last_home, last_t = k, float(t[i])
+    at = np.flatnonzero(dist.min(axis=1) < SETTLE_TOL)  # samples in a centre band
+    home = dist[at].argmin(axis=1)
+    moved = np.flatnonzero(home[1:] != home[:-1])  # the last sample in the old band
+    starts = [float(v) for v in np.asarray(t)[at[moved]]]
+    targets = [float(v) for v in centres[home[moved + 1]]]
     ends = [*starts[1:], float(t[-1])] if starts else []
     return starts, targets, ends
