@@ -13,12 +13,12 @@ figure (cosim.plots.batch.plot_summary) of the folder's summary.csv."""
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 # (driver, variant, label), in the order of scenarios/study_gap.toml
@@ -35,8 +35,8 @@ ROWS = (
 )
 
 
-def _rows(runs: pd.DataFrame, driver: str, variant: str) -> pd.DataFrame:
-    mine = runs[runs["driver"] == driver]
+def _rows(table: pd.DataFrame, driver: str, variant: str) -> pd.DataFrame:
+    mine = table[table["driver"] == driver]
     return mine[mine["variant"].fillna("").astype(str) == variant]
 
 
@@ -45,14 +45,24 @@ def _per_density(runs: pd.DataFrame, densities: list[float],
     return " / ".join(cell(runs[runs["density"] == d]) for d in densities)
 
 
-def _p95(rows: pd.DataFrame) -> str:
-    values = rows["follower_max_decel_mps2"].dropna().to_numpy(float)
-    return f"{np.percentile(values, 95):.2f}" if values.size else "-"
+def _number(column: str, digits: int) -> Callable[[pd.DataFrame], str]:
+    """A cell of the summary's `column` (one row per density): "-" where it has none."""
+    def cell(row: pd.DataFrame) -> str:
+        value = float(row[column].iloc[0]) if len(row) else math.nan
+        return f"{value:.{digits}f}" if math.isfinite(value) else "-"
+    return cell
 
 
 def table(folder: Path) -> str:
-    runs = pd.read_csv(folder / "runs.csv")
-    runs = runs[runs["status"] == "ok"]
+    """The per-density statistics (the follower's p95, the median minimum TTC) are the
+    batch's summary.csv's (cosim.summary.summarize); the counts and the lane-change
+    time's median over all densities are the runs'."""
+    from cosim.metrics import FOLLOWER_PERCENTILE
+    from cosim.summary import summarize
+
+    everything = pd.read_csv(folder / "runs.csv")
+    summary = summarize(everything)
+    runs = everything[everything["status"] == "ok"]
     densities = sorted(runs["density"].unique())
     at = " / ".join(f"{d:g}" for d in densities)
     head = ["driver", f"lane changes / 20 runs at {at} veh/km/lane",
@@ -61,7 +71,7 @@ def table(folder: Path) -> str:
             "lane-change time, median (s)", "min TTC, median per density (s)"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for driver, variant, label in ROWS:
-        rows = _rows(runs, driver, variant)
+        rows, cells = _rows(runs, driver, variant), _rows(summary, driver, variant)
         if rows.empty:
             continue
         lines.append("| " + " | ".join([
@@ -70,9 +80,10 @@ def table(folder: Path) -> str:
                          lambda r: f"{int(r['lane_change_completed'].sum())}"),
             f"{int((rows['collisions_sv'] > 0).sum())} / "
             f"{int((rows['sumo_collision'] > 0).sum())}",
-            _per_density(rows, densities, _p95),
+            _per_density(cells, densities,
+                         _number(f"follower_decel_mps2_p{FOLLOWER_PERCENTILE}", 2)),
             f"{rows['lane_change_duration_s'].median():.2f}",
-            _per_density(rows, densities, lambda r: f"{r['min_ttc_s'].median():.1f}"),
+            _per_density(cells, densities, _number("min_ttc_s_p50", 1)),
         ]) + " |")
     return "\n".join(lines) + "\n"
 

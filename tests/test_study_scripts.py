@@ -47,10 +47,13 @@ def test_the_merge_table_reads_each_cell_as_the_batch_summary_does(tmp_path: Pat
 
 def test_the_gap_table_has_a_row_per_variant_and_a_cell_per_density(tmp_path: Path) -> None:
     # the gap policy: 2 densities x 2 runs, one lane change unfinished, one run without a
-    # follower; SUMO's: one run SUMO saw collide; a failed run is left out
+    # follower, one never closing on anyone (TTC inf); SUMO's: one run SUMO saw collide;
+    # a failed run is left out
     pd.DataFrame({
         "driver": ["mimo"] * 5 + ["sumo"] * 2,
         "variant": ["gap"] * 5 + [None] * 2,
+        "plant": ["twotrack"] * 5 + ["none"] * 2, "occupant": [0.5] * 7, "mu": [0.8] * 7,
+        "seed": [1, 2, 1, 2, 3, 1, 1],
         "density": [10.0, 10.0, 20.0, 20.0, 20.0, 10.0, 20.0],
         "status": ["ok"] * 4 + ["failed"] + ["ok"] * 2,
         "lane_change_completed": [1, 1, 1, 0, 1, 1, 1],
@@ -58,15 +61,17 @@ def test_the_gap_table_has_a_row_per_variant_and_a_cell_per_density(tmp_path: Pa
         "sumo_collision": [0, 0, 1, 0, 0, 1, 0],
         "follower_max_decel_mps2": [0.5, 1.5, None, 0.4, 9.0, 0.3, 4.5],
         "lane_change_duration_s": [3.0, 4.0, 2.0, None, 1.0, 3.0, 3.0],
-        "min_ttc_s": [10.0, 20.0, 5.0, 7.0, 1.0, 30.0, 8.0],
+        "min_ttc_s": [10.0, float("inf"), 5.0, 7.0, 1.0, 30.0, 8.0],
     }).to_csv(tmp_path / "runs.csv", index=False)
     out = script("study_gap_table.py", str(tmp_path))
     assert out.returncode == 0, out.stderr
     lines = out.stdout.splitlines()
     assert "at 10 / 20 veh/km/lane" in lines[0] and len(lines) == 4
-    # p95 of (0.5, 1.5) is 1.45 (numpy's linear interpolation); 20: one value, 0.4
+    # the per-density cells are summary.csv's: p95 of (0.5, 1.5) is 1.45 (numpy's linear
+    # interpolation), at 20 one value, 0.4; the minimum TTC's median over the finite
+    # values, 10.0 at 10 (a median with the inf run read inf there: not summary.md's)
     assert lines[2] == ("| gap (courtesy), perfect V2V | 2 / 1 | 1 / 1 | 1.45 / 0.40 | 3.00 "
-                        "| 15.0 / 6.0 |")
+                        "| 10.0 / 6.0 |")
     assert lines[3] == "| SUMO-native | 1 / 1 | 0 / 1 | 0.30 / 4.50 | 3.00 | 30.0 / 8.0 |"
 
 
