@@ -23,11 +23,10 @@ def plot_road(road: Any, path: Path, *, title: str = "",
     frame = road.frame
     fig, (ax_map, ax_k) = plt.subplots(2, 1, figsize=(10, 9),
                                        gridspec_kw={"height_ratios": [3, 1]})
-    for track in road.tracks:
-        for piece in track.pieces:
-            xy = np.asarray(piece.shape)
-            ax_map.plot(xy[:, 0], xy[:, 1], color="0.75", lw=3.0, solid_capstyle="butt",
-                        zorder=1)
+    shapes = [np.asarray(piece.shape) for track in road.tracks for piece in track.pieces]
+    for xy in shapes:
+        ax_map.plot(xy[:, 0], xy[:, 1], color="0.75", lw=3.0, solid_capstyle="butt",
+                    zorder=1)
     colours = plt.get_cmap("tab10")
     for table in road.lanes:
         s = np.arange(table.begin, table.end, 1.0)
@@ -47,8 +46,7 @@ def plot_road(road: Any, path: Path, *, title: str = "",
     ax_map.legend(fontsize=7, loc="best", title="frame's lane borders (SUMO's lanes grey)",
                   title_fontsize=7)
     ax_map.set_xlabel("x (m)")
-    shapes = np.concatenate([np.asarray(p.shape) for t in road.tracks for p in t.pieces])
-    width, length = np.ptp(shapes, axis=0)[::-1]  # across and along the map's x
+    width, length = np.ptp(np.concatenate(shapes), axis=0)[::-1]  # across, along x
     if width >= STRETCH_BELOW * length:
         ax_map.set_aspect("equal", adjustable="datalim")
         ax_map.set_ylabel("y (m)")
