@@ -91,6 +91,8 @@ class PolicyStatus:
     manoeuvring: bool  # a collision onset now is the SV's fault (a lane change under way)
     leader_gap: float  # m, bumper-to-bumper gap to the leader (inf: none)
     idm_accel: float  # m/s^2, car-following acceleration (NaN while changing lanes)
+    courtesy_held: bool = False  # the TVs yielding to the SV go on braking as they did
+    # before its change began (its plan counts on it) until it is in their lane
 
 
 @dataclass

@@ -225,9 +225,11 @@ def _accepted_gap_array(kind: int, p: Array, v: Array, vs: Array, dt: float,
 
 @njit
 def _follow_core(kind: int, p: Array, t: Array, sv_rear: Array, sv_speed: Array,
-                 t_enter: float, x0: float, v0: float, x: Array, v: Array, a: Array) -> None:
+                 t_enter: float, x0: float, v0: float, x: Array, v: Array, a: Array,
+                 a_before: float) -> None:
     """The follower's Euler recursion on the grid t (SUMO's update: v then x), into
-    x (front bumper, m), v (m/s), a (m/s^2, applied over the step that follows)."""
+    x (front bumper, m), v (m/s), a (m/s^2, applied over the step that follows);
+    before t_enter it drives at a_before (down to a standstill)."""
     x[0], v[0] = x0, v0
     n = t.size
     for k in range(n - 1):
@@ -235,7 +237,7 @@ def _follow_core(kind: int, p: Array, t: Array, sv_rear: Array, sv_speed: Array,
         if t[k] >= t_enter - 1e-9:
             ak = _accel_core(kind, p, sv_rear[k] - x[k], v[k], sv_speed[k], dt)
         else:
-            ak = 0.0  # it cannot see the SV yet: keeps its speed
+            ak = a_before  # it cannot see the SV yet
         a[k] = ak
         vn = max(v[k] + ak * dt, 0.0)
         v[k + 1] = vn
@@ -262,10 +264,11 @@ class FollowerPrediction:
 
 def predict_follower(t: ArrayLike, sv_rear_x: ArrayLike, sv_speed: ArrayLike,
                      t_enter: float, follower_front_x: float, follower_speed: float,
-                     m: FollowerModel) -> FollowerPrediction:
-    """Predict the new follower: it keeps its speed until the SV enters its lane at
-    `t_enter` (s; the SV's centre crosses the lane line), then follows the SV's rear
-    (x of the rear bumper and speed on the grid t) by its model."""
+                     m: FollowerModel, accel_before: float = 0.0) -> FollowerPrediction:
+    """Predict the new follower: it keeps its speed (or its acceleration
+    `accel_before`, m/s^2: a TV yielding to the SV, `check_follower`) until the SV
+    enters its lane at `t_enter` (s; the SV's centre crosses the lane line), then
+    follows the SV's rear (x of the rear bumper and speed on the grid t) by its model."""
     tt = np.ascontiguousarray(t, dtype=float)
     rear = np.ascontiguousarray(sv_rear_x, dtype=float)
     vs = np.ascontiguousarray(sv_speed, dtype=float)
@@ -273,7 +276,8 @@ def predict_follower(t: ArrayLike, sv_rear_x: ArrayLike, sv_speed: ArrayLike,
         raise ValueError("t, sv_rear_x and sv_speed must be 1-D arrays of the same length >= 2")
     x, v, a = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
     _follow_core(MODELS.index(m.model), _params(m), tt, rear, vs, float(t_enter),
-                 float(follower_front_x), float(follower_speed), x, v, a)
+                 float(follower_front_x), float(follower_speed), x, v, a,
+                 float(accel_before))
     after = tt >= t_enter - 1e-9
     max_decel = float(max(np.max(-a[after], initial=0.0), 0.0))
     gaps = (rear - x)[after]
@@ -301,12 +305,15 @@ class FollowerCheck:
 
 def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: ArrayLike,
                    tv_speed: ArrayLike, tv_length: ArrayLike, in_target: ArrayLike,
-                   m: FollowerModel, dt: float = 0.05) -> FollowerCheck:
+                   m: FollowerModel, dt: float = 0.05,
+                   tv_braking: ArrayLike | None = None) -> FollowerCheck:
     """Predict the new follower of a planned lane change (`trajectory`, from its t0):
     among the TVs with `in_target` true (centres tv_x at t0, constant speeds until the
-    SV enters), the nearest one behind the SV when the SV's centre crosses the lane line
-    (half the lateral displacement); it then follows the SV's rear by its model until
-    FOLLOW_AFTER after the manoeuvre ends (`predict_follower`)."""
+    SV enters, or braking at `tv_braking`, m/s^2 >= 0 per TV, down to a standstill: the
+    TVs that yield to the SV until it is in their lane), the nearest one behind the SV
+    when the SV's centre crosses the lane line (half the lateral displacement); it then
+    follows the SV's rear by its model until FOLLOW_AFTER after the manoeuvre ends
+    (`predict_follower`). What it is asked is its braking from then on."""
     tr = trajectory
     t = tr.t0 + np.arange(0.0, tr.tau + FOLLOW_AFTER + 0.5 * dt, dt)
     xs, ys = tr.position(t)
@@ -319,9 +326,13 @@ def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: Arr
     x = np.asarray(tv_x, dtype=float)
     v = np.asarray(tv_speed, dtype=float)
     half = 0.5 * np.asarray(tv_length, dtype=float)
-    front_in = x + half + v * (t_in - tr.t0)  # each TV's front when the SV enters
+    b = np.zeros_like(x) if tv_braking is None else np.asarray(tv_braking, dtype=float)
+    # each TV's travel until the SV enters (a braking one no farther than its stop)
+    dt_in = np.where(b > 0.0, np.minimum(t_in - tr.t0, v / np.maximum(b, 1e-9)), t_in - tr.t0)
+    moved = (v - 0.5 * b * dt_in) * dt_in
+    front_in = x + half + moved  # each TV's front when the SV enters
     rear_in = float(xs[k_in]) - 0.5 * sv_length
-    behind = np.asarray(in_target, dtype=bool) & (x + v * (t_in - tr.t0) < float(xs[k_in]))
+    behind = np.asarray(in_target, dtype=bool) & (x + moved < float(xs[k_in]))
     if not behind.any():
         return FollowerCheck(-1, t_in, None, True)
     gap_in = np.where(behind, rear_in - front_in, np.inf)
@@ -332,7 +343,7 @@ def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: Arr
     # 70 m/s was then predicted to brake for an SV 100 m ahead of it
     m = replace(m, max_speed=min(m.max_speed, max(float(v[j]), 0.1)))
     pred = predict_follower(t, xs - 0.5 * sv_length, speed, t_in, float(x[j] + half[j]),
-                            float(v[j]), m)
+                            float(v[j]), m, -float(b[j]))
     return FollowerCheck(j, t_in, pred, pred.safe(m))
 
 

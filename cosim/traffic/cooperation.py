@@ -27,7 +27,9 @@ the TV follows; who goes where is still the planner's decision. A TV makes room
 firmly while the SV waits beside the gap (`max_decel`) and, once the SV moves over,
 only holds its speed (`changing_decel`, next to nothing): as SUMO's informed followers
 do, the room is made before the change, and the change itself asks nothing more of
-a follower that has it.
+a follower that has it. A change planned on the courtesy held (the gap policy's
+`GapDecision.held`, `PolicyStatus.courtesy_held`) moves over while the TV still makes
+room: it goes on with `max_decel` until the SV is in its lane, then holds its speed.
 
 The API handle is the SUMO adapter's (`SumoSim.api`): this module does not import
 libsumo itself.

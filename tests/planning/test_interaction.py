@@ -191,3 +191,45 @@ def test_check_follower_of_a_planned_lane_change() -> None:
     keep = check_follower(LaneChangeTrajectory(0.0, 1.0, 0.0, 0.0, 20.0, 20.0, 0.0), 4.32,
                           x, v, length, target, KRAUSS)
     assert keep.follower == -1 and math.isnan(keep.t_enter)
+
+
+@pytest.mark.parametrize("m", [KRAUSS, IDM], ids=["krauss", "idm"])
+def test_a_yielding_follower_brakes_on_until_the_sv_enters(m: FollowerModel) -> None:
+    # braking at 2 m/s^2 from 30 m/s until the SV enters at 3 s: 24 m/s and 81 m then,
+    # exactly (SUMO's Euler update: v then x), and down to a standstill, never below
+    rear = 60.0 + 25.0 * T
+    p = predict_follower(T, rear, np.full(T.size, 25.0), 3.0, 0.0, 30.0, m,
+                         accel_before=-2.0)
+    k = int(round(3.0 / DT))
+    assert p.speed[k] == pytest.approx(24.0, abs=1e-9)
+    assert p.x[k] == pytest.approx(sum(30.0 - 2.0 * DT * i for i in range(1, k + 1)) * DT,
+                                   abs=1e-9)
+    stop = predict_follower(T, 1e3 + 0.0 * T, np.zeros(T.size), 20.0, 0.0, 3.0, m,
+                            accel_before=-2.0)
+    assert stop.speed.min() == 0.0 and stop.x[-1] == pytest.approx(stop.x[40], abs=1e-12)
+    # what it is asked is its braking after the SV enters, not the yielding before
+    assert p.max_decel < 2.0
+
+
+def test_check_follower_counts_on_a_yielding_tv_only_when_told() -> None:
+    from cosim.planning.interaction import check_follower
+    from cosim.planning.trajectory import LaneChangeTrajectory
+
+    # the SV cuts in 3.45 s from 27.65 to 32.8 m/s in front of a TV 22.6 m behind at
+    # 31.4 m/s (density study, 20 veh/km/lane, seed 3): at its own speed the TV would
+    # brake harder than SUMO's decel; braking on at 2 m/s^2 until the SV enters (the
+    # courtesy the SV asked of it) it has room and is asked nothing beyond
+    tr = LaneChangeTrajectory(t0=0.0, tau=3.45, x0=0.0, y0=0.0, vx0=27.65, vxf=32.8,
+                              width=3.75)
+    x, v, length, lane = (np.array([-22.6]), np.array([31.4]), np.array([5.0]),
+                          np.array([True]))
+    keeps = check_follower(tr, 5.0, x, v, length, lane, KRAUSS)
+    assert keeps.max_decel > 4.5
+    yields = check_follower(tr, 5.0, x, v, length, lane, KRAUSS, tv_braking=np.array([2.0]))
+    assert yields.follower == 0 and yields.safe and yields.max_decel < 1.0
+    assert yields.prediction is not None
+    k = int(np.argmax(yields.prediction.t >= yields.t_enter - 1e-9))
+    assert yields.prediction.speed[k] == pytest.approx(31.4 - 2.0 * yields.t_enter, abs=1e-9)
+    # zero braking is the TV keeping its speed
+    same = check_follower(tr, 5.0, x, v, length, lane, KRAUSS, tv_braking=np.zeros(1))
+    assert same.max_decel == keeps.max_decel

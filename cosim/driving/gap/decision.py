@@ -17,9 +17,12 @@ policy instead:
    (`geometry.entry_test`: its new follower and leader keep their limits when it
    enters; for a change by choice or a scripted one, after `GapConfig.patience` of
    seeking the follower's limit is `insist_decel`, `insist` below; for a mandatory one
-   it is the urgency law's, `urgent_decel`), at the new leader's speed (vxf) and only at or
-   above `GapConfig.min_speed`; the planner's collision check and the new follower's
-   check on the plan itself (planning.interaction.check_follower) then decide;
+   it is the urgency law's, `urgent_decel`; for a scripted one, after
+   `GapConfig.hold_after`, also an entry that counts on the TVs yielding to the SV
+   braking on until it is in their lane, `yielding` below), at the new leader's speed
+   (vxf) and only at or above `GapConfig.min_speed`; the planner's collision check and
+   the new follower's check on the plan itself (planning.interaction.check_follower)
+   then decide;
 5. names the TV to ask to open the gap while it blocks it (the chosen gap's
    follower until the SV is inside the gap's slot, or without a gap in reach the TV
    nearest behind the SV in that lane that can still fall back behind it,
@@ -71,6 +74,8 @@ class GapDecision:
     reason: str
     leader_speed: float = math.inf  # m/s, its own leader's speed (inf: none)
     follower_decel: float = math.nan  # m/s^2, what the plan may ask of its new follower
+    held: bool = False  # the plan counts on the TVs yielding to the SV (`yielding`) going on
+    # braking as they do until the SV is in their lane (their courtesy held)
 
 
 @functools.lru_cache(maxsize=8)  # one config per run, asked every step (replace is slow)
@@ -111,11 +116,15 @@ def urgent_decel(cfg: GapConfig, urgency: float) -> float:
 def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig,
                  gap_cfg: GapConfig, follower: FollowerModel, *,
                  wanted_lane: int | None = None, allow_change: bool = True,
-                 insist: bool = False, urgency: float = 0.0) -> GapDecision:
+                 insist: bool = False, urgency: float = 0.0,
+                 yielding: NDArray[np.float64] | None = None) -> GapDecision:
     """The module docstring's steps for `sv` among `traffic`. `wanted_lane`: a
     scripted request's lane (else the rule decides); `allow_change` False:
     car-following only. `urgency` (0-1, a mandatory change): the follower's limit
-    before the SV insists grows with it (`urgent_decel`)."""
+    before the SV insists grows with it (`urgent_decel`). `yielding` (m/s^2 >= 0 per
+    TV, None: not counted on): the braking of the TVs that make room for the SV; an
+    entry that holds only if they go on with it until the SV is in their lane is taken
+    too (`GapDecision.held`), after one that asks nothing of them."""
     lane = lanes.lane_of(sv.y)
     d = decide(sv, traffic, lanes, wanting_config(cfg),
                allow_change=allow_change and wanted_lane is None)
@@ -147,11 +156,15 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     first = urgent_decel(gap_cfg, urgency) if urgency > 0.0 else gap_cfg.plan_decel
     limits = (first, gap_cfg.insist_decel) if insist else (first,)
     speeds = np.asarray(traffic.speed, dtype=float)
+    brakings = (None,) if yielding is None or not np.any(yielding > 0.0) else (None, yielding)
     for limit in limits:
-        entry = entry_test(sv.x, y0, sv.speed, sv.length, lanes.centre(target) - y0, x,
-                           speeds, traffic.length, in_target,
-                           lanes.end_speed(lane, target), gap_cfg, follower.limited(limit),
-                           lanes.speed_limit(target))
+        for braking in brakings:
+            entry = entry_test(sv.x, y0, sv.speed, sv.length, lanes.centre(target) - y0, x,
+                               speeds, traffic.length, in_target,
+                               lanes.end_speed(lane, target), gap_cfg,
+                               follower.limited(limit), lanes.speed_limit(target), braking)
+            if entry.ok:
+                break
         if entry.ok and entry.follower_decel > gap_cfg.plan_decel:
             # insisting (an entry that asks its follower for more than plan_decel; one
             # that asks less is not, whatever the limit: at urgency 0.57 an entry asking
@@ -166,7 +179,7 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
             entry = replace(entry, ok=entry_test(
                 sv.x, y0, sv.speed, sv.length, lanes.centre(target) - y0, x, faster,
                 traffic.length, in_target, lanes.end_speed(lane, target), gap_cfg,
-                follower.limited(limit), lanes.speed_limit(target)).ok)
+                follower.limited(limit), lanes.speed_limit(target), braking).ok)
         if entry.ok:
             break
     if entry.ok:
@@ -176,7 +189,7 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
             target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=True,
             vxf=entry.vxf, gap=choice, cooperate_with=-1,
             reason=f"lane {target}: gap reached", leader_speed=d.leader_speed,
-            follower_decel=limit)
+            follower_decel=limit, held=braking is not None)
     if choice is None:
         # none in reach: the TV nearest behind the SV in that lane (of those that can
         # still fall back behind it) may be asked to yield (if it has no room yet), and

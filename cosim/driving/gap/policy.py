@@ -12,7 +12,9 @@ and at >= cosim.driving.manoeuvre.PLANNER_MIN_SPEED), with the new leader's spee
 vxf; a plan is flown only if its new follower, predicted as SUMO's Krauss follows
 (cosim.planning.interaction.check_follower), brakes no harder than
 `GapConfig.plan_decel` (`insist_decel` once it has sought a gap for
-`GapConfig.patience`), else it counts as a failed plan
+`GapConfig.patience`), else it counts as a failed plan (a scripted change may count
+on the TVs that yield to it braking on until it is in their lane: their courtesy held,
+`GapConfig.hold_after`, cosim.driving.gap.yielding)
 and its follower is asked to make room (retried after
 `retry_interval`, the approach going on). It stops behind a standing leader at
 STOP_GAP (IDM standstill gap). It signals while it seeks a gap, and asks the chosen
@@ -42,6 +44,7 @@ from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatu
 from cosim.driving.following import CarFollowing
 from cosim.driving.gap.decision import GapDecision, gap_decision, in_lane, mandatory_config
 from cosim.driving.gap.geometry import GapConfig
+from cosim.driving.gap.yielding import YieldWatch
 from cosim.driving.lane_end import stop_gap, yield_accel
 from cosim.driving.manoeuvre import MANDATORY, LaneChangeTimer, Manoeuvre
 from cosim.driving.registry import register
@@ -50,6 +53,7 @@ from cosim.planning.interaction import FollowerModel, check_follower
 from cosim.planning.planner import PredictionOptions
 
 if TYPE_CHECKING:
+    from cosim.driving.manoeuvre import LaneChange
     from cosim.planning.planner import Plan
     from cosim.planning.trajectory import LaneChangeTrajectory
     from cosim.traffic.world import Scene, SVState
@@ -84,7 +88,10 @@ class GapPolicy:
                       idm_coolness=COOLNESS, idm_time_gap=TIME_GAP,
                       retry_interval=min(ctx.decision.retry_interval, RETRY))
         self.lanes = ctx.lanes
-        self.ask_gap = ctx.ports.ask_gap
+        self._ask_gap = ctx.ports.ask_gap
+        self.yielding = YieldWatch()  # the braking of the TVs asked to make room
+        self.braking: np.ndarray | None = None  # m/s^2 per TV, theirs this step
+        self.held: LaneChange | None = None  # the change flown on the courtesy held
         self._blinker = ctx.ports.blinker
         self.signal = 0  # the SV's blinker now: -1 right, 0 off, +1 left
         self.following = CarFollowing(ctx, cfg)
@@ -111,8 +118,17 @@ class GapPolicy:
             self.signal = direction
             self._blinker(direction)
 
+    def ask_gap(self, t: float, tv_id: str) -> None:
+        """Ask `tv_id` to make room (the context's port), and watch how it brakes."""
+        self.yielding.asked(tv_id)
+        self._ask_gap(t, tv_id)
+
     def status(self, sv: SVState) -> PolicyStatus:
-        return self.manoeuvre.status(self.following.leader_gap, self.following.accel)
+        status = self.manoeuvre.status(self.following.leader_gap, self.following.accel)
+        lc = self.manoeuvre.active
+        if lc is None or lc is not self.held or self.lanes.lane_of(sv.y) == lc.target_lane:
+            return status
+        return replace(status, courtesy_held=True)
 
     def update(self, t: float, scene: Scene, messages: Messages) -> LaneChangeTrajectory:
         """Finish a manoeuvre that is over; car-following toward the chosen gap; plan the
@@ -133,6 +149,7 @@ class GapPolicy:
                 t, sv, target, trigger, messages,
                 vxf=d.vxf if math.isfinite(d.vxf) else None,
                 accept=lambda plan: self.accept(t, plan, target, traffic))
+            self.held = m.active if d.held else None
         return trajectory if trajectory is not None else self.following.reference(t, sv)
 
     def seek(self, t: float, sv: SVState, traffic: Traffic, allow_scripted: bool,
@@ -152,10 +169,16 @@ class GapPolicy:
         if due is not None:
             wanted = due.target
         since = self.seeking_since
+        self.braking = braking = self.yielding.braking(t, traffic.ids, traffic.speed)
         # a mandatory change's settings (`mandatory_config`: it never insists after a
         # patience, what it asks grows with its urgency alone)
         gap_cfg = mandatory_config(self.gap_cfg) if mandatory else self.gap_cfg
         insist = since is not None and t - since >= gap_cfg.patience - 1e-9
+        # only a requested change counts on the courtesy held: a change by choice waits
+        # for a gap that asks nothing more (in the stop-and-go run one taken at 6 m/s on
+        # it left the queue it had to stop in), a mandatory one has its urgency law
+        held = (scripted is not None and not mandatory and since is not None
+                and t - since >= gap_cfg.hold_after - 1e-9)
         # a lane by choice is sought only once the last change has settled (its
         # cooldown): seeking at once asked the next lane's follower for courtesy and
         # braked toward its gaps within 3 s of a merge, and the TV behind the SV, which
@@ -165,7 +188,8 @@ class GapPolicy:
         d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg, gap_cfg,
                          self.follower, wanted_lane=wanted,
                          allow_change=mandatory or scripted is not None or by_choice,
-                         insist=insist, urgency=0.0 if due is None else due.urgency)
+                         insist=insist, urgency=0.0 if due is None else due.urgency,
+                         yielding=braking if held else None)
         if (wanted is None and d.target_lane is not None
                 and m.ends_soon(d.target_lane, sv)):
             # the rule's faster lane ends within the look-ahead: not a lane to change into
@@ -206,8 +230,10 @@ class GapPolicy:
         limit = self.last.follower_decel if self.last is not None else math.nan
         follower = (self.follower.limited(limit) if math.isfinite(limit)
                     else self.plan_follower)
+        held = self.last is not None and self.last.held
         check = check_follower(plan.trajectory, self.sv_length, traffic.x, traffic.speed,
-                               traffic.length, in_target, follower)
+                               traffic.length, in_target, follower,
+                               tv_braking=self.braking if held else None)
         if check.safe:
             return ""
         # the follower that would brake too hard blocks: ask it to make room

@@ -1,0 +1,56 @@
+"""How hard the TVs the SV asked to make room brake, as the SV sees them (issue 22).
+
+A TV asked to yield (the traffic's courtesy or cooperative V2V, cosim.traffic.cooperation)
+brakes to open a gap behind the SV. The gap policy may start its change while such a TV
+is still braking, counting on it to go on until the SV is in its lane (the courtesy
+held, `GapDecision.held`), as SUMO's own informed followers do for SUMO's lane
+changers: its entry test then predicts that TV at the braking seen here
+(cosim.planning.interaction.check_follower). What is seen, not what was asked: a TV
+that did not honour a request, or already has its gap, shows no braking.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cosim.traffic.cooperation import COURTESY_DECEL
+
+YIELD_WINDOW = 0.25  # s, the braking is the mean over this long (a single step's speed
+# change carries SUMO's dawdling, up to 0.52 m/s^2)
+MAX_YIELD_DECEL = COURTESY_DECEL  # m/s^2, no more is counted on (what courtesy brakes at most)
+
+
+@dataclass
+class YieldWatch:
+    """The speeds of the TVs asked to yield over the last YIELD_WINDOW."""
+
+    window: float = YIELD_WINDOW
+    _seen: dict[str, deque[tuple[float, float]]] = field(default_factory=dict)
+
+    def asked(self, tv_id: str) -> None:
+        """`tv_id` was asked to make room: watch it from now on."""
+        self._seen.setdefault(tv_id, deque())
+
+    def braking(self, t: float, ids: tuple[str, ...], speed: NDArray[np.float64]
+                ) -> NDArray[np.float64]:
+        """m/s^2 (>= 0, one per TV of `ids` with speeds `speed` at time t): the mean braking
+        of each watched TV over the window (0 for the others, and for a TV seen for less
+        than half the window), capped at MAX_YIELD_DECEL. Records this step's speeds."""
+        out = np.zeros(len(ids))
+        for tv_id in list(self._seen):  # the few TVs asked, not the traffic
+            if tv_id not in ids:  # gone from the scene
+                del self._seen[tv_id]
+                continue
+            k = ids.index(tv_id)
+            seen = self._seen[tv_id]
+            seen.append((t, float(speed[k])))
+            while seen[0][0] < t - self.window - 1e-9:
+                seen.popleft()
+            t0, v0 = seen[0]
+            if t - t0 >= 0.5 * self.window - 1e-9:
+                out[k] = min(max((v0 - seen[-1][1]) / (t - t0), 0.0), MAX_YIELD_DECEL)
+        return out

@@ -1,0 +1,51 @@
+"""The braking of the TVs the SV asked to make room, as it sees it
+(cosim.driving.gap.yielding)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cosim.driving.gap.yielding import MAX_YIELD_DECEL, YIELD_WINDOW, YieldWatch
+
+DT = 0.05
+
+
+def watch_steps(watch: YieldWatch, ids: tuple[str, ...], speeds: list[list[float]]
+                ) -> np.ndarray:
+    """Feed one row of speeds a step; return the last step's braking."""
+    out = np.zeros(len(ids))
+    for k, row in enumerate(speeds):
+        out = watch.braking(k * DT, ids, np.array(row))
+    return out
+
+
+def test_only_the_asked_tvs_are_watched_over_the_window() -> None:
+    w = YieldWatch()
+    w.asked("b")
+    ids = ("a", "b", "c")
+    # a and c brake too, but were not asked; b brakes at 1.5 m/s^2 with dawdling on top
+    rng = np.random.default_rng(1)
+    rows = [[30.0 - 2.0 * DT * k, 30.0 - 1.5 * DT * k - 0.02 * rng.random(),
+             25.0 - 3.0 * DT * k] for k in range(20)]
+    b = watch_steps(w, ids, rows)
+    assert b[0] == 0.0 and b[2] == 0.0
+    assert b[1] == pytest.approx(1.5, abs=0.02 / YIELD_WINDOW + 1e-9)
+
+
+def test_a_speeding_up_or_barely_seen_tv_counts_as_no_braking() -> None:
+    w = YieldWatch()
+    w.asked("a")
+    assert watch_steps(w, ("a",), [[20.0], [19.9]])[0] == 0.0  # seen for 0.05 s only
+    w2 = YieldWatch()
+    w2.asked("a")
+    assert watch_steps(w2, ("a",), [[20.0 + 0.1 * k] for k in range(10)])[0] == 0.0
+
+
+def test_the_braking_counted_on_is_capped_and_a_gone_tv_forgotten() -> None:
+    w = YieldWatch()
+    w.asked("a")
+    hard = watch_steps(w, ("a", "b"), [[30.0 - 6.0 * DT * k, 20.0] for k in range(10)])
+    assert hard[0] == MAX_YIELD_DECEL
+    assert w.braking(0.5, ("b",), np.array([20.0]))[0] == 0.0
+    assert w.braking(0.55, ("a", "b"), np.array([10.0, 20.0]))[0] == 0.0  # watched no more
