@@ -53,7 +53,8 @@ class WorldPorts:
 
     blinker: Callable[[int], None] = _nothing  # the SV's blinker: -1 right, 0 off, +1 left
     change_lane: Callable[[int], None] = _nothing  # SUMO changes the SV to this lane
-    ask_gap: Callable[[float, str], None] = _nothing  # (t, TV id): ask a TV to open a gap
+    ask_gap: Callable[[float, str], bool | None] = _nothing  # (t, TV id): ask a TV to open
+    # a gap; true: some channel carries the request (courtesy, cooperative V2V)
 
 
 @dataclass(frozen=True)

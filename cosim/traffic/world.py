@@ -373,10 +373,12 @@ class World:
         """Open the scenario's gap-request channels (a policy that asks TVs for gaps)."""
         self.gap_requests = cooperation_channels(self.scenario)
 
-    def ask_gap(self, t: float, tv_id: str) -> None:
-        """Ask the TV `tv_id` to open a gap behind the SV, through every open channel."""
+    def ask_gap(self, t: float, tv_id: str) -> bool:
+        """Ask the TV `tv_id` to open a gap behind the SV, through every open channel;
+        whether there is one (a request is sent once per TV and channel)."""
         for channel in self.gap_requests:
             channel.request(t, tv_id)
+        return bool(self.gap_requests)
 
     def deliver_gap_requests(self, t: float, tvs: TrafficSnapshot, sv_x: float,
                              changing: bool) -> None:

@@ -119,9 +119,10 @@ class GapPolicy:
             self._blinker(direction)
 
     def ask_gap(self, t: float, tv_id: str) -> None:
-        """Ask `tv_id` to make room (the context's port), and watch how it brakes."""
-        self.yielding.asked(tv_id)
-        self._ask_gap(t, tv_id)
+        """Ask `tv_id` to make room (the context's port) and, if a channel carries the
+        request, watch how it brakes."""
+        if self._ask_gap(t, tv_id):
+            self.yielding.asked(tv_id)
 
     def status(self, sv: SVState) -> PolicyStatus:
         status = self.manoeuvre.status(self.following.leader_gap, self.following.accel)

@@ -20,7 +20,13 @@ from numpy.typing import NDArray
 from cosim.traffic.cooperation import COURTESY_DECEL
 
 YIELD_WINDOW = 0.25  # s, the braking is the mean over this long (a single step's speed
-# change carries SUMO's dawdling, up to 0.52 m/s^2)
+# change carries SUMO's dawdling, 0-0.52 m/s^2, which a braking Krauss car adds to its
+# braking: a TV yielding at cooperative V2V's 0.5 m/s^2 reads 0.7-0.8)
+MIN_YIELD_DECEL = 1.0  # m/s^2, less is not counted on: a TV that yields that gently stops
+# braking once it has its openGap headway (the SV speeds up away from it), and its
+# Krauss braking at the SV's entry flips from ~0 to its decel within 1 m/s of speed
+# (counted on at 0.7-0.8 m/s^2, cooperative V2V's new followers' braking p95 went 0.53
+# -> 4.50 m/s^2 at 10, 20 and 40 veh/km/lane in the gap study)
 MAX_YIELD_DECEL = COURTESY_DECEL  # m/s^2, no more is counted on (what courtesy brakes at most)
 
 
@@ -38,8 +44,9 @@ class YieldWatch:
     def braking(self, t: float, ids: tuple[str, ...], speed: NDArray[np.float64]
                 ) -> NDArray[np.float64]:
         """m/s^2 (>= 0, one per TV of `ids` with speeds `speed` at time t): the mean braking
-        of each watched TV over the window (0 for the others, and for a TV seen for less
-        than half the window), capped at MAX_YIELD_DECEL. Records this step's speeds."""
+        of each watched TV over the window, capped at MAX_YIELD_DECEL; 0 below
+        MIN_YIELD_DECEL, for the TVs not watched and for a TV seen for less than half
+        the window. Records this step's speeds."""
         out = np.zeros(len(ids))
         for tv_id in list(self._seen):  # the few TVs asked, not the traffic
             if tv_id not in ids:  # gone from the scene
@@ -52,5 +59,6 @@ class YieldWatch:
                 seen.popleft()
             t0, v0 = seen[0]
             if t - t0 >= 0.5 * self.window - 1e-9:
-                out[k] = min(max((v0 - seen[-1][1]) / (t - t0), 0.0), MAX_YIELD_DECEL)
+                b = min((v0 - seen[-1][1]) / (t - t0), MAX_YIELD_DECEL)
+                out[k] = b if b >= MIN_YIELD_DECEL else 0.0
         return out

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim.driving.gap.yielding import MAX_YIELD_DECEL, YIELD_WINDOW, YieldWatch
+from cosim.driving.gap.yielding import MAX_YIELD_DECEL, MIN_YIELD_DECEL, YIELD_WINDOW, YieldWatch
 
 DT = 0.05
 
@@ -33,10 +33,19 @@ def test_only_the_asked_tvs_are_watched_over_the_window() -> None:
     assert b[1] == pytest.approx(1.5, abs=0.02 / YIELD_WINDOW + 1e-9)
 
 
-def test_a_speeding_up_or_barely_seen_tv_counts_as_no_braking() -> None:
+def test_a_speeding_up_gently_braking_or_barely_seen_tv_counts_as_no_braking() -> None:
     w = YieldWatch()
     w.asked("a")
     assert watch_steps(w, ("a",), [[20.0], [19.9]])[0] == 0.0  # seen for 0.05 s only
+    # cooperative V2V's 0.5 m/s^2 plus dawdling reads 0.75: not counted on
+    gentle = YieldWatch()
+    gentle.asked("a")
+    assert watch_steps(gentle, ("a",), [[20.0 - 0.75 * DT * k] for k in range(10)])[0] == 0.0
+    just = YieldWatch()
+    just.asked("a")
+    firm = MIN_YIELD_DECEL + 0.01
+    b = watch_steps(just, ("a",), [[20.0 - firm * DT * k] for k in range(10)])
+    assert b[0] == pytest.approx(firm, abs=1e-9)
     w2 = YieldWatch()
     w2.asked("a")
     assert watch_steps(w2, ("a",), [[20.0 + 0.1 * k] for k in range(10)])[0] == 0.0
