@@ -45,13 +45,14 @@ def plot_road(road: Any, path: Path, *, title: str = "",
         ax_map.plot(sv_path[0], sv_path[1], color="tab:red", lw=1.5, zorder=3, label="SV")
     ax_map.legend(fontsize=7, loc="best", title="frame's lane borders (SUMO's lanes grey)",
                   title_fontsize=7)
-    ax_map.set_xlabel("x (m)")
-    width, length = np.ptp(np.concatenate(shapes), axis=0)[::-1]  # across, along x
-    if width >= STRETCH_BELOW * length:
+    span = np.ptp(np.concatenate(shapes), axis=0)  # m, extent in x and in y
+    labels = ["x (m)", "y (m)"]
+    if span.min() >= STRETCH_BELOW * span.max():
         ax_map.set_aspect("equal", adjustable="datalim")
-        ax_map.set_ylabel("y (m)")
-    else:  # a near-straight road to scale is a line: show its lanes
-        ax_map.set_ylabel("y (m; stretched, not to scale)")
+    else:  # a near-straight road to scale is a line: its narrow axis stretched shows lanes
+        labels[int(np.argmin(span))] = f"{'xy'[int(np.argmin(span))]} (m; stretched, not to scale)"
+    ax_map.set_xlabel(labels[0])
+    ax_map.set_ylabel(labels[1])
     q = frame.quality
     ax_map.set_title(title or f"route {' '.join(road.route.edges)}: deviation "
                      f"{road.max_deviation * 100:.1f} cm, smallest radius "

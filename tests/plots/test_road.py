@@ -43,3 +43,28 @@ def test_a_straight_route_is_stretched_across_a_curved_one_is_to_scale(
     assert curved.get_aspect() == 1.0 and curved.get_ylabel() == "y (m)"
     low, high = ramp.get_ylim()
     assert high - low < 50.0  # the lanes fill the map
+
+
+def test_a_straight_route_along_y_is_stretched_across_x(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the narrow axis is the one stretched, whichever way the road runs (the test looked
+    # at y only: a road running north was drawn to scale, as a line)
+    import sys
+
+    import cosim.plots.road as road_plots
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "road"))
+    from handdrawn import netconvert
+
+    net = netconvert(tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="0" y="1000"/>'
+                     '<node id="C" x="0" y="2000"/></nodes>',
+                     '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
+                     '<edge id="BC" from="B" to="C" numLanes="3" speed="33.3"/></edges>')
+    maps: list[Any] = []
+    monkeypatch.setattr(road_plots, "save_figure", lambda fig, path: maps.append(fig.axes[0]))
+    plot_road(load_road(net, ["AB", "BC"]), tmp_path / "north.png")
+    (north,) = maps
+    assert north.get_aspect() == "auto"
+    assert "stretched" in north.get_xlabel() and north.get_ylabel() == "y (m)"
+    low, high = north.get_xlim()
+    assert high - low < 50.0  # the lanes fill the map across
