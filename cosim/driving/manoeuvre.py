@@ -45,6 +45,7 @@ from cosim.driving.lane_end import (
     CREEP_SPEED,
     MERGE_CURVATURE,
     MERGE_TAUS,
+    STOP_DECEL,
     WAIT_ROOM,
     sv_lane_end,
 )
@@ -344,6 +345,15 @@ class Manoeuvre:
         return plan, why
 
     # ------------------------------------------------------------------ replanning
+    def _check(self, trajectory: LaneChangeTrajectory, t: float, messages: list[Any]) -> Any:
+        """The planner's collision check of `trajectory` against fresh predictions (its
+        rejection, None: collision-free), timed into `wall`."""
+        w0 = time.perf_counter()
+        try:
+            return self.planner.check(trajectory, t, messages)
+        finally:
+            self.wall += time.perf_counter() - w0
+
     def recheck(self, t: float, messages: list[Any]) -> None:
         """Beyond the paper (S2): re-check the rest of the plan under way against fresh
         predictions; if it now collides, replan to the target lane from the reference's
@@ -352,9 +362,7 @@ class Manoeuvre:
         lc = self.active
         assert lc is not None
         self.next_check = t + self.recheck_interval
-        w0 = time.perf_counter()
-        rejection = self.planner.check(lc.trajectory, t, messages)
-        self.wall += time.perf_counter() - w0
+        rejection = self._check(lc.trajectory, t, messages)
         if rejection is None:
             return
         when = math.nan if rejection.time is None else rejection.time
@@ -450,10 +458,7 @@ class Manoeuvre:
             trajectory, stops = brake_reference(t, st, centre, base_tau, decel, end)
             if not stops:
                 continue  # a lane that ends: only a brake that still stops before its end
-            w0 = time.perf_counter()
-            passes = self.planner.check(trajectory, t, messages) is None
-            self.wall += time.perf_counter() - w0
-            if passes:
+            if self._check(trajectory, t, messages) is None:
                 return trajectory, True
         return brake_reference(t, st, centre, base_tau, grip, end)[0], False
 
@@ -480,8 +485,6 @@ def brake_to_stop(vx: float, ax: float, tau: float, vxf: float, decel: float,
     (tau, vxf) when it does, else a brake to a standstill that ends at the stop line if
     `decel` allows, at most at `decel` (then as far as it must, and past the line). A
     quartic from ax0 with a(tau) = 0 travels (vx0 + vxf) tau / 2 + ax0 tau^2 / 12."""
-    from cosim.driving.lane_end import STOP_DECEL
-
     room = end.remaining - WAIT_ROOM  # m, front to the stop line
 
     def stops(tau: float, vxf: float) -> bool:
