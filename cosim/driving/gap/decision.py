@@ -74,8 +74,9 @@ class GapDecision:
     reason: str
     leader_speed: float = math.inf  # m/s, its own leader's speed (inf: none)
     follower_decel: float = math.nan  # m/s^2, what the plan may ask of its new follower
-    held: bool = False  # the plan counts on the TVs yielding to the SV (`yielding`) going on
-    # braking as they do until the SV is in their lane (their courtesy held)
+    held: NDArray[np.float64] | None = None  # m/s^2 per TV: the braking of the TVs
+    # yielding to the SV that the plan counts on them going on with until the SV is in
+    # their lane (their courtesy held; `yielding`); None: it counts on nothing
 
 
 @functools.lru_cache(maxsize=8)  # one config per run, asked every step (replace is slow)
@@ -189,7 +190,7 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
             target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=True,
             vxf=entry.vxf, gap=choice, cooperate_with=-1,
             reason=f"lane {target}: gap reached", leader_speed=d.leader_speed,
-            follower_decel=limit, held=braking is not None)
+            follower_decel=limit, held=braking)
     if choice is None:
         # none in reach: the TV nearest behind the SV in that lane (of those that can
         # still fall back behind it) may be asked to yield (if it has no room yet), and

@@ -90,7 +90,6 @@ class GapPolicy:
         self.lanes = ctx.lanes
         self._ask_gap = ctx.ports.ask_gap
         self.yielding = YieldWatch()  # the braking of the TVs asked to make room
-        self.braking: np.ndarray | None = None  # m/s^2 per TV, theirs this step
         self.held: LaneChange | None = None  # the change flown on the courtesy held
         self._blinker = ctx.ports.blinker
         self.signal = 0  # the SV's blinker now: -1 right, 0 off, +1 left
@@ -150,7 +149,7 @@ class GapPolicy:
                 t, sv, target, trigger, messages,
                 vxf=d.vxf if math.isfinite(d.vxf) else None,
                 accept=lambda plan: self.accept(t, plan, target, traffic))
-            self.held = m.active if d.held else None
+            self.held = m.active if d.held is not None else None
         return trajectory if trajectory is not None else self.following.reference(t, sv)
 
     def seek(self, t: float, sv: SVState, traffic: Traffic, allow_scripted: bool,
@@ -170,7 +169,7 @@ class GapPolicy:
         if due is not None:
             wanted = due.target
         since = self.seeking_since
-        self.braking = braking = self.yielding.braking(t, traffic.ids, traffic.speed)
+        braking = self.yielding.braking(t, traffic.ids, traffic.speed)
         # a mandatory change's settings (`mandatory_config`: it never insists after a
         # patience, what it asks grows with its urgency alone)
         gap_cfg = mandatory_config(self.gap_cfg) if mandatory else self.gap_cfg
@@ -231,10 +230,9 @@ class GapPolicy:
         limit = self.last.follower_decel if self.last is not None else math.nan
         follower = (self.follower.limited(limit) if math.isfinite(limit)
                     else self.plan_follower)
-        held = self.last is not None and self.last.held
         check = check_follower(plan.trajectory, self.sv_length, traffic.x, traffic.speed,
                                traffic.length, in_target, follower,
-                               tv_braking=self.braking if held else None)
+                               tv_braking=None if self.last is None else self.last.held)
         if check.safe:
             return ""
         # the follower that would brake too hard blocks: ask it to make room
