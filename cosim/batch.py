@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-from cosim.errors import InputError
+from cosim.errors import InputError, signals_deferred
 from cosim.run_table import (
     NO_PLANT,
     NO_VARIANT,
@@ -301,8 +301,6 @@ def _submit(pool: cf.ProcessPoolExecutor, fn: Callable[..., T], /, *args: Any) -
     between the fork server's fork and the pool's record of it, that worker would be no
     one's to end: it would outlive the batch and, unpickling from a parent that is gone,
     print a traceback."""
-    from cosim.errors import signals_deferred
-
     with signals_deferred():
         return pool.submit(fn, *args)
 
@@ -326,8 +324,6 @@ def _end_pool(pool: cf.ProcessPoolExecutor, timeout: float = 10.0) -> None:
     """Terminate the pool's workers, wait for them (the fork server reaps them), then stop
     the fork server (our child: reaped here). Private parts of multiprocessing, read
     defensively. A second Ctrl-C or SIGTERM meanwhile is held until this is done."""
-    from cosim.errors import signals_deferred
-
     with signals_deferred():
         _end_pool_now(pool, timeout)
 
@@ -437,8 +433,6 @@ def _start_dask(address: str, workers: int) -> Any:
     """`dask_client`, with Ctrl-C and SIGTERM held while a LocalCluster starts: cut short,
     its half-started workers fail in distributed's exit hooks (tracebacks); held, the
     cluster is whole and `_close_dask` ends it."""
-    from cosim.errors import signals_deferred
-
     started: list[Any] = []
     try:
         with signals_deferred():
@@ -452,8 +446,6 @@ def _start_dask(address: str, workers: int) -> Any:
 
 def _close_dask(client: Any, address: str | None) -> None:
     """Close the client and, for --dask local, its LocalCluster (a second signal held)."""
-    from cosim.errors import signals_deferred
-
     with signals_deferred():
         cluster = client.cluster if address == "local" else None
         client.close()
