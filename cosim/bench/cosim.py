@@ -13,6 +13,11 @@ Side by side in one run, medians over repeats, each from SUMO start to close:
   drove (recorded in the cosim run just before) by moveToXY and nothing else: what
   SUMO's step costs with an externally moved vehicle (more than SUMO alone), so that
   cosim / floor is the loop's own cost (issue 26: target <= 1.25, CPU);
+- "the floor and the loop's scene read": the floor plus the scene read exactly as the
+  cosim run read it each step (every vehicle within the observer's radius, the V2V
+  range: seven libsumo getters each). Any SV of the loop makes these SUMO calls
+  whatever it plans, so floor-and-read / floor is the least cosim / floor can be, and
+  cosim / floor-and-read is what our own planning, control and recording add;
 - "curved twin": the dense scenario's twin on the curved motorway (issue 23: CPU within
   1.3x of the straight road's, median plan() within 2x);
 - a paper case (5.1 by default): its real-time factor, simulated / wall time.
@@ -98,8 +103,9 @@ SvPath = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 def cosim_run(scenario: Scenario) -> tuple[float, float, dict[str, Any]]:
     """s, wall and CPU time of the full co-simulation (nothing written), its timing row
-    with the scene reads' part of wall_sumo_s (`wall_read_s`) and the SV's path
-    (`path`: x, y, heading, speed, acceleration per step, as written to SUMO)."""
+    with the scene reads' part of wall_sumo_s (`wall_read_s`), the SV's path
+    (`path`: x, y, heading, speed, acceleration per step, as written to SUMO) and how
+    the loop read the scene (`scene_read`: radius in m, accelerations and signals)."""
     from cosim.planning.planner import LaneChangePlanner
     from cosim.sim import CoSimulation
 
@@ -122,7 +128,8 @@ def cosim_run(scenario: Scenario) -> tuple[float, float, dict[str, Any]]:
     tr = result.trace
     path = (tr["x_m"], tr["y_m"], np.radians(tr["psi_deg"]), tr["vx_mps"], tr["ax_mps2"])
     return wall, cpu, {**result.timing, "wall_read_s": sim.world.wall_read, "path": path,
-                       "plan_times": plan_times}
+                       "plan_times": plan_times,
+                       "scene_read": (sim.observer.radius, sim.observer.full_scene)}
 
 
 # The loop's parts timed by `phase_split`: (name, the CoSimulation attribute, its method).
@@ -165,11 +172,14 @@ def phase_split(scenario: Scenario) -> dict[str, float]:
     return times
 
 
-def sumo_floor(scenario: Scenario, path: SvPath) -> tuple[float, float]:
+def sumo_floor(scenario: Scenario, path: SvPath,
+               read: tuple[float, bool] | None = None) -> tuple[float, float]:
     """s, wall and CPU time of SUMO with the scenario's traffic and the SV moved along
     `path` by moveToXY, SUMO start to close: the World's start and insertion, then per
-    step one move and one SUMO step (its hooks included), nothing read, planned,
-    controlled or recorded."""
+    step one move and one SUMO step (its hooks included), nothing planned, controlled
+    or recorded; nothing read, or with `read` (radius in m, full; `cosim_run`'s
+    `scene_read`) the scene as the loop reads it each step: the SUMO calls every SV
+    of the loop makes, whatever it plans."""
     from cosim.traffic.world import SV_ID, World
 
     x, y, heading, speed, accel = (a.tolist() for a in path)
@@ -182,7 +192,7 @@ def sumo_floor(scenario: Scenario, path: SvPath) -> tuple[float, float]:
                              sc.sv.speed, sc.vehicle.length, sc.vehicle.width, sc.sv.lane)
         world.insert()
         n = min(scenario.n_steps + 1, len(x))
-        world.replay_sv(x[:n], y[:n], heading[:n], speed[:n], accel[:n])
+        world.replay_sv(x[:n], y[:n], heading[:n], speed[:n], accel[:n], read)
     finally:
         world.close()
     return time.perf_counter() - start, time.process_time() - cpu
@@ -220,7 +230,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     sumo_alone(with_overrides(dense, duration=1.0), with_sv=True)
     cosim_run(with_overrides(dense, duration=1.0))
     baseline = with_overrides(dense, controller="sumo")
-    keys = ("alone", "alone_sv", "floor", "ours", "curved", "baseline", "paper")
+    keys = ("alone", "alone_sv", "floor", "floor_read", "ours", "curved", "baseline", "paper")
     plans: dict[str, list[float]] = {"ours": [], "curved": []}  # s, every plan() call
     walls: dict[str, list[float]] = {k: [] for k in keys}
     cpus: dict[str, list[float]] = {k: [] for k in keys}
@@ -236,6 +246,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         timing = timed("ours", cosim_run(dense))[2]
         plans["ours"] += timing["plan_times"]
         timed("floor", sumo_floor(dense, timing["path"]))  # the path just driven
+        timed("floor_read", sumo_floor(dense, timing["path"], timing["scene_read"]))
         plans["curved"] += timed("curved", cosim_run(curved))[2]["plan_times"]
         timed("baseline", cosim_run(baseline))
         timed("paper", cosim_run(paper))
@@ -248,6 +259,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                             dense),
                            ("floor", f"the floor: SUMO, the SV moved along its path by "
                             f"moveToXY ({dense.name})", dense),
+                           ("floor_read", f"the floor and the loop's scene read "
+                            f"({dense.name})", dense),
                            ("ours", f"cosim, our SV ({dense.name})", dense),
                            ("curved", f"cosim, our SV, curved twin ({curved.name})", curved),
                            ("baseline", f"cosim, SUMO drives the SV ({dense.name})", baseline),
@@ -267,6 +280,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
             "cosim / floor": t_ours / w["floor"],
             "cosim / floor (cpu)": c["ours"] / c["floor"],
             "floor / sumo alone (cpu)": c["floor"] / c["alone"],
+            "floor and scene read / floor (cpu)": c["floor_read"] / c["floor"],
+            "cosim / floor and scene read (cpu)": c["ours"] / c["floor_read"],
             "cosim / cosim with the SUMO baseline SV": t_ours / w["baseline"],
             "curved / straight (cpu)": c["curved"] / c["ours"],
             "median plan() curved / straight": _median(plans["curved"]) / _median(plans["ours"]),

@@ -313,13 +313,20 @@ class World:
         self.sumo.move(vehicle_id, x, y, heading, speed, accel, road=road)
 
     def replay_sv(self, x: list[float], y: list[float], heading: list[float],
-                  speed: list[float], accel: list[float]) -> None:
-        """The SV moved along a recorded path, pose k before SUMO's step k, nothing read or
-        checked (`cosim bench cosim`'s floor: what SUMO costs with the SV moved)."""
+                  speed: list[float], accel: list[float],
+                  read: tuple[float, bool] | None = None) -> None:
+        """The SV moved along a recorded path, pose k before SUMO's step k, nothing
+        checked (`cosim bench cosim`'s floor: what SUMO costs with the SV moved); `read`
+        (radius in m, full): the scene also read as the loop reads it (`read`) before
+        the first step and after each, nothing else (none: nothing read)."""
         sumo = self.sumo
+        if read is not None:
+            self.read(read[0], full=read[1])
         for k in range(1, len(x)):
             sumo.move(SV_ID, x[k], y[k], heading[k], speed[k], accel[k])
             sumo.step()
+            if read is not None:
+                self.read(read[0], full=read[1])
 
     def add_sumo_driven_sv(self, lane: int, speed: float, desired_speed: float,
                            length: float, width: float, *, own_lane_changes: bool) -> None:

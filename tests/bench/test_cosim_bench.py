@@ -7,6 +7,7 @@ import numpy as np
 
 from cosim.bench.cosim import PHASES, cosim_run, phase_split, sumo_floor
 from cosim.scenario import load_scenario, project_root, with_overrides
+from cosim.traffic.world import NEAR_RANGE
 
 
 def _scenario():  # type: ignore[no-untyped-def]
@@ -21,6 +22,10 @@ def test_floor_and_phase_split_of_a_short_dense_run() -> None:
     assert x.size == sc.n_steps + 1 and np.all(np.diff(x) > 0)  # the SV's path, driven on
     floor_wall, floor_cpu = sumo_floor(sc, timing["path"])
     assert floor_wall > 0 and floor_cpu > 0
+    radius, full = timing["scene_read"]  # the rule's and the records' near scene
+    # an ideal V2V channel is read at planning: each step reads only the near scene
+    assert radius == NEAR_RANGE + 2.0 * sc.vehicle.length and not full
+    assert sumo_floor(sc, timing["path"], timing["scene_read"])[1] > 0
     phases = phase_split(sc)
     assert list(phases) == [name for name, _, _ in PHASES] + ["other"]
     assert all(v > 0 for v in phases.values())
