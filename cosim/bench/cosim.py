@@ -14,10 +14,11 @@ Side by side in one run, medians over repeats, each from SUMO start to close:
   SUMO's step costs with an externally moved vehicle (more than SUMO alone), so that
   cosim / floor is the loop's own cost (issue 26: target <= 1.25, CPU);
 - "the floor and the loop's scene read": the floor plus the scene read exactly as the
-  cosim run read it each step (every vehicle within the observer's radius, the V2V
-  range: seven libsumo getters each). Any SV of the loop makes these SUMO calls
-  whatever it plans, so floor-and-read / floor is the least cosim / floor can be, and
-  cosim / floor-and-read is what our own planning, control and recording add;
+  cosim run read it each step (every vehicle within the observer's radius: the near
+  scene, NEAR_RANGE + 2 SV lengths with five libsumo getters each, or the V2V range
+  with seven when the channel runs every step). Any SV of the loop makes these SUMO
+  calls whatever it plans, so floor-and-read / floor is the least cosim / floor can
+  be, and cosim / floor-and-read is what our own planning, control and recording add;
 - "curved twin": the dense scenario's twin on the curved motorway (issue 23: CPU within
   1.3x of the straight road's, median plan() within 2x);
 - a paper case (5.1 by default): its real-time factor, simulated / wall time.
