@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim.driving.gap.geometry import (
+    Entry,
     GapChoice,
     GapConfig,
     approach_speed,
@@ -136,9 +137,9 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
         return keep
     x = np.asarray(traffic.x, dtype=float)
     in_target = in_lane(target, traffic, lanes)
-    gaps = lane_gaps(sv.length, x, traffic.speed, traffic.length, in_target,
-                     lanes.end_speed(lane, target), gap_cfg, follower,
-                     lanes.speed_limit(target))
+    end_speed, target_max = lanes.end_speed(lane, target), lanes.speed_limit(target)
+    gaps = lane_gaps(sv.length, x, traffic.speed, traffic.length, in_target, end_speed,
+                     gap_cfg, follower, target_max)
     own = neighbours(lane, sv, traffic, lanes, leaving=True)
     own_limit, own_speed = math.inf, 0.0
     if own.leader >= 0:
@@ -154,16 +155,22 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     # take the first acceptable gap: a change started now that enters a gap whose
     # follower and leader keep their limits is planned now, wherever the chosen gap is
     y0 = lanes.centre(lane)
+    width = lanes.centre(target) - y0
+
+    def enters(speeds: NDArray[np.float64], limit: float,
+               braking: NDArray[np.float64] | None) -> Entry:
+        """`entry_test` of a change to `target` started now, the TVs at `speeds`."""
+        return entry_test(sv.x, y0, sv.speed, sv.length, width, x, speeds, traffic.length,
+                          in_target, end_speed, gap_cfg, follower.limited(limit),
+                          target_max, braking)
+
     first = urgent_decel(gap_cfg, urgency) if urgency > 0.0 else gap_cfg.plan_decel
     limits = (first, gap_cfg.insist_decel) if insist else (first,)
     speeds = np.asarray(traffic.speed, dtype=float)
     brakings = (None,) if yielding is None or not np.any(yielding > 0.0) else (None, yielding)
     for limit in limits:
         for braking in brakings:
-            entry = entry_test(sv.x, y0, sv.speed, sv.length, lanes.centre(target) - y0, x,
-                               speeds, traffic.length, in_target,
-                               lanes.end_speed(lane, target), gap_cfg,
-                               follower.limited(limit), lanes.speed_limit(target), braking)
+            entry = enters(speeds, limit, braking)
             if entry.ok:
                 break
         if entry.ok and entry.follower_decel > gap_cfg.plan_decel:
@@ -177,10 +184,7 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
             # SUMO's dawdling and acceleration since the last sample are not in the
             # prediction)
             faster = np.where(x < sv.x, speeds + gap_cfg.insist_margin, speeds)
-            entry = replace(entry, ok=entry_test(
-                sv.x, y0, sv.speed, sv.length, lanes.centre(target) - y0, x, faster,
-                traffic.length, in_target, lanes.end_speed(lane, target), gap_cfg,
-                follower.limited(limit), lanes.speed_limit(target), braking).ok)
+            entry = replace(entry, ok=enters(faster, limit, braking).ok)
         if entry.ok:
             break
     if entry.ok:
@@ -216,7 +220,7 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
             e = min(rear - need - 0.5 * sv.length - sv.x, 0.0)
             v_lane = float(approach_speed(e, v_p, gap_cfg))
         else:
-            v_lane = lanes.end_speed(lane, target)
+            v_lane = end_speed
         accel = seeking_accel(sv.speed, v_lane, lane_max, own.gap_ahead, leader_speed,
                               gap_cfg)
         return replace(keep, target_lane=target, accel=float(accel), cooperate_with=ask,
