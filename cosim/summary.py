@@ -10,6 +10,7 @@ not an outcome of the manoeuvre, and is counted apart."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from statistics import NormalDist
 from typing import Any
@@ -101,12 +102,17 @@ def _finite(ok: pd.DataFrame, metric: str) -> np.ndarray:
     return v[np.isfinite(v)]
 
 
+def _stat(values: np.ndarray, fn: Callable[[np.ndarray], Any]) -> float:
+    """`fn(values)` as a float (a median, a maximum, ...); NaN for no values."""
+    return float(fn(values)) if len(values) else math.nan
+
+
 def _p95_max(decel: np.ndarray, prefix: str) -> dict[str, float]:
     """`<prefix>_p95` (FOLLOWER_PERCENTILE) and `<prefix>_max` of a follower's largest
     decelerations, one per run (NaN: none)."""
-    return {f"{prefix}_p{FOLLOWER_PERCENTILE}": (float(np.percentile(decel, FOLLOWER_PERCENTILE))
-                                                  if len(decel) else math.nan),
-            f"{prefix}_max": float(decel.max()) if len(decel) else math.nan}
+    return {f"{prefix}_p{FOLLOWER_PERCENTILE}":
+            _stat(decel, lambda v: np.percentile(v, FOLLOWER_PERCENTILE)),
+            f"{prefix}_max": _stat(decel, np.max)}
 
 
 def _as_bool(column: pd.Series) -> pd.Series:
@@ -152,9 +158,9 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         for name, metric in (("lc_duration_s", DURATION_METRIC), ("min_ttc_s", TTC_METRIC)):
             finite = _finite(ok, metric)
             row[f"{name}_n"] = len(finite)
-            row[f"{name}_mean"] = float(finite.mean()) if len(finite) else math.nan
+            row[f"{name}_mean"] = _stat(finite, np.mean)
             for q in PERCENTILES:
-                row[f"{name}_p{q}"] = float(np.percentile(finite, q)) if len(finite) else math.nan
+                row[f"{name}_p{q}"] = _stat(finite, lambda v, q=q: np.percentile(v, q))
             # the median and its interval: the statistic of summary.md and the plots
             (_, row[f"{name}_ci_low"], row[f"{name}_ci_high"],
              row[f"{name}_ci_coverage"]) = median_ci(finite)
@@ -184,12 +190,12 @@ def comfort_summary(ok: pd.DataFrame) -> dict[str, float]:
     row: dict[str, float] = {}
     for metric in COMFORT_MEDIANS:
         v = _finite(ok, metric)
-        row[f"{metric}_p50"] = float(np.median(v)) if len(v) else math.nan
+        row[f"{metric}_p50"] = _stat(v, np.median)
     jerk, gap, decel = (_finite(ok, m) for m in ("max_long_jerk_mps3", "merge_time_gap_s",
                                                  "post_change_max_decel_mps2"))
-    row["max_long_jerk_mps3_max"] = float(jerk.max()) if len(jerk) else math.nan
-    row["merge_time_gap_s_min"] = float(gap.min()) if len(gap) else math.nan
-    row["post_change_max_decel_mps2_max"] = float(decel.max()) if len(decel) else math.nan
+    row["max_long_jerk_mps3_max"] = _stat(jerk, np.max)
+    row["merge_time_gap_s_min"] = _stat(gap, np.min)
+    row["post_change_max_decel_mps2_max"] = _stat(decel, np.max)
     row["hard_post_change_brakes"] = (float(np.sum(decel > HARD_BRAKE))
                                       if "post_change_max_decel_mps2" in ok else math.nan)
     return row
@@ -212,7 +218,7 @@ def merge_summary(ok: pd.DataFrame) -> dict[str, float]:
     row["merge_success_ci_low"], row["merge_success_ci_high"] = wilson(hits, n)
     for metric in ("merge_distance_to_end_m", "stopped_time_s"):
         v = _finite(ok, metric) if n else np.empty(0)
-        row[f"{metric}_p50"] = float(np.median(v)) if len(v) else math.nan
+        row[f"{metric}_p50"] = _stat(v, np.median)
     row.update(_p95_max(_finite(ok, "merge_follower_max_decel_mps2"),
                         "merge_follower_decel_mps2"))
     return row
