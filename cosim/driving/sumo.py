@@ -91,7 +91,7 @@ def excursions(t: Array, y: Array, lanes: LaneLayout) -> tuple[list[float], list
     at = np.flatnonzero(dist.min(axis=1) < SETTLE_TOL)  # samples in a centre band
     home = dist[at].argmin(axis=1)
     moved = np.flatnonzero(home[1:] != home[:-1])  # the last sample in the old band
-    starts = [float(v) for v in np.asarray(t)[at[moved]]]
-    targets = [float(v) for v in centres[home[moved + 1]]]
+    starts: list[float] = np.asarray(t, dtype=float)[at[moved]].tolist()
+    targets: list[float] = centres[home[moved + 1]].tolist()
     ends = [*starts[1:], float(t[-1])] if starts else []
     return starts, targets, ends

@@ -50,7 +50,8 @@ def plot_road(road: Any, path: Path, *, title: str = "",
     if span.min() >= STRETCH_BELOW * span.max():
         ax_map.set_aspect("equal", adjustable="datalim")
     else:  # a near-straight road to scale is a line: its narrow axis stretched shows lanes
-        labels[int(np.argmin(span))] = f"{'xy'[int(np.argmin(span))]} (m; stretched, not to scale)"
+        narrow = int(np.argmin(span))
+        labels[narrow] = f"{'xy'[narrow]} (m; stretched, not to scale)"
     ax_map.set_xlabel(labels[0])
     ax_map.set_ylabel(labels[1])
     q = frame.quality
