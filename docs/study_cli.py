@@ -1,7 +1,7 @@
 """The command line of the docs' study scripts (study_merge_table.py,
-study_comfort_table.py): `python docs/<script>.py DIR` prints the Markdown table of a
-`cosim batch` output folder, `--figure PATH` writes its figure instead. A folder without
-runs.csv is refused in one line, exit status 2."""
+study_comfort_table.py, study_gap_table.py): `python docs/<script>.py DIR` prints the
+Markdown table of a `cosim batch` output folder, `--figure PATH` writes its figure
+instead. A folder without runs.csv is refused in one line, exit status 2."""
 
 from __future__ import annotations
 

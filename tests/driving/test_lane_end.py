@@ -408,7 +408,7 @@ def test_a_brake_is_as_gentle_as_the_re_check_allows(failing: int, decel: float 
     assert mean == pytest.approx(grip if decel is None else decel, rel=1e-9)
     assert math.isfinite(m.next_check) == (decel is not None)
     if decel is not None:  # re-checked: failing again, it brakes anew from where it is
-        forced.collide = 1 + len([d for d in BRAKE_DECELS if d < grip])
+        forced.collide = 1 + sum(1 for b in BRAKE_DECELS if b < grip)  # every gentle one
         d.run(1.0 + DT)
         assert m.outcomes["brake"] == 2 and not math.isfinite(m.next_check)
 
