@@ -113,7 +113,7 @@ def table2() -> str:
 
 @functools.cache
 def _run(name: str, overrides: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
-    from cosim.sim import run_scenario
+    from cosim.run.loop import run_scenario
 
     sc = load_scenario(ROOT / "scenarios" / f"{name}.toml")
     if overrides:

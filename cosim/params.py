@@ -107,7 +107,7 @@ class PlannerConfig:
     safety_margin: float = 0.02
     horizon_extra: float = 2.0  # s, collision horizon past the end of the manoeuvre
     tau_min_floor: float = 1.0  # s, shortest tau ever put on the grid
-    # beyond the paper (S2): re-check the plan under way, replan / abort (cosim.sim)
+    # beyond the paper (S2): re-check the plan under way, replan / abort (cosim.run.loop)
     replanning: bool = False  # -, re-check the rest of the plan while it is flown
     recheck_interval: float = 0.1  # s, time between two re-checks
     uncertainty_margin: bool = True  # -, widen safety_margin by V2V latency / loss / noise

@@ -55,10 +55,10 @@ def _number(column: str, digits: int) -> Callable[[pd.DataFrame], str]:
 
 def table(folder: Path) -> str:
     """The per-density statistics (the follower's p95, the median minimum TTC) are the
-    batch's summary.csv's (cosim.summary.summarize); the counts and the lane-change
+    batch's summary.csv's (cosim.study.summary.summarize); the counts and the lane-change
     time's median over all densities are the runs'."""
-    from cosim.metrics import FOLLOWER_PERCENTILE
-    from cosim.summary import summarize
+    from cosim.run.metrics import FOLLOWER_PERCENTILE
+    from cosim.study.summary import summarize
 
     everything = pd.read_csv(folder / "runs.csv")
     summary = summarize(everything)

@@ -7,7 +7,7 @@ study", docs/merge_study.md) from a batch folder of scenarios/study_merge.toml:
 Per mainline density, our gap driver (MIMO) / SUMO-native: merges out of the
 acceleration lane, the median distance left to its end at the merge, the median time
 stopped, the p95 and largest braking of the merge's new follower (each cell's figures
-as the batch's summary.csv has them: cosim.summary.merge_summary), and the collisions by
+as the batch's summary.csv has them: cosim.study.summary.merge_summary), and the collisions by
 our check and by SUMO's."""
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from cosim.metrics import FOLLOWER_PERCENTILE
-from cosim.summary import merge_summary
+from cosim.run.metrics import FOLLOWER_PERCENTILE
+from cosim.study.summary import merge_summary
 
 P95 = f"merge_follower_decel_mps2_p{FOLLOWER_PERCENTILE}"
 

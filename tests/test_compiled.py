@@ -52,6 +52,6 @@ def test_compiled_callers_see_compiled_callees() -> None:
 
 
 def test_importing_the_closed_loop_does_not_import_numba() -> None:
-    code = ("import sys, cosim.control.closed_loop, cosim.sim; "
+    code = ("import sys, cosim.control.closed_loop, cosim.run.loop; "
             "sys.exit(1 if 'numba' in sys.modules else 0)")
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0

@@ -12,9 +12,9 @@ import numpy as np
 import shapely
 
 from cosim.road.road import Road
+from cosim.run.loop import RunResult, simulate
 from cosim.scenario import load_scenario
 from cosim.scenario.load import project_root
-from cosim.sim import RunResult, simulate
 
 
 @functools.cache

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from cosim.run.loop import run_scenario
 from cosim.scenario import load_scenario, with_overrides
-from cosim.sim import run_scenario
 
 pytestmark = pytest.mark.sumo
 

@@ -25,8 +25,8 @@ import pytest
 
 from cosim.cli import main
 from cosim.output import TEMP_MARK
+from cosim.run.loop import run_scenario
 from cosim.scenario import load_scenario
-from cosim.sim import run_scenario
 
 pytestmark = pytest.mark.sumo
 

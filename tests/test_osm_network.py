@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.run.loop import simulate
 from cosim.scenario import scenario_from_dict
-from cosim.sim import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "road"))
 from handdrawn import corners_in_lanes  # noqa: E402

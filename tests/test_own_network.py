@@ -8,8 +8,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from cosim.run.loop import simulate
 from cosim.scenario import scenario_from_dict
-from cosim.sim import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "road"))
 from handdrawn import corners_in_lanes, curved_route  # noqa: E402

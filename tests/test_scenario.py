@@ -286,7 +286,7 @@ def test_schema_table_lists_every_key() -> None:
 
 
 def test_every_shipped_scenario_and_study_is_valid() -> None:
-    from cosim.study import load_study
+    from cosim.study.spec import load_study
 
     files = sorted((project_root() / "scenarios").glob("*.toml"))
     assert files, "no scenarios shipped"

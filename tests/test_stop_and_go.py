@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cosim.run.loop import simulate
 from cosim.scenario import load_scenario, with_overrides
-from cosim.sim import simulate
 
 SCENARIO = Path(__file__).parent / "data" / "tv_stops_and_goes.toml"
 

@@ -1,6 +1,6 @@
 """The docs' study scripts (docs/study_merge_table.py, docs/study_comfort_table.py,
 docs/study_gap_table.py) on hand-made batch folders: the merge table's cells are
-cosim.summary.merge_summary's, the gap table's rows follow the study's variants, and a
+cosim.study.summary.merge_summary's, the gap table's rows follow the study's variants, and a
 folder without runs.csv is refused in one line with exit status 2, nothing written."""
 
 from __future__ import annotations

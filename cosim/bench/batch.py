@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from cosim.batch import expand, run_study, warm_up
 from cosim.commands import count, max_workers, seconds
 from cosim.scenario import project_root
+from cosim.study.batch import expand, run_study, warm_up
 
 
 def _spin(n: int) -> float:
@@ -64,7 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def measure(args: argparse.Namespace) -> dict[str, Any]:
     from cosim.commands.batch import parse_list
-    from cosim.study import DENSITY
+    from cosim.study.spec import DENSITY
 
     densities = parse_list(args.densities, "--densities", DENSITY) or (10.0,)
     from cosim.scenario import load_scenario

@@ -68,7 +68,7 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
     start to close; with_sv: an SV of the scenario's size at its start, driven by
     SUMO's own models (no co-simulation loop at all)."""
     from cosim.traffic.demand import populate, start_zone
-    from cosim.traffic.route import sv_start
+    from cosim.traffic.route_lanes import sv_start
     from cosim.traffic.sumo import SumoSim
     from cosim.traffic.world import SV_ID, SV_LENGTH_MARGIN
 
@@ -108,7 +108,7 @@ def cosim_run(scenario: Scenario) -> tuple[float, float, dict[str, Any]]:
     (`path`: x, y, heading, speed, acceleration per step, as written to SUMO) and how
     the loop read the scene (`scene_read`: radius in m, accelerations and signals)."""
     from cosim.planning.planner import LaneChangePlanner
-    from cosim.sim import CoSimulation
+    from cosim.run.loop import CoSimulation
 
     plan_times: list[float] = []
     plan = LaneChangePlanner.plan
@@ -147,7 +147,7 @@ def phase_split(scenario: Scenario) -> dict[str, float]:
     the rest of the run (SUMO start and traffic, the scene's TVs and the SV's state, the
     ego's trace columns, gap requests, the scripted TVs, the run's result). Each part is
     timed by a wrapper around that method of this run's objects (about 0.2 us a call)."""
-    from cosim.sim import CoSimulation
+    from cosim.run.loop import CoSimulation
 
     times = {name: 0.0 for name, _, _ in PHASES}
 

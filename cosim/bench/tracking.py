@@ -61,7 +61,7 @@ def corner_errors(trace: dict[str, np.ndarray], length: float,
 
 
 def measure(args: argparse.Namespace) -> dict[str, Any]:
-    from cosim.sim import simulate
+    from cosim.run.loop import simulate
 
     start = time.perf_counter()
     rows = []

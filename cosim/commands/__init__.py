@@ -119,8 +119,8 @@ def compile_first(stream: Any = None) -> float:
     import cosim.control.closed_loop  # noqa: F401  (the modules cosim.control.warm loads:
     import cosim.planning.collision  # noqa: F401  declaring their compiled functions names
     import cosim.planning.interaction  # noqa: F401  the cache's folder)
-    import cosim.proximity  # noqa: F401
     import cosim.road.frame  # noqa: F401
+    import cosim.run.proximity  # noqa: F401
     from cosim.compiled import cache_folder, cache_warm
 
     out = stream or sys.stderr

@@ -20,7 +20,6 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from cosim.batch import RunSpec, check_same_base, expand, run_study
 from cosim.commands import (
     WORKERS_PER_CORE,
     add_figure_format,
@@ -30,7 +29,8 @@ from cosim.commands import (
 )
 from cosim.errors import InputError
 from cosim.output import check_output_dir
-from cosim.study import (
+from cosim.study.batch import RunSpec, check_same_base, expand, run_study
+from cosim.study.spec import (
     DENSITY,
     DRIVER,
     MU,
@@ -191,7 +191,7 @@ def specs_of(study: Study) -> list[RunSpec]:
 
     Every distinct grid value is applied to the base scenario once here, so a
     value the scenario rules refuse is an input error before anything runs."""
-    from cosim.study import check_study
+    from cosim.study.spec import check_study
 
     base = check_study(study)
     occupants = study.occupants or (base.sv.occupant,)

@@ -54,8 +54,8 @@ def run(args: argparse.Namespace) -> int:
     from cosim.output import atomic_write_csv, check_output_dir, make_output_dir
     from cosim.plots import figure_path
     from cosim.plots.compare import compare_figure
+    from cosim.run.loop import simulate
     from cosim.scenario import load_scenario, with_overrides
-    from cosim.sim import simulate
 
     file = load_scenario(args.scenario)
     base = flag_overrides(file, {"--seed": ("seed", args.seed)})

@@ -57,8 +57,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from cosim.commands import RESULTS, overridden, variant_folder
     from cosim.output import check_output_dir
+    from cosim.run.loop import run_scenario
     from cosim.scenario import load_scenario
-    from cosim.sim import run_scenario
     from cosim.traffic import gui as sumo_gui
     from cosim.vehicle.bicycle import warn_near_critical_speed
 

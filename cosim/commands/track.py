@@ -27,7 +27,7 @@ from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, TrackingRun, run_t
 from cosim.errors import InputError
 from cosim.params import VEHICLE_PRESETS, ControllerGains, RoadParams, VehicleParams, kmh
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.study import MU
+from cosim.study.spec import MU
 from cosim.vehicle.bicycle import critical_speed, handling, understeer_gradient
 from cosim.vehicle.chassis import chassis_for
 

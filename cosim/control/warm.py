@@ -1,11 +1,11 @@
 """Importing this module compiles every numba function of the package (or loads it
 from numba's on-disk cache) in the importing process: it loads the modules with
 compiled functions (the closed loop, the collision check, the new follower's
-prediction, the loop's per-step geometry in cosim.proximity, the road frame's
+prediction, the loop's per-step geometry in cosim.run.proximity, the road frame's
 conversions in cosim.road.frame; each registers its
 warm-up with cosim.compiled) and runs `warm_up`.
 
-For a fork server's preload list (`cosim.batch.PRELOAD`): the server pays numba's
+For a fork server's preload list (`cosim.study.batch.PRELOAD`): the server pays numba's
 start-up once (about 1.2 s: import, compiler set-up, cached code) and every run
 forked from it starts with the compiled code in memory. Measured: a forked run of
 paper case 5.1 took 1.45 s without this module in the preload list, 0.28 s with it.
@@ -16,8 +16,8 @@ from __future__ import annotations
 import cosim.control.closed_loop  # noqa: F401  (registers its warm-up)
 import cosim.planning.collision  # noqa: F401  (registers its warm-up)
 import cosim.planning.interaction  # noqa: F401  (registers its warm-up)
-import cosim.proximity  # noqa: F401  (registers its warm-up)
 import cosim.road.frame  # noqa: F401  (registers its warm-up: the loop builds the route's road)
+import cosim.run.proximity  # noqa: F401  (registers its warm-up)
 from cosim.compiled import warm_up
 
 warm_up()

@@ -2,8 +2,8 @@
 (base: `LaneChangePolicy`, the `DrivingContext` each is built from, its ports to the
 world) and one registry (registry: name -> class, duplicates refused).
 
-- lanes: the road as lanes (membership, centres, gaps along a lane, speed bands)
-- scene: the SV and the traffic as the decision functions take them
+- layout: the road as lanes (membership, centres, gaps along a lane, speed bands)
+- view: the SV and the traffic as the decision functions take them (SVView, TrafficView)
 - plans: the plans.csv rows a policy writes
 - rule: the paper's trigger (decision rule) and IDM car following
 - following: car following in the SV's lane and the lane-keeping reference

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig
 
 if TYPE_CHECKING:
@@ -38,7 +38,7 @@ if TYPE_CHECKING:
 
 
 class Messages(Protocol):
-    """What the SV knows of the TVs this step (cosim.observer.Inbox)."""
+    """What the SV knows of the TVs this step (cosim.run.observer.Inbox)."""
 
     def read(self) -> list[Any]: ...
 

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from cosim.driving.base import DrivingContext
 from cosim.driving.lane_end import stop_accel
 from cosim.driving.rule import Decision, DecisionConfig, decide
-from cosim.driving.scene import SV, Traffic
+from cosim.driving.view import SVView, TrafficView
 from cosim.params import STANDSTILL_SPEED, G
 from cosim.planning.trajectory import LaneChangeTrajectory
 
@@ -63,10 +63,10 @@ class CarFollowing:
             return self.lanes.speed_limit(lane)
         return self.v_cruise
 
-    def view(self, sv: SVState) -> SV:
+    def view(self, sv: SVState) -> SVView:
         """The SV as the decision rules see it: at the reference's speed, wanting its
         desired speed in the lane it is in."""
-        return SV(sv.x, sv.y, self.v_ref, self.sv_length,
+        return SVView(sv.x, sv.y, self.v_ref, self.sv_length,
                   self.desired_speed(self.lanes.lane_of(sv.y)))
 
     def update(self, sv: SVState, scene: Scene, allow_change: bool,
@@ -74,7 +74,7 @@ class CarFollowing:
         """This step's car-following acceleration; the decision rule's lane change
         (only with `allow_change` and `[sv] decision`). `stop_gap` (m): bumper gap to a
         virtual standing leader (a lane that ends: cosim.driving.lane_end; inf: none)."""
-        d = decide(self.view(sv), Traffic.of(scene), self.lanes, self.cfg,
+        d = decide(self.view(sv), TrafficView.of(scene), self.lanes, self.cfg,
                    allow_change=allow_change and self.sv.decision)
         self.limit(*self.with_stop(d.accel, d.leader_gap, d.leader_speed, stop_gap))
         return d

@@ -33,9 +33,9 @@ import math
 
 import numpy as np
 
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig, idm_acceleration
-from cosim.driving.scene import Traffic
+from cosim.driving.view import TrafficView
 from cosim.planning.deadline import LaneEnd, continuing_lane, lane_end, look_ahead
 from cosim.planning.interaction import FollowerModel, krauss_safe_speed
 
@@ -96,7 +96,7 @@ def stop_accel(speed: float, gap: float, min_gap: float) -> float:
 
 
 def merging_ahead(lanes: LaneLayout, lane: int, sv_x: float, sv_length: float,
-                  traffic: Traffic) -> tuple[int, float]:
+                  traffic: TrafficView) -> tuple[int, float]:
     """(index, bumper gap m) of the nearest TV ahead of the SV's front that must merge
     into the SV's `lane` from a neighbouring lane that ends (its change due: within its
     LC2013 look-ahead, cosim.planning.deadline), or (-1, inf). Arrays over TVs."""
@@ -126,7 +126,7 @@ def merging_ahead(lanes: LaneLayout, lane: int, sv_x: float, sv_length: float,
 
 
 def yield_accel(speed: float, desired_speed: float, lanes: LaneLayout, lane: int,
-                sv_x: float, sv_length: float, traffic: Traffic,
+                sv_x: float, sv_length: float, traffic: TrafficView,
                 cfg: DecisionConfig) -> float:
     """m/s^2, the courtesy of the SV to a TV that must merge into its lane ahead of it
     (`merging_ahead`): its car following's acceleration behind that TV as if it were

@@ -20,8 +20,8 @@ Beyond the paper (which starts every case with "SV decides to change lanes"):
 - After the planner found no collision-free tau the SV keeps its lane and asks
   again `retry_interval` later; after any manoeuvre it waits `cooldown`.
 
-Vehicles are numpy arrays (one entry per TV, cosim.driving.scene.Traffic); the leader /
-follower search along a lane is the lane layout's (cosim.driving.lanes, a compiled loop).
+Vehicles are numpy arrays (one entry per TV, cosim.driving.view.TrafficView); the leader /
+follower search along a lane is the lane layout's (cosim.driving.layout, a compiled loop).
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from cosim.driving.lanes import LaneLayout, Neighbours
-from cosim.driving.scene import SV, Traffic
+from cosim.driving.layout import LaneLayout, Neighbours
+from cosim.driving.view import SVView, TrafficView
 
 
 @dataclass(frozen=True)
@@ -127,7 +127,7 @@ class Decision:
     leader_speed: float = math.inf  # m/s, the leader's speed (inf: none)
 
 
-def decide(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig, *,
+def decide(sv: SVView, traffic: TrafficView, lanes: LaneLayout, cfg: DecisionConfig, *,
            allow_change: bool = True) -> Decision:
     """The rule of the module docstring for `sv` among `traffic` (a TV leaving the
     SV's lane, by its lateral speed, is not its leader; target lanes still count
@@ -156,7 +156,7 @@ def decide(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig, *,
     return Decision(None, accel, own.gap_ahead, "slow leader, no free faster lane", lead_v)
 
 
-def neighbours(lane: int, sv: SV, traffic: Traffic, lanes: LaneLayout, *,
+def neighbours(lane: int, sv: SVView, traffic: TrafficView, lanes: LaneLayout, *,
                leaving: bool = False) -> Neighbours:
     """The SV's leader and follower in `lane` (`leaving`: a TV moving out of the lane,
     by its lateral speed when known, does not count)."""

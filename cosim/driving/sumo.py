@@ -12,10 +12,10 @@ from numpy.typing import NDArray
 
 from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
 from cosim.driving.following import CarFollowing
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.plans import request_row
 from cosim.driving.registry import register
-from cosim.metrics import SETTLE_TOL
+from cosim.run.metrics import SETTLE_TOL
 
 if TYPE_CHECKING:
     from cosim.traffic.world import Scene, SVState

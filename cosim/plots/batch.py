@@ -10,8 +10,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from cosim.metrics import FOLLOWER_PERCENTILE
 from cosim.plots import figure_path, save_figure
+from cosim.run.metrics import FOLLOWER_PERCENTILE
 
 # (summary column prefix, axis label); rates are shown in per cent.
 PANELS = (

@@ -33,7 +33,7 @@ from cosim.traffic.own_demand import (
     dry_load,
     read_sumocfg,
 )
-from cosim.traffic.route import (
+from cosim.traffic.route_lanes import (
     RouteLanes,
     check_lanes,
     lane_width,
@@ -211,7 +211,7 @@ def scenario_from_dict(
         check_route(src, network, rd["route"], sv, vehicle.length)
     found = read_network(src, net_key, net_written, network, base_dir,
                          route=rd["route"])
-    # the planner's road in (s, d) from the route's road (cosim.traffic.route.road_params;
+    # the planner's road in (s, d) from the route's road (cosim.traffic.route_lanes.road_params;
     # on the one straight edge of networks/highway.net.xml the RoadParams of before)
     road_of_route = route_road(network, rd["route"], source=src)
     traffic = _traffic(src, tables["traffic"], base_dir)
@@ -327,7 +327,7 @@ def route_view(road: Road, sv_edge: str | None) -> Highway:
     to where the through tracks end, a lane's speed limit is its track's on the SV's start
     edge, every lane is open to cars (tracks are the lanes cars may use). The rules then
     read the SV's s as its sv.position_m (a message about it names that s). Its lanes are
-    the SV lanes (cosim.traffic.route.sv_tracks: through or ending on the route)."""
+    the SV lanes (cosim.traffic.route_lanes.sv_tracks: through or ending on the route)."""
     lanes = RouteLanes(road)
     edge = sv_edge if sv_edge is not None else road.route.edges[0]
     speeds = []

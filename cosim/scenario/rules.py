@@ -19,7 +19,7 @@ from cosim.traffic.network import Highway
 
 STEP_TOLERANCE = 1e-9  # relative, "duration is a multiple of the step"
 SPEED_TOLERANCE = 1e-4  # m/s above a lane's SUMO limit still accepted (its 6 printed digits)
-SV_ID = "sv"  # the SV's SUMO id (cosim.sim.SV_ID; a test checks they agree)
+SV_ID = "sv"  # the SV's SUMO id (cosim.run.loop.SV_ID; a test checks they agree)
 
 
 def check_scenario(src: str, s: Scenario, net: Highway) -> None:

@@ -9,7 +9,7 @@ So, with L the body length,
     front = centre + L/2 (cos h, sin h),   angle = (90 - degrees(h)) mod 360.
 
 Controlled vehicles leave SUMO's control (speed mode 0, lane-change mode 0), are added
-on the route's road (cosim.traffic.route) and written with `vehicle.moveToXY(...,
+on the route's road (cosim.traffic.route_lanes) and written with `vehicle.moveToXY(...,
 keepRoute=2)` with the edge and lane index of the track their front is in as the hint;
 one that SUMO takes off the network (it drops it silently) is caught after the step
 (`check`).

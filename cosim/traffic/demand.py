@@ -1,6 +1,6 @@
 """Random highway traffic by density, with the paper's lane speed bands.
 
-At t = 0 every through track of the route (an SV lane that runs on, cosim.traffic.route) gets
+At t = 0 every through track of the route (an SV lane that runs on, cosim.traffic.route_lanes) gets
 `density` vehicles per km spread along its first `length` metres of arc length s
 (about evenly, jittered), so the road is full from the start; then an inflow at the
 start of the route inserts the next vehicle of a track once the last one has driven a
@@ -55,7 +55,7 @@ RANDOM_ID = re.compile(rf"{RANDOM_ID_PREFIX}\d+")
 
 
 @dataclass
-class Traffic:
+class RandomTraffic:
     """The random traffic of one run: what was placed, and the inflow that keeps it."""
 
     density: float  # veh per km per lane
@@ -163,7 +163,7 @@ def populate(
     exclude_zone: tuple[float, float] | None = None,
     inflow: bool = True,
     lane_zones: Mapping[int, tuple[float, float]] | None = None,
-) -> Traffic:
+) -> RandomTraffic:
     """Place traffic for t = 0 (call before the first step) and keep an inflow.
 
     Every through track of `sim`'s route gets TVs along s from its start over `length`
@@ -183,7 +183,7 @@ def populate(
             "traffic", "length_m", length, f"0 < length <= the road's {road_length:.0f} m"
         )
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    traffic = Traffic(density=density, length=length, rng=rng, inflow=inflow)
+    traffic = RandomTraffic(density=density, length=length, rng=rng, inflow=inflow)
     if density == 0:
         return traffic
     del road  # its lanes are the route's through tracks (sim.road() is built of them)
@@ -327,7 +327,7 @@ class RampFlow:
 
     flow: float  # veh/h per ramp
     rng: np.random.Generator
-    traffic: Traffic  # the random traffic: ids from its counter (tv1, tv2, ...)
+    traffic: RandomTraffic  # the random traffic: ids from its counter (tv1, tv2, ...)
     ramps: tuple[Ramp, ...] = ()
     _next: list[float] = field(default_factory=list)  # s, each ramp's next departure
 
@@ -357,7 +357,7 @@ class RampFlow:
             self._next[i] = t + self.headway()
 
 
-def ramp_flow(sim: SumoSim, flow: float, seed: int, traffic: Traffic | None = None
+def ramp_flow(sim: SumoSim, flow: float, seed: int, traffic: RandomTraffic | None = None
               ) -> RampFlow | None:
     """Start the on-ramp traffic (`RampFlow`, `flow` veh/h per ramp; its own random stream
     of `seed`) as a step hook of `sim`; None when `flow` is 0 or the route has no ramp."""
@@ -368,7 +368,7 @@ def ramp_flow(sim: SumoSim, flow: float, seed: int, traffic: Traffic | None = No
         return None
     rng = np.random.default_rng([seed, 24])
     if traffic is None:
-        traffic = Traffic(density=0.0, length=0.0, rng=rng, inflow=False)
+        traffic = RandomTraffic(density=0.0, length=0.0, rng=rng, inflow=False)
     hook = RampFlow(flow, rng, traffic, found)
     hook._next = [float(rng.random()) * 3600.0 / flow for _ in found]
     sim.add_hook(hook)

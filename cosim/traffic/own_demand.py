@@ -48,7 +48,7 @@ PERSON_TAGS = ("person", "personFlow", "container", "containerFlow")
 SUMO_TYPES = ("DEFAULT_VEHTYPE", "DEFAULT_PEDTYPE", "DEFAULT_BIKETYPE",
               "DEFAULT_CONTAINERTYPE", "DEFAULT_TAXITYPE", "DEFAULT_RAILTYPE")
 COSIM_COPIES = "DEFAULT_VEHTYPE"  # cosim's own vTypes are copies of it (cosim.traffic.sumo)
-# cosim's own SUMO ids (cosim.traffic.sumo, .route, .traffic_vehicles, cosim.observer)
+# cosim's own SUMO ids (cosim.traffic.sumo, .route, .traffic_vehicles, cosim.run.observer)
 COSIM_TYPES = re.compile(r"tv|sv|sv_.*|tv_scripted.*|driven_.*")
 COSIM_ROUTES = re.compile(r"highway_route(@.*)?")
 COSIM_VEHICLES = ("sv",)

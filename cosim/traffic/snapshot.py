@@ -52,7 +52,7 @@ class TrafficSnapshot:
     heading: np.ndarray  # rad, math convention
     speed: np.ndarray  # m/s, along the lane
     accel: np.ndarray  # m/s^2, longitudinal
-    # int, the SV lane the vehicle is on (cosim.traffic.route: the SV's lane k is track
+    # int, the SV lane the vehicle is on (cosim.traffic.route_lanes: the SV's lane k is track
     # k, a track of the route's first edge, running through or ending on the route; on
     # the one-edge road SUMO's lane index); -1: on none (a road crossing the route on a
     # bridge, another road such as an on-ramp, off the network, a lane added along it)
@@ -123,7 +123,7 @@ class SnapshotReader:
     `dims` (vehicle id -> (length, width), m) is shared with the adapter, which knows
     the sizes of the vehicles it adds; `lateral_speeds()` gives the sideways speeds
     of the vehicles moved by moveToXY (SUMO reports 0 for them); `tracks` maps SUMO's
-    lane ids of the route's SV lanes (cosim.traffic.route.sv_tracks) to their track ids
+    lane ids of the route's SV lanes (cosim.traffic.route_lanes.sv_tracks) to their track ids
     (a vehicle's `lane`)."""
 
     def __init__(self, api: ModuleType, dims: dict[str, tuple[float, float]],

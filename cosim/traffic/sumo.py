@@ -1,9 +1,9 @@
 """The SUMO adapter: the only module (with its parts below) that imports libsumo / traci.
 
 `SumoSim` starts SUMO on a route's road (cosim.road.road.Road: SUMO's route is its
-edges, the SV's lanes the tracks of its first edge, cosim.traffic.route), steps it, reads every
-traffic vehicle (TV) in one pass into a `TrafficSnapshot`, and lets the co-simulation
-drive vehicles it controls itself (the SV and scripted TVs) with
+edges, the SV's lanes the tracks of its first edge, cosim.traffic.route_lanes), steps
+it, reads every traffic vehicle (TV) in one pass into a `TrafficSnapshot`, and lets the
+co-simulation drive vehicles it controls itself (the SV and scripted TVs) with
 `vehicle.moveToXY(..., keepRoute=2)`.
 It is put together from parts named for what they are:
 
@@ -40,7 +40,7 @@ from cosim.traffic.controlled import (  # noqa: F401  (re-exported)
 )
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.process import SumoProcess, process
-from cosim.traffic.route import ROUTE_ID, RouteLanes, road_params, route_road  # noqa: F401
+from cosim.traffic.route_lanes import ROUTE_ID, RouteLanes, road_params, route_road  # noqa: F401
 from cosim.traffic.snapshot import (  # noqa: F401  (TrafficSnapshot: re-exported)
     INVALID,
     SIGNAL_BLINKER_LEFT,
@@ -70,7 +70,7 @@ class SumoSim:
     lateral speed for that long); `sublane` uses SUMO's sublane model instead
     (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci; `traci`
     the headless binary so. `speed_bands` (m/s per SV lane, or per through track:
-    cosim.traffic.route.expand_bands) set each TV's desired speed on the track it is on.
+    cosim.traffic.route_lanes.expand_bands) set each TV's desired speed on the track it is on.
     `strict`: a controlled vehicle leaving the network, or SUMO teleporting or removing
     the SUMO-driven SV, raises SimulationError (else it is only recorded in `events`).
     `fcd_output`:
@@ -94,7 +94,7 @@ class SumoSim:
         if lanechange_duration < 0:
             raise InputError("SumoSim", "lanechange_duration", lanechange_duration, ">= 0 s")
         # the route's road (cosim.road): SUMO's route is its edges, the SV's lanes its
-        # first edge's tracks (cosim.traffic.route); `road` if the caller has built it
+        # first edge's tracks (cosim.traffic.route_lanes); `road` if the caller has built it
         self.lanes = RouteLanes(road if road is not None else route_road(network, route))
         self.process: SumoProcess = process(
             self.lanes.road.route.path, step, seed, lanechange_duration=lanechange_duration,
@@ -196,7 +196,7 @@ class SumoSim:
         return float(self.api.simulation.getTime())
 
     def road(self) -> RoadParams:
-        """The planner's road in (s, d) (cosim.traffic.route.road_params: the lanes'
+        """The planner's road in (s, d) (cosim.traffic.route_lanes.road_params: the lanes'
         width, y_right 0) with the speed bands."""
         return self._road
 
@@ -313,7 +313,7 @@ class SumoSim:
         keeps trying for `duration` s). SUMO takes the lane index on the vehicle's current
         edge (a junction's lane too) and shifts the request itself wherever the index of
         the vehicle's lane changes on its way (MSVehicle::Influencer::adaptLaneTimeLine),
-        so the request follows the track (tests/traffic/test_route.py)."""
+        so the request follows the track (tests/traffic/test_route_lanes.py)."""
         api = self.api
         piece = self.lanes.table(lane).track.piece_on(str(api.vehicle.getRoadID(vehicle_id)))
         api.vehicle.changeLane(vehicle_id, lane if piece is None else piece.index, duration)

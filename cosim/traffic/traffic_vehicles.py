@@ -64,7 +64,7 @@ class SpeedBands:
     place in [0, 1] within a band per TV, applied whenever its track changes (SUMO's lane
     index of one track may change along the route: the band follows the track, not the
     index). A track that is not a through track has its neighbour's band
-    (cosim.traffic.route).
+    (cosim.traffic.route_lanes).
 
     A track change is seen as a TV new in a lane's vehicle list (one list per lane of
     the route's edges a step, not one lane read per TV: on the one-edge road three lists,

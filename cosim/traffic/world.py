@@ -36,7 +36,7 @@ from cosim.traffic.cooperation import (
 )
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
-from cosim.traffic.route import route_road, sv_start
+from cosim.traffic.route_lanes import route_road, sv_start
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
 Array = NDArray[np.float64]

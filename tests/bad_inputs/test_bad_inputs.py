@@ -35,7 +35,7 @@ from cosim.scenario import (
     load_scenario,
     scenario_from_dict,
 )
-from cosim.study import STUDY_FIELDS, check_study, study_from_dict
+from cosim.study.spec import STUDY_FIELDS, check_study, study_from_dict
 
 HERE = Path(__file__).resolve().parent
 BASE = HERE / "base.toml"
@@ -617,7 +617,7 @@ def test_refused_before_sumo_in_every_command_with_the_folder_untouched(
 def test_position_is_measured_from_the_road_start(tmp_path: Path) -> None:
     """One meaning for sv.position_m: on a road from x = -5000 m to 1000 m, 300 m puts
     the SV at x = -4700 m (validator and simulation agree)."""
-    from cosim.sim import run_scenario
+    from cosim.run.loop import run_scenario
 
     text = BASE.read_text().replace("[road]\n", '[road]\nnetwork = "offset_start.net.xml"\n')
     path = HERE / "offset_start.net.xml"
@@ -664,7 +664,7 @@ def test_a_network_too_big_is_refused_before_it_is_read(tmp_path: Path) -> None:
 @pytest.mark.parametrize("kind", ["scenario", "study"])
 def test_a_file_too_big_is_refused_before_it_is_read(kind: str, tmp_path: Path) -> None:
     from cosim.scenario import MAX_FILE_BYTES
-    from cosim.study import load_study
+    from cosim.study.spec import load_study
 
     path = tmp_path / "huge.toml"
     with open(path, "wb") as fh:

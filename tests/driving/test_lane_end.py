@@ -28,7 +28,7 @@ from cosim.driving.lane_end import (
     stop_accel,
     sv_lane_end,
 )
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.manoeuvre import BRAKE_DECELS, BRAKE_GRIP, BRAKING, CHANGING, MANDATORY
 from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from cosim.planning.deadline import END_MARGIN
+from cosim.run.loop import simulate
 from cosim.scenario import load_scenario
 from cosim.scenario.model import TVBrake, TVSpec
-from cosim.sim import simulate
 
 SCENARIO = Path(__file__).parents[1] / "data" / "tv_stops_and_goes.toml"
 END = 550.0  # m, where the SV's lane 0 ends (it starts at 300 m)

@@ -1,5 +1,5 @@
 """Replanning and abort during the manoeuvre (beyond the paper's S2): cosim.driving.manoeuvre
-in the loop (cosim.sim).
+in the loop (cosim.run.loop).
 
 A TV ahead in the target lane brakes hard (8 m/s^2) one second into the SV's lane
 change (tests/data/tv_brakes_mid_change.toml, scripted, real libsumo)."""
@@ -16,11 +16,11 @@ from hypothesis import strategies as st
 
 from cosim.driving.manoeuvre import LaneChangeTimer, reference_state
 from cosim.driving.rule import DecisionConfig
-from cosim.observer import uncertain_config
 from cosim.params import RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.run.loop import simulate
+from cosim.run.observer import uncertain_config
 from cosim.scenario import load_scenario, with_overrides
-from cosim.sim import simulate
 
 SCENARIO = Path(__file__).parents[1] / "data" / "tv_brakes_mid_change.toml"
 CFG = DecisionConfig()

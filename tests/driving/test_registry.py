@@ -14,8 +14,8 @@ from cosim.driving.paper import PaperPolicy
 from cosim.driving.registry import PLANNED, names, policy_class, register, unregister
 from cosim.driving.sumo import SumoPolicy
 from cosim.errors import InputError
+from cosim.run.loop import simulate
 from cosim.scenario import PLANNER_FIELDS, load_scenario, project_root, with_overrides
-from cosim.sim import simulate
 from cosim.traffic.world import Scene, SVState
 
 CASE1 = project_root() / "scenarios" / "paper_case1_overtaking.toml"

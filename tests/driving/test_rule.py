@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig, decide, idm_acceleration
-from cosim.driving.scene import SV, Traffic
+from cosim.driving.view import SVView, TrafficView
 from cosim.params import RoadParams
 
 ROAD = RoadParams()
@@ -28,8 +28,8 @@ def run_decide(tvs: list[tuple[float, int | float, float]], *, sv_lane: int = 0,
     y = np.array([lane_y(tv[1]) if isinstance(tv[1], int) else tv[1] for tv in tvs])
     v = np.array([tv[2] for tv in tvs], dtype=float)
     n = len(tvs)
-    return decide(SV(0.0, lane_y(sv_lane), sv_speed, L, desired),
-                  Traffic.arrays(x, y, v, np.full(n, L), np.full(n, W)), LANES, CFG,
+    return decide(SVView(0.0, lane_y(sv_lane), sv_speed, L, desired),
+                  TrafficView.arrays(x, y, v, np.full(n, L), np.full(n, W)), LANES, CFG,
                   allow_change=allow)
 
 

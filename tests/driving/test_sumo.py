@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 
 from cosim.driving.base import DrivingContext, WorldPorts
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig
 from cosim.driving.sumo import SumoPolicy, excursions
 from cosim.params import RoadParams
@@ -72,7 +72,7 @@ def test_a_change_read_off_the_path_is_watched_until_the_next_one_starts() -> No
     """Lane 0 -> 1 (settled at 4 s) -> 2 (from 6 s): the first change's window ends where
     the second starts, so it reads as settled and the run as completed (a window to the
     run's end read the first as never settled, the run as failed)."""
-    from cosim.metrics import lane_change_durations
+    from cosim.run.metrics import lane_change_durations
 
     lanes = LaneLayout(ROAD)
     t = np.arange(0.0, 12.0, 0.5)

@@ -85,7 +85,7 @@ def road() -> Road:
 
 
 def road_curve(road: Road, rp: RoadParams) -> RoadCurve:
-    """The planner's bound as the loop builds it (cosim.sim.road_curve)."""
+    """The planner's bound as the loop builds it (cosim.run.loop.road_curve)."""
     kappa, d_abs = road.curvature_bound()
     return RoadCurve(kappa, d_abs, max(hi for _, hi in rp.speed_bands),
                      0.5 * math.hypot(TV_LENGTH, TV_WIDTH))

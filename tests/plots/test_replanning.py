@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 
 from cosim.plots.replanning import plot_replanning
-from cosim.summary import summarize
+from cosim.study.summary import summarize
 
 
 def test_figure_from_a_summary(tmp_path: Path) -> None:

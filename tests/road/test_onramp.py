@@ -14,7 +14,7 @@ from cosim.errors import InputError
 from cosim.road.onramp import ACC_LENGTH, NAME, build, main, stale
 from cosim.road.road import load_road
 from cosim.traffic.network import NETWORK_DIR
-from cosim.traffic.route import RouteLanes, check_lanes, road_params, sv_tracks
+from cosim.traffic.route_lanes import RouteLanes, check_lanes, road_params, sv_tracks
 
 sys.path.insert(0, str(Path(__file__).parent))
 from handdrawn import assert_rebuilt, netconvert  # noqa: E402

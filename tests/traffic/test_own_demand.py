@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from cosim.errors import InputError
+from cosim.run.loop import run_scenario
 from cosim.scenario import load_scenario, project_root, scenario_to_dict, with_overrides
-from cosim.sim import run_scenario
 from cosim.traffic.own_demand import demand_only, read_sumocfg
 
 ROOT = project_root()
@@ -180,8 +180,8 @@ def test_their_flows_on_the_curved_motorway(tmp_path: Path) -> None:
     doc["traffic"].update(density_veh_per_km_lane=0.0, routes=["flows.rou.xml"],
                           warmup_s=100.0)
     doc["scenario"].update(duration_s=6.0, name="curved_own")
+    from cosim.run.loop import simulate
     from cosim.scenario import scenario_from_dict
-    from cosim.sim import simulate
 
     s = scenario_from_dict(doc, path=tmp_path / "curved_own.toml")
     result = simulate(s)
@@ -233,8 +233,8 @@ def test_the_warm_up_leaves_the_start_zone_free() -> None:
 def test_a_scripted_tv_among_their_traffic() -> None:
     """A [[tv]] of the scenario starts where the file puts it among their vehicles (its
     start zone cleared like the SV's): no collision, their vehicles around both."""
+    from cosim.run.loop import simulate
     from cosim.scenario import scenario_from_dict
-    from cosim.sim import simulate
 
     s = _short(ROUTES)
     doc = scenario_to_dict(s)

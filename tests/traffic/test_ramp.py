@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from cosim.errors import SimulationError
+from cosim.run.loop import simulate
 from cosim.scenario.load import load_scenario
-from cosim.sim import simulate
 from cosim.traffic.demand import UPSTREAM_LENGTH, populate, ramp_flow, ramps
 from cosim.traffic.network import NETWORK_DIR
 from cosim.traffic.sumo import SumoSim

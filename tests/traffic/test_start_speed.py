@@ -8,8 +8,8 @@ import math
 import pytest
 
 from cosim.params import G
+from cosim.run.loop import simulate
 from cosim.scenario import load_scenario, project_root, with_overrides
-from cosim.sim import simulate
 from cosim.traffic.demand import (
     START_DECEL,
     START_GRIP,

@@ -54,9 +54,9 @@ from cosim.driving.gap.geometry import (
     slot_ends,
 )
 from cosim.driving.lane_end import MERGE_APPROACH_DECEL, MERGE_INSIST_DECEL
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig, decide, neighbours
-from cosim.driving.scene import SV, Traffic
+from cosim.driving.view import SVView, TrafficView
 from cosim.planning.interaction import FollowerModel, secure_gap
 from cosim.traffic.cooperation import COURTESY_DECEL
 
@@ -115,7 +115,7 @@ def urgent_decel(cfg: GapConfig, urgency: float) -> float:
     return cfg.plan_decel + u * (cfg.insist_decel - cfg.plan_decel)
 
 
-def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfig,
+def gap_decision(sv: SVView, traffic: TrafficView, lanes: LaneLayout, cfg: DecisionConfig,
                  gap_cfg: GapConfig, follower: FollowerModel, *,
                  wanted_lane: int | None = None, allow_change: bool = True,
                  insist: bool = False, urgency: float = 0.0,
@@ -243,7 +243,7 @@ def gap_decision(sv: SV, traffic: Traffic, lanes: LaneLayout, cfg: DecisionConfi
     )
 
 
-def has_room(sv: SV, traffic: Traffic, k: int, cfg: GapConfig,
+def has_room(sv: SVView, traffic: TrafficView, k: int, cfg: GapConfig,
              follower: FollowerModel) -> bool:
     """Whether TV `k` (behind the SV in the target lane) already has room for the SV
     entering beside it now: its bumper gap to the SV's rear is at least the slot's
@@ -256,7 +256,7 @@ def has_room(sv: SV, traffic: Traffic, k: int, cfg: GapConfig,
     return bool(sv.x >= float(lo))
 
 
-def can_fall_back(sv: SV, traffic: Traffic, cfg: GapConfig) -> NDArray[np.bool_]:
+def can_fall_back(sv: SVView, traffic: TrafficView, cfg: GapConfig) -> NDArray[np.bool_]:
     """Which TVs can still come down to the SV's speed behind its rear, their standstill
     gap short of it, braking at `cfg.ask_decel` (all of them with inf): the ones worth
     asking to make room. Arrays over TVs."""
@@ -268,7 +268,7 @@ def can_fall_back(sv: SV, traffic: Traffic, cfg: GapConfig) -> NDArray[np.bool_]
     return closing * closing / (2.0 * cfg.ask_decel) <= room - cfg.min_gap
 
 
-def in_lane(lane: int, traffic: Traffic, lanes: LaneLayout) -> NDArray[np.bool_]:
+def in_lane(lane: int, traffic: TrafficView, lanes: LaneLayout) -> NDArray[np.bool_]:
     """Which TVs' bodies touch `lane` (a TV half way through a change is in both)."""
     lo, hi = lanes.lanes_touched(traffic.y, 0.5 * np.asarray(traffic.width, dtype=float))
     return (lo <= lane) & (hi >= lane)

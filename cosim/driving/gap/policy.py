@@ -48,7 +48,7 @@ from cosim.driving.gap.yielding import YieldWatch
 from cosim.driving.lane_end import stop_gap, yield_accel
 from cosim.driving.manoeuvre import MANDATORY, LaneChangeTimer, Manoeuvre
 from cosim.driving.registry import register
-from cosim.driving.scene import Traffic
+from cosim.driving.view import TrafficView
 from cosim.planning.interaction import FollowerModel, check_follower
 from cosim.planning.planner import PredictionOptions
 
@@ -142,7 +142,7 @@ class GapPolicy:
             self.following.update(sv, scene, False)
             trajectory = m.advance(t, sv, None, "", messages)
         else:
-            traffic = Traffic.of(scene)
+            traffic = TrafficView.of(scene)
             d, trigger = self.seek(t, sv, traffic, allow_scripted, allow_decision)
             target = d.target_lane if trigger else None
             trajectory = m.advance(
@@ -152,7 +152,7 @@ class GapPolicy:
             self.held = m.active if d.held is not None else None
         return trajectory if trajectory is not None else self.following.reference(t, sv)
 
-    def seek(self, t: float, sv: SVState, traffic: Traffic, allow_scripted: bool,
+    def seek(self, t: float, sv: SVState, traffic: TrafficView, allow_scripted: bool,
              allow_decision: bool) -> tuple[GapDecision, str]:
         """Car-following toward the chosen gap this step; the decision, and the trigger
         once the gap is reached ("scripted" | "decision"; "": do not plan now)."""
@@ -222,7 +222,7 @@ class GapPolicy:
             return d, "scripted" if allow_scripted else ""
         return d, "decision" if allow_decision else ""
 
-    def accept(self, t: float, plan: Plan, target: int | None, traffic: Traffic) -> str:
+    def accept(self, t: float, plan: Plan, target: int | None, traffic: TrafficView) -> str:
         """Why the plan is not flown although it has a trajectory ("": fly it): its new
         follower would brake harder than the policy's limit within b_safe (MOBIL)."""
         assert target is not None and plan.trajectory is not None

@@ -12,9 +12,9 @@ import numpy as np
 from cosim.driving.gap.decision import gap_decision, has_room
 from cosim.driving.gap.geometry import GapConfig, choose_gap, entry_test, gap_cost, lane_gaps
 from cosim.driving.gap.policy import TIME_GAP
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig, idm_acceleration
-from cosim.driving.scene import SV, Traffic
+from cosim.driving.view import SVView, TrafficView
 from cosim.params import RoadParams
 from cosim.planning.interaction import FollowerModel
 
@@ -24,9 +24,9 @@ KRAUSS = FollowerModel()
 L = 4.32
 
 
-def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> Traffic:
+def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> TrafficView:
     n = len(xs)
-    return Traffic.arrays(xs, [ROAD.lane_center(k) for k in lanes], speeds, np.full(n, L),
+    return TrafficView.arrays(xs, [ROAD.lane_center(k) for k in lanes], speeds, np.full(n, L),
                           np.full(n, 1.8))
 
 
@@ -121,7 +121,7 @@ def test_courtesy_is_asked_only_of_a_follower_without_room() -> None:
     # the SV (lane 1, 25 m/s) wants lane 2, whose traffic drives 22 m/s: a long gap
     # ahead of a TV just behind the SV
     close = scene([-6.0, 200.0], [2, 2], [22.0, 22.0])
-    sv = SV(0.0, ROAD.lane_center(1), 25.0, L, 30.0)
+    sv = SVView(0.0, ROAD.lane_center(1), 25.0, L, 30.0)
     assert not has_room(sv, close, 0, GAP, KRAUSS)
     d = gap_decision(sv, close, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
     assert d.gap is not None and d.gap.follower == 0
@@ -136,7 +136,7 @@ def test_courtesy_is_asked_only_of_a_follower_without_room() -> None:
 
 def test_the_sv_insists_on_an_entry_only_when_told_and_within_b_safe() -> None:
     lanes = LaneLayout(ROAD)
-    sv = SV(0.0, ROAD.lane_center(1), 25.0, L, 25.0)
+    sv = SVView(0.0, ROAD.lane_center(1), 25.0, L, 25.0)
     # a TV 30 m behind in the target lane at the SV's speed: Krauss brakes at its decel
     # for an entry now (its secure gap is 27.5 m + what it closes): not within plan_decel,
     # and not even when insisting (below the follower's decel: never a brake at b at once)

@@ -8,9 +8,9 @@ import numpy as np
 
 from cosim.driving.gap.decision import gap_decision
 from cosim.driving.gap.geometry import GapConfig
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig
-from cosim.driving.scene import SV, Traffic
+from cosim.driving.view import SVView, TrafficView
 from cosim.params import RoadParams
 from cosim.planning.interaction import FollowerModel
 
@@ -21,14 +21,14 @@ KRAUSS = FollowerModel()
 L = 4.32
 
 
-def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> Traffic:
+def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> TrafficView:
     n = len(xs)
-    return Traffic.arrays(xs, [ROAD.lane_center(k) for k in lanes], speeds, np.full(n, L),
+    return TrafficView.arrays(xs, [ROAD.lane_center(k) for k in lanes], speeds, np.full(n, L),
                           np.full(n, 1.8))
 
 
-def drive(sv_x: float, sv_speed: float, tvs: Traffic, **kw: object):
-    return gap_decision(SV(sv_x, ROAD.lane_center(1), sv_speed, L, 30.0), tvs,
+def drive(sv_x: float, sv_speed: float, tvs: TrafficView, **kw: object):
+    return gap_decision(SVView(sv_x, ROAD.lane_center(1), sv_speed, L, 30.0), tvs,
                         LaneLayout(ROAD), CFG, GAP, KRAUSS, **kw)
 
 
@@ -155,7 +155,7 @@ def test_a_mandatory_change_asks_a_tv_that_can_still_fall_back_behind_the_sv() -
     from cosim.driving.gap.decision import can_fall_back, mandatory_config
 
     tvs = scene([-10.0, -45.0], [2, 2], [12.0, 12.0])
-    sv = SV(0.0, ROAD.lane_center(1), 0.0, L, 30.0)
+    sv = SVView(0.0, ROAD.lane_center(1), 0.0, L, 30.0)
     assert list(can_fall_back(sv, tvs, mandatory_config(GAP))) == [False, True]
     assert list(can_fall_back(sv, tvs, GAP)) == [True, True]  # ask_decel inf: everybody
     lanes = LaneLayout(ROAD)

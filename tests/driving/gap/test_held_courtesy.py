@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 
 from cosim.driving.gap.geometry import GapConfig
+from cosim.run.loop import simulate
 from cosim.scenario import load_scenario, project_root, with_overrides
-from cosim.sim import simulate
 from cosim.traffic.cooperation import COURTESY_DECEL
 
 # the density study's base at 20 veh/km/lane, seed 3: asked at 2 s for lane 2, where a

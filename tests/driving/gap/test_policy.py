@@ -14,7 +14,7 @@ import pytest
 from cosim.driving.base import DrivingContext, WorldPorts
 from cosim.driving.gap.policy import STOP_GAP, GapPolicy
 from cosim.driving.manoeuvre import CHANGING, KEEPING
-from cosim.driving.scene import Traffic
+from cosim.driving.view import TrafficView
 from cosim.params import RoadParams
 from cosim.planning.planner import LaneChangePlanner
 from cosim.scenario import LaneChangeCommand, load_scenario, project_root
@@ -119,7 +119,7 @@ def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
     assert pol.last is not None
     plan = e.policy.manoeuvre.planner.plan(0.0, state, 1, [], 0.5, vxf=pol.last.vxf)
     assert plan.trajectory is not None  # the paper's planner (no messages) would fly it
-    why = e.policy.accept(0.0, plan, 1, Traffic.of(scene))
+    why = e.policy.accept(0.0, plan, 1, TrafficView.of(scene))
     assert why.startswith("follower tv0 would brake") and why.endswith(" > 1")
 
 
@@ -196,7 +196,7 @@ def test_a_lane_by_choice_is_sought_only_after_the_last_change_settled() -> None
     snap = TrafficSnapshot(0.0, ("tv0", "tv1", "tv2"), np.array([-3.0, 60.0, 30.0]),
                            np.array([ROAD.lane_center(k) for k in lanes]), z, speed, z,
                            lanes, z, np.full(3, 4.32), np.full(3, 1.8), np.zeros(3, int))
-    traffic = Traffic.of(Scene(0.0, me, snap, snap, speed))
+    traffic = TrafficView.of(Scene(0.0, me, snap, snap, speed))
     d, trigger = pol.seek(cooldown - 0.5, me, traffic, True, False)
     assert d.target_lane is None and trigger == "" and asked == []
     d, _ = pol.seek(cooldown + 0.05, me, traffic, True, True)

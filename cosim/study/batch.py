@@ -9,14 +9,14 @@ Life of a study (`cosim batch`):
    always gives the same ids and a resumed study knows exactly what is done.
 2. Runs whose record `DIR/runs/<run_id>.json` exists are skipped.
 3. The rest go to `execute_run` -- one top-level function for both back ends
-   -- which runs `cosim.sim.run_scenario` and turns every exception into a
+   -- which runs `cosim.run.loop.run_scenario` and turns every exception into a
    failed record. Local back end: a process pool with one fresh process per
    run (libsumo holds one simulation per process). Dask back end: the same
    function mapped over a `distributed.Client` whose workers have one thread.
 4. Each record is written atomically (temporary file + `os.replace`) by the
    parent as soon as its run finishes.
 5. `assemble` reads the grid's records into `runs.csv` (sorted by the
-   parameters), `cosim.summary.summarize` groups them into `summary.csv`, and the plots go
+   parameters), `cosim.study.summary.summarize` groups them into `summary.csv`, and the plots go
    to `DIR/plots/`. Both CSVs depend only on the records, and the records
    only on the parameters -- except the wall-time columns (`wall_time_s` and
    the run's own `wall_*` and `cpu_*` columns), which differ from one
@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 
 from cosim.errors import InputError, signals_deferred
-from cosim.run_table import (
+from cosim.study.run_table import (
     NO_PLANT,
     NO_VARIANT,
     PARAMETERS,
@@ -191,7 +191,7 @@ def execute_run(spec: RunSpec, out_dir: str) -> dict[str, Any]:
     start = time.perf_counter()
     record: dict[str, Any] = {"run_id": spec.run_id, **spec.parameters()}
     try:
-        from cosim.sim import run_scenario
+        from cosim.run.loop import run_scenario
 
         scenario = apply_spec(spec)
         # Traces (trace.csv, plans.csv, metrics.csv, timing.csv) only when asked.
@@ -277,10 +277,10 @@ OnRecord = Callable[[dict[str, Any]], None]
 # cosim.control.warm compiles the numba code (closed loop, collision check) in the server (about
 # 1.2 s a run otherwise).
 PRELOAD = (
-    "cosim.batch", "cosim.sim", "cosim.scenario", "cosim.planning.planner",
+    "cosim.study.batch", "cosim.run.loop", "cosim.scenario", "cosim.planning.planner",
     "cosim.control.closed_loop", "cosim.traffic.demand", "cosim.traffic.sumo",
     "cosim.vehicle.twotrack", "cosim.vehicle.bicycle", "libsumo", "sumolib",
-    "cosim.control.warm", "cosim.fork_server",
+    "cosim.control.warm", "cosim.study.fork_server",
 )
 
 
@@ -291,7 +291,7 @@ def _pool(workers: int) -> cf.ProcessPoolExecutor:
     # (a missing module in PRELOAD is skipped by the fork server).
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(PRELOAD))
-    # The workers ignore Ctrl-C and SIGHUP from birth (cosim.fork_server): the parent
+    # The workers ignore Ctrl-C and SIGHUP from birth (cosim.study.fork_server): the parent
     # ends them itself.
     return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1)
 
@@ -737,7 +737,10 @@ def run_study(
             _close_dask(client, dask)
 
     runs = assemble(specs, out_dir)
-    from cosim.summary import summarize, write_tables  # pandas and scipy: the parent only
+    from cosim.study.summary import (  # pandas and scipy: the parent only
+        summarize,
+        write_tables,
+    )
 
     summary = summarize(runs)
     write_tables(runs, summary, out_dir)

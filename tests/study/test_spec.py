@@ -1,5 +1,5 @@
 """Study files: the grid dimensions, where a value came from, and what is checked against
-the base scenario before a study runs (cosim.study)."""
+the base scenario before a study runs (cosim.study.spec)."""
 
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ from pathlib import Path
 import pytest
 
 from cosim.errors import InputError
-from cosim.run_table import PARAMETERS
 from cosim.scenario import OVERRIDES
-from cosim.study import GRID, check_study, load_study
+from cosim.study.run_table import PARAMETERS
+from cosim.study.spec import GRID, check_study, load_study
 
-BASE = Path(__file__).resolve().parent / "bad_inputs" / "base.toml"
+BASE = Path(__file__).resolve().parents[1] / "bad_inputs" / "base.toml"
 
 
 def _study(tmp_path: Path, extra: str = "") -> Path:

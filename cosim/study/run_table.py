@@ -1,5 +1,5 @@
-"""The vocabulary of a study's runs.csv, shared by the runs (cosim.batch) and their
-summary (cosim.summary): the grid parameters in the order runs.csv lists them, the
+"""The vocabulary of a study's runs.csv, shared by the runs (cosim.study.batch) and their
+summary (cosim.study.summary): the grid parameters in the order runs.csv lists them, the
 values of a run without a variant or a plant, a record's status, and the columns a
 clock measured."""
 
@@ -13,7 +13,7 @@ NO_VARIANT = ""
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
 # Columns of runs.csv measured by a clock (`wall_time_s` and the run's own
-# `wall_*` and `cpu_*` columns from cosim.sim): they differ between two
+# `wall_*` and `cpu_*` columns from cosim.run.loop): they differ between two
 # executions of the same run; everything else is reproducible.
 TIMING_PREFIXES = ("wall_", "cpu_")
 # The plant of the SUMO-native driver: SUMO moves the SV, no plant of ours runs.

@@ -17,7 +17,7 @@ import pytest
 from cosim.road.road import load_road
 from cosim.traffic.demand import populate
 from cosim.traffic.network import NETWORK_DIR
-from cosim.traffic.route import RouteLanes, sv_start
+from cosim.traffic.route_lanes import RouteLanes, sv_start
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "road"))
 from handdrawn import netconvert  # noqa: E402
@@ -258,7 +258,7 @@ def test_the_sv_starts_on_its_track_at_its_s() -> None:
 
 def test_a_route_whose_lanes_differ_in_width_is_refused_in_one_line(tmp_path: Path) -> None:
     from cosim.errors import InputError
-    from cosim.traffic.route import road_params
+    from cosim.traffic.route_lanes import road_params
 
     net = netconvert(
         tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
@@ -334,7 +334,7 @@ def test_a_run_past_the_routes_end_is_refused_and_a_first_lane_that_ends_is_an_s
         tmp_path: Path) -> None:
     from cosim.errors import InputError
     from cosim.scenario.load import scenario_from_dict
-    from cosim.traffic.route import check_lanes, road_params
+    from cosim.traffic.route_lanes import check_lanes, road_params
 
     doc = _curved_doc(edge="e4", lane=1, position_m=500.0, lane_changes=[])
     doc["tv"] = []

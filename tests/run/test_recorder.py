@@ -1,4 +1,4 @@
-"""The recorder (cosim.recorder) on hand-made scenes, without SUMO: collision onsets
+"""The recorder (cosim.run.recorder) on hand-made scenes, without SUMO: collision onsets
 counted once, the SV's fault (changing lanes, or the TV ahead), gap and TTC."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import numpy as np
 
 from cosim.driving.base import PolicyStatus
 from cosim.params import RoadParams
-from cosim.recorder import COLUMN, Recorder
+from cosim.run.recorder import COLUMN, Recorder
 from cosim.scenario import project_root
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import SV_ID, Scene, SVState
@@ -75,7 +75,7 @@ def test_road_columns_follow_the_track_across_a_junction_on_the_curved_motorway(
     on the curved motorway track 1 is SUMO's e2_1 then e3_2 (a lane added on the right
     at j2), so the index changes and the track does not; s grows along the route."""
     from cosim.road.road import load_road
-    from cosim.run_output import trace_frame
+    from cosim.run.outputs import trace_frame
 
     road = load_road(project_root() / "networks" / "curved_motorway.net.xml",
                      ["e1", "e2", "e3", "e4"])
@@ -125,7 +125,7 @@ def test_our_sv_at_the_end_of_a_lane_that_ends_stops_the_run() -> None:
     whose next step would take the SV's front past it is the run's last
     (lane_end_reached); in a lane that runs on, or short of the end, nothing happens."""
     from cosim.params import RoadParams
-    from cosim.recorder import Recorder
+    from cosim.run.recorder import Recorder
     from cosim.traffic.world import SVState
 
     road = RoadParams(speed_bands=((15.0, 25.0),) * 4, y_right=-3.75,

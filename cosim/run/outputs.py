@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cosim.recorder import PLAN_COLUMNS, TRACE_COLUMNS, RunResult
+from cosim.run.recorder import PLAN_COLUMNS, TRACE_COLUMNS, RunResult
 
 Array = NDArray[np.float64]
 

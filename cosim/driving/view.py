@@ -17,7 +17,7 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
-class SV:
+class SVView:
     """The SV as the decision rules see it."""
 
     x: float  # m, centre, along the road
@@ -28,7 +28,7 @@ class SV:
 
 
 @dataclass(frozen=True)
-class Traffic:
+class TrafficView:
     """The TVs around the SV, one entry per TV (arrays of equal length)."""
 
     x: Array  # m, centres along the road
@@ -40,7 +40,7 @@ class Traffic:
     ids: tuple[str, ...] = ()  # SUMO ids (for a gap request)
 
     @classmethod
-    def of(cls, scene: Scene) -> Traffic:
+    def of(cls, scene: Scene) -> TrafficView:
         """The TVs of a loop's scene (their x velocity as the speed along the road)."""
         tvs = scene.tvs
         return cls(tvs.x, tvs.y, scene.tv_vx, tvs.length, tvs.width, tvs.lateral_speed,
@@ -48,7 +48,7 @@ class Traffic:
 
     @classmethod
     def arrays(cls, x: object, y: object, speed: object, length: object, width: object,
-               lateral_speed: object = None, ids: tuple[str, ...] = ()) -> Traffic:
+               lateral_speed: object = None, ids: tuple[str, ...] = ()) -> TrafficView:
         """From lists or arrays (hand-made scenes)."""
         def f(a: object) -> Array:
             return np.asarray(a, dtype=float)

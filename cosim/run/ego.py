@@ -9,7 +9,7 @@
   report, are taken from its recorded path at the end.
 
 Both put the SV into the world, give its state at the top of a step, write their
-own trace columns (cosim.recorder.TRACE_COLUMNS) and advance one step.
+own trace columns (cosim.run.recorder.TRACE_COLUMNS) and advance one step.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.recorder import COLUMN
+from cosim.run.recorder import COLUMN
 from cosim.scenario import Scenario
 from cosim.traffic.road_view import is_identity, stretch
 from cosim.traffic.sumo import TrafficSnapshot

@@ -1,12 +1,12 @@
 """What one run records: the trace rows, collision onsets and fault, SUMO's collisions
-of the SV, the plans log, and at the end the metrics row (cosim.run_output writes them).
+of the SV, the plans log, and at the end the metrics row (cosim.run.outputs writes them).
 
 Per step (`Recorder.record`): the SV's state, the policy's status (target lane,
 changing, leader gap, car-following acceleration), gap / TTC along the lane, our
 exact overlap check of the SV against every TV near it (only where the bounding
 circles meet), SUMO's collisions of the last step; the ego writes its own columns
 (reference, errors, inputs) into the same row. `Recorder.result` turns the trace
-and what the policy and the ego report into the metrics row (cosim.metrics).
+and what the policy and the ego report into the metrics row (cosim.run.metrics).
 """
 
 from __future__ import annotations
@@ -18,14 +18,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cosim import metrics as mx
 from cosim.driving.base import Manoeuvres, PolicyStatus
 from cosim.driving.manoeuvre import LaneChange
 from cosim.driving.plans import PLAN_COLUMNS  # noqa: F401  (the run's columns, re-exported)
-from cosim.metrics import SETTLE_TOL
 from cosim.params import RoadParams
-from cosim.proximity import gap_ttc_min
 from cosim.road.road import Road
+from cosim.run import metrics as mx
+from cosim.run.metrics import SETTLE_TOL
+from cosim.run.proximity import gap_ttc_min
 from cosim.scenario import Scenario
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import Scene, SVState

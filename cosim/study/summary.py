@@ -18,18 +18,18 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from cosim.metrics import FOLLOWER_PERCENTILE
 from cosim.output import atomic_write_csv, atomic_write_text
-from cosim.run_table import NO_PLANT, NO_VARIANT, STATUS_OK
+from cosim.run.metrics import FOLLOWER_PERCENTILE
+from cosim.study.run_table import NO_PLANT, NO_VARIANT, STATUS_OK
 
 # Parameters that define a grid cell of summary.csv (every parameter but the seed).
 CELL = ("driver", "variant", "plant", "occupant", "mu", "density")
-# Metrics summarised per grid cell (names as cosim.metrics writes them).
+# Metrics summarised per grid cell (names as cosim.run.metrics writes them).
 SUCCESS_METRIC = "lane_change_completed"  # bool: the commanded lane change ended in its lane
 COLLISION_METRIC = "collision"  # bool: our geometric check saw an overlap
 SUMO_COLLISION_METRIC = "sumo_collision"  # bool: SUMO's getCollisions saw one (cross-check)
 UNFINISHED_METRIC = "lane_change_unfinished"  # bool: the run ended during the lane change
-SV_COLLISION_METRIC = "collisions_sv"  # count: collisions the SV caused (cosim.sim)
+SV_COLLISION_METRIC = "collisions_sv"  # count: collisions the SV caused (cosim.run.loop)
 MANOEUVRE_COLLISION_METRIC = "collisions_manoeuvre"  # count: ... while changing lanes
 DURATION_METRIC = "lane_change_duration_s"  # s
 TTC_METRIC = "min_ttc_s"  # s
@@ -175,7 +175,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
 
 # ------------------------------------------------------------------ comfort (issue 22)
 # Per grid cell: medians (p50) and worst values of the SV's comfort metrics
-# (cosim.metrics.COMFORT_COLUMNS), over the finished runs where the metric is finite.
+# (cosim.run.metrics.COMFORT_COLUMNS), over the finished runs where the metric is finite.
 COMFORT_MEDIANS = ("rms_long_accel_mps2", "rms_long_jerk_mps3", "max_long_jerk_mps3",
                    "long_accel_jump_share", "merge_time_gap_s", "post_change_max_decel_mps2",
                    "request_to_lane_s")
@@ -206,7 +206,7 @@ MERGE_METRIC = "merge_success"  # 1 / 0; empty when the SV's start lane does not
 
 
 def merge_summary(ok: pd.DataFrame) -> dict[str, float]:
-    """summary.csv's merge columns of one cell's finished runs (cosim.metrics.MERGE_DOCS):
+    """summary.csv's merge columns of one cell's finished runs (cosim.run.metrics.MERGE_DOCS):
     `merge_n` runs whose start lane ends, `merge_success_rate` among them with its Wilson
     interval, the medians of `merge_distance_to_end_m` and `stopped_time_s`, and the
     target lane follower's largest deceleration: 95th percentile and maximum (all NaN

@@ -3,9 +3,9 @@
 Two questions the loop asks every step of the few dozen TVs around the SV:
 
 - `lane_neighbours`: the nearest TV ahead and behind the SV whose rectangle
-  touches a lane (the decision rule's leader and follower, cosim.driving.lanes);
+  touches a lane (the decision rule's leader and follower, cosim.driving.layout);
 - `gap_ttc_min`: the smallest along-lane gap and time-to-collision to a TV sharing
-  the SV's strip of road (cosim.metrics.gap_ttc, reduced to its minima), and
+  the SV's strip of road (cosim.run.metrics.gap_ttc, reduced to its minima), and
   which TVs are within reach of an overlap (bounding circles), for the exact test.
 
 As numpy expressions each is a few dozen calls on arrays of ~30 values, where the
@@ -61,7 +61,7 @@ def gap_ttc_min(x: float, y: float, vx: float, hx: float, hy: float, reach_sv: f
     """m, s: the smallest along-lane gap and TTC from the SV (centre x, y; global x
     speed vx; half extents hx, hy) to a TV whose lateral extent overlaps its strip
     (inf: none); fills `near` with the TVs whose bounding circle meets the SV's
-    (`reach_sv`: the SV's diagonal). Same rules as cosim.metrics.gap_ttc."""
+    (`reach_sv`: the SV's diagonal). Same rules as cosim.run.metrics.gap_ttc."""
     gap_min, ttc_min = math.inf, math.inf
     for i in range(tv_x.size):
         c = abs(math.cos(tv_heading[i]))

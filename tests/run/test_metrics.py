@@ -1,4 +1,4 @@
-"""Tests of cosim.metrics: IAE, gaps/TTC between rectangles, jerk, lane-change durations."""
+"""Tests of cosim.run.metrics: IAE, gaps/TTC between rectangles, jerk, lane-change durations."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim.metrics import (
+from cosim.run.metrics import (
     count_onsets,
     gap_ttc,
     half_extents,
@@ -115,7 +115,7 @@ def test_iae_row_uses_the_window_and_kilonewtons() -> None:
 # ---------------------------------------------------------------- follower_max_decel
 
 def test_lane_entry_time_is_when_the_centre_crosses() -> None:
-    from cosim.metrics import lane_entry_time
+    from cosim.run.metrics import lane_entry_time
 
     t = np.arange(0.0, 10.0, 0.5)
     lane = np.where(t < 4.0, 1, 2)
@@ -125,7 +125,7 @@ def test_lane_entry_time_is_when_the_centre_crosses() -> None:
 
 
 def test_follower_max_decel_window_and_nan() -> None:
-    from cosim.metrics import FOLLOWER_WINDOW, follower_max_decel
+    from cosim.run.metrics import FOLLOWER_WINDOW, follower_max_decel
 
     dt = 0.1
     t = np.arange(0.0, 20.0 + 1e-9, dt)
@@ -162,7 +162,7 @@ def test_follower_max_decel_window_and_nan() -> None:
 
 
 def test_longitudinal_comfort_measures_rms_jerk_and_chatter() -> None:
-    from cosim.metrics import longitudinal_comfort
+    from cosim.run.metrics import longitudinal_comfort
 
     t = np.arange(0.0, 1.0, 0.05)
     smooth = longitudinal_comfort(t, np.full(t.size, -2.0))
@@ -179,7 +179,7 @@ def test_longitudinal_comfort_measures_rms_jerk_and_chatter() -> None:
 
 
 def test_time_gap_to_the_nearest_tv_ahead() -> None:
-    from cosim.metrics import time_gap
+    from cosim.run.metrics import time_gap
 
     # SV (4.8 m) at x = 100 m, 20 m/s; TVs (5 m) at 80 (behind), 130 and 160 m
     assert time_gap(100.0, 20.0, 4.8, [80.0, 160.0, 130.0], [5.0, 5.0, 5.0]) == pytest.approx(
@@ -189,7 +189,7 @@ def test_time_gap_to_the_nearest_tv_ahead() -> None:
 
 
 def test_post_change_decel_and_request_time_windows() -> None:
-    from cosim.metrics import post_change_max_decel, request_to_lane
+    from cosim.run.metrics import post_change_max_decel, request_to_lane
 
     t = np.arange(0.0, 20.0, 0.05)
     ax = np.where((t > 9.0) & (t < 9.5), -4.0, np.where(t > 15.0, -6.0, 0.5))
@@ -205,14 +205,14 @@ def test_post_change_decel_and_request_time_windows() -> None:
 
 
 def test_collision_seen_by_names_the_checks() -> None:
-    from cosim.metrics import collision_seen_by
+    from cosim.run.metrics import collision_seen_by
 
     assert [collision_seen_by(o, s) for o, s in ((0, 0), (1, 1), (2, 0), (0, 1))] == [
         "none", "both", "ours", "sumo"]
 
 
 def test_lane_change_status_tells_unfinished_from_failed() -> None:
-    from cosim.metrics import lane_change_status
+    from cosim.run.metrics import lane_change_status
 
     centres = np.array([1.875, 5.625, 9.375])
     nan = np.array([np.nan])
@@ -237,8 +237,8 @@ def test_a_collision_only_sumo_counts_is_reported_as_such() -> None:
     SUMO, which measures gaps along the lane without the SV's heading, reports a
     collision. The run ends before the
     lane change settles: unfinished, not failed (docs/run_results.md)."""
+    from cosim.run.loop import simulate
     from cosim.scenario import load_scenario, project_root, with_overrides
-    from cosim.sim import simulate
 
     base = load_scenario(project_root() / "scenarios" / "study_density_base.toml")
     m = simulate(with_overrides(base, policy="paper", density=40, seed=1)).metrics
@@ -252,7 +252,7 @@ def test_follower_max_decel_is_watched_from_the_change_start() -> None:
     # SUMO's own driver is in the target lane for its followers from the start of its
     # change: the follower brakes then, before the SV's centre crosses the line (issue
     # 22); the window opens at the start, for both drivers
-    from cosim.metrics import follower_max_decel
+    from cosim.run.metrics import follower_max_decel
 
     dt = 0.05
     t = np.arange(0.0, 12.0 + 1e-9, dt)
@@ -266,7 +266,7 @@ def test_merge_crossing_stopped_time_and_start() -> None:
     """The merge columns' parts (issue 24) on a hand-made trace: the SV in lane 0, which
     ends at s = 190 m, crosses into lane 1 at t = 3 s (s = 75 m), having stood still for
     1 s; a crossing at or past the end is no merge."""
-    from cosim.metrics import merge_crossing, merge_start, stopped_time
+    from cosim.run.metrics import merge_crossing, merge_start, stopped_time
 
     t = np.arange(0.0, 6.0, 0.5)
     speed = np.array([0.0, 0.05, 5.0, 10, 20, 20, 20, 20, 20, 20, 20, 20])
@@ -288,7 +288,7 @@ def test_a_merge_is_watched_until_the_sv_leaves_the_lane_centre_again() -> None:
     last sample at the centre (a window ended only by a change crossing out ran on to
     the run's end). Staying: the last sample; never reaching the centre: the crossing
     out of the lane entered."""
-    from cosim.metrics import merge_end
+    from cosim.run.metrics import merge_end
 
     t = np.arange(0.0, 12.0, 0.5)
     d = np.minimum(-1.875 + t, 1.875)

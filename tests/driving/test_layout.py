@@ -1,4 +1,4 @@
-"""The lanes as the driving layer asks for them (cosim.driving.lanes.LaneLayout): lane
+"""The lanes as the driving layer asks for them (cosim.driving.layout.LaneLayout): lane
 membership, centres, which lanes a body touches, the nearest TVs along a lane."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim.driving.lanes import LaneLayout
+from cosim.driving.layout import LaneLayout
 from cosim.params import RoadParams
 
 ROAD = RoadParams()

@@ -6,16 +6,16 @@ reads top to bottom, one part per job:
 
 1. world (cosim.traffic.world): the vehicles around the SV, one pass, numpy
    arrays; the ego gives the SV's own state (our plant's, or SUMO's),
-2. recorder (cosim.recorder): row k of the trace: SV state, reference, errors,
+2. recorder (cosim.run.recorder): row k of the trace: SV state, reference, errors,
    inputs, our exact overlap check of the SV against every TV, SUMO's
    collisions of the last step, gap / TTC,
-3. observer (cosim.observer): this step's V2V messages (scripted TVs: their own),
+3. observer (cosim.run.observer): this step's V2V messages (scripted TVs: their own),
    through the channel (range, latency, loss), read when the policy plans,
 4. policy (cosim.driving, chosen by name from its registry): when to change lanes
    and, through its manoeuvre, plan / fly / re-check / replan / abort / brake;
    returns the reference to track; then the gap requests it sent reach their TVs
    (cosim.traffic.world: the cooperation channels),
-5. ego (cosim.ego): control + plant, `scenario.substeps` substeps from t_k to
+5. ego (cosim.run.ego): control + plant, `scenario.substeps` substeps from t_k to
    t_k+1 tracking the reference, and the pose to SUMO (moveToXY); the
    SUMO-driven baseline does nothing here,
 6. the scripted TVs to their poses at t_k+1,
@@ -33,7 +33,7 @@ decision rule is SUMO's own lane-change model (cosim.driving.sumo); the same
 trace columns (those SUMO has) and the same metrics.
 
 `run_scenario` runs one scenario and writes trace.csv, plans.csv,
-metrics.csv, timing.csv and the figures (cosim.run_output; all atomically, all
+metrics.csv, timing.csv and the figures (cosim.run.outputs; all atomically, all
 but timing.csv byte-identical between two runs of the same scenario and seed).
 """
 
@@ -51,9 +51,10 @@ from cosim.driving import registry
 from cosim.driving.base import DrivingContext, LaneChangePolicy, WorldPorts
 from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
-from cosim.ego import Ego, PlannedEgo, SumoDrivenEgo
-from cosim.observer import Observer, uncertain_config
-from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and records)
+from cosim.road.road import Road
+from cosim.run.ego import Ego, PlannedEgo, SumoDrivenEgo
+from cosim.run.observer import Observer, uncertain_config
+from cosim.run.recorder import (  # noqa: F401  (re-exported: the run's columns and records)
     COLUMN,
     METRIC_DOCS,
     PLAN_COLUMNS,
@@ -62,7 +63,6 @@ from cosim.recorder import (  # noqa: F401  (re-exported: the run's columns and 
     Recorder,
     RunResult,
 )
-from cosim.road.road import Road
 from cosim.scenario import Scenario
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.world import Scene, World
@@ -221,7 +221,7 @@ def run_scenario(
         fcd_path = Path(tmp) / "fcd.xml" if fcd and out_dir is not None else None
         result = simulate(scenario, progress=progress, gui=gui, fcd_output=fcd_path)
         if out_dir is not None:
-            from cosim.run_output import write_outputs
+            from cosim.run.outputs import write_outputs
 
             write_outputs(result, Path(out_dir), write_trace=write_trace,
                           write_figures=write_figures, figure_format=figure_format,

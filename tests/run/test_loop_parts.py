@@ -10,9 +10,10 @@ from pathlib import Path
 import cosim
 
 PACKAGE = Path(cosim.__file__).resolve().parent
-LOOP_PARTS = ("sim.py", "ego.py", "observer.py", "recorder.py", "traffic/world.py",
+LOOP_PARTS = ("run/loop.py", "run/ego.py", "run/observer.py", "run/recorder.py",
+              "traffic/world.py",
               "traffic/sumo.py", "traffic/snapshot.py", "traffic/process.py",
-              "traffic/traffic_vehicles.py", "traffic/controlled.py", "traffic/route.py",
+              "traffic/traffic_vehicles.py", "traffic/controlled.py", "traffic/route_lanes.py",
               "driving/manoeuvre.py",
               "driving/following.py", "driving/paper.py", "driving/sumo.py",
               "driving/gap/policy.py")
@@ -44,10 +45,8 @@ def attributes(cls: ast.ClassDef) -> set[str]:
 def classes() -> list[tuple[str, ast.ClassDef]]:
     found = []
     for rel in LOOP_PARTS:
-        path = PACKAGE / rel
-        if path.exists():
-            tree = ast.parse(path.read_text(encoding="utf-8"))
-            found += [(f"{rel}:{n.name}", n) for n in tree.body if isinstance(n, ast.ClassDef)]
+        tree = ast.parse((PACKAGE / rel).read_text(encoding="utf-8"))
+        found += [(f"{rel}:{n.name}", n) for n in tree.body if isinstance(n, ast.ClassDef)]
     return found
 
 

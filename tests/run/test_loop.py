@@ -14,9 +14,9 @@ import pytest
 
 from cosim.cli import main
 from cosim.planning.planner import LaneChangePlanner, SVPlanState
-from cosim.recorder import METRIC_DOCS, PLAN_COLUMNS, TRACE_COLUMNS, RunResult
+from cosim.run.loop import run_scenario, simulate
+from cosim.run.recorder import METRIC_DOCS, PLAN_COLUMNS, TRACE_COLUMNS, RunResult
 from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
-from cosim.sim import run_scenario, simulate
 from cosim.traffic.scripted import ScriptedTV
 
 pytestmark = pytest.mark.sumo
@@ -284,7 +284,7 @@ def test_cli_bad_scenario_exits_2_and_writes_nothing(tmp_path: Path) -> None:
 
 
 def test_docs_describe_every_output_column() -> None:
-    from cosim.recorder import TIMING_DOCS
+    from cosim.run.recorder import TIMING_DOCS
 
     text = (project_root() / "README.md").read_text(encoding="utf-8")
     for columns in (TRACE_COLUMNS, PLAN_COLUMNS, METRIC_DOCS, TIMING_DOCS):
@@ -338,7 +338,7 @@ def test_scripted_requests_come_when_the_scenario_says(tmp_path: Path) -> None:
 @pytest.mark.parametrize("controller", ["mimo", "sumo"])
 def test_comfort_metrics_are_the_traces_for_both_drivers(controller: str) -> None:
     """Issue 22: the comfort columns, for our driver and SUMO's alike (paper case 5.1)."""
-    from cosim.metrics import COMFORT_COLUMNS
+    from cosim.run.metrics import COMFORT_COLUMNS
 
     sc = with_overrides(load_scenario(SCENARIOS / "paper_case1_overtaking.toml"),
                         controller=controller)

@@ -1,5 +1,5 @@
-"""The compiled per-step geometry (cosim.proximity) against the numpy rules it
-replaces in the loop (cosim.metrics.gap_ttc, half_extents) and its own interpreted
+"""The compiled per-step geometry (cosim.run.proximity) against the numpy rules it
+replaces in the loop (cosim.run.metrics.gap_ttc, half_extents) and its own interpreted
 form, to the bit, on random scenes."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import math
 
 import numpy as np
 
-from cosim import metrics as mx
-from cosim.proximity import gap_ttc_min, lane_neighbours
+from cosim.run import metrics as mx
+from cosim.run.proximity import gap_ttc_min, lane_neighbours
 
 L, W = 4.32, 1.8
 

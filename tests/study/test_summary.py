@@ -1,4 +1,4 @@
-"""A study's summary (cosim/summary.py): the confidence intervals against published
+"""A study's summary (cosim/study/summary.py): the confidence intervals against published
 values, the rates over the finished runs with failed and unfinished runs apart, both
 collision checks, and summary.md and the density figure showing the same statistics."""
 
@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cosim.run_table import STATUS_FAILED, STATUS_OK
-from cosim.summary import mean_ci, median_ci, summarize, summary_markdown, wilson
+from cosim.study.run_table import STATUS_FAILED, STATUS_OK
+from cosim.study.summary import mean_ci, median_ci, summarize, summary_markdown, wilson
 
 
 def test_wilson_interval_matches_published_values() -> None:

@@ -1,6 +1,6 @@
 """Run metrics: one row per co-simulation run, from the trace's numpy columns.
 
-Pure numpy, no SUMO. The loop (cosim.sim) records per step the SV state, its
+Pure numpy, no SUMO. The loop (cosim.run.loop) records per step the SV state, its
 reference, errors, inputs and, per traffic vehicle (TV) near it, the along-lane
 gap and time-to-collision (`gap_ttc`); this module reduces those columns:
 

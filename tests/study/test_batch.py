@@ -1,4 +1,4 @@
-"""Batch studies (cosim/batch.py, cosim/study.py, cosim/commands/batch.py).
+"""Batch studies (cosim/study/batch.py, cosim/study/spec.py, cosim/commands/batch.py).
 
 The study tests run the real co-simulation (libsumo) on a short scenario
 (tests/data/batch_base.toml: 5 s simulated, 400 m of traffic) over the grid of
@@ -21,13 +21,13 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from cosim.batch import apply_spec, expand, read_record, run_study, write_record
 from cosim.cli import main
 from cosim.errors import InputError
-from cosim.run_table import STATUS_FAILED, STATUS_OK, is_timing_column
-from cosim.study import load_study
+from cosim.study.batch import apply_spec, expand, read_record, run_study, write_record
+from cosim.study.run_table import STATUS_FAILED, STATUS_OK, is_timing_column
+from cosim.study.spec import load_study
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 STUDY = DATA / "study_small.toml"
 BASE = DATA / "batch_base.toml"
 N_RUNS = 8  # 2 densities x 2 seeds x 2 drivers
@@ -273,10 +273,10 @@ def test_a_run_whose_process_dies_is_recorded_failed(tmp_path: Path) -> None:
 
 
 def test_a_worker_ignores_ctrl_c_and_sighup_from_its_start() -> None:
-    # The fork server sets this before it forks (cosim.fork_server), so no moment of a
+    # The fork server sets this before it forks (cosim.study.fork_server), so no moment of a
     # worker's start-up lets a terminal's Ctrl-C, sent to the whole group, end it with a
     # traceback; the command's own process keeps its handlers.
-    from cosim.batch import _ending_pool
+    from cosim.study.batch import _ending_pool
 
     with _ending_pool(1) as pool:
         seen = pool.submit(signal.getsignal, signal.SIGINT).result()
@@ -293,7 +293,7 @@ def test_ctrl_c_while_a_worker_starts_is_held_until_the_pool_can_end_it(
     # the new worker left that worker to no one; it outlived the batch and printed a
     # traceback. The interrupt is sent here from inside the worker's start: held, it lands
     # once the pool has the worker, and the pool's end ends it.
-    from cosim.batch import _ending_pool, _submit
+    from cosim.study.batch import _ending_pool, _submit
 
     started: list[object] = []
     with pytest.raises(KeyboardInterrupt), _ending_pool(1) as pool:

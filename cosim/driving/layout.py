@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cosim.params import RoadParams
-from cosim.proximity import lane_neighbours
+from cosim.run.proximity import lane_neighbours
 
 Array = NDArray[np.float64]
 
@@ -86,7 +86,7 @@ class LaneLayout:
                    tv_width: ArrayLike, tv_lateral_speed: ArrayLike | None = None
                    ) -> Neighbours:
         """The SV's leader and follower in `lane` (TVs touching that lane), the gaps
-        bumper to bumper along the lane (a compiled loop: cosim.proximity).
+        bumper to bumper along the lane (a compiled loop: cosim.run.proximity).
 
         With `tv_lateral_speed` (m/s, + left), a TV whose centre is already in another
         lane and that moves away from `lane` does not count (it is leaving)."""

@@ -1,0 +1,1 @@
+"""One run of a scenario: the loop and its parts (ego, observer, recorder, metrics, outputs)."""
