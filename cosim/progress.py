@@ -2,7 +2,7 @@
 
 tqdm estimates the remaining time from its rate since the start, smoothed; the first
 step of a run carries one-off costs (SUMO's first steps, loading compiled code, a
-pool's workers starting), so its first ETA was minutes for a 10 s run. Here the ETA
+pool's workers starting), so its first ETA can read minutes for a 10 s run. Here the ETA
 is `--:--` until `warm` units are done, then (units left) x (seconds per unit since
 the warm-up ended).
 """

@@ -1,4 +1,4 @@
-"""The per-density table of docs/gap_policy.md's "Driving quality" section (issue 22)
+"""The per-density table of docs/gap_policy.md's "Driving quality" section
 from a batch folder of scenarios/study_comfort.toml (or its wet twin):
 
     python docs/study_comfort_table.py /tmp/study_comfort [> table.md]
@@ -15,12 +15,14 @@ from pathlib import Path
 
 import pandas as pd
 
+from cosim.study.run_table import Driver, RunStatus
+
 
 def table(folder: Path) -> str:
     runs = pd.read_csv(folder / "runs.csv")
-    runs = runs[runs["status"] == "ok"]
-    ours = runs[runs["driver"] != "sumo"]
-    sumo = runs[runs["driver"] == "sumo"]
+    runs = runs[runs["status"] == RunStatus.OK]
+    ours = runs[runs["driver"] != Driver.SUMO]
+    sumo = runs[runs["driver"] == Driver.SUMO]
     head = ["density (veh/km/lane)", "lane changes", "SV-caused collisions",
             "peak jerk m/s^3 (median)", "share of ax jumps > 5 m/s^2 (median)",
             "runs braking > 3 m/s^2 after the change", "request to lane s (median)",
@@ -58,7 +60,7 @@ def figure(folder: Path, path: Path) -> None:
     from cosim.plots import save_figure
 
     runs = pd.read_csv(folder / "runs.csv")
-    runs = runs[runs["status"] == "ok"]
+    runs = runs[runs["status"] == RunStatus.OK]
     panels = [("max_long_jerk_mps3", "peak jerk (m/s^3), median"),
               ("request_to_lane_s", "request to target lane (s), median"),
               ("merge_time_gap_s", "time gap at the merge (s), median"),
@@ -66,15 +68,15 @@ def figure(folder: Path, path: Path) -> None:
               ("follower_max_decel_mps2", "new follower's braking (m/s^2), median")]
     fig, axes = plt.subplots(1, len(panels) + 1, figsize=(22, 4))
     for (col, label), ax in zip(panels, axes, strict=False):
-        for driver, style in (("mimo", "o-"), ("sumo", "s--")):
+        for driver, style in ((Driver.MIMO, "o-"), (Driver.SUMO, "s--")):
             d = runs[runs["driver"] == driver].groupby("density")[col].median()
             ax.plot(d.index, d.to_numpy(), style,
-                    label="gap policy (MIMO)" if driver == "mimo" else "SUMO-native")
+                    label="gap policy (MIMO)" if driver == Driver.MIMO else "SUMO-native")
         ax.set_xlabel("density (veh/km/lane)")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     ax = axes[-1]
-    for driver, style in (("mimo", "o-"), ("sumo", "s--")):
+    for driver, style in ((Driver.MIMO, "o-"), (Driver.SUMO, "s--")):
         d = runs[runs["driver"] == driver].groupby("density")["post_change_max_decel_mps2"]
         ax.plot(d.max().index, d.max().to_numpy(), style)
     ax.axhline(3.0, color="k", lw=0.8)

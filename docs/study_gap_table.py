@@ -1,4 +1,4 @@
-"""The table of docs/gap_policy.md's "Measured: the density study" (issue 16) from a batch
+"""The table of docs/gap_policy.md's "Measured: the density study" from a batch
 folder of scenarios/study_gap.toml, one row per driver and variant:
 
     python docs/study_gap_table.py /tmp/study_gap [> table.md]
@@ -21,23 +21,25 @@ from pathlib import Path
 
 import pandas as pd
 
+from cosim.study.run_table import NO_VARIANT, Driver, RunStatus
+
 # (driver, variant, label), in the order of scenarios/study_gap.toml
 ROWS = (
-    ("mimo", "gap", "gap (courtesy), perfect V2V"),
-    ("mimo", "gap_lossy", "gap (courtesy), 100 ms + 10 % loss"),
-    ("mimo", "gap_perception", "gap (courtesy), perception only"),
-    ("mimo", "gap_alone", "gap without courtesy"),
-    ("mimo", "gap_v2v_coop", "gap, cooperative V2V instead of courtesy"),
-    ("mimo", "paper", "paper's method, perfect V2V"),
-    ("mimo", "paper_lossy", "paper's method, 100 ms + 10 % loss"),
-    ("mimo", "paper_perception", "paper's method, perception only"),
-    ("sumo", "", "SUMO-native"),
+    (Driver.MIMO, "gap", "gap (courtesy), perfect V2V"),
+    (Driver.MIMO, "gap_lossy", "gap (courtesy), 100 ms + 10 % loss"),
+    (Driver.MIMO, "gap_perception", "gap (courtesy), perception only"),
+    (Driver.MIMO, "gap_alone", "gap without courtesy"),
+    (Driver.MIMO, "gap_v2v_coop", "gap, cooperative V2V instead of courtesy"),
+    (Driver.MIMO, "paper", "paper's method, perfect V2V"),
+    (Driver.MIMO, "paper_lossy", "paper's method, 100 ms + 10 % loss"),
+    (Driver.MIMO, "paper_perception", "paper's method, perception only"),
+    (Driver.SUMO, NO_VARIANT, "SUMO-native"),
 )
 
 
 def _rows(table: pd.DataFrame, driver: str, variant: str) -> pd.DataFrame:
     mine = table[table["driver"] == driver]
-    return mine[mine["variant"].fillna("").astype(str) == variant]
+    return mine[mine["variant"].fillna(NO_VARIANT).astype(str) == variant]
 
 
 def _per_density(runs: pd.DataFrame, densities: list[float],
@@ -62,7 +64,7 @@ def table(folder: Path) -> str:
 
     everything = pd.read_csv(folder / "runs.csv")
     summary = summarize(everything)
-    runs = everything[everything["status"] == "ok"]
+    runs = everything[everything["status"] == RunStatus.OK]
     densities = sorted(runs["density"].unique())
     at = " / ".join(f"{d:g}" for d in densities)
     head = ["driver", f"lane changes / 20 runs at {at} veh/km/lane",

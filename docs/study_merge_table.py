@@ -1,4 +1,4 @@
-"""The per-density table and figure of the merge study (issue 24, README "The merge
+"""The per-density table and figure of the merge study (README "The merge
 study", docs/merge_study.md) from a batch folder of scenarios/study_merge.toml:
 
     python docs/study_merge_table.py /tmp/study_merge [> table.md]
@@ -17,6 +17,7 @@ from pathlib import Path
 import pandas as pd
 
 from cosim.run.metrics import FOLLOWER_PERCENTILE
+from cosim.study.run_table import Driver, RunStatus
 from cosim.study.summary import merge_summary
 
 P95 = f"merge_follower_decel_mps2_p{FOLLOWER_PERCENTILE}"
@@ -26,7 +27,7 @@ def cells(folder: Path) -> pd.DataFrame:
     """One row per (driver, density) of the finished runs: merge_summary's columns and
     the runs with a collision by our check (`ours`) and by SUMO's (`sumo`)."""
     runs = pd.read_csv(folder / "runs.csv")
-    runs = runs[runs["status"] == "ok"]
+    runs = runs[runs["status"] == RunStatus.OK]
     rows = {key: {**merge_summary(g), "ours": int((g["collisions"] > 0).sum()),
                   "sumo": int((g["sumo_collisions"] > 0).sum())}
             for key, g in runs.groupby(["driver", "density"])}
@@ -41,7 +42,7 @@ def table(folder: Path) -> str:
             "collisions, our check / SUMO's"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for dens in sorted(c.index.get_level_values(1).unique()):
-        a, b = c.loc[("mimo", dens)], c.loc[("sumo", dens)]
+        a, b = c.loc[(Driver.MIMO, dens)], c.loc[(Driver.SUMO, dens)]
 
         def pair(col: str, digits: int, a: pd.Series = a, b: pd.Series = b) -> str:
             return f"{a[col]:.{digits}f} / {b[col]:.{digits}f}"
@@ -68,8 +69,8 @@ def figure(folder: Path, path: Path) -> None:
 
     c = cells(folder)
     fig, axes = plt.subplots(1, 3, figsize=(15, 4))
-    for driver, style, label in (("mimo", "o-", "gap driver (MIMO)"),
-                                 ("sumo", "s--", "SUMO-native (LC2013)")):
+    for driver, style, label in ((Driver.MIMO, "o-", "gap driver (MIMO)"),
+                                 (Driver.SUMO, "s--", "SUMO-native (LC2013)")):
         d = c.loc[driver]
         for ax, values in zip(axes, (100.0 * d["merge_success_rate"],
                                      d["merge_distance_to_end_m_p50"], d[P95]), strict=True):

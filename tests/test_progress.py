@@ -18,7 +18,7 @@ class Clock:
 def test_eta_ignores_a_slow_first_step() -> None:
     """A 200-step run whose first step takes 10 s (SUMO's start) and the rest 0.05 s:
     no ETA during the warm-up, then 0.05 s x the steps left (tqdm's smoothed rate
-    said minutes after the first step)."""
+    says minutes after the first step)."""
     clock = Clock()
     eta = WarmEta(200, warm=10, clock=clock)
     clock.t = 10.0

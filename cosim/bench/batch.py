@@ -20,7 +20,10 @@ import numpy as np
 
 from cosim.commands import count, max_workers, seconds
 from cosim.scenario import project_root
-from cosim.study.batch import expand, run_study, warm_up
+from cosim.study.grid import GridValues, expand
+from cosim.study.pool import start_fork_server
+from cosim.study.run_table import Driver
+from cosim.study.runner import StudyOptions, run_study
 
 
 def _spin(n: int) -> float:
@@ -51,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--densities", default="10,20", help="veh/km/lane, comma-separated")
     parser.add_argument("--seeds", type=count("--seeds", hi=1000), default=8,
                         help="seeds 1..N per density (at most 1000)")
-    parser.add_argument("--driver", default="mimo", choices=("mimo", "siso", "sumo"),
+    parser.add_argument("--driver", default=Driver.MIMO, choices=tuple(Driver),
                         help="mimo, siso or sumo")
     parser.add_argument("--duration", type=seconds("--duration"), default=20.0,
                         help="s, simulated time per run")
@@ -70,12 +73,11 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     from cosim.scenario import load_scenario
 
     load_scenario(args.scenario)  # a bad base scenario: one line now, not failed runs
-    specs = expand(
-        args.scenario, densities=densities, seeds=range(1, args.seeds + 1),
-        occupants=(0.5,), mus=(0.8,), drivers=(args.driver,), plants=("twotrack",),
-        duration=args.duration,
-    )
-    warm_up()  # the fork server's one-off start-up is no part of either case
+    specs = expand(args.scenario, GridValues(
+        densities=densities, seeds=range(1, args.seeds + 1), occupants=(0.5,), mus=(0.8,),
+        drivers=(args.driver,), plants=("twotrack",), duration=args.duration,
+    ))
+    start_fork_server()  # the fork server's one-off start-up is no part of either case
     load_before = os.getloadavg()[0]
     cases = (1, args.workers)
     times: dict[int, list[float]] = {n: [] for n in cases}
@@ -87,7 +89,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         for n in cases:
             with tempfile.TemporaryDirectory(prefix="cosim-bench-batch-") as tmp:
                 start = time.perf_counter()
-                result = run_study(specs, Path(tmp), workers=n, progress=False, plots=False)
+                result = run_study(specs, Path(tmp),
+                                   StudyOptions(workers=n, progress=False, plots=False))
                 times[n].append(time.perf_counter() - start)
                 run_times[n] += result.runs["wall_time_s"].tolist()
                 failed += result.failed

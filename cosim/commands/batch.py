@@ -29,7 +29,10 @@ from cosim.commands import (
 )
 from cosim.errors import InputError
 from cosim.output import check_output_dir
-from cosim.study.batch import RunSpec, check_same_base, expand, run_study
+from cosim.study.dask_cluster import LOCAL_CLUSTER
+from cosim.study.grid import GridValues, RunSpec, expand
+from cosim.study.run_table import Driver
+from cosim.study.runner import StudyOptions, run_study
 from cosim.study.spec import (
     DENSITY,
     DRIVER,
@@ -41,6 +44,7 @@ from cosim.study.spec import (
     check_seed_count,
     load_study,
 )
+from cosim.study.store import check_same_base
 from cosim.validation import Field, not_a_file
 
 SOURCE = "command line"
@@ -160,7 +164,8 @@ def study_from_args(args: argparse.Namespace) -> Study:
     if args.restart and args.retry_failed:
         raise InputError(SOURCE, "--retry-failed", True,
                          "no --retry-failed with --restart (--restart runs every run again)")
-    if args.plants is not None and study.drivers is not None and set(study.drivers) == {"sumo"}:
+    if (args.plants is not None and study.drivers is not None
+            and set(study.drivers) == {Driver.SUMO}):
         raise InputError(SOURCE, "--plants", args.plants,
                          "no --plants when every driver is sumo (SUMO drives the SV: no plant of "
                          "ours runs)")
@@ -175,7 +180,7 @@ def check_workers(args: argparse.Namespace) -> None:
         return
     if args.workers < 1:
         raise InputError(SOURCE, "--workers", args.workers, "an integer >= 1")
-    if args.dask is not None and args.dask != "local":
+    if args.dask is not None and args.dask != LOCAL_CLUSTER:
         raise InputError(SOURCE, "--workers", args.workers,
                          f"no --workers with --dask {args.dask} (the cluster's own workers run "
                          "the runs; --workers sizes only --dask local)")
@@ -194,15 +199,13 @@ def specs_of(study: Study) -> list[RunSpec]:
     from cosim.study.spec import check_study
 
     base = check_study(study)
-    occupants = study.occupants or (base.sv.occupant,)
-    mus = study.mus or (base.road.mu,)
-    drivers = study.drivers or (base.sv.controller,)
-    plants = study.plants or (base.sv.plant,)
-    return expand(
-        study.scenario, densities=study.densities, seeds=study.seeds, occupants=occupants,
-        mus=mus, drivers=drivers, plants=plants, duration=study.duration, traces=study.traces,
-        variants=study.variants,
+    grid = GridValues(
+        densities=study.densities, seeds=study.seeds,
+        occupants=study.occupants or (base.sv.occupant,), mus=study.mus or (base.road.mu,),
+        drivers=study.drivers or (base.sv.controller,), plants=study.plants or (base.sv.plant,),
+        duration=study.duration, variants=study.variants,
     )
+    return expand(study.scenario, grid, traces=study.traces)
 
 
 # Flags that change which runs a study file's grid holds (--traces changes no result).
@@ -250,13 +253,14 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.restart:
         check_same_base(out, specs)  # a resumed study on another base: refused now
-    if args.dask is None and any(d != "sumo" for d in {s.driver for s in specs}):
+    if args.dask is None and any(d != Driver.SUMO for d in {s.driver for s in specs}):
         compile_first()  # before the progress bar, which then counts runs only
-    result = run_study(
-        specs, out, workers=workers, dask=args.dask, progress=not args.no_progress,
-        retry_failed=args.retry_failed, plots=not args.no_plots, title=study.name,
-        on_start=announce, restart=args.restart, figure_format=args.figure_format,
+    options = StudyOptions(
+        workers=workers, dask=args.dask, retry_failed=args.retry_failed, restart=args.restart,
+        progress=not args.no_progress, plots=not args.no_plots,
+        figure_format=args.figure_format, title=study.name,
     )
+    result = run_study(specs, out, options, on_start=announce)
     print(
         f"{len(result.runs)} runs ({result.ran} run now, {result.skipped} already done), "
         f"{result.failed} failed, {result.wall_time:.1f} s\n"

@@ -50,6 +50,7 @@ from cosim.scenario import (
     override_target,
     read_toml,
 )
+from cosim.study.run_table import Driver
 from cosim.validation import (
     MISSING,
     Field,
@@ -79,8 +80,6 @@ MU = _scenario_field(ROAD_FIELDS, "mu")
 DRIVER = _scenario_field(SV_FIELDS, "controller")
 PLANT = _scenario_field(SV_FIELDS, "plant")
 DURATION = _scenario_field(SCENARIO_FIELDS, "duration_s")
-DRIVERS = DRIVER.choices
-PLANTS = PLANT.choices
 
 
 def _list_of(element: Field) -> Any:
@@ -311,7 +310,7 @@ def _check_cells(study: Study, base: Scenario, where: str) -> None:
     for variant, overrides in variants:
         for cell in itertools.product(*dims):
             changes = dict(cell)
-            if changes.get("controller") != "sumo":  # the SUMO driver runs no variant
+            if changes.get("controller") != Driver.SUMO:  # the SUMO driver runs no variant
                 changes.update(overrides)
             try:
                 apply_overrides(base, changes, where)

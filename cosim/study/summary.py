@@ -1,8 +1,8 @@
 """A study's summary: per grid cell of runs.csv (every parameter but the seed), the rates
 of success and of both collision checks with Wilson intervals, lane-change duration and
 minimum TTC as means, percentiles and medians with distribution-free intervals, the new
-follower's braking, and the comfort (issue 22) and merge (issue 24) figures; written as
-summary.csv, summary.md and comfort.md beside runs.csv (`write_tables`).
+follower's braking, and the comfort and merge figures: the table of summary.csv
+(cosim.study.report writes it, with summary.md and comfort.md).
 
 Rates are over the runs that finished (status ok): a failed run is a fault of the tool,
 not an outcome of the manoeuvre, and is counted apart."""
@@ -11,16 +11,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from pathlib import Path
 from statistics import NormalDist
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from cosim.output import atomic_write_csv, atomic_write_text
 from cosim.run.metrics import FOLLOWER_PERCENTILE
-from cosim.study.run_table import NO_PLANT, NO_VARIANT, STATUS_OK
+from cosim.study.run_table import NO_VARIANT, RunStatus
 
 # Parameters that define a grid cell of summary.csv (every parameter but the seed).
 CELL = ("driver", "variant", "plant", "occupant", "mu", "density")
@@ -33,7 +31,7 @@ SV_COLLISION_METRIC = "collisions_sv"  # count: collisions the SV caused (cosim.
 MANOEUVRE_COLLISION_METRIC = "collisions_manoeuvre"  # count: ... while changing lanes
 DURATION_METRIC = "lane_change_duration_s"  # s
 TTC_METRIC = "min_ttc_s"  # s
-FOLLOWER_METRIC = "follower_max_decel_mps2"  # m/s^2, the SV's new follower (issue 16)
+FOLLOWER_METRIC = "follower_max_decel_mps2"  # m/s^2, the SV's new follower
 PERCENTILES = (10, 50, 90)
 CONFIDENCE = 0.95
 
@@ -138,7 +136,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         runs = runs.assign(variant=NO_VARIANT)
     runs = runs.assign(variant=runs["variant"].fillna(NO_VARIANT).astype(str))
     for cell, group in runs.groupby(list(CELL), sort=True):
-        ok = group[group["status"] == STATUS_OK]
+        ok = group[group["status"] == RunStatus.OK]
         n = len(ok)
         row: dict[str, Any] = dict(zip(CELL, cell, strict=True))
         row.update(runs=len(group), ok=n, failed=len(group) - n)
@@ -173,7 +171,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-# ------------------------------------------------------------------ comfort (issue 22)
+# ------------------------------------------------------------------ comfort
 # Per grid cell: medians (p50) and worst values of the SV's comfort metrics
 # (cosim.run.metrics.COMFORT_COLUMNS), over the finished runs where the metric is finite.
 COMFORT_MEDIANS = ("rms_long_accel_mps2", "rms_long_jerk_mps3", "max_long_jerk_mps3",
@@ -201,7 +199,7 @@ def comfort_summary(ok: pd.DataFrame) -> dict[str, float]:
     return row
 
 
-# ------------------------------------------------------------------ merges (issue 24)
+# ------------------------------------------------------------------ merges
 MERGE_METRIC = "merge_success"  # 1 / 0; empty when the SV's start lane does not end
 
 
@@ -222,93 +220,3 @@ def merge_summary(ok: pd.DataFrame) -> dict[str, float]:
     row.update(_p95_max(_finite(ok, "merge_follower_max_decel_mps2"),
                         "merge_follower_decel_mps2"))
     return row
-
-
-def comfort_markdown(summary: pd.DataFrame) -> str:
-    """The comfort columns of summary.csv as a Markdown table (comfort.md)."""
-    head = ["driver", "variant", "mu", "density (veh/km/lane)",
-            "max jerk m/s^3: median / max", "ax jumps > 5 m/s^2: median share",
-            "merge time gap s: median / min", "decel after change m/s^2: median / max",
-            "runs braking > 3 m/s^2 after change", "request to target lane s: median"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-
-    def num(value: Any, digits: int = 2) -> str:
-        return "-" if not (isinstance(value, float | int) and math.isfinite(value)) \
-            else f"{value:.{digits}f}"
-
-    for _, r in summary.iterrows():
-        if "max_long_jerk_mps3_p50" not in r:
-            continue
-        lines.append("| " + " | ".join([
-            str(r["driver"]), str(r["variant"]), f"{r['mu']:g}", f"{r['density']:g}",
-            f"{num(r['max_long_jerk_mps3_p50'], 0)} / {num(r['max_long_jerk_mps3_max'], 0)}",
-            num(r["long_accel_jump_share_p50"], 3),
-            f"{num(r['merge_time_gap_s_p50'])} / {num(r['merge_time_gap_s_min'])}",
-            f"{num(r['post_change_max_decel_mps2_p50'])} / "
-            f"{num(r['post_change_max_decel_mps2_max'])}",
-            num(r["hard_post_change_brakes"], 0), num(r["request_to_lane_s_p50"])]) + " |")
-    return "\n".join(lines) + "\n"
-
-
-def interval(low: float, high: float, digits: int = 2, scale: float = 1.0) -> str:
-    """A confidence interval as "[low, high]": no hyphen that could read as a minus."""
-    return f"[{scale * low:.{digits}f}, {scale * high:.{digits}f}]"
-
-
-def summary_markdown(summary: pd.DataFrame) -> str:
-    """The main figures of summary.csv as a Markdown table (for docs and READMEs):
-    rates with Wilson intervals, durations and TTC as medians with the median's
-    distribution-free interval (the statistic the plots show too)."""
-
-    def pct(row: pd.Series, name: str) -> str:
-        if not math.isfinite(row[f"{name}_rate"]):
-            return "-"
-        return (f"{100 * row[f'{name}_rate']:.0f} "
-                + interval(row[f"{name}_ci_low"], row[f"{name}_ci_high"], 0, 100.0))
-
-    def median(row: pd.Series, name: str) -> str:
-        if not math.isfinite(row[f"{name}_p50"]):
-            return "-"
-        text = f"{row[f'{name}_p50']:.2f}"
-        if math.isfinite(row[f"{name}_ci_low"]):
-            text += " " + interval(row[f"{name}_ci_low"], row[f"{name}_ci_high"])
-            if row[f"{name}_ci_coverage"] < CONFIDENCE:  # too few runs for 95 %
-                text += f" ({100 * row[f'{name}_ci_coverage']:.0f} %)"
-        return text
-
-    def follower(row: pd.Series) -> str:
-        p95 = row.get(f"follower_decel_mps2_p{FOLLOWER_PERCENTILE}", math.nan)
-        if not math.isfinite(p95):
-            return "-"
-        return f"{p95:.2f} / {row['follower_decel_mps2_max']:.2f}"
-
-    def collisions(row: pd.Series) -> str:  # ours, then SUMO's in parentheses
-        ours = pct(row, "collision")
-        sumo = row.get("sumo_collision_rate", math.nan)
-        return ours if not math.isfinite(sumo) else f"{ours} ({100 * sumo:.0f})"
-
-    ours = summary[summary["plant"] != NO_PLANT]
-    varying = [c for c in ("variant", "plant", "occupant", "mu")
-               if (ours if c == "plant" else summary)[c].nunique() > 1]
-    head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
-            "unfinished", "success % of finished [95 % CI]",
-            "collision % [95 % CI] (SUMO's %)", "SV-caused collision % [95 % CI]",
-            "lane-change duration s: median [95 % CI]", "min TTC s: median [95 % CI]",
-            "new follower's max decel m/s^2: p95 / max"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for _, row in summary.iterrows():
-        cells = [str(row["driver"]), *(f"{row[c]}" for c in varying), f"{row['density']:g}",
-                 f"{row['ok']} / {row['failed']}", f"{row.get('unfinished', 0)}",
-                 pct(row, "success"), collisions(row),
-                 pct(row, "sv_collision"), median(row, "lc_duration_s"),
-                 median(row, "min_ttc_s"), follower(row)]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
-
-
-def write_tables(runs: pd.DataFrame, summary: pd.DataFrame, out_dir: Path) -> None:
-    """runs.csv, summary.csv, summary.md and comfort.md, each replaced atomically."""
-    atomic_write_csv(out_dir / "runs.csv", runs)
-    atomic_write_csv(out_dir / "summary.csv", summary)
-    atomic_write_text(out_dir / "summary.md", summary_markdown(summary))
-    atomic_write_text(out_dir / "comfort.md", comfort_markdown(summary))

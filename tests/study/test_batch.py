@@ -1,4 +1,5 @@
-"""Batch studies (cosim/study/batch.py, cosim/study/spec.py, cosim/commands/batch.py).
+"""Batch studies (cosim/study/: grid, store, pool, dask_cluster, runner, spec;
+cosim/commands/batch.py).
 
 The study tests run the real co-simulation (libsumo) on a short scenario
 (tests/data/batch_base.toml: 5 s simulated, 400 m of traffic) over the grid of
@@ -16,6 +17,7 @@ import subprocess
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
@@ -23,9 +25,11 @@ import pytest
 
 from cosim.cli import main
 from cosim.errors import InputError
-from cosim.study.batch import apply_spec, expand, read_record, run_study, write_record
-from cosim.study.run_table import STATUS_FAILED, STATUS_OK, is_timing_column
+from cosim.study.grid import GridValues, apply_spec, expand
+from cosim.study.run_table import RunStatus, is_timing_column
+from cosim.study.runner import StudyOptions, run_study
 from cosim.study.spec import load_study
+from cosim.study.store import read_record, write_record
 
 DATA = Path(__file__).parents[1] / "data"
 STUDY = DATA / "study_small.toml"
@@ -43,21 +47,21 @@ def reproducible(path: Path) -> pd.DataFrame:
 
 
 def test_run_ids_depend_on_parameters_and_base_scenario_only(tmp_path: Path) -> None:
-    grid = dict(densities=[5, 20], seeds=[1, 2], occupants=[0.5], mus=[0.8],
-                drivers=["mimo", "sumo"], plants=["twotrack"])
-    a = expand(BASE, **grid)
-    b = expand(BASE, **{**grid, "densities": [5.0, 20.0]}, traces=True)  # type: ignore[arg-type]
+    grid = GridValues(densities=[5, 20], seeds=[1, 2], occupants=[0.5], mus=[0.8],
+                      drivers=["mimo", "sumo"], plants=["twotrack"])
+    a = expand(BASE, grid)
+    b = expand(BASE, replace(grid, densities=[5.0, 20.0]), traces=True)
     assert len({s.run_id for s in a}) == N_RUNS
     assert {s.run_id for s in a} == {s.run_id for s in b}  # 5 == 5.0; traces change nothing
     other = tmp_path / "base.toml"
     other.write_text(BASE.read_text() + "\n# edited\n")
-    assert not {s.run_id for s in a} & {s.run_id for s in expand(other, **grid)}
-    c = expand(BASE, **grid, duration=3.0)
+    assert not {s.run_id for s in a} & {s.run_id for s in expand(other, grid)}
+    c = expand(BASE, replace(grid, duration=3.0))
     assert not {s.run_id for s in a} & {s.run_id for s in c}
 
 
 def test_records_are_written_whole(tmp_path: Path) -> None:
-    record = {"run_id": "abc", "status": STATUS_OK, "x": float("nan")}
+    record = {"run_id": "abc", "status": RunStatus.OK, "x": float("nan")}
     write_record(tmp_path, record)
     assert math.isnan(read_record(tmp_path, "abc")["x"])
     assert [p.name for p in (tmp_path / "runs").iterdir()] == ["abc.json"]  # no temp left
@@ -132,8 +136,8 @@ def test_local_study_records_every_run_and_summarises_each_cell(local_study: Pat
     assert len(runs) == N_RUNS and len(list((local_study / "runs").glob("*.json"))) == N_RUNS
     # Runs that raise inside the simulation are the simulation's business; here:
     # each run is either ok or failed with its error, and most of them are ok.
-    failed = runs["status"] == STATUS_FAILED
-    assert runs["status"].isin([STATUS_OK, STATUS_FAILED]).all()
+    failed = runs["status"] == RunStatus.FAILED
+    assert runs["status"].isin([RunStatus.OK, RunStatus.FAILED]).all()
     assert runs.loc[failed, "error"].astype(str).str.len().gt(0).all()
     assert (~failed).sum() >= N_RUNS // 2, runs.loc[failed, "error"].tolist()
     grid = set(zip(runs["driver"], runs["density"], runs["seed"], strict=True))
@@ -147,7 +151,7 @@ def test_local_study_records_every_run_and_summarises_each_cell(local_study: Pat
     table = (local_study / "summary.md").read_text().splitlines()
     assert len(table) == 2 + 4 and table[0].startswith("| driver | density")
     assert (local_study / "plots" / "density.png").stat().st_size > 10_000
-    # the comfort block (issue 22): per cell, from the runs' own metrics
+    # the comfort block: per cell, from the runs' own metrics
     comfort = (local_study / "comfort.md").read_text().splitlines()
     assert len(comfort) == 2 + 4 and "max jerk" in comfort[0]
     done = runs[~failed]
@@ -206,24 +210,25 @@ def test_failing_run_is_recorded_and_the_others_go_on(tmp_path: Path) -> None:
     # grid was made, so execute_run refuses it (the run id names the file's bytes).
     edited = tmp_path / "edited.toml"
     edited.write_text(BASE.read_text() + "# a copy\n")  # other bytes: other run ids
-    grid = dict(densities=[5], occupants=[0.5], mus=[0.8], drivers=["mimo"],
-                plants=["twotrack"])
-    good = expand(BASE, seeds=[1, 2], **grid)
-    bad = expand(edited, seeds=[1], **grid)
+    grid = GridValues(densities=[5], seeds=[1, 2], occupants=[0.5], mus=[0.8],
+                      drivers=["mimo"], plants=["twotrack"])
+    good = expand(BASE, grid)
+    bad = expand(edited, replace(grid, seeds=[1]))
     edited.write_text(BASE.read_text().replace("speed_kmh = 80.0", "speed_kmh = 85.0"))
     assert not {s.run_id for s in good} & {s.run_id for s in bad}
     out = tmp_path / "out"
-    result = run_study(bad + good, out, workers=2, progress=False, plots=False)
+    quiet = StudyOptions(workers=2, progress=False, plots=False)
+    result = run_study(bad + good, out, quiet)
     runs = result.runs.set_index("run_id")
     assert len(runs) == 3 and result.failed == 1
-    assert runs.loc[bad[0].run_id, "status"] == STATUS_FAILED
+    assert runs.loc[bad[0].run_id, "status"] == RunStatus.FAILED
     assert "InputError" in runs.loc[bad[0].run_id, "error"]
     assert "edited" in runs.loc[bad[0].run_id, "error"]
-    assert (runs.loc[[s.run_id for s in good], "status"] == STATUS_OK).all()
+    assert (runs.loc[[s.run_id for s in good], "status"] == RunStatus.OK).all()
     assert "traceback" in read_record(out, bad[0].run_id)
     # A second call runs nothing; asked to, it retries the failed run (which fails again).
-    assert run_study(bad + good, out, workers=2, progress=False, plots=False).ran == 0
-    again = run_study(bad + good, out, workers=1, progress=False, plots=False, retry_failed=True)
+    assert run_study(bad + good, out, quiet).ran == 0
+    again = run_study(bad + good, out, replace(quiet, workers=1, retry_failed=True))
     assert again.ran == 1 and again.failed == 1
 
 
@@ -246,8 +251,8 @@ def test_a_run_whose_process_dies_is_recorded_failed(tmp_path: Path) -> None:
     # recorded failed, and the study still finishes. Then, undisturbed, a retry runs.
     from multiprocessing import forkserver
 
-    specs = expand(BASE, densities=[5], seeds=[1], occupants=[0.5], mus=[0.8],
-                   drivers=["sumo"], plants=["twotrack"])
+    specs = expand(BASE, GridValues(densities=[5], seeds=[1], occupants=[0.5], mus=[0.8],
+                                    drivers=["sumo"], plants=["twotrack"]))
     stop = threading.Event()
 
     def kill_workers() -> None:
@@ -261,14 +266,14 @@ def test_a_run_whose_process_dies_is_recorded_failed(tmp_path: Path) -> None:
     killer = threading.Thread(target=kill_workers, daemon=True)
     killer.start()
     try:
-        result = run_study(specs, tmp_path, workers=2, progress=False, plots=False)
+        result = run_study(specs, tmp_path, StudyOptions(workers=2, progress=False, plots=False))
     finally:
         stop.set()
         killer.join()
     assert result.failed == 1
     assert result.runs["error"].str.startswith("worker process died").all()
-    again = run_study(specs, tmp_path, workers=2, progress=False, plots=False,
-                      retry_failed=True)
+    again = run_study(specs, tmp_path,
+                      StudyOptions(workers=2, progress=False, plots=False, retry_failed=True))
     assert again.ran == 1 and again.failed == 0
 
 
@@ -276,7 +281,7 @@ def test_a_worker_ignores_ctrl_c_and_sighup_from_its_start() -> None:
     # The fork server sets this before it forks (cosim.study.fork_server), so no moment of a
     # worker's start-up lets a terminal's Ctrl-C, sent to the whole group, end it with a
     # traceback; the command's own process keeps its handlers.
-    from cosim.study.batch import _ending_pool
+    from cosim.study.pool import _ending_pool
 
     with _ending_pool(1) as pool:
         seen = pool.submit(signal.getsignal, signal.SIGINT).result()
@@ -289,11 +294,11 @@ def test_a_worker_ignores_ctrl_c_and_sighup_from_its_start() -> None:
 
 def test_ctrl_c_while_a_worker_starts_is_held_until_the_pool_can_end_it(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    # CI, 2026-11: a Ctrl-C landing between the fork server's fork and the pool's record of
-    # the new worker left that worker to no one; it outlived the batch and printed a
+    # A Ctrl-C landing between the fork server's fork and the pool's record of the new
+    # worker would leave that worker to no one: it would outlive the batch and print a
     # traceback. The interrupt is sent here from inside the worker's start: held, it lands
     # once the pool has the worker, and the pool's end ends it.
-    from cosim.study.batch import _ending_pool, _submit
+    from cosim.study.pool import _ending_pool, _submit
 
     started: list[object] = []
     with pytest.raises(KeyboardInterrupt), _ending_pool(1) as pool:
@@ -311,11 +316,11 @@ def test_ctrl_c_while_a_worker_starts_is_held_until_the_pool_can_end_it(
 
 
 def test_variants_are_a_grid_dimension_for_our_drivers_only(tmp_path: Path) -> None:
-    grid = {"densities": [10.0], "seeds": [1, 2], "occupants": [0.5], "mus": [0.8],
-            "drivers": ["mimo", "sumo"], "plants": ["twotrack"]}
-    plain = expand(BASE, **grid)  # type: ignore[arg-type]
+    grid = GridValues(densities=[10.0], seeds=[1, 2], occupants=[0.5], mus=[0.8],
+                      drivers=["mimo", "sumo"], plants=["twotrack"])
+    plain = expand(BASE, grid)
     variants = {"paper": {"replanning": False}, "lossy": {"replanning": True, "latency": 0.1}}
-    varied = expand(BASE, **grid, variants=variants)  # type: ignore[arg-type]
+    varied = expand(BASE, replace(grid, variants=variants))
     assert len(varied) == 2 * 2 + 2  # mimo x 2 variants x 2 seeds, sumo x 2 seeds
     assert {s.variant for s in varied if s.driver == "sumo"} == {""}
     # runs without a variant keep their ids; each variant's runs get their own

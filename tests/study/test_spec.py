@@ -9,8 +9,8 @@ import pytest
 
 from cosim.errors import InputError
 from cosim.scenario import OVERRIDES
-from cosim.study.run_table import PARAMETERS
-from cosim.study.spec import GRID, check_study, load_study
+from cosim.study.run_table import PARAMETERS, Driver
+from cosim.study.spec import DRIVER, GRID, check_study, load_study
 
 BASE = Path(__file__).resolve().parents[1] / "bad_inputs" / "base.toml"
 
@@ -20,6 +20,10 @@ def _study(tmp_path: Path, extra: str = "") -> Path:
     path.write_text(f'[study]\nscenario = "{BASE}"\ndensities_veh_per_km_lane = [0, 5]\n'
                     f"seeds = [1, 2]\n{extra}")
     return path
+
+
+def test_the_drivers_are_the_scenario_controllers() -> None:
+    assert tuple(Driver) == DRIVER.choices
 
 
 def test_every_grid_parameter_of_a_study_is_a_grid_dimension() -> None:

@@ -1,6 +1,7 @@
-"""A study's summary (cosim/study/summary.py): the confidence intervals against published
-values, the rates over the finished runs with failed and unfinished runs apart, both
-collision checks, and summary.md and the density figure showing the same statistics."""
+"""A study's summary (cosim/study/summary.py) and its tables (cosim/study/report.py): the
+confidence intervals against published values, the rates over the finished runs with
+failed and unfinished runs apart, both collision checks, and summary.md and the density
+figure showing the same statistics."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cosim.study.run_table import STATUS_FAILED, STATUS_OK
-from cosim.study.summary import mean_ci, median_ci, summarize, summary_markdown, wilson
+from cosim.study.report import summary_markdown
+from cosim.study.run_table import RunStatus
+from cosim.study.summary import mean_ci, median_ci, summarize, wilson
 
 
 def test_wilson_interval_matches_published_values() -> None:
@@ -39,7 +41,7 @@ def test_summary_counts_failed_runs_apart_from_rates() -> None:
     runs = pd.DataFrame({
         "driver": ["mimo"] * 4, "plant": ["twotrack"] * 4, "occupant": [0.5] * 4,
         "mu": [0.8] * 4, "density": [10.0] * 4, "seed": [1, 2, 3, 4],
-        "status": [STATUS_OK, STATUS_OK, STATUS_OK, STATUS_FAILED],
+        "status": [RunStatus.OK, RunStatus.OK, RunStatus.OK, RunStatus.FAILED],
         "lane_change_completed": [True, True, False, None],
         "collision": [False, True, False, None],
         "lane_change_duration_s": [4.0, 6.0, float("nan"), None],
@@ -77,7 +79,7 @@ def test_summary_table_and_plot_show_the_median_without_minus_like_hyphens(
     runs = pd.DataFrame({
         "driver": ["mimo"] * 2, "plant": ["twotrack"] * 2, "occupant": [0.5] * 2,
         "mu": [0.8] * 2, "density": [10.0] * 2, "seed": [1, 2],
-        "status": [STATUS_OK] * 2, "lane_change_completed": [True, True],
+        "status": [RunStatus.OK] * 2, "lane_change_completed": [True, True],
         "collision": [False, False], "lane_change_duration_s": [0.4, 4.4],
         "min_ttc_s": [1.0, 61.0], "collisions_sv": [0, 0],
         "follower_max_decel_mps2": [0.5, 1.5],
@@ -118,11 +120,11 @@ def test_summary_table_and_plot_show_the_median_without_minus_like_hyphens(
 def test_summary_counts_unfinished_apart_and_shows_both_collision_checks() -> None:
     """A lane change the run's end cut short is neither a success nor a failure: the
     success rate is over the finished runs; SUMO's collisions are a rate of their own,
-    beside ours, in summary.csv and summary.md (issue 26)."""
+    beside ours, in summary.csv and summary.md."""
     runs = pd.DataFrame({
         "driver": ["sumo"] * 4, "plant": ["none"] * 4, "occupant": [0.5] * 4,
         "mu": [0.8] * 4, "density": [30.0] * 4, "seed": [1, 2, 3, 4],
-        "status": [STATUS_OK] * 4, "lane_change_completed": [1, 0, 0, 1],
+        "status": [RunStatus.OK] * 4, "lane_change_completed": [1, 0, 0, 1],
         "lane_change_unfinished": [0, 1, 1, 0], "collision": [0, 0, 0, 0],
         "sumo_collision": [0, 1, 0, 0], "collisions_sv": [0, 0, 0, 0],
         "lane_change_duration_s": [3.0, np.nan, np.nan, 3.1], "min_ttc_s": [5.0] * 4,

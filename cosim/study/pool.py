@@ -1,0 +1,155 @@
+"""The local executor: a process pool with one fresh process per run (libsumo holds one
+simulation per process), forked from a fork server that has imported cosim already
+(`PRELOAD`, then cosim.study.fork_server). Left by Ctrl-C or SIGTERM, the pool ends its
+workers and the fork server before the exception goes on (`_ending_pool`)."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import Any, TypeVar
+
+from cosim.errors import signals_deferred
+from cosim.study.grid import RunSpec
+from cosim.study.worker import OnRecord, error_text, execute_run, failed_record
+
+T = TypeVar("T")
+
+# What a run imports, loaded once by the fork server rather than by every run.
+# libsumo is imported, never started, before the fork. cosim.control.warm compiles the
+# numba code (closed loop, collision check) in the server.
+PRELOAD = (  # tuned: docs/tuned_constants.md
+    "cosim.study.worker", "cosim.run.loop", "cosim.scenario", "cosim.planning.planner",
+    "cosim.control.closed_loop", "cosim.traffic.demand", "cosim.traffic.sumo",
+    "cosim.vehicle.twotrack", "cosim.vehicle.bicycle", "libsumo", "sumolib",
+    "cosim.control.warm", "cosim.study.fork_server",
+)
+
+
+def _pool(workers: int) -> cf.ProcessPoolExecutor:
+    # A fresh process per run (max_tasks_per_child=1): libsumo holds one
+    # simulation per process, and a run cannot leak state into the next.
+    # forkserver: children fork from a server that has imported cosim already
+    # (a missing module in PRELOAD is skipped by the fork server).
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(list(PRELOAD))
+    # The workers ignore Ctrl-C and SIGHUP from birth (cosim.study.fork_server): the parent
+    # ends them itself.
+    return cf.ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1)
+
+
+def _submit(pool: cf.ProcessPoolExecutor, fn: Callable[..., T], /, *args: Any) -> cf.Future[T]:
+    """`pool.submit` with Ctrl-C and SIGTERM held. A submit may start a worker; cut short
+    between the fork server's fork and the pool's record of it, that worker would be no
+    one's to end: it would outlive the batch and, unpickling from a parent that is gone,
+    print a traceback."""
+    with signals_deferred():
+        return pool.submit(fn, *args)
+
+
+@contextlib.contextmanager
+def _ending_pool(workers: int) -> Iterator[cf.ProcessPoolExecutor]:
+    """A pool that, left by an exception (Ctrl-C, SIGTERM as `Terminated`), ends its
+    workers and the fork server before the exception goes on: no run left running, no
+    worker unpickling from a parent that is gone (a traceback), no orphan left defunct.
+    Left normally, it waits for its workers as `with ProcessPoolExecutor` does."""
+    pool = _pool(workers)
+    try:
+        yield pool
+    except BaseException:
+        _end_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _end_pool(pool: cf.ProcessPoolExecutor, timeout: float = 10.0) -> None:
+    """Terminate the pool's workers, wait for them (the fork server reaps them), then stop
+    the fork server (our child: reaped here). Private parts of multiprocessing, read
+    defensively. A second Ctrl-C or SIGTERM meanwhile is held until this is done."""
+    with signals_deferred():
+        _end_pool_now(pool, timeout)
+
+
+def _end_pool_now(pool: cf.ProcessPoolExecutor, timeout: float) -> None:
+    import signal
+
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    deadline = time.monotonic() + timeout
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(max(0.0, deadline - time.monotonic()))
+    # its workers are gone: waiting is short, and shutdown(wait=False) would let the
+    # pool's manager thread trip over the processes it forgets (a thread traceback)
+    pool.shutdown(wait=True, cancel_futures=True)
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    pid = getattr(server, "_forkserver_pid", None)
+    if server is None or pid is None:
+        return
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(pid, signal.SIGTERM)  # it may still be importing PRELOAD: do not wait for it
+    with contextlib.suppress(Exception):
+        server._stop()  # closes its pipe, reaps it, forgets it (the next pool starts anew)
+
+
+def start_fork_server() -> None:
+    """Start the fork server (imports included) now, e.g. before timing a study."""
+    with _ending_pool(1) as pool:
+        _submit(pool, os.getpid).result()
+
+
+def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: OnRecord) -> None:
+    """Run every spec in a local process pool of `workers` processes.
+
+    At most `workers` runs are submitted at a time, so that a run whose
+    process dies (a crash, not an exception) breaks the pool with few runs in
+    flight; those are then retried one by one, each alone in a pool, and the
+    one that breaks its pool alone is recorded as failed."""
+    queue = list(reversed(specs))
+    while queue:
+        broken = _run_until_broken(queue, out_dir, workers, on_record)
+        for spec in broken:
+            on_record(_run_alone(spec, out_dir))
+
+
+def _run_until_broken(queue: list[RunSpec], out_dir: Path, workers: int,
+                      on_record: OnRecord) -> list[RunSpec]:
+    """Run the queue's runs (popped from its end) in one pool until it is empty or the pool
+    breaks; return the runs in flight when it broke."""
+    broken: list[RunSpec] = []
+    with _ending_pool(workers) as pool:
+        running: dict[cf.Future[dict[str, Any]], RunSpec] = {}
+        while (queue or running) and not broken:
+            while queue and len(running) < workers:
+                spec = queue.pop()
+                running[_submit(pool, execute_run, spec, str(out_dir))] = spec
+            done, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            for future in done:
+                spec = running.pop(future)
+                try:
+                    on_record(future.result())
+                except cf.process.BrokenProcessPool:
+                    broken.append(spec)
+        broken += list(running.values())
+    return broken
+
+
+def _run_alone(spec: RunSpec, out_dir: Path) -> dict[str, Any]:
+    """The record of one run in a pool of its own; failed if its process dies."""
+    start = time.perf_counter()
+    with _ending_pool(1) as alone:
+        try:
+            return _submit(alone, execute_run, spec, str(out_dir)).result()
+        except cf.process.BrokenProcessPool as exc:
+            return failed_record(
+                spec, f"worker process died: {error_text(exc)}", time.perf_counter() - start,
+            )
