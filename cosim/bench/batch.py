@@ -13,6 +13,7 @@ import concurrent.futures as cf
 import os
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +21,7 @@ import numpy as np
 
 from cosim.commands import count, max_workers, seconds
 from cosim.scenario import project_root
-from cosim.study.grid import GridValues, expand
+from cosim.study.grid import GridValues, RunSpec, expand
 from cosim.study.pool import start_fork_server
 from cosim.study.run_table import Driver
 from cosim.study.runner import StudyOptions, run_study
@@ -66,44 +67,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def measure(args: argparse.Namespace) -> dict[str, Any]:
-    from cosim.commands.batch import parse_list
-    from cosim.study.spec import DENSITY
-
-    densities = parse_list(args.densities, "--densities", DENSITY) or (10.0,)
-    from cosim.scenario import load_scenario
-
-    load_scenario(args.scenario)  # a bad base scenario: one line now, not failed runs
-    specs = expand(args.scenario, GridValues(
-        densities=densities, seeds=range(1, args.seeds + 1), occupants=(0.5,), mus=(0.8,),
-        drivers=(args.driver,), plants=("twotrack",), duration=args.duration,
-    ))
+    densities, specs = _specs(args)
     start_fork_server()  # the fork server's one-off start-up is no part of either case
     load_before = os.getloadavg()[0]
-    cases = (1, args.workers)
-    times: dict[int, list[float]] = {n: [] for n in cases}
-    run_times: dict[int, list[float]] = {n: [] for n in cases}
-    failed = 0
-    ceilings = []
-    for _ in range(args.repeats):
-        ceilings.append(ceiling(args.workers))
-        for n in cases:
-            with tempfile.TemporaryDirectory(prefix="cosim-bench-batch-") as tmp:
-                start = time.perf_counter()
-                result = run_study(specs, Path(tmp),
-                                   StudyOptions(workers=n, progress=False, plots=False))
-                times[n].append(time.perf_counter() - start)
-                run_times[n] += result.runs["wall_time_s"].tolist()
-                failed += result.failed
-    rows = []
-    for n in cases:
-        wall = float(np.median(times[n]))
-        rows.append({"case": f"{n} worker{'s' if n > 1 else ''}", "runs": len(specs),
-                     "wall_s": wall, "wall_per_run_s": wall / len(specs),
-                     "run_median_s": float(np.median(run_times[n]))})
+    timed = _time_cases(specs, args)
     # Ratio of each repeat's pair (measured back to back), then the median: more
     # robust to other jobs on a shared machine than a ratio of medians.
-    paired = [a / b for a, b in zip(times[cases[0]], times[cases[1]], strict=True)]
-    speedup = float(np.median(paired))
+    paired = [a / b for a, b in zip(timed.times[1], timed.times[args.workers], strict=True)]
     notes = [
         f"{len(specs)} runs: densities {', '.join(f'{d:g}' for d in densities)} veh/km/lane x "
         f"seeds 1-{args.seeds}, driver {args.driver}, {args.duration:g} s simulated each, "
@@ -111,18 +81,71 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         "wall time (load, simulate) - it grows in the parallel case when the cores are shared",
         f"speed-up per repeat: {', '.join(f'{r:.2f}' for r in paired)} (reported: the median); "
         f"a pure-Python CPU loop on the same pool sizes just before each repeat: "
-        f"{', '.join(f'{c:.2f}' for c in ceilings)} (what the machine gave then)",
+        f"{', '.join(f'{c:.2f}' for c in timed.ceilings)} (what the machine gave then)",
         f"{os.cpu_count()} cores; median of {args.repeats} repeat(s); 1-min load average "
         f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after (other processes on the "
         "machine take cores from the 2-worker case and lower the ratio)",
     ]
-    if failed:
-        notes.append(f"{failed} runs failed (their time still counts)")
+    if timed.failed:
+        notes.append(f"{timed.failed} runs failed (their time still counts)")
     return {
         "title": f"cosim bench batch: the same study on 1 and {args.workers} local processes",
-        "rows": rows,
-        "ratios": {f"speedup_{args.workers}_workers": speedup,
-                   f"cpu_loop_speedup_{args.workers}_workers": float(np.median(ceilings))},
+        "rows": _rows(timed, len(specs)),
+        "ratios": {f"speedup_{args.workers}_workers": float(np.median(paired)),
+                   f"cpu_loop_speedup_{args.workers}_workers": float(np.median(timed.ceilings))},
         "targets": {f"speedup_{args.workers}_workers": ">= 1.7 on 2 cores"},
         "notes": notes,
     }
+
+
+def _specs(args: argparse.Namespace) -> tuple[tuple[float, ...], list[RunSpec]]:
+    """The densities and the runs of the benchmark's study."""
+    from cosim.commands.batch import parse_list
+    from cosim.scenario import load_scenario
+    from cosim.study.spec import DENSITY
+
+    densities = parse_list(args.densities, "--densities", DENSITY) or (10.0,)
+    load_scenario(args.scenario)  # a bad base scenario: one line now, not failed runs
+    specs = expand(args.scenario, GridValues(
+        densities=densities, seeds=range(1, args.seeds + 1), occupants=(0.5,), mus=(0.8,),
+        drivers=(args.driver,), plants=("twotrack",), duration=args.duration,
+    ))
+    return densities, specs
+
+
+@dataclass
+class _Timings:
+    """Per case (1 and N workers): each repeat's wall time and every run's own."""
+
+    cases: tuple[int, int]  # workers: 1, then N
+    times: dict[int, list[float]]  # s, the study's wall time per repeat
+    run_times: dict[int, list[float]]  # s, each run's `wall_time_s`
+    failed: int  # failed runs over all cases and repeats
+    ceilings: list[float]  # the CPU loop's speed-up measured before each repeat
+
+
+def _time_cases(specs: list[RunSpec], args: argparse.Namespace) -> _Timings:
+    """The study on 1 and on `args.workers` workers, `args.repeats` times, alternating."""
+    cases = (1, args.workers)
+    timed = _Timings(cases, {n: [] for n in cases}, {n: [] for n in cases}, 0, [])
+    for _ in range(args.repeats):
+        timed.ceilings.append(ceiling(args.workers))
+        for n in cases:
+            with tempfile.TemporaryDirectory(prefix="cosim-bench-batch-") as tmp:
+                start = time.perf_counter()
+                result = run_study(specs, Path(tmp),
+                                   StudyOptions(workers=n, progress=False, plots=False))
+                timed.times[n].append(time.perf_counter() - start)
+                timed.run_times[n] += result.runs["wall_time_s"].tolist()
+                timed.failed += result.failed
+    return timed
+
+
+def _rows(timed: _Timings, n_runs: int) -> list[dict[str, Any]]:
+    rows = []
+    for n in timed.cases:
+        wall = float(np.median(timed.times[n]))
+        rows.append({"case": f"{n} worker{'s' if n > 1 else ''}", "runs": n_runs,
+                     "wall_s": wall, "wall_per_run_s": wall / n_runs,
+                     "run_median_s": float(np.median(timed.run_times[n]))})
+    return rows
