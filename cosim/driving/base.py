@@ -14,8 +14,10 @@ follows); it is one class behind `LaneChangePolicy`, registered by name
 
 Each step the loop calls `status` (what the recorder reads at the top of the step),
 then `update` (the step's decisions; returns the reference the ego tracks, None when
-SUMO drives), and at the end `summary` (what it did, for the metrics row). Nothing
-here needs SUMO: a policy can be tested on hand-made scenes.
+SUMO drives), then, when the world carries gap requests, `gaps_held` (whether the TVs
+yielding to the SV go on making room at their full braking), and at the end `summary`
+(what it did, for the metrics row). Nothing here needs SUMO: a policy can be tested on
+hand-made scenes.
 """
 
 from __future__ import annotations
@@ -92,8 +94,6 @@ class PolicyStatus:
     manoeuvring: bool  # a collision onset now is the SV's fault (a lane change under way)
     leader_gap: float  # m, bumper-to-bumper gap to the leader (inf: none)
     idm_accel: float  # m/s^2, car-following acceleration (NaN while changing lanes)
-    courtesy_held: bool = False  # the TVs yielding to the SV go on braking as they did
-    # before its change began (its plan counts on it) until it is in their lane
 
 
 @dataclass
@@ -129,6 +129,13 @@ class LaneChangePolicy(Protocol):
 
     def __init__(self, ctx: DrivingContext) -> None: ...
     def status(self, sv: SVState) -> PolicyStatus: ...
+    def gaps_held(self, sv: SVState) -> bool:
+        """Whether the TVs yielding to the SV go on making room at their full braking
+        (cosim.traffic.cooperation): while it waits for its gap, and while the change
+        under way counts on their courtesy until it is in their lane; false once a
+        change under way asks nothing more of them. The loop asks only a policy that
+        `asks_for_gaps`."""
+        ...
     def update(self, t: float, scene: Scene, messages: Messages
                ) -> LaneChangeTrajectory | None: ...
     def summary(self, t: np.ndarray, y: np.ndarray) -> Manoeuvres: ...

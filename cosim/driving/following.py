@@ -23,9 +23,9 @@ FOLLOW_GRIP = 0.7  # -, share of mu g the car-following reference may brake with
 MAX_FOLLOW_JERK = 15.0  # m/s^3, rate limit of the car-following acceleration
 REF_SPEED_BAND = 0.5  # m/s, the lane-keeping reference speed stays this close to Vx
 HOLD_DECEL = 1.5  # m/s^2, the standstill hold begins where braking at this stops the
-# reference at the standstill gap (it began only at s0: an SV that got there still at
-# 0.41 m/s had its reference speed set to 0 at once, a 2.9 m/s^2 jump in ax;
-# scenarios/traffic_jam.toml, issue 22's third session) ...
+# reference at the standstill gap (a hold that began only at s0 would set a still
+# creeping reference's speed to 0 at once, a jump in ax) ...
+# tuned: docs/tuned_constants.md
 HOLD_SPEED = 1.0  # m/s, ... from this speed down only (the IDM's last creep; faster, the
 # IDM and a lane end's stop law brake for the standing leader themselves)
 

@@ -1,54 +1,67 @@
-"""The SV on a lane that ends (issue 24): the mandatory lane change and the stop
-before the end, as every policy that flies planned manoeuvres uses them.
+"""The SV on a lane that ends: the one place its policies and its manoeuvre ask about
+the end of a lane (`SVLaneEnds`, one per SV), and the laws they follow there. The
+geometry of lanes that end (which lane continues, the LC2013 look-ahead, the deadline
+of a manoeuvre) is cosim.planning.deadline's.
 
-- `sv_lane_end`: the end of the SV's lane ahead, the lane to change into and the
-  LC2013 look-ahead within which the change is due (cosim.planning.deadline). Once
-  due, the policy asks for that change with trigger "mandatory" (plans.csv), before
-  any scripted request or lane the speed-band rule wants; it may ask from any speed, a
-  standstill too (the plan starts at CREEP_SPEED at least, the planner needs a positive
-  speed).
-- The deadline: the manoeuvre (cosim.driving.manoeuvre) plans only changes that end
-  with the SV's front `deadline.END_MARGIN` before the end (`LaneEnd.x_limit`); when
-  none at the wanted end speed does, it tries the end speeds at which a change of
-  each of MERGE_TAUS fits in the room left (`deadline.fit_speed`): from a standstill
-  at the stop line it merges at the speed that room allows. A mandatory plan's path
-  bends at most MERGE_CURVATURE (the planner's `max_curvature`).
+- Where and when (`SVLaneEnds.ahead`, `SVLaneEnds.due`): the end of the SV's lane
+  ahead (a `LaneEnd`), the lane to change into and the look-ahead within which the
+  change is due. Once due it stays due while the SV is on that lane, its look-ahead the
+  longest it had: slowing down, or standing at the stop line, must not call the change
+  off nor make it less urgent (LC2013's look-ahead speed decays slowly for the same
+  reason). The policy then asks for that change with trigger "mandatory" (plans.csv)
+  before any scripted request or lane its decision rule wants, from any speed; the
+  decision rule never changes into a lane that ends within the look-ahead
+  (`SVLaneEnds.ends_soon`).
+- The plan out of it (`SVLaneEnds.limits`): every plan out of an ending lane ends with
+  the SV's front `deadline.END_MARGIN` before the end (`LaneEnd.x_limit`, the
+  planner's `x_limit`), a replan of the change under way too. A mandatory change
+  starts at CREEP_SPEED at least (the planner needs a positive speed), its path bends
+  at most MERGE_CURVATURE (the planner's `max_curvature`), and when no plan at the
+  wanted end speed ends in time it tries the end speeds at which a change of each of
+  MERGE_TAUS fits in the room left (`deadline.fit_speed`), none slower than the SV: a
+  change that brakes hard into the target lane surprises its new follower; the stop
+  law slows the SV instead and it asks again.
 - The stop before the end: while the SV keeps an ending lane it follows a virtual
   standing leader whose rear is WAIT_ROOM before the end (`stop_gap`, `stop_accel`:
   Krauss's safe speed towards it with STOP_DECEL and STOP_TAU, so that it brakes only
-  once it must), stops there behind it at its standstill gap (the car
-  following's hold) and waits for a gap: the change is planned again every
-  `retry_interval` and from a standstill.
-- Letting merging traffic in (the gap policy): a TV ahead of the SV that must merge
-  into its lane from a lane that ends is followed as if it were already its leader
-  while that asks no more than YIELD_DECEL of the SV (`yield_accel`), as SUMO's
-  cooperative followers make room for a strategic changer (LC2013's
-  `informFollower`, within their decel); one too close to let in comfortably merges
-  behind it.
+  once it must), stops there behind it at its standstill gap (the car following's
+  hold) and waits for a gap: the change is planned again every `retry_interval` and
+  from a standstill. A re-check that finds no replan out of a lane whose change has
+  been due does not abort back into it (`SVLaneEnds.was_due`; the abort's plan would
+  carry the SV on at the band's speed): it brakes to a stop before the stop line
+  (cosim.driving.brake).
+- Letting merging traffic in (the gap policy, `SVLaneEnds.yield_accel`): a TV ahead of
+  the SV that must merge into its lane from a lane that ends is followed as if it were
+  already its leader while that asks no more than YIELD_DECEL of the SV, as SUMO's
+  cooperative followers make room for a strategic changer (LC2013's `informFollower`,
+  within their decel); one too close to let in comfortably merges behind it.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig, idm_acceleration
 from cosim.driving.view import TrafficView
-from cosim.planning.deadline import LaneEnd, continuing_lane, lane_end, look_ahead
+from cosim.planning.deadline import LaneEnd, continuing_lane, end_ahead, fit_speed, look_ahead
 from cosim.planning.interaction import FollowerModel, krauss_safe_speed
 
+if TYPE_CHECKING:
+    from cosim.traffic.world import SVState
+
 WAIT_ROOM = 45.0  # m, the virtual standing leader's rear this far before the lane's end:
-# the room a merge from a standstill starts with: within MERGE_CURVATURE a change from
-# 1 m/s ends at up to 13 m/s in it (7 s); with 20 m, at 3 m/s (10 s), too slow to be let
-# into traffic at 20 m/s (a whole-loop run at 25 veh/km/lane waited 40 s)
+# the room a merge from a standstill starts with; within MERGE_CURVATURE a change from
+# 1 m/s ends at up to 13 m/s in it (7 s), fast enough to be let into the mainline
+# tuned: docs/tuned_constants.md
 STOP_DECEL = 3.5  # m/s^2, the braking the stop law plans with, and ...
 STOP_TAU = 0.5  # s, ... its reaction time: it brakes only once it must, so that the SV
-# keeps the mainline's speed along the acceleration lane while it seeks a gap (with the
-# IDM's comfortable 2 m/s^2 and SUMO's tau 1 s it braked from the lane's start, at 70 km/h
-# 165 m before the end of a 194.5 m lane, fell below the mainline's speed before a gap
-# came and stopped: 1 of 5 sample merges at 40 veh/km/lane)
+# keeps the mainline's speed along the acceleration lane while it seeks a gap
+# tuned: docs/tuned_constants.md
 STOP_TIME = 0.5  # s, time constant of the speed towards the stop law's safe speed
 MERGE_TAUS = (4.0, 7.0, 10.0)  # s, the durations the end-speed caps assume (`fit_speed`):
 # from the stop line (47 m of room) a 4 s change ends at ~23 m/s, a 7 s one at ~13 m/s
@@ -59,24 +72,141 @@ MERGE_CURVATURE = 0.2  # 1/m, the sharpest path a mandatory plan may take (R 5 m
 CREEP_SPEED = 1.0  # m/s, a mandatory change starts at least at this speed
 MERGE_INSIST_DECEL = 4.5  # m/s^2, the most a mandatory change may ask of its new follower
 # (the urgency law's top, cosim.driving.gap.decision.mandatory_config): the Krauss
-# follower's decel, what LC2013 asks of a blocking follower; a Krauss follower either
-# keeps its speed or drops what it must in one step, at its decel (its predicted braking
-# is ~0 or 4.5), so GapConfig.insist_decel's 4.0 let no blocked merge go (issue 24)
+# follower's decel, what LC2013 asks of a blocking follower. A Krauss follower either
+# keeps its speed or drops what it must in one step at its decel (its predicted braking
+# is ~0 or 4.5), so a limit below its decel lets no blocked merge go
+# tuned: docs/tuned_constants.md
 MERGE_APPROACH_DECEL = 2.0  # m/s^2, the hardest a mandatory change brakes toward a gap
 # (GapConfig.approach_decel, 3 for a change by choice): on an acceleration lane braking
 # for a slower gap loses the speed the merge needs, and the stop law brakes for the end
-# (merge study, 20 seeds: 17 of 20 merges at 50 veh/km/lane with 3, 20 of 20 with 2)
+# tuned: docs/tuned_constants.md
 YIELD_DECEL = 2.0  # m/s^2, the most the gap policy's SV brakes to let a merging TV in
 # (the IDM's comfortable b)
 
 
-def sv_lane_end(lanes: LaneLayout, lane: int, x: float, speed: float,
-                length: float) -> LaneEnd | None:
-    """The end of the SV's `lane` ahead (centre x, m; speed, m/s), None when it runs on."""
-    ends = [lanes.end(k) for k in range(lanes.n_lanes)]
-    if not any(math.isfinite(e) for e in ends):
-        return None
-    return lane_end(ends, lane, x, speed, length)
+@dataclass(frozen=True)
+class PlanLimits:
+    """What the end of the SV's lane asks of a plan out of it (`SVLaneEnds.limits`)."""
+
+    vx0: float  # m/s, the plan's start speed
+    vxf: float | None  # m/s, its end speed (None: the band rule's)
+    x_limit: float = math.inf  # m, the latest centre x at its end (inf: no end ahead)
+    curvature: float = math.inf  # 1/m, the sharpest path it may take
+    slower: tuple[float, ...] = ()  # m/s, the end speeds tried next, in order, when no
+    # plan at vxf ends in time
+
+
+class SVLaneEnds:
+    """The SV's lane-end reasoning (module docstring) on the lanes `lanes`, for an SV of
+    `sv_length` (m). It remembers the lane whose mandatory change became due."""
+
+    def __init__(self, lanes: LaneLayout, sv_length: float) -> None:
+        self.lanes = lanes
+        self.sv_length = sv_length
+        self.end_s = tuple(lanes.end_s(k) for k in range(lanes.n_lanes))  # m, per lane
+        self.any = any(math.isfinite(e) for e in self.end_s)  # a lane ends on this road
+        self.due_lane = -1  # the lane whose mandatory change became due (-1: none)
+        self.due_horizon = 0.0  # m, the longest look-ahead since
+
+    def ahead(self, lane: int, x: float, speed: float) -> LaneEnd | None:
+        """The end of `lane` ahead of the SV at centre x (m) and speed (m/s), or None
+        when the lane runs on."""
+        if not self.any:
+            return None
+        return end_ahead(self.end_s, lane, x, speed, self.sv_length)
+
+    def due(self, lane: int, sv: SVState) -> LaneEnd | None:
+        """The end of the SV's `lane` once the mandatory change is due, else None; once
+        due it stays due on that lane, its look-ahead the longest it had."""
+        end = self.ahead(lane, sv.x, sv.vx)
+        if end is None:
+            return None
+        if self.due_lane != lane:
+            self.due_horizon = 0.0
+        if end.due:
+            self.due_lane = lane
+        if self.due_lane != lane:
+            return None
+        self.due_horizon = max(self.due_horizon, end.horizon)
+        return replace(end, horizon=self.due_horizon)
+
+    def was_due(self, lane: int, end: LaneEnd | None) -> bool:
+        """`lane`, ending at `end`, is one the SV must leave: its change is due, or has
+        been (no abort back into it)."""
+        return end is not None and (end.due or self.due_lane == lane)
+
+    def ends_soon(self, lane: int, sv: SVState) -> bool:
+        """`lane` ends within the SV's look-ahead (or has ended): no lane to change into
+        for a change the SV wants (a mandatory change would have to leave it again)."""
+        end = self.ahead(lane, sv.x, sv.vx)
+        return end is not None and end.due
+
+    def x_limit(self, end: LaneEnd | None) -> float:
+        """m, the latest centre x of the SV at the end of a manoeuvre out of a lane
+        ending at `end` (inf: none)."""
+        return math.inf if end is None else end.x_limit(self.sv_length)
+
+    def limits(self, lane: int, sv: SVState, target: int, vxf: float | None,
+               mandatory: bool) -> PlanLimits:
+        """What the end of the SV's `lane` asks of a plan from `sv` to `target` ending at
+        `vxf` (m/s; None: the band rule's speed); `mandatory`: the change off an ending
+        lane (module docstring)."""
+        x_limit = self.x_limit(self.ahead(lane, sv.x, sv.vx))
+        if not mandatory:
+            return PlanLimits(vx0=sv.vx, vxf=vxf, x_limit=x_limit)
+        vx0 = max(sv.vx, CREEP_SPEED)
+        vxf = self.lanes.end_speed(lane, target) if vxf is None else vxf
+        slower: list[float] = []
+        for tau in MERGE_TAUS:
+            fit = max(fit_speed(x_limit - sv.x, vx0, tau), CREEP_SPEED)
+            if vx0 - 1e-6 <= fit < (slower[-1] if slower else vxf) - 1e-6:
+                slower.append(fit)
+        return PlanLimits(vx0=vx0, vxf=vxf, x_limit=x_limit, curvature=MERGE_CURVATURE,
+                          slower=tuple(slower))
+
+    def merging_ahead(self, lane: int, sv_x: float, traffic: TrafficView
+                      ) -> tuple[int, float]:
+        """(index, bumper gap m) of the nearest TV ahead of the SV's front (centre sv_x,
+        m) that must merge into the SV's `lane` from a neighbouring lane that ends (its
+        change due: within its LC2013 look-ahead, cosim.planning.deadline), or (-1,
+        inf). Arrays over TVs."""
+        n = self.lanes.n_lanes
+        ends = np.array(self.end_s, dtype=float)
+        x = np.asarray(traffic.x, dtype=float)
+        if not self.any or x.size == 0:
+            return -1, math.inf
+        target = np.full(n, -1)
+        crossings = np.ones(n)
+        for k in range(n):  # lanes, not vehicles
+            nxt = continuing_lane(ends, k)
+            if nxt is not None:
+                target[k], crossings[k] = nxt
+        length = np.asarray(traffic.length, dtype=float)
+        lo, _ = self.lanes.lanes_touched(traffic.y, np.zeros(x.size))
+        tv_lane = np.clip(lo, 0, n - 1).astype(int)
+        remaining = ends[tv_lane] - (x + 0.5 * length)
+        horizon = look_ahead(traffic.speed, length, lane > tv_lane, crossings[tv_lane])
+        gap = x - 0.5 * length - (sv_x + 0.5 * self.sv_length)
+        merging = ((target[tv_lane] == lane) & (tv_lane != lane) & (remaining > 0.0)
+                   & (remaining <= horizon) & (gap > 0.0))
+        if not merging.any():
+            return -1, math.inf
+        k = int(np.argmin(np.where(merging, gap, np.inf)))
+        return k, float(gap[k])
+
+    def yield_accel(self, speed: float, desired_speed: float, lane: int, sv_x: float,
+                    traffic: TrafficView, cfg: DecisionConfig) -> float:
+        """m/s^2, the courtesy of the SV (at `speed`, m/s, wanting `desired_speed`) to a
+        TV that must merge into its lane ahead of it (`merging_ahead`): its car
+        following's acceleration behind that TV as if it were already its leader, when
+        that asks no more braking than YIELD_DECEL (LC2013's cooperative follower helps
+        only within its decel); inf: nobody to let in, or too late to let it in
+        comfortably (it merges behind the SV)."""
+        k, gap = self.merging_ahead(lane, sv_x, traffic)
+        if k < 0:
+            return math.inf
+        a = idm_acceleration(speed, desired_speed, gap, float(traffic.speed[k]), cfg)
+        return a if a >= -YIELD_DECEL else math.inf
 
 
 def stop_gap(end: LaneEnd | None) -> float:
@@ -93,48 +223,3 @@ def stop_accel(speed: float, gap: float, min_gap: float) -> float:
     model = FollowerModel(decel=STOP_DECEL, tau=STOP_TAU, min_gap=min_gap)
     v_safe = float(krauss_safe_speed(gap, 0.0, model))
     return (v_safe - max(speed, 0.0)) / STOP_TIME
-
-
-def merging_ahead(lanes: LaneLayout, lane: int, sv_x: float, sv_length: float,
-                  traffic: TrafficView) -> tuple[int, float]:
-    """(index, bumper gap m) of the nearest TV ahead of the SV's front that must merge
-    into the SV's `lane` from a neighbouring lane that ends (its change due: within its
-    LC2013 look-ahead, cosim.planning.deadline), or (-1, inf). Arrays over TVs."""
-    n = lanes.n_lanes
-    ends = np.array([lanes.end(k) for k in range(n)], dtype=float)
-    x = np.asarray(traffic.x, dtype=float)
-    if not np.isfinite(ends).any() or x.size == 0:
-        return -1, math.inf
-    target = np.full(n, -1)
-    crossings = np.ones(n)
-    for k in range(n):  # lanes, not vehicles
-        nxt = continuing_lane(ends, k)
-        if nxt is not None:
-            target[k], crossings[k] = nxt
-    length = np.asarray(traffic.length, dtype=float)
-    lo, _ = lanes.lanes_touched(traffic.y, np.zeros(x.size))
-    tv_lane = np.clip(lo, 0, n - 1).astype(int)
-    remaining = ends[tv_lane] - (x + 0.5 * length)
-    horizon = look_ahead(traffic.speed, length, lane > tv_lane, crossings[tv_lane])
-    gap = x - 0.5 * length - (sv_x + 0.5 * sv_length)
-    merging = ((target[tv_lane] == lane) & (tv_lane != lane) & (remaining > 0.0)
-               & (remaining <= horizon) & (gap > 0.0))
-    if not merging.any():
-        return -1, math.inf
-    k = int(np.argmin(np.where(merging, gap, np.inf)))
-    return k, float(gap[k])
-
-
-def yield_accel(speed: float, desired_speed: float, lanes: LaneLayout, lane: int,
-                sv_x: float, sv_length: float, traffic: TrafficView,
-                cfg: DecisionConfig) -> float:
-    """m/s^2, the courtesy of the SV to a TV that must merge into its lane ahead of it
-    (`merging_ahead`): its car following's acceleration behind that TV as if it were
-    already its leader, when that asks no more braking than YIELD_DECEL (LC2013's
-    cooperative follower helps only within its decel); inf: nobody to let in, or too
-    late to let it in comfortably (it merges behind the SV)."""
-    k, gap = merging_ahead(lanes, lane, sv_x, sv_length, traffic)
-    if k < 0:
-        return math.inf
-    a = idm_acceleration(speed, desired_speed, gap, float(traffic.speed[k]), cfg)
-    return a if a >= -YIELD_DECEL else math.inf

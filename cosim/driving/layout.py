@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cosim.driving.view import TrafficView
 from cosim.params import RoadParams
 from cosim.run.proximity import lane_neighbours
 
@@ -62,8 +63,8 @@ class LaneLayout:
         """m/s, the top of a lane's speed band."""
         return self.road.speed_bands[lane][1]
 
-    def end(self, lane: int) -> float:
-        """m, s where a lane ends (inf: it runs to the end of the route; issue 24)."""
+    def end_s(self, lane: int) -> float:
+        """m, s where a lane ends (inf: it runs to the end of the route)."""
         return self.road.lane_end(lane)
 
     def end_speed(self, origin: int, target: int) -> float:
@@ -81,22 +82,22 @@ class LaneLayout:
         hi = np.floor((yy + hw - road.y_right) / road.lane_width)
         return lo, hi
 
-    def neighbours(self, lane: int, sv_x: float, sv_length: float, tv_x: ArrayLike,
-                   tv_y: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
-                   tv_width: ArrayLike, tv_lateral_speed: ArrayLike | None = None
-                   ) -> Neighbours:
-        """The SV's leader and follower in `lane` (TVs touching that lane), the gaps
-        bumper to bumper along the lane (a compiled loop: cosim.run.proximity).
+    def neighbours(self, lane: int, sv_x: float, sv_length: float, traffic: TrafficView, *,
+                   leaving: bool = False) -> Neighbours:
+        """The leader and follower in `lane` (TVs touching that lane) of an SV at centre
+        `sv_x` (m), the gaps bumper to bumper along the lane (a compiled loop:
+        cosim.run.proximity).
 
-        With `tv_lateral_speed` (m/s, + left), a TV whose centre is already in another
-        lane and that moves away from `lane` does not count (it is leaving)."""
+        `leaving`: a TV whose centre is already in another lane and that moves away from
+        `lane` (by its lateral speed, when known) does not count."""
         road = self.road
-        v = _floats(tv_speed)
-        use_vy = tv_lateral_speed is not None
+        v = _floats(traffic.speed)
+        vy = traffic.lateral_speed if leaving else None
+        use_vy = vy is not None
         i_lead, gap_ahead, i_foll, gap_behind = lane_neighbours(
-            int(lane), float(sv_x), float(sv_length), _floats(tv_x), _floats(tv_y),
-            _floats(tv_length), _floats(tv_width), float(road.y_right), float(road.lane_width),
-            _floats(tv_lateral_speed) if use_vy else np.zeros(0), use_vy)
+            int(lane), float(sv_x), float(sv_length), _floats(traffic.x), _floats(traffic.y),
+            _floats(traffic.length), _floats(traffic.width), float(road.y_right),
+            float(road.lane_width), _floats(vy) if use_vy else np.zeros(0), use_vy)
         return Neighbours(
             lane=lane,
             leader=i_lead,

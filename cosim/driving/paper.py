@@ -8,11 +8,11 @@ with `[sv] decision`, when the paper's trigger (cosim.driving.rule) wants one (n
 within `cooldown` after a manoeuvre). The manoeuvre (cosim.driving.manoeuvre) plans
 it at the band rule's end speed and flies, re-checks, replans, aborts or brakes.
 
-On a lane that ends (cosim.driving.lane_end) it stops before the end (a virtual
-standing leader), and once the end is within its look-ahead it asks for the change
-into the continuing lane ("mandatory") instead of any other, every `retry_interval`
-until a plan that ends before the end is found, from a standstill too; the decision
-rule never changes into a lane that ends within the look-ahead.
+On a lane that ends it does what cosim.driving.lane_end says: it stops before the end
+(a virtual standing leader), and once the end is within its look-ahead it asks for the
+change into the continuing lane ("mandatory") instead of any other, every
+`retry_interval` until a plan that ends before the end is found, from a standstill
+too; its decision rule never changes into a lane that ends within the look-ahead.
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ import numpy as np
 from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
 from cosim.driving.following import CarFollowing
 from cosim.driving.lane_end import stop_gap
-from cosim.driving.manoeuvre import MANDATORY, LaneChangeTimer, Manoeuvre
+from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre
+from cosim.driving.plans import Trigger
 from cosim.driving.registry import register
 
 if TYPE_CHECKING:
@@ -44,6 +45,7 @@ class PaperPolicy:
     def __init__(self, ctx: DrivingContext) -> None:
         self.following = CarFollowing(ctx, ctx.decision)
         self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(ctx.decision), ctx.ports.blinker)
+        self.ends = self.manoeuvre.ends  # the SV's lane-end reasoning
 
     @property
     def wall(self) -> float:
@@ -51,6 +53,10 @@ class PaperPolicy:
 
     def status(self, sv: SVState) -> PolicyStatus:
         return self.manoeuvre.status(self.following.leader_gap, self.following.accel)
+
+    def gaps_held(self, sv: SVState) -> bool:
+        """No gap requests (`asks_for_gaps` false): true while no change is under way."""
+        return self.manoeuvre.active is None
 
     def update(self, t: float, scene: Scene, messages: Messages) -> LaneChangeTrajectory:
         """Finish a manoeuvre that is over, ask for a lane change or re-check the one
@@ -61,19 +67,19 @@ class PaperPolicy:
             self.following.resume(float(ended.trajectory.vxf))
         allow_scripted, allow_decision = m.may_request(t, sv)
         lane = self.following.lanes.lane_of(sv.y)
-        end = m.lane_end(lane, sv)  # its lane ends ahead: stop before it, change lanes
+        end = self.ends.ahead(lane, sv.x, sv.vx)  # its lane ends: stop before it, change
         d = self.following.update(sv, scene, allow_decision, stop_gap(end))
-        target, trigger = None, ""
-        if end is not None and m.mandatory(lane, sv) is not None:
+        target, trigger = None, None
+        if end is not None and self.ends.due(lane, sv) is not None:
             if m.may_merge(t):
-                target, trigger = end.target, MANDATORY
+                target, trigger = end.target, Trigger.MANDATORY
         elif allow_scripted:
             target = m.due_scripted(t, sv)
             if target is not None:
-                trigger = "scripted"
+                trigger = Trigger.SCRIPTED
             elif (allow_decision and d.target_lane is not None
-                  and not m.ends_soon(d.target_lane, sv)):
-                target, trigger = d.target_lane, "decision"
+                  and not self.ends.ends_soon(d.target_lane, sv)):
+                target, trigger = d.target_lane, Trigger.DECISION
         trajectory = m.advance(t, sv, target, trigger, messages)
         return trajectory if trajectory is not None else self.following.reference(t, sv)
 

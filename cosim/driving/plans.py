@@ -1,13 +1,36 @@
-"""The plans log (plans.csv): its columns, and the rows a policy writes to it, one per
-planner call (`plan_row`) or per scripted request that did not go through the planner
-(`request_row`)."""
+"""The plans log (plans.csv): its columns, what asked for each row (`Trigger`), and the
+rows a policy writes to it, one per planner call (`plan_row`) or per scripted request
+that did not go through the planner (`request_row`); and the planner as a policy calls
+it (`PlannerCalls`, each call timed).
+"""
 
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from enum import StrEnum
 from typing import Any
 
 from cosim.planning.planner import LANE_END
+
+
+class Trigger(StrEnum):
+    """What asked for a plan (plans.csv `trigger`)."""
+
+    SCRIPTED = "scripted"  # a scripted request ([sv] lane_changes)
+    DECISION = "decision"  # the policy's decision rule
+    RETRY = "retry"  # a scripted request asked again after a failed plan
+    MANDATORY = "mandatory"  # the SV's lane ends ahead (cosim.driving.lane_end)
+    REPLAN = "replan"  # the re-check: a new plan to the target lane
+    ABORT = "abort"  # the re-check: back to the origin lane
+    BRAKE = "brake"  # the re-check: brake in the nearest lane
+
+
+RESCUES = (Trigger.REPLAN, Trigger.ABORT, Trigger.BRAKE)  # the re-check's outcomes, in
+# the order the metrics row counts them
+NOT_ADJACENT = "not an adjacent lane"  # why a scripted request was dropped (`rejections`)
 
 PLAN_COLUMNS: dict[str, str] = {
     "t_s": "simulation time of the planning request (s)",
@@ -37,7 +60,7 @@ def _fmt_intervals(spans: list[tuple[float, float]]) -> str:
     return ";".join(f"{a:.2f}-{b:.2f}" for a, b in spans)
 
 
-def plan_row(plan: Any, trigger: str, vx0: float) -> dict[str, Any]:
+def plan_row(plan: Any, trigger: Trigger, vx0: float) -> dict[str, Any]:
     """One plans.csv row of a planner's Plan (see PLAN_COLUMNS)."""
     per_tv: dict[str, int] = {}
     n_unstable = n_late = 0
@@ -76,6 +99,42 @@ def request_row(t: float, origin: int, target: int, vx0: float, ok: int,
     """A plans.csv row of a scripted request that did not go through the planner (one
     dropped, or one handed to SUMO's lane-change model)."""
     row = dict.fromkeys(PLAN_COLUMNS, math.nan)
-    row.update(t_s=t, trigger="scripted", origin_lane=origin, target_lane=target, vx0_mps=vx0,
+    row.update(t_s=t, trigger=Trigger.SCRIPTED, origin_lane=origin, target_lane=target, vx0_mps=vx0,
                ok=ok, stable_set_s="", collision_free_set_s="", rejections=why)
     return row
+
+
+class PlannerCalls:
+    """The planner (cosim.planning.planner.LaneChangePlanner, or a double with its
+    `plan` and `check`) as a policy calls it: each call timed into `wall` (s); the
+    occupant's weight in eq. 13 (`occupant`) given with every plan."""
+
+    def __init__(self, planner: Any, occupant: float) -> None:
+        self.planner = planner
+        self.occupant = occupant
+        self.wall = 0.0  # s, wall time in the planner (and in a policy's own check)
+
+    @contextmanager
+    def timed(self) -> Iterator[None]:
+        """Time the block into `wall`."""
+        w0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.wall += time.perf_counter() - w0
+
+    def plan(self, t: float, state: Any, target: int, messages: list[Any], *,
+             vxf: float | None = None, x_limit: float = math.inf,
+             curvature: float = math.inf) -> Any:
+        """The planner's Plan from `state` (SVPlanState) to `target` at t (ending at `vxf`,
+        m/s, None: the band rule's speed; at centre x <= `x_limit`, m; its path bending
+        at most `curvature`, 1/m)."""
+        with self.timed():
+            return self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf,
+                                     x_limit=x_limit, max_curvature=curvature)
+
+    def check(self, trajectory: Any, t: float, messages: list[Any]) -> Any:
+        """The planner's collision check of `trajectory` from t against fresh predictions:
+        its first collision (a Rejection), None when there is none."""
+        with self.timed():
+            return self.planner.check(trajectory, t, messages)

@@ -160,6 +160,4 @@ def neighbours(lane: int, sv: SVView, traffic: TrafficView, lanes: LaneLayout, *
                leaving: bool = False) -> Neighbours:
     """The SV's leader and follower in `lane` (`leaving`: a TV moving out of the lane,
     by its lateral speed when known, does not count)."""
-    return lanes.neighbours(lane, sv.x, sv.length, traffic.x, traffic.y, traffic.speed,
-                            traffic.length, traffic.width,
-                            traffic.lateral_speed if leaving else None)
+    return lanes.neighbours(lane, sv.x, sv.length, traffic, leaving=leaving)

@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
 from cosim.driving.following import CarFollowing
 from cosim.driving.layout import LaneLayout
-from cosim.driving.plans import request_row
+from cosim.driving.plans import RESCUES, request_row
 from cosim.driving.registry import register
 from cosim.run.metrics import SETTLE_TOL
 
@@ -51,6 +51,10 @@ class SumoPolicy:
                             leader_gap=self.following.leader_gap,
                             idm_accel=self.following.accel)
 
+    def gaps_held(self, sv: SVState) -> bool:
+        """No planned change (`asks_for_gaps` false): always true."""
+        return True
+
     def update(self, t: float, scene: Scene, messages: Messages) -> None:
         sv = scene.sv
         lane = self.lanes.lane_of(sv.y)
@@ -75,7 +79,7 @@ class SumoPolicy:
             requests += max(len(starts) - self.requests, 0)
         return Manoeuvres(
             lane_changes=[], starts=starts, targets=targets, ends=ends, requests=requests,
-            planner_calls=0, outcomes={"replan": 0, "abort": 0, "brake": 0},
+            planner_calls=0, outcomes=dict.fromkeys(RESCUES, 0),
             first_start=None, plans=self.plans)
 
 
@@ -84,8 +88,8 @@ def excursions(t: Array, y: Array, lanes: LaneLayout) -> tuple[list[float], list
     """Lane changes read off a path: each time the SV leaves one lane centre band
     (|y - centre| < SETTLE_TOL) and next enters another's. Returns starts, target
     centres and window ends: the next change's start, the run's end for the last (as a
-    manoeuvre log has them: a change followed by another read as never settled, its run
-    as failed; the merge study's SUMO-native runs, 29 of 100)."""
+    manoeuvre log has them: a change followed by another is read as never settled, its
+    run as failed)."""
     centres = np.array([lanes.centre(k) for k in range(lanes.n_lanes)])
     dist = np.abs(y[:, None] - centres[None, :])
     at = np.flatnonzero(dist.min(axis=1) < SETTLE_TOL)  # samples in a centre band

@@ -1,4 +1,4 @@
-"""Lanes that end (issue 24): which lane a vehicle on an ending lane must change into,
+"""Lanes that end: which lane a vehicle on an ending lane must change into,
 from when that change is due, and the latest a manoeuvre out of the lane may end.
 
 The road says where each lane ends along s (`RoadParams.lane_ends`, inf: it runs on).
@@ -53,15 +53,15 @@ END_MARGIN = 2.0  # m, a manoeuvre out of an ending lane ends with the front thi
 FORCE_TIME = 5.0  # s, a TV that does not signal is predicted to merge once its lane's end
 # is this close (v FORCE_TIME + 2 (length + minGap) per lane to cross): SUMO's drivers
 # signal a strategic change as soon as they want it, so this is the fallback for one that
-# has not; forcing every TV within LC2013's look-ahead (20 s to the left) made 25 C2
-# clusters of ~180 durations in a dense lane and one plan take over 30 s
+# has not; LC2013's whole look-ahead would give many large C2 clusters in a dense lane
+# tuned: docs/tuned_constants.md
 FORCE_MIN_SPEED = 1.0  # m/s, nor a TV slower than this (one standing in a queue stays C1
-# until it signals: a C2 cluster from a standstill made one collision check run for
-# minutes in a whole-loop run, docs/gap_policy.md)
+# until it signals: a C2 cluster from a standstill makes the collision check slow)
+# tuned: docs/tuned_constants.md
 
 
-def lane_ends(road: RoadParams) -> Array:
-    """m, where each lane ends along s (inf: runs on), one entry per lane."""
+def end_positions(road: RoadParams) -> Array:
+    """m, s where each lane ends (inf: it runs on), one entry per lane."""
     return np.array([road.lane_end(k) for k in range(road.n_lanes)], dtype=float)
 
 
@@ -69,10 +69,10 @@ def continuing_lane(ends: Sequence[float], lane: int) -> tuple[int, int] | None:
     """(neighbour to change into, lanes to cross) for a vehicle on `lane` whose end is
     ends[lane] (m): towards the nearest lane that runs on past that end (the right one
     on a tie); None when the lane does not end or no lane runs on past it."""
-    end = ends[lane]
-    if not math.isfinite(end):
+    end_s = ends[lane]
+    if not math.isfinite(end_s):
         return None
-    on = [k for k in range(len(ends)) if ends[k] > end + 1e-6]
+    on = [k for k in range(len(ends)) if ends[k] > end_s + 1e-6]
     if not on:
         return None
     k = min(on, key=lambda j: (abs(j - lane), j))
@@ -95,7 +95,7 @@ class LaneEnd:
 
     lane: int  # the lane that ends
     target: int  # the neighbour to change into
-    end: float  # m, s of the lane's end
+    end_s: float  # m, s of the lane's end
     remaining: float  # m, from the vehicle's front to the end
     horizon: float  # m, the look-ahead within which the change is due
 
@@ -112,20 +112,20 @@ class LaneEnd:
     def x_limit(self, length: float) -> float:
         """m, the latest centre x of a vehicle of `length` at the end of a manoeuvre out
         of the lane (its front END_MARGIN before the end)."""
-        return self.end - END_MARGIN - 0.5 * length
+        return self.end_s - END_MARGIN - 0.5 * length
 
 
-def lane_end(ends: Sequence[float], lane: int, x: float, speed: float,
-             length: float) -> LaneEnd | None:
+def end_ahead(ends: Sequence[float], lane: int, x: float, speed: float,
+              length: float) -> LaneEnd | None:
     """The end of `lane` ahead of a vehicle (centre x, m; speed, m/s; length, m) on it,
     or None when the lane runs on or no lane runs on past its end."""
     nxt = continuing_lane(ends, lane)
     if nxt is None:
         return None
     target, crossings = nxt
-    end = float(ends[lane])
-    return LaneEnd(lane=lane, target=target, end=end,
-                   remaining=end - (x + 0.5 * length),
+    end_s = float(ends[lane])
+    return LaneEnd(lane=lane, target=target, end_s=end_s,
+                   remaining=end_s - (x + 0.5 * length),
                    horizon=float(look_ahead(speed, length, target > lane, crossings)))
 
 
@@ -146,7 +146,7 @@ def merging_messages(messages: Sequence[V2VMessage], road: RoadParams,
     out = list(messages)
     if not road.lane_ends or not out:
         return out
-    ends = lane_ends(road)
+    ends = end_positions(road)
     n = road.n_lanes
     # per lane: direction of the change (0: none) and lanes to cross
     direction = np.zeros(n, dtype=int)
@@ -170,10 +170,10 @@ def merging_messages(messages: Sequence[V2VMessage], road: RoadParams,
     return out
 
 
-def c2_deadline(x0: Array, v0: Array, vxf: Array, length: Array, end: Array,
+def c2_deadline(x0: Array, v0: Array, vxf: Array, length: Array, end_s: Array,
                 taus: Array) -> NDArray[np.bool_]:
     """(n, n_tau) which durations of each C2 TV's cluster (from centre x0, speed v0 to
-    vxf, eq. 2 from x'' = 0) end with its front END_MARGIN before its lane's `end`
-    (inf: all)."""
+    vxf, eq. 2 from x'' = 0) end with its front END_MARGIN before its lane's end at
+    `end_s` (m; inf: all)."""
     x_end = x0[:, None] + 0.5 * (v0 + vxf)[:, None] * taus[None, :]
-    return x_end + 0.5 * length[:, None] + END_MARGIN <= end[:, None]
+    return x_end + 0.5 * length[:, None] + END_MARGIN <= end_s[:, None]

@@ -303,15 +303,32 @@ class FollowerCheck:
         return 0.0 if self.prediction is None else self.prediction.max_decel
 
 
-def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: ArrayLike,
-                   tv_speed: ArrayLike, tv_length: ArrayLike, in_target: ArrayLike,
-                   m: FollowerModel, dt: float = 0.05,
-                   tv_braking: ArrayLike | None = None) -> FollowerCheck:
+@dataclass(frozen=True)
+class LaneTraffic:
+    """The TVs a planned change's new follower is sought among (arrays over TVs)."""
+
+    x: Array  # m, centres at the manoeuvre's start
+    speed: Array  # m/s, kept until the SV enters the lane (or braking at `braking`)
+    length: Array  # m
+    in_target: NDArray[np.bool_]  # the TVs in the target lane
+    braking: Array | None = None  # m/s^2 >= 0 per TV: the TVs that yield to the SV go on
+    # braking at this rate (down to a standstill) until it is in their lane; None: none
+
+    @classmethod
+    def of(cls, x: ArrayLike, speed: ArrayLike, length: ArrayLike, in_target: ArrayLike,
+           braking: ArrayLike | None = None) -> LaneTraffic:
+        """From lists or arrays."""
+        return cls(np.asarray(x, dtype=float), np.asarray(speed, dtype=float),
+                   np.asarray(length, dtype=float), np.asarray(in_target, dtype=bool),
+                   None if braking is None else np.asarray(braking, dtype=float))
+
+
+def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tvs: LaneTraffic,
+                   m: FollowerModel, dt: float = 0.05) -> FollowerCheck:
     """Predict the new follower of a planned lane change (`trajectory`, from its t0):
-    among the TVs with `in_target` true (centres tv_x at t0, constant speeds until the
-    SV enters, or braking at `tv_braking`, m/s^2 >= 0 per TV, down to a standstill: the
-    TVs that yield to the SV until it is in their lane), the nearest one behind the SV
-    when the SV's centre crosses the lane line (half the lateral displacement); it then
+    among the TVs in the target lane (`tvs`: constant speeds until the SV enters, or
+    braking at `tvs.braking` down to a standstill), the nearest one behind the SV when
+    the SV's centre crosses the lane line (half the lateral displacement); it then
     follows the SV's rear by its model until FOLLOW_AFTER after the manoeuvre ends
     (`predict_follower`). What it is asked is its braking from then on."""
     tr = trajectory
@@ -323,24 +340,24 @@ def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tv_x: Arr
         return FollowerCheck(-1, math.nan, None, True)
     k_in = int(np.argmax(crossed))
     t_in = float(t[k_in])
-    x = np.asarray(tv_x, dtype=float)
-    v = np.asarray(tv_speed, dtype=float)
-    half = 0.5 * np.asarray(tv_length, dtype=float)
-    b = np.zeros_like(x) if tv_braking is None else np.asarray(tv_braking, dtype=float)
+    x = np.asarray(tvs.x, dtype=float)
+    v = np.asarray(tvs.speed, dtype=float)
+    half = 0.5 * np.asarray(tvs.length, dtype=float)
+    b = np.zeros_like(x) if tvs.braking is None else np.asarray(tvs.braking, dtype=float)
     # each TV's travel until the SV enters (a braking one no farther than its stop)
     dt_in = np.where(b > 0.0, np.minimum(t_in - tr.t0, v / np.maximum(b, 1e-9)), t_in - tr.t0)
     moved = (v - 0.5 * b * dt_in) * dt_in
     front_in = x + half + moved  # each TV's front when the SV enters
     rear_in = float(xs[k_in]) - 0.5 * sv_length
-    behind = np.asarray(in_target, dtype=bool) & (x + moved < float(xs[k_in]))
+    behind = np.asarray(tvs.in_target, dtype=bool) & (x + moved < float(xs[k_in]))
     if not behind.any():
         return FollowerCheck(-1, t_in, None, True)
     gap_in = np.where(behind, rear_in - front_in, np.inf)
     j = int(np.argmin(gap_in))
     speed = np.hypot(vx, vy)
-    # its desired speed: what it drives now (SUMO's TVs cruise at their band's speed when
-    # free), not the model's cap: a free follower predicted to accelerate at `accel` up to
-    # 70 m/s was then predicted to brake for an SV 100 m ahead of it
+    # its desired speed is what it drives now (SUMO's TVs cruise at their band's speed
+    # when free), not the model's cap: a free follower predicted to speed up to the cap
+    # would then be predicted to brake for an SV far ahead of it
     m = replace(m, max_speed=min(m.max_speed, max(float(v[j]), 0.1)))
     pred = predict_follower(t, xs - 0.5 * sv_length, speed, t_in, float(x[j] + half[j]),
                             float(v[j]), m, -float(b[j]))

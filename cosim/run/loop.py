@@ -149,9 +149,8 @@ class CoSimulation:
                     break  # our SV at the end of a lane that ends (issue 24)
                 reference = policy.update(t, scene, observer.inbox(scene))
                 if world.gap_requests:  # gap requests due reach their TVs
-                    status = policy.status(scene.sv)
                     world.deliver_gap_requests(t, scene.tvs, scene.sv.x,
-                                               status.changing and not status.courtesy_held)
+                                               not policy.gaps_held(scene.sv))
                 ego.advance(t, self.dt, reference)
                 observer.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())

@@ -28,7 +28,7 @@ firmly while the SV waits beside the gap (`max_decel`) and, once the SV moves ov
 only holds its speed (`changing_decel`, next to nothing): as SUMO's informed followers
 do, the room is made before the change, and the change itself asks nothing more of
 a follower that has it. A change planned on the courtesy held (the gap policy's
-`GapDecision.held`, `PolicyStatus.courtesy_held`) moves over while the TV still makes
+`GapDecision.held`; the policy's `gaps_held`) moves over while the TV still makes
 room: it goes on with `max_decel` until the SV is in its lane, then holds its speed.
 
 The API handle is the SUMO adapter's (`SumoSim.api`): this module does not import
@@ -62,19 +62,16 @@ class CooperationConfig:
     change_rate: float = 0.5  # 1/s, SUMO's openGap rate of change (fraction per second)
     max_decel: float = 0.5  # m/s^2, the hardest it brakes to open the gap while the SV
     # waits for it (before the SV's change begins) ...
+    # tuned: docs/tuned_constants.md
     changing_decel: float = 0.01  # m/s^2, ... and once the SV's change is under way: the
     # braking a TV that still yields may go on with when the SV moves over (re-issued at
     # the change's start): next to nothing, so that it only holds its speed (it does not
     # close in on the SV before SUMO sees the SV in its lane) and asks nothing of a
     # follower that already has room; one that has not brakes for the SV as its own
     # Krauss does once the SV is in its lane (what the policy's entry test predicts).
-    # SUMO's dawdling, up to 0.52 m/s^2 a step, comes on top. 0.1 made every new follower
-    # brake 0.1 m/s^2 through the whole change for a 2 s gap it did not need: 0.1 plus
-    # dawdling, 0.61-0.62 m/s^2 in every run of the density study (issue 22); released
-    # instead, a held-back TV sped up at 2.6 m/s^2 and then braked at 5.7 for the SV.
-    # Sample of study_gap (densities 10-60, 20 seeds, gap / gap_lossy / gap_perception):
-    # 0.1 throughout opened gaps too slowly at 20 veh/km/lane (18-19 of 20 lane changes);
-    # 0.5 while waiting: 20 of 20 (docs/gap_policy.md)
+    # SUMO's dawdling, up to 0.52 m/s^2 a step, comes on top. Released instead, a
+    # held-back TV would speed up and then brake hard for the SV.
+    # tuned: docs/tuned_constants.md
 
     def check(self, source: str = "cooperation") -> None:
         """Raise InputError naming the first bad field."""
@@ -114,9 +111,8 @@ COURTESY_DECEL = 2.0  # m/s^2, the most a TV brakes to let the signalling SV in 
 # waits (before its change begins): a comfortable deceleration (the IDM's b, MOBIL's; the
 # gap policy's own GapConfig.comfort_decel), below what SUMO's LC2013 lets its blocking
 # followers brake (their decel, 4.5) and what the policy's insisting entry may ask at
-# its entry (GapConfig.insist_decel, 4). At 0.5 a follower 5 m/s faster than the SV took
-# 3-5 s to make room: 2.3-6.3 s from request to lane at 10-40 veh/km/lane, SUMO's driver
-# 1.6-3.8 s (issue 22; 1.0: 2.2-4.6 s, 2.0: 2.0-4.0 s, seeds 1-8)
+# its entry (GapConfig.insist_decel, 4)
+# tuned: docs/tuned_constants.md
 COURTESY = CooperationConfig(enabled=True, compliance=1.0, latency=0.0,
                              max_decel=COURTESY_DECEL)
 
@@ -133,9 +129,9 @@ def done_yielding(tv_x: NDArray[np.float64], tv_length: NDArray[np.float64],
                   sv_length: float) -> NDArray[np.bool_]:
     """Which TVs (centres tv_x, m) can no longer open a gap behind the SV (centre sv_x):
     ahead of it (centre past its centre), or standing level with it (front past its
-    rear, slower than STANDSTILL_SPEED). One still rolling level with it is not let go: the SV
-    may be setting off in front of it (released at 1.4 m/s while the SV merged from its
-    stop line, it sped up beside the SV into a collision, 50 veh/km/lane), `release`."""
+    rear, slower than STANDSTILL_SPEED). One still rolling level with it is not let go
+    (`release`): the SV may be setting off in front of it, and released it would speed
+    up beside the SV."""
     x = np.asarray(tv_x, dtype=float)
     level = x + 0.5 * np.asarray(tv_length, dtype=float) > sv_x - 0.5 * sv_length
     return (x > sv_x) | (level & (np.asarray(tv_speed, dtype=float) < STANDSTILL_SPEED))
@@ -199,9 +195,9 @@ class CooperationChannel:
         """End the yielding of the TVs ahead of the SV or standing level with it (`ids` of
         the TVs present in SUMO, `ahead` true for those: `done_yielding`): openGap keeps
         the SV as their leader, and such a TV would otherwise stop and wait for it, for
-        good (it never reaches the gap it is told to open; one asked while the SV stood
-        at its stop line stopped level with it, and the SV never found an entry: issue
-        24). Looks only at the yielding TVs."""
+        good (it never reaches the gap it is told to open: one asked while the SV stands
+        at its stop line would stop level with it, and the SV would find no entry).
+        Looks only at the yielding TVs."""
         done = {tv for tv in self._yielding if tv in ids and ahead[ids.index(tv)]}
         for tv_id in sorted(done):  # sorted: the same order every run
             api.vehicle.deactivateGapControl(tv_id)

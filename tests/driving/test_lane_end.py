@@ -26,10 +26,11 @@ from cosim.driving.lane_end import (
     MERGE_INSIST_DECEL,
     WAIT_ROOM,
     stop_accel,
-    sv_lane_end,
 )
 from cosim.driving.layout import LaneLayout
-from cosim.driving.manoeuvre import BRAKE_DECELS, BRAKE_GRIP, BRAKING, CHANGING, MANDATORY
+from cosim.driving.manoeuvre import Mode
+from cosim.driving.plans import Trigger
+from cosim.driving.recheck import BRAKE_DECELS, BRAKE_GRIP
 from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig
 from cosim.params import G, RoadParams
@@ -161,15 +162,16 @@ def test_the_mandatory_trigger_fires_within_the_look_ahead_and_not_before(name: 
     horizon = v * 10.0 * 2.0 + 2.0 * (L + 2.5)  # LC2013's, to the left: 417.3 m
     x0 = 2000.0 - HALF - horizon - 30.0  # 30 m (1.5 s) before it is due
     d = Drive(name, scenario(v, road=road), x0, road=road)
-    end = sv_lane_end(d.policy.manoeuvre.lanes, 0, x0, v, L)
+    end = d.policy.manoeuvre.ends.ahead(0, x0, v)
     assert end is not None and end.horizon == pytest.approx(horizon) and not end.due
     d.run(1.45)
     assert d.plans == [] and d.policy.manoeuvre.active is None
     d.run(1.6)
-    assert [p["trigger"] for p in d.plans] == [MANDATORY] and d.plans[0]["ok"] == 1
+    assert [p["trigger"] for p in d.plans] == [Trigger.MANDATORY] and d.plans[0]["ok"] == 1
     assert d.plans[0]["t_s"] == pytest.approx(1.5, abs=DT + 1e-9)
     lc = d.policy.manoeuvre.active
-    assert lc is not None and (lc.start_lane, lc.target_lane, lc.trigger) == (0, 1, MANDATORY)
+    assert lc is not None
+    assert (lc.start_lane, lc.target_lane, lc.trigger) == (0, 1, Trigger.MANDATORY)
 
 
 def test_it_overrides_a_scripted_request_and_the_speed_band_rule() -> None:
@@ -177,8 +179,8 @@ def test_it_overrides_a_scripted_request_and_the_speed_band_rule() -> None:
     # for as mandatory at once, the scripted request stays pending (served: same lane)
     d = Drive("paper", scenario(20.0, requests=((5.0, 1),), decision=True), 60.0)
     d.step()
-    assert [p["trigger"] for p in d.plans] == [MANDATORY]
-    assert [c.target_lane for c in d.policy.manoeuvre.pending] == [1]
+    assert [p["trigger"] for p in d.plans] == [Trigger.MANDATORY]
+    assert [c.target_lane for c in d.policy.manoeuvre.scripted.pending] == [1]
 
 
 def test_no_trigger_without_lane_ends_and_none_on_the_mainline() -> None:
@@ -200,7 +202,7 @@ def test_every_plan_ends_before_the_lane_end(name: str, x0: float) -> None:
     # a free mainline: it goes at once; the nearer the end, the shorter the plan
     d = Drive(name, scenario(20.0), x0)
     d.step()
-    assert d.plans[0]["trigger"] == MANDATORY and d.plans[0]["ok"] == 1
+    assert d.plans[0]["trigger"] == Trigger.MANDATORY and d.plans[0]["ok"] == 1
     assert_plans_end_before_the_end(d)
     lc = d.policy.manoeuvre.active
     assert lc is not None
@@ -217,7 +219,7 @@ def test_a_change_that_cannot_end_in_time_is_not_flown(name: str) -> None:
     # 28 m to the end at 20 m/s: no stable plan ends before it, at any end speed
     d = Drive(name, scenario(20.0), 170.0)
     d.step()
-    assert d.plans and all(p["trigger"] == MANDATORY and p["ok"] == 0 for p in d.plans)
+    assert d.plans and all(p["trigger"] == Trigger.MANDATORY and p["ok"] == 0 for p in d.plans)
     assert all("lane end:" in p["rejections"] for p in d.plans)
     assert d.policy.manoeuvre.active is None
 
@@ -243,14 +245,14 @@ def test_the_urgency_law_asks_more_of_the_follower_as_the_end_nears() -> None:
         d = Drive("gap", scenario(20.0, road=road), x0,
                   Stream(np.array([x0 - 50.0, x0 + 300.0]), 21.0), road=road)
         d.step()
-        due = d.policy.manoeuvre.mandatory(0, d.sv)
+        due = d.policy.manoeuvre.ends.due(0, d.sv)
         assert due is not None
         last = d.policy.last
         assert last is not None
         went[x0] = (last.plan_now, due.urgency)
         if last.plan_now:
             assert last.follower_decel == pytest.approx(urgent_decel(cfg, due.urgency), abs=0.02)
-            assert d.plans[-1]["trigger"] == MANDATORY and d.plans[-1]["ok"] == 1
+            assert d.plans[-1]["trigger"] == Trigger.MANDATORY and d.plans[-1]["ok"] == 1
     assert not went[20.0][0] and went[20.0][1] < 0.1
     assert went[380.0][0] and went[380.0][1] > 0.8
 
@@ -286,10 +288,10 @@ def test_an_urgent_entry_that_asks_its_follower_nothing_is_not_held_to_the_insis
     d = Drive("gap", scenario(19.44, road=road), 20.0,
               Stream(np.array([20.0 - 54.0, 20.0 + 62.0]), 24.4), road=road)
     d.step()
-    due = d.policy.manoeuvre.mandatory(0, d.sv)
+    due = d.policy.manoeuvre.ends.due(0, d.sv)
     assert due is not None and due.urgency > 0.5
     assert d.policy.last is not None and d.policy.last.plan_now
-    assert [p["ok"] for p in d.plans] == [1] and d.plans[0]["trigger"] == MANDATORY
+    assert [p["ok"] for p in d.plans] == [1] and d.plans[0]["trigger"] == Trigger.MANDATORY
 
 
 # ------------------------------------------------------------------ the stop
@@ -312,7 +314,7 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
     d.run(40.0)
     m = d.policy.manoeuvre
     assert m.active is None and m.lane_changes == []  # no gap: it has not gone
-    assert all(p["trigger"] == MANDATORY and p["ok"] == 0 for p in m.plans)
+    assert all(p["trigger"] == Trigger.MANDATORY and p["ok"] == 0 for p in m.plans)
     # it stopped before the end, WAIT_ROOM short of it, and waits there
     assert d.sv.vx < 0.05
     assert d.sv.x + HALF < END - WAIT_ROOM + 0.5
@@ -321,7 +323,7 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
         assert d.asked
     d.run(75.0)
     ok = [p for p in m.plans if p["ok"] == 1]
-    assert ok and ok[0]["trigger"] == MANDATORY
+    assert ok and ok[0]["trigger"] == Trigger.MANDATORY
     assert ok[0]["vx0_mps"] >= 1.0 - 1e-9  # from a standstill: the creep speed
     assert_plans_end_before_the_end(d)
     assert abs(d.sv.y - RAMP.lane_center(1)) < 1e-6  # merged
@@ -344,12 +346,12 @@ def test_a_standstill_read_a_hair_below_zero_still_merges(name: str) -> None:
     # queue it had asked to make room stood beside it (issue 24); lane 1 is free here
     d = Drive(name, scenario(0.0), END - WAIT_ROOM - HALF)
     m = d.policy.manoeuvre
-    assert m.mandatory(0, replace(d.sv, vx=20.0)) is not None  # due since it came at speed
+    assert m.ends.due(0, replace(d.sv, vx=20.0)) is not None  # due since it came at speed
     d.sv = replace(d.sv, vx=-1e-12)
     d.step()
     # planned at once (at the slower end speed that fits the room) and flying it
-    assert {p["trigger"] for p in d.plans} == {MANDATORY} and d.plans[-1]["ok"] == 1
-    assert m.mode == CHANGING
+    assert {p["trigger"] for p in d.plans} == {Trigger.MANDATORY} and d.plans[-1]["ok"] == 1
+    assert m.mode == Mode.CHANGING
 
 
 # ------------------------------------------------------------------ abort near the end
@@ -364,19 +366,19 @@ def test_an_aborted_change_near_the_end_still_stops_before_it(name: str, x0: flo
     d = Drive(name, sc, x0, planner=forced)
     d.step()
     m = d.policy.manoeuvre
-    assert m.mode == CHANGING and m.active is not None
+    assert m.mode == Mode.CHANGING and m.active is not None
     forced.collide, forced.no_tau = 1, {1}  # the re-check fails, no replan into lane 1
     d.run(0.5 + DT)
-    assert m.outcomes == {"replan": 0, "abort": 0, "brake": 1}
+    assert m.recheck.outcomes == {"replan": 0, "abort": 0, "brake": 1}
     # no planner abort back into the ending lane: the brake, to the nearest centre
     assert ("plan", 0) not in forced.calls
-    assert m.mode == BRAKING and m.plans[-1]["trigger"] == "brake"
+    assert m.mode == Mode.BRAKING and m.plans[-1]["trigger"] == "brake"
     d.run(20.0)
     # it stopped in lane 0 before the end and waits (lane 1 still refused)
     assert d.sv.vx < 0.05 and abs(d.sv.y - RAMP.lane_center(0)) < 1e-3
     front = d.in_ending_lane()
     assert front[:, 1].max() <= END - END_MARGIN
-    assert m.plans[-1]["trigger"] == MANDATORY and m.plans[-1]["ok"] == 0
+    assert m.plans[-1]["trigger"] == Trigger.MANDATORY and m.plans[-1]["ok"] == 0
     # lane 1 opens: it merges from the standstill
     forced.no_tau = set()
     d.run(30.0)
@@ -398,19 +400,19 @@ def test_a_brake_is_as_gentle_as_the_re_check_allows(failing: int, decel: float 
     d = Drive("paper", sc, 50.0, planner=forced, road=road, lane=1)
     d.step()
     m = d.policy.manoeuvre
-    assert m.mode == CHANGING
+    assert m.mode == Mode.CHANGING
     forced.collide, forced.no_tau = 1 + failing, {1, 2}
     d.run(0.5 + DT)
-    assert m.outcomes == {"replan": 0, "abort": 0, "brake": 1} and m.mode == BRAKING
+    assert m.recheck.outcomes == {"replan": 0, "abort": 0, "brake": 1} and m.mode == Mode.BRAKING
     brake = m.active.trajectory
     mean = (brake.vx0 - brake.vxf) / brake.tau
     grip = BRAKE_GRIP * road.mu * G / 1.5
     assert mean == pytest.approx(grip if decel is None else decel, rel=1e-9)
-    assert math.isfinite(m.next_check) == (decel is not None)
+    assert math.isfinite(m.recheck.next_check) == (decel is not None)
     if decel is not None:  # re-checked: failing again, it brakes anew from where it is
         forced.collide = 1 + sum(1 for b in BRAKE_DECELS if b < grip)  # every gentle one
         d.run(1.0 + DT)
-        assert m.outcomes["brake"] == 2 and not math.isfinite(m.next_check)
+        assert m.recheck.outcomes["brake"] == 2 and not math.isfinite(m.recheck.next_check)
 
 
 # ------------------------------------------------------------------ into an ending lane

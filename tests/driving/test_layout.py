@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from cosim.driving.layout import LaneLayout
+from cosim.driving.view import TrafficView
 from cosim.params import RoadParams
 
 ROAD = RoadParams()
@@ -45,11 +46,11 @@ def test_neighbours_finds_nearest_leader_and_follower() -> None:
     x = np.array([50.0, 20.0, -10.0, -40.0, 5.0])
     y = np.array([lane_y(0), lane_y(0), lane_y(0), lane_y(0), lane_y(1)])
     v = np.array([10.0, 11.0, 12.0, 13.0, 14.0])
-    n = LANES.neighbours(0, 0.0, L, x, y, v, np.full(5, L), np.full(5, W))
+    n = LANES.neighbours(0, 0.0, L, TrafficView.arrays(x, y, v, np.full(5, L), np.full(5, W)))
     assert (n.leader, n.follower) == (1, 2)
     assert n.gap_ahead == pytest.approx(20.0 - L)
     assert n.follower_speed == 12.0
-    empty = LANES.neighbours(2, 0.0, L, x, y, v, np.full(5, L), np.full(5, W))
+    empty = LANES.neighbours(2, 0.0, L, TrafficView.arrays(x, y, v, np.full(5, L), np.full(5, W)))
     assert empty.leader == -1 and math.isinf(empty.gap_ahead)
 
 
@@ -57,8 +58,13 @@ def test_a_tv_leaving_the_lane_is_no_longer_the_leader() -> None:
     """Half across the line into lane 1 and moving left: not lane 0's leader any more;
     moving right (coming in), or still centred in lane 0, it is."""
     y = np.array([ROAD.y_right + ROAD.lane_width + 0.3])  # centre just inside lane 1
-    args = (0.0, L, np.array([12.0]), y, np.array([20.0]), np.full(1, L), np.full(1, W))
-    assert LANES.neighbours(0, *args).leader == 0  # without lateral speeds: touches lane 0
-    assert LANES.neighbours(0, *args, np.array([1.0])).leader == -1  # leaving
-    assert LANES.neighbours(0, *args, np.array([-1.0])).leader == 0  # cutting in
-    assert LANES.neighbours(1, *args, np.array([1.0])).leader == 0  # its new lane
+    def tv(vy: float | None) -> TrafficView:
+        return TrafficView.arrays([12.0], y, [20.0], [L], [W],
+                                  None if vy is None else [vy])
+
+    # without lateral speeds it touches lane 0
+    assert LANES.neighbours(0, 0.0, L, tv(None), leaving=True).leader == 0
+    assert LANES.neighbours(0, 0.0, L, tv(1.0), leaving=True).leader == -1  # leaving
+    assert LANES.neighbours(0, 0.0, L, tv(-1.0), leaving=True).leader == 0  # cutting in
+    assert LANES.neighbours(1, 0.0, L, tv(1.0), leaving=True).leader == 0  # its new lane
+    assert LANES.neighbours(0, 0.0, L, tv(1.0)).leader == 0  # lateral speed not asked

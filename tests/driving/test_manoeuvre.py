@@ -14,7 +14,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cosim.driving.manoeuvre import LaneChangeTimer, reference_state
+from cosim.driving.manoeuvre import LaneChangeTimer
+from cosim.driving.recheck import reference_state
 from cosim.driving.rule import DecisionConfig
 from cosim.params import RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from cosim.driving.base import DrivingContext, WorldPorts
-from cosim.driving.manoeuvre import BRAKING, CHANGING, KEEPING, WAITING
+from cosim.driving.manoeuvre import Mode
 from cosim.driving.paper import PaperPolicy
 from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig
@@ -101,16 +101,16 @@ def test_request_plan_changing_settled() -> None:
     d.step()
     pol = d.policy
     m = pol.manoeuvre
-    assert m.mode == CHANGING
+    assert m.mode == Mode.CHANGING
     assert d.blinks == [1]  # left
     lc = m.active
     assert lc is not None and (lc.origin_lane, lc.target_lane, lc.trigger) == (0, 1, "scripted")
     status = pol.status(d.sv)
     assert status.changing and status.target_lane == 1 and math.isnan(status.idm_accel)
     assert [row["trigger"] for row in m.plans] == ["scripted"] and m.plans[0]["ok"] == 1
-    assert m.pending == []  # served
+    assert m.scripted.pending == []  # served
     d.run_until(lc.t0 + lc.tau + DT)
-    assert m.mode == KEEPING and m.active is None
+    assert m.mode == Mode.KEEPING and m.active is None
     assert d.blinks == [1, 0]
     assert abs(d.sv.y - ROAD.lane_center(1)) < 1e-6  # settled on the target centre
     assert not pol.status(d.sv).changing
@@ -127,17 +127,17 @@ def test_no_plan_waits_and_retries_after_the_interval() -> None:
     d.step()
     pol = d.policy
     m = pol.manoeuvre
-    assert m.mode == WAITING and m.active is None
+    assert m.mode == Mode.WAITING and m.active is None
     assert m.plans[-1]["ok"] == 0 and m.plans[-1]["trigger"] == "scripted"
     assert d.blinks == []
     d.run_until(CFG.retry_interval - DT)
     assert len(m.plans) == 1  # not asked again within the interval
-    assert d.modes[-1] == WAITING
+    assert d.modes[-1] == Mode.WAITING
     d.inbox.messages = []  # the target lane is free now
     d.run_until(CFG.retry_interval + DT)
     assert [row["trigger"] for row in m.plans] == ["scripted", "retry"]
     assert m.plans[-1]["t_s"] == pytest.approx(CFG.retry_interval)
-    assert m.mode == CHANGING and m.requests == 1  # a retry is not a new request
+    assert m.mode == Mode.CHANGING and m.requests == 1  # a retry is not a new request
 
 
 def drive_into_recheck(*, collide: int, no_tau: set[int]) -> Drive:
@@ -156,11 +156,11 @@ def test_recheck_collision_replans_to_the_target_lane() -> None:
     pol = d.policy
     m = pol.manoeuvre
     assert d.planner.calls == [("check", -1), ("plan", 1)]
-    assert m.outcomes == {"replan": 1, "abort": 0, "brake": 0}
-    assert m.mode == CHANGING and m.active is not None and m.active.target_lane == 1
+    assert m.recheck.outcomes == {"replan": 1, "abort": 0, "brake": 0}
+    assert m.mode == Mode.CHANGING and m.active is not None and m.active.target_lane == 1
     assert m.plans[-1]["trigger"] == "replan"
     assert m.plans[-1]["reason"].startswith("re-check: collision with tv")
-    assert m.next_check == pytest.approx(1.0)
+    assert m.recheck.next_check == pytest.approx(1.0)
 
 
 def test_recheck_without_a_replan_aborts_to_the_origin_lane() -> None:
@@ -168,12 +168,12 @@ def test_recheck_without_a_replan_aborts_to_the_origin_lane() -> None:
     pol = d.policy
     m = pol.manoeuvre
     assert d.planner.calls == [("check", -1), ("plan", 1), ("plan", 0)]
-    assert m.outcomes == {"replan": 0, "abort": 1, "brake": 0}
+    assert m.recheck.outcomes == {"replan": 0, "abort": 1, "brake": 0}
     lc = m.active
     assert lc is not None and (lc.origin_lane, lc.target_lane, lc.aborted) == (1, 0, True)
     assert d.blinks == [1, -1]
     # the scripted request is asked again once back in the lane
-    assert m.pending and m.pending[0].target_lane == 1
+    assert m.scripted.pending and m.scripted.pending[0].target_lane == 1
     d.planner.no_tau = set()
     d.run_until(lc.t0 + lc.tau + 2 * DT)
     assert m.plans[-1]["trigger"] in ("scripted", "retry") and m.plans[-1]["ok"] == 1
@@ -184,8 +184,8 @@ def test_recheck_without_replan_or_abort_brakes_and_stops_checking() -> None:
     d = drive_into_recheck(collide=5, no_tau={0, 1})
     pol = d.policy
     m = pol.manoeuvre
-    assert m.outcomes == {"replan": 0, "abort": 0, "brake": 1}
-    assert m.mode == BRAKING and m.next_check == math.inf
+    assert m.recheck.outcomes == {"replan": 0, "abort": 0, "brake": 1}
+    assert m.mode == Mode.BRAKING and m.recheck.next_check == math.inf
     row = m.plans[-1]
     assert row["trigger"] == "brake" and row["ok"] == 1
     lc = m.active
@@ -195,7 +195,7 @@ def test_recheck_without_replan_or_abort_brakes_and_stops_checking() -> None:
     assert len(d.planner.calls) == calls  # not re-checked into another manoeuvre
     d.run_until(lc.t0 + lc.tau + DT)
     assert m.active is None and d.blinks[-1] == 0  # over: keeping its lane again, or
-    assert m.mode in (KEEPING, WAITING)  # back in lane 0 and asking again (no tau yet)
+    assert m.mode in (Mode.KEEPING, Mode.WAITING)  # back in lane 0 and asking again (no tau yet)
 
 
 def test_scripted_requests_are_served_in_order() -> None:
@@ -208,7 +208,7 @@ def test_scripted_requests_are_served_in_order() -> None:
     rows = m.plans
     assert [(r["target_lane"], r["ok"], r["rejections"]) for r in rows] == [
         (2, 0, "not an adjacent lane"), (1, 1, rows[1]["rejections"])]
-    assert [c.target_lane for c in m.pending] == [2]
+    assert [c.target_lane for c in m.scripted.pending] == [2]
     d.run_until(7.95)
     assert len(m.plans) == 2  # the next one is not due yet
     d.run_until(8.05)

@@ -1,6 +1,6 @@
 """Lanes that end (cosim.planning.deadline): which lane continues, when the mandatory
 change is due, the planner's deadline on the SV's plans and the C2 prediction of a TV
-that must merge (issue 24). Hand-made roads: an acceleration lane at d < 0 (lane 0,
+that must merge. Hand-made roads: an acceleration lane at d < 0 (lane 0,
 y_right = -lane width) beside a three-lane mainline, and lane drops."""
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from cosim.planning.deadline import (
     LOOKAHEAD_LEFT,
     MIN_GAP,
     continuing_lane,
+    end_ahead,
     fit_speed,
-    lane_end,
     look_ahead,
     merging_messages,
 )
@@ -63,12 +63,12 @@ def test_the_look_ahead_is_lc2013s() -> None:
     assert LOOK_FORWARD == 10.0 and LOOKAHEAD_LEFT == 2.0 and MIN_GAP == 2.5
     assert float(look_ahead(20.0, 5.0, True, 1)) == pytest.approx(20 * 10 * 2 + 2 * 7.5)
     assert float(look_ahead(20.0, 5.0, False, 2)) == pytest.approx(2 * (200 + 15))
-    end = lane_end((END, INF, INF, INF), 0, 100.0, 20.0, 4.32)
+    end = end_ahead((END, INF, INF, INF), 0, 100.0, 20.0, 4.32)
     assert end is not None and (end.lane, end.target) == (0, 1)
     assert end.remaining == pytest.approx(END - 100.0 - 2.16)
     assert end.due and 0.0 < end.urgency < 1.0
     assert end.urgency == pytest.approx(1.0 - end.remaining / end.horizon)
-    far = lane_end((5000.0, INF), 0, 0.0, 20.0, 4.32)
+    far = end_ahead((5000.0, INF), 0, 0.0, 20.0, 4.32)
     assert far is not None and not far.due and far.urgency == 0.0
     assert end.x_limit(4.32) == pytest.approx(END - END_MARGIN - 2.16)
     assert fit_speed(30.0, 2.0, 4.0) == pytest.approx(13.0)  # (2 + 13) / 2 * 4 = 30 m

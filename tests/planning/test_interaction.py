@@ -155,7 +155,7 @@ def test_bad_model_is_rejected() -> None:
 
 
 def test_check_follower_of_a_planned_lane_change() -> None:
-    from cosim.planning.interaction import check_follower
+    from cosim.planning.interaction import LaneTraffic, check_follower
     from cosim.planning.trajectory import LaneChangeTrajectory
 
     # SV at x = 0 in lane 1 (y = 0) changing left into y = 3.75 over 4 s at 25 m/s;
@@ -167,7 +167,7 @@ def test_check_follower_of_a_planned_lane_change() -> None:
     v = np.array([25.0, 28.0, 25.0, 25.0])
     length = np.full(4, 4.32)
     target = np.array([True, True, True, False])
-    c = check_follower(tr, 4.32, x, v, length, target, KRAUSS)
+    c = check_follower(tr, 4.32, LaneTraffic.of(x, v, length, target), KRAUSS)
     assert c.follower == 1  # the nearest behind in the target lane, not the one beside
     assert c.t_enter == pytest.approx(12.0, abs=0.051)  # half way through a symmetric change
     assert c.prediction is not None
@@ -175,21 +175,21 @@ def test_check_follower_of_a_planned_lane_change() -> None:
     assert c.max_decel > 0.0
     assert c.safe == (c.max_decel <= KRAUSS.b_safe)
     # a faster, closer follower: the MOBIL test fails
-    close = check_follower(tr, 4.32, np.array([-25.0]), np.array([32.0]), length[:1],
-                           np.array([True]), KRAUSS)
+    close = check_follower(tr, 4.32, LaneTraffic.of([-25.0], [32.0], length[:1], [True]),
+                           KRAUSS)
     assert not close.safe and close.max_decel > KRAUSS.b_safe
     # far behind at the same speed: it cruises at the speed it drives (its desired
     # speed), it does not speed up to the model's cap and then brake for the SV
-    far = check_follower(tr, 4.32, np.array([-120.0]), np.array([25.0]), length[:1],
-                         np.array([True]), KRAUSS)
+    far = check_follower(tr, 4.32, LaneTraffic.of([-120.0], [25.0], length[:1], [True]),
+                         KRAUSS)
     assert far.follower == 0 and far.max_decel == 0.0 and far.prediction is not None
     np.testing.assert_allclose(far.prediction.speed, 25.0)
     # nobody behind: nothing asked
-    free = check_follower(tr, 4.32, x[2:3], v[2:3], length[:1], np.array([True]), KRAUSS)
+    free = check_follower(tr, 4.32, LaneTraffic.of(x[2:3], v[2:3], length[:1], [True]), KRAUSS)
     assert free.follower == -1 and free.safe and free.max_decel == 0.0
     # a lane keeping "change" (width 0) never enters another lane
     keep = check_follower(LaneChangeTrajectory(0.0, 1.0, 0.0, 0.0, 20.0, 20.0, 0.0), 4.32,
-                          x, v, length, target, KRAUSS)
+                          LaneTraffic.of(x, v, length, target), KRAUSS)
     assert keep.follower == -1 and math.isnan(keep.t_enter)
 
 
@@ -212,7 +212,7 @@ def test_a_yielding_follower_brakes_on_until_the_sv_enters(m: FollowerModel) -> 
 
 
 def test_check_follower_counts_on_a_yielding_tv_only_when_told() -> None:
-    from cosim.planning.interaction import check_follower
+    from cosim.planning.interaction import LaneTraffic, check_follower
     from cosim.planning.trajectory import LaneChangeTrajectory
 
     # the SV cuts in 3.45 s from 27.65 to 32.8 m/s in front of a TV 22.6 m behind at
@@ -223,13 +223,13 @@ def test_check_follower_counts_on_a_yielding_tv_only_when_told() -> None:
                               width=3.75)
     x, v, length, lane = (np.array([-22.6]), np.array([31.4]), np.array([5.0]),
                           np.array([True]))
-    keeps = check_follower(tr, 5.0, x, v, length, lane, KRAUSS)
+    keeps = check_follower(tr, 5.0, LaneTraffic.of(x, v, length, lane), KRAUSS)
     assert keeps.max_decel > 4.5
-    yields = check_follower(tr, 5.0, x, v, length, lane, KRAUSS, tv_braking=np.array([2.0]))
+    yields = check_follower(tr, 5.0, LaneTraffic.of(x, v, length, lane, [2.0]), KRAUSS)
     assert yields.follower == 0 and yields.safe and yields.max_decel < 1.0
     assert yields.prediction is not None
     k = int(np.argmax(yields.prediction.t >= yields.t_enter - 1e-9))
     assert yields.prediction.speed[k] == pytest.approx(31.4 - 2.0 * yields.t_enter, abs=1e-9)
     # zero braking is the TV keeping its speed
-    same = check_follower(tr, 5.0, x, v, length, lane, KRAUSS, tv_braking=np.zeros(1))
+    same = check_follower(tr, 5.0, LaneTraffic.of(x, v, length, lane, np.zeros(1)), KRAUSS)
     assert same.max_decel == keeps.max_decel

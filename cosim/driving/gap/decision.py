@@ -16,10 +16,10 @@ policy instead:
 4. plans the paper's manoeuvre as soon as a change started now enters a usable gap
    (`geometry.entry_test`: its new follower and leader keep their limits when it
    enters; for a change by choice or a scripted one, after `GapConfig.patience` of
-   seeking the follower's limit is `insist_decel`, `insist` below; for a mandatory one
-   it is the urgency law's, `urgent_decel`; for a scripted one, after
+   seeking the follower's limit is `insist_decel`, `Seeking.insist`; for a mandatory
+   one it is the urgency law's, `urgent_decel`; for a scripted one, after
    `GapConfig.hold_after`, also an entry that counts on the TVs yielding to the SV
-   braking on until it is in their lane, `yielding` below), at the new leader's speed
+   braking on until it is in their lane, `Seeking.yielding`), at the new leader's speed
    (vxf) and only at or above `GapConfig.min_speed`; the planner's collision check and
    the new follower's check on the plan itself (planning.interaction.check_follower)
    then decide;
@@ -30,7 +30,10 @@ policy instead:
    V2V (cosim.traffic.cooperation); only a TV that does not already have room for
    the SV (`has_room`) is asked.
 
-Vehicles are arrays (one entry per TV); no Python loop over vehicles.
+The steps are `gap_decision`'s: `_wanted` (the lane), `_first_entry` (step 4),
+`_go` / `_pace_the_lane` / `_approach` (what it does: plan now, pace the lane with no gap
+in reach, approach the chosen gap). Vehicles are arrays (one entry per TV); no Python
+loop over vehicles.
 """
 
 from __future__ import annotations
@@ -43,22 +46,27 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim.driving.gap.geometry import (
+    ChangeStart,
     Entry,
     GapChoice,
     GapConfig,
+    OwnLane,
+    TargetLane,
     approach_speed,
     choose_gap,
     entry_test,
     lane_gaps,
     seeking_accel,
-    slot_ends,
+    slot_rear,
 )
 from cosim.driving.lane_end import MERGE_APPROACH_DECEL, MERGE_INSIST_DECEL
-from cosim.driving.layout import LaneLayout
-from cosim.driving.rule import DecisionConfig, decide, neighbours
+from cosim.driving.layout import LaneLayout, Neighbours
+from cosim.driving.rule import Decision, DecisionConfig, decide, neighbours
 from cosim.driving.view import SVView, TrafficView
-from cosim.planning.interaction import FollowerModel, secure_gap
+from cosim.planning.interaction import FollowerModel, LaneTraffic, secure_gap
 from cosim.traffic.cooperation import COURTESY_DECEL
+
+Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -75,9 +83,49 @@ class GapDecision:
     reason: str
     leader_speed: float = math.inf  # m/s, its own leader's speed (inf: none)
     follower_decel: float = math.nan  # m/s^2, what the plan may ask of its new follower
-    held: NDArray[np.float64] | None = None  # m/s^2 per TV: the braking of the TVs
+    held: Array | None = None  # m/s^2 per TV: the braking of the TVs
     # yielding to the SV that the plan counts on them going on with until the SV is in
-    # their lane (their courtesy held; `yielding`); None: it counts on nothing
+    # their lane (their courtesy held; `Seeking.yielding`); None: it counts on nothing
+
+
+@dataclass(frozen=True)
+class GapRules:
+    """The settings a decision follows: the decision rule's and IDM's (`cfg`), the gap
+    choice's (`gap`) and the model of the TVs that follow (`follower`)."""
+
+    cfg: DecisionConfig
+    gap: GapConfig
+    follower: FollowerModel
+
+
+@dataclass(frozen=True)
+class Seeking:
+    """What the SV seeks this step."""
+
+    wanted_lane: int | None = None  # a requested lane (scripted, mandatory; None: the
+    # decision rule's)
+    allow_change: bool = True  # False: car following only
+    insist: bool = False  # an entry may ask its new follower for up to insist_decel
+    urgency: float = 0.0  # -, 0-1, a mandatory change: the follower's limit before the SV
+    # insists grows with it (`urgent_decel`)
+    yielding: Array | None = None  # m/s^2 >= 0 per TV, the braking of the TVs that make
+    # room for the SV: an entry that holds only if they go on with it until the SV is in
+    # their lane is taken too (`GapDecision.held`), after one that asks nothing of them;
+    # None: not counted on
+
+
+@dataclass(frozen=True)
+class _Situation:
+    """What the steps of one decision share."""
+
+    sv: SVView
+    lane: int  # the SV's lane
+    target: int  # the lane it wants
+    lane_max: float  # m/s, its own lane's speed limit
+    own: Neighbours  # its own leader and follower
+    traffic: TrafficView
+    tvs: LaneTraffic  # the TVs, those in the target lane marked
+    target_lane: TargetLane
 
 
 @functools.lru_cache(maxsize=8)  # one config per run, asked every step (replace is slow)
@@ -93,14 +141,12 @@ def mandatory_config(cfg: GapConfig) -> GapConfig:
     standstill at the stop line, cosim.driving.lane_end) and into a gap at any speed
     (its end speed is capped to the room left; the new follower's check decides); its
     new follower asked for what the urgency law allows (`urgent_decel`, up to
-    MERGE_INSIST_DECEL at the end), never more after a patience (patience inf: insisting
-    after 1 s made the merge's new follower brake at its full 4.5 m/s^2 in 8 of 20 runs
-    at 50 veh/km/lane, SUMO's driver's in 1; the courtesy opens the gap instead, issue
-    24); its approach braking no harder than MERGE_APPROACH_DECEL; with no gap in reach,
-    the TV asked to make room one that can still fall back behind the SV at the
-    courtesy's own braking (COURTESY_DECEL: the nearest one, asked while the SV stood at
-    its stop line, could not stop behind it, drove past, and so did the next ones; a
-    merge at 20 veh/km/lane waited 31 s and never went)."""
+    MERGE_INSIST_DECEL at the end), never more after a patience (the courtesy opens
+    the gap instead); its approach braking no harder than MERGE_APPROACH_DECEL; with no
+    gap in reach, the TV asked to make room one that can still fall back behind the SV
+    at the courtesy's own braking (COURTESY_DECEL: a nearer one, asked while the SV
+    stands at its stop line, cannot stop behind it and drives past)."""
+    # tuned: docs/tuned_constants.md (patience, ask_decel)
     return replace(cfg, min_speed=0.0, max_speed_change=math.inf,
                    insist_decel=MERGE_INSIST_DECEL, approach_decel=MERGE_APPROACH_DECEL,
                    ask_decel=COURTESY_DECEL, patience=math.inf)
@@ -115,58 +161,80 @@ def urgent_decel(cfg: GapConfig, urgency: float) -> float:
     return cfg.plan_decel + u * (cfg.insist_decel - cfg.plan_decel)
 
 
-def gap_decision(sv: SVView, traffic: TrafficView, lanes: LaneLayout, cfg: DecisionConfig,
-                 gap_cfg: GapConfig, follower: FollowerModel, *,
-                 wanted_lane: int | None = None, allow_change: bool = True,
-                 insist: bool = False, urgency: float = 0.0,
-                 yielding: NDArray[np.float64] | None = None) -> GapDecision:
-    """The module docstring's steps for `sv` among `traffic`. `wanted_lane`: a
-    scripted request's lane (else the rule decides); `allow_change` False:
-    car-following only. `urgency` (0-1, a mandatory change): the follower's limit
-    before the SV insists grows with it (`urgent_decel`). `yielding` (m/s^2 >= 0 per
-    TV, None: not counted on): the braking of the TVs that make room for the SV; an
-    entry that holds only if they go on with it until the SV is in their lane is taken
-    too (`GapDecision.held`), after one that asks nothing of them."""
-    lane = lanes.lane_of(sv.y)
-    d = decide(sv, traffic, lanes, wanting_config(cfg),
-               allow_change=allow_change and wanted_lane is None)
-    target = wanted_lane if allow_change and wanted_lane is not None else d.target_lane
+def gap_decision(sv: SVView, traffic: TrafficView, lanes: LaneLayout, rules: GapRules,
+                 seeking: Seeking = Seeking()) -> GapDecision:
+    """The module docstring's steps for `sv` among `traffic`, seeking what `seeking`
+    says."""
+    d, target = _wanted(sv, traffic, lanes, rules.cfg, seeking)
     keep = GapDecision(None, d.accel, d.leader_gap, False, math.nan, None, -1, d.reason,
                        d.leader_speed)
-    if target is None or target == lane:
+    if target is None or target == lanes.lane_of(sv.y):
         return keep
-    x = np.asarray(traffic.x, dtype=float)
-    in_target = in_lane(target, traffic, lanes)
-    end_speed, target_max = lanes.end_speed(lane, target), lanes.speed_limit(target)
-    gaps = lane_gaps(sv.length, x, traffic.speed, traffic.length, in_target, end_speed,
-                     gap_cfg, follower, target_max)
-    own = neighbours(lane, sv, traffic, lanes, leaving=True)
-    own_limit, own_speed = math.inf, 0.0
+    at = _scene(sv, traffic, lanes, target)
+    gap_cfg, follower = rules.gap, rules.follower
+    gaps = lane_gaps(sv.length, at.target_lane, gap_cfg, follower)
+    own = at.own
+    # seeking: up to its lane's limit, Krauss-safe behind its own leader (gap.seeking_accel)
+    limit = OwnLane(max_speed=at.lane_max)
     if own.leader >= 0:
         # the SV's centre may get as far as its own leader's rear less half the SV and a
         # standstill gap
-        own_limit = sv.x + own.gap_ahead - cfg.idm_min_gap
-        own_speed = own.leader_speed
-    # seeking: up to its lane's limit, Krauss-safe behind its own leader (gap.seeking_accel)
-    lane_max = lanes.speed_limit(lane)
-    choice = choose_gap(sv.x, sv.speed, sv.length, sv.desired_speed, gaps, gap_cfg, follower,
-                        own_limit, own_speed, max_speed=lane_max)
-    leader_speed = own.leader_speed if own.leader >= 0 else math.inf
+        limit = OwnLane(sv.x + own.gap_ahead - rules.cfg.idm_min_gap, own.leader_speed,
+                        at.lane_max)
+    choice = choose_gap(sv, gaps, gap_cfg, follower, limit)
     # take the first acceptable gap: a change started now that enters a gap whose
     # follower and leader keep their limits is planned now, wherever the chosen gap is
-    y0 = lanes.centre(lane)
-    width = lanes.centre(target) - y0
+    entry, asked, held = _first_entry(at, lanes, rules, seeking)
+    if entry.ok:
+        return _go(at, d, gap_cfg, choice, entry, asked, held)
+    if choice is None:
+        return _pace_the_lane(at, keep, rules)
+    return _approach(at, d, rules, choice)
 
-    def enters(speeds: NDArray[np.float64], limit: float,
-               braking: NDArray[np.float64] | None) -> Entry:
-        """`entry_test` of a change to `target` started now, the TVs at `speeds`."""
-        return entry_test(sv.x, y0, sv.speed, sv.length, width, x, speeds, traffic.length,
-                          in_target, end_speed, gap_cfg, follower.limited(limit),
-                          target_max, braking)
 
-    first = urgent_decel(gap_cfg, urgency) if urgency > 0.0 else gap_cfg.plan_decel
-    limits = (first, gap_cfg.insist_decel) if insist else (first,)
-    speeds = np.asarray(traffic.speed, dtype=float)
+def _wanted(sv: SVView, traffic: TrafficView, lanes: LaneLayout, cfg: DecisionConfig,
+            seeking: Seeking) -> tuple[Decision, int | None]:
+    """The paper's rule without its pre-filter (its IDM acceleration, its lane when none
+    is requested) and the lane the SV wants (None: none)."""
+    wanted = seeking.wanted_lane
+    d = decide(sv, traffic, lanes, wanting_config(cfg),
+               allow_change=seeking.allow_change and wanted is None)
+    return d, wanted if seeking.allow_change and wanted is not None else d.target_lane
+
+
+def _scene(sv: SVView, traffic: TrafficView, lanes: LaneLayout, target: int) -> _Situation:
+    lane = lanes.lane_of(sv.y)
+    x = np.asarray(traffic.x, dtype=float)
+    tvs = LaneTraffic(x, np.asarray(traffic.speed, dtype=float),
+                      np.asarray(traffic.length, dtype=float), in_lane(target, traffic, lanes))
+    return _Situation(sv=sv, lane=lane, target=target, lane_max=lanes.speed_limit(lane),
+                  own=neighbours(lane, sv, traffic, lanes, leaving=True), traffic=traffic,
+                  tvs=tvs, target_lane=TargetLane(tvs, lanes.end_speed(lane, target),
+                                                  lanes.speed_limit(target)))
+
+
+def _first_entry(at: _Situation, lanes: LaneLayout, rules: GapRules, seeking: Seeking
+                 ) -> tuple[Entry, float, Array | None]:
+    """The entry test of a change started now (`entry_test`) at each limit on what it
+    may ask of its new follower, in order (the urgency law's or plan_decel, then
+    insist_decel when insisting), each first with the TVs keeping their speeds, then
+    counting on the yielding TVs' braking: (the entry, the limit, the braking counted
+    on); the last tried when none passes."""
+    gap_cfg, sv = rules.gap, at.sv
+    y0 = lanes.centre(at.lane)
+    start = ChangeStart(sv.x, y0, sv.speed, sv.length, lanes.centre(at.target) - y0)
+
+    def enters(speeds: Array, limit: float, braking: Array | None) -> Entry:
+        """`entry_test` of the change, the TVs at `speeds`."""
+        tvs = replace(at.tvs, speed=speeds, braking=braking)
+        return entry_test(start, replace(at.target_lane, tvs=tvs), gap_cfg,
+                          rules.follower.limited(limit))
+
+    yielding = seeking.yielding
+    first = (urgent_decel(gap_cfg, seeking.urgency) if seeking.urgency > 0.0
+             else gap_cfg.plan_decel)
+    limits = (first, gap_cfg.insist_decel) if seeking.insist else (first,)
+    speeds = at.tvs.speed
     brakings = (None,) if yielding is None or not np.any(yielding > 0.0) else (None, yielding)
     for limit in limits:
         for braking in brakings:
@@ -174,73 +242,84 @@ def gap_decision(sv: SVView, traffic: TrafficView, lanes: LaneLayout, cfg: Decis
             if entry.ok:
                 break
         if entry.ok and entry.follower_decel > gap_cfg.plan_decel:
-            # insisting (an entry that asks its follower for more than plan_decel; one
-            # that asks less is not, whatever the limit: at urgency 0.57 an entry asking
-            # nothing of a TV 54 m behind was refused, since 1 m/s faster its predicted
-            # braking flips to 4.5, and the SV stopped at its stop line on a near-empty
-            # mainline, issue 24): the entry must hold with the TVs behind the SV a
-            # little faster too (a follower predicted to brake at exactly its decel
-            # braked at its emergency decel, 9 m/s^2, in 13 of 20 runs at 50 veh/km/lane:
-            # SUMO's dawdling and acceleration since the last sample are not in the
-            # prediction)
-            faster = np.where(x < sv.x, speeds + gap_cfg.insist_margin, speeds)
+            # insisting (an entry that asks its new follower for more than plan_decel;
+            # one that asks less is not, whatever the limit: its follower's predicted
+            # braking may flip to its decel 1 m/s faster): the entry must hold with the
+            # TVs behind the SV a little faster too (`GapConfig.insist_margin`)
+            faster = np.where(at.tvs.x < sv.x, speeds + gap_cfg.insist_margin, speeds)
             entry = replace(entry, ok=enters(faster, limit, braking).ok)
         if entry.ok:
             break
-    if entry.ok:
-        accel = seeking_accel(sv.speed, entry.vxf, lane_max, own.gap_ahead, leader_speed,
-                              gap_cfg)
-        return GapDecision(
-            target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=True,
-            vxf=entry.vxf, gap=choice, cooperate_with=-1,
-            reason=f"lane {target}: gap reached", leader_speed=d.leader_speed,
-            follower_decel=limit, held=braking)
-    if choice is None:
-        # none in reach: the TV nearest behind the SV in that lane (of those that can
-        # still fall back behind it) may be asked to yield (if it has no room yet), and
-        # the SV keeps pace with that lane's traffic ahead of it (the nearest TV ahead
-        # in that lane), so that the gap the asked TV opens behind it comes up beside it
-        # (driving toward the lane's band speed instead ran away from the gap being
-        # opened: 8-16 s from request to lane, issue 22; pacing the asked TV itself
-        # slowed both down together); none ahead: the band speed
-        behind = np.where(in_target & (x < sv.x) & can_fall_back(sv, traffic, gap_cfg),
-                          x, -np.inf)
-        ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
-        if ask >= 0 and has_room(sv, traffic, ask, gap_cfg, follower):
-            ask = -1  # it already has room: nothing to ask of it
-        ahead = np.where(in_target & (x >= sv.x), x, np.inf)
-        pace = int(np.argmin(ahead)) if ahead.size and np.isfinite(ahead.min()) else -1
-        if pace >= 0:
-            # ... with its front the SV's secure gap behind that TV's rear, where the
-            # entry test wants it (pacing it level left the SV too close behind it to go:
-            # 11 m where 24 were needed at 30 veh/km/lane, issue 22)
-            v_p = float(traffic.speed[pace])
-            rear = float(x[pace] - 0.5 * traffic.length[pace])
-            need = float(secure_gap(v_p, v_p, gap_cfg.sv_model()))
-            e = min(rear - need - 0.5 * sv.length - sv.x, 0.0)
-            v_lane = float(approach_speed(e, v_p, gap_cfg))
-        else:
-            v_lane = end_speed
-        accel = seeking_accel(sv.speed, v_lane, lane_max, own.gap_ahead, leader_speed,
-                              gap_cfg)
-        return replace(keep, target_lane=target, accel=float(accel), cooperate_with=ask,
-                       reason=f"lane {target}: no gap in reach")
-    # toward the approach speed, within the approach acceleration
-    accel = seeking_accel(sv.speed, choice.target_speed, lane_max, own.gap_ahead,
-                          leader_speed, gap_cfg)
-    plan_now = False  # not yet: the entry test above decides
-    # only a follower that blocks the gap is asked (SUMO's LC2013 informs the blocking
-    # follower only): one behind the SV that it is not yet clear of (a gap's follower
-    # ahead of the SV would have to brake for a car behind it)
-    f = choice.follower
-    coop = f if (f >= 0 and not choice.reachable and x[f] < sv.x
-                 and not has_room(sv, traffic, f, gap_cfg, follower)) else -1
+    return entry, limit, braking
+
+
+def _go(at: _Situation, d: Decision, cfg: GapConfig, choice: GapChoice | None, entry: Entry,
+        asked: float, held: Array | None) -> GapDecision:
+    """An entry passed: plan now, toward its end speed meanwhile."""
+    accel = seeking_accel(at.sv.speed, entry.vxf, at.lane_max, at.own.gap_ahead,
+                          _leader_speed(at), cfg)
     return GapDecision(
-        target_lane=target, accel=float(accel), leader_gap=d.leader_gap, plan_now=plan_now,
+        target_lane=at.target, accel=float(accel), leader_gap=d.leader_gap, plan_now=True,
+        vxf=entry.vxf, gap=choice, cooperate_with=-1,
+        reason=f"lane {at.target}: gap reached", leader_speed=d.leader_speed,
+        follower_decel=asked, held=held)
+
+
+def _pace_the_lane(at: _Situation, keep: GapDecision, rules: GapRules) -> GapDecision:
+    """No gap in reach: the TV nearest behind the SV in the target lane (of those that
+    can still fall back behind it) may be asked to yield (if it has no room yet), and
+    the SV keeps pace with that lane's traffic ahead of it (the nearest TV ahead in that
+    lane), so that the gap the asked TV opens behind it comes up beside it (driving
+    toward the lane's band speed runs away from the gap being opened; pacing the asked
+    TV itself slows both down together); none ahead: the band speed."""
+    sv, traffic, cfg = at.sv, at.traffic, rules.gap
+    x, in_target = at.tvs.x, at.tvs.in_target
+    behind = np.where(in_target & (x < sv.x) & can_fall_back(sv, traffic, cfg), x, -np.inf)
+    ask = int(np.argmax(behind)) if behind.size and np.isfinite(behind.max()) else -1
+    if ask >= 0 and has_room(sv, traffic, ask, cfg, rules.follower):
+        ask = -1  # it already has room: nothing to ask of it
+    ahead = np.where(in_target & (x >= sv.x), x, np.inf)
+    pace = int(np.argmin(ahead)) if ahead.size and np.isfinite(ahead.min()) else -1
+    if pace >= 0:
+        # ... with its front the SV's secure gap behind that TV's rear, where the entry
+        # test wants it (pacing it level leaves the SV too close behind it to go)
+        v_p = float(traffic.speed[pace])
+        rear = float(x[pace] - 0.5 * traffic.length[pace])
+        need = float(secure_gap(v_p, v_p, cfg.sv_model()))
+        e = min(rear - need - 0.5 * sv.length - sv.x, 0.0)
+        v_lane = float(approach_speed(e, v_p, cfg))
+    else:
+        v_lane = at.target_lane.lane_speed
+    accel = seeking_accel(sv.speed, v_lane, at.lane_max, at.own.gap_ahead,
+                          _leader_speed(at), cfg)
+    return replace(keep, target_lane=at.target, accel=float(accel), cooperate_with=ask,
+                   reason=f"lane {at.target}: no gap in reach")
+
+
+def _approach(at: _Situation, d: Decision, rules: GapRules, choice: GapChoice) -> GapDecision:
+    """Toward the chosen gap's approach speed, within the approach acceleration; not
+    planned yet (the entry test decides). Only a follower that blocks the gap is asked
+    (SUMO's LC2013 informs the blocking follower only): one behind the SV that it is not
+    yet clear of (a gap's follower ahead of the SV would have to brake for a car behind
+    it)."""
+    sv, cfg = at.sv, rules.gap
+    accel = seeking_accel(sv.speed, choice.target_speed, at.lane_max, at.own.gap_ahead,
+                          _leader_speed(at), cfg)
+    f = choice.follower
+    coop = f if (f >= 0 and not choice.reachable and at.tvs.x[f] < sv.x
+                 and not has_room(sv, at.traffic, f, cfg, rules.follower)) else -1
+    return GapDecision(
+        target_lane=at.target, accel=float(accel), leader_gap=d.leader_gap, plan_now=False,
         vxf=choice.speed, gap=choice, cooperate_with=coop,
-        reason=f"lane {target}: gap {choice.index} {choice.relation}, {choice.offset:+.1f} m",
+        reason=f"lane {at.target}: gap {choice.index} {choice.relation}, "
+               f"{choice.offset:+.1f} m",
         leader_speed=d.leader_speed,
     )
+
+
+def _leader_speed(at: _Situation) -> float:
+    """m/s, the SV's own leader's speed (inf: none)."""
+    return at.own.leader_speed if at.own.leader >= 0 else math.inf
 
 
 def has_room(sv: SVView, traffic: TrafficView, k: int, cfg: GapConfig,
@@ -248,11 +327,10 @@ def has_room(sv: SVView, traffic: TrafficView, k: int, cfg: GapConfig,
     """Whether TV `k` (behind the SV in the target lane) already has room for the SV
     entering beside it now: its bumper gap to the SV's rear is at least the slot's
     rear end (its accepted gap at `GapConfig.entry_decel` plus what it closes before
-    the SV enters, `slot_ends`). Such a TV is not asked to open a gap: its openGap
-    would only make it brake for nothing (issue 22: 0.56-0.62 m/s^2 in every run)."""
-    lo, _ = slot_ends(float(traffic.x[k]) + 0.5 * float(traffic.length[k]),
-                      float(traffic.speed[k]), math.inf, math.inf, sv.speed, sv.speed,
-                      sv.length, cfg, follower)
+    the SV enters, `slot_rear`). Such a TV is not asked to open a gap: its openGap
+    would only make it brake for nothing."""
+    lo = slot_rear(float(traffic.x[k]) + 0.5 * float(traffic.length[k]),
+                   float(traffic.speed[k]), sv.speed, sv.length, cfg, follower)
     return bool(sv.x >= float(lo))
 
 

@@ -51,13 +51,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cosim.driving.manoeuvre import PLANNER_MIN_SPEED
+from cosim.driving.view import SVView
 from cosim.planning.interaction import (
     FollowerModel,
+    LaneTraffic,
     accepted_gap,
     check_follower,
     krauss_safe_speed,
@@ -69,6 +72,7 @@ Array = NDArray[np.float64]
 
 MIN_CLOSING = 0.2  # m/s, a gap ahead the SV closes on slower than this is out of reach
 
+
 @dataclass(frozen=True)
 class GapConfig:
     """Gap choice and approach settings (SI units)."""
@@ -77,33 +81,32 @@ class GapConfig:
     approach_time: float = 3.0  # s, time constant of the approach near the aim
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
     speed_time: float = 0.5  # s, time constant of the SV's speed toward the approach speed
-    # (1 s: it reached its lane's limit, where a faster follower lets it in, later)
+    # (the SV reaches its lane's limit, where a faster follower lets it in, sooner)
+    # tuned: docs/tuned_constants.md
     headway: float = 0.6  # s, the SV's headway behind its new leader when it goes: the
     # slot's front end is the SV's Krauss secure gap with this tau (SUMO's lane changer
     # asks its own changers for the same with SUMO's tau 1 s: MSLaneChanger::checkChange,
-    # secureFrontGap); from it
-    # the SV's car following (IDM + CAH, DecisionConfig.idm_coolness) reopens its 1.5 s
-    # braking less than `comfort_decel` while the new leader keeps its speed (0.5 s,
-    # issue 16, left it 0.4-0.9 s behind and braking up to 6.8 m/s^2; 1.0 s left no
-    # slot in 70 m gaps at 31.8 m/s: requests waited 8-15 s in a 40-run sample)
+    # secureFrontGap); from it the SV's car following (IDM + CAH,
+    # DecisionConfig.idm_coolness) reopens its gap braking less than `comfort_decel`
+    # while the new leader keeps its speed; a longer headway leaves no slot in the gaps
+    # of dense fast traffic
+    # tuned: docs/tuned_constants.md
     comfort_decel: float = 2.0  # m/s^2, the SV's comfortable braking limit after a merge
     # (the IDM's b, MOBIL's comfortable deceleration): the slot's headway keeps within it
     approach_decel: float = 3.0  # m/s^2, the hardest the SV brakes toward the approach
     # speed while it seeks a gap (a target lane much slower than its own, a gap behind):
     # below ACC's 3.5 m/s^2 limit above 20 m/s (ISO 15622) and SUMO's own driver's decel
-    # (4.5), which matches a slower target lane before it changes. 2 m/s^2 (comfort_decel)
-    # took 3-4 s to shed the 6-8 m/s between lanes 1 and 2 at 40 veh/km/lane and left
-    # the SV too close behind the TV it paced: 3.95 s from request to lane against 3.25
-    # (seeds 1-8; SUMO's driver 3.50), issue 22
+    # (4.5), which matches a slower target lane before it changes
+    # tuned: docs/tuned_constants.md
     min_gap: float = 2.5  # m, the SV's standstill gap to its new leader
     decel: float = 4.5  # m/s^2, the SV's braking assumed in its secure gap
     margin: float = 2.0  # m, aim at least this far inside the slot's ends ...
     margin_share: float = 0.25  # -, ... or this share of the slot's length (half at most)
     entry_delay: float = 3.0  # s, from the start of the change to the SV entering the lane
     max_speed_change: float = 8.0  # m/s, largest |v_sv - v_g| to plan a change from
-    horizon: float = 8.0  # s, gaps reached later are not candidates (20 s: at 10
-    # veh/km/lane it dropped back 76 m behind a faster TV while the next one came up,
-    # 10-12 s from request to lane; without a gap it paces the lane and insists instead)
+    horizon: float = 8.0  # s, gaps reached later are not candidates: without a gap in
+    # reach the SV paces the lane and asks for room instead of dropping back far
+    # tuned: docs/tuned_constants.md
     reach: float = 80.0  # m, nor gaps whose aim is farther (the lane is seen to ~150 m)
     min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this
     follow_tau: float = 1.0  # s, the SV's Krauss headway behind its own leader while seeking
@@ -116,25 +119,26 @@ class GapConfig:
     # predicted (within b_safe)
     patience: float = 1.0  # s, after seeking this long without an entry within plan_decel,
     # the SV takes one that asks its new follower up to `insist_decel` (SUMO's own driver
-    # goes at once into gaps whose follower then brakes at its full decel: issue 22)
+    # goes at once into gaps whose follower then brakes at its full decel)
     insist_decel: float = 4.0  # m/s^2, that limit: MOBIL's b_safe of its paper (4 m/s^2),
     # below the Krauss follower's decel (4.5): an entry that makes it brake at its decel
-    # at once is never taken (4.5, what SUMO's LC2013 asks of a blocking follower: 1 of 20
-    # new followers at 60 veh/km/lane braked at its emergency decel, 9 m/s^2)
+    # at once is never taken
+    # tuned: docs/tuned_constants.md
     hold_after: float = 0.7  # s, after seeking this long a scripted change also takes an
     # entry that counts on the TVs yielding to the SV braking on as they do until it is
-    # in their lane (their courtesy held, GapDecision.held: 3.50 -> 2.45 s from request
-    # to lane at 20 veh/km/lane, SUMO's driver 1.70, issue 22; at once: they braked at
-    # the courtesy's 2 m/s^2 through half the change in 19 of 20 runs at 10
-    # veh/km/lane, where an entry asking nothing of them came within 0.7 s in 13;
-    # 0.5 s: held in 11 of 20 there)
+    # in their lane (their courtesy held, GapDecision.held); sooner, an entry that asks
+    # nothing of them would often have come
+    # tuned: docs/tuned_constants.md
     insist_margin: float = 1.0  # m/s, an insisted entry must hold with the TVs behind
-    # the SV this much faster as well
+    # the SV this much faster as well (SUMO's dawdling and acceleration since the last
+    # sample are not in the prediction)
+    # tuned: docs/tuned_constants.md
     ask_decel: float = math.inf  # m/s^2, with no gap in reach, the TV asked to make room
     # is the nearest behind the SV that can still fall back behind its rear braking this
     # hard (inf: the nearest; a mandatory change: the courtesy's, decision.mandatory_config)
     nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the
-    # planner's eq. 13 optimum in the density study: 3.15-3.5 s at 7-31 m/s)
+    # planner's eq. 13 optimum at the speeds of motorway traffic)
+    # tuned: docs/tuned_constants.md
 
     def follow_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its own leader while it seeks a gap."""
@@ -144,6 +148,15 @@ class GapConfig:
     def sv_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its new leader (for its secure gap)."""
         return FollowerModel(decel=self.decel, tau=self.headway, min_gap=self.min_gap)
+
+
+@dataclass(frozen=True)
+class TargetLane:
+    """The lane the SV wants: its TVs and its speeds."""
+
+    tvs: LaneTraffic  # the TVs (`tvs.in_target`: those in this lane)
+    lane_speed: float  # m/s, the speed of the lane open ahead (the band rule's target speed)
+    max_speed: float = math.inf  # m/s, caps the TVs' speeds as gap speeds (the lane's band)
 
 
 @dataclass(frozen=True)
@@ -161,26 +174,25 @@ class Gaps:
     front: Array  # m, the leader's rear bumper x (+inf: none)
 
 
-def lane_gaps(sv_length: float, tv_x: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
-              in_lane: ArrayLike, lane_speed: float, cfg: GapConfig,
-              follower: FollowerModel, max_speed: float = math.inf) -> Gaps:
-    """The gaps between the TVs with `in_lane` true (centres tv_x, m), for an SV of
-    `sv_length` (m); `lane_speed` (m/s) is the speed of the lane open ahead (the band
-    rule's target speed), `max_speed` (m/s) caps the others' (the lane's band)."""
-    x = np.asarray(tv_x, dtype=float)
-    idx = np.flatnonzero(np.asarray(in_lane, dtype=bool))
+def lane_gaps(sv_length: float, lane: TargetLane, cfg: GapConfig,
+              follower: FollowerModel) -> Gaps:
+    """The gaps between the TVs of the target `lane`, for an SV of `sv_length` (m)."""
+    tvs = lane.tvs
+    x = np.asarray(tvs.x, dtype=float)
+    idx = np.flatnonzero(np.asarray(tvs.in_target, dtype=bool))
     idx = idx[np.argsort(x[idx], kind="stable")]
     xs = x[idx]
-    vs = np.asarray(tv_speed, dtype=float)[idx]
-    ls = np.asarray(tv_length, dtype=float)[idx]
+    vs = np.asarray(tvs.speed, dtype=float)[idx]
+    ls = np.asarray(tvs.length, dtype=float)[idx]
     none = np.array([-1])
     fol = np.concatenate([none, idx])
     lead = np.concatenate([idx, none])
     v_f = np.concatenate([[math.nan], vs])
     v_l = np.concatenate([vs, [math.nan]])
-    speed = np.where(np.isnan(v_l), lane_speed, np.minimum(v_l, max(max_speed, lane_speed)))
-    lo_in, hi_in = slot_ends(xs + 0.5 * ls, vs, xs - 0.5 * ls, vs, speed[1:], speed[:-1],
-                             sv_length, cfg, follower)
+    speed = np.where(np.isnan(v_l), lane.lane_speed,
+                     np.minimum(v_l, max(lane.max_speed, lane.lane_speed)))
+    lo_in = slot_rear(xs + 0.5 * ls, vs, speed[1:], sv_length, cfg, follower)
+    hi_in = slot_front(xs - 0.5 * ls, vs, speed[:-1], sv_length, cfg)
     return Gaps(
         rear=np.concatenate([[-math.inf], xs + 0.5 * ls]),
         front=np.concatenate([xs - 0.5 * ls, [math.inf]]),
@@ -191,21 +203,24 @@ def lane_gaps(sv_length: float, tv_x: ArrayLike, tv_speed: ArrayLike, tv_length:
     )
 
 
-def slot_ends(rear: ArrayLike, v_f: ArrayLike, front: ArrayLike, v_l: ArrayLike,
-              v_sv_f: ArrayLike, v_sv_l: ArrayLike, sv_length: float, cfg: GapConfig,
-              follower: FollowerModel) -> tuple[Array, Array]:
-    """(lo, hi), m: the SV's centre x at least lo, ahead of a follower whose front is at
-    `rear` driving v_f (its accepted gap to the SV at `v_sv_f`, plus what it closes
-    before the SV enters), and at most hi, behind a leader whose rear is at `front` driving v_l
-    (the SV's own secure gap at `v_sv_l`)."""
+def slot_rear(rear: ArrayLike, v_f: ArrayLike, v_sv: ArrayLike, sv_length: float,
+              cfg: GapConfig, follower: FollowerModel) -> Array:
+    """m, the slot's rear end: the SV's centre x at least this far ahead of a follower
+    whose front is at `rear` driving v_f: its accepted gap to the SV at `v_sv` (braking
+    at most `entry_decel`), plus what it closes before the SV enters."""
     half = 0.5 * sv_length
     slot_follower = follower.limited(cfg.entry_decel)
     vf = np.asarray(v_f, dtype=float)
-    vsf = np.asarray(v_sv_f, dtype=float)
+    vsf = np.asarray(v_sv, dtype=float)
     closing = 0.5 * np.maximum(vf - vsf, 0.0) * cfg.entry_delay
-    lo = np.asarray(rear, dtype=float) + accepted_gap(vf, vsf, slot_follower) + closing + half
-    hi = np.asarray(front, dtype=float) - secure_gap(v_sv_l, v_l, cfg.sv_model()) - half
-    return lo, hi
+    return np.asarray(rear, dtype=float) + accepted_gap(vf, vsf, slot_follower) + closing + half
+
+
+def slot_front(front: ArrayLike, v_l: ArrayLike, v_sv: ArrayLike, sv_length: float,
+               cfg: GapConfig) -> Array:
+    """m, the slot's front end: the SV's centre x at most this, behind a leader whose
+    rear is at `front` driving v_l (the SV's own secure gap at `v_sv`)."""
+    return np.asarray(front, dtype=float) - secure_gap(v_sv, v_l, cfg.sv_model()) - 0.5 * sv_length
 
 
 def reach_time(offset: ArrayLike, rel_speed: ArrayLike, accel: float) -> Array:
@@ -233,9 +248,8 @@ def seeking_accel(sv_speed: float, target_speed: float, max_speed: float,
     up to its leader to reach the faster lane's speed instead of keeping its IDM's
     1.5 s time gap, which holds it below the target lane."""
     v = max(sv_speed, 0.0)
-    # the approach within approach_accel and approach_decel (it braked up to
-    # follow_decel, 4.5 m/s^2, to drop back to a gap behind: issue 22; 1.5 m/s^2 took
-    # 1.2 s longer at 40 veh/km/lane), its own leader within follow_decel
+    # the approach within approach_accel and approach_decel, its own leader within
+    # follow_decel
     want = min(target_speed, max_speed)
     accel = min(max((want - v) / cfg.speed_time, -cfg.approach_decel), cfg.approach_accel)
     if math.isfinite(leader_gap):
@@ -275,6 +289,14 @@ def gap_cost(t: ArrayLike, aim: ArrayLike, sv_x: float, sv_speed: float, sv_leng
     return np.asarray(t, dtype=float) + (shed + loss) / cfg.approach_accel
 
 
+class Relation(StrEnum):
+    """Where a gap's slot is relative to the SV."""
+
+    AHEAD = "ahead"
+    ALONGSIDE = "alongside"
+    BEHIND = "behind"
+
+
 @dataclass(frozen=True)
 class GapChoice:
     """The gap the SV aims for now."""
@@ -282,7 +304,7 @@ class GapChoice:
     index: int  # gap index (0: behind every target-lane TV)
     follower: int  # index into the caller's TV arrays, -1: none
     leader: int  # index, -1: none
-    relation: str  # "ahead" | "alongside" | "behind": where the slot is relative to the SV
+    relation: Relation  # where the slot is relative to the SV
     aim_x: float  # m, the SV's centre x to start the change from (moves at `speed`)
     offset: float  # m, aim_x - sv_x
     speed: float  # m/s, the gap's speed: vxf of the manoeuvre
@@ -291,28 +313,60 @@ class GapChoice:
     reachable: bool  # inside the slot and at the gap's speed: plan the manoeuvre now
 
 
-def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: float,
-               gaps: Gaps, cfg: GapConfig, follower: FollowerModel,
-               own_limit_x: float = math.inf,
-               own_limit_speed: float = 0.0, max_speed: float = math.inf) -> GapChoice | None:
-    """The cheapest gap (module docstring: `gap_cost`), or None when no gap is a
-    candidate. `own_limit_x` (m) moving at `own_limit_speed` (m/s): the farthest the
-    SV's centre may get in its own lane (its leader's rear less half the SV and a
-    standstill gap): a gap ahead whose aim lies beyond it when reached is not a
-    candidate. `max_speed` (m/s): the most the SV may drive in its own lane; a gap
-    ahead moving at least that fast cannot be reached (one moving at the target lane's
-    31.8 m/s ahead of an SV held to 30.6 m/s was chased for good, issue 22), and one
-    moving slower is reached no sooner than the speed difference allows."""
+@dataclass(frozen=True)
+class OwnLane:
+    """How far and how fast the SV may go in its own lane while it seeks a gap."""
+
+    limit_x: float = math.inf  # m, the farthest its centre may get (its leader's rear less
+    # half the SV and a standstill gap; inf: no leader) ...
+    limit_speed: float = 0.0  # m/s, ... moving at its leader's speed
+    max_speed: float = math.inf  # m/s, the most it may drive (its lane's limit)
+
+
+def choose_gap(sv: SVView, gaps: Gaps, cfg: GapConfig, follower: FollowerModel,
+               own: OwnLane = OwnLane()) -> GapChoice | None:
+    """The cheapest gap (module docstring: `gap_cost`) for `sv` (its x, speed, length and
+    desired speed), or None when no gap is a candidate: a gap ahead whose aim lies
+    beyond `own.limit_x` when reached is not; a gap ahead moving at least
+    `own.max_speed` cannot be reached (it would be chased for good), one moving slower
+    is reached no sooner than the speed difference allows."""
+    aim, t, ok = _candidates(sv, gaps, cfg, own)
+    if not ok.any():
+        return None
+    e = aim - sv.x
+    cost = np.where(ok, gap_cost(t, aim, sv.x, sv.speed, sv.length, gaps, cfg, follower)
+                    + 1e-3 * np.abs(gaps.speed - sv.desired_speed), np.inf)
+    j = int(np.argmin(cost))
+    inside = bool(gaps.lo[j] <= sv.x <= gaps.hi[j])
+    relation = (Relation.ALONGSIDE if inside
+                else (Relation.AHEAD if e[j] > 0.0 else Relation.BEHIND))
+    target = float(approach_speed(e[j], gaps.speed[j], cfg))
+    v_g = float(gaps.speed[j])
+    v_in = 0.5 * (sv.speed + v_g)  # the SV's speed when it enters the lane
+    lo = slot_rear(gaps.rear[j], gaps.v_lo[j], v_in, sv.length, cfg, follower)
+    hi = slot_front(gaps.front[j], gaps.v_hi[j], v_in, sv.length, cfg)
+    reachable = bool(lo <= sv.x <= hi) and abs(sv.speed - v_g) <= cfg.max_speed_change
+    return GapChoice(
+        index=j, follower=int(gaps.follower[j]), leader=int(gaps.leader[j]),
+        relation=relation, aim_x=float(aim[j]), offset=float(e[j]),
+        speed=float(gaps.speed[j]), reach_time=float(t[j]), target_speed=target,
+        reachable=reachable and sv.speed >= cfg.min_speed,
+    )
+
+
+def _candidates(sv: SVView, gaps: Gaps, cfg: GapConfig, own: OwnLane
+                ) -> tuple[Array, Array, NDArray[np.bool_]]:
+    """(aim, reach time, candidate) per gap: the point of each slot the SV aims at, when
+    it gets there, and whether the gap is a candidate (module docstring)."""
     length = gaps.hi - gaps.lo
     room = np.maximum(length, 0.0)
     margin = np.minimum(np.maximum(cfg.margin, cfg.margin_share * np.where(
         np.isfinite(room), room, 0.0)), 0.5 * room)
-    aim = np.clip(sv_x, gaps.lo + margin, gaps.hi - margin)
-    e = aim - sv_x
-    t = reach_time(e, sv_speed - gaps.speed, cfg.approach_accel)
-    # reachability within the SV's own speed limit: the aim ahead closes at most at
-    # max_speed - v_g
-    closing = max_speed - gaps.speed
+    aim = np.clip(sv.x, gaps.lo + margin, gaps.hi - margin)
+    e = aim - sv.x
+    t = reach_time(e, sv.speed - gaps.speed, cfg.approach_accel)
+    # within the SV's own speed limit the aim ahead closes at most at max_speed - v_g
+    closing = own.max_speed - gaps.speed
     ahead = e > 1e-6
     t = np.where(ahead, np.where(closing > MIN_CLOSING,
                                  np.maximum(t, e / np.maximum(closing, MIN_CLOSING)), np.inf),
@@ -324,28 +378,20 @@ def choose_gap(sv_x: float, sv_speed: float, sv_length: float, desired_speed: fl
     aim_t = aim + gaps.speed * tf
     ok = (length >= 0.0) & (hi_t - lo_t >= 0.0) & (t <= cfg.horizon) & (np.abs(e) <= cfg.reach)
     ok &= (aim_t >= lo_t - 1e-6) & (aim_t <= hi_t + 1e-6)
-    if math.isfinite(own_limit_x):
-        ok &= (aim_t <= own_limit_x + own_limit_speed * tf) | (e <= 0.0)
-    if not ok.any():
-        return None
-    cost = np.where(ok, gap_cost(t, aim, sv_x, sv_speed, sv_length, gaps, cfg,
-                                        follower)
-                    + 1e-3 * np.abs(gaps.speed - desired_speed), np.inf)
-    j = int(np.argmin(cost))
-    inside = bool(gaps.lo[j] <= sv_x <= gaps.hi[j])
-    relation = "alongside" if inside else ("ahead" if e[j] > 0.0 else "behind")
-    target = float(approach_speed(e[j], gaps.speed[j], cfg))
-    v_g = float(gaps.speed[j])
-    v_in = 0.5 * (sv_speed + v_g)  # the SV's speed when it enters the lane
-    lo, hi = slot_ends(gaps.rear[j], gaps.v_lo[j], gaps.front[j], gaps.v_hi[j], v_in, v_in,
-                       sv_length, cfg, follower)
-    reachable = bool(lo <= sv_x <= hi) and abs(sv_speed - v_g) <= cfg.max_speed_change
-    return GapChoice(
-        index=j, follower=int(gaps.follower[j]), leader=int(gaps.leader[j]),
-        relation=relation, aim_x=float(aim[j]), offset=float(e[j]),
-        speed=float(gaps.speed[j]), reach_time=float(t[j]), target_speed=target,
-        reachable=reachable and sv_speed >= cfg.min_speed,
-    )
+    if math.isfinite(own.limit_x):
+        ok &= (aim_t <= own.limit_x + own.limit_speed * tf) | (e <= 0.0)
+    return aim, t, ok
+
+
+@dataclass(frozen=True)
+class ChangeStart:
+    """A lane change started now, as the entry test takes it."""
+
+    x: float  # m, the SV's centre along the road
+    y: float  # m, its lateral start (the origin lane's centre)
+    speed: float  # m/s
+    length: float  # m
+    width: float  # m, the lateral move (+ left)
 
 
 @dataclass(frozen=True)
@@ -362,15 +408,13 @@ class Entry:
     secure: float  # m, the SV's secure gap to it then (GapConfig.headway)
 
 
-def entry_test(sv_x: float, sv_y: float, sv_speed: float, sv_length: float, width: float,
-               tv_x: ArrayLike, tv_speed: ArrayLike, tv_length: ArrayLike,
-               in_lane: ArrayLike, lane_speed: float, cfg: GapConfig,
-               follower: FollowerModel, max_speed: float = math.inf,
-               tv_braking: ArrayLike | None = None) -> Entry:
+def entry_test(start: ChangeStart, lane: TargetLane, cfg: GapConfig,
+               follower: FollowerModel) -> Entry:
     """Whether a lane change started now (a nominal manoeuvre of `cfg.nominal_tau` from
-    the SV's speed to the new leader's, `width` m sideways) enters a usable gap: the TVs
-    with `in_lane` true keep their speeds until the SV's centre crosses the lane line
-    (they do not see it before, SUMO_NOTES.md); then
+    the SV's speed to the new leader's) enters a usable gap in `lane`: its TVs keep
+    their speeds (or go on braking at `lane.tvs.braking`: those that yield to the SV)
+    until the SV's centre crosses the lane line (they do not see it before,
+    SUMO_NOTES.md); then
     - its new follower, predicted by its model (`interaction.check_follower`, `follower`
       limited to what the policy asks), brakes within the limit, and
     - its new leader's rear is at least the SV's secure gap (`GapConfig.sv_model`, the
@@ -378,43 +422,53 @@ def entry_test(sv_x: float, sv_y: float, sv_speed: float, sv_length: float, widt
     The test of the manoeuvre itself, not of where the SV is: a gap coming up from
     behind is taken as soon as a change started now would end up in it (the paper's
     manoeuvre enters the lane only about tau / 2 after its start), and no plan is
-    asked for that its own follower check would refuse (each refusal cost a 1 s retry
-    and 1-2 s from request to lane, issue 22). `lane_speed`, `max_speed`: as `lane_gaps`.
-    `tv_braking` (m/s^2 >= 0 per TV, None: none): TVs that go on braking at that rate
-    until the SV enters (those that yield to it, `check_follower`)."""
-    x = np.asarray(tv_x, dtype=float)
-    v = np.asarray(tv_speed, dtype=float)
-    half = 0.5 * np.asarray(tv_length, dtype=float)
-    inside = np.asarray(in_lane, dtype=bool)
+    asked for that its own follower check would refuse (each refusal costs a retry)."""
+    tvs = lane.tvs
+    x = np.asarray(tvs.x, dtype=float)
+    v = np.asarray(tvs.speed, dtype=float)
+    half = 0.5 * np.asarray(tvs.length, dtype=float)
+    inside = np.asarray(tvs.in_target, dtype=bool)
     tau = cfg.nominal_tau
     # the entry: the SV's centre half way across (the manoeuvre's lateral profile is
     # symmetric in time: at tau / 2)
     t_in = 0.5 * tau
-    probe = LaneChangeTrajectory(t0=0.0, tau=tau, x0=sv_x, y0=sv_y, vx0=sv_speed,
-                                 vxf=sv_speed, width=width)
-    x_in = float(probe.position(t_in)[0])
-    ahead = inside & (x + v * t_in > x_in)
-    lead = int(np.argmin(np.where(ahead, x + v * t_in, np.inf))) if ahead.any() else -1
-    vxf = float(min(v[lead], max(max_speed, lane_speed)) if lead >= 0 else lane_speed)
-    tr = LaneChangeTrajectory(t0=0.0, tau=tau, x0=sv_x, y0=sv_y, vx0=sv_speed, vxf=vxf,
-                              width=width)
+    lead, vxf = _new_leader(start, lane, tau, t_in)
+    tr = LaneChangeTrajectory(t0=0.0, tau=tau, x0=start.x, y0=start.y, vx0=start.speed,
+                              vxf=vxf, width=start.width)
     xs, _ = tr.position(t_in)
     vs, _ = tr.derivative(t_in, 1)
     x_in, v_in = float(xs), float(vs)
     if lead >= 0:
-        gap = float(x[lead] - half[lead] + v[lead] * t_in - x_in - 0.5 * sv_length)
+        gap = float(x[lead] - half[lead] + v[lead] * t_in - x_in - 0.5 * start.length)
         # Krauss-secure, and never closer than the headway in time (a much faster
-        # leader's braking distance alone let the SV in 0.16 s behind it)
+        # leader's braking distance alone would let the SV in very close behind it)
         need = float(max(secure_gap(v_in, v[lead], cfg.sv_model()),
                          cfg.min_gap + cfg.headway * v_in))
     else:
         gap, need = math.inf, 0.0
-    check = check_follower(tr, sv_length, x, v, np.asarray(tv_length, dtype=float), inside,
-                           follower, tv_braking=tv_braking)
+    check = check_follower(tr, start.length, tvs, follower)
     # nobody beside the SV's body at the entry (neither leader nor follower: level with it)
-    beside = inside & (np.abs(x + v * t_in - x_in) < half + 0.5 * sv_length)
+    beside = inside & (np.abs(x + v * t_in - x_in) < half + 0.5 * start.length)
     ok = (check.safe and not beside.any() and gap >= need
-          and abs(sv_speed - vxf) <= cfg.max_speed_change and sv_speed >= cfg.min_speed)
+          and abs(start.speed - vxf) <= cfg.max_speed_change and start.speed >= cfg.min_speed)
     return Entry(ok=bool(ok), vxf=vxf, leader=lead, follower=check.follower,
                  t_enter=check.t_enter, follower_decel=check.max_decel, leader_gap=gap,
                  secure=need)
+
+
+def _new_leader(start: ChangeStart, lane: TargetLane, tau: float, t_in: float
+                ) -> tuple[int, float]:
+    """(index, -1: none; the change's end speed, m/s): the TV of `lane` ahead of the SV
+    when it enters at t_in of a change of `tau` at its own speed, and that TV's speed
+    within the lane's band (the lane's speed without one)."""
+    x = np.asarray(lane.tvs.x, dtype=float)
+    v = np.asarray(lane.tvs.speed, dtype=float)
+    inside = np.asarray(lane.tvs.in_target, dtype=bool)
+    probe = LaneChangeTrajectory(t0=0.0, tau=tau, x0=start.x, y0=start.y, vx0=start.speed,
+                                 vxf=start.speed, width=start.width)
+    x_in = float(probe.position(t_in)[0])
+    ahead = inside & (x + v * t_in > x_in)
+    lead = int(np.argmin(np.where(ahead, x + v * t_in, np.inf))) if ahead.any() else -1
+    lane_speed, max_speed = lane.lane_speed, lane.max_speed
+    vxf = float(min(v[lead], max(max_speed, lane_speed)) if lead >= 0 else lane_speed)
+    return lead, vxf

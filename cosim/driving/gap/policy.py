@@ -22,34 +22,47 @@ gap's follower to open the gap (the context's `ask_gap` port: the traffic's cour
 and cooperative V2V, cosim.traffic.cooperation). Its planner predicts a C2 TV to end
 its change no faster than its new leader, as this SV does (`prediction`).
 
-On a lane that ends (cosim.driving.lane_end) it stops before the end (a virtual
-standing leader) and, once the end is within its look-ahead, seeks a gap in the
-continuing lane before anything else ("mandatory"), with the urgency law of
+On a lane that ends it does what cosim.driving.lane_end says: it stops before the end
+(a virtual standing leader) and, once the end is within its look-ahead, seeks a gap in
+the continuing lane before anything else ("mandatory"), with the urgency law of
 cosim.driving.gap.decision (what it may ask of its new follower grows as the end
 nears, and only so: it does not insist after its patience) and from any speed
-(`mandatory_config`); every plan ends before the end. It
-signals and asks the blocking follower to make room as for any change. On the
-mainline it lets a TV that must merge ahead of it in (`lane_end.yield_accel`).
+(`mandatory_config`); every plan ends before the end. It signals and asks the blocking
+follower to make room as for any change. On the mainline it lets a TV that must merge
+ahead of it in (`SVLaneEnds.yield_accel`).
+
+Each step's seeking is `seek`'s named steps: what it wants (`_wants`), the decision
+(`_decide`), the speed it drives (`_drive`), its blinker and gap request (`_signal_gap`)
+and whether to plan now (`_trigger`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
 from cosim.driving.following import CarFollowing
-from cosim.driving.gap.decision import GapDecision, gap_decision, in_lane, mandatory_config
+from cosim.driving.gap.decision import (
+    GapDecision,
+    GapRules,
+    Seeking,
+    gap_decision,
+    in_lane,
+    mandatory_config,
+)
 from cosim.driving.gap.geometry import GapConfig
 from cosim.driving.gap.yielding import YieldWatch
-from cosim.driving.lane_end import stop_gap, yield_accel
-from cosim.driving.manoeuvre import MANDATORY, LaneChangeTimer, Manoeuvre
+from cosim.driving.lane_end import stop_gap
+from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre
+from cosim.driving.plans import Trigger
 from cosim.driving.registry import register
 from cosim.driving.view import TrafficView
-from cosim.planning.interaction import FollowerModel, check_follower
+from cosim.planning.deadline import LaneEnd
+from cosim.planning.interaction import FollowerModel, LaneTraffic, check_follower
 from cosim.planning.planner import PredictionOptions
 
 if TYPE_CHECKING:
@@ -61,15 +74,31 @@ if TYPE_CHECKING:
 WANT_HOLD = 20.0  # s, a lane the decision rule wanted is sought this long at most
 STOP_GAP = 2.5  # m, IDM standstill gap s0 of this policy (SUMO's minGap; >= 2 m in a queue)
 COOLNESS = 0.99  # -, its car following is the ACC model (IDM + CAH, rule.acc_blend): after
-# a merge into a slot of GapConfig.headway it reopens its 1.5 s gap braking about the
-# IDM's b = 2 m/s^2 at most while the new leader keeps its speed (plain IDM: up to 8)
+# a merge into a slot of GapConfig.headway it reopens its gap braking about the IDM's
+# b = 2 m/s^2 at most while the new leader keeps its speed (the plain IDM brakes far harder)
 TIME_GAP = 1.0  # s, its IDM time gap T: SUMO's drivers' tau (the paper's rule: 1.5 s), so
 # that after a merge into a slot of GapConfig.headway it reopens less and makes its new
-# follower brake less (issue 22)
+# follower brake less
+# tuned: docs/tuned_constants.md
 RETRY = 0.1  # s, a plan refused although the entry test passed is asked for again this soon
-# (DecisionConfig.retry_interval, 1 s, cost 1 s from request to lane each time: the entry
-# test's nominal manoeuvre and the planned one differ a little, e.g. 1.47 against 1.0
-# m/s^2 for the same follower at 10 veh/km/lane; issue 22)
+# (the entry test's nominal manoeuvre and the planned one differ a little; the decision
+# rule's retry_interval would cost that much from request to lane each time)
+# tuned: docs/tuned_constants.md
+
+
+@dataclass(frozen=True)
+class _Wants:
+    """What the SV wants this step (`GapPolicy._wants`)."""
+
+    lane: int  # the lane it is in
+    end: LaneEnd | None  # the end of that lane ahead (None: it runs on)
+    due: LaneEnd | None  # the same, once its mandatory change is due
+    scripted: int | None  # the lane of a due scripted request
+    wanted: int | None  # the lane it seeks (None: the decision rule's, if any)
+
+    @property
+    def mandatory(self) -> bool:
+        return self.due is not None
 
 
 @register("gap")
@@ -95,13 +124,12 @@ class GapPolicy:
         self.signal = 0  # the SV's blinker now: -1 right, 0 off, +1 left
         self.following = CarFollowing(ctx, cfg)
         self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal)
+        self.ends = self.manoeuvre.ends  # the SV's lane-end reasoning
         self.gap_cfg = gap or GapConfig()
         self.follower = follower or FollowerModel()
         # what a flown plan may ask of its new follower: the policy's own limit within b_safe
         self.plan_follower = self.follower.limited(self.gap_cfg.plan_decel)
         self.sv_length = ctx.sv_length
-        self.lanes_end = any(math.isfinite(self.lanes.end(k))
-                             for k in range(self.lanes.n_lanes))  # a lane ends on this road
         self.decision = ctx.sv.decision
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision (for inspection)
@@ -124,11 +152,15 @@ class GapPolicy:
             self.yielding.asked(tv_id)
 
     def status(self, sv: SVState) -> PolicyStatus:
-        status = self.manoeuvre.status(self.following.leader_gap, self.following.accel)
+        return self.manoeuvre.status(self.following.leader_gap, self.following.accel)
+
+    def gaps_held(self, sv: SVState) -> bool:
+        """True while the SV seeks a gap, and while the change under way was planned on
+        the courtesy held until the SV is in the target lane."""
         lc = self.manoeuvre.active
-        if lc is None or lc is not self.held or self.lanes.lane_of(sv.y) == lc.target_lane:
-            return status
-        return replace(status, courtesy_held=True)
+        if lc is None:
+            return True
+        return lc is self.held and self.lanes.lane_of(sv.y) != lc.target_lane
 
     def update(self, t: float, scene: Scene, messages: Messages) -> LaneChangeTrajectory:
         """Finish a manoeuvre that is over; car-following toward the chosen gap; plan the
@@ -140,11 +172,11 @@ class GapPolicy:
         allow_scripted, allow_decision = m.may_request(t, sv)
         if m.active is not None:  # changing: car-following values for the trace only
             self.following.update(sv, scene, False)
-            trajectory = m.advance(t, sv, None, "", messages)
+            trajectory = m.advance(t, sv, None, None, messages)
         else:
             traffic = TrafficView.of(scene)
             d, trigger = self.seek(t, sv, traffic, allow_scripted, allow_decision)
-            target = d.target_lane if trigger else None
+            target = d.target_lane if trigger is not None else None
             trajectory = m.advance(
                 t, sv, target, trigger, messages,
                 vxf=d.vxf if math.isfinite(d.vxf) else None,
@@ -153,86 +185,114 @@ class GapPolicy:
         return trajectory if trajectory is not None else self.following.reference(t, sv)
 
     def seek(self, t: float, sv: SVState, traffic: TrafficView, allow_scripted: bool,
-             allow_decision: bool) -> tuple[GapDecision, str]:
+             allow_decision: bool) -> tuple[GapDecision, Trigger | None]:
         """Car-following toward the chosen gap this step; the decision, and the trigger
-        once the gap is reached ("scripted" | "decision"; "": do not plan now)."""
-        following, m = self.following, self.manoeuvre
+        once the gap is reached (None: do not plan now)."""
+        wants = self._wants(t, sv)
+        d = self._decide(t, sv, traffic, wants)
+        self.seeking_since = (None if d.target_lane is None
+                              else (t if self.seeking_since is None else self.seeking_since))
+        self._drive(sv, traffic, wants, d)
+        self.last = d
+        if (not wants.mandatory and wants.scripted is None and self.wanted is None
+                and d.target_lane is not None):
+            self.wanted = (wants.lane, d.target_lane, t + WANT_HOLD)
+        self._signal_gap(t, traffic, wants.lane, d)
+        return d, self._trigger(t, d, wants, allow_scripted, allow_decision)
+
+    def _wants(self, t: float, sv: SVState) -> _Wants:
+        """The lane the SV seeks: the continuing lane once its own lane's mandatory change
+        is due, else a due scripted request's, else the one its decision rule wanted
+        (while it is still in the lane it wanted to leave, for WANT_HOLD at most)."""
         lane = self.lanes.lane_of(sv.y)
-        end = m.lane_end(lane, sv)  # its lane ends ahead: stop before it, change lanes
-        due = None if end is None else m.mandatory(lane, sv)
-        mandatory = due is not None
-        scripted = m.due_scripted(t, sv)
+        end = self.ends.ahead(lane, sv.x, sv.vx)  # its lane ends: stop before it, change
+        due = None if end is None else self.ends.due(lane, sv)
+        scripted = self.manoeuvre.due_scripted(t, sv)
         if self.wanted is not None and (self.wanted[0] != lane or t > self.wanted[2]):
             self.wanted = None
         wanted = scripted if scripted is not None else (
             self.wanted[1] if self.wanted is not None else None)
         if due is not None:
             wanted = due.target
-        since = self.seeking_since
+        return _Wants(lane, end, due, scripted, wanted)
+
+    def _decide(self, t: float, sv: SVState, traffic: TrafficView, wants: _Wants
+                ) -> GapDecision:
+        """This step's gap decision (cosim.driving.gap.decision) for what the SV wants."""
+        following, since = self.following, self.seeking_since
         braking = self.yielding.braking(t, traffic.ids, traffic.speed)
         # a mandatory change's settings (`mandatory_config`: it never insists after a
         # patience, what it asks grows with its urgency alone)
-        gap_cfg = mandatory_config(self.gap_cfg) if mandatory else self.gap_cfg
+        gap_cfg = mandatory_config(self.gap_cfg) if wants.mandatory else self.gap_cfg
         insist = since is not None and t - since >= gap_cfg.patience - 1e-9
         # only a requested change counts on the courtesy held: a change by choice waits
-        # for a gap that asks nothing more (in the stop-and-go run one taken at 6 m/s on
-        # it left the queue it had to stop in), a mandatory one has its urgency law
-        held = (scripted is not None and not mandatory and since is not None
+        # for a gap that asks nothing more, a mandatory one has its urgency law
+        held = (wants.scripted is not None and not wants.mandatory and since is not None
                 and t - since >= gap_cfg.hold_after - 1e-9)
         # a lane by choice is sought only once the last change has settled (its
-        # cooldown): seeking at once asked the next lane's follower for courtesy and
-        # braked toward its gaps within 3 s of a merge, and the TV behind the SV, which
-        # SUMO keeps from passing a slower car on its left, braked with it (2.4-2.6
-        # m/s^2 in 5 of 20 merges at 10 veh/km/lane, issue 24)
-        by_choice = self.decision and not m.timer.cooling(t)
-        d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg, gap_cfg,
-                         self.follower, wanted_lane=wanted,
-                         allow_change=mandatory or scripted is not None or by_choice,
-                         insist=insist, urgency=0.0 if due is None else due.urgency,
-                         yielding=braking if held else None)
-        if (wanted is None and d.target_lane is not None
-                and m.ends_soon(d.target_lane, sv)):
+        # cooldown): seeking at once asks the next lane's follower for courtesy and
+        # brakes toward its gaps just after a merge, and the TV behind the SV, which
+        # SUMO keeps from passing a slower car on its left, brakes with it
+        by_choice = self.decision and not self.manoeuvre.timer.cooling(t)
+        seeking = Seeking(
+            wanted_lane=wants.wanted,
+            allow_change=wants.mandatory or wants.scripted is not None or by_choice,
+            insist=insist, urgency=0.0 if wants.due is None else wants.due.urgency,
+            yielding=braking if held else None)
+        d = gap_decision(following.view(sv), traffic, self.lanes,
+                         GapRules(following.cfg, gap_cfg, self.follower), seeking)
+        if (wants.wanted is None and d.target_lane is not None
+                and self.ends.ends_soon(d.target_lane, sv)):
             # the rule's faster lane ends within the look-ahead: not a lane to change into
-            d = gap_decision(following.view(sv), traffic, self.lanes, following.cfg,
-                             self.gap_cfg, self.follower, allow_change=False)
-        self.seeking_since = (None if d.target_lane is None
-                              else (t if since is None else since))
+            d = gap_decision(following.view(sv), traffic, self.lanes,
+                             GapRules(following.cfg, self.gap_cfg, self.follower),
+                             Seeking(allow_change=False))
+        return d
+
+    def _drive(self, sv: SVState, traffic: TrafficView, wants: _Wants, d: GapDecision
+               ) -> None:
+        """The speed it drives this step: the decision's, letting a TV that must merge
+        into its lane ahead of it in (on the mainline beside a lane that ends), and
+        stopping before the end of its own lane."""
+        following = self.following
         accel = d.accel
-        if self.lanes_end and due is None:
-            # courtesy: a TV that must merge into its lane ahead of it is let in
-            accel = min(accel, yield_accel(following.v_ref, following.desired_speed(lane),
-                                           self.lanes, lane, sv.x, self.sv_length, traffic,
-                                           following.cfg))
+        if self.ends.any and wants.due is None:
+            accel = min(accel, self.ends.yield_accel(
+                following.v_ref, following.desired_speed(wants.lane), wants.lane, sv.x,
+                traffic, following.cfg))
         following.limit(*following.with_stop(accel, d.leader_gap, d.leader_speed,
-                                             stop_gap(end)))
-        self.last = d
-        if (not mandatory and scripted is None and self.wanted is None
-                and d.target_lane is not None):
-            self.wanted = (lane, d.target_lane, t + WANT_HOLD)
-        # it signals while it seeks a gap, as SUMO's drivers do while they wait for one:
-        # what the traffic's courtesy answers (cosim.traffic.cooperation)
+                                             stop_gap(wants.end)))
+
+    def _signal_gap(self, t: float, traffic: TrafficView, lane: int, d: GapDecision) -> None:
+        """It signals while it seeks a gap, as SUMO's drivers do while they wait for one
+        (what the traffic's courtesy answers, cosim.traffic.cooperation), and asks the
+        TV the decision names to open the gap."""
         self._signal(0 if d.target_lane is None else (1 if d.target_lane > lane else -1))
         if d.cooperate_with >= 0:
             self.ask_gap(t, str(traffic.ids[d.cooperate_with]))
+
+    def _trigger(self, t: float, d: GapDecision, wants: _Wants, allow_scripted: bool,
+                 allow_decision: bool) -> Trigger | None:
+        """The trigger to plan with now (None: not now)."""
         if not d.plan_now or d.target_lane is None:
-            return d, ""
-        if mandatory:
-            return d, MANDATORY if m.may_merge(t) else ""
-        if scripted is not None:
-            return d, "scripted" if allow_scripted else ""
-        return d, "decision" if allow_decision else ""
+            return None
+        if wants.mandatory:
+            return Trigger.MANDATORY if self.manoeuvre.may_merge(t) else None
+        if wants.scripted is not None:
+            return Trigger.SCRIPTED if allow_scripted else None
+        return Trigger.DECISION if allow_decision else None
 
     def accept(self, t: float, plan: Plan, target: int | None, traffic: TrafficView) -> str:
         """Why the plan is not flown although it has a trajectory ("": fly it): its new
         follower would brake harder than the policy's limit within b_safe (MOBIL)."""
         assert target is not None and plan.trajectory is not None
-        in_target = in_lane(target, traffic, self.lanes)
         limit = self.last.follower_decel if self.last is not None else math.nan
         follower = (self.follower.limited(limit) if math.isfinite(limit)
                     else self.plan_follower)
-        check = check_follower(plan.trajectory, self.sv_length, traffic.x, traffic.speed,
-                               traffic.length, in_target, follower,
-                               tv_braking=None if self.last is None else self.last.held)
+        tvs = LaneTraffic.of(traffic.x, traffic.speed, traffic.length,
+                             in_lane(target, traffic, self.lanes),
+                             None if self.last is None else self.last.held)
+        check = check_follower(plan.trajectory, self.sv_length, tvs, follower)
         if check.safe:
             return ""
         # the follower that would brake too hard blocks: ask it to make room

@@ -1,4 +1,4 @@
-"""How hard the TVs the SV asked to make room brake, as the SV sees them (issue 22).
+"""How hard the TVs the SV asked to make room brake, as the SV sees them.
 
 A TV asked to yield (the traffic's courtesy or cooperative V2V, cosim.traffic.cooperation)
 brakes to open a gap behind the SV. The gap policy may start its change while such a TV
@@ -20,13 +20,13 @@ from numpy.typing import NDArray
 from cosim.traffic.cooperation import COURTESY_DECEL
 
 YIELD_WINDOW = 0.25  # s, the braking is the mean over this long (a single step's speed
-# change carries SUMO's dawdling, 0-0.52 m/s^2, which a braking Krauss car adds to its
-# braking: a TV yielding at cooperative V2V's 0.5 m/s^2 reads 0.7-0.8)
+# change carries SUMO's dawdling, up to 0.52 m/s^2, which a braking Krauss car adds to
+# its braking)
+# tuned: docs/tuned_constants.md
 MIN_YIELD_DECEL = 1.0  # m/s^2, less is not counted on: a TV that yields that gently stops
 # braking once it has its openGap headway (the SV speeds up away from it), and its
 # Krauss braking at the SV's entry flips from ~0 to its decel within 1 m/s of speed
-# (counted on at 0.7-0.8 m/s^2, cooperative V2V's new followers' braking p95 went 0.53
-# -> 4.50 m/s^2 at 10, 20 and 40 veh/km/lane in the gap study)
+# tuned: docs/tuned_constants.md
 MAX_YIELD_DECEL = COURTESY_DECEL  # m/s^2, no more is counted on (what courtesy brakes at most)
 
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from cosim.driving.gap.decision import gap_decision
+from cosim.driving.gap.decision import GapRules, Seeking, gap_decision
 from cosim.driving.gap.geometry import GapConfig
 from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig
@@ -29,7 +29,7 @@ def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> TrafficView
 
 def drive(sv_x: float, sv_speed: float, tvs: TrafficView, **kw: object):
     return gap_decision(SVView(sv_x, ROAD.lane_center(1), sv_speed, L, 30.0), tvs,
-                        LaneLayout(ROAD), CFG, GAP, KRAUSS, **kw)
+                        LaneLayout(ROAD), GapRules(CFG, GAP, KRAUSS), Seeking(**kw))
 
 
 def test_free_road_keeps_the_lane() -> None:
@@ -112,14 +112,14 @@ def test_approach_by_the_driver_reaches_the_gap() -> None:
     assert abs(v - planned.vxf) <= GAP.max_speed_change
     # the paper's manoeuvre from there (4 s, to the gap's speed) asks the new follower
     # for no more than b_safe and comes no closer to the new leader than its min gap
-    from cosim.planning.interaction import check_follower
+    from cosim.planning.interaction import LaneTraffic, check_follower
     from cosim.planning.trajectory import LaneChangeTrajectory
 
     tr = LaneChangeTrajectory(t0=t, tau=4.0, x0=x, y0=ROAD.lane_center(1), vx0=v,
                               vxf=planned.vxf, width=ROAD.lane_width)
     tv_now = base + speeds * t
     in_2 = np.array([False, True, True, True])
-    check = check_follower(tr, L, tv_now, speeds, np.full(4, L), in_2, KRAUSS)
+    check = check_follower(tr, L, LaneTraffic.of(tv_now, speeds, np.full(4, L), in_2), KRAUSS)
     assert check.follower == planned.gap.follower and check.safe
     tt = t + np.arange(0.0, 7.0, 0.05)
     sv_x, _ = tr.position(tt)
@@ -161,7 +161,7 @@ def test_a_mandatory_change_asks_a_tv_that_can_still_fall_back_behind_the_sv() -
     lanes = LaneLayout(ROAD)
     asked = {}
     for name, cfg in (("choice", GAP), ("mandatory", mandatory_config(GAP))):
-        d = gap_decision(sv, tvs, lanes, CFG, cfg, KRAUSS, wanted_lane=2)
+        d = gap_decision(sv, tvs, lanes, GapRules(CFG, cfg, KRAUSS), Seeking(wanted_lane=2))
         assert d.target_lane == 2 and not d.plan_now and d.gap is None
         asked[name] = d.cooperate_with
     assert asked == {"choice": 0, "mandatory": 1}

@@ -10,12 +10,21 @@ import pytest
 
 from cosim.driving.gap.geometry import (
     GapConfig,
+    OwnLane,
+    TargetLane,
     approach_speed,
     choose_gap,
     lane_gaps,
     reach_time,
 )
-from cosim.planning.interaction import FollowerModel, accepted_gap, entry_decel, secure_gap
+from cosim.driving.view import SVView
+from cosim.planning.interaction import (
+    FollowerModel,
+    LaneTraffic,
+    accepted_gap,
+    entry_decel,
+    secure_gap,
+)
 
 CFG = GapConfig(horizon=20.0)  # gaps up to 20 s away (the default, 8 s, leaves some out)
 KRAUSS = FollowerModel()
@@ -25,8 +34,13 @@ SV_LEN = 4.32
 def lane(xs: list[float], speed: float | list[float], lane_speed: float = 30.0):
     x = np.array(xs, dtype=float)
     v = np.broadcast_to(np.asarray(speed, dtype=float), x.shape).copy()
-    return lane_gaps(SV_LEN, x, v, np.full(x.size, 4.32), np.ones(x.size, bool), lane_speed,
-                     CFG, KRAUSS)
+    tvs = LaneTraffic.of(x, v, np.full(x.size, 4.32), np.ones(x.size, bool))
+    return lane_gaps(SV_LEN, TargetLane(tvs, lane_speed), CFG, KRAUSS)
+
+
+def sv(speed: float, x: float = 0.0) -> SVView:
+    """The SV at x (m) driving `speed` (m/s), wanting 30 m/s."""
+    return SVView(x, 0.0, speed, SV_LEN, 30.0)
 
 
 def bang_bang(offset: float, u: float, a: float, dt: float = 1e-4) -> float:
@@ -81,30 +95,30 @@ def test_slots_keep_the_secure_gap_ahead_and_the_accepted_gap_behind() -> None:
 
 def test_alongside_gap_is_reachable_at_its_speed() -> None:
     g = lane([-100.0, 100.0], 25.0)
-    c = choose_gap(0.0, 25.0, SV_LEN, 30.0, g, CFG, KRAUSS)
+    c = choose_gap(sv(25.0), g, CFG, KRAUSS)
     assert c is not None
     assert (c.index, c.relation, c.offset, c.reachable) == (1, "alongside", 0.0, True)
     assert c.speed == 25.0 and c.target_speed == 25.0
     # 4 m/s faster: the change ends at 25 m/s, and at 27 m/s on entry the SV is still
     # 41 m (its secure gap) behind the leader: reachable
-    c_27 = choose_gap(0.0, 29.0, SV_LEN, 30.0, g, CFG, KRAUSS)
+    c_27 = choose_gap(sv(29.0), g, CFG, KRAUSS)
     assert c_27 is not None and c_27.index == 1 and c_27.reachable
     # more than max_speed_change faster: slow down first
-    c_fast = choose_gap(0.0, 25.0 + CFG.max_speed_change + 1.0, SV_LEN, 30.0, g, CFG, KRAUSS)
+    c_fast = choose_gap(sv(25.0 + CFG.max_speed_change + 1.0), g, CFG, KRAUSS)
     assert c_fast is not None and c_fast.index == 1 and not c_fast.reachable
     # inside the slot at the gap's speed but too close to the leader at the SV's speed
     g_near = lane([-100.0, 30.0], 25.0)
     # (held to 29 m/s in its own lane: the open lane ahead of the leader, at 30 m/s, is
     # out of reach; without that limit the gap ahead, which asks no braking, ranks first)
-    c_near = choose_gap(0.0, 29.0, SV_LEN, 30.0, g_near, CFG, KRAUSS, max_speed=29.0)
+    c_near = choose_gap(sv(29.0), g_near, CFG, KRAUSS, OwnLane(max_speed=29.0))
     assert c_near is not None and c_near.index == 1 and c_near.relation == "alongside"
     assert not c_near.reachable and c_near.target_speed < 25.0  # falls back first
 
 
 def test_blocked_alongside_faster_sv_goes_ahead_slower_goes_behind() -> None:
     g = lane([-100.0, 0.0, 100.0], 25.0)  # a TV right beside the SV
-    ahead = choose_gap(0.0, 27.0, SV_LEN, 30.0, g, CFG, KRAUSS)
-    behind = choose_gap(0.0, 23.0, SV_LEN, 30.0, g, CFG, KRAUSS)
+    ahead = choose_gap(sv(27.0), g, CFG, KRAUSS)
+    behind = choose_gap(sv(23.0), g, CFG, KRAUSS)
     assert ahead is not None and behind is not None
     assert (ahead.index, ahead.relation) == (2, "ahead")
     assert (behind.index, behind.relation) == (1, "behind")
@@ -120,9 +134,7 @@ def test_blocked_alongside_faster_sv_goes_ahead_slower_goes_behind() -> None:
 def test_own_leader_bars_gaps_beyond_it() -> None:
     g = lane([-100.0, 0.0, 100.0], 25.0)
     # the SV's own leader 20 m ahead at 20 m/s: the gap ahead (aim ~34 m) is out of reach
-    c = choose_gap(0.0, 27.0, SV_LEN, 30.0, g, CFG, KRAUSS,
-                   own_limit_x=20.0 - 0.5 * SV_LEN - 2.5,
-                   own_limit_speed=20.0)
+    c = choose_gap(sv(27.0), g, CFG, KRAUSS, OwnLane(20.0 - 0.5 * SV_LEN - 2.5, 20.0))
     assert c is not None and c.index == 1 and c.relation == "behind"
 
 
@@ -132,7 +144,7 @@ def test_short_or_closing_gaps_are_not_candidates() -> None:
     xs = list(np.arange(-400.0, 401.0, 29.32))
     g = lane(xs, 25.0)
     assert np.all(g.hi[1:-1] < g.lo[1:-1])
-    c = choose_gap(0.0, 25.0, SV_LEN, 30.0, g, CFG, KRAUSS)
+    c = choose_gap(sv(25.0), g, CFG, KRAUSS)
     assert c is None or c.index in (0, len(xs))  # only the platoon's ends remain
     assert c is None or c.reach_time <= CFG.horizon
 
@@ -162,7 +174,7 @@ def test_following_the_target_speed_reaches_the_gap() -> None:
     while t < 30.0:
         tv_x = xs + 25.0 * t
         g = lane(list(tv_x), 25.0)
-        c = choose_gap(x, v, SV_LEN, 30.0, g, CFG, KRAUSS)
+        c = choose_gap(sv(v, x), g, CFG, KRAUSS)
         assert c is not None and c.index == 2  # the choice holds while approaching
         if first is None:
             first = c.reach_time

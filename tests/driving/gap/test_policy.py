@@ -13,7 +13,7 @@ import pytest
 
 from cosim.driving.base import DrivingContext, WorldPorts
 from cosim.driving.gap.policy import STOP_GAP, GapPolicy
-from cosim.driving.manoeuvre import CHANGING, KEEPING
+from cosim.driving.manoeuvre import Mode
 from cosim.driving.view import TrafficView
 from cosim.params import RoadParams
 from cosim.planning.planner import LaneChangePlanner
@@ -76,7 +76,7 @@ def test_a_free_gap_beside_is_planned_at_once_at_the_gap_speed() -> None:
     d = Drive([-120.0, 120.0])
     d.step()
     pol = d.policy
-    assert pol.manoeuvre.mode == CHANGING
+    assert pol.manoeuvre.mode == Mode.CHANGING
     assert len(pol.manoeuvre.plans) == 1 and pol.manoeuvre.plans[0]["ok"] == 1
     assert pol.manoeuvre.plans[0]["vxf_mps"] == V  # the gap's speed, not the band rule's
 
@@ -86,17 +86,17 @@ def test_blocked_beside_it_approaches_a_gap_then_plans() -> None:
     d = Drive([-100.0, 0.0, 100.0])
     pol = d.policy
     d.step()
-    assert pol.manoeuvre.mode == KEEPING and pol.manoeuvre.plans == []
+    assert pol.manoeuvre.mode == Mode.KEEPING and pol.manoeuvre.plans == []
     # the gaps 100 m away are beyond its 8 s horizon: it paces the lane (its secure gap
     # behind the TV beside it) instead of aiming at one
     assert pol.last is not None and not pol.last.plan_now
     assert pol.last.gap is None or pol.last.gap.relation in ("ahead", "behind")
     speeds = []
-    while pol.manoeuvre.mode == KEEPING and d.t < 30.0:
+    while pol.manoeuvre.mode == Mode.KEEPING and d.t < 30.0:
         d.step()
         speeds.append(d.sv.vx)
     # it changed its speed to get there, then asked the planner once, successfully
-    assert pol.manoeuvre.mode == CHANGING and d.t < 30.0
+    assert pol.manoeuvre.mode == Mode.CHANGING and d.t < 30.0
     assert max(abs(v - V) for v in speeds) > 1.0
     assert len(pol.manoeuvre.plans) == 1 and pol.manoeuvre.plans[0]["ok"] == 1
     lc = pol.manoeuvre.active
@@ -107,7 +107,7 @@ def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
     d = Drive([-120.0, 120.0])
     pol = d.policy
     d.step()
-    assert pol.manoeuvre.mode == CHANGING
+    assert pol.manoeuvre.mode == Mode.CHANGING
     # the same request with a TV in the target lane 40 m behind, 5 m/s faster
     e = Drive([-120.0, 120.0])
     snap = snapshot(0.0, np.array([-40.0, 120.0]), 1)
@@ -117,7 +117,7 @@ def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
     state = SVPlanState(x=0.0, y=ROAD.lane_center(0), heading=0.0, vx=V, ax=0.0, vy=0.0,
                         ay=0.0, lane=0)
     assert pol.last is not None
-    plan = e.policy.manoeuvre.planner.plan(0.0, state, 1, [], 0.5, vxf=pol.last.vxf)
+    plan = e.policy.manoeuvre.calls.planner.plan(0.0, state, 1, [], 0.5, vxf=pol.last.vxf)
     assert plan.trajectory is not None  # the paper's planner (no messages) would fly it
     why = e.policy.accept(0.0, plan, 1, TrafficView.of(scene))
     assert why.startswith("follower tv0 would brake") and why.endswith(" > 1")
@@ -150,8 +150,8 @@ def test_before_its_patience_it_plans_only_entries_within_plan_decel() -> None:
     d = Drive([-75.0, -30.0, 150.0])
     cfg = d.policy.gap_cfg
     d.step()
-    assert d.policy.manoeuvre.mode == KEEPING and d.policy.manoeuvre.plans == []
-    while d.policy.manoeuvre.mode != CHANGING and d.t < 15.0:
+    assert d.policy.manoeuvre.mode == Mode.KEEPING and d.policy.manoeuvre.plans == []
+    while d.policy.manoeuvre.mode != Mode.CHANGING and d.t < 15.0:
         d.step()
         last = d.policy.last
         if last is not None and last.plan_now:
@@ -198,6 +198,6 @@ def test_a_lane_by_choice_is_sought_only_after_the_last_change_settled() -> None
                            lanes, z, np.full(3, 4.32), np.full(3, 1.8), np.zeros(3, int))
     traffic = TrafficView.of(Scene(0.0, me, snap, snap, speed))
     d, trigger = pol.seek(cooldown - 0.5, me, traffic, True, False)
-    assert d.target_lane is None and trigger == "" and asked == []
+    assert d.target_lane is None and trigger is None and asked == []
     d, _ = pol.seek(cooldown + 0.05, me, traffic, True, True)
     assert d.target_lane == 1 and asked  # then it seeks, and asks the blocking TV

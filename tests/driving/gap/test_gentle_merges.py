@@ -1,6 +1,7 @@
-"""Issue 22's gap-policy driving quality on hand-made scenes, without SUMO: the slot's
-time gap to the new leader, the reachability rule, the ranking of gaps, courtesy only
-when needed, and the car following that settles after a merge (ACC model)."""
+"""How the gap policy keeps its merges gentle, on hand-made scenes without SUMO: the
+slot's time gap to the new leader, the car following that settles after a merge (ACC
+model), the reachability rule, the ranking of gaps, courtesy asked only when needed,
+insisting only within b_safe, and the entry test."""
 
 from __future__ import annotations
 
@@ -9,19 +10,36 @@ from dataclasses import replace
 
 import numpy as np
 
-from cosim.driving.gap.decision import gap_decision, has_room
-from cosim.driving.gap.geometry import GapConfig, choose_gap, entry_test, gap_cost, lane_gaps
+from cosim.driving.gap.decision import GapRules, Seeking, gap_decision, has_room
+from cosim.driving.gap.geometry import (
+    ChangeStart,
+    GapConfig,
+    OwnLane,
+    TargetLane,
+    choose_gap,
+    entry_test,
+    gap_cost,
+    lane_gaps,
+)
 from cosim.driving.gap.policy import TIME_GAP
 from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig, idm_acceleration
 from cosim.driving.view import SVView, TrafficView
 from cosim.params import RoadParams
-from cosim.planning.interaction import FollowerModel
+from cosim.planning.interaction import FollowerModel, LaneTraffic
 
 ROAD = RoadParams()  # lanes 0 / 1 / 2 at y = 1.875 / 5.625 / 9.375
 GAP = GapConfig(horizon=20.0)  # gaps up to 20 s away (the default, 8 s, leaves some out)
 KRAUSS = FollowerModel()
 L = 4.32
+RULES = GapRules(DecisionConfig(), GAP, KRAUSS)
+START = ChangeStart(0.0, ROAD.lane_center(1), 25.0, L, 3.75)  # a change from lane 1 to 2
+
+
+def target(xs: list[float], speeds: list[float], lane_speed: float) -> TargetLane:
+    """A target lane of TVs at xs driving `speeds`, its open end at `lane_speed`."""
+    n = len(xs)
+    return TargetLane(LaneTraffic.of(xs, speeds, [L] * n, [True] * n), lane_speed)
 
 
 def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> TrafficView:
@@ -32,14 +50,13 @@ def scene(xs: list[float], lanes: list[int], speeds: list[float]) -> TrafficView
 
 def test_the_slot_leaves_at_least_the_headway_to_the_new_leader() -> None:
     for v in (15.0, 25.0, 31.8):
-        gaps = lane_gaps(L, [-200.0, 200.0], [v, v], [L, L], [True, True], v, GAP, KRAUSS)
+        gaps = lane_gaps(L, target([-200.0, 200.0], [v, v], v), GAP, KRAUSS)
         # the slot's front end: the SV's front at >= headway x v + min_gap behind the rear
         front_gap = gaps.front[1] - (gaps.hi[1] + 0.5 * L)
         assert front_gap / v >= GAP.headway - 1e-9
         assert front_gap / v < GAP.headway + 0.2  # and not much more at equal speeds
     # a faster SV needs more: what it must shed before it would close on the leader
-    fast = lane_gaps(L, [-200.0, 200.0], [25.0, 25.0], [L, L], [True, True], 25.0, GAP,
-                     KRAUSS)
+    fast = lane_gaps(L, target([-200.0, 200.0], [25.0, 25.0], 25.0), GAP, KRAUSS)
     # SUMO's own driver merges 0.5-0.7 s behind its new leader at 30-40 veh/km/lane
     assert GAP.headway >= 0.6
     assert fast.hi[1] < 200.0 - 0.5 * L - 25.0 * GAP.headway
@@ -65,28 +82,25 @@ def test_the_sv_following_from_the_slot_brakes_within_the_comfort_limit() -> Non
 def test_a_gap_ahead_moving_at_the_sv_lane_limit_or_faster_is_not_chased() -> None:
     # one gap 60 m ahead in the target lane, moving at 31.8 m/s; the SV at 28 m/s may
     # drive 30.6 m/s in its own lane
-    gaps = lane_gaps(L, [-60.0, 160.0], [31.8, 31.8], [L, L], [True, True], 31.8, GAP,
-                     KRAUSS)
-    free = choose_gap(0.0, 28.0, L, 30.6, gaps, GAP, KRAUSS)
+    gaps = lane_gaps(L, target([-60.0, 160.0], [31.8, 31.8], 31.8), GAP, KRAUSS)
+    free = choose_gap(SVView(0.0, 0.0, 28.0, L, 30.6), gaps, GAP, KRAUSS)
     assert free is not None and free.index == 1 and free.offset > 0.0  # it would chase it
-    capped = choose_gap(0.0, 28.0, L, 30.6, gaps, GAP, KRAUSS, max_speed=30.6)
+    capped = choose_gap(SVView(0.0, 0.0, 28.0, L, 30.6), gaps, GAP, KRAUSS, OwnLane(max_speed=30.6))
     # held to 30.6 m/s it does not chase it (the only other gap, behind the follower,
     # is beyond its reach of 80 m: none at all)
     assert capped is None or capped.offset <= 0.0
     # a gap ahead that is slower than the limit is reached no sooner than the speed
     # difference allows
-    slow = lane_gaps(L, [-60.0, 160.0], [29.6, 29.6], [L, L], [True, True], 29.6, GAP,
-                     KRAUSS)
-    a = choose_gap(0.0, 28.0, L, 30.6, slow, GAP, KRAUSS, max_speed=30.6)
-    b = choose_gap(0.0, 28.0, L, 30.6, slow, GAP, KRAUSS)
+    slow = lane_gaps(L, target([-60.0, 160.0], [29.6, 29.6], 29.6), GAP, KRAUSS)
+    a = choose_gap(SVView(0.0, 0.0, 28.0, L, 30.6), slow, GAP, KRAUSS, OwnLane(max_speed=30.6))
+    b = choose_gap(SVView(0.0, 0.0, 28.0, L, 30.6), slow, GAP, KRAUSS)
     assert a is not None and b is not None
     if a.index == 1:
         assert a.reach_time >= a.offset / 1.0 - 1e-6 > b.reach_time
 
 
 def test_gaps_rank_by_reach_time_and_what_they_cost() -> None:
-    gaps = lane_gaps(L, [-200.0, -100.0, 0.0, 100.0], [25.0] * 4, [L] * 4, [True] * 4,
-                     25.0, GAP, KRAUSS)
+    gaps = lane_gaps(L, target([-200.0, -100.0, 0.0, 100.0], [25.0] * 4, 25.0), GAP, KRAUSS)
     aim = np.array([-300.0, -150.0, -50.0, 50.0, 150.0])
     t = np.full(5, 4.0)
     cost = gap_cost(t, aim, 0.0, 25.0, L, gaps, GAP, KRAUSS)
@@ -103,9 +117,8 @@ def test_gaps_rank_by_reach_time_and_what_they_cost() -> None:
                               _two(gaps, 3), GAP, KRAUSS)
     assert c_close > c_far
     # with nothing to brake for, the cost is the reach time: the first gap is taken
-    alongside = lane_gaps(L, [-120.0, 120.0], [25.0, 25.0], [L, L], [True, True], 25.0, GAP,
-                          KRAUSS)
-    c = choose_gap(0.0, 25.0, L, 25.0, alongside, GAP, KRAUSS, max_speed=25.0)
+    alongside = lane_gaps(L, target([-120.0, 120.0], [25.0, 25.0], 25.0), GAP, KRAUSS)
+    c = choose_gap(SVView(0.0, 0.0, 25.0, L, 25.0), alongside, GAP, KRAUSS, OwnLane(max_speed=25.0))
     assert c is not None and c.relation == "alongside" and c.reachable
 
 
@@ -123,13 +136,13 @@ def test_courtesy_is_asked_only_of_a_follower_without_room() -> None:
     close = scene([-6.0, 200.0], [2, 2], [22.0, 22.0])
     sv = SVView(0.0, ROAD.lane_center(1), 25.0, L, 30.0)
     assert not has_room(sv, close, 0, GAP, KRAUSS)
-    d = gap_decision(sv, close, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
+    d = gap_decision(sv, close, lanes, RULES, Seeking(wanted_lane=2))
     assert d.gap is not None and d.gap.follower == 0
     assert d.cooperate_with == 0  # it blocks the slot: asked to make room
     # the same TV 80 m back has room: nobody is asked
     roomy = scene([-80.0, 200.0], [2, 2], [22.0, 22.0])
     assert has_room(sv, roomy, 0, GAP, KRAUSS)
-    d = gap_decision(sv, roomy, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
+    d = gap_decision(sv, roomy, lanes, RULES, Seeking(wanted_lane=2))
     assert d.cooperate_with == -1
     assert math.isfinite(d.vxf)
 
@@ -141,42 +154,36 @@ def test_the_sv_insists_on_an_entry_only_when_told_and_within_b_safe() -> None:
     # for an entry now (its secure gap is 27.5 m + what it closes): not within plan_decel,
     # and not even when insisting (below the follower's decel: never a brake at b at once)
     tight = scene([-30.0, 150.0], [2, 2], [25.0, 25.0])
-    d = gap_decision(sv, tight, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
+    d = gap_decision(sv, tight, lanes, RULES, Seeking(wanted_lane=2))
     assert not d.plan_now
     assert GAP.plan_decel < GAP.insist_decel < KRAUSS.decel <= KRAUSS.b_safe
-    d = gap_decision(sv, tight, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2,
-                     insist=True)
+    d = gap_decision(sv, tight, lanes, RULES, Seeking(wanted_lane=2, insist=True))
     assert not d.plan_now
     # with a limit at its decel (SUMO's LC2013 asks that much) it would go
-    bold = replace(GAP, insist_decel=KRAUSS.decel)
-    d = gap_decision(sv, tight, lanes, DecisionConfig(), bold, KRAUSS, wanted_lane=2,
-                     insist=True)
+    bold = replace(RULES, gap=replace(GAP, insist_decel=KRAUSS.decel))
+    d = gap_decision(sv, tight, lanes, bold, Seeking(wanted_lane=2, insist=True))
     assert d.plan_now and d.follower_decel == KRAUSS.decel
     # 10 m behind it would need an emergency stop: never
     closer = scene([-10.0, 150.0], [2, 2], [25.0, 25.0])
-    d = gap_decision(sv, closer, lanes, DecisionConfig(), bold, KRAUSS, wanted_lane=2,
-                     insist=True)
+    d = gap_decision(sv, closer, lanes, bold, Seeking(wanted_lane=2, insist=True))
     assert not d.plan_now
     # 60 m behind: it goes at once, within plan_decel
     roomy = scene([-60.0, 150.0], [2, 2], [25.0, 25.0])
-    d = gap_decision(sv, roomy, lanes, DecisionConfig(), GAP, KRAUSS, wanted_lane=2)
+    d = gap_decision(sv, roomy, lanes, RULES, Seeking(wanted_lane=2))
     assert d.plan_now and d.follower_decel == GAP.plan_decel
 
 
 def test_the_entry_test_anticipates_the_change_and_refuses_a_level_tv() -> None:
-    e = entry_test(0.0, ROAD.lane_center(1), 25.0, L, 3.75, [0.0, 150.0], [25.0, 25.0],
-                   [L, L], [True, True], 25.0, GAP, KRAUSS)
+    e = entry_test(START, target([0.0, 150.0], [25.0, 25.0], 25.0), GAP, KRAUSS)
     assert not e.ok and e.follower == -1  # level with the SV when it enters: refused
     # a leader now 18 m ahead, 6 m/s faster than the SV: the SV is not yet in the slot
     # behind it, but by its entry, 1.75 s on, that leader is far enough ahead: taken now
-    e = entry_test(0.0, ROAD.lane_center(1), 25.0, L, 3.75, [-150.0, 18.0], [25.0, 31.0],
-                   [L, L], [True, True], 31.0, GAP, KRAUSS.limited(GAP.plan_decel))
-    gaps = lane_gaps(L, [-150.0, 18.0], [25.0, 31.0], [L, L], [True, True], 31.0, GAP,
-                     KRAUSS)
+    polite = KRAUSS.limited(GAP.plan_decel)
+    e = entry_test(START, target([-150.0, 18.0], [25.0, 31.0], 31.0), GAP, polite)
+    gaps = lane_gaps(L, target([-150.0, 18.0], [25.0, 31.0], 31.0), GAP, KRAUSS)
     assert gaps.hi[1] < 0.0  # the slot alone would have it wait
     assert e.ok and e.leader == 1 and e.leader_gap >= e.secure
     assert e.secure >= GAP.min_gap + GAP.headway * 25.0  # never closer than the headway
     # the same leader at the SV's speed: too close, refused
-    e = entry_test(0.0, ROAD.lane_center(1), 25.0, L, 3.75, [-150.0, 18.0], [25.0, 25.0],
-                   [L, L], [True, True], 25.0, GAP, KRAUSS.limited(GAP.plan_decel))
+    e = entry_test(START, target([-150.0, 18.0], [25.0, 25.0], 25.0), GAP, polite)
     assert not e.ok and e.leader_gap < e.secure

@@ -1,0 +1,200 @@
+"""The re-check of the plan under way and what follows when it fails (beyond the paper,
+S2; `[planner] replanning`): every `recheck_interval` the rest of the plan is checked
+against fresh predictions; when it now collides, the SV
+
+1. replans to the target lane from the reference's state (continuing keeps its intent,
+   so it is tried first; out of a lane that ends, the replan ends before the end too),
+2. else aborts to the origin lane (not back into a lane whose change has been due:
+   cosim.driving.lane_end `SVLaneEnds.was_due`),
+3. else brakes, the last resort: while steering to the nearest lane centre, at the
+   gentlest of BRAKE_DECELS the re-check passes, else within BRAKE_GRIP mu g; in a lane
+   that ends, to a stop before its stop line when it can (`brake_to_stop`). A gentle
+   brake is re-checked in turn (and replaced by the gentlest that passes then); the
+   grip's is not.
+
+Each new plan starts from the reference's state, not the plant's (`reference_state`): it
+continues the reference without a jump, and the controller's errors carry over.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Protocol
+
+from cosim.driving.lane_end import STOP_DECEL, SVLaneEnds, stop_gap
+from cosim.driving.layout import LaneLayout
+from cosim.driving.plans import RESCUES, PlannerCalls, Trigger, plan_row
+from cosim.params import G
+from cosim.planning.deadline import END_MARGIN, LaneEnd
+from cosim.planning.trajectory import LaneChangeTrajectory
+
+if TYPE_CHECKING:
+    from cosim.planning.planner import SVPlanState
+
+BRAKE_GRIP = 0.7  # -, share of mu g an emergency brake (no replan, no abort) may use
+BRAKE_DECELS = (1.0, 2.0, 3.0)  # m/s^2, mean decelerations of a brake tried before the
+# grip's, the gentlest the re-check passes first: a collision predicted seconds ahead
+# rarely needs the grip's braking
+# tuned: docs/tuned_constants.md
+BRAKE_TAU = 3.0  # s, emergency brake's duration when the planner gave no tau_min
+BRAKE_TAU_MIN = 1.5  # s, shortest emergency brake (lateral move to the nearest centre)
+
+
+def reference_state(trajectory: LaneChangeTrajectory, t: float, lane: int) -> SVPlanState:
+    """The reference's state at t as a planning start (position, velocity and
+    acceleration of the reference, not of the plant: a new plan from it continues the
+    reference without a jump, and the controller's errors carry over unchanged)."""
+    from cosim.planning.planner import SVPlanState
+
+    x, y = trajectory.position(t)
+    xd, yd = trajectory.derivative(t, 1)
+    xdd, ydd = trajectory.derivative(t, 2)
+    return SVPlanState(x=float(x), y=float(y), heading=math.atan2(float(yd), float(xd)),
+                       vx=float(xd), ax=float(xdd), vy=float(yd), ay=float(ydd), lane=lane)
+
+
+class UnderWay(Protocol):
+    """The manoeuvre under way as the re-check reads it (cosim.driving.manoeuvre.LaneChange)."""
+
+    origin_lane: int
+    target_lane: int
+    trajectory: LaneChangeTrajectory
+    plan: Any
+
+
+@dataclass(frozen=True)
+class Rescue:
+    """What replaces a plan under way that the re-check found colliding."""
+
+    kind: Trigger  # REPLAN | ABORT | BRAKE
+    plan: Any  # the planner's Plan it came from
+    trajectory: LaneChangeTrajectory
+    row: dict[str, Any]  # its plans.csv row
+    gentle: bool = False  # a brake gentler than the grip's (re-checked in turn)
+
+
+class Recheck:
+    """When the plan under way is re-checked (`due`, `schedule`), what a failed re-check
+    gives (`run`: the module docstring's steps), and how often each outcome came."""
+
+    def __init__(self, calls: PlannerCalls, ends: SVLaneEnds, lanes: LaneLayout, mu: float,
+                 interval: float, enabled: bool) -> None:
+        self.calls, self.ends, self.lanes, self.mu = calls, ends, lanes, mu
+        self.interval = interval  # s, between re-checks
+        self.enabled = enabled  # [planner] replanning
+        self.next_check = math.inf  # s, the next re-check of the plan under way
+        self.outcomes = dict.fromkeys(RESCUES, 0)  # re-check outcomes
+
+    def due(self, t: float) -> bool:
+        return self.enabled and t >= self.next_check - 1e-9
+
+    def schedule(self, t: float) -> None:
+        """A plan was adopted at t: its first re-check is one interval later."""
+        self.next_check = t + self.interval
+
+    def run(self, t: float, lc: UnderWay, messages: list[Any], braking: bool
+            ) -> Rescue | None:
+        """Re-check the rest of `lc` at t; None while it is collision-free, else what
+        replaces it (`braking`: `lc` is a gentle brake already, braked anew)."""
+        self.next_check = t + self.interval
+        rejection = self.calls.check(lc.trajectory, t, messages)
+        if rejection is None:
+            return None
+        when = math.nan if rejection.time is None else rejection.time
+        reason = f"re-check: collision with {rejection.vehicle_id} at {when:.2f} s"
+        if braking:
+            rescue = self.brake(t, lc, lc.plan, messages, reason)
+        else:
+            rescue = self.replan_or_abort(t, lc, messages, reason)
+        self.outcomes[rescue.kind] += 1
+        if rescue.kind == Trigger.BRAKE:
+            self.next_check = t + self.interval if rescue.gentle else math.inf
+        return rescue
+
+    def replan_or_abort(self, t: float, lc: UnderWay, messages: list[Any], reason: str
+                        ) -> Rescue:
+        """A replan to the target lane, else an abort to the origin lane, else a brake."""
+        frm, to = lc.origin_lane, lc.target_lane
+        state = reference_state(lc.trajectory, t, frm)
+        frm_end = self.ends.ahead(frm, state.x, state.vx)
+        again = self.calls.plan(t, state, to, messages, x_limit=self.ends.x_limit(frm_end))
+        back = None
+        if again.trajectory is None and not self.ends.was_due(frm, frm_end):
+            back = self.calls.plan(t, replace(state, lane=to), frm, messages)
+        if again.trajectory is not None:
+            kind, plan = Trigger.REPLAN, again
+        elif back is not None and back.trajectory is not None:
+            kind, plan = Trigger.ABORT, back
+        else:
+            return self.brake(t, lc, back if back is not None else again, messages, reason)
+        row = plan_row(plan, kind, state.vx)
+        row.update(reason=reason)
+        return Rescue(kind, plan, plan.trajectory, row)
+
+    def brake(self, t: float, lc: UnderWay, plan: Any, messages: list[Any], reason: str
+              ) -> Rescue:
+        """The last resort: brake while steering to the nearest lane centre, from the
+        reference's state at t (eq. 2 / eq. 4 with general start values): the gentlest of
+        BRAKE_DECELS (mean decelerations) that the re-check passes, else within
+        BRAKE_GRIP mu g at the quartic's peak."""
+        st = reference_state(lc.trajectory, t, lc.origin_lane)  # lane unused here
+        lane = self.lanes.lane_of(st.y)
+        base_tau = max(plan.tau_min if math.isfinite(plan.tau_min) else BRAKE_TAU,
+                       BRAKE_TAU_MIN)
+        # the quartic from a = ax0 to a(tau) = 0 peaks at about 1.5x its mean deceleration
+        grip = BRAKE_GRIP * self.mu * G / 1.5
+        end = self.ends.ahead(lane, st.x, st.vx)
+        centre = self.lanes.centre(lane)
+        trajectory, gentle = None, False
+        for decel in (d for d in BRAKE_DECELS if d < grip):
+            tried, stops = brake_reference(t, st, centre, base_tau, decel, end)
+            if not stops:
+                continue  # a lane that ends: only a brake that still stops before its end
+            if self.calls.check(tried, t, messages) is None:
+                trajectory, gentle = tried, True
+                break
+        if trajectory is None:
+            trajectory = brake_reference(t, st, centre, base_tau, grip, end)[0]
+        row = plan_row(plan, Trigger.BRAKE, trajectory.vx0)
+        row.update(reason=reason, tau_s=trajectory.tau, ok=1,
+                   target_lane=self.lanes.lane_of(trajectory.y_final))
+        return Rescue(Trigger.BRAKE, plan, trajectory, row, gentle)
+
+
+def brake_to_stop(vx: float, ax: float, tau: float, vxf: float, decel: float,
+                  end: LaneEnd) -> tuple[float, float, bool]:
+    """(tau, vxf) of a brake in a lane that ends, and whether the SV then stops with its
+    front at the stop line before the end (`lane_end.stop_gap`; braking on at STOP_DECEL
+    after it): the brake's own (tau, vxf) when it does, else a brake to a standstill
+    that ends at the stop line if `decel` allows, at most at `decel` (then as far as it
+    must, and past the line). A quartic from ax0 with a(tau) = 0 travels
+    (vx0 + vxf) tau / 2 + ax0 tau^2 / 12."""
+    room = stop_gap(end)  # m, front to the stop line
+
+    def stops(tau: float, vxf: float) -> bool:
+        travel = 0.5 * (vx + vxf) * tau + ax * tau * tau / 12.0
+        return travel + vxf * vxf / (2.0 * STOP_DECEL) <= room + 1e-6
+
+    if stops(tau, vxf):
+        return tau, vxf, True
+    tau_grip = max(vx / decel, BRAKE_TAU_MIN)  # shortest brake to rest within `decel`
+    # (the quartic's ax0 term is small next to vx0: the stop is found from vx0 alone)
+    # the gentlest stop at the stop line, within 2 BRAKE_TAU (an earlier stop leaves
+    # the car following to close up to it)
+    tau_stop = 2.0 * max(room, END_MARGIN) / vx
+    tau = max(tau_grip, min(tau_stop, 2.0 * BRAKE_TAU))
+    return tau, 0.0, stops(tau, 0.0)
+
+
+def brake_reference(t: float, st: SVPlanState, centre: float, tau: float, decel: float,
+                    end: LaneEnd | None) -> tuple[LaneChangeTrajectory, bool]:
+    """A brake from the reference state `st` at t to the lane centre `centre` (m) over
+    tau at mean deceleration `decel` (m/s^2), and whether it stops before the end of a
+    lane that ends (`end`; as `brake_to_stop` has it; True without one)."""
+    vxf, stops = max(st.vx - decel * tau, 0.0), True
+    if end is not None and st.vx > 0.0:
+        tau, vxf, stops = brake_to_stop(st.vx, st.ax, tau, vxf, decel, end)
+    return LaneChangeTrajectory(t0=t, tau=tau, x0=st.x, y0=st.y, vx0=st.vx, vxf=vxf,
+                                width=centre - st.y, ax0=st.ax, vy0=st.vy,
+                                ay0=st.ay), stops
