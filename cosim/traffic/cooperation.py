@@ -145,8 +145,7 @@ class CooperationChannel:
 
     cfg: CooperationConfig
     rng: np.random.Generator
-    sent: int = 0
-    honoured: int = 0
+    honoured: int = 0  # requests honoured and delivered
     _queue: list[_Request] = field(default_factory=list)
     _asked: set[str] = field(default_factory=set)
     _yielding: set[str] = field(default_factory=set)
@@ -160,7 +159,6 @@ class CooperationChannel:
         self._asked.add(tv_id)
         honoured = bool(self.rng.random() < self.cfg.compliance)
         self._queue.append(_Request(t + self.cfg.latency, tv_id, honoured))
-        self.sent += 1
         return True
 
     def deliver(self, t: float, api: ModuleType, sv_id: str,
@@ -202,7 +200,3 @@ class CooperationChannel:
         for tv_id in sorted(done):  # sorted: the same order every run
             api.vehicle.deactivateGapControl(tv_id)
         self._yielding -= done
-
-    def forget(self, tv_id: str) -> None:
-        """Allow a new request to `tv_id` (after the lane change it was for)."""
-        self._asked.discard(tv_id)

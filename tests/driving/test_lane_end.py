@@ -1,4 +1,4 @@
-"""The SV on a lane that ends (cosim.driving.lane_end, issue 24) on hand-made scenes,
+"""The SV on a lane that ends (cosim.driving.lane_end) on hand-made scenes,
 without SUMO: an acceleration lane at d < 0 (lane 0, y_right = -lane width) ending at
 END beside a three-lane mainline; the real planner and policies ("paper", "gap"); the
 mainline's TVs at constant speed in lane 1 (given both as the scene and as V2V
@@ -261,9 +261,8 @@ def test_a_mandatory_change_asks_no_more_than_the_urgency_law_however_long_it_se
     # the scene above just after the change became due: the entry would ask the TV 50 m
     # behind for more than the urgency law allows yet; seeking longer than
     # GapConfig.patience does not make it insist (a change by choice would ask for
-    # insist_decel then): its follower's limit grows only as the end nears (issue 24: an
-    # insisted merge made its new follower brake at its full 4.5 m/s^2 in 8 of 20 runs
-    # at 50 veh/km/lane, SUMO's driver in 1)
+    # insist_decel then): its follower's limit grows only as the end nears (an insisted
+    # merge would make its new follower brake at its full 4.5 m/s^2)
     from cosim.driving.gap.geometry import GapConfig
 
     road = replace(RAMP, lane_ends=(430.0,))
@@ -282,8 +281,7 @@ def test_an_urgent_entry_that_asks_its_follower_nothing_is_not_held_to_the_insis
     # lane 1 holds a TV 54 m behind and one 62 m ahead, both at 24.4 m/s. An entry now
     # asks the one behind for nothing; the check an insisting entry also passes (the TVs
     # behind 1 m/s faster) would flip its predicted braking to 4.5 m/s^2. Not insisting,
-    # it goes (it was refused, and the SV stopped at its stop line on a near-empty
-    # mainline: 20 veh/km/lane, seed 19, issue 24)
+    # it goes (refused, the SV would stop at its stop line on a near-empty mainline)
     road = replace(RAMP, lane_ends=(194.5,))
     d = Drive("gap", scenario(19.44, road=road), 20.0,
               Stream(np.array([20.0 - 54.0, 20.0 + 62.0]), 24.4), road=road)
@@ -342,8 +340,8 @@ def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap
 @pytest.mark.parametrize("name", ["paper", "gap"])
 def test_a_standstill_read_a_hair_below_zero_still_merges(name: str) -> None:
     # the two-track plant standing at the stop line reads vx = -1e-12 m/s: a standstill.
-    # A speed test on the merge (vx >= 0) kept such an SV from ever merging while the
-    # queue it had asked to make room stood beside it (issue 24); lane 1 is free here
+    # A speed test on the merge (vx >= 0) would keep such an SV from ever merging while
+    # the queue it had asked to make room stood beside it; lane 1 is free here
     d = Drive(name, scenario(0.0), END - WAIT_ROOM - HALF)
     m = d.policy.manoeuvre
     assert m.ends.due(0, replace(d.sv, vx=20.0)) is not None  # due since it came at speed

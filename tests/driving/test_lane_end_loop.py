@@ -1,6 +1,6 @@
 """The SV on a lane that ends through the whole loop (real SUMO, plant, controller):
 the straight test road with `RoadParams.lane_ends` set for lane 0 at END (SUMO's lane
-runs on: the SV alone believes it ends; issue 24's ramp networks are the road side's).
+runs on: the SV alone believes it ends; the ramp networks are the road side's tests).
 All the driving side needs is that field: the mandatory change at speed into a free
 lane, and with a queue braking to a standstill beside it the stop before the end, the
 wait and the merge from a standstill, tracked by the plant."""

@@ -91,8 +91,8 @@ def test_a_yielding_tv_brakes_gently_once_the_sv_changes_lanes() -> None:
 def test_the_courtesy_makes_room_before_the_change_and_then_only_holds_its_speed() -> None:
     """The traffic's courtesy (COURTESY): up to a comfortable 2 m/s^2 while the SV waits;
     once its change is under way the TV neither brakes for the rest of its 2 s gap
-    (0.1 m/s^2 there was the new follower's 0.6 m/s^2 in every run, issue 22) nor
-    speeds up toward the SV."""
+    (which, with SUMO's dawdling on top, the new follower would feel through the whole
+    change) nor speeds up toward the SV."""
     t, gap, v, honoured = run_side_by_side(COURTESY, seconds=8.0, changing_at=4.0)
     assert honoured == 1
     assert COURTESY.max_decel == COURTESY_DECEL == 2.0
@@ -235,8 +235,7 @@ def run_beside_standing_sv(rule: str, seconds: float = 14.0) -> tuple[float, flo
 def test_a_yielding_tv_level_with_a_standing_sv_is_released() -> None:
     """A TV asked to yield that cannot stop behind the standing SV stops level with it
     (openGap: the SV is its leader) and stays there for good, and the SV beside it never
-    finds an entry (a merge at 50 veh/km/lane, issue 24); released once it stands there,
-    it drives on."""
+    finds an entry; released once it stands there, it drives on."""
     v, dx = run_beside_standing_sv("level")
     assert v > 6.5 and dx > 30.0
     v, dx = run_beside_standing_sv("centre")

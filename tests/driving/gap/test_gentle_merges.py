@@ -57,7 +57,7 @@ def test_the_slot_leaves_at_least_the_headway_to_the_new_leader() -> None:
         assert front_gap / v < GAP.headway + 0.2  # and not much more at equal speeds
     # a faster SV needs more: what it must shed before it would close on the leader
     fast = lane_gaps(L, target([-200.0, 200.0], [25.0, 25.0], 25.0), GAP, KRAUSS)
-    # SUMO's own driver merges 0.5-0.7 s behind its new leader at 30-40 veh/km/lane
+    # not much shorter than what SUMO's own driver leaves (docs/tuned_constants.md)
     assert GAP.headway >= 0.6
     assert fast.hi[1] < 200.0 - 0.5 * L - 25.0 * GAP.headway
 

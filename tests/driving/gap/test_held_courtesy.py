@@ -1,4 +1,4 @@
-"""A scripted change that counts on the courtesy held (issue 22), through real SUMO:
+"""A scripted change that counts on the courtesy held, through real SUMO:
 the TV asked to make room goes on braking until the SV is in its lane, and the SV
 goes before it has all its room (cosim.driving.gap.yielding, GapDecision.held)."""
 

@@ -167,7 +167,7 @@ def test_before_its_patience_it_plans_only_entries_within_plan_decel() -> None:
 def test_a_refused_plan_is_asked_for_again_soon() -> None:
     # the entry test's nominal manoeuvre and the planned one differ a little: a plan
     # refused although the entry test passed is asked for again after RETRY, not after
-    # the paper's rule's 1 s (each refusal cost 1 s from request to lane, issue 22)
+    # the paper's rule's 1 s (each refusal would cost 1 s from request to lane)
     from cosim.driving.gap.policy import RETRY
     from cosim.driving.rule import DecisionConfig
 
@@ -179,8 +179,8 @@ def test_a_refused_plan_is_asked_for_again_soon() -> None:
 def test_a_lane_by_choice_is_sought_only_after_the_last_change_settled() -> None:
     # the decision rule wants the faster lane 1 (a slow leader ahead in lane 0) where a TV
     # beside it blocks; a change has just ended: within its cooldown the
-    # SV neither seeks a gap (no approach braking) nor asks the TV to make room (issue 24:
-    # the next change's courtesy within 3 s of a merge made the merge's follower brake)
+    # SV neither seeks a gap (no approach braking) nor asks the TV to make room (the next
+    # change's courtesy just after a merge would make the merge's follower brake)
     asked: list[tuple[float, str]] = []
     sv = replace(BASE.sv, decision=True, lane=0, speed=V, desired_speed=V, lane_changes=())
     sc = replace(BASE, sv=sv, tvs=(), road=ROAD)
