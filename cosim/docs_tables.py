@@ -67,8 +67,8 @@ def _intervals(intervals: list[tuple[float, float]]) -> str:
 
 def planning_table(tests: tuple[tuple[str, str], ...] = (("exact", "ours"), (
         "col", "ours, paper's CoL test"))) -> str:
-    """README: the tau sets of the three paper cases (`cosim plan`), both collision
-    tests; docs/run_results.md: the exact test's (the co-simulation's first plan)."""
+    """docs/results.md: the tau sets of the three paper cases (`cosim plan`), both
+    collision tests; docs/run_results.md: the exact test's (the co-simulation's first plan)."""
     from cosim.planning.planner import LaneChangePlanner
     from cosim.planning.situation import situation
 
@@ -90,7 +90,8 @@ def planning_table(tests: tuple[tuple[str, str], ...] = (("exact", "ours"), (
 
 
 def table2() -> str:
-    """README: Table 2's IAE, case 5.1 with the paper's tau (`cosim track --source paper`)."""
+    """docs/results.md: Table 2's IAE, case 5.1 with the paper's tau
+    (`cosim track --source paper`)."""
     from cosim.commands.track import CASES, HEADERS, case_reference
     from cosim.control.closed_loop import YAW_MOMENT_SHARE
     from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, run_tracking
@@ -192,7 +193,7 @@ def run_outcomes_table() -> str:
 
 
 def paper_runs_table() -> str:
-    """README: the paper's cases in SUMO, MIMO / SISO / SUMO-native (`cosim run`)."""
+    """docs/results.md: the paper's cases in SUMO, MIMO / SISO / SUMO-native (`cosim run`)."""
     lines = [_row(["case", "driver", "tau (s)", "collisions ours / SUMO",
                    "lane-change time (s)", "min gap (m)", "min TTC (s)",
                    "max \\|ay\\| (m/s^2)", "IAE ye (m s)", "IAE phi_e (deg s)"]),
@@ -256,8 +257,10 @@ TABLES: dict[str, Table] = {
     "traffic": Table(traffic_table, False, "cosim run scenarios/traffic_*.toml --seed N "
                      "[--controller sumo]"),
 }
-DOCS = ("README.md", "docs/run_results.md", "docs/planning_results.md",
-        "docs/control_results.md", "docs/batch_results.md", "docs/replanning_results.md")
+# The pages that hold marked tables or quote their figures (README quotes docs/results.md's).
+DOCS = ("README.md", "docs/results.md", "docs/run_results.md", "docs/planning_results.md",
+        "docs/control_results.md", "docs/batch_results.md", "docs/replanning_results.md",
+        "docs/roads.md", "docs/gap_policy.md", "docs/merge_study.md")
 BLOCK = re.compile(r"<!-- cosim docs: (?P<name>[a-z0-9_]+) \(commit (?P<commit>[^)]*)\) -->\n"
                    r"(?P<body>.*?)\n<!-- end cosim docs: (?P=name) -->", re.S)
 

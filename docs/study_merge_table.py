@@ -1,5 +1,5 @@
-"""The per-density table and figure of the merge study (README "The merge
-study", docs/merge_study.md) from a batch folder of scenarios/study_merge.toml:
+"""The per-density table and figure of the merge study (docs/merge_study.md, docs/roads.md
+"The merge study") from a batch folder of scenarios/study_merge.toml:
 
     python docs/study_merge_table.py /tmp/study_merge [> table.md]
     python docs/study_merge_table.py /tmp/study_merge --figure docs/merge_density.png

@@ -100,7 +100,8 @@ def test_quick_command_runs_as_written(command: str, tmp_path: Path) -> None:
 
 
 def test_quick_tables_match_the_code() -> None:
-    """The README tables `cosim docs --quick` makes (tau sets, Table 2) are the code's."""
+    """The tables `cosim docs --quick` makes (tau sets, Table 2, the paper's cases tracked)
+    are the code's."""
     from cosim.docs_tables import TABLES, regenerate
 
     quick = [name for name, table in TABLES.items() if table.quick]

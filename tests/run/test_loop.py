@@ -286,7 +286,7 @@ def test_cli_bad_scenario_exits_2_and_writes_nothing(tmp_path: Path) -> None:
 def test_docs_describe_every_output_column() -> None:
     from cosim.run.recorder import TIMING_DOCS
 
-    text = (project_root() / "README.md").read_text(encoding="utf-8")
+    text = (project_root() / "docs" / "outputs.md").read_text(encoding="utf-8")
     for columns in (TRACE_COLUMNS, PLAN_COLUMNS, METRIC_DOCS, TIMING_DOCS):
         for name in columns:
             assert f"| `{name}` |" in text, name
