@@ -24,7 +24,16 @@ what only SUMO knows (attribute values, a negative length, ...).
 From a `.sumocfg` (`read_sumocfg`) only the input files are read: `net-file`,
 `route-files`, `additional-files`, relative to the `.sumocfg` as SUMO resolves them; every
 other option in it is ignored (README "Running cosim in your own SUMO scenario" says why).
-From additional files SUMO gets a copy of their demand only (`demand_only`).
+
+Every file is read through one reader (`sumo_file_bytes`), gzipped or not, as SUMO reads
+it. SUMO never reads the user's route and additional files themselves: it gets copies in
+the run's temporary folder (`sumo_file_options`, for the run and the dry load alike),
+each holding the file's demand only (`copy_for_sumo`): detectors, edge data and every
+other element that would write a file of its own are left out, and the output files of
+the devices a vType or vehicle asks for (`device.ssm.file`, `device.toc.file`, SSM's
+default `ssm_<id>.xml`) go into that temporary folder, deleted with it. A file that
+includes another (`<include href>`) is refused: the copy would leave the included file
+out.
 """
 
 from __future__ import annotations
@@ -41,6 +50,7 @@ from cosim.errors import InputError
 from cosim.validation import not_a_file
 
 MAX_DEMAND_BYTES = 64 * 2**20  # a route file of a motorway study is kB to a few MB
+GZIP_MAGIC = b"\x1f\x8b"  # the first bytes of a gzip file
 ROOTS = ("routes", "additional")  # what SUMO reads as route or additional files
 VEHICLE_TAGS = ("vehicle", "trip", "flow")  # what enters the road as a car-like vehicle
 PERSON_TAGS = ("person", "personFlow", "container", "containerFlow")
@@ -89,17 +99,31 @@ def _file_problem(path: Path) -> str | None:
     return None
 
 
+def sumo_file_bytes(path: Path, limit: int = MAX_DEMAND_BYTES) -> bytes:
+    """The XML of a file SUMO reads, unpacked if it is gzipped: SUMO tells gzip by the
+    file's first bytes, whatever its name (a name ending .gz must be gzip all the same).
+    At most `limit` bytes once unpacked; OSError, EOFError or ValueError otherwise."""
+    with open(path, "rb") as fh:
+        packed = fh.read(len(GZIP_MAGIC)) == GZIP_MAGIC
+    if packed or path.suffix == ".gz":
+        with gzip.open(path, "rb") as stream:
+            data = stream.read(limit + 1)
+    else:
+        with open(path, "rb") as fh:
+            data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise ValueError(f"more than {limit // 2**20} MiB of XML")
+    return data
+
+
 def _parse(source: str, key: str, written: str, path: Path, what: str) -> ET.Element:
     """The XML root of a file the scenario names, or InputError (one line)."""
     problem = _file_problem(path)
     if problem is not None:
         raise InputError(source, key, written, f"an existing {what} ({problem})")
     try:
-        if path.suffix == ".gz":  # SUMO reads gzipped XML as it is (e.g. .rou.xml.gz)
-            with gzip.open(path, "rb") as stream:
-                return ET.parse(stream).getroot()
-        return ET.parse(path).getroot()
-    except (ET.ParseError, OSError, EOFError) as exc:
+        return ET.fromstring(sumo_file_bytes(path))
+    except (ET.ParseError, OSError, EOFError, ValueError) as exc:
         raise InputError(source, key, written,
                          f"a {what} in XML ({path.name}: {exc})") from None
 
@@ -186,6 +210,11 @@ def _read_file(source: str, key: str, written: str, name: str, root: ET.Element,
     for element, parent in _walk(root, None):
         tag, attrib = element.tag, element.attrib
         ident = attrib.get("id", "")
+        if tag == "include":
+            raise InputError(source, key, f"{name}: <include href={attrib.get('href', '')!r}>",
+                             "a file without <include> (SUMO gets a copy of each file, "
+                             "which would leave the included one out): list that file "
+                             "in traffic.routes instead")
         if tag in ("vType", "vTypeDistribution"):
             if ident == COSIM_COPIES:
                 raise clash(tag, ident, "no redefinition of DEFAULT_VEHTYPE (cosim's own "
@@ -228,20 +257,60 @@ def _read_file(source: str, key: str, written: str, name: str, root: ET.Element,
 
 DEMAND_TAGS = ("vType", "vTypeDistribution", "route", "routeDistribution", *VEHICLE_TAGS,
                *PERSON_TAGS)
+INTERVAL = "interval"  # a route file's <interval begin end> around flows: kept, its demand
+# the <param> keys by which a vType or vehicle names a device's output file (SUMO's
+# device.ssm.file, device.toc.file; any device's *.file or *.output)
+DEVICE_OUTPUT = re.compile(r"device\.[^.]+\.(.+\.)?(file|output)")
+# SSM's output for an equipped vehicle without a file of its own: `ssm_<id>.xml` in the
+# working directory unless this option names one
+SSM_DEFAULT_OPTION = "--device.ssm.file"
+READ_RELATIVE = ("imgFile", "osgFile")  # files a vType reads, relative to its file
 
 
-def demand_only(path: Path, out_dir: Path) -> Path:
-    """A copy of an additional file in `out_dir` holding only its demand (DEMAND_TAGS:
-    vTypes, routes, vehicles, flows, ...): what cosim takes from a .sumocfg's
-    additional-files. Detectors and other outputs would write files of their own (shared
-    by a batch's workers), and TLS programs, rerouters or speed signs are the network's
-    business, not the demand's: they are left out (README)."""
-    root = ET.parse(path).getroot()
-    kept = ET.Element("additional")
-    kept.extend(child for child in root if child.tag in DEMAND_TAGS)
-    out = out_dir / f"demand_{len(list(out_dir.iterdir()))}_{path.name}"
+def copy_for_sumo(path: Path, out_dir: Path) -> Path:
+    """A copy of a user's route or additional file in `out_dir` (the run's temporary
+    folder) holding only its demand: the root's DEMAND_TAGS children (and <interval>s of
+    them), so detectors, edge or lane data, calibrators, rerouters, speed signs and TLS
+    programs are left out (they write files of their own, shared by a batch's workers
+    and outside the output folder, or are the network's business, not the demand's).
+    Device output files named in it (DEVICE_OUTPUT params) are redirected into `out_dir`,
+    and the files a vType reads (READ_RELATIVE) keep pointing at the user's folder."""
+    root = ET.fromstring(sumo_file_bytes(path))
+    kept = ET.Element(root.tag, dict(root.attrib))
+    for child in root:
+        if child.tag in DEMAND_TAGS:
+            kept.append(child)
+        elif child.tag == INTERVAL:
+            interval = ET.SubElement(kept, INTERVAL, dict(child.attrib))
+            interval.extend(c for c in child if c.tag in DEMAND_TAGS)
+    index = len(list(out_dir.iterdir()))
+    for element in kept.iter():
+        if element.tag == "param" and DEVICE_OUTPUT.fullmatch(element.get("key", "")):
+            element.set("value", str(out_dir / f"device_{index}_{element.get('key')}.xml"))
+        for attr in READ_RELATIVE:
+            if element.get(attr) and not Path(element.get(attr, "")).is_absolute():
+                element.set(attr, str((path.parent / element.get(attr, "")).resolve()))
+    name = path.name.removesuffix(".gz")
+    out = out_dir / f"sumo_{index}_{name}"
     ET.ElementTree(kept).write(out, encoding="utf-8", xml_declaration=True)
     return out
+
+
+def sumo_file_options(route_files: Sequence[Path], additional_files: Sequence[Path],
+                      out_dir: Path) -> list[tuple[str, str]]:
+    """The SUMO options that give it the user's files: copies of them in `out_dir`
+    (`copy_for_sumo`), and SSM's default output file there too. The one way the
+    user's route and additional files reach SUMO (the run and the dry load)."""
+    options = []
+    if route_files:
+        options.append(("--route-files", ",".join(
+            str(copy_for_sumo(p, out_dir)) for p in route_files)))
+    if additional_files:
+        options.append(("--additional-files", ",".join(
+            str(copy_for_sumo(p, out_dir)) for p in additional_files)))
+    if options:
+        options.append((SSM_DEFAULT_OPTION, str(out_dir / "device_ssm.xml")))
+    return options
 
 
 def dry_load(source: str, key: str, value: object, network: Path,
@@ -282,11 +351,8 @@ def _dry_load(stamp: tuple[tuple[str, int, int], ...], n_routes: int) -> str:
         cmd = [binary, "-n", str(network), "--route-steps", "0", "--begin", "0", "--end", "0",
                "--no-step-log", "true", "--no-warnings", "true",
                "--duration-log.disable", "true"]
-        if routes:
-            cmd += ["--route-files", ",".join(map(str, routes))]
-        if additional:
-            cmd += ["--additional-files",
-                    ",".join(str(demand_only(p, Path(tmp))) for p in additional)]
+        for option, files in sumo_file_options(routes, additional, Path(tmp)):
+            cmd += [option, files]
         try:
             done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp)
         except (OSError, subprocess.SubprocessError) as exc:

@@ -23,7 +23,7 @@ from types import ModuleType
 from cosim.errors import SimulationError
 from cosim.traffic import gui as gui_window
 from cosim.traffic.gui import GuiSettings
-from cosim.traffic.own_demand import demand_only
+from cosim.traffic.own_demand import sumo_file_options
 
 _active: SumoProcess | None = None  # the one running simulation of this process
 
@@ -88,12 +88,10 @@ class SumoProcess:
         ]
         if self.fcd_output is not None:
             options.append(("--fcd-output", str(self.fcd_output)))
-        if self.route_files:
-            options.append(("--route-files", ",".join(map(str, self.route_files))))
-        if self.additional_files:  # their demand only (own_demand.demand_only)
-            tmp = Path(self._tmp.name)
-            options.append(("--additional-files", ",".join(
-                str(demand_only(p, tmp)) for p in self.additional_files)))
+        # copies of their files holding their demand only, device outputs redirected
+        # into the temporary folder (own_demand.sumo_file_options)
+        options += sumo_file_options(self.route_files, self.additional_files,
+                                     Path(self._tmp.name))
         if self.sublane:
             options.append(("--lateral-resolution", repr(self.lateral_resolution)))
         elif self.lanechange_duration > 0:

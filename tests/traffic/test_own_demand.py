@@ -15,7 +15,7 @@ import pytest
 from cosim.errors import InputError
 from cosim.run.loop import run_scenario
 from cosim.scenario import load_scenario, project_root, scenario_to_dict, with_overrides
-from cosim.traffic.own_demand import demand_only, read_sumocfg
+from cosim.traffic.own_demand import copy_for_sumo, read_sumocfg
 
 ROOT = project_root()
 ROUTES = ROOT / "scenarios" / "own_demand_routes.toml"
@@ -146,7 +146,7 @@ def test_a_sumocfg_gives_its_input_files_only(tmp_path: Path) -> None:
     assert found.additional_files == (tmp_path / "sub" / "types.add.xml",)
     out = tmp_path / "out"
     out.mkdir()
-    copy = ET.parse(demand_only(found.additional_files[0], out)).getroot()
+    copy = ET.parse(copy_for_sumo(found.additional_files[0], out)).getroot()
     assert [e.tag for e in copy] == ["vType"]
 
     doc = scenario_to_dict(load_scenario(ROUTES))
