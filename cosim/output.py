@@ -32,6 +32,11 @@ if TYPE_CHECKING:  # pandas is imported lazily: only CSV writers need it
 
 TEMP_MARK = ".tmp-"  # part of every temporary file's name
 OLD_MARK = ".old-"  # part of the name of a replaced run folder, until it is deleted
+# after TEMP_MARK / OLD_MARK in every name cosim makes: what it finds left over is removed
+# only under such a name (with mkstemp's 8 random characters), never a user's own
+# `.x.tmp-mine`
+OWN_MARK = "cosim-"
+_RANDOM = "[a-z0-9_]{8}"  # the random part tempfile puts in a name
 # A name that becomes one folder under results/ (scenario, study, --name): no "", ".",
 # "..", no separator; it starts with a letter, digit or underscore.
 NAME_PATTERN = r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,79}"
@@ -82,7 +87,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         final.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp_name = tempfile.mkstemp(
-            prefix=f".{final.stem}{TEMP_MARK}", suffix=final.suffix, dir=final.parent
+            prefix=f".{final.stem}{TEMP_MARK}{OWN_MARK}", suffix=final.suffix, dir=final.parent
         )
         os.close(fd)
     except OSError as exc:
@@ -259,17 +264,27 @@ def new_run_dir(base: str | Path, name: str) -> Path:
 
 
 def _stage_names(final: Path) -> tuple[str, str]:
-    return f".{final.name}{TEMP_MARK}", f".{final.name}{OLD_MARK}"
+    """The name prefixes of `final`'s staging folders: `.NAME.tmp-cosim-` (being built),
+    `.NAME.old-cosim-` (the replaced folder, until it is deleted); the owner's process id
+    and tempfile's random part follow."""
+    return f".{final.name}{TEMP_MARK}{OWN_MARK}", f".{final.name}{OLD_MARK}{OWN_MARK}"
 
 
-def _owner_alive(name: str, prefix: str) -> bool:
-    """Whether the process that made the staging folder `name` (`<prefix><pid>-...`)
-    still runs: a run into the same folder must not delete another live run's stage."""
-    pid_text = name[len(prefix):].split("-", 1)[0]
-    if not pid_text.isdigit():
-        return False
+def _stale_owner(path: Path, prefix: str) -> int | None:
+    """The process id in the name of a staging folder `staged_dir` made
+    (`<prefix><pid>-<random>`), None for anything else: a name of another form, a file,
+    a symbolic link. Only such folders are ever removed or put back."""
+    found = re.fullmatch(re.escape(prefix) + rf"(\d+)-{_RANDOM}", path.name)
+    if found is None or path.is_symlink() or not path.is_dir():
+        return None
+    return int(found.group(1))
+
+
+def _owner_alive(pid: int) -> bool:
+    """Whether the process that made a staging folder still runs: a run into the same
+    folder must not delete another live run's stage."""
     try:
-        os.kill(int(pid_text), 0)
+        os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:  # someone else's process: alive
@@ -279,18 +294,20 @@ def _owner_alive(name: str, prefix: str) -> bool:
 
 def recover_stale(final: str | Path) -> None:
     """Clean what a killed `staged_dir` left beside `final`: half-built folders are deleted;
-    a replaced folder whose swap was cut short is put back (or deleted once it is swapped)."""
+    a replaced folder whose swap was cut short is put back (or deleted once it is swapped).
+    Only folders under the names `staged_dir` makes (`_stale_owner`) whose owner is gone:
+    a user's own `.NAME.tmp-*` or `.NAME.old-*` is left alone."""
     final = Path(final)
     parent = final.parent
     if not parent.is_dir():
         return
     temp, old = _stage_names(final)
     for p in sorted(parent.iterdir()):
-        if p.name.startswith(temp):
-            if not _owner_alive(p.name, temp):
-                shutil.rmtree(p, ignore_errors=True)
-        elif p.name.startswith(old) and not _owner_alive(p.name, old):
-            if final.exists():
+        for prefix in (temp, old):
+            owner = _stale_owner(p, prefix)
+            if owner is None or _owner_alive(owner):
+                continue
+            if prefix == temp or final.exists():
                 shutil.rmtree(p, ignore_errors=True)
             else:
                 os.replace(p, final)
@@ -356,8 +373,11 @@ def staged_dir(path: str | Path) -> Iterator[Path]:
 
 
 def stale_temp_files(directory: str | Path) -> list[Path]:
-    """Temporary files left by interrupted writers in `directory` (safe to delete)."""
+    """Temporary files left by interrupted writers in `directory` (safe to delete): files
+    under the names `atomic_path` makes (`.STEM.tmp-cosim-<random><suffix>`), no link."""
     d = Path(directory)
     if not d.is_dir():
         return []
-    return sorted(p for p in d.iterdir() if p.name.startswith(".") and TEMP_MARK in p.name)
+    own = re.compile(rf"\..*{re.escape(TEMP_MARK + OWN_MARK)}{_RANDOM}(\.\w+)?")
+    return sorted(p for p in d.iterdir()
+                  if own.fullmatch(p.name) and p.is_file() and not p.is_symlink())

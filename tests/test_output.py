@@ -191,13 +191,21 @@ def test_staged_dir_interrupted_keeps_exactly_the_old_folder(
     assert [p.name for p in tmp_path.iterdir()] == ["run"]
 
 
+def _dead_pid() -> int:
+    """The process id of a process that has ended."""
+    return int(subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                              capture_output=True, text=True, check=True).stdout)
+
+
 def test_a_killed_swap_is_recovered_by_the_next_run(tmp_path: Path) -> None:
-    """What SIGKILL can leave: a half-built folder, or the old folder renamed aside."""
+    """What SIGKILL can leave: a half-built folder, or the old folder renamed aside (under
+    the names staged_dir makes, its owner's process id in them)."""
     out = tmp_path / "run"
-    (tmp_path / ".run.tmp-abc").mkdir()
-    (tmp_path / ".run.tmp-abc" / "trace.csv").write_text("half")
-    (tmp_path / ".run.old-def").mkdir()
-    (tmp_path / ".run.old-def" / "metrics.csv").write_text("old\n")
+    dead = _dead_pid()
+    (tmp_path / f".run.tmp-cosim-{dead}-abcd_123").mkdir()
+    (tmp_path / f".run.tmp-cosim-{dead}-abcd_123" / "trace.csv").write_text("half")
+    (tmp_path / f".run.old-cosim-{dead}-efgh_456").mkdir()
+    (tmp_path / f".run.old-cosim-{dead}-efgh_456" / "metrics.csv").write_text("old\n")
     recover_stale(out)
     assert _tree(out) == {"metrics.csv": b"old\n"}
     assert [p.name for p in tmp_path.iterdir()] == ["run"]
@@ -207,11 +215,9 @@ def test_a_live_runs_stage_is_left_alone(tmp_path: Path) -> None:
     """Two runs into one folder: the second must not delete the first's stage (its
     owner, this process, still runs), only a dead owner's."""
     out = tmp_path / "run"
-    live = tmp_path / f".run.tmp-{os.getpid()}-abc"
+    live = tmp_path / f".run.tmp-cosim-{os.getpid()}-abcdefgh"
     live.mkdir()
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True, check=True).stdout.strip()
-    (tmp_path / f".run.tmp-{dead}-def").mkdir()
+    (tmp_path / f".run.tmp-cosim-{_dead_pid()}-abcdefgh").mkdir()
     with staged_dir(out) as tmp:
         (tmp / "metrics.csv").write_text("new\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["run", live.name])

@@ -4,7 +4,8 @@ finishes), `runs.csv` assembled from the records, and `DIR/study.json`: the grid
 base it was run with (`base_fingerprint`).
 
 Resume and restart: runs whose record exists are skipped (a failed one is run again
-with `retry_failed`); a folder whose runs were made from another base is refused
+with `retry_failed`); a folder whose runs were made from another base (another scenario,
+or other contents of the network, .sumocfg, route or additional files) is refused
 (`check_same_base`) unless `restart`, which removes what the study wrote
 (`clear_study`) and runs everything. runs.csv depends only on the records, and the
 records only on the parameters, except the wall-time columns (`wall_time_s` and the
@@ -12,7 +13,9 @@ run's own `wall_*` and `cpu_*` columns), which differ from one execution to the 
 
 from __future__ import annotations
 
+import hashlib
 import json
+import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -20,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from cosim.errors import InputError
 from cosim.output import atomic_write_json, make_output_dir, stale_temp_files
-from cosim.study.grid import RunSpec, file_sha
+from cosim.study.grid import RunSpec
 from cosim.study.run_table import NO_VARIANT, PARAMETERS, RunStatus, is_timing_column
 
 if TYPE_CHECKING:  # pandas loads lazily: a worker process does not need it
@@ -85,6 +88,7 @@ def resume_state(specs: Sequence[RunSpec], out_dir: Path, *, restart: bool,
     """The runs still to run and those recorded already; InputError if the folder's runs
     were made from another base (`check_same_base`), unless `restart`: then every run."""
     if restart:
+        check_clearable(out_dir)
         return ResumeState(base_fingerprint(specs), list(specs), done=0, failed=0)
     fingerprint = check_same_base(out_dir, specs)
     todo = pending(specs, out_dir, retry_failed=retry_failed)
@@ -161,12 +165,63 @@ def provenance() -> dict[str, Any]:
     return info
 
 
+# The scenario keys that name files, by (table, key): the fingerprint holds those files by
+# their contents (`input_hashes`), not by where they are.
+FILE_KEYS = (("road", "network"), ("road", "sumocfg"), ("traffic", "routes"))
+
+
+def input_hashes(scenario: Any) -> dict[str, dict[str, str]]:
+    """Every file a run of `scenario` reads besides the scenario file, by what it is to the
+    scenario (`network`, `road.sumocfg`, `road.sumocfg route-files[0]`,
+    `road.sumocfg additional-files[0]`, `traffic.routes[0]`): the SHA-256 of its contents
+    (unpacked if gzipped, as SUMO reads it) and its name, for messages only."""
+    from cosim.traffic.own_demand import sumo_file_bytes
+    from cosim.validation import MAX_NETWORK_BYTES
+
+    files: list[tuple[str, Path]] = [("network", Path(scenario.network))]
+    theirs = tuple(Path(r) for r in scenario.traffic.routes or ())
+    if scenario.sumocfg is not None:
+        files.append(("road.sumocfg", Path(scenario.sumocfg)))
+        demand = scenario.demand
+        cfg_routes = demand.route_files[:len(demand.route_files) - len(theirs)]
+        files += [(f"road.sumocfg route-files[{i}]", f) for i, f in enumerate(cfg_routes)]
+        files += [(f"road.sumocfg additional-files[{i}]", f)
+                  for i, f in enumerate(demand.additional_files)]
+    files += [(f"traffic.routes[{i}]", f) for i, f in enumerate(theirs)]
+    return {key: {"sha256": hashlib.sha256(sumo_file_bytes(path, MAX_NETWORK_BYTES)).hexdigest(),
+                  "file": path.name} for key, path in files}
+
+
+def _without_files(resolved: dict[str, Any]) -> dict[str, Any]:
+    """A resolved scenario without the keys that name files (FILE_KEYS)."""
+    out = {table: dict(values) if isinstance(values, dict) else values
+           for table, values in resolved.items()}
+    for table, key in FILE_KEYS:
+        if isinstance(out.get(table), dict):
+            out[table].pop(key, None)
+    return out
+
+
+def _names_files(name: str) -> bool:
+    """Whether a variant's override `name` sets a key that names files."""
+    from cosim.scenario import override_target
+
+    try:
+        table, key, _ = override_target(name)
+    except KeyError:
+        return False
+    return (table, key) in FILE_KEYS
+
+
 def base_fingerprint(specs: Sequence[RunSpec]) -> dict[str, Any]:
     """What the runs of a study folder were made from besides their grid values: the base
-    scenario resolved (every key, in file units, with the study's duration), its file's and
-    its network's bytes, and the variants' overrides. Kept in DIR/study.json, so that a
-    study resumed into DIR with another base is refused (`check_same_base`), not silently
-    rerun under new run ids with the old rows dropped from runs.csv."""
+    scenario resolved (every key, in file units, with the study's duration), its file's
+    bytes, the contents of every file its runs read (`input_hashes`: network, .sumocfg,
+    route and additional files, those a variant names too) and the variants' overrides.
+    Files are held by their contents, not their paths: the same project moved or cloned
+    elsewhere resumes its studies. Kept in DIR/study.json, so that a study resumed into
+    DIR with another base is refused (`check_same_base`), not silently rerun under new
+    run ids with the old rows dropped from runs.csv, nor mixed with runs of other inputs."""
     from cosim.scenario import load_scenario, scenario_to_dict, with_overrides
 
     if not specs:
@@ -176,12 +231,18 @@ def base_fingerprint(specs: Sequence[RunSpec]) -> dict[str, Any]:
     if spec.duration is not None:
         base = with_overrides(base, duration=spec.duration)
     resolved = json.loads(json.dumps(scenario_to_dict(base), default=str))
+    inputs = input_hashes(base)
+    variants = {s.variant: s.overrides for s in specs if s.variant != NO_VARIANT}
+    for name, overrides in sorted(variants.items()):
+        if any(_names_files(key) for key, _ in overrides):
+            inputs |= {f"variant {name}: {key}": value for key, value in
+                       input_hashes(with_overrides(base, **dict(overrides))).items()}
     return {
-        "scenario": resolved,
+        "scenario": _without_files(resolved),
         "scenario_sha": spec.scenario_sha,
-        "network_sha": file_sha(base.network),
-        "variants": {s.variant: [list(p) for p in s.overrides] for s in specs
-                     if s.variant != NO_VARIANT},
+        "inputs": inputs,
+        "variants": {name: [list(p) for p in overrides]
+                     for name, overrides in variants.items()},
     }
 
 
@@ -199,9 +260,33 @@ def _flat(tree: Any, prefix: str = "") -> dict[str, Any]:
     return {prefix: tree}
 
 
+def _input_changes(before: Mapping[str, Any], now: Mapping[str, Any]) -> list[str]:
+    """The input files whose contents differ, in words ("the contents of traffic.routes[0]
+    (flows.rou.xml)"); a fingerprint from before the inputs were hashed holds the
+    network's bytes only (`network_sha`), so its other files are not recorded."""
+    old = before.get("inputs")
+    if not isinstance(old, dict):
+        old = ({"network": {"sha256": before["network_sha"]}} if "network_sha" in before
+               else {})
+    new = now.get("inputs", {})
+    changes = []
+    for key in [k for k in new if k in old] + [k for k in old if k not in new]:
+        if key in new and old[key].get("sha256") == new[key]["sha256"]:
+            continue
+        if key not in new:
+            changes.append(f"{key} {old[key].get('file', '')} -> (absent)")
+        else:
+            changes.append(f"the contents of {key} ({new[key]['file']})")
+    changes += [f"{key} {'(not recorded)' if before.get('inputs') is None else '(absent)'}"
+                f" -> {new[key]['file']}" for key in new if key not in old]
+    return changes
+
+
 def base_changes(before: Mapping[str, Any], now: Mapping[str, Any]) -> list[str]:
-    """What differs between two fingerprints, in words ("scenario.duration_s 10.0 -> 5.0")."""
-    old, new = _flat(before.get("scenario", {})), _flat(now.get("scenario", {}))
+    """What differs between two fingerprints, in words ("scenario.duration_s 10.0 -> 5.0",
+    "the contents of traffic.routes[0] (flows.rou.xml)")."""
+    old = _flat(_without_files(dict(before.get("scenario") or {})))
+    new = _flat(_without_files(dict(now.get("scenario") or {})))
     changes = [f"{k} {old.get(k, '(absent)')!r} -> {new.get(k, '(absent)')!r}"
                for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
     if before.get("scenario") is None and before.get("duration") != now.get("duration"):
@@ -213,9 +298,7 @@ def base_changes(before: Mapping[str, Any], now: Mapping[str, Any]) -> list[str]
     if not changes and before.get("scenario_sha") != now.get("scenario_sha"):
         changes.append("the base scenario file's text (same settings; the run ids name its "
                        "bytes)")
-    if before.get("network_sha", now["network_sha"]) != now["network_sha"]:
-        changes.append("the network file")
-    return changes
+    return changes + _input_changes(before, now)
 
 
 def read_fingerprint(out_dir: Path) -> dict[str, Any] | None:
@@ -256,26 +339,47 @@ def check_same_base(out_dir: Path, specs: Sequence[RunSpec]) -> dict[str, Any]:
                                             if len(changes) > 3 else "")
         raise InputError(
             str(out_dir / STUDY_FILE), "base", shown,
-            f"the base scenario the runs in {out_dir} were made with: add --restart to "
-            "replace them, or give another -o")
+            f"the base scenario and input files the runs in {out_dir} were made with: add "
+            "--restart to replace them, or give another -o")
     return now
+
+
+STUDY_FOLDERS = ("runs", "traces", "plots")  # the folders a study writes into DIR
+
+
+def check_clearable(out_dir: Path) -> None:
+    """InputError if --restart would have to follow a symbolic link to clear DIR: its
+    runs/, traces/ or plots/ a link (clearing it would delete in the link's target)."""
+    for name in STUDY_FOLDERS:
+        folder = out_dir / name
+        if folder.is_symlink():
+            raise InputError(
+                str(folder), "--restart", f"a symbolic link to {os.readlink(folder)}",
+                f"a study folder whose {', '.join(f'{n}/' for n in STUDY_FOLDERS)} are "
+                "folders (--restart removes what the study wrote and follows no link): "
+                "remove the link, or give another -o")
 
 
 def clear_study(out_dir: Path) -> None:
     """--restart: remove the runs a study folder holds: what a study writes (records
     `runs/<run_id>.json`, `traces/<run_id>/`, the tables, the plots), nothing else, and
-    only where a study.json says it is a study's folder."""
+    only where a study.json says it is a study's folder. No link is followed: a link
+    among them is removed itself, and a linked runs/, traces/ or plots/ refused
+    (`check_clearable`) before anything is removed."""
     import re
     import shutil
 
     if not (out_dir / STUDY_FILE).is_file():
         return
+    check_clearable(out_dir)
     run_id = re.compile(r"[0-9a-f]{12}")
     for p in runs_dir(out_dir).glob("*.json"):
         if run_id.fullmatch(p.stem):
             p.unlink(missing_ok=True)
     for p in (out_dir / "traces").glob("*"):
-        if p.is_dir() and run_id.fullmatch(p.name):
+        if p.is_symlink() and run_id.fullmatch(p.name):
+            p.unlink(missing_ok=True)
+        elif p.is_dir() and run_id.fullmatch(p.name):
             shutil.rmtree(p, ignore_errors=True)
     for p in (out_dir / "plots").glob("*"):
         if p.suffix in (".png", ".svg", ".pdf"):
