@@ -230,9 +230,14 @@ _SHAPE = re.compile(rb'<lane [^>]*?shape="([^"]*)"')
 def network_precision(path: str) -> int:
     """Decimals the network's coordinates are written with: netconvert writes every
     coordinate, `<location netOffset>` included, with its --precision (default 2); without
-    a `<location>` (a hand-written file), the most decimals of a lane shape's y values."""
-    with open(path, "rb") as fh:
-        head = fh.read(MAX_NETWORK_BYTES)
+    a `<location>` (a hand-written file), the most decimals of a lane shape's y values.
+    Read as SUMO reads it, gzipped or not (cosim.traffic.own_demand.sumo_file_bytes)."""
+    from cosim.traffic.own_demand import sumo_file_bytes
+
+    try:
+        head = sumo_file_bytes(Path(path), MAX_NETWORK_BYTES)
+    except (OSError, EOFError, ValueError):  # sumolib has read it: too big unpacked only
+        head = b""
     found = _LOCATION.search(head)
     if found:
         return len(found.group(1) or b"")

@@ -221,3 +221,24 @@ def test_device_outputs_go_into_the_runs_temporary_folder(tmp_path: Path) -> Non
     assert params["device.ssm.measures"] == "TTC" and params["has.ssm.device"] == "true"
     assert first.find("vType[@id='watched_default']").get("imgFile") == str(user / "car.png")
     assert sorted(os.listdir(user)) == ["detectors.xml", "ssm.rou.xml"]  # nothing added
+
+
+def test_a_gzipped_network_is_read_as_the_plain_one(tmp_path: Path) -> None:
+    """A network in netconvert's default 2 decimals (lane centres 1.88 / 5.62 / 9.38),
+    gzipped: its decimals are read from the unpacked file, so it is the same road as the
+    plain one (not refused for lanes off by the rounding)."""
+    import dataclasses
+
+    from cosim.traffic.network import NETWORK_DIR, load_highway, netconvert_binary
+
+    plain = tmp_path / "two.net.xml"
+    subprocess.run([netconvert_binary(), "-n", str(NETWORK_DIR / "highway.nod.xml"),
+                    "-e", str(NETWORK_DIR / "highway.edg.xml"), "-o", str(plain),
+                    "--no-turnarounds", "true", "--offset.disable-normalization", "true"],
+                   check=True, capture_output=True)
+    assert 'shape="0.00,1.88 ' in plain.read_text()
+    packed = tmp_path / "two.net.xml.gz"
+    packed.write_bytes(gzip.compress(plain.read_bytes()))
+    road = load_highway(plain)
+    assert dataclasses.replace(load_highway(packed), path=plain) == road
+    assert road.rounding == pytest.approx(0.005, abs=1e-6)
