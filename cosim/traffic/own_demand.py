@@ -290,7 +290,7 @@ def copy_for_sumo(path: Path, out_dir: Path) -> Path:
         for attr in READ_RELATIVE:
             if element.get(attr) and not Path(element.get(attr, "")).is_absolute():
                 element.set(attr, str((path.parent / element.get(attr, "")).resolve()))
-    name = path.name.removesuffix(".gz")
+    name = path.name.removesuffix(".gz").replace(",", "_")  # SUMO splits file lists at ","
     out = out_dir / f"sumo_{index}_{name}"
     ET.ElementTree(kept).write(out, encoding="utf-8", xml_declaration=True)
     return out
