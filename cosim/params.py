@@ -65,7 +65,7 @@ class RoadParams:
     mu: float = 0.6  # -, road friction coefficient
     y_right: float = 0.0  # m, global y of the right road edge (lane 0's right line)
     # m, s (x on the straight road) where lane k ends: an acceleration lane, a lane drop;
-    # a lane not listed, or listed as inf, runs on to the end of the route (issue 24)
+    # a lane not listed, or listed as inf, runs on to the end of the route
     lane_ends: tuple[float, ...] = ()
 
     @property
@@ -111,7 +111,7 @@ class PlannerConfig:
     replanning: bool = False  # -, re-check the rest of the plan while it is flown
     recheck_interval: float = 0.1  # s, time between two re-checks
     uncertainty_margin: bool = True  # -, widen safety_margin by V2V latency / loss / noise
-    # beyond the paper (issue 16): the lane-change policy by its registered name
+    # beyond the paper: the lane-change policy by its registered name
     # (cosim.driving.registry): "paper" plans where the SV is once the target lane is free
     # (cosim.driving.paper); "gap" picks a gap, drives to it, then plans (cosim.driving.gap)
     policy: str = "paper"

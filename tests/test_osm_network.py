@@ -1,8 +1,8 @@
-"""A run on an OpenStreetMap import cosim did not build (issue 23): netconvert's OSM
+"""A run on an OpenStreetMap import cosim did not build: netconvert's OSM
 import of a motorway split into several ways, its curve drawn with a node every 60 m
 (2.9 degree kinks), ramps guessed into acceleration and deceleration lanes, a road on
 a bridge over it; random traffic and two scripted lane changes, one on the curve; and
-our SV merging from the guessed on-ramp into the user's own flows (issue 24)."""
+our SV merging from the guessed on-ramp into the user's own flows."""
 
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ FLOWS = """<?xml version="1.0" encoding="UTF-8"?>
 
 
 def test_our_sv_merges_from_a_guessed_on_ramp_into_the_users_own_flows(tmp_path: Path) -> None:
-    """Issue 24 on a network cosim did not build, with the user's own demand: the OSM
+    """A merge on a network cosim did not build, with the user's own demand: the OSM
     import's guessed on-ramp gives a 94.5 m acceleration lane (lane 0 of
     101-AddedOnRampEdge, which ends); the user's flows (from / to edges, routed by SUMO)
     fill the mainline at 3600 veh/h and the ramp at 400 veh/h for 60 s before the SV

@@ -1,4 +1,4 @@
-"""A run on a network cosim did not build (issue 23): a hand-drawn motorway the way real
+"""A run on a network cosim did not build: a hand-drawn motorway the way real
 ones come from netconvert (a curve drawn as a coarse polyline that kinks at every
 vertex, netconvert's 2-decimal coordinates, a road crossing over the route on a
 bridge), random traffic, a scripted lane change on the curve: through real SUMO."""

@@ -12,19 +12,19 @@ Side by side in one run, medians over repeats, each from SUMO start to close:
 - "the floor": SUMO with the same traffic and the SV moved along the path our SV
   drove (recorded in the cosim run just before) by moveToXY and nothing else: what
   SUMO's step costs with an externally moved vehicle (more than SUMO alone), so that
-  cosim / floor is the loop's own cost (issue 26: target <= 1.25, CPU);
+  cosim / floor is the loop's own cost (target <= 1.25, CPU);
 - "the floor and the loop's scene read": the floor plus the scene read exactly as the
   cosim run read it each step (every vehicle within the observer's radius: the near
   scene, NEAR_RANGE + 2 SV lengths with five libsumo getters each, or the V2V range
   with seven when the channel runs every step). Any SV of the loop makes these SUMO
   calls whatever it plans, so floor-and-read / floor is the least cosim / floor can
   be, and cosim / floor-and-read is what our own planning, control and recording add;
-- "curved twin": the dense scenario's twin on the curved motorway (issue 23: CPU within
+- "curved twin": the dense scenario's twin on the curved motorway (targets: CPU within
   1.3x of the straight road's, median plan() within 2x);
 - a paper case (5.1 by default): its real-time factor, simulated / wall time.
 
-Targets: cosim / sumo alone <= 1.25 (issue 11; 2.0 before), cosim / floor <= 1.25 on
-CPU time (issue 26); the paper case >= 50x real time. One extra cosim run, not in the
+Targets: cosim / sumo alone <= 1.25, cosim / floor <= 1.25 on CPU time; the paper case
+>= 50x real time. One extra cosim run, not in the
 rows, splits the loop's wall time into its parts (`phase_split`, a note and `phases`).
 
 The closed loop is compiled (numba): its start-up in this process is timed once

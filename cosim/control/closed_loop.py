@@ -15,7 +15,7 @@ kx1 T = 2) the speed error after a step keeps oscillating at +-0.03 m/s, at
 
 Eq. 28's gain has a low-speed form (`longitudinal.speed_gain`): below 21.6 m/s it is held
 under the tyres' force build-up rate Vx / sigma_kappa, through whose lag the paper's
-kx1 = 200 /s limit-cycled the two-track car at ~25 Hz (issue 22).
+kx1 = 200 /s would make the two-track car limit-cycle at ~25 Hz.
 
 Guards: the controller divides by max(vx, speed_floor); below speed_floor (stop-and-go)
 the integrators run over distance (ye * h * vx / speed_floor: they hold at a standstill,
@@ -44,19 +44,16 @@ Table 1 car this grows with lateral acceleration as KL (L lr Cr - lf M Vx^2)
 on mu = 0.4 those forces plus the cornering forces overrun the inner wheels'
 friction circles (the allocation, eq. 30, ignores wheel loads): on the
 two-track car the yaw loop ends in a growing oscillation (with the Magic Formula
-tyres of issue 15: a spin at tau = 2.5 s; it still tracks at 3.5 s, 0.05 m off;
+tyres: a spin at tau = 2.5 s; it still tracks at 3.5 s, 0.05 m off;
 tests/control/test_closed_loop.py). So |dMz| is limited to
 share * mu * M * g * ls: every wheel's differential force then stays below
 `share` of its static friction limit; with the planner's lateral use of
 f = 0.8, sqrt(0.2^2 + 0.8^2) = 0.82 leaves room for the load the inner wheels
-lose in the turn. The share trades path for heading: on mu = 0.4 at case 5.1
-speeds and tau = 2.78 s, shares 0.1 / 0.2 / 0.3 gave a largest |ye| of
-0.03 / 0.08 / 0.12 m and a phi_e IAE of 1.01 / 0.75 / 0.69 deg s (SISO: 0.025 m,
-1.26 deg s; measured with the friction-circle tyres before issue 15); the default
-0.2 sits between. None: no limit, the paper's law as
-printed. The steering law does not use dMz (B's
-first row), so while the limit is active ye is still regulated and only phi_e
-is left to the zero dynamics, as in the SISO baseline.
+lose in the turn. The share trades path for heading: a smaller share keeps ye
+smaller and leaves phi_e larger (the default, YAW_MOMENT_SHARE, sits between;
+docs/tuned_constants.md). None: no limit, the paper's law as printed. The steering
+law does not use dMz (B's first row), so while the limit is active ye is still
+regulated and only phi_e is left to the zero dynamics, as in the SISO baseline.
 
 Speed: the substep loop (`advance_core`: projection, laws, allocation, limits,
 anti-windup, plant RK4, finiteness check) is compiled with numba
@@ -97,7 +94,8 @@ from .reference import PathErrors, ReferencePath, frame_path_errors
 from .triple_step import check_gains, law_params, mimo_core, siso_core
 
 PLANTS = ("twotrack", "bicycle")
-YAW_MOMENT_SHARE = 0.2  # -, default friction share of the yaw-moment limit (see above)
+# -, default friction share of the yaw-moment limit (see the module docstring)
+YAW_MOMENT_SHARE = 0.2  # tuned: docs/tuned_constants.md
 CONTROLLERS = ("mimo", "siso")
 
 

@@ -8,9 +8,9 @@ load-sensitive cornering stiffness, lateral load transfer) give less force at th
 slip as the lateral acceleration grows: on the curved motorway (R 800 m at 31 m/s,
 1.2 m/s^2) the front axle needs 7 % more slip than the linear model says. The law's
 integrators make up the difference, but only after ye has built up (their poles decay
-at ~0.25 /s with the paper's gains), so each change of the road's curvature left a
-few millimetres of ye that took seconds to fade: on curves the lane-keeping error was
-6x that of the straight road (issue 23). This is Rajamani's lane-keeping feed-forward
+at ~0.25 /s with the paper's gains), so without a feed-forward each change of the
+road's curvature leaves a few millimetres of ye that take seconds to fade: on curves a
+lane-keeping error 6x that of the straight road. This is Rajamani's lane-keeping feed-forward
 (Vehicle Dynamics and Control, 2nd ed., sec. 3.2: delta_ff = L kappa + K_v a_y), with
 the understeer gradient K_v taken from the tyres' own curve instead of a constant.
 
@@ -27,16 +27,15 @@ pushes sideways by sin(delta). The acceleration that moves load is Fa's less the
 drag (at a steady 31 m/s Fa is all drag, and the load stays). Measured against the
 plant's own steady state (closed loop settled on R 800 m at 31 m/s): this gives the
 steering it needs beyond eq. 21 within 0.24 %; with the load moved by Fa / M and no
-combined slip it was 6.8 % off, and the law's integrators held that (kyI int(ye)
-6e-3 m/s^2 on R 1000 m, now 1.5e-4), to be unwound, ye a millimetre off, wherever the
-curve ends. The linear model
+combined slip it is 6.8 % off, and the law's integrators hold the difference (kyI int(ye)
+6e-3 m/s^2 on R 1000 m, against 1.5e-4 with both), to be unwound, ye a millimetre off,
+wherever the curve ends. The linear model
 gives Fyr = Cr lr kappa and alpha_f = (M vx^2 kappa - Cr lr kappa) / Cf. The
 feed-forward is the difference: d_delta = alpha_f - alpha_f,lin and, from the yaw
 moment balance dMz = -(lf Fyf - lr Fyr), d_dMz = L (Fyr - Cr lr kappa). Near the front
 tyres' peak (or past it: then no circle is held with zero sideslip, the car will slip)
-d_delta is held at CAP of the linear front slip: a brisk lane change on a curve (tau
-3.35 s, 2.9 m/s^2 on mu 0.6) otherwise oscillated (IAE ye 0.18 m s against 0.11 without
-the feed-forward; 0.075 with the cap).
+d_delta is held at CAP of the linear front slip: uncapped, a brisk lane change on a
+curve oscillates (docs/tuned_constants.md).
 
 `curve_feed_forward` is what the closed loop adds: this at the path's curvature less
 this at the path's curvature without the road's (the curve's own need and what it adds
@@ -46,9 +45,9 @@ straight road, where it is 0 and the paper's law is unchanged).
 The tyres' lateral force follows their slip with the relaxation length sigma_alpha
 (0.5 m: a lag in distance, 16 ms at 31 m/s), so a curve's force arrives that late: the
 closed loop takes the road's curvature sigma_alpha ahead of the car (`closed_loop`;
-out of the curved motorway's first curve with the lane kept, IAE of ye 0.0025 ->
-0.0004 m s). The feed-forward and this preview are for the road's curve only; where
-the road is straight the paper's law is unchanged, bit for bit.
+out of the curved motorway's first curve with the lane kept, an IAE of ye of
+0.0004 m s against 0.0025 without). The feed-forward and this preview are for the
+road's curve only; where the road is straight the paper's law is unchanged, bit for bit.
 
 The controller's model of the tyres: the chassis' tyre curve and load transfer with
 Table 1's Cf, Cr as the cornering stiffness at the static load (a plant built with
@@ -68,7 +67,8 @@ from cosim.vehicle.tyre import T_CK, T_CX, T_MUX, T_PD2, combined_forces
 # Layout of the feed-forward's constant array; the tyre's coefficients follow at F_TYRE.
 (F_ON, F_MASS, F_LF, F_LR, F_KAF, F_KAR, F_FZ0F, F_FZ0R, F_DLAT_F, F_DLAT_R, F_MU,
  F_DLONG, F_PREVIEW, F_DRAG, F_LS, F_TYRE) = range(16)
-CAP = 0.25  # -, the largest feed-forward as a share of the linear front slip
+# -, the largest feed-forward as a share of the linear front slip
+CAP = 0.25  # tuned: docs/tuned_constants.md
 NEWTON_STEPS = 6  # the front slip converges to 1e-12 rad in 3 at 40 % of the friction
 
 

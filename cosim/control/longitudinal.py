@@ -4,7 +4,7 @@ low-speed form: the gain never faster than the tyres can make force.
 Drag (eq. 26's Ca Vx^2) is deliberately not cancelled, as in the paper; the
 proportional term absorbs it with a small steady speed error.
 
-Low-speed form (beyond the paper, issue 22). Eq. 28 treats Fa as a force that acts at
+Low-speed form (beyond the paper). Eq. 28 treats Fa as a force that acts at
 once (the paper's design model). A tyre builds its longitudinal force over its
 relaxation length: the slip, hence the force, lags the wheel's spin by sigma_kappa / Vx
 (Pacejka sec. 7.2), and the wheel spinning on that tyre is a torsional mode of
@@ -34,7 +34,8 @@ from __future__ import annotations
 from cosim.compiled import njit
 from cosim.params import ControllerGains, VehicleParams
 
-TYRE_LAG_FACTOR = 1.8  # -, 1 / kx1_eff >= this many tyre relaxation times sigma_kappa / Vx
+# -, 1 / kx1_eff >= this many tyre relaxation times sigma_kappa / Vx
+TYRE_LAG_FACTOR = 1.8  # tuned: docs/tuned_constants.md
 KX1_FLOOR = 10.0  # 1/s, the low-speed form's gain at (near) a standstill
 
 

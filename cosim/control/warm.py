@@ -8,7 +8,7 @@ warm-up with cosim.compiled) and runs `warm_up`.
 For a fork server's preload list (`cosim.study.pool.PRELOAD`): the server pays numba's
 start-up once (about 1.2 s: import, compiler set-up, cached code) and every run
 forked from it starts with the compiled code in memory. Measured: a forked run of
-paper case 5.1 took 1.45 s without this module in the preload list, 0.28 s with it.
+paper case 5.1 takes 1.45 s without this module in the preload list, 0.28 s with it.
 """
 
 from __future__ import annotations

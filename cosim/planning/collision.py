@@ -58,7 +58,7 @@ _BOX_TOLERANCE = 1e-6  # m, a closed-form cluster's box from its two extreme tra
 _STACK = 96  # cells a refinement holds at once (depth-first: about two per level)
 # cells one refinement may judge; past them the pair counts as overlapping (sound: a
 # candidate is only ever rejected by it). Bodies that creep side by side within a few
-# mm of the margin for seconds (a merge from a standstill beside a queue, issue 24)
+# mm of the margin for seconds (a merge from a standstill beside a queue)
 # otherwise split cells for minutes in one plan() call
 _MAX_CELLS = 20000
 _RUN = 4  # neighbouring durations of a C2 cluster given one grown test first

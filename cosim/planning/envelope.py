@@ -78,11 +78,11 @@ def inverse_dynamics_yaw_rate(
 def _yaw_rate(speed: Array, u: Array, dt: Array, omega0: Array, l_cr: float, Iz: float,
               lr: float, b1: float) -> Array:
     """inverse_dynamics_yaw_rate's trapezoidal steps, (n, n_s), with L Cr = `l_cr` and
-    b = (1, lf M / Iz) = (1, `b1`). Sequential in time by nature: a compiled loop with
-    the arithmetic of the numpy version it replaced operation by operation (the same
-    results to the last bit): vectorised over rows in numpy it cost ~2 ms a call, and
+    b = (1, lf M / Iz) = (1, `b1`). Sequential in time by nature: a compiled loop,
+    operation by operation the arithmetic of `inverse_dynamics_yaw_rate` (the same
+    results to the last bit); vectorised over rows in numpy it costs ~2 ms a call, and
     the TauMinMap of a C2 TV's new end speed ~0.17 s, paid at every re-check in slow
-    dense traffic (issue 24)."""
+    dense traffic."""
     n, n_s = speed.shape
     omega = np.empty((n, n_s))
     for i in range(n):
@@ -297,8 +297,8 @@ class TauMinMap:
                              np.minimum(t128 + 0.003, tau_hi), 256)
             # converged tau_min, extrapolated: the error goes down about as the step
             # squared where the margin's maximum stays between samples, slower where it
-            # jumps (measured 3.7, 0.48, 0.32 ms from 64 to 1024); half the last
-            # difference, with the interpolation's allowance below, covered both
+            # jumps (3.7, 0.48, 0.32 ms from 64 to 1024 instants); half the last
+            # difference, with the interpolation's allowance below, covers both
             est = t256 - 0.5 * (t128 - t256)
             err[ok] = np.nan_to_num(b - est)
         self._err_v, self._err = fine_v, err

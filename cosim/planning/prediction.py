@@ -8,7 +8,7 @@
   duration, the first a lower bound of the TV's tau_min, then the stable grid
   points; from rest, neighbouring ones bound a cell (`LazyFutures.cell`) that the
   collision check covers for every duration in between.
-  On a lane that ends (issue 24) only the durations that end before the lane's end
+  On a lane that ends only the durations that end before the lane's end
   are listed (cosim.planning.deadline; the planner signals for a TV that must merge
   and does not: `deadline.merging_messages`).
 - C3, motion broadcast: the reference it sends (quintic min-jerk, eq. 2 and 4, or
@@ -103,10 +103,10 @@ def constant_acceleration(msgs: Sequence[V2VMessage], t: ArrayLike) -> tuple[Arr
 
 
 TV_LEADER_RANGE = 150.0  # m, a C2 TV's leader in its target lane is looked for this far
-LEADER_SPEED_STEP = 0.25  # m/s, that leader's speed is taken down to this grid: the end
-# speed keys the planner's tau_min map of the TV (0.03-0.2 s to build), and in slow traffic
-# the leader's speed is new at every re-check (issue 24: 854 maps, all different, in one
-# 40 s merge at 40 veh/km/lane; on the grid 43)
+# m/s, that leader's speed is taken down to this grid: the end speed keys the planner's
+# tau_min map of the TV (0.03-0.2 s to build), and in slow traffic the exact speed is new
+# at every re-check
+LEADER_SPEED_STEP = 0.25  # tuned: docs/tuned_constants.md
 
 
 def target_leader_speed(messages: Sequence[V2VMessage], t_plan: float,

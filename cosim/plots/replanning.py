@@ -1,4 +1,4 @@
-"""Figure of the replanning study (issue 7, scenarios/study_replanning.toml): success,
+"""Figure of the replanning study (scenarios/study_replanning.toml): success,
 collisions during the SV's lane change, all collisions of the SV and lane-change
 duration against traffic density, one line per driver / variant, 95 % intervals
 as error bars. Reads a `cosim batch` summary.csv."""

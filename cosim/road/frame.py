@@ -25,8 +25,8 @@ the smallest radius of the line): in the arc's local coordinates (a, b),
 written so that nothing cancels when kappa -> 0. The heading and curvature of a path
 given in (s, d) follow Werling et al. (ICRA 2010, Appendix) with the arc's constant
 kappa: theta = theta_r + atan(d' / (1 - kappa d)). The frame's d is measured from the
-reference track's right border (its centre lies at d = half its width), as y was from
-the straight road's right border before.
+reference track's right border (its centre lies at d = half its width), as y is
+from the straight road's right border.
 
 The search for a point's arc starts at the arc of a previous s (`s_hint`; without one,
 at the nearest knot) and steps by the point's u to the arc whose normals cover it

@@ -1,4 +1,4 @@
-"""The on-ramp test network (issue 24): a straight three-lane motorway with an on-ramp
+"""The on-ramp test network: a straight three-lane motorway with an on-ramp
 joining through an acceleration lane, an off-ramp, and a lane drop from three lanes to
 two, written as plain XML and built into a SUMO network by netconvert.
 

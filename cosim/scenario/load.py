@@ -283,7 +283,7 @@ def _bands_per_through_lane(src: str, road: Road, bands: tuple[tuple[float, floa
 
 def _lanes_run_through(src: str, written: Scenario, ruled: Scenario) -> None:
     """InputError for a lane the file names (SUMO's index on [sv] edge) that is not one of
-    the route's through lanes (below them: a lane the route adds, issue 24's)."""
+    the route's through lanes (below them: a lane the route adds)."""
     names = [(f"sv.lane_changes[{i}].target_lane", w.target_lane, r.target_lane)
              for i, (w, r) in enumerate(zip(written.sv.lane_changes, ruled.sv.lane_changes,
                                             strict=True))]

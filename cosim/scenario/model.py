@@ -218,7 +218,7 @@ class TrafficSpec:
         "SUMO-driven traffic from each on-ramp of the route (an edge off it feeding a lane "
         "that begins or ends on it: an acceleration lane), then along the rest of the route "
         "(0: none; cosim.traffic.demand.RampFlow)", override="ramp_flow"), 0.0)
-    # the user's own SUMO demand (issue 24; cosim.traffic.own_demand): absolute paths
+    # the user's own SUMO demand (cosim.traffic.own_demand): absolute paths
     # once loaded (cosim.scenario.load), as the file wrote them before
     routes: tuple[str, ...] | None = declare(Field(
         "routes", list, default=None, parse=lambda src, key, v: parse_paths(src, key, v, 64),
@@ -272,8 +272,8 @@ class V2VSpec:
 
 DEFAULT_STEP = 0.05  # s, SUMO step
 DEFAULT_SUBSTEPS = 10  # plant/controller substeps per SUMO step
-# what a run does at its first collision onset (issue 22): a crash ends the ride, the SV
-# never drives on through its leader ("continue": the old behaviour, for cross-checks)
+# what a run does at its first collision onset: "stop", a crash ends the ride (the SV
+# never drives on through its leader); "continue", the run goes on (for cross-checks)
 ON_COLLISION = ("stop", "continue")
 
 

@@ -114,36 +114,36 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "sublane_with_lanechange_duration.toml": ("traffic.lanechange_duration_s", "2.0"),
     "traffic_density_negative.toml": ("traffic.density_veh_per_km_lane", "-5"),
     "study_given_as_scenario.toml": ("study", "'[study]'"),
-    # issue 13, class 1: what only SUMO found (or nobody) is checked before it starts
+    # what only SUMO would find (or nobody) is checked before it starts
     "tv_speed_above_lane_limit.toml": ("tv[1].speed_kmh", "125.0"),
     "sv_speed_above_lane_limit.toml": ("sv.speed_kmh", "130.0"),
     "tv_id_is_sv.toml": ("tv[0].id", "'sv'"),
     "tv_id_like_random_traffic.toml": ("tv[1].id", "'tv3'"),
     "traffic_longer_than_network.toml": ("traffic.length_m", "7000.0"),
     "tv_runs_off_the_road.toml": ("tv[1].gap_m", "5600.0"),
-    # class 2: valid SUMO networks of a shape the tool cannot drive on
+    # valid SUMO networks of a shape the tool cannot drive on
     "network_two_edges.toml": ("road.network", "two_edges.net.xml"),
     "network_minus_x.toml": ("road.network", "minus_x.net.xml"),
     "network_bent.toml": ("road.network", "bent.net.xml"),
-    # class 3: sv.position_m is measured from the road's start
+    # sv.position_m is measured from the road's start
     "sv_position_negative.toml": ("sv.position_m", "-100.0"),
-    # class 4: impossible starts
+    # impossible starts
     "tv_mid_change_on_sv.toml": ("tv[0].gap_m", "1.0"),
     "tvs_on_each_other.toml": ("tv[2].gap_m", "-28.0"),
     "wide_vehicles_side_by_side.toml": ("tv[1].gap_m", "2.0"),
-    # class 5: names that would escape results/
+    # names that would escape results/
     "name_dot.toml": ("scenario.name", "'.'"),
     "name_dotdot.toml": ("scenario.name", "'..'"),
     "name_escapes.toml": ("scenario.name", "'../x'"),
     "name_empty.toml": ("scenario.name", "''"),
     "name_hidden.toml": ("scenario.name", "'.results'"),
-    # issue 25, class 2: lanes SUMO closes to the cars cosim adds (allow / disallow)
+    # lanes SUMO closes to the cars cosim adds (allow / disallow)
     "sv_lane_closed_to_cars.toml": ("sv.lane", "1"),
     "tv_target_lane_closed_to_cars.toml": ("tv[0].lane_change.target_lane", "0"),
     "sv_target_lane_bus_only.toml": ("sv.lane_changes[0].target_lane", "2"),
-    # class 8: a lane speed of 0 is the network's fault, not sv.speed_kmh's
+    # a lane speed of 0 is the network's fault, not sv.speed_kmh's
     "network_lane_speed_zero.toml": ("road.network", "lane_speed_zero.net.xml"),
-    # issue 23: a route of edges and the SV's start on it, checked before SUMO starts
+    # a route of edges and the SV's start on it, checked before SUMO starts
     "route_not_connected.toml": ("road.route", "'e1 -> e3'"),
     "route_unknown_edge.toml": ("road.route", "'nowhere'"),
     "route_not_a_list.toml": ("road.route", "'highway'"),
@@ -152,7 +152,7 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "sv_lane_not_on_edge.toml": ("sv.lane", "4"),
     "sv_position_past_edge.toml": ("sv.position_m", "3000.0"),
     "sv_edge_on_straight_road.toml": ("sv.edge", "'e1'"),
-    # issue 24: the user's own SUMO demand, every file read before SUMO starts
+    # the user's own SUMO demand, every file read before SUMO starts
     "routes_missing.toml": ("traffic.routes[0]", "'no_such.rou.xml'"),
     "routes_not_xml.toml": ("traffic.routes[0]", "'demand_not_xml.rou.xml'"),
     "routes_is_a_network.toml": ("traffic.routes[0]", "'two_edges.net.xml'"),
@@ -435,13 +435,13 @@ STUDY_CASES: dict[str, tuple[str, str]] = {
         "duration_s = 7.01\n",
         "study.duration_s",
     ),
-    # issue 13, class 5: names that would escape results/batch/
+    # names that would escape results/batch/
     **{
         f"name_{label}": (f'[study]\nname = "{name}"\nscenario = "../base.toml"\n'
                           "densities_veh_per_km_lane = [5]\nseeds = [1]\n", "study.name")
         for label, name in (("dot", "."), ("dotdot", ".."), ("escapes", "../x"), ("empty", ""))
     },
-    # class 6: variants that change a grid dimension would mislabel their rows
+    # variants that change a grid dimension would mislabel their rows
     **{
         f"variant_changes_{label}": (
             '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
@@ -455,7 +455,7 @@ STUDY_CASES: dict[str, tuple[str, str]] = {
             ("driver_by_file_key", '"sv.controller"', '"siso"'),
         )
     },
-    # class 7: unbounded work
+    # unbounded work
     "seed_count_two_billion": (
         '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\n'
         "seed_count = 2000000000\n",
@@ -467,7 +467,7 @@ STUDY_CASES: dict[str, tuple[str, str]] = {
         "study",
     ),
     "nested_thousands_deep": ('[study]\nx = ' + "[" * 5000 + "]" * 5000 + "\n", "file"),
-    # class 8: an override the base scenario refuses is named where it was written
+    # an override the base scenario refuses is named where it was written
     "variant_value_refused": (
         '[study]\nscenario = "../base.toml"\ndensities_veh_per_km_lane = [5]\nseeds = [1]\n'
         "[study.variants]\nlate = { latency = -1.0 }\n",
@@ -574,8 +574,8 @@ def test_cli_run_will_not_replace_a_folder_holding_other_files(
     assert _snapshot(out) == before
 
 
-# issue 13's classes through all three commands, into a folder holding a previous result
-ISSUE13_CASES = sorted(
+# the checks before SUMO through all three commands, into a folder holding a previous result
+BEFORE_SUMO_CASES = sorted(
     name for name in SCENARIO_CASES
     if name.startswith(("tv_speed_above", "sv_speed_above", "tv_id_", "traffic_longer", "tv_runs",
                         "network_two", "network_minus", "network_bent", "sv_position_neg",
@@ -592,13 +592,13 @@ def _argv(command: str, scenario: Path, out: Path) -> list[str]:
 
 
 @pytest.mark.parametrize("command", ["run", "plan", "batch"])
-@pytest.mark.parametrize("name", ISSUE13_CASES)
+@pytest.mark.parametrize("name", BEFORE_SUMO_CASES)
 def test_refused_before_sumo_in_every_command_with_the_folder_untouched(
     command: str, name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """run, plan and batch share one validation: the same one line, exit 2, and an
     existing output folder keeps exactly what it held."""
-    assert len(ISSUE13_CASES) >= 18
+    assert len(BEFORE_SUMO_CASES) >= 18
     out = tmp_path / "out"
     out.mkdir()
     (out / "metrics.csv").write_text("previous,run\n1,2\n")

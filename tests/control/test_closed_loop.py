@@ -145,8 +145,8 @@ def test_bad_configuration_is_an_input_error(plant: str, controller: str, gains)
 def test_yaw_moment_limit_keeps_the_two_track_on_the_path_where_the_printed_law_spins() -> None:
     """mu = 0.4, case 5.1 speeds, tau = 2.5 s: the printed MIMO law's zero-sideslip yaw
     moment overruns the wheels' friction and the yaw loop ends in a growing oscillation;
-    limited to 0.2 mu M g ls it tracks. (With the Magic Formula tyres of issue 15 the
-    printed law still tracks at tau = 3.5 s: 0.05 m; at 2.5 s it spins.)"""
+    limited to 0.2 mu M g ls it tracks. (With the Magic Formula tyres the printed law
+    still tracks at tau = 3.5 s: 0.05 m; at 2.5 s it spins.)"""
     ref = LaneChangeTrajectory(t0=0.0, tau=2.5, x0=0.0, y0=0.0, vx0=80 / 3.6, vxf=90 / 3.6,
                                width=3.75)
     worst = {}

@@ -134,9 +134,9 @@ def test_the_feed_forward_is_what_the_plant_needs_on_a_steady_curve() -> None:
     """Against an independent steady state, the plant's own: the closed loop settled on
     a long R 800 m arc at 31 m/s (integrators and errors still), the steering it applies
     less eq. 21's steady-state steering is what the tyres need beyond the linear model.
-    The feed-forward gives that within 1 % (measured 0.24 %; the feed-forward before
-    issue 23's last round, with the load moved by Fa, drag included, and no combined
-    slip: 6.8 % off), and more than the linear model (a left curve: more steering)."""
+    The feed-forward gives that within 1 % (0.24 %; with the load moved by Fa, drag
+    included, and no combined slip it would be 6.8 % off), and more than the linear
+    model (a left curve: more steering)."""
     vehicle = VehicleParams()
     frame = arc_frame(800.0, 1600.0)
     s0, d0 = 100.0, 5.625

@@ -1,5 +1,5 @@
 """Lane keeping down to a standstill and back (stop-and-go): the closed loop's and the
-reference's low-speed forms (issue 16). No SUMO: one closed loop on a straight lane."""
+reference's low-speed forms. No SUMO: one closed loop on a straight lane."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Eq. 28's speed loop against the two-track car's wheel spin mode (issue 22): no limit
+"""Eq. 28's speed loop against the two-track car's wheel spin mode: no limit
 cycle at any speed, down to a standstill and back, and the paper's gain where the
 paper's cases drive. No SUMO: one closed loop on a straight lane."""
 

@@ -362,8 +362,8 @@ def test_a_merge_from_a_creep_beside_a_creeping_queue_is_planned_at_once() -> No
     """A planner call recorded in the merge study (ramp_merge, 50 veh/km/lane, seed 2,
     t = 33.1 s): the SV creeps at 1 m/s 25 m before its acceleration lane's end beside
     a queue creeping at 0-3 m/s, whose drivers signal. Each candidate then passes within
-    millimetres of the margin for seconds, and the exact test's refinement split cells
-    for minutes in this one call (issue 24). It is cut at `_MAX_CELLS` cells per pair,
+    millimetres of the margin for seconds, and the exact test's refinement would split
+    cells for minutes in this one call. It is cut at `_MAX_CELLS` cells per pair,
     as an overlap: the call returns, and every candidate it rejects for a collision is
     one the refinement could not clear."""
     import json

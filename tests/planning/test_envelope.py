@@ -32,8 +32,8 @@ def test_steady_turn_yaw_rate_is_speed_over_radius() -> None:
 
 def _numpy_yaw_rate(speed: np.ndarray, u: np.ndarray, dt: np.ndarray,
                     omega0: np.ndarray) -> np.ndarray:
-    """The trapezoidal steps as numpy did them before the loop was compiled (one step
-    for all rows at a time)."""
+    """The trapezoidal steps vectorised in numpy (one step for all rows at a time): the
+    reference the compiled loop must match to the last bit."""
     M, Iz, lf, lr, Cr = VEH.mass, VEH.yaw_inertia, VEH.lf, VEH.lr, VEH.cr
     V = np.maximum(speed, 0.5)
     k = (lf + lr) * Cr / (Iz * V)
@@ -147,9 +147,9 @@ def test_tau_min_map_matches_the_envelope() -> None:
 
 
 def test_a_map_whose_coarse_pass_leaves_speeds_without_a_stable_tau_builds() -> None:
-    # issue 22: the gap policy's vxf 27.14 m/s on a wet road (mu 0.4): the refining
-    # bisection got nan bounds for speeds with no stable tau and its iteration count
-    # became int(nan) ("cannot convert float NaN to integer", study_comfort_wet)
+    # the gap policy's vxf 27.14 m/s on a wet road (mu 0.4): speeds with no stable tau
+    # give the refining bisection nan bounds, which must not reach its iteration count
+    # (int(nan): "cannot convert float NaN to integer")
     from cosim.params import PlannerConfig, VehicleParams
     from cosim.planning.planner import _built_tau_min_map
 

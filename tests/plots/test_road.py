@@ -47,8 +47,8 @@ def test_a_straight_route_is_stretched_across_a_curved_one_is_to_scale(
 
 def test_a_straight_route_along_y_is_stretched_across_x(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    # the narrow axis is the one stretched, whichever way the road runs (the test looked
-    # at y only: a road running north was drawn to scale, as a line)
+    # the narrow axis is the one stretched, whichever way the road runs (a road running
+    # north, stretched along y only, would be drawn to scale, as a line)
     import sys
 
     import cosim.plots.road as road_plots

@@ -29,7 +29,7 @@ def test_inputs_start_at_the_first_control_update(tmp_path: Path) -> None:
     total = np.abs(fx).sum(axis=1)
     assert total[0] > 100.0  # N: the wheels push from the first update on, no 0
     # what remains is the plant starting untrimmed (free-rolling wheels): with the
-    # relaxation-length tyres of issue 15 the speed loop rings on the wheels' spin mode
+    # relaxation-length tyres the speed loop rings on the wheels' spin mode
     # (~33 Hz), decaying; settled (steps below 10 % of the force) within 0.2 s
     settled = np.flatnonzero(t >= t[0] + 0.2)
     assert np.max(np.abs(np.diff(total[settled]))) < 0.1 * total[settled[0]]

@@ -61,7 +61,7 @@ def neutral_steer(ay: float, speed: float = V0) -> float:
 
 
 def manoeuvres() -> list[Manoeuvre]:
-    """The cases of the comparison (issue 15)."""
+    """The cases of the comparison."""
     cases = [
         Manoeuvre("steady yaw gain, 0.01 rad", 1.0, 0.01, 6.0),
         Manoeuvre("step steer to 1.5 m/s^2", 1.0, neutral_steer(1.5), 3.0),

@@ -1,8 +1,8 @@
 """Our two-track plant against CommonRoad's multi-body model (MB) on its vehicle2, with
 our plant set up as MB is (`commonroad_cases`): small-slip yaw gain and step steer as
 close to MB as CommonRoad's own single-track model (ST) is, braking in a turn on mu 1.0
-and 0.4 within stated yaw-rate RMS differences (issue 15), with MB's roll split and load
-transfers (issue 26)."""
+and 0.4 within stated yaw-rate RMS differences, with MB's roll split and load
+transfers."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def test_roll_share_is_mb_roll_stiffness_split() -> None:
     """commonroad_roll_share as vehicle_dynamics_mb has it (F_SLF / F_SRF, sumL): the
     torsion bars add |K_ts| to the springs' K_s T^2 / 2. vehicle2: 0.586 against the
     front share of MB's own steady lateral load transfer, 0.576 (its tyre loads in a 0.5
-    g turn); the old split, which subtracted |K_ts|, gave 0.514."""
+    g turn); a split that subtracted |K_ts| would give 0.514."""
     from cosim.vehicle.chassis import commonroad_roll_share
 
     car = cc.CAR
@@ -90,9 +90,9 @@ def test_braking_in_a_turn_on_mu_1(mb_runs) -> None:
     car's).
 
     The same physics as MB (our anti-lock off; MB has none): yaw-rate RMS 0.042 rad/s,
-    side slip within 1.29 degrees (issue 26: 0.06, 1.5); both inner wheels lock, as in
-    MB. With the rigid car's load transfer it was 0.163 rad/s and 6.3 degrees (it spun):
-    the inner rear kept 30 % more load and locked 0.55 s later than MB's.
+    side slip within 1.29 degrees (bounds 0.06, 1.5); both inner wheels lock, as in
+    MB. With the rigid car's load transfer it would be 0.163 rad/s and 6.3 degrees (a
+    spin): the inner rear keeps 30 % more load and locks 0.55 s later than MB's.
 
     Our anti-lock on, against MB without: 0.034 rad/s, 0.70 degrees; against MB given a
     surrogate of our anti-lock (`run_mb(anti_lock=True)`): 0.022 rad/s."""

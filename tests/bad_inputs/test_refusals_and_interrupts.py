@@ -1,6 +1,7 @@
-"""Issue 25 (reliability, third round): flags that conflict or exceed the machine, output
-targets that cannot take a result, full devices, interrupts at the folder swap, a batch
-ended by SIGTERM, a resumed study whose base changed, and messages that say what is wrong.
+"""What the commands refuse and how they end when interrupted: flags that conflict or
+exceed the machine, output targets that cannot take a result, full devices, interrupts at
+the folder swap, a batch ended by SIGTERM, a resumed study whose base changed, and
+messages that say what is wrong.
 
 Each case: exit 2 (or a clean completion where the input was good), at most one line on
 stderr naming the flag / file, the value and what is allowed, no traceback, nothing
@@ -34,7 +35,7 @@ def _batch(out: Path, *flags: str) -> list[str]:
             "--no-progress", "--no-plots", "-o", str(out), *flags]
 
 
-# ------------------------------------------------------------------ class 7: flags
+# ------------------------------------------------------------------ flags
 
 RUN_FLAG_CASES = {
     "gui_speed_without_gui": (["--gui-speed", "-4"], "--gui-speed = -4.0", "only with --gui"),
@@ -104,7 +105,7 @@ def test_many_workers_need_the_override_and_follow_the_cores() -> None:
     check_workers(parse([*base, "--workers", "2", "--dask", "local"]))  # sizes the cluster
 
 
-# ------------------------------------------------------------------ class 3: output targets
+# ------------------------------------------------------------------ output targets
 
 
 def _links(tmp_path: Path) -> dict[str, Path]:
@@ -228,7 +229,7 @@ def test_a_full_disk_in_a_batch_is_one_line(
     assert last.startswith("cosim batch: error: cannot write ") and "No space left" in last
 
 
-# ------------------------------------------------------------------ class 6: full streams
+# ------------------------------------------------------------------ full streams
 
 
 def _cosim(args: list[str], cwd: Path, **kwargs: object) -> subprocess.CompletedProcess[str]:
@@ -256,7 +257,7 @@ def test_stderr_on_a_full_device_exits_2(tmp_path: Path) -> None:
     assert done.returncode == 2 and done.stdout == ""
 
 
-# ------------------------------------------------------------------ class 8: messages
+# ------------------------------------------------------------------ messages
 
 
 def test_a_network_that_is_a_folder_or_a_device_says_so(
@@ -319,14 +320,14 @@ def test_the_numba_cache_folder_named_is_where_it_caches(
     assert compiled.cache_folder().is_relative_to(tmp_path / "mine" / "numba")
 
 
-# ------------------------------------------------------------------ class 4: the swap
+# ------------------------------------------------------------------ the folder swap
 
 
 def test_a_signal_during_the_swap_is_held_until_the_new_run_is_in_place(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """SIGTERM while the old folder is being removed (the moment that left a hidden
-    `.out.old-PID-*` copy and reported "terminated"): the swap and its clean-up finish,
-    then the signal is delivered, and the folder holds the complete new result."""
+    """SIGTERM while the old folder is being removed: the swap and its clean-up finish
+    (no hidden `.out.old-PID-*` copy is left), then the signal is delivered, and the
+    folder holds the complete new result."""
     import shutil
     import signal
     import threading
@@ -389,7 +390,7 @@ def test_cosim_run_signalled_at_the_swap_reports_the_complete_run(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "s.toml"]
 
 
-# ------------------------------------------------------------------ class 5: batch signals
+# ------------------------------------------------------------------ batch signals
 
 
 def _descendants(pid: int) -> set[int]:
@@ -471,7 +472,7 @@ def test_a_signalled_batch_ends_every_worker_and_says_one_line(
     assert not _gone(seen), f"left behind: {_gone(seen)} of {seen}"
 
 
-# ------------------------------------------------------------------ class 9: resumed studies
+# ------------------------------------------------------------------ resumed studies
 
 
 def test_a_resumed_study_on_another_base_is_refused_unless_restarted(
@@ -528,7 +529,7 @@ def test_a_folder_from_before_fingerprints_compares_what_its_runs_name(
             "--no-progress", "--no-plots", "--workers", "1", "-o", str(out)]
     assert main(argv) == 0
     study = json.loads((out / "study.json").read_text())
-    del study["base"]  # as written before issue 25
+    del study["base"]  # as a study.json without fingerprints
     (out / "study.json").write_text(json.dumps(study))
     capsys.readouterr()
     assert main([*argv, "--duration", "2"]) == 2
@@ -603,7 +604,8 @@ def test_a_closed_standard_stream_discards_what_goes_there(fd: int, tmp_path: Pa
 def test_gui_with_a_display_nobody_serves_is_one_line(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
-    """DISPLAY set, no X server behind it: refused at once (it was a traci traceback)."""
+    """DISPLAY set, no X server behind it: refused at once, in one line (not a traci
+    traceback)."""
     import socket
 
     from cosim.traffic.gui import x_display_reachable
