@@ -45,11 +45,6 @@ class VehicleParams:
         """m, lf + lr."""
         return self.lf + self.lr
 
-    @property
-    def front_overhang(self) -> float:
-        """m, CG to front bumper: the body is taken as centred on the CG."""
-        return self.length / 2.0
-
 
 @dataclass(frozen=True)
 class RoadParams:

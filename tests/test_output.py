@@ -18,7 +18,6 @@ from cosim.errors import InputError, Terminated
 from cosim.output import (
     atomic_open,
     atomic_path,
-    atomic_write_bytes,
     atomic_write_csv,
     atomic_write_json,
     atomic_write_text,
@@ -34,16 +33,14 @@ from cosim.output import (
 matplotlib.use("Agg")
 
 
-def test_text_bytes_json_round_trip(tmp_path: Path) -> None:
+def test_text_and_json_round_trip(tmp_path: Path) -> None:
     atomic_write_text(tmp_path / "a.txt", "héllo\nworld\n")
-    atomic_write_bytes(tmp_path / "b.bin", bytes(range(256)))
     atomic_write_json(tmp_path / "c.json", {"x": 1.5, "y": [1, 2]})
     assert (tmp_path / "a.txt").read_text(encoding="utf-8") == "héllo\nworld\n"
-    assert (tmp_path / "b.bin").read_bytes() == bytes(range(256))
     assert (tmp_path / "c.json").read_text().startswith("{\n")
     assert pd.read_json(tmp_path / "c.json", typ="series")["x"] == 1.5
     assert stale_temp_files(tmp_path) == []
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.bin", "c.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "c.json"]
 
 
 def test_files_get_the_mode_open_would_give(tmp_path: Path) -> None:

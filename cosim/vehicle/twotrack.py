@@ -56,7 +56,7 @@ import numpy as np
 
 from cosim.compiled import Array, njit
 from cosim.errors import InputError
-from cosim.params import G, VehicleParams
+from cosim.params import VehicleParams
 from cosim.vehicle.chassis import (
     ChassisParams,
     chassis_for,
@@ -415,7 +415,3 @@ class TwoTrackPlant:
         twotrack_derivative(self.state, self._const, self._inputs, self._forces, self._scratch)
         ax, ay, f1, f2, f3, f4, y1, y2, y3, y4, z1, z2, z3, z4 = self._forces[:N_FORCES].tolist()
         return PlantOutputs(ax, ay, (f1, f2, f3, f4), (y1, y2, y3, y4), (z1, z2, z3, z4))
-
-    def max_lateral_acceleration(self) -> float:
-        """m/s^2, the friction limit mu g."""
-        return self.mu * G

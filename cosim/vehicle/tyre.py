@@ -123,15 +123,6 @@ class TyreParams:
 
 
 @njit
-def mf_curve(slip: float, b: float, c: float, e: float, d: float) -> float:
-    """D sin(C atan(B s - E (B s - atan(B s)))): Pacejka's pure-slip curve."""
-    bs = b * slip
-    if e != 0.0:
-        bs = bs - e * (bs - math.atan(bs))
-    return d * math.sin(c * math.atan(bs))
-
-
-@njit
 def combined_weight(slip: float, other: float, b1: float, b2: float, e: float,
                     c: float) -> float:
     """-, the weight G of one force under combined slip (Pacejka's cosine form):
