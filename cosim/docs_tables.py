@@ -93,7 +93,7 @@ def table2() -> str:
     """docs/results.md: Table 2's IAE, case 5.1 with the paper's tau
     (`cosim track --source paper`)."""
     from cosim.commands.track import CASES, HEADERS, case_reference
-    from cosim.control.closed_loop import YAW_MOMENT_SHARE
+    from cosim.control.closed_loop import YAW_MOMENT_SHARE, LoopConfig
     from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, run_tracking
 
     case = CASES["5.1"]
@@ -105,8 +105,8 @@ def table2() -> str:
                            *(f"{PAPER_TABLE2[ctrl][c]:.3f}" for c in IAE_COLUMNS)]))
     for plant, plant_label in (("twotrack", "two-track plant"), ("bicycle", "2-DOF plant")):
         for ctrl in ("mimo", "siso"):
-            iae = run_tracking(plant, ctrl, ref, mu=case.mu, duration=10.0,
-                               yaw_moment_share=YAW_MOMENT_SHARE).iae()
+            iae = run_tracking(LoopConfig(plant, ctrl, yaw_moment_share=YAW_MOMENT_SHARE), ref,
+                               mu=case.mu, duration=10.0).iae()
             lines.append(_row([f"ours {ctrl.upper()}, {plant_label}",
                                *(f"{iae[c]:.{digits[c]}f}" for c in IAE_COLUMNS)]))
     return "\n".join(lines)
@@ -131,7 +131,7 @@ def track_cases_table() -> str:
     """docs/control_results.md: the paper's three cases tracked on the two-track plant
     with the paper's tau_opt (`cosim track --case all --plant twotrack`)."""
     from cosim.commands.track import CASES, case_reference
-    from cosim.control.closed_loop import YAW_MOMENT_SHARE
+    from cosim.control.closed_loop import YAW_MOMENT_SHARE, LoopConfig
     from cosim.control.tracking import run_tracking
 
     lines = [_row(["case", "mu", "tau (s)", "ye MIMO / SISO (m s)",
@@ -139,8 +139,8 @@ def track_cases_table() -> str:
                    "Fx MIMO / SISO (kN s)"]), "|---" * 7 + "|"]
     for case in CASES.values():
         ref, _ = case_reference(case, "paper", None, case.mu)
-        mimo, siso = (run_tracking("twotrack", c, ref, mu=case.mu, duration=10.0,
-                                   yaw_moment_share=YAW_MOMENT_SHARE).iae()
+        mimo, siso = (run_tracking(LoopConfig("twotrack", c, yaw_moment_share=YAW_MOMENT_SHARE),
+                                   ref, mu=case.mu, duration=10.0).iae()
                       for c in ("mimo", "siso"))
         target = ref.vxf * 3.6
         lines.append(_row([

@@ -14,13 +14,14 @@ from cosim import compiled
 from cosim.control.warm import warm_up
 from cosim.params import VehicleParams
 from cosim.vehicle import bicycle, twotrack
+from cosim.vehicle.plant import PlantStart
 
 VEHICLE = VehicleParams()
 
 
 def test_compiled_derivatives_equal_the_interpreted_functions() -> None:
     warm_up()
-    plant = twotrack.TwoTrackPlant(VEHICLE, 0.6, vx=25.0)
+    plant = twotrack.TwoTrackPlant(VEHICLE, 0.6, PlantStart(vx=25.0))
     rng = np.random.default_rng(3)
     for _ in range(50):
         n = plant.state.size
@@ -32,7 +33,7 @@ def test_compiled_derivatives_equal_the_interpreted_functions() -> None:
         twotrack.twotrack_derivative.py_func(s, plant._const, inputs, forces_p, out_p)
         np.testing.assert_allclose(out_c, out_p, rtol=1e-13, atol=1e-12)
         np.testing.assert_allclose(forces_c, forces_p, rtol=1e-13, atol=1e-12)
-    bike = bicycle.BicyclePlant(VEHICLE, vx=25.0, vy=0.3, yaw_rate=0.05)
+    bike = bicycle.BicyclePlant(VEHICLE, PlantStart(vx=25.0, vy=0.3, yaw_rate=0.05))
     bike.set_inputs(0.01, (100.0, -50.0, 200.0, 20.0))
     out_c, out_p = np.empty(6), np.empty(6)
     bicycle.bicycle_derivative(bike.state, bike._const, bike._inputs, out_c)

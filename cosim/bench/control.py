@@ -20,9 +20,10 @@ from typing import Any
 
 from cosim.bench import median_time
 from cosim.commands import count, seconds
-from cosim.control.closed_loop import ClosedLoop
+from cosim.control.closed_loop import ClosedLoop, LoopConfig
 from cosim.params import ControllerGains, VehicleParams, kmh
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.vehicle.plant import PlantStart
 from cosim.vehicle.twotrack import TwoTrackPlant
 
 
@@ -49,7 +50,8 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
 
     def closed_loop(plant: str, controller: str) -> tuple[float, float]:
         def run() -> None:
-            loop = ClosedLoop(plant, controller, vehicle, gains, 0.4, 0.0, 1.875, 0.0, kmh(80.0))
+            loop = ClosedLoop(LoopConfig(plant, controller), vehicle, gains, 0.4,
+                              PlantStart(0.0, 1.875, 0.0, kmh(80.0)))
             for k in range(n):
                 loop.advance(k * step, step, substeps, ref)
 
@@ -57,7 +59,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         return median_time(run, args.repeats), cpu
 
     def plant_alone() -> None:
-        p = TwoTrackPlant(vehicle, 0.4, 0.0, 1.875, 0.0, kmh(80.0))
+        p = TwoTrackPlant(vehicle, 0.4, PlantStart(0.0, 1.875, 0.0, kmh(80.0)))
         fx = (60.0, 60.0, 60.0, 60.0)
         for _ in range(n * substeps):
             p.step(step / substeps, 0.0, fx)

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.commands import RESULTS, add_figure_format, flag_type, variant_folder
-from cosim.control.closed_loop import YAW_MOMENT_SHARE
+from cosim.control.closed_loop import YAW_MOMENT_SHARE, LoopConfig
 from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, TrackingRun, run_tracking
 from cosim.errors import InputError
 from cosim.params import VEHICLE_PRESETS, ControllerGains, RoadParams, VehicleParams, kmh
@@ -190,78 +190,85 @@ def default_folder(args: argparse.Namespace) -> Path:
         "law": "paper" if args.paper_law else None})
 
 
-def run(args: argparse.Namespace) -> int:
-    source = source_of(args.case, args.source)
+def _check(args: argparse.Namespace) -> None:
+    """InputError for a run length or a cornering scale out of range."""
     if not 0.5 <= args.duration_s <= 120.0:
         raise InputError("--duration-s", "duration", args.duration_s, "in [0.5, 120] s")
     if not 0.2 <= args.cornering_scale <= 2.0:
         raise InputError("--cornering-scale", "cornering_scale", args.cornering_scale,
                          "in [0.2, 2]")
-    out = args.out if args.out is not None else default_folder(args)
-    if not args.no_plot:
-        from cosim.output import check_output_dir
 
-        check_output_dir(out)  # a bad --out now, not after the runs
-    vehicle = VEHICLE_PRESETS[args.vehicle]
+
+def _track_case(args: argparse.Namespace, case: PaperCase, source: str,
+                vehicle: VehicleParams) -> dict[str, Any]:
+    """One case: its reference, the MIMO and SISO runs on each plant asked for, and
+    whether MIMO beats SISO on the heading error on each."""
     chassis = dataclasses.replace(chassis_for(vehicle), cornering_scale=args.cornering_scale)
     share = None if args.paper_law else YAW_MOMENT_SHARE
     plants = ("twotrack", "bicycle") if args.plant == "both" else (args.plant,)
-    gains = ControllerGains()
-    cases = list(CASES.values()) if args.case == "all" else [CASES[args.case]]
-    results: list[dict[str, Any]] = []
-    figures: list[str] = []
-    for case in cases:
-        mu = case.mu if args.mu is None else args.mu
-        ref, origin = case_reference(case, source, args.tau_s, mu)
-        runs = [
-            run_tracking(p, c, ref, mu=mu, duration=args.duration_s, vehicle=vehicle,
-                         gains=gains, chassis=chassis, yaw_moment_share=share,
-                         low_speed_gain=not args.paper_law)
-            for p in plants for c in ("mimo", "siso")
-        ]
-        verdicts = {}
-        for p in plants:
-            mimo, siso = (r.iae() for r in runs if r.plant == p)
-            verdicts[p] = mimo["phi_e_deg"] < siso["phi_e_deg"]
-        if not args.no_plot:
-            from cosim.plots import figure_path
-            from cosim.plots.tracking import plot_inputs, plot_states
+    mu = case.mu if args.mu is None else args.mu
+    ref, origin = case_reference(case, source, args.tau_s, mu)
+    runs = [
+        run_tracking(LoopConfig(p, c, yaw_moment_share=share, low_speed_gain=not args.paper_law),
+                     ref, mu=mu, duration=args.duration_s, vehicle=vehicle,
+                     gains=ControllerGains(), chassis=chassis)
+        for p in plants for c in ("mimo", "siso")
+    ]
+    verdicts = {}
+    for p in plants:
+        mimo, siso = (r.iae() for r in runs if r.plant == p)
+        verdicts[p] = mimo["phi_e_deg"] < siso["phi_e_deg"]
+    return {"case": case, "mu": mu, "ref": ref, "origin": origin, "runs": runs,
+            "verdicts": verdicts}
 
-            title = f"case {case.name} lane change, mu {mu:g}, tau {ref.tau:.2f} s"
-            suffix = "" if len(cases) == 1 else f"_{case.name}"
-            fmt = args.figure_format
-            figures += [
-                str(plot_states(runs, figure_path(out, f"tracking_states{suffix}", fmt), title)),
-                str(plot_inputs(runs, figure_path(out, f"tracking_inputs{suffix}", fmt), title)),
-            ]
-        results.append({"case": case, "mu": mu, "ref": ref, "origin": origin, "runs": runs,
-                        "verdicts": verdicts})
+
+def _figures(args: argparse.Namespace, out: Path, res: dict[str, Any], one_case: bool
+             ) -> list[str]:
+    """Fig. 13-15 style states and inputs of one case's runs."""
+    from cosim.plots import figure_path
+    from cosim.plots.tracking import plot_inputs, plot_states
+
+    case, runs = res["case"], res["runs"]
+    title = f"case {case.name} lane change, mu {res['mu']:g}, tau {res['ref'].tau:.2f} s"
+    suffix = "" if one_case else f"_{case.name}"
+    fmt = args.figure_format
+    return [
+        str(plot_states(runs, figure_path(out, f"tracking_states{suffix}", fmt), title)),
+        str(plot_inputs(runs, figure_path(out, f"tracking_inputs{suffix}", fmt), title)),
+    ]
+
+
+def _json(args: argparse.Namespace, source: str, vehicle: VehicleParams,
+          results: list[dict[str, Any]], figures: list[str]) -> dict[str, Any]:
+    """The --json answer."""
     vc = critical_speed(vehicle)
-    if args.json:
-        out: dict[str, Any] = {
-            "cases": [{
-                "case": res["case"].name,
-                "reference": {"tau_s": res["ref"].tau, "vx0_mps": res["ref"].vx0,
-                              "vxf_mps": res["ref"].vxf, "width_m": res["ref"].width,
-                              "mu": res["mu"], "origin": res["origin"]},
-                "runs": [{"plant": r.plant, "controller": r.controller, "iae": r.iae()}
-                         for r in res["runs"]],
-                "mimo_beats_siso_on_heading": res["verdicts"],
-            } for res in results],
-            "source": source,
-            "duration_s": args.duration_s,
-            "cornering_scale": args.cornering_scale,
-            "vehicle": {
-                "preset": vehicle.preset,
-                "understeer_gradient_rad_per_mps2": understeer_gradient(vehicle),
-                "critical_speed_kmh": None if vc is None else vc * 3.6,
-            },
-            "yaw_moment_share": share,
-            "paper_table2_case_5_1": PAPER_TABLE2,
-            "figures": figures,
-        }
-        print(json.dumps(out))
-        return 0
+    return {
+        "cases": [{
+            "case": res["case"].name,
+            "reference": {"tau_s": res["ref"].tau, "vx0_mps": res["ref"].vx0,
+                          "vxf_mps": res["ref"].vxf, "width_m": res["ref"].width,
+                          "mu": res["mu"], "origin": res["origin"]},
+            "runs": [{"plant": r.plant, "controller": r.controller, "iae": r.iae()}
+                     for r in res["runs"]],
+            "mimo_beats_siso_on_heading": res["verdicts"],
+        } for res in results],
+        "source": source,
+        "duration_s": args.duration_s,
+        "cornering_scale": args.cornering_scale,
+        "vehicle": {
+            "preset": vehicle.preset,
+            "understeer_gradient_rad_per_mps2": understeer_gradient(vehicle),
+            "critical_speed_kmh": None if vc is None else vc * 3.6,
+        },
+        "yaw_moment_share": None if args.paper_law else YAW_MOMENT_SHARE,
+        "paper_table2_case_5_1": PAPER_TABLE2,
+        "figures": figures,
+    }
+
+
+def _print(args: argparse.Namespace, vehicle: VehicleParams, results: list[dict[str, Any]],
+           figures: list[str]) -> None:
+    """The tables and verdicts as text."""
     law = ("MIMO law as printed (no yaw-moment limit)" if args.paper_law
            else f"MIMO yaw moment limited to {YAW_MOMENT_SHARE:g} mu M g ls")
     print(f"{law}; two-track cornering stiffness x {args.cornering_scale:g}; "
@@ -278,4 +285,27 @@ def run(args: argparse.Namespace) -> int:
             print(f"MIMO beats SISO on heading error ({p}): {'yes' if ok else 'NO'}")
     for f in figures:
         print(f"figure: {f}")
+
+
+def run(args: argparse.Namespace) -> int:
+    source = source_of(args.case, args.source)
+    _check(args)
+    out = args.out if args.out is not None else default_folder(args)
+    if not args.no_plot:
+        from cosim.output import check_output_dir
+
+        check_output_dir(out)  # a bad --out now, not after the runs
+    vehicle = VEHICLE_PRESETS[args.vehicle]
+    cases = list(CASES.values()) if args.case == "all" else [CASES[args.case]]
+    results: list[dict[str, Any]] = []
+    figures: list[str] = []
+    for case in cases:
+        res = _track_case(args, case, source, vehicle)
+        if not args.no_plot:
+            figures += _figures(args, out, res, len(cases) == 1)
+        results.append(res)
+    if args.json:
+        print(json.dumps(_json(args, source, vehicle, results, figures)))
+    else:
+        _print(args, vehicle, results, figures)
     return 0

@@ -84,7 +84,7 @@ from cosim.road.frame import (
 from cosim.vehicle.actuators import ActuatorLimits, steer_core
 from cosim.vehicle.bicycle import BicyclePlant, bicycle_step
 from cosim.vehicle.chassis import ChassisParams, chassis_for
-from cosim.vehicle.plant import Plant, check_finite
+from cosim.vehicle.plant import Plant, PlantStart, check_finite
 from cosim.vehicle.twotrack import TwoTrackPlant, twotrack_step
 
 from .allocation import allocate_core
@@ -298,30 +298,38 @@ def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Ar
     return OK, counter, saturated
 
 
+@dataclass(frozen=True)
+class LoopConfig:
+    """Which plant and which law the closed loop runs, and how (beyond the gains)."""
+
+    plant: str = "twotrack"  # one of PLANTS
+    controller: str = "mimo"  # one of CONTROLLERS
+    control_every: int = 1  # substeps from one control update to the next
+    speed_floor: float = 1.0  # m/s, the control laws never divide by less
+    yaw_moment_share: float | None = YAW_MOMENT_SHARE  # -, friction share of dMz (None: off)
+    low_speed_gain: bool = True  # eq. 28's gain within the tyres' lag (False: as printed)
+
+
 class ClosedLoop:
     """One subject vehicle: plant, controller and actuators."""
 
     def __init__(
         self,
-        plant: str,
-        controller: str,
+        config: LoopConfig,
         vehicle: VehicleParams,
         gains: ControllerGains,
         mu: float,
-        x: float,
-        y: float,
-        heading: float,
-        speed: float,
+        start: PlantStart,
         *,
         chassis: ChassisParams | None = None,
         limits: ActuatorLimits | None = None,
-        control_every: int = 1,
-        speed_floor: float = 1.0,  # m/s, the control laws never divide by less
-        yaw_moment_share: float | None = YAW_MOMENT_SHARE,  # -, friction share of dMz (None: off)
-        low_speed_gain: bool = True,  # eq. 28's gain within the tyres' lag (False: as printed)
         frame: Frame | None = None,  # the road frame the references are given in (None: x, y)
-        yaw_rate: float = 0.0,  # rad/s at the start (on a curve: the lane's, speed x kappa)
     ) -> None:
+        """`start`: the plant's state at the start (on a curve the yaw rate is the lane's,
+        speed x kappa)."""
+        plant, controller = config.plant, config.controller
+        control_every, speed_floor = config.control_every, config.speed_floor
+        yaw_moment_share, low_speed_gain = config.yaw_moment_share, config.low_speed_gain
         if plant not in PLANTS:
             raise InputError("closed loop", "plant", plant, f"one of {', '.join(PLANTS)}")
         if controller not in CONTROLLERS:
@@ -337,6 +345,7 @@ class ClosedLoop:
         check_gains(gains)
         self.limits = limits or ActuatorLimits()
         self.limits.check()
+        self.config = config
         self.vehicle = vehicle
         self.gains = gains
         self.controller = controller
@@ -352,10 +361,9 @@ class ClosedLoop:
         ch = chassis or chassis_for(vehicle)
         self.plant: Plant
         if plant == "twotrack":
-            self.plant = TwoTrackPlant(vehicle, mu, x, y, heading, speed, 0.0, yaw_rate,
-                                       chassis=ch)
+            self.plant = TwoTrackPlant(vehicle, mu, start, chassis=ch)
         else:
-            self.plant = BicyclePlant(vehicle, x, y, heading, speed, 0.0, yaw_rate)
+            self.plant = BicyclePlant(vehicle, start)
         self._kind = PLANT_CODES[plant]
         self._pforces = getattr(self.plant, "_forces", np.zeros(1))
         # both plants get the force the same motors could deliver through wheels of radius R
@@ -488,7 +496,8 @@ def warm_up() -> None:
     ref = Trajectory(t0=0.0, tau=1.0, x0=0.0, y0=0.0, vx0=20.0, vxf=20.0, width=0.0)
     for plant in PLANTS:
         for controller in CONTROLLERS:
-            loop = ClosedLoop(plant, controller, vehicle, gains, 0.8, 0.0, 0.0, 0.0, 20.0)
+            loop = ClosedLoop(LoopConfig(plant, controller), vehicle, gains, 0.8,
+                              PlantStart(vx=20.0))
             loop.advance(0.0, 0.05, 10, ref)
         p = loop.plant
         p.step(0.005, 0.0, (0.0, 0.0, 0.0, 0.0))

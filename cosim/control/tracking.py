@@ -19,10 +19,10 @@ from numpy.typing import NDArray
 
 from cosim.params import ControllerGains, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.vehicle.actuators import ActuatorLimits
 from cosim.vehicle.chassis import ChassisParams
+from cosim.vehicle.plant import PlantStart
 
-from .closed_loop import YAW_MOMENT_SHARE, ClosedLoop, StepRecord
+from .closed_loop import ClosedLoop, LoopConfig, StepRecord
 
 # The paper's Table 2 (IAE of the single lane change, veDYNA), for comparison only.
 PAPER_TABLE2: dict[str, dict[str, float]] = {
@@ -61,9 +61,12 @@ class TrackingRun:
         }
 
 
+RECORD_STEP = 0.01  # s, between two records (the IAE's trapezoid grid)
+SUBSTEPS = 2  # per record: 5 ms, as the co-simulation's 0.05 s step with 10 substeps
+
+
 def run_tracking(
-    plant: str,
-    controller: str,
+    config: LoopConfig,
     reference: LaneChangeTrajectory,
     *,
     mu: float,
@@ -71,28 +74,20 @@ def run_tracking(
     vehicle: VehicleParams | None = None,
     gains: ControllerGains | None = None,
     chassis: ChassisParams | None = None,
-    limits: ActuatorLimits | None = None,
-    record_step: float = 0.01,
-    substeps: int = 2,
-    yaw_moment_share: float | None = YAW_MOMENT_SHARE,
-    low_speed_gain: bool = True,
 ) -> TrackingRun:
     """Start on the reference at its t0 (position, heading, speed) and follow it for
-    `duration` seconds; substeps of record_step / substeps (5 ms by default, as in
-    the co-simulation's 0.05 s step with 10 substeps)."""
+    `duration` seconds with the plant and law of `config`, recorded every RECORD_STEP
+    in SUBSTEPS substeps."""
     vehicle = vehicle or VehicleParams()
     gains = gains or ControllerGains()
     t0 = reference.t0
     heading = float(reference.heading(t0))
     x0, y0 = (float(v) for v in reference.position(t0))
-    loop = ClosedLoop(
-        plant, controller, vehicle, gains, mu, x0, y0, heading, float(reference.speed(t0)),
-        chassis=chassis, limits=limits, yaw_moment_share=yaw_moment_share,
-        low_speed_gain=low_speed_gain,
-    )
+    loop = ClosedLoop(config, vehicle, gains, mu,
+                      PlantStart(x0, y0, heading, float(reference.speed(t0))), chassis=chassis)
     loop.set_reference(reference, reset=True)
     records = [loop.record(t0)]
-    n = int(round(duration / record_step))
+    n = int(round(duration / RECORD_STEP))
     for k in range(n):
-        records.append(loop.advance(t0 + k * record_step, record_step, substeps, reference))
-    return TrackingRun(plant, controller, mu, tuple(records))
+        records.append(loop.advance(t0 + k * RECORD_STEP, RECORD_STEP, SUBSTEPS, reference))
+    return TrackingRun(config.plant, config.controller, mu, tuple(records))

@@ -68,7 +68,8 @@ class PlannedEgo:
     def start_speed(self, speed: float, reference: LaneChangeTrajectory) -> None:
         """(Re)start the closed loop at t = 0 at `speed` (m/s) tracking `reference` (SUMO
         gets the speed with the first pose written)."""
-        from cosim.control.closed_loop import ClosedLoop
+        from cosim.control.closed_loop import ClosedLoop, LoopConfig
+        from cosim.vehicle.plant import PlantStart
 
         sc, x0, y0 = self._start
         # the plant is Cartesian; the reference and the scene are in road coordinates
@@ -77,9 +78,9 @@ class PlannedEgo:
         # on a curve the car starts turning with its lane (the lane's curvature is the
         # line's over q, its speed q times the plan's: speed x the line's curvature)
         yaw_rate = speed * float(self.world.frame.curvature(x0))
-        self.loop = ClosedLoop(sc.sv.plant, sc.sv.controller, sc.vehicle, sc.gains,
-                               sc.road.mu, cx, cy, ch, speed * q, frame=self.world.frame,
-                               yaw_rate=yaw_rate)
+        self.loop = ClosedLoop(LoopConfig(sc.sv.plant, sc.sv.controller), sc.vehicle, sc.gains,
+                               sc.road.mu, PlantStart(cx, cy, ch, speed * q, yaw_rate=yaw_rate),
+                               frame=self.world.frame)
         self.loop.set_reference(reference)
         self.record = self.loop.record(0.0)
         self.records: list[Any] = [self.record]

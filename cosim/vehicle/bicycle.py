@@ -21,7 +21,7 @@ import numpy as np
 
 from cosim.compiled import Array, njit
 from cosim.params import VehicleParams
-from cosim.vehicle.plant import PlantOutputs
+from cosim.vehicle.plant import PlantOutputs, PlantStart
 
 STATE_NAMES = ("x", "y", "heading", "vx", "vy", "yaw_rate")
 
@@ -117,18 +117,14 @@ class BicyclePlant:
     def __init__(
         self,
         vehicle: VehicleParams,
-        x: float = 0.0,
-        y: float = 0.0,
-        heading: float = 0.0,
-        vx: float = 20.0,
-        vy: float = 0.0,
-        yaw_rate: float = 0.0,
+        start: PlantStart | None = None,
         *,
         speed_floor: float = 1.0,  # m/s, slip-angle denominators never below this
         max_step: float = 0.01,  # s, longest RK4 step (the lateral modes are slow)
     ) -> None:
         self.vehicle = vehicle
-        self.state = np.array([x, y, heading, vx, vy, yaw_rate], dtype=float)
+        st = start or PlantStart()
+        self.state = np.array([st.x, st.y, st.heading, st.vx, st.vy, st.yaw_rate], dtype=float)
         self.speed_floor = speed_floor
         self.max_step = max_step
         v = vehicle

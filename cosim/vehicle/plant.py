@@ -3,10 +3,23 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
 from cosim.compiled import Array
 from cosim.errors import SimulationError
+
+
+@dataclass(frozen=True)
+class PlantStart:
+    """A plant's state at the start: the CG's pose (global frame) and body velocities."""
+
+    x: float = 0.0  # m, CG global x
+    y: float = 0.0  # m, CG global y
+    heading: float = 0.0  # rad, math convention
+    vx: float = 20.0  # m/s, body longitudinal speed
+    vy: float = 0.0  # m/s, body lateral speed
+    yaw_rate: float = 0.0  # rad/s
 
 
 class PlantOutputs(NamedTuple):

@@ -63,7 +63,7 @@ from cosim.vehicle.chassis import (
     static_wheel_loads,
     transfer_per_wheel,
 )
-from cosim.vehicle.plant import PlantOutputs
+from cosim.vehicle.plant import PlantOutputs, PlantStart
 from cosim.vehicle.tyre import N_TYRE, combined_forces, peak_slip
 
 STATE_NAMES = (
@@ -306,12 +306,7 @@ class TwoTrackPlant:
         self,
         vehicle: VehicleParams,
         mu: float,
-        x: float = 0.0,
-        y: float = 0.0,
-        heading: float = 0.0,
-        vx: float = 20.0,
-        vy: float = 0.0,
-        yaw_rate: float = 0.0,
+        start: PlantStart | None = None,
         *,
         chassis: ChassisParams | None = None,
         max_step: float = 0.005,  # s, longest RK4 step
@@ -371,9 +366,11 @@ class TwoTrackPlant:
         const[C_MAX_STEP], const[C_STEP_FACTOR] = max_step, step_factor
         self._const = np.array(const + ty.array())
         assert self._const.size == N_CONST
+        st = start or PlantStart()
+        vx, vy, yaw_rate = st.vx, st.vy, st.yaw_rate
         w0 = vx / ch.wheel_radius
         self.state = np.zeros(N_STATE)
-        self.state[:10] = [x, y, heading, vx, vy, yaw_rate, w0, w0, w0, w0]
+        self.state[:10] = [st.x, st.y, st.heading, vx, vy, yaw_rate, w0, w0, w0, w0]
         # relaxed lateral slips start at their kinematic values (no transient at t = 0)
         for i, (px, py) in enumerate(((vehicle.lf, vehicle.half_track),
                                       (vehicle.lf, -vehicle.half_track),

@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from cosim.control.closed_loop import ClosedLoop
+from cosim.control.closed_loop import ClosedLoop, LoopConfig
 from cosim.errors import InputError, SimulationError
 from cosim.params import ControllerGains, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.vehicle.actuators import ActuatorLimits
+from cosim.vehicle.plant import PlantStart
 
 VEHICLE = VehicleParams()
 GAINS = ControllerGains()
@@ -34,7 +35,8 @@ def run(loop: ClosedLoop, ref: LaneChangeTrajectory, seconds: float, t: float = 
 
 def test_offset_decays_as_the_closed_loop_error_equation_42() -> None:
     ye0 = 0.1
-    loop = ClosedLoop("bicycle", "mimo", VEHICLE, GAINS, 0.8, 0.0, ye0, 0.0, V0)
+    loop = ClosedLoop(LoopConfig("bicycle", "mimo"), VEHICLE, GAINS, 0.8,
+                      PlantStart(0.0, ye0, 0.0, V0))
     records = run(loop, straight(), 4.0)
     # z = int(ye): z''' = -ky1 z'' - ky0 z' - kyI z, z(0) = 0, z'(0) = ye0, z''(0) = 0
     a = np.array([[0, 1, 0], [0, 0, 1], [-GAINS.kyI, -GAINS.ky0, -GAINS.ky1]], dtype=float)
@@ -47,7 +49,8 @@ def test_offset_decays_as_the_closed_loop_error_equation_42() -> None:
 def test_mimo_holds_heading_error_near_zero_in_a_lane_change_on_both_plants() -> None:
     ref = LaneChangeTrajectory(t0=0.0, tau=5.0, x0=0.0, y0=0.0, vx0=V0, vxf=V0, width=3.75)
     for plant in ("bicycle", "twotrack"):
-        loop = ClosedLoop(plant, "mimo", VEHICLE, GAINS, 0.6, 0.0, 0.0, 0.0, V0)
+        loop = ClosedLoop(LoopConfig(plant, "mimo"), VEHICLE, GAINS, 0.6,
+                          PlantStart(0.0, 0.0, 0.0, V0))
         records = run(loop, ref, 7.0)
         assert max(abs(r.ye) for r in records) < 0.02
         assert max(abs(r.phi_e) for r in records) < 2e-3
@@ -56,21 +59,25 @@ def test_mimo_holds_heading_error_near_zero_in_a_lane_change_on_both_plants() ->
 
 
 def test_record_fields() -> None:
-    loop = ClosedLoop("twotrack", "siso", VEHICLE, GAINS, 0.6, 10.0, 1.0, 0.0, V0)
+    loop = ClosedLoop(LoopConfig("twotrack", "siso"), VEHICLE, GAINS, 0.6,
+                      PlantStart(10.0, 1.0, 0.0, V0))
     r = loop.advance(0.0, 0.05, 10, straight(y=1.0, x0=10.0))
     assert r.t == pytest.approx(0.05)
     assert len(r.fx) == 4 and r.fy is not None and len(r.fy) == 4 and r.fz is not None
     assert r.dmz == 0.0  # SISO steers only
     assert r.x == pytest.approx(10.0 + V0 * 0.05, abs=0.01)
     assert r.x_ref == pytest.approx(10.0 + V0 * 0.05) and r.vx_ref == pytest.approx(V0)
-    bicycle = ClosedLoop("bicycle", "mimo", VEHICLE, GAINS, 0.6, 0.0, 0.0, 0.0, V0)
+    bicycle = ClosedLoop(LoopConfig("bicycle", "mimo"), VEHICLE, GAINS, 0.6,
+                         PlantStart(0.0, 0.0, 0.0, V0))
     assert bicycle.advance(0.0, 0.05, 10, straight()).fz is None
 
 
 def test_swapping_in_an_equal_reference_changes_nothing() -> None:
     ref = LaneChangeTrajectory(t0=0.0, tau=5.0, x0=0.0, y0=0.0, vx0=V0, vxf=V0, width=3.75)
-    a = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.6, 0.0, 0.0, 0.0, V0)
-    b = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.6, 0.0, 0.0, 0.0, V0)
+    a = ClosedLoop(LoopConfig("twotrack", "mimo"), VEHICLE, GAINS, 0.6,
+                   PlantStart(0.0, 0.0, 0.0, V0))
+    b = ClosedLoop(LoopConfig("twotrack", "mimo"), VEHICLE, GAINS, 0.6,
+                   PlantStart(0.0, 0.0, 0.0, V0))
     ra, rb = run(a, ref, 2.0), run(b, ref, 2.0)
     copy = dataclasses.replace(ref)
     assert copy is not ref
@@ -81,7 +88,8 @@ def test_swapping_in_an_equal_reference_changes_nothing() -> None:
 
 def test_replanning_from_the_current_state_does_not_jump() -> None:
     ref = LaneChangeTrajectory(t0=0.0, tau=5.0, x0=0.0, y0=0.0, vx0=V0, vxf=V0, width=3.75)
-    loop = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.6, 0.0, 0.0, 0.0, V0)
+    loop = ClosedLoop(LoopConfig("twotrack", "mimo"), VEHICLE, GAINS, 0.6,
+                      PlantStart(0.0, 0.0, 0.0, V0))
     before = run(loop, ref, 2.5)[-1]
     # abort: back to the origin lane from where the plan says the car is now
     (x,), (y,) = ref.position(np.array([2.5]))
@@ -101,15 +109,16 @@ def test_replanning_from_the_current_state_does_not_jump() -> None:
 
 def test_control_every_k_substeps_still_tracks() -> None:
     ref = LaneChangeTrajectory(t0=0.0, tau=5.0, x0=0.0, y0=0.0, vx0=V0, vxf=V0, width=3.75)
-    loop = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.6, 0.0, 0.0, 0.0, V0,
-                      control_every=5)
+    loop = ClosedLoop(LoopConfig("twotrack", "mimo", control_every=5), VEHICLE, GAINS, 0.6,
+                      PlantStart(0.0, 0.0, 0.0, V0))
     records = run(loop, ref, 7.0)
     assert max(abs(r.ye) for r in records) < 0.05
 
 
 def test_saturated_steering_freezes_the_integrators() -> None:
     limits = ActuatorLimits(max_steer=0.002)
-    loop = ClosedLoop("bicycle", "siso", VEHICLE, GAINS, 0.6, 0.0, 2.0, 0.0, V0, limits=limits)
+    loop = ClosedLoop(LoopConfig("bicycle", "siso"), VEHICLE, GAINS, 0.6,
+                      PlantStart(0.0, 2.0, 0.0, V0), limits=limits)
     records = run(loop, straight(), 0.5)
     assert all(r.saturated for r in records)
     assert loop._int_ye == 0.0
@@ -118,14 +127,16 @@ def test_saturated_steering_freezes_the_integrators() -> None:
 
 def test_near_zero_speed_stays_finite() -> None:
     slow = LaneChangeTrajectory(t0=0.0, tau=3.0, x0=0.0, y0=0.0, vx0=0.5, vxf=0.5, width=1.0)
-    loop = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.6, 0.0, 0.0, 0.0, 0.5)
+    loop = ClosedLoop(LoopConfig("twotrack", "mimo"), VEHICLE, GAINS, 0.6,
+                      PlantStart(0.0, 0.0, 0.0, 0.5))
     records = run(loop, slow, 2.0)
     assert all(math.isfinite(r.delta_f) and math.isfinite(r.vx) for r in records)
     assert all(abs(r.delta_f) <= loop.limits.max_steer for r in records)
 
 
 def test_nan_state_raises_a_simulation_error_naming_it() -> None:
-    loop = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.6, 0.0, 0.0, 0.0, V0)
+    loop = ClosedLoop(LoopConfig("twotrack", "mimo"), VEHICLE, GAINS, 0.6,
+                      PlantStart(0.0, 0.0, 0.0, V0))
     run(loop, straight(), 0.1)
     loop.plant.state[3] = math.nan
     with pytest.raises(SimulationError, match="vx = nan"):
@@ -139,7 +150,8 @@ def test_nan_state_raises_a_simulation_error_naming_it() -> None:
 )
 def test_bad_configuration_is_an_input_error(plant: str, controller: str, gains) -> None:
     with pytest.raises(InputError):
-        ClosedLoop(plant, controller, VEHICLE, gains, 0.6, 0.0, 0.0, 0.0, V0)
+        ClosedLoop(LoopConfig(plant, controller), VEHICLE, gains, 0.6,
+                   PlantStart(0.0, 0.0, 0.0, V0))
 
 
 def test_yaw_moment_limit_keeps_the_two_track_on_the_path_where_the_printed_law_spins() -> None:
@@ -151,8 +163,8 @@ def test_yaw_moment_limit_keeps_the_two_track_on_the_path_where_the_printed_law_
                                width=3.75)
     worst = {}
     for share in (None, 0.2):
-        loop = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.4, 0.0, 0.0, 0.0, 80 / 3.6,
-                          yaw_moment_share=share)
+        loop = ClosedLoop(LoopConfig("twotrack", "mimo", yaw_moment_share=share), VEHICLE, GAINS,
+                          0.4, PlantStart(0.0, 0.0, 0.0, 80 / 3.6))
         records = run(loop, ref, 10.0)
         worst[share] = max(abs(r.ye) for r in records)
         if share is not None:
@@ -165,7 +177,8 @@ def test_a_speed_step_during_a_lane_change_on_low_friction_stays_on_the_path() -
     """Eq. 28 with kx1 = 200 asks for far more than mu Fz on a 5 m/s step; ABS and the
     yaw-moment limit keep the two-track car on its path."""
     ref = LaneChangeTrajectory(t0=0.0, tau=4.0, x0=0.0, y0=0.0, vx0=20.0, vxf=20.0, width=3.75)
-    loop = ClosedLoop("twotrack", "mimo", VEHICLE, GAINS, 0.4, 0.0, 0.0, 0.0, 25.0)
+    loop = ClosedLoop(LoopConfig("twotrack", "mimo"), VEHICLE, GAINS, 0.4,
+                      PlantStart(0.0, 0.0, 0.0, 25.0))
     records = run(loop, ref, 6.0)
     assert max(abs(r.ye) for r in records) < 0.5
     assert records[-1].vx == pytest.approx(20.0, abs=0.05)
@@ -178,8 +191,8 @@ def test_speed_loop_needs_kx1_times_control_period_below_two() -> None:
     ref = LaneChangeTrajectory(t0=0.0, tau=4.0, x0=0.0, y0=0.0, vx0=24.0, vxf=24.0, width=0.0)
     final = {}
     for every in (1, 2):
-        loop = ClosedLoop("bicycle", "mimo", VEHICLE, GAINS, 0.8, 0.0, 0.0, 0.0, 25.0,
-                          control_every=every)
+        loop = ClosedLoop(LoopConfig("bicycle", "mimo", control_every=every), VEHICLE, GAINS, 0.8,
+                          PlantStart(0.0, 0.0, 0.0, 25.0))
         final[every] = [r.ex for r in run(loop, ref, 2.0)[-4:]]
     assert max(abs(e) for e in final[1]) < 0.002  # drag's steady error, ~1 mm/s
     assert min(abs(e) for e in final[2]) > 0.02

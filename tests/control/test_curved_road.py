@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim.control.closed_loop import ClosedLoop
+from cosim.control.closed_loop import ClosedLoop, LoopConfig
 from cosim.control.cornering import (
     CAP,
     F_PREVIEW,
@@ -25,6 +25,7 @@ from cosim.road.frame import ArcFrame, FrameQuality, StraightFrame
 from cosim.road.road import Road, load_road
 from cosim.traffic.network import NETWORK_DIR
 from cosim.vehicle.chassis import chassis_for
+from cosim.vehicle.plant import PlantStart
 
 V = 30.0  # m/s
 
@@ -38,8 +39,8 @@ def drive(frame: object, plant: str, s0: float, d0: float, seconds: float,
           change_at: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, ClosedLoop]:
     """Lane keeping at V from (s0, d0), a lane change left at `change_at`: (ye, phi_e, d)."""
     x, y, theta = frame.to_cartesian(s0, d0)
-    loop = ClosedLoop(plant, "mimo", VehicleParams(), ControllerGains(), 0.6, float(x),
-                      float(y), float(theta), V, frame=frame)
+    loop = ClosedLoop(LoopConfig(plant, "mimo"), VehicleParams(), ControllerGains(), 0.6,
+                      PlantStart(float(x), float(y), float(theta), V), frame=frame)
     ref = lane_keeping_reference(0.0, s0, d0, V, 0.0)
     dt, out = 0.05, []
     for k in range(int(seconds / dt)):
@@ -115,8 +116,8 @@ def test_the_two_track_car_holds_a_steady_curve_with_its_integrators_nearly_empt
     frame = arc_frame(800.0, 800.0)
     s0, d0 = 100.0, 5.625
     x, y, theta = frame.to_cartesian(s0, d0)
-    loop = ClosedLoop("twotrack", "mimo", VehicleParams(), ControllerGains(), 0.6, float(x),
-                      float(y), float(theta), V + 1.0, frame=frame)
+    loop = ClosedLoop(LoopConfig("twotrack", "mimo"), VehicleParams(), ControllerGains(), 0.6,
+                      PlantStart(float(x), float(y), float(theta), V + 1.0), frame=frame)
     dt, ye, s = 0.05, [], s0
     while s < 1000.0:  # 700 m into the arc
         t = len(ye) * dt
@@ -141,8 +142,8 @@ def test_the_feed_forward_is_what_the_plant_needs_on_a_steady_curve() -> None:
     frame = arc_frame(800.0, 1600.0)
     s0, d0 = 100.0, 5.625
     x, y, theta = frame.to_cartesian(s0, d0)
-    loop = ClosedLoop("twotrack", "mimo", vehicle, ControllerGains(), 0.6, float(x),
-                      float(y), float(theta), V + 1.0, frame=frame)
+    loop = ClosedLoop(LoopConfig("twotrack", "mimo"), vehicle, ControllerGains(), 0.6,
+                      PlantStart(float(x), float(y), float(theta), V + 1.0), frame=frame)
     dt, s, t = 0.05, s0, 0.0
     while s < 1800.0:  # 1400 m into the arc: settled
         r = loop.advance(t, dt, 10, lane_keeping_reference(t, s, d0, V + 1.0, 0.0))
@@ -170,9 +171,9 @@ def test_the_curve_is_fed_forward_a_relaxation_length_ahead() -> None:
         s0, d0 = 600.0, 5.625
         x, y, theta = frame.to_cartesian(s0, d0)
         k = 1.0 / (800.0 - (d0 - 1.875))
-        loop = ClosedLoop("twotrack", "mimo", VehicleParams(), ControllerGains(), 0.6,
-                          float(x), float(y), float(theta), V + 1.0, frame=frame,
-                          yaw_rate=(V + 1.0) * k)
+        loop = ClosedLoop(LoopConfig("twotrack", "mimo"), VehicleParams(), ControllerGains(), 0.6,
+                          PlantStart(float(x), float(y), float(theta), V + 1.0,
+                                     yaw_rate=(V + 1.0) * k), frame=frame)
         if not preview:
             loop._ff[F_PREVIEW] = 0.0
         dt, ye, s = 0.05, [], s0
@@ -213,8 +214,8 @@ def test_on_a_straight_road_the_curve_terms_change_nothing_bit_for_bit() -> None
     same records, bit for bit, with them (the default) and with both switched off."""
     out = []
     for on in (True, False):
-        loop = ClosedLoop("twotrack", "mimo", VehicleParams(), ControllerGains(), 0.6, 0.0,
-                          5.625, 0.0, V)
+        loop = ClosedLoop(LoopConfig("twotrack", "mimo"), VehicleParams(), ControllerGains(), 0.6,
+                          PlantStart(0.0, 5.625, 0.0, V))
         if not on:
             loop._ff[:] = 0.0
         ref = LaneChangeTrajectory(t0=1.0, tau=4.0, x0=V, y0=5.625, vx0=V, vxf=V,

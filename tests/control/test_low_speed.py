@@ -8,10 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from cosim.control.closed_loop import ClosedLoop
+from cosim.control.closed_loop import ClosedLoop, LoopConfig
 from cosim.control.reference import ReferencePath
 from cosim.params import ControllerGains, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.vehicle.plant import PlantStart
 
 DT = 0.05
 
@@ -24,8 +25,8 @@ def straight(t: float, x: float, speed: float, accel: float) -> LaneChangeTrajec
 
 def stop_and_go(plant: str, controller: str, y0: float = 0.0) -> dict[str, np.ndarray]:
     """10 m/s -> brake at 2 m/s^2 to rest -> 5 s at rest -> 1 m/s^2 back to 8 m/s."""
-    loop = ClosedLoop(plant, controller, VehicleParams(), ControllerGains(), 0.8,
-                      0.0, y0, 0.0, 10.0)
+    loop = ClosedLoop(LoopConfig(plant, controller), VehicleParams(), ControllerGains(), 0.8,
+                      PlantStart(0.0, y0, 0.0, 10.0))
     v, t = 10.0, 0.0
     rows = []
     for _ in range(420):

@@ -7,10 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim.control.closed_loop import ClosedLoop
+from cosim.control.closed_loop import ClosedLoop, LoopConfig
 from cosim.control.longitudinal import TYRE_LAG_FACTOR, speed_gain, speed_gain_inverse_lag
 from cosim.params import ControllerGains, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.vehicle.plant import PlantStart
 
 DT = 0.05
 GAINS = ControllerGains()
@@ -34,8 +35,8 @@ def follow(plant: str, *, low_speed_gain: bool = True, duration: float = 42.0
            ) -> dict[str, np.ndarray]:
     """The SV tracks the leader's speed profile (the reference a car-follower at a fixed
     time offset would hand it), sampled every 0.05 s as the co-simulation records it."""
-    loop = ClosedLoop(plant, "mimo", VehicleParams(), GAINS, 0.8, 0.0, 0.0, 0.0, 30.0,
-                      low_speed_gain=low_speed_gain)
+    loop = ClosedLoop(LoopConfig(plant, "mimo", low_speed_gain=low_speed_gain), VehicleParams(),
+                      GAINS, 0.8, PlantStart(0.0, 0.0, 0.0, 30.0))
     rows = []
     t = 0.0
     for _ in range(int(round(duration / DT))):

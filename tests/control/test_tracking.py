@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from cosim.commands import track
+from cosim.control.closed_loop import LoopConfig
 from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, run_tracking
 from cosim.errors import InputError
 from cosim.planning.trajectory import LaneChangeTrajectory
@@ -32,7 +33,8 @@ REF = LaneChangeTrajectory(
 @pytest.fixture(scope="module")
 def runs():
     return {
-        c: run_tracking("twotrack", c, REF, mu=0.4, duration=8.0) for c in ("mimo", "siso")
+        c: run_tracking(LoopConfig("twotrack", c), REF, mu=0.4, duration=8.0)
+        for c in ("mimo", "siso")
     }
 
 

@@ -19,6 +19,7 @@ from cosim.control.triple_step import (
 from cosim.errors import InputError
 from cosim.params import ControllerGains, VehicleParams
 from cosim.vehicle.bicycle import BicyclePlant
+from cosim.vehicle.plant import PlantStart
 
 PAPER = ControllerGains()
 VEHICLE = VehicleParams()
@@ -79,7 +80,7 @@ def test_mimo_law_leaves_the_error_equations_42_43(seed: int) -> None:
     iy, ip = rnd.uniform(-0.2, 0.2), rnd.uniform(-0.01, 0.01)
     ye_dot, phi_e_dot = vx * phi_e + vy, r - kappa * vx  # eq. 16
     delta, dmz = mimo_law(VEHICLE, PAPER, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, iy, ip)
-    plant = BicyclePlant(VEHICLE, vx=vx, vy=vy, yaw_rate=r)
+    plant = BicyclePlant(VEHICLE, PlantStart(vx=vx, vy=vy, yaw_rate=r))
     ydd, pdd = output_accelerations(plant, delta, dmz, kappa)
     g = PAPER
     assert ydd == pytest.approx(-(g.ky0 * ye + g.kyI * iy + g.ky1 * ye_dot), abs=1e-9)
@@ -90,7 +91,7 @@ def test_siso_law_regulates_ye_only() -> None:
     vx, kappa, ye, phi_e, vy, r = 25.0, 1e-3, 0.2, 0.02, 0.1, 0.03
     ye_dot, phi_e_dot = vx * phi_e + vy, r - kappa * vx
     delta = siso_law(VEHICLE, PAPER, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, 0.05)
-    plant = BicyclePlant(VEHICLE, vx=vx, vy=vy, yaw_rate=r)
+    plant = BicyclePlant(VEHICLE, PlantStart(vx=vx, vy=vy, yaw_rate=r))
     ydd, _ = output_accelerations(plant, delta, 0.0, kappa)
     g = PAPER
     assert ydd == pytest.approx(-(g.ky0 * ye + g.kyI * 0.05 + g.ky1 * ye_dot), abs=1e-9)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from cosim.control.closed_loop import LoopConfig
 from cosim.control.tracking import run_tracking
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.plots import DPI
@@ -20,7 +21,7 @@ def test_inputs_start_at_the_first_control_update(tmp_path: Path) -> None:
     """The first record precedes any control update (all inputs 0): drawing it made a
     0 -> 0.22 kN jump at t = 0. The held inputs start at the first update, where the
     wheels already carry the drag-compensating force."""
-    run = run_tracking("twotrack", "mimo", REF, mu=0.4, duration=1.0)
+    run = run_tracking(LoopConfig("twotrack", "mimo"), REF, mu=0.4, duration=1.0)
     first = run.records[0]
     assert first.fx == (0.0, 0.0, 0.0, 0.0)  # the cause: no input before the first update
     t, delta_f, dmz, fx = held_inputs(run)

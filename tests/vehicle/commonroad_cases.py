@@ -32,6 +32,7 @@ from scipy.integrate import solve_ivp
 
 from cosim.params import COMMONROAD_CARS, COMMONROAD_TYRE, G, commonroad_vehicle
 from cosim.vehicle.chassis import ChassisParams, commonroad_chassis
+from cosim.vehicle.plant import PlantStart
 from cosim.vehicle.twotrack import TwoTrackPlant
 
 V0 = 80.0 / 3.6  # m/s
@@ -111,7 +112,7 @@ def our_chassis(roll_share: float | None = None, anti_lock: bool = True,
 def run_ours(m: Manoeuvre, chassis: ChassisParams | None = None) -> np.ndarray:
     """(t, yaw rate, vx, vy) on the DT grid, our two-track plant."""
     vehicle = commonroad_vehicle(CAR)
-    plant = TwoTrackPlant(vehicle, m.mu * COMMONROAD_TYRE["p_dy1"], vx=V0,
+    plant = TwoTrackPlant(vehicle, m.mu * COMMONROAD_TYRE["p_dy1"], PlantStart(vx=V0),
                           chassis=chassis or our_chassis())
     n = int(round(m.end / DT))
     out = np.empty((n + 1, 4))
@@ -138,8 +139,8 @@ def our_peak_slip(mu: float) -> float:
     """-, the longitudinal slip at which our anti-lock logic cuts a wheel's torque."""
     from cosim.vehicle.twotrack import C_PEAK
 
-    plant = TwoTrackPlant(commonroad_vehicle(CAR), mu * COMMONROAD_TYRE["p_dy1"], vx=V0,
-                          chassis=our_chassis())
+    plant = TwoTrackPlant(commonroad_vehicle(CAR), mu * COMMONROAD_TYRE["p_dy1"],
+                          PlantStart(vx=V0), chassis=our_chassis())
     return float(plant._const[C_PEAK])
 
 
@@ -275,7 +276,7 @@ def ours_steady_transfer(chassis: ChassisParams | None = None, ay: float = 0.5 *
     """(N, m/s^2): our plant's lateral load transfer (F_z outer - inner, both axles) in
     the steady turn of `mb_steady_transfer`, and its lateral acceleration."""
     vehicle = commonroad_vehicle(CAR)
-    plant = TwoTrackPlant(vehicle, COMMONROAD_TYRE["p_dy1"], vx=V0,
+    plant = TwoTrackPlant(vehicle, COMMONROAD_TYRE["p_dy1"], PlantStart(vx=V0),
                           chassis=chassis or our_chassis())
     m = Manoeuvre("steady", 1.0, neutral_steer(ay), end)
     for k in range(int(round(end / DT))):

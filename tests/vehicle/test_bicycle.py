@@ -9,6 +9,7 @@ import pytest
 from cosim.control.allocation import virtual_inputs
 from cosim.params import VehicleParams
 from cosim.vehicle.bicycle import BicyclePlant, steady_state, understeer_gradient
+from cosim.vehicle.plant import PlantStart
 
 VEHICLE = VehicleParams()
 
@@ -25,7 +26,7 @@ def hold_speed_run(plant: BicyclePlant, delta: float, seconds: float) -> None:
 @pytest.mark.parametrize("speed", [10.0, 22.0, 30.0])
 def test_simulation_settles_on_the_analytic_steady_state(speed: float) -> None:
     delta = 0.003
-    plant = BicyclePlant(VEHICLE, vx=speed)
+    plant = BicyclePlant(VEHICLE, PlantStart(vx=speed))
     hold_speed_run(plant, delta, 8.0)
     vy_ss, r_ss = steady_state(VEHICLE, plant.state[3], delta)
     assert plant.state[3] == pytest.approx(speed, rel=1e-4)  # Fa is held over each step
@@ -50,7 +51,7 @@ def test_table1_car_oversteers_with_a_critical_speed_near_40_mps() -> None:
 def test_wheel_forces_enter_through_eq_20_and_27() -> None:
     delta = 0.05
     fx = (300.0, -100.0, 250.0, 50.0)
-    plant = BicyclePlant(VEHICLE, vx=20.0)
+    plant = BicyclePlant(VEHICLE, PlantStart(vx=20.0))
     plant.set_inputs(delta, fx)
     dmz, fa = virtual_inputs(VEHICLE, delta, fx)
     d = plant.derivative(plant.state)
@@ -66,7 +67,7 @@ def test_brake_to_a_stop_hold_and_drive_off() -> None:
     """Vx -> 0 and back on the 2-DOF model: braking at 3 m/s^2 with the wheel turned, 2 s
     standing on the brake, then driving off: finite throughout, no reversing, standing
     still on the brake (slip angles divide by max(vx, 1 m/s), RK4 steps shorten)."""
-    plant = BicyclePlant(VEHICLE, vx=10.0)
+    plant = BicyclePlant(VEHICLE, PlantStart(vx=10.0))
     brake, drive = (-3.0 * VEHICLE.mass / 4,) * 4, (1.0 * VEHICLE.mass / 4,) * 4
     vxs = []
     for k in range(int(8.0 / 0.005)):

@@ -11,7 +11,7 @@ from cosim.errors import SimulationError
 from cosim.params import G, VehicleParams
 from cosim.vehicle.bicycle import steady_state, understeer_gradient
 from cosim.vehicle.chassis import ChassisParams, static_wheel_loads
-from cosim.vehicle.plant import check_finite
+from cosim.vehicle.plant import PlantStart, check_finite
 from cosim.vehicle.twotrack import TwoTrackPlant
 
 VEHICLE = VehicleParams()
@@ -33,7 +33,7 @@ def drive(plant: TwoTrackPlant, steer, seconds: float, speed: float, h: float = 
 @pytest.mark.parametrize("speed", [15.0, 25.0, 30.0])
 def test_small_steer_yaw_gain_matches_the_linear_bicycle(speed: float) -> None:
     delta = 0.002
-    plant = TwoTrackPlant(VEHICLE, 0.8, vx=speed)
+    plant = TwoTrackPlant(VEHICLE, 0.8, PlantStart(vx=speed))
     drive(plant, lambda t: delta, 6.0, speed)
     formula = speed / (VEHICLE.wheelbase + understeer_gradient(VEHICLE) * speed**2)
     assert plant.state[5] / delta == pytest.approx(formula, rel=0.05)
@@ -43,7 +43,7 @@ def test_small_steer_yaw_gain_matches_the_linear_bicycle(speed: float) -> None:
 
 @pytest.mark.parametrize(("mu", "speed"), [(0.4, 20.0), (0.8, 25.0)])
 def test_lateral_acceleration_saturates_near_mu_g(mu: float, speed: float) -> None:
-    plant = TwoTrackPlant(VEHICLE, mu, vx=speed)
+    plant = TwoTrackPlant(VEHICLE, mu, PlantStart(vx=speed))
     ay_max = drive(plant, lambda t: 0.012 * t, 7.0, speed)  # slow steer ramp
     _, r_linear = steady_state(VEHICLE, speed, 0.012 * 7.0)
     assert r_linear * speed > 1.5 * mu * G  # a linear tyre would go far past the limit
@@ -53,7 +53,7 @@ def test_lateral_acceleration_saturates_near_mu_g(mu: float, speed: float) -> No
 def test_static_loads_carry_the_weight_and_match_table1_stiffness() -> None:
     """At the static loads the tyres' small-slip stiffness makes each axle's Cf / Cr of
     Table 1 (to 1e-9: the combined-slip weights and the load sensitivity are flat there)."""
-    plant = TwoTrackPlant(VEHICLE, 0.6, vx=20.0)
+    plant = TwoTrackPlant(VEHICLE, 0.6, PlantStart(vx=20.0))
     out = plant.outputs()
     assert out.fz is not None
     assert sum(out.fz) == pytest.approx(VEHICLE.mass * G)
@@ -68,7 +68,7 @@ def test_static_loads_carry_the_weight_and_match_table1_stiffness() -> None:
 
 
 def test_braking_moves_load_forward_after_the_lag() -> None:
-    plant = TwoTrackPlant(VEHICLE, 0.8, vx=25.0)
+    plant = TwoTrackPlant(VEHICLE, 0.8, PlantStart(vx=25.0))
     for _ in range(200):
         plant.step(0.005, 0.0, (-1500.0,) * 4)
     out = plant.outputs()
@@ -84,7 +84,7 @@ def test_default_step_agrees_with_a_fine_reference() -> None:
     drive and brake torques: one RK4 step per 5 ms substep against 0.2 ms steps (measured:
     3e-8 m, 5e-8 rad/s, 6e-6 rad/s on the wheels)."""
     def run(max_step: float) -> list[float]:
-        p = TwoTrackPlant(VEHICLE, 0.6, vx=25.0, max_step=max_step)
+        p = TwoTrackPlant(VEHICLE, 0.6, PlantStart(vx=25.0), max_step=max_step)
         for i in range(400):
             t = i * 0.005
             p.step(0.005, 0.01 * math.sin(math.pi * t), (400.0, 200.0, -300.0, 300.0))
@@ -98,15 +98,16 @@ def test_default_step_agrees_with_a_fine_reference() -> None:
 
 
 def test_low_speed_takes_more_rk4_steps_and_stays_finite() -> None:
-    plant = TwoTrackPlant(VEHICLE, 0.6, vx=2.0)
-    assert plant.wheel_time_constant() < TwoTrackPlant(VEHICLE, 0.6, vx=25.0).wheel_time_constant()
+    plant = TwoTrackPlant(VEHICLE, 0.6, PlantStart(vx=2.0))
+    fast = TwoTrackPlant(VEHICLE, 0.6, PlantStart(vx=25.0))
+    assert plant.wheel_time_constant() < fast.wheel_time_constant()
     for _ in range(200):
         plant.step(0.005, 0.1, (100.0,) * 4)
         check_finite(0.0, plant.state_names, plant.state)
 
 
 def test_non_finite_state_is_named() -> None:
-    plant = TwoTrackPlant(VEHICLE, 0.6, vx=20.0)
+    plant = TwoTrackPlant(VEHICLE, 0.6, PlantStart(vx=20.0))
     plant.state[4] = math.nan
     plant.step(0.005, 0.0, (0.0,) * 4)
     with pytest.raises(SimulationError, match="vy = nan") as info:
@@ -118,7 +119,8 @@ def test_cornering_scale_makes_a_plant_unlike_the_design_model() -> None:
     import dataclasses
 
     speed, delta = 20.0, 0.002
-    plant = TwoTrackPlant(VEHICLE, 0.8, vx=speed, chassis=ChassisParams(cornering_scale=0.7))
+    plant = TwoTrackPlant(VEHICLE, 0.8, PlantStart(vx=speed),
+                          chassis=ChassisParams(cornering_scale=0.7))
     drive(plant, lambda t: delta, 6.0, speed)
     softer = dataclasses.replace(VEHICLE, cf=0.7 * VEHICLE.cf, cr=0.7 * VEHICLE.cr)
     _, r_softer = steady_state(softer, speed, delta)
@@ -132,7 +134,7 @@ def test_plant_tyre_forces_are_the_tyre_module() -> None:
     load sensitivity) its static load."""
     from cosim.vehicle.tyre import tyre_forces
 
-    plant = TwoTrackPlant(VEHICLE, 0.5, vx=20.0, vy=0.4, yaw_rate=0.15)
+    plant = TwoTrackPlant(VEHICLE, 0.5, PlantStart(vx=20.0, vy=0.4, yaw_rate=0.15))
     plant.state[6:12] = [66.0, 64.0, 63.0, 66.5, 0.8, 2.5]
     plant.state[12:20] = [0.01, -0.02, 0.03, -0.04, 0.02, -0.01, 0.005, 0.3]
     out = plant.outputs()
@@ -150,7 +152,7 @@ def test_relaxed_slip_lags_the_kinematic_slip_by_sigma_over_speed() -> None:
     """sigma dalpha'/dt + |u| alpha' = -v (Pacejka sec. 7.2): held kinematics, alpha'
     moves towards -v / u with the time constant sigma / u."""
     speed = 20.0
-    plant = TwoTrackPlant(VEHICLE, 0.8, vx=speed)
+    plant = TwoTrackPlant(VEHICLE, 0.8, PlantStart(vx=speed))
     s = plant.state.copy()
     s[4] = 0.2  # lateral speed: every wheel at tan(alpha) = -0.01
     d = plant.derivative(s)
@@ -166,7 +168,7 @@ def test_abs_and_traction_control_keep_wheels_near_peak_slip(force: float) -> No
     slip cycles around the peak (0.058 here) as an ABS does, up to 0.21 with 5 ms steps
     and the tyre's relaxation (the force lags the slip)."""
     mu = 0.4
-    plant = TwoTrackPlant(VEHICLE, mu, vx=25.0)
+    plant = TwoTrackPlant(VEHICLE, mu, PlantStart(vx=25.0))
     for _ in range(300):  # 1.5 s of full brake / drive demand
         plant.step(0.005, 0.0, (force,) * 4)
         vx = plant.state[3]
@@ -188,8 +190,8 @@ def test_small_step_steer_transient_follows_the_bicycle(sigma: float, within: fl
 
     speed, delta = 25.0, 0.002
     chassis = ChassisParams(tyre=TyreParams(relaxation_lat=sigma))
-    two = TwoTrackPlant(VEHICLE, 0.8, vx=speed, chassis=chassis)
-    one = BicyclePlant(VEHICLE, vx=speed)
+    two = TwoTrackPlant(VEHICLE, 0.8, PlantStart(vx=speed), chassis=chassis)
+    one = BicyclePlant(VEHICLE, PlantStart(vx=speed))
     r_two, r_one = [], []
     for _ in range(600):  # 3 s
         for plant, out in ((two, r_two), (one, r_one)):
@@ -207,7 +209,7 @@ def test_brake_to_a_stop_hold_and_drive_off(mu: float) -> None:
     """Vx -> 0 and back: braking (0.6 mu g asked) to a standstill, standing on the brake
     with the wheel turned, then driving off: every state stays finite, the car stops,
     stands still (after the tyres' wind-up rocks it back by millimetres) and drives off."""
-    plant = TwoTrackPlant(VEHICLE, mu, vx=10.0)
+    plant = TwoTrackPlant(VEHICLE, mu, PlantStart(vx=10.0))
     per_wheel = mu * G * VEHICLE.mass / 4
     t, x_stop, t_stop = 0.0, None, None
     xs, vxs = [], []
