@@ -117,8 +117,7 @@ def _loop_setup(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: i
     cfg, road, veh = planner.config, planner.road, planner.vehicle
     vxf = road.target_speed(sv.lane, target)
     width = road.lane_center(target) - sv.y
-    st = planner._stable_set(sv.vx, vxf, width, sv.ax, sv.vy, sv.ay,
-                             MODES.get((sv.lane, target)))
+    st = planner._stable_set(sv.boundary(vxf, width), MODES.get((sv.lane, target)))
     taus, stable = planner.grid, st.stable
     t_rel, follow = planner._horizon(t, 0.0, sv.x, sv.vx, vxf, target, messages)
     lazy = predict_lazy(messages, t, t_rel, road, veh, taus, envelope=cfg.envelope,
@@ -160,13 +159,13 @@ def loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int
     look between samples and durations of each TV)."""
     cfg, veh = planner.config, planner.vehicle
     s = _loop_setup(planner, t, sv, target, messages)
-    vxf, width, taus, t_rel, futures, kw = (
-        s[k] for k in ("vxf", "width", "taus", "t_rel", "futures", "kw"))
+    vxf, width, taus, t_rel, futures = (
+        s[k] for k in ("vxf", "width", "taus", "t_rel", "futures"))
     free = np.zeros(taus.size, dtype=bool)
     for i, tau in enumerate(taus):  # one candidate of the stable set at a time
         if not s["stable"][i]:
             continue
-        d = cluster_derivatives(sv.vx, vxf, width, [tau], t_rel, (0, 1), **kw)
+        d = cluster_derivatives(sv.boundary(vxf, width), [tau], t_rel, (0, 1))
         x, y = d[0][0][0] + sv.x, d[0][1][0] + sv.y
         h = np.arctan2(d[1][1][0], d[1][0][0])
         collides = False
@@ -207,8 +206,8 @@ def step_loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target
     when no sample overlaps, the look between samples and durations of each TV."""
     cfg, veh = planner.config, planner.vehicle
     s = _loop_setup(planner, t, sv, target, messages)
-    vxf, width, taus, t_rel, futures, kw = (
-        s[k] for k in ("vxf", "width", "taus", "t_rel", "futures", "kw"))
+    vxf, width, taus, t_rel, futures = (
+        s[k] for k in ("vxf", "width", "taus", "t_rel", "futures"))
     fx, fy, fh = futures.x.tolist(), futures.y.tolist(), futures.heading.tolist()
     fl, fw = futures.length.tolist(), futures.width.tolist()
     tv_hor = s["tv_hor"].tolist()
@@ -217,7 +216,7 @@ def step_loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target
     for i, tau in enumerate(taus.tolist()):
         if not s["stable"][i]:
             continue
-        d = cluster_derivatives(sv.vx, vxf, width, [tau], t_rel, (0, 1), **kw)
+        d = cluster_derivatives(sv.boundary(vxf, width), [tau], t_rel, (0, 1))
         x = (d[0][0][0] + sv.x).tolist()
         y = (d[0][1][0] + sv.y).tolist()
         h = np.arctan2(d[1][1][0], d[1][0][0]).tolist()

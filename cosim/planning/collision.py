@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from cosim.compiled import njit, register_warm_up
 from cosim.planning.trajectory import (
     LANE_CHANGE,
+    BoundaryConditions,
     cluster_derivatives,
     lane_change_state,
     polynomial_coefficients,
@@ -161,6 +162,12 @@ class SVCandidates:
         return int(self.taus.size)
 
     @property
+    def boundary(self) -> BoundaryConditions:
+        """The start and end the candidates share."""
+        return BoundaryConditions(self.vx0, self.vxf, self.width, self.ax0, self.vy0,
+                                  self.ay0)
+
+    @property
     def standard(self) -> bool:
         """From rest laterally and with no longitudinal acceleration: eq. 2 / eq. 4 in
         closed form (`trajectory.standard_xy`)."""
@@ -175,8 +182,7 @@ class SVCandidates:
         if self.standard:
             cx, cy, bounds = np.zeros((0, 5)), np.zeros((0, 6)), np.zeros((0, 6))
         else:
-            c_x, c_y = polynomial_coefficients(self.vx0, self.vxf, self.width, tau, self.ax0,
-                                               self.vy0, self.ay0)
+            c_x, c_y = polynomial_coefficients(self.boundary, tau)
             cx, cy = np.stack(c_x, axis=1), np.stack(c_y, axis=1)
             bounds = _sampled_bounds(self, tau, np.asarray(t, dtype=float) + self.t_shift)
         return SVSide(par, cx, cy, tau, np.ascontiguousarray(horizon, dtype=float), bounds,
@@ -188,8 +194,7 @@ def _sampled_bounds(sv: SVCandidates, tau: Array, s: Array) -> Array:
     |heading| (rad), most |acceleration| (m/s^2) of general-start candidates at manoeuvre
     times s, each widened by 1.5 times the next derivative's sampled extreme over half a
     step."""
-    d = cluster_derivatives(sv.vx0, sv.vxf, sv.width, tau, np.maximum(s, 0.0), (1, 2, 3),
-                            ax0=sv.ax0, vy0=sv.vy0, ay0=sv.ay0)
+    d = cluster_derivatives(sv.boundary, tau, np.maximum(s, 0.0), (1, 2, 3))
     (xd, yd), (xdd, ydd), (x3, y3) = d[1], d[2], d[3]
     h = 0.75 * (float(s[1] - s[0]) if s.size > 1 else 0.0)
     xd_lo = np.maximum(xd.min(axis=1) - h * np.abs(xdd).max(axis=1), 1e-3)

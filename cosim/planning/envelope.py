@@ -30,6 +30,7 @@ from __future__ import annotations
 import bisect
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from cosim.compiled import njit
 from cosim.errors import InputError
 from cosim.params import G, VehicleParams
-from cosim.planning.trajectory import cluster_derivatives
+from cosim.planning.trajectory import BoundaryConditions, cluster_derivatives
 
 Array = NDArray[np.float64]
 
@@ -133,16 +134,14 @@ class StableSet:
 
 
 def envelope_margin(
-    vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, taus: ArrayLike, mu: float,
-    vehicle: VehicleParams, *, safety_factor: float = 0.8, yaw_model: str = "inverse_dynamics",
-    ax0: float = 0.0, vy0: float = 0.0, ay0: float = 0.0, n_s: int = 64,
+    bc: BoundaryConditions, taus: ArrayLike, mu: float, vehicle: VehicleParams, *,
+    safety_factor: float = 0.8, yaw_model: str = "inverse_dynamics", n_s: int = 64,
 ) -> Array:
     """-, max over t in [0, tau] of |Omega_z(t)| / (f sqrt((mu g)^2 - Ax^2) / Vx) (eq. 5-6)
     for every tau; > 1 means the candidate leaves the envelope. Shape (n_tau,).
 
-    vx0, vxf, width and the initial values may be arrays of the same length as
-    `taus`: one row per (vehicle, tau), so the clusters of several vehicles are
-    checked in one call."""
+    The fields of `bc` may be arrays of the same length as `taus`: one row per
+    (vehicle, tau), so the clusters of several vehicles are checked in one call."""
     if yaw_model not in YAW_MODELS:
         raise InputError("planner", "envelope", yaw_model, f"one of {', '.join(ENVELOPES)}")
     tau = np.atleast_1d(np.asarray(taus, dtype=float))
@@ -152,8 +151,9 @@ def envelope_margin(
 
     s = np.linspace(0.0, 1.0, n_s)
     t = tau[:, None] * s[None, :]  # (n_tau, n_s), each candidate on its own [0, tau]
-    kw = {"ax0": col(ax0), "vy0": col(vy0), "ay0": col(ay0)}
-    d = cluster_derivatives(col(vx0), col(vxf), col(width), tau[:, None], t, (1, 2), **kw)
+    rows = BoundaryConditions(col(bc.vx0), col(bc.vxf), col(bc.width), col(bc.ax0),
+                              col(bc.vy0), col(bc.ay0))
+    d = cluster_derivatives(rows, tau[:, None], t, (1, 2))
     (xd, yd), (xdd, ydd) = d[1], d[2]
     V = np.hypot(xd, yd)  # Vx* (eq. 14)
     # a candidate that comes to rest (a C2 TV predicted from a standstill) has V = 0
@@ -203,9 +203,8 @@ def paper_map_tau_min(mode: int, vx0: float, mu: float) -> float:
 
 
 def stable_set(
-    vx0: float, vxf: float, width: float, taus: ArrayLike, mu: float,
-    vehicle: VehicleParams, *, envelope: str = "inverse_dynamics", safety_factor: float = 0.8,
-    ax0: float = 0.0, vy0: float = 0.0, ay0: float = 0.0, mode: int | None = None,
+    bc: BoundaryConditions, taus: ArrayLike, mu: float, vehicle: VehicleParams, *,
+    envelope: str = "inverse_dynamics", safety_factor: float = 0.8, mode: int | None = None,
     tau_floor: float = 1.0,
 ) -> StableSet:
     """The stable candidates on `taus` (Section 3.1, eq. 5-8).
@@ -219,6 +218,7 @@ def stable_set(
     if envelope == "paper_maps":
         if mode is None:
             raise InputError("planner", "envelope", envelope, "paper maps need a lane-change mode")
+        vx0 = float(bc.vx0)
         value = paper_map_tau_min(mode, vx0, mu)
         if not np.isfinite(value) or value < tau_floor:
             warnings.warn(
@@ -231,11 +231,14 @@ def stable_set(
         return StableSet(tau, margin, tau >= value - 1e-12, float(value))
     if envelope not in YAW_MODELS:
         raise InputError("planner", "envelope", envelope, f"one of {', '.join(ENVELOPES)}")
-    margin = envelope_margin(
-        vx0, vxf, width, tau, mu, vehicle, safety_factor=safety_factor, yaw_model=envelope,
-        ax0=ax0, vy0=vy0, ay0=ay0,
-    )
+    margin = envelope_margin(bc, tau, mu, vehicle, safety_factor=safety_factor,
+                             yaw_model=envelope)
     return StableSet(tau, margin, margin <= 1.0, tau_min_from_margin(tau, margin))
+
+
+MAP_V_LO, MAP_V_HI, MAP_V_STEP = 1.0, 50.0, 0.5  # m/s, a TauMinMap's speed grid
+MAP_TOL = 1e-4  # s, its bisection's resolution
+MAP_ERROR_STEP = 0.5  # m/s, the coarser speed grid its sampling error is estimated on
 
 
 class TauMinMap:
@@ -257,56 +260,25 @@ class TauMinMap:
     def __init__(
         self, vxf: float, width: float, mu: float, vehicle: VehicleParams, *,
         tau_lo: float, tau_hi: float, safety_factor: float = 0.8,
-        yaw_model: str = "inverse_dynamics", v_lo: float = 1.0, v_hi: float = 50.0,
-        v_step: float = 0.5, tol: float = 1e-4, fine_step: float = 0.5,
+        yaw_model: str = "inverse_dynamics",
     ) -> None:
-        self.speeds = np.arange(v_lo, v_hi + 1e-9, v_step)
+        def stable(speeds: Array, taus: Array, n_s: int) -> Array:
+            return envelope_margin(BoundaryConditions(speeds, vxf, width), taus, mu,
+                                   vehicle, n_s=n_s, safety_factor=safety_factor,
+                                   yaw_model=yaw_model) <= 1.0
 
-        def bisect(speeds: Array, lo: Array, hi: Array, n_s: int) -> tuple[Array, Array]:
-            """(unstable side, stable side) of tau_min, nan where [lo, hi] holds none."""
-            def stable(taus: Array) -> Array:
-                return envelope_margin(speeds, vxf, width, taus, mu, vehicle, n_s=n_s,
-                                       safety_factor=safety_factor, yaw_model=yaw_model) <= 1.0
-
-            ok_lo, ok_hi = stable(lo), stable(hi)
-            # nan where the coarser pass found no stable tau (its speeds stay nan)
-            span = hi - lo
-            widest = float(np.nanmax(span)) if np.isfinite(span).any() else tol
-            n_iter = int(np.ceil(np.log2(max(widest, tol) / tol)))
-            for _ in range(n_iter):  # bisection, all speeds at once
-                mid = 0.5 * (lo + hi)
-                ok = stable(mid)
-                hi = np.where(ok, mid, hi)
-                lo = np.where(ok, lo, mid)
-            return (np.where(ok_lo, -np.inf, np.where(ok_hi, lo, np.nan)),
-                    np.where(ok_lo, lo, np.where(ok_hi, hi, np.nan)))
-
+        self.speeds = np.arange(MAP_V_LO, MAP_V_HI + 1e-9, MAP_V_STEP)
         n = self.speeds.size
-        below, above = bisect(self.speeds, np.full(n, tau_lo), np.full(n, tau_hi), 64)
+        below, above = _bisect(stable, self.speeds, np.full(n, tau_lo), np.full(n, tau_hi), 64)
         self.tau_min = np.where(np.isneginf(below), tau_lo, above)
         self._below = np.where(np.isneginf(below), tau_lo, below)
-        # the sampling error, on a coarser speed grid (it varies slowly)
-        fine_v = np.arange(v_lo, v_hi + fine_step, fine_step).clip(max=v_hi)
-        base = np.interp(fine_v, self.speeds, self.tau_min)
-        ok = np.isfinite(base) & (base > tau_lo)
-        err = np.zeros(fine_v.size)
-        if ok.any():
-            v, b = fine_v[ok], base[ok]
-            _, t128 = bisect(v, np.maximum(b - 0.05, tau_lo), np.minimum(b + 0.01, tau_hi), 128)
-            _, t256 = bisect(v, np.maximum(t128 - 0.01, tau_lo),
-                             np.minimum(t128 + 0.003, tau_hi), 256)
-            # converged tau_min, extrapolated: the error goes down about as the step
-            # squared where the margin's maximum stays between samples, slower where it
-            # jumps (3.7, 0.48, 0.32 ms from 64 to 1024 instants); half the last
-            # difference, with the interpolation's allowance below, covers both
-            est = t256 - 0.5 * (t128 - t256)
-            err[ok] = np.nan_to_num(b - est)
-        self._err_v, self._err = fine_v, err
+        self._err_v, self._err = _sampling_error(stable, self.speeds, self.tau_min, tau_lo,
+                                                 tau_hi)
         # linear interpolation's error per speed interval: twice the h^2 f'' / 8 estimate
         # from the second differences at its two ends
         second = np.zeros(n)
         second[1:-1] = np.abs(np.diff(np.nan_to_num(self.tau_min), 2))
-        self._interp_err = 0.25 * np.maximum(second[:-1], second[1:]) + tol
+        self._interp_err = 0.25 * np.maximum(second[:-1], second[1:]) + MAP_TOL
         # the same as plain floats: one speed is queried per plan (see `_interp_scalar`)
         self._lists = tuple(a.tolist() for a in (self.speeds, self.tau_min, self._below,
                                                   self._err_v, self._err, self._interp_err))
@@ -347,6 +319,49 @@ class TauMinMap:
         lower = np.minimum(lo, lo - err) - e
         upper = np.maximum(hi, hi - err) + e
         return np.where(np.isfinite(hi), lower, np.nan), upper
+
+
+def _bisect(stable: Callable[[Array, Array, int], Array], speeds: Array, lo: Array,
+            hi: Array, n_s: int) -> tuple[Array, Array]:
+    """(unstable side, stable side) of tau_min per speed, to MAP_TOL, with the envelope
+    sampled at n_s instants (`stable(speeds, taus, n_s)`); -inf on the unstable side
+    where lo is stable already, nan where [lo, hi] holds no stable tau."""
+    ok_lo, ok_hi = stable(speeds, lo, n_s), stable(speeds, hi, n_s)
+    # nan where the coarser pass found no stable tau (its speeds stay nan)
+    span = hi - lo
+    widest = float(np.nanmax(span)) if np.isfinite(span).any() else MAP_TOL
+    n_iter = int(np.ceil(np.log2(max(widest, MAP_TOL) / MAP_TOL)))
+    for _ in range(n_iter):  # bisection, all speeds at once
+        mid = 0.5 * (lo + hi)
+        ok = stable(speeds, mid, n_s)
+        hi = np.where(ok, mid, hi)
+        lo = np.where(ok, lo, mid)
+    return (np.where(ok_lo, -np.inf, np.where(ok_hi, lo, np.nan)),
+            np.where(ok_lo, lo, np.where(ok_hi, hi, np.nan)))
+
+
+def _sampling_error(stable: Callable[[Array, Array, int], Array], speeds: Array,
+                    tau_min: Array, tau_lo: float, tau_hi: float) -> tuple[Array, Array]:
+    """(speeds m/s, s) the error of tau_min sampled at 64 instants against the converged
+    envelope's, on a coarser speed grid (it varies slowly): the bisection again at 128
+    and 256 instants, extrapolated."""
+    fine_v = np.arange(MAP_V_LO, MAP_V_HI + MAP_ERROR_STEP, MAP_ERROR_STEP).clip(max=MAP_V_HI)
+    base = np.interp(fine_v, speeds, tau_min)
+    ok = np.isfinite(base) & (base > tau_lo)
+    err = np.zeros(fine_v.size)
+    if ok.any():
+        v, b = fine_v[ok], base[ok]
+        _, t128 = _bisect(stable, v, np.maximum(b - 0.05, tau_lo), np.minimum(b + 0.01, tau_hi),
+                          128)
+        _, t256 = _bisect(stable, v, np.maximum(t128 - 0.01, tau_lo),
+                          np.minimum(t128 + 0.003, tau_hi), 256)
+        # converged tau_min, extrapolated: the error goes down about as the step
+        # squared where the margin's maximum stays between samples, slower where it
+        # jumps (3.7, 0.48, 0.32 ms from 64 to 1024 instants); half the last
+        # difference, with the interpolation's allowance below, covers both
+        est = t256 - 0.5 * (t128 - t256)
+        err[ok] = np.nan_to_num(b - est)
+    return fine_v, err
 
 
 def _interp_scalar(x: float, xp: list[float], fp: list[float]) -> float:

@@ -47,6 +47,7 @@ from cosim.planning.prediction import (
 )
 from cosim.planning.selection import choose, intervals, omega
 from cosim.planning.trajectory import (
+    BoundaryConditions,
     LaneChangeTrajectory,
     cluster_derivatives,
     longitudinal_coefficients,
@@ -79,6 +80,10 @@ class SVPlanState:
     vy: float  # m/s, lateral speed (+ left)
     ay: float  # m/s^2, lateral acceleration
     lane: int  # SUMO index of the origin lane
+
+    def boundary(self, vxf: float, width: float) -> BoundaryConditions:
+        """The SV's cluster from this state: to speed vxf (m/s), `width` (m) to the side."""
+        return BoundaryConditions(self.vx, vxf, width, self.ax, self.vy, self.ay)
 
 
 @dataclass(frozen=True)
@@ -277,8 +282,8 @@ class LaneChangePlanner:
                 cfg.safety_factor, cfg.envelope)
         return self._maps[key]
 
-    def _map_tau_min(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
-                     ay0: float, *, lower: bool = False, value: bool = False) -> float:
+    def _map_tau_min(self, bc: BoundaryConditions, *, lower: bool = False,
+                     value: bool = False) -> float:
         """tau_min from a map: an upper bound (the SV's own: every duration it takes is
         stable) or with `lower` a lower bound (a C2 TV's: it may take any stable one),
         `TauMinMap.bounds`; `value`: the map's interpolated value; nan where the map does
@@ -286,28 +291,25 @@ class LaneChangePlanner:
         rest laterally, or a width more than MAP_WIDTH_TOLERANCE off a lane width
         (within it, tau_min is scaled by sqrt(|width| / lane width): the lateral
         acceleration goes as W / tau^2)."""
-        lane = self.road.lane_width
-        if not (self.use_maps and abs(ax0) < 1e-9 and abs(vy0) < 1e-9 and abs(ay0) < 1e-9
-                and abs(abs(width) - lane) <= MAP_WIDTH_TOLERANCE):
+        lane, width = self.road.lane_width, bc.width
+        if not (self.use_maps and abs(bc.ax0) < 1e-9 and abs(bc.vy0) < 1e-9
+                and abs(bc.ay0) < 1e-9 and abs(abs(width) - lane) <= MAP_WIDTH_TOLERANCE):
             return math.nan
-        fmap = self.tau_min_map(vxf, math.copysign(lane, width))
+        fmap = self.tau_min_map(bc.vxf, math.copysign(lane, width))
+        vx0 = bc.vx0
         lo, hi = fmap.bounds(vx0)
         tau_min = fmap(vx0) if value else lo if lower else hi
         return float(tau_min) * math.sqrt(abs(width) / lane)
 
-    def _stable_set(self, vx0: float, vxf: float, width: float, ax0: float, vy0: float,
-                    ay0: float, mode: int | None) -> StableSet:
+    def _stable_set(self, bc: BoundaryConditions, mode: int | None) -> StableSet:
         cfg = self.config
-        tau_min = self._map_tau_min(vx0, vxf, width, ax0, vy0, ay0,
-                                    value=cfg.collision_test == "col")
+        tau_min = self._map_tau_min(bc, value=cfg.collision_test == "col")
         if math.isfinite(tau_min):
             stable = self.grid >= tau_min - 1e-12
             return StableSet(self.grid, np.where(stable, 0.0, np.inf), stable, tau_min)
-        return stable_set(
-            vx0, vxf, width, self.grid, self.mu, self.vehicle, envelope=cfg.envelope,
-            safety_factor=cfg.safety_factor, ax0=ax0, vy0=vy0, ay0=ay0, mode=mode,
-            tau_floor=cfg.tau_min_floor,
-        )
+        return stable_set(bc, self.grid, self.mu, self.vehicle, envelope=cfg.envelope,
+                          safety_factor=cfg.safety_factor, mode=mode,
+                          tau_floor=cfg.tau_min_floor)
 
     def _tv_stable(self, vx0: Array, vxf: Array, width: Array,
                    vy0: Array) -> tuple[NDArray[np.bool_], Array]:
@@ -317,21 +319,19 @@ class LaneChangePlanner:
         map's own value, as the paper takes its maps'.)"""
         n, grid = vx0.size, self.grid
         lower = self.config.collision_test == "exact"
-        tau_min = np.array([self._map_tau_min(float(vx0[i]), float(vxf[i]), float(width[i]),
-                                              0.0, float(vy0[i]), 0.0, lower=lower,
-                                              value=not lower)
-                            for i in range(n)])
+        tau_min = np.array([self._map_tau_min(
+            BoundaryConditions(float(vx0[i]), float(vxf[i]), float(width[i]), 0.0,
+                               float(vy0[i]), 0.0), lower=lower, value=not lower)
+            for i in range(n)])
         out = grid[None, :] >= tau_min[:, None] - 1e-12
         rest = np.flatnonzero(~np.isfinite(tau_min))
         if rest.size:
             cfg = self.config
             k = grid.size
-            margin = envelope_margin(
-                np.repeat(vx0[rest], k), np.repeat(vxf[rest], k), np.repeat(width[rest], k),
-                np.tile(grid, rest.size), self.road.mu, self.vehicle,
-                safety_factor=cfg.safety_factor, yaw_model=cfg.envelope,
-                vy0=np.repeat(vy0[rest], k),
-            )
+            rows = BoundaryConditions(np.repeat(vx0[rest], k), np.repeat(vxf[rest], k),
+                                      np.repeat(width[rest], k), vy0=np.repeat(vy0[rest], k))
+            margin = envelope_margin(rows, np.tile(grid, rest.size), self.road.mu, self.vehicle,
+                                     safety_factor=cfg.safety_factor, yaw_model=cfg.envelope)
             out[rest] = (margin <= 1.0).reshape(rest.size, k)
         return out, tau_min
 
@@ -460,8 +460,7 @@ class LaneChangePlanner:
         if vxf is None:
             vxf = road.target_speed(sv.lane, target_lane)
         width = road.lane_center(target_lane) - sv.y
-        st = self._stable_set(sv.vx, vxf, width, sv.ax, sv.vy, sv.ay,
-                              MODES.get((sv.lane, target_lane)))
+        st = self._stable_set(sv.boundary(vxf, width), MODES.get((sv.lane, target_lane)))
         taus, stable = st.taus, st.stable
         if math.isfinite(st.tau_min) and not (
             np.abs(taus - st.tau_min) <= 1e-9 + 1e-5 * abs(st.tau_min)  # np.isclose, atol 1e-9
@@ -547,8 +546,7 @@ def path_curvature(sv: SVPlanState, vxf: float, width: float, taus: Array) -> Ar
     the SV's start), sampled CURVATURE_SAMPLES times over [0, tau]."""
     s = np.linspace(0.0, 1.0, CURVATURE_SAMPLES)
     tau = np.asarray(taus, dtype=float)[:, None]
-    d = cluster_derivatives(sv.vx, vxf, width, tau, tau * s[None, :], (1, 2), ax0=sv.ax,
-                            vy0=sv.vy, ay0=sv.ay)
+    d = cluster_derivatives(sv.boundary(vxf, width), tau, tau * s[None, :], (1, 2))
     (xd, yd), (xdd, ydd) = d[1], d[2]
     speed2 = np.maximum(xd * xd + yd * yd, 1e-12)
     return (np.abs(xd * ydd - yd * xdd) / speed2**1.5).max(axis=1)

@@ -32,6 +32,7 @@ from cosim.planning.deadline import c2_deadline
 from cosim.planning.envelope import MODES, envelope_margin, paper_map_tau_min
 from cosim.planning.trajectory import (
     LANE_CHANGE,
+    BoundaryConditions,
     cluster_derivatives,
     standard_positions_at,
     standard_velocities,
@@ -134,7 +135,8 @@ def motion_path(m: LateralMotion, t: Array) -> tuple[Array, Array, Array]:
         moving = (rel > 0) & (rel < m.tau)
         heading = np.where(moving, np.arctan2(m.width / m.tau, m.vx0), 0.0)
         return m.x0 + m.vx0 * rel, m.y0 + m.width * s, heading
-    d = cluster_derivatives(m.vx0, m.vxf, m.width, np.array([m.tau]), rel, (0, 1))
+    d = cluster_derivatives(BoundaryConditions(m.vx0, m.vxf, m.width), np.array([m.tau]), rel,
+                            (0, 1))
     (x, y), (xd, yd) = d[0], d[1]
     return x[0] + m.x0, y[0] + m.y0, np.arctan2(yd[0], xd[0])
 
@@ -321,11 +323,10 @@ def predict_lazy(
             stable = taus[None, :] >= tmin[:, None]
             tau_lo = tmin
         else:
-            margin = envelope_margin(
-                np.repeat(v0, n_tau), np.repeat(vxf, n_tau), np.repeat(width, n_tau),
-                np.tile(taus, len(c2)), road.mu, vehicle, safety_factor=safety_factor,
-                yaw_model=envelope, vy0=np.repeat(vy0, n_tau),
-            )
+            rows = BoundaryConditions(np.repeat(v0, n_tau), np.repeat(vxf, n_tau),
+                                      np.repeat(width, n_tau), vy0=np.repeat(vy0, n_tau))
+            margin = envelope_margin(rows, np.tile(taus, len(c2)), road.mu, vehicle,
+                                     safety_factor=safety_factor, yaw_model=envelope)
             stable = (margin <= 1.0).reshape(len(c2), n_tau)
         if road.lane_ends:
             # a TV on a lane that ends changes before its end: only the durations that
@@ -346,7 +347,8 @@ def predict_lazy(
                 blocks.append(_Closed(ok, cells, v0[j], vxf[j], width[j], x0[j], m.y, 0.0))
                 meta(i, ok.size, ok, t_plan + ok)
             else:
-                d = cluster_derivatives(v0[j], vxf[j], width[j], ok, rel, (0, 1), vy0=vy0[j])
+                d = cluster_derivatives(BoundaryConditions(v0[j], vxf[j], width[j], vy0=vy0[j]),
+                                        ok, rel, (0, 1))
                 (xg, yg), (xdg, ydg) = d[0], d[1]
                 add(i, xg + x0[j], yg + m.y, np.arctan2(ydg, xdg), ok, t_plan + ok)
 

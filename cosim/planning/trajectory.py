@@ -24,6 +24,21 @@ from cosim.compiled import njit
 Array = NDArray[np.float64]
 
 
+@dataclass(frozen=True)
+class BoundaryConditions:
+    """What every candidate of a cluster shares (eq. 1-4 with a general start): the
+    state it starts from and the end it reaches at its own tau (at the end: x' = vxf,
+    x'' = 0, y = width, y' = y'' = 0). A field may be an array, one value per candidate
+    (shaped to broadcast against tau)."""
+
+    vx0: ArrayLike  # m/s, longitudinal speed at the start
+    vxf: ArrayLike  # m/s, longitudinal speed at the end
+    width: ArrayLike  # m, signed lateral displacement W (+ to the left)
+    ax0: ArrayLike = 0.0  # m/s^2, longitudinal acceleration at the start
+    vy0: ArrayLike = 0.0  # m/s, lateral speed at the start
+    ay0: ArrayLike = 0.0  # m/s^2, lateral acceleration at the start
+
+
 def _grid(taus: ArrayLike, t: ArrayLike) -> tuple[Array, Array]:
     tau = np.asarray(taus, dtype=float)
     tt = np.asarray(t, dtype=float)
@@ -65,17 +80,15 @@ def lateral_coefficients(
     return c3, c4, c5
 
 
-def polynomial_coefficients(
-    vx0: ArrayLike, vxf: ArrayLike, width: ArrayLike, tau: Array, ax0: ArrayLike = 0.0,
-    vy0: ArrayLike = 0.0, ay0: ArrayLike = 0.0,
-) -> tuple[list[Array], list[Array]]:
+def polynomial_coefficients(bc: BoundaryConditions,
+                            tau: Array) -> tuple[list[Array], list[Array]]:
     """Coefficients [c0 .. c4] of x(t) - x0 and [c0 .. c5] of y(t) - y0 (powers of t, on
     [0, tau]), each shaped like tau (eq. 2, 4 with a general start)."""
-    c3x, c4x = longitudinal_coefficients(vx0, vxf, tau, ax0)
-    c3y, c4y, c5y = lateral_coefficients(width, tau, vy0, ay0)
+    c3x, c4x = longitudinal_coefficients(bc.vx0, bc.vxf, tau, bc.ax0)
+    c3y, c4y, c5y = lateral_coefficients(bc.width, tau, bc.vy0, bc.ay0)
     zero = np.zeros_like(tau)
-    return ([zero, zero + vx0, zero + ax0 / 2.0, c3x, c4x],
-            [zero, zero + vy0, zero + ay0 / 2.0, c3y, c4y, c5y])
+    return ([zero, zero + bc.vx0, zero + bc.ax0 / 2.0, c3x, c4x],
+            [zero, zero + bc.vy0, zero + bc.ay0 / 2.0, c3y, c4y, c5y])
 
 
 def _poly_derivs(coeffs: list[Array], t: Array, order: int) -> Array:
@@ -97,22 +110,14 @@ def _poly_derivs(coeffs: list[Array], t: Array, order: int) -> Array:
 
 
 def cluster_derivatives(
-    vx0: float,
-    vxf: float,
-    width: float,
-    taus: ArrayLike,
-    t: ArrayLike,
-    orders: tuple[int, ...] = (0,),
-    *,
-    ax0: float = 0.0,
-    vy0: float = 0.0,
-    ay0: float = 0.0,
+    bc: BoundaryConditions, taus: ArrayLike, t: ArrayLike, orders: tuple[int, ...] = (0,),
 ) -> dict[int, tuple[Array, Array]]:
     """{order: (x, y)} of every candidate for several derivative orders at once, each
     shaped like taus x t broadcast (eq. 2, 4; the coefficients are computed once).
     Past tau the candidate drives straight at vxf."""
     tau, tt = _grid(taus, t)
-    x_coeffs, y_coeffs = polynomial_coefficients(vx0, vxf, width, tau, ax0, vy0, ay0)
+    x_coeffs, y_coeffs = polynomial_coefficients(bc, tau)
+    vxf = bc.vxf
     ts = np.minimum(np.maximum(tt, 0.0), tau)
     after = tt - ts  # time past the end of the manoeuvre
     ended = after > 0
@@ -269,23 +274,11 @@ def _standard_flat(vx0: Array, vxf: Array, width: Array, tau: Array, t: Array,
     return a, b
 
 
-def cluster(
-    vx0: float,
-    vxf: float,
-    width: float,
-    taus: ArrayLike,
-    t: ArrayLike,
-    *,
-    ax0: float = 0.0,
-    vy0: float = 0.0,
-    ay0: float = 0.0,
-    order: int = 0,
-) -> tuple[Array, Array]:
+def cluster(bc: BoundaryConditions, taus: ArrayLike, t: ArrayLike, *,
+            order: int = 0) -> tuple[Array, Array]:
     """Relative (x(t), y(t)) of every candidate, or their `order`-th derivatives,
     shaped (n_tau, n_t) (eq. 2, 4). Past tau the candidate drives straight at vxf."""
-    return cluster_derivatives(
-        vx0, vxf, width, taus, t, (order,), ax0=ax0, vy0=vy0, ay0=ay0
-    )[order]
+    return cluster_derivatives(bc, taus, t, (order,))[order]
 
 
 def jerk_costs(
@@ -317,6 +310,12 @@ class LaneChangeTrajectory:
     ay0: float = 0.0  # m/s^2, lateral acceleration at t0
 
     @property
+    def boundary(self) -> BoundaryConditions:
+        """The start and end this lane change shares with its cluster."""
+        return BoundaryConditions(self.vx0, self.vxf, self.width, self.ax0, self.vy0,
+                                  self.ay0)
+
+    @property
     def t_end(self) -> float:
         """s, simulation time the manoeuvre ends."""
         return self.t0 + self.tau
@@ -329,10 +328,7 @@ class LaneChangeTrajectory:
     def derivative(self, t: ArrayLike, order: int) -> tuple[Array, Array]:
         """(x, y) or their derivatives of `order` at absolute times t (same shape as t)."""
         tt = np.asarray(t, dtype=float)
-        x, y = cluster(
-            self.vx0, self.vxf, self.width, np.array([self.tau]), tt.ravel() - self.t0,
-            ax0=self.ax0, vy0=self.vy0, ay0=self.ay0, order=order,
-        )
+        x, y = cluster(self.boundary, np.array([self.tau]), tt.ravel() - self.t0, order=order)
         x, y = x[0].reshape(tt.shape), y[0].reshape(tt.shape)
         if order == 0:
             return x + self.x0, y + self.y0

@@ -42,8 +42,7 @@ def _sv_cluster(
     assert sv is not None
     taus = plan.taus[plan.stable]
     width = road.lane_center(plan.target_lane) - sv.y
-    x, y = cluster_derivatives(sv.vx, plan.vxf, width, taus, t_rel, (0,), ax0=sv.ax,
-                               vy0=sv.vy, ay0=sv.ay)[0]
+    x, y = cluster_derivatives(sv.boundary(plan.vxf, width), taus, t_rel, (0,))[0]
     return taus, x + sv.x, y + sv.y
 
 

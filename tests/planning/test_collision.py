@@ -15,6 +15,7 @@ from cosim.planning.collision import (
     overlap_sat,
 )
 from cosim.planning.trajectory import (
+    BoundaryConditions,
     cluster_derivatives,
     standard_bounds,
     standard_positions,
@@ -120,8 +121,7 @@ def test_col_agrees_with_its_definition() -> None:
 def _dense_reference(t, sv, sl, sw, sv_hor, tx, ty, th, tl, tw, tv_hor, test="exact"):  # noqa: ANN001, ANN202
     """Every (c, h, k) through the test, with the SV from `cluster_derivatives`: first
     overlap per candidate (no margin, no pad)."""
-    kw = {"ax0": sv.ax0, "vy0": sv.vy0, "ay0": sv.ay0}
-    d = cluster_derivatives(sv.vx0, sv.vxf, sv.width, sv.taus, t + sv.t_shift, (0, 1), **kw)
+    d = cluster_derivatives(sv.boundary, sv.taus, t + sv.t_shift, (0, 1))
     sx, sy = d[0][0] + sv.x0, d[0][1] + sv.y0
     sh = np.arctan2(d[1][1], d[1][0])
     overlap = overlap_sat if test == "exact" else overlap_col
@@ -152,9 +152,7 @@ def _between_samples(t, sv, c, k, tx, ty, th, tl, tw, n=50, horizon=np.inf):  # 
     dt = t[1] - t[0]
     end = horizon if k + 1 < t.size and t[k + 1] > horizon else t[k] + 0.5 * dt
     tt = np.clip(np.linspace(t[k] - 0.5 * dt, end, n + 1), t[0], t[-1])
-    kw = {"ax0": sv.ax0, "vy0": sv.vy0, "ay0": sv.ay0}
-    d = cluster_derivatives(sv.vx0, sv.vxf, sv.width, sv.taus[c:c + 1], tt + sv.t_shift, (0, 1),
-                            **kw)
+    d = cluster_derivatives(sv.boundary, sv.taus[c:c + 1], tt + sv.t_shift, (0, 1))
     sx, sy, sh = d[0][0][0] + sv.x0, d[0][1][0] + sv.y0, np.arctan2(d[1][1][0], d[1][0][0])
     lerp = [np.array([np.interp(tt, t, row) for row in a]) for a in (tx, ty, th)]
     return overlap_sat(sx[None, :], sy[None, :], sh[None, :], 4.32, 1.8, *lerp,
@@ -244,7 +242,7 @@ def test_closed_form_bounds_cover_the_sampled_motion() -> None:
         tau0 = rng.uniform(1.5, 4.0)
         taus = np.arange(tau0, 10.0, 0.01)
         t = np.arange(0.0, 12.001, 0.01)  # fine: the true derivatives, not chords
-        d = cluster_derivatives(vx0, vxf, W, taus, t, (1, 2))
+        d = cluster_derivatives(BoundaryConditions(vx0, vxf, W), taus, t, (1, 2))
         (xd, yd), (xdd, ydd) = d[1], d[2]
         rate = np.abs((xd * ydd - yd * xdd) / (xd**2 + yd**2))
         v_lo, v_hi, yd_max, rate_max, head = standard_bounds(vx0, vxf, W, tau0)

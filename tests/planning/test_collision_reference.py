@@ -37,7 +37,7 @@ from cosim.planning.prediction import (  # noqa: E402
     constant_acceleration,
     predict,
 )
-from cosim.planning.trajectory import cluster_derivatives  # noqa: E402
+from cosim.planning.trajectory import BoundaryConditions, cluster_derivatives  # noqa: E402
 from cosim.traffic.v2v import LateralMotion, V2VMessage  # noqa: E402
 
 DT = 0.001  # s, the reference's time step
@@ -81,7 +81,8 @@ def _converged_tau_min(v0: np.ndarray, vxf: np.ndarray, width: np.ndarray, mu: f
     lo, hi = np.full(v0.size, 1.0), np.full(v0.size, tau_max)
 
     def stable(tau: np.ndarray) -> np.ndarray:
-        return envelope_margin(v0, vxf, width, tau, mu, vehicle, n_s=1024) <= 1.0
+        return envelope_margin(BoundaryConditions(v0, vxf, width), tau, mu, vehicle,
+                               n_s=1024) <= 1.0
 
     ok_hi = stable(hi)
     for _ in range(20):
@@ -136,8 +137,8 @@ class Reference:
         """The candidate of duration tau overlaps some TV trajectory (grown by the
         planner's safety margin) within the horizons."""
         sv, cfg, m = self.sv, self.cfg, self.cfg.safety_margin
-        d = cluster_derivatives(sv.vx, self.vxf, self.width, [tau], self.t, (0, 1),
-                                ax0=sv.ax, vy0=sv.vy, ay0=sv.ay)
+        d = cluster_derivatives(BoundaryConditions(sv.vx, self.vxf, self.width, ax0=sv.ax,
+                                                   vy0=sv.vy, ay0=sv.ay), [tau], self.t, (0, 1))
         sx, sy = d[0][0][0] + sv.x, d[0][1][0] + sv.y
         sh = np.arctan2(d[1][1][0], d[1][0][0])
         sl, sw = self.veh.length + 2 * m, self.veh.width + 2 * m
@@ -155,8 +156,8 @@ class Reference:
 
     def _coarse(self, v0, vxf, w, x0, y0, taus):  # noqa: ANN001, ANN202
         """A cluster on the 10 ms x 20 ms grid: centres, |cos|, |sin| of the heading."""
-        d = cluster_derivatives(v0, vxf, w, taus[_coarse_index(taus.size)], self.t[::COARSE],
-                                (0, 1))
+        d = cluster_derivatives(BoundaryConditions(v0, vxf, w), taus[_coarse_index(taus.size)],
+                                self.t[::COARSE], (0, 1))
         h = np.arctan2(d[1][1], d[1][0])
         return d[0][0] + x0, d[0][1] + y0, np.abs(np.cos(h)), np.abs(np.sin(h))
 
@@ -234,7 +235,7 @@ class Reference:
 
 def _cluster_poses(v0, vxf, w, x0, y0, taus, tt):  # noqa: ANN001, ANN202
     """(x, y, heading) of the cluster's lane change of duration taus[i] at time tt[i]."""
-    dd = cluster_derivatives(v0, vxf, w, taus[:, None], tt[:, None], (0, 1))
+    dd = cluster_derivatives(BoundaryConditions(v0, vxf, w), taus[:, None], tt[:, None], (0, 1))
     return (dd[0][0][:, 0] + x0, dd[0][1][:, 0] + y0,
             np.arctan2(dd[1][1][:, 0], dd[1][0][:, 0]))
 

@@ -12,6 +12,7 @@ from cosim.planning.envelope import (
     paper_map_tau_min,
     stable_set,
 )
+from cosim.planning.trajectory import BoundaryConditions
 
 VEH = VehicleParams()
 GRID = np.arange(1.0, 10.0001, 0.05)
@@ -74,7 +75,7 @@ def test_compiled_yaw_rate_is_numpy_to_the_last_bit() -> None:
 @pytest.mark.parametrize(("v0", "vf", "W", "mu", "paper"), PAPER)
 def test_tau_min_reproduces_the_paper(v0: float, vf: float, W: float, mu: float,
                                       paper: float) -> None:
-    st = stable_set(kmh(v0), kmh(vf), W, GRID, mu, VEH)
+    st = stable_set(BoundaryConditions(kmh(v0), kmh(vf), W), GRID, mu, VEH)
     assert abs(st.tau_min - paper) < 0.04
     # the stable set is the interval [tau_min, tau_max] on the grid
     assert st.stable[st.tau_min + 1e-9 <= GRID].all()
@@ -85,44 +86,47 @@ def test_tau_min_reproduces_the_paper(v0: float, vf: float, W: float, mu: float,
 def test_kinematic_yaw_rate_is_not_enough(v0: float, vf: float, W: float, mu: float,
                                           paper: float) -> None:
     """The oversteering car needs more yaw rate than V * curvature: shorter kinematic tau_min."""
-    dyn = stable_set(kmh(v0), kmh(vf), W, GRID, mu, VEH)
-    kin = stable_set(kmh(v0), kmh(vf), W, GRID, mu, VEH, envelope="kinematic")
+    dyn = stable_set(BoundaryConditions(kmh(v0), kmh(vf), W), GRID, mu, VEH)
+    kin = stable_set(BoundaryConditions(kmh(v0), kmh(vf), W), GRID, mu, VEH,
+                     envelope="kinematic")
     assert kin.tau_min < dyn.tau_min - 0.05
 
 
 def test_lower_friction_and_safety_factor_lengthen_tau_min() -> None:
-    base = stable_set(kmh(100), kmh(110), 3.75, GRID, 0.8, VEH).tau_min
-    assert stable_set(kmh(100), kmh(110), 3.75, GRID, 0.4, VEH).tau_min > base
-    assert stable_set(kmh(100), kmh(110), 3.75, GRID, 0.8, VEH, safety_factor=0.5).tau_min > base
+    base = stable_set(BoundaryConditions(kmh(100), kmh(110), 3.75), GRID, 0.8, VEH).tau_min
+    assert stable_set(BoundaryConditions(kmh(100), kmh(110), 3.75), GRID, 0.4, VEH).tau_min > base
+    assert stable_set(BoundaryConditions(kmh(100), kmh(110), 3.75), GRID, 0.8, VEH,
+                      safety_factor=0.5).tau_min > base
 
 
 def test_rows_of_several_vehicles_in_one_call() -> None:
     taus = GRID[::10]
-    a = envelope_margin(kmh(80), kmh(90), 3.75, taus, 0.5, VEH)
-    b = envelope_margin(kmh(110), kmh(90), -3.75, taus, 0.5, VEH)
-    both = envelope_margin(
-        np.repeat([kmh(80), kmh(110)], taus.size), np.repeat([kmh(90), kmh(90)], taus.size),
-        np.repeat([3.75, -3.75], taus.size), np.tile(taus, 2), 0.5, VEH,
-    )
+    a = envelope_margin(BoundaryConditions(kmh(80), kmh(90), 3.75), taus, 0.5, VEH)
+    b = envelope_margin(BoundaryConditions(kmh(110), kmh(90), -3.75), taus, 0.5, VEH)
+    rows = BoundaryConditions(np.repeat([kmh(80), kmh(110)], taus.size),
+                              np.repeat([kmh(90), kmh(90)], taus.size),
+                              np.repeat([3.75, -3.75], taus.size))
+    both = envelope_margin(rows, np.tile(taus, 2), 0.5, VEH)
     np.testing.assert_allclose(both, np.concatenate([a, b]), rtol=1e-12)
 
 
 def test_acceleration_beyond_grip_is_outside() -> None:
     """A 0 -> 30 m/s change in 1 s needs |Ax| > mu g: margin inf."""
-    m = envelope_margin(0.5, 30.0, 3.75, [1.0], 0.4, VEH)
+    m = envelope_margin(BoundaryConditions(0.5, 30.0, 3.75), [1.0], 0.4, VEH)
     assert np.isinf(m[0])
 
 
 def test_paper_maps() -> None:
     # eq. 31 is the one that matches the paper's own case 5.1 (2.77 vs 2.75)
     assert paper_map_tau_min(1, kmh(80), 0.4) == pytest.approx(2.77, abs=0.01)
-    st = stable_set(kmh(80), kmh(90), 3.75, GRID, 0.4, VEH, envelope="paper_maps", mode=1)
+    st = stable_set(BoundaryConditions(kmh(80), kmh(90), 3.75), GRID, 0.4, VEH,
+                    envelope="paper_maps", mode=1)
     assert st.tau_min == pytest.approx(2.77, abs=0.01)
     assert st.stable[GRID >= 2.8].all() and not st.stable[GRID < 2.75].any()
     # eq. 33 is negative over the speed range (a misprint): warned and floored
     with pytest.warns(UserWarning, match="eq. 33"):
-        st3 = stable_set(kmh(110), kmh(110), -3.75, GRID, 0.6, VEH, envelope="paper_maps",
-                         mode=3, tau_floor=1.0)
+        st3 = stable_set(BoundaryConditions(kmh(110), kmh(110), -3.75), GRID, 0.6, VEH,
+                         envelope="paper_maps", mode=3, tau_floor=1.0)
     assert st3.tau_min == 1.0
 
 
@@ -133,7 +137,7 @@ def test_tau_min_map_matches_the_envelope() -> None:
     fmap = TauMinMap(kmh(90), -3.75, 0.6, VEH, tau_lo=1.0, tau_hi=10.0)
     fine = np.arange(1.0, 10.0001, 0.005)
     for v in (12.3, 21.7, 30.9):
-        direct = stable_set(v, kmh(90), -3.75, fine, 0.6, VEH).tau_min
+        direct = stable_set(BoundaryConditions(v, kmh(90), -3.75), fine, 0.6, VEH).tau_min
         assert float(fmap(v)) == pytest.approx(direct, abs=0.005)
     assert np.isnan(fmap(80.0))  # outside the map
     # one float takes a path on plain floats: the same values as numpy's, bit for bit

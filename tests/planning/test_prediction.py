@@ -14,7 +14,7 @@ from cosim.planning.prediction import (
     predict,
     predict_lazy,
 )
-from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.planning.trajectory import BoundaryConditions, LaneChangeTrajectory
 from cosim.traffic.v2v import LateralMotion, V2VMessage
 
 ROAD = RoadParams(mu=0.8)
@@ -51,7 +51,7 @@ def test_c2_is_the_tvs_whole_stable_cluster() -> None:
     m = msg(speed=kmh(120), lane=2, intention=-1)
     f = predict([m], 0.0, T_REL, ROAD, VEH, GRID)
     assert f.categories == ("C2",)
-    st = stable_set(kmh(120), kmh(110), -ROAD.lane_width, GRID, ROAD.mu, VEH)
+    st = stable_set(BoundaryConditions(kmh(120), kmh(110), -ROAD.lane_width), GRID, ROAD.mu, VEH)
     # one hypothesis per stable grid point, after a lower bound of tau_min (without the
     # planner's maps: the grid point below the first stable one); all bound cells
     np.testing.assert_allclose(f.tau[1:], GRID[st.stable])

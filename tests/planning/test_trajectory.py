@@ -7,6 +7,7 @@ import pytest
 from scipy.integrate import quad
 
 from cosim.planning.trajectory import (
+    BoundaryConditions,
     LaneChangeTrajectory,
     cluster,
     cluster_derivatives,
@@ -24,10 +25,11 @@ CASES = [
 @pytest.mark.parametrize(("vx0", "vxf", "W", "tau"), CASES)
 def test_boundary_conditions_to_1e9(vx0: float, vxf: float, W: float, tau: float) -> None:
     ends = np.array([0.0, tau])
-    d = cluster_derivatives(vx0, vxf, W, [tau], ends, (0, 1, 2))
+    d = cluster_derivatives(BoundaryConditions(vx0, vxf, W), [tau], ends, (0, 1, 2))
     (x, y), (xd, yd), (xdd, ydd) = d[0], d[1], d[2]
     # values at tau are evaluated just inside the manoeuvre (after it the motion is straight)
-    inside = cluster_derivatives(vx0, vxf, W, [tau], [tau * (1 - 1e-15)], (1, 2))
+    inside = cluster_derivatives(BoundaryConditions(vx0, vxf, W), [tau], [tau * (1 - 1e-15)],
+                                 (1, 2))
     np.testing.assert_allclose([x[0, 0], y[0, 0], yd[0, 0], ydd[0, 0], xdd[0, 0]], 0.0, atol=1e-9)
     assert xd[0, 0] == pytest.approx(vx0, abs=1e-9)
     assert y[0, 1] == pytest.approx(W, abs=1e-9)
@@ -36,7 +38,7 @@ def test_boundary_conditions_to_1e9(vx0: float, vxf: float, W: float, tau: float
                                0.0, atol=1e-9)
     # eq. 2 and eq. 4 as printed
     t = np.linspace(0, tau, 7)
-    xs, ys = cluster(vx0, vxf, W, [tau], t)
+    xs, ys = cluster(BoundaryConditions(vx0, vxf, W), [tau], t)
     eq2 = (vx0 - vxf) / (2 * tau**3) * t**4 - (vx0 - vxf) / tau**2 * t**3 + vx0 * t
     s = t / tau
     eq4 = W * (6 * s**5 - 15 * s**4 + 10 * s**3)
@@ -47,12 +49,13 @@ def test_boundary_conditions_to_1e9(vx0: float, vxf: float, W: float, tau: float
 def test_general_start_conditions() -> None:
     """A plan started mid-manoeuvre keeps the given y', y'', x'' at 0 and ends at rest."""
     tau, W = 4.0, 2.1
-    d = cluster_derivatives(25.0, 27.0, W, [tau], [0.0], (1, 2), ax0=0.4, vy0=0.6, ay0=-0.3)
+    d = cluster_derivatives(BoundaryConditions(25.0, 27.0, W, ax0=0.4, vy0=0.6, ay0=-0.3), [tau],
+                            [0.0], (1, 2))
     assert d[1][1][0, 0] == pytest.approx(0.6)
     assert d[2][1][0, 0] == pytest.approx(-0.3)
     assert d[2][0][0, 0] == pytest.approx(0.4)
-    end = cluster_derivatives(25.0, 27.0, W, [tau], [tau * (1 - 1e-15)], (0, 1, 2),
-                              ax0=0.4, vy0=0.6, ay0=-0.3)
+    end = cluster_derivatives(BoundaryConditions(25.0, 27.0, W, ax0=0.4, vy0=0.6, ay0=-0.3), [tau],
+                              [tau * (1 - 1e-15)], (0, 1, 2))
     assert end[0][1][0, 0] == pytest.approx(W, abs=1e-9)
     assert end[1][0][0, 0] == pytest.approx(27.0, abs=1e-9)
     assert abs(end[1][1][0, 0]) < 1e-9 and abs(end[2][1][0, 0]) < 1e-9
@@ -63,7 +66,7 @@ def test_jerk_costs_match_quadrature(vx0: float, vxf: float, W: float, tau: floa
     jx_closed, jy_closed = jerk_costs(vx0, vxf, W, tau)
 
     def jerk(t: float) -> tuple[float, float]:
-        d = cluster_derivatives(vx0, vxf, W, [tau], [t], (3,))[3]
+        d = cluster_derivatives(BoundaryConditions(vx0, vxf, W), [tau], [t], (3,))[3]
         return float(d[0][0, 0]), float(d[1][0, 0])
 
     jx = quad(lambda t: 0.5 * jerk(t)[0] ** 2, 0, tau, epsabs=1e-12, epsrel=1e-10)[0]
@@ -93,7 +96,7 @@ def test_standard_positions_equal_the_general_form(vx0: float, vxf: float, W: fl
     taus = np.array([tau, tau + 0.5, tau + 3.0])
     t = np.linspace(0.0, 15.0, 61)
     fast = standard_positions(vx0, vxf, W, taus, t)
-    slow = cluster(vx0, vxf, W, taus, t)
+    slow = cluster(BoundaryConditions(vx0, vxf, W), taus, t)
     np.testing.assert_allclose(fast[0], slow[0], atol=1e-9)
     np.testing.assert_allclose(fast[1], slow[1], atol=1e-9)
 
@@ -105,6 +108,6 @@ def test_standard_velocities_equal_the_general_form() -> None:
     taus = np.array([2.5, 4.0, 9.0])
     t = np.linspace(0.0, 12.0, 49)
     xd, yd = standard_velocities(vx0, vxf, W, taus[:, None], t[None, :])
-    ref = cluster_derivatives(vx0, vxf, W, taus, t, (1,))[1]
+    ref = cluster_derivatives(BoundaryConditions(vx0, vxf, W), taus, t, (1,))[1]
     np.testing.assert_allclose(xd, ref[0], atol=1e-9)
     np.testing.assert_allclose(yd, ref[1], atol=1e-9)
