@@ -38,6 +38,7 @@ from cosim.bench import median_time
 from cosim.commands import count
 from cosim.params import PlannerConfig, RoadParams, VehicleParams, kmh
 from cosim.planning.collision import (
+    Box,
     SVCandidates,
     TVHypotheses,
     check_candidates,
@@ -45,7 +46,7 @@ from cosim.planning.collision import (
 )
 from cosim.planning.envelope import MODES
 from cosim.planning.planner import LaneChangePlanner, SVPlanState
-from cosim.planning.prediction import predict_lazy
+from cosim.planning.prediction import C2Options, predict_lazy
 from cosim.planning.trajectory import cluster_derivatives
 from cosim.traffic.v2v import V2VMessage
 
@@ -120,10 +121,9 @@ def _loop_setup(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: i
     st = planner._stable_set(sv.boundary(vxf, width), MODES.get((sv.lane, target)))
     taus, stable = planner.grid, st.stable
     t_rel, follow = planner._horizon(t, 0.0, sv.x, sv.vx, vxf, target, messages)
-    lazy = predict_lazy(messages, t, t_rel, road, veh, taus, envelope=cfg.envelope,
-                        safety_factor=cfg.safety_factor,
-                        stable_fn=planner._tv_stable if planner.use_maps else None,
-                        cells=cfg.collision_test == "exact")
+    c2 = C2Options(cfg.envelope, cfg.safety_factor,
+                   planner._tv_stable if planner.use_maps else None, cfg.collision_test == "exact")
+    lazy = predict_lazy(messages, t, t_rel, road, veh, taus, c2)
     futures = lazy.materialise()
     tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
     tv_hor = np.maximum(tv_end + cfg.horizon_extra, follow[futures.owner])
@@ -145,7 +145,7 @@ def _cells_hit(planner: LaneChangePlanner, sv: SVPlanState, s: dict[str, Any], t
                        np.array([0, hyps.size]))
     cand = SVCandidates(np.array([tau]), sv.vx, s["vxf"], s["width"], sv.x, sv.y, **s["kw"])
     cfg, veh = planner.config, planner.vehicle
-    hits = check_candidates(s["t_rel"], cand, veh.length, veh.width,
+    hits = check_candidates(s["t_rel"], cand, veh,
                             np.array([tau + cfg.horizon_extra]), one, s["tv_hor"][hyps],
                             margin=cfg.safety_margin, test=cfg.collision_test)
     return bool(hits.collides[0])
@@ -171,9 +171,10 @@ def loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int
         collides = False
         for j in range(futures.n_hypotheses):  # one TV trajectory at a time
             k = t_rel <= max(tau + cfg.horizon_extra, s["tv_hor"][j])
-            if overlap_sat(x[k], y[k], h[k], veh.length, veh.width, futures.x[j, k],
-                           futures.y[j, k], futures.heading[j, k], futures.length[j],
-                           futures.width[j], margin=cfg.safety_margin).any():
+            tv = Box(futures.x[j, k], futures.y[j, k], futures.heading[j, k], futures.length[j],
+                     futures.width[j])
+            if overlap_sat(Box(x[k], y[k], h[k], veh.length, veh.width), tv,
+                           margin=cfg.safety_margin).any():
                 collides = True
                 break
         if not collides:

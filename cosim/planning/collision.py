@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cosim.compiled import njit, register_warm_up
+from cosim.params import VehicleParams
 from cosim.planning.trajectory import (
     LANE_CHANGE,
     BoundaryConditions,
@@ -79,13 +80,22 @@ def corners(x: ArrayLike, y: ArrayLike, heading: ArrayLike, length: ArrayLike,
     return np.stack(out, axis=-2)
 
 
-def overlap_sat(
-    ax: ArrayLike, ay: ArrayLike, ah: ArrayLike, al: ArrayLike, aw: ArrayLike,
-    bx: ArrayLike, by: ArrayLike, bh: ArrayLike, bl: ArrayLike, bw: ArrayLike,
-    margin: ArrayLike = 0.0,
-) -> NDArray[np.bool_]:
-    """Exact overlap of rectangles A and B (centre, heading, length, width; broadcast),
-    each grown by `margin` on every side. Touching counts as overlap."""
+class Box(NamedTuple):
+    """A vehicle's rectangle (eq. 9); arrays broadcast. A named tuple: the run's collision
+    check builds two per step."""
+
+    x: ArrayLike  # m, centre x
+    y: ArrayLike  # m, centre y
+    heading: ArrayLike  # rad
+    length: ArrayLike  # m
+    width: ArrayLike  # m
+
+
+def overlap_sat(a: Box, b: Box, margin: ArrayLike = 0.0) -> NDArray[np.bool_]:
+    """Exact overlap of rectangles A and B, each grown by `margin` (m) on every side.
+    Touching counts as overlap."""
+    ax, ay, ah, al, aw = a
+    bx, by, bh, bl, bw = b
     m = np.asarray(margin, dtype=float)
     hla, hwa = 0.5 * np.asarray(al) + m, 0.5 * np.asarray(aw) + m
     hlb, hwb = 0.5 * np.asarray(bl) + m, 0.5 * np.asarray(bw) + m
@@ -109,16 +119,13 @@ def overlap_sat(
     return ~sep
 
 
-def overlap_col(
-    ax: ArrayLike, ay: ArrayLike, ah: ArrayLike, al: ArrayLike, aw: ArrayLike,
-    bx: ArrayLike, by: ArrayLike, bh: ArrayLike, bl: ArrayLike, bw: ArrayLike,
-) -> NDArray[np.bool_]:
+def overlap_col(a: Box, b: Box) -> NDArray[np.bool_]:
     """The paper's CoL (Appendix 9.2): True when a vertex of A (the SV) lies inside B
     (a TV), judged by triangle areas: inside iff the four triangles (vertex, edge of B)
     add up to B's area (s_a - s_i > 0 for every vertex means no collision)."""
-    va = corners(ax, ay, ah, al, aw)  # (..., 4, 2)
-    vb = corners(bx, by, bh, bl, bw)
-    area_b = np.asarray(bl, dtype=float) * np.asarray(bw, dtype=float)
+    va = corners(*a)  # (..., 4, 2)
+    vb = corners(*b)
+    area_b = np.asarray(b.length, dtype=float) * np.asarray(b.width, dtype=float)
     p = va[..., :, None, :]  # (..., 4 vertices of A, 1, 2)
     e0 = vb[..., None, :, :]  # (..., 1, 4 edges' start, 2)
     e1 = np.roll(vb, -1, axis=-2)[..., None, :, :]
@@ -288,11 +295,11 @@ class TVHypotheses:
 
 
 def check_candidates(
-    t: Array, sv: SVCandidates, sv_length: float, sv_width: float, sv_horizon: Array,
+    t: Array, sv: SVCandidates, vehicle: VehicleParams, sv_horizon: Array,
     tv: TVHypotheses, tv_horizon: Array, *, margin: float = 0.0, test: str = "exact",
 ) -> ClusterHits:
-    """First overlap of every SV candidate (n_c) with any TV hypothesis (n_h) on the
-    uniform time grid t (eq. 10-11).
+    """First overlap of every SV candidate (n_c; the body of `vehicle`) with any TV
+    hypothesis (n_h) on the uniform time grid t (eq. 10-11).
 
     A pair (candidate c, hypothesis h) is tested at the times t_k <= max(sv_horizon[c],
     tv_horizon[h]) (the exact test: the cell of the last one reaches that horizon, the
@@ -319,7 +326,8 @@ def check_candidates(
         return ClusterHits(np.zeros(n_c, dtype=bool), none, none.copy())
     t = np.ascontiguousarray(t, dtype=float)
     dt = float(t[1] - t[0]) if t.size > 1 else 0.0
-    first_k, first_h = _first_overlaps(t, sv.side(t, sv_length, sv_width, sv_horizon),
+    first_k, first_h = _first_overlaps(t, sv.side(t, vehicle.length, vehicle.width,
+                                                   sv_horizon),
                                        tv.side(tv_horizon, float(t[0]), dt), float(margin),
                                        test == "col")
     return ClusterHits(first_k >= 0, first_k, first_h)
@@ -1100,4 +1108,5 @@ def warm_up() -> None:
     for start in ({}, {"vy0": 0.1}):
         sv = SVCandidates(np.array([2.0]), 20.0, 20.0, 3.75, 0.0, 0.0, **start)
         for test in COLLISION_TESTS:
-            check_candidates(t, sv, 4.32, 1.8, np.array([2.0]), tv, np.full(3, 2.0), test=test)
+            check_candidates(t, sv, VehicleParams(), np.array([2.0]), tv, np.full(3, 2.0),
+                             test=test)

@@ -39,6 +39,7 @@ from cosim.planning.envelope import (
     stable_set,
 )
 from cosim.planning.prediction import (
+    C2Options,
     LazyFutures,
     TVFutures,
     c2_lanes,
@@ -335,6 +336,14 @@ class LaneChangePlanner:
             out[rest] = (margin <= 1.0).reshape(rest.size, k)
         return out, tau_min
 
+    def c2_options(self) -> C2Options:
+        """How this planner's prediction builds the C2 TVs' clusters: with its envelope
+        and tau_min maps, cells for the exact test, the end speed its policy asks for."""
+        cfg = self.config
+        return C2Options(cfg.envelope, cfg.safety_factor,
+                         self._tv_stable if self.use_maps else None,
+                         cfg.collision_test == "exact", self.prediction.gap_end_speed)
+
     def _validate(self, sv: SVPlanState, target_lane: int, occupant: float) -> None:
         if not 0 <= target_lane < self.road.n_lanes or abs(target_lane - sv.lane) != 1:
             raise InputError("planner", "target_lane", target_lane,
@@ -415,7 +424,7 @@ class LaneChangePlanner:
         tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)
         tv_hor = np.maximum(tv_end + cfg.horizon_extra, follow[futures.owner])
         hits = check_candidates(
-            t_rel, sv, self.vehicle.length, self.vehicle.width, sv_end + cfg.horizon_extra,
+            t_rel, sv, self.vehicle, sv_end + cfg.horizon_extra,
             TVHypotheses.from_futures(futures), tv_hor, margin=self.margin,
             test=cfg.collision_test,
         )
@@ -479,12 +488,8 @@ class LaneChangePlanner:
             late = stable & (x_end > x_limit + 1e-9)
         cand = np.flatnonzero(stable if late is None else stable & ~late)
         t_rel, follow = self._horizon(t, 0.0, sv.x, sv.vx, vxf, target_lane, messages)
-        futures = predict_lazy(
-            messages, t, t_rel, road, self.vehicle, self.grid,
-            envelope=cfg.envelope, safety_factor=cfg.safety_factor,
-            stable_fn=self._tv_stable if self.use_maps else None,
-            cells=cfg.collision_test == "exact", gap_end_speed=self.prediction.gap_end_speed,
-        )
+        futures = predict_lazy(messages, t, t_rel, road, self.vehicle, self.grid,
+                               self.c2_options())
         hit_vehicle, hit_time = np.full(taus.size, -1), np.full(taus.size, np.nan)
         free = np.zeros(taus.size, dtype=bool)
         if cand.size:  # (an empty general-start cluster has no motion bounds)
@@ -514,7 +519,6 @@ class LaneChangePlanner:
     ) -> Rejection | None:
         """Re-check a committed trajectory from time t on against fresh predictions:
         the first collision it would now have, or None."""
-        cfg = self.config
         messages = merging_messages(messages, self.road, t)
         remaining = max(trajectory.t_end - t, 0.0)
         tr = trajectory
@@ -522,12 +526,8 @@ class LaneChangePlanner:
         target = self.road.lane_of(tr.y_final)
         t_rel, follow = self._horizon(t, remaining, x_now, tr.vx0, tr.vxf, target,
                                       messages)
-        futures = predict_lazy(
-            messages, t, t_rel, self.road, self.vehicle, self.grid,
-            envelope=cfg.envelope, safety_factor=cfg.safety_factor,
-            stable_fn=self._tv_stable if self.use_maps else None,
-            cells=cfg.collision_test == "exact", gap_end_speed=self.prediction.gap_end_speed,
-        )
+        futures = predict_lazy(messages, t, t_rel, self.road, self.vehicle, self.grid,
+                               self.c2_options())
         cand = SVCandidates(np.array([tr.tau]), tr.vx0, tr.vxf, tr.width, tr.x0, tr.y0,
                              tr.ax0, tr.vy0, tr.ay0, t_shift=t - tr.t0)
         collides, vehicle, when = self._collisions(

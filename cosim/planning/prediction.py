@@ -224,33 +224,41 @@ class LazyFutures:
                          self.t_end, self.x, self.y, self.heading, self.length, self.width)
 
 
+@dataclass(frozen=True)
+class C2Options:
+    """How the C2 TVs' clusters are built (S3: like the SV's, on the planner's tau grid)."""
+
+    envelope: str = "inverse_dynamics"  # the yaw-rate envelope, or "paper_maps" (eq. 31-34)
+    safety_factor: float = 0.8  # -, f of eq. 6
+    # (vx0, vxf, width, vy0) -> (n_c2, n_tau) stable and a lower bound of each tau_min:
+    # the planner's tau_min maps; None: all C2 TVs in one batched envelope call
+    stable_fn: StableFn | None = None
+    # False: a C2 cluster is its stable grid points only, no lower bound of its tau_min
+    # and no cells between them (the paper's procedure, for its CoL test)
+    cells: bool = True
+    # a C2 TV ends its change no faster than its leader in the target lane
+    # (`target_leader_speed`), as the gap policy's SV does (S3, all vehicles alike);
+    # False: at the band rule's speed, as the paper's SV
+    gap_end_speed: bool = False
+
+
 def predict(
     messages: Sequence[V2VMessage], t_plan: float, t_rel: Array, road: RoadParams,
-    vehicle: VehicleParams, taus: Array, *, envelope: str = "inverse_dynamics",
-    safety_factor: float = 0.8, stable_fn: StableFn | None = None,
+    vehicle: VehicleParams, taus: Array, options: C2Options | None = None,
 ) -> TVFutures:
-    """TV futures at absolute times t_plan + t_rel for every message (C1/C2/C3).
-
-    C2 clusters use the planner's tau grid `taus` and its envelope: all C2 TVs are
-    checked in one batched envelope call, or by `stable_fn(vx0, vxf, width, vy0)`
-    -> (n_c2, n_tau) bool when given (the planner's tau_min maps).
-    """
-    return predict_lazy(messages, t_plan, t_rel, road, vehicle, taus, envelope=envelope,
-                        safety_factor=safety_factor, stable_fn=stable_fn).materialise()
+    """TV futures at absolute times t_plan + t_rel for every message (C1/C2/C3); C2
+    clusters on the planner's tau grid `taus`, built as `options` say."""
+    return predict_lazy(messages, t_plan, t_rel, road, vehicle, taus, options).materialise()
 
 
 def predict_lazy(
     messages: Sequence[V2VMessage], t_plan: float, t_rel: Array, road: RoadParams,
-    vehicle: VehicleParams, taus: Array, *, envelope: str = "inverse_dynamics",
-    safety_factor: float = 0.8, stable_fn: StableFn | None = None, cells: bool = True,
-    gap_end_speed: bool = False,
+    vehicle: VehicleParams, taus: Array, options: C2Options | None = None,
 ) -> LazyFutures:
-    """`predict`, with the C2 clusters from rest left in closed form (`LazyFutures`).
-    `cells` False: a C2 cluster is its stable grid points only, no lower bound of its
-    tau_min and no cells between them (the paper's procedure, for its CoL test).
-    `gap_end_speed` (the gap policy): a C2 TV ends its change no faster than its
-    leader in the target lane (`target_leader_speed`), as the gap policy's SV does:
-    S3, all vehicles alike; False: at the band rule's speed, as the paper's SV."""
+    """`predict`, with the C2 clusters from rest left in closed form (`LazyFutures`)."""
+    opt = options or C2Options()
+    envelope, safety_factor, stable_fn = opt.envelope, opt.safety_factor, opt.stable_fn
+    cells, gap_end_speed = opt.cells, opt.gap_end_speed
     t = t_plan + np.asarray(t_rel, dtype=float)
     rel = t - t_plan
     n_t = t.size

@@ -263,7 +263,7 @@ class Recorder:
 
     def record(self, k: int, scene: Scene, status: PolicyStatus) -> Array:
         """Row k: what every SV has (the ego adds its own columns); returns the row."""
-        from cosim.planning.collision import overlap_sat
+        from cosim.planning.collision import Box, overlap_sat
 
         row = self.data[k]
         C = COLUMN
@@ -301,8 +301,8 @@ class Recorder:
         hits: frozenset[str] = frozenset()
         if near.size:  # (the reach test's circles hold a margin for the frame's stretch)
             tx, ty, th = tvs.cartesian
-            hit = overlap_sat(px, py, ph, self.sv_length, self.sv_width, tx[near], ty[near],
-                              th[near], tvs.length[near], tvs.width[near])
+            hit = overlap_sat(Box(px, py, ph, self.sv_length, self.sv_width),
+                              Box(tx[near], ty[near], th[near], tvs.length[near], tvs.width[near]))
             hits = frozenset(tvs.ids[i] for i, c in zip(near, hit, strict=True) if c)
         for vid in hits - self.hits:  # onsets: was the SV at fault? (changing lanes, or hit ahead)
             if status.manoeuvring or float(tvs.x[tvs.index(vid)]) > x:

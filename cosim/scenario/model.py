@@ -25,15 +25,11 @@ EDGE_PATTERN = r"[^\x00-\x1f]{1,200}"  # a SUMO edge id: any printable text
 MAX_ROUTE_EDGES = 1000  # edges in a route
 
 
-def number_key(
-    key: str, unit: str, lo: float | None, hi: float | None, default: Any, doc: str, *,
-    lo_open: bool = False, hi_open: bool = False, si_divisor: float = 1.0, override: str = "",
-    default_doc: str = "",
-) -> Field:
-    """A float key, range-checked in the file's unit."""
-    return Field(key, float, unit=unit, lo=lo, hi=hi, default=default, lo_open=lo_open,
-                 hi_open=hi_open, si_divisor=si_divisor, doc=doc, override=override,
-                 default_doc=default_doc)
+def number_key(key: str, unit: str, lo: float | None, hi: float | None, default: Any,
+               doc: str, **field: Any) -> Field:
+    """A float key, range-checked in the file's unit; `field`: more of Field's own
+    settings (lo_open, hi_open, si_divisor, override, default_doc)."""
+    return Field(key, float, unit=unit, lo=lo, hi=hi, default=default, doc=doc, **field)
 
 
 def speed_key(key: str, default: Any, doc: str, *, lo_open: bool = True, override: str = "",

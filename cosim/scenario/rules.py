@@ -239,7 +239,7 @@ def _start_pose(tv: TVSpec, s: Scenario, net: Highway) -> tuple[float, float, fl
 def _check_no_overlap(src: str, s: Scenario, net: Highway) -> None:
     """No two bodies overlap at t = 0: a TV mid-lane-change on the SV, two TVs on each
     other, wide vehicles side by side in adjacent lanes (rectangles, separating axes)."""
-    from cosim.planning.collision import overlap_sat
+    from cosim.planning.collision import Box, overlap_sat
 
     x_sv = net.x_start + s.sv.position
     bodies = [("the SV", x_sv, s.road.lane_center(s.sv.lane), 0.0, s.vehicle.length,
@@ -250,7 +250,7 @@ def _check_no_overlap(src: str, s: Scenario, net: Highway) -> None:
     for i in range(1, len(bodies)):
         _, x, y, h, length, width = bodies[i]
         for other, ox, oy, oh, olength, owidth in bodies[:i]:
-            if bool(overlap_sat(x, y, h, length, width, ox, oy, oh, olength, owidth)):
+            if bool(overlap_sat(Box(x, y, h, length, width), Box(ox, oy, oh, olength, owidth))):
                 tv = s.tvs[i - 1]
                 raise InputError(
                     src, f"tv[{i - 1}].gap_m", tv.gap,

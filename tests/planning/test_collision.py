@@ -6,7 +6,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from cosim.params import VehicleParams
 from cosim.planning.collision import (
+    Box,
     SVCandidates,
     TVHypotheses,
     check_candidates,
@@ -28,7 +30,7 @@ RNG = np.random.default_rng(7)
 
 def check_cluster(t, sv, sl, sw, sv_hor, tx, ty, th, tl, tw, tv_hor, **kw):  # noqa: ANN001, ANN003, ANN201
     """`check_candidates` against TV trajectories given as (n_h, n_t) arrays."""
-    return check_candidates(t, sv, sl, sw, sv_hor,
+    return check_candidates(t, sv, VehicleParams(length=sl, width=sw), sv_hor,
                             TVHypotheses.from_rows(tx, ty, th, tl, tw), tv_hor, **kw)
 
 
@@ -69,7 +71,7 @@ def _random_pairs(n: int) -> tuple[np.ndarray, ...]:
 def test_exact_test_agrees_with_brute_force_geometry() -> None:
     n = 3000
     ax, ay, ah, al, aw, bx, by, bh, bl, bw = _random_pairs(n)
-    fast = overlap_sat(ax, ay, ah, al, aw, bx, by, bh, bl, bw)
+    fast = overlap_sat(Box(ax, ay, ah, al, aw), Box(bx, by, bh, bl, bw))
     ca, cb = corners(ax, ay, ah, al, aw), corners(bx, by, bh, bl, bw)
     slow = np.array([brute_overlap(ca[i], cb[i]) for i in range(n)])
     assert 0.2 < slow.mean() < 0.8  # both outcomes well represented
@@ -78,13 +80,13 @@ def test_exact_test_agrees_with_brute_force_geometry() -> None:
 
 def test_exact_test_is_symmetric_and_margin_grows() -> None:
     ax, ay, ah, al, aw, bx, by, bh, bl, bw = _random_pairs(2000)
-    ab = overlap_sat(ax, ay, ah, al, aw, bx, by, bh, bl, bw)
-    ba = overlap_sat(bx, by, bh, bl, bw, ax, ay, ah, al, aw)
+    ab = overlap_sat(Box(ax, ay, ah, al, aw), Box(bx, by, bh, bl, bw))
+    ba = overlap_sat(Box(bx, by, bh, bl, bw), Box(ax, ay, ah, al, aw))
     np.testing.assert_array_equal(ab, ba)
-    grown = overlap_sat(ax, ay, ah, al, aw, bx, by, bh, bl, bw, margin=0.5)
+    grown = overlap_sat(Box(ax, ay, ah, al, aw), Box(bx, by, bh, bl, bw), margin=0.5)
     assert (grown >= ab).all() and grown.sum() > ab.sum()
     # two axis-aligned cars 0.4 m apart side by side: clear, but not with a 0.25 m margin
-    args = (0.0, 0.0, 0.0, 4.32, 1.8, 0.0, 2.2, 0.0, 4.32, 1.8)
+    args = (Box(0.0, 0.0, 0.0, 4.32, 1.8), Box(0.0, 2.2, 0.0, 4.32, 1.8))
     assert not overlap_sat(*args)
     assert overlap_sat(*args, margin=0.25)
 
@@ -93,26 +95,26 @@ def test_col_misses_a_crossing_that_the_exact_test_catches() -> None:
     """A TV turned 90 deg across the SV's middle: no vertex of either inside the other."""
     sv = (0.0, 0.0, 0.0, 4.32, 1.8)
     tv = (0.0, 0.0, np.pi / 2, 4.32, 1.8)
-    assert overlap_sat(*sv, *tv)
-    assert not overlap_col(*sv, *tv)
+    assert overlap_sat(Box(*sv), Box(*tv))
+    assert not overlap_col(Box(*sv), Box(*tv))
     # a cross with a small heading: still missed by CoL, still an overlap
     tv_skew = (0.3, 0.0, 1.3, 4.32, 1.8)
-    assert overlap_sat(*sv, *tv_skew) and not overlap_col(*sv, *tv_skew)
+    assert overlap_sat(Box(*sv), Box(*tv_skew)) and not overlap_col(Box(*sv), Box(*tv_skew))
 
 
 def test_col_sees_an_sv_vertex_inside_but_not_a_tv_vertex_inside() -> None:
     # SV front-left corner inside the TV: CoL detects it
-    assert overlap_col(0.0, 0.0, 0.0, 4.32, 1.8, 3.5, 1.2, 0.0, 4.32, 1.8)
+    assert overlap_col(Box(0.0, 0.0, 0.0, 4.32, 1.8), Box(3.5, 1.2, 0.0, 4.32, 1.8))
     # a TV corner pokes into the SV's side, no SV vertex inside the TV: CoL misses it
     sv = (0.0, 0.0, 0.0, 4.32, 1.8)
     tv = (0.0, 1.9, 0.6, 4.32, 1.8)
-    assert overlap_sat(*sv, *tv) and not overlap_col(*sv, *tv)
+    assert overlap_sat(Box(*sv), Box(*tv)) and not overlap_col(Box(*sv), Box(*tv))
 
 
 def test_col_agrees_with_its_definition() -> None:
     """CoL == 'some vertex of A inside B' (brute force), on random pairs."""
     ax, ay, ah, al, aw, bx, by, bh, bl, bw = _random_pairs(1500)
-    col = overlap_col(ax, ay, ah, al, aw, bx, by, bh, bl, bw)
+    col = overlap_col(Box(ax, ay, ah, al, aw), Box(bx, by, bh, bl, bw))
     ca, cb = corners(ax, ay, ah, al, aw), corners(bx, by, bh, bl, bw)
     ref = np.array([any(_inside(p, cb[i]) for p in ca[i]) for i in range(ah.size)])
     np.testing.assert_array_equal(col, ref)
@@ -129,8 +131,8 @@ def _dense_reference(t, sv, sl, sw, sv_hor, tx, ty, th, tl, tw, tv_hor, test="ex
     for c in range(sx.shape[0]):
         for k in range(t.size):
             ok = t[k] <= np.maximum(sv_hor[c], tv_hor)
-            hit = ok & overlap(sx[c, k], sy[c, k], sh[c, k], sl, sw,
-                               tx[:, k], ty[:, k], th[:, k], tl, tw)
+            hit = ok & overlap(Box(sx[c, k], sy[c, k], sh[c, k], sl, sw),
+                               Box(tx[:, k], ty[:, k], th[:, k], tl, tw))
             if hit.any():
                 first[c] = k
                 break
@@ -155,8 +157,8 @@ def _between_samples(t, sv, c, k, tx, ty, th, tl, tw, n=50, horizon=np.inf):  # 
     d = cluster_derivatives(sv.boundary, sv.taus[c:c + 1], tt + sv.t_shift, (0, 1))
     sx, sy, sh = d[0][0][0] + sv.x0, d[0][1][0] + sv.y0, np.arctan2(d[1][1][0], d[1][0][0])
     lerp = [np.array([np.interp(tt, t, row) for row in a]) for a in (tx, ty, th)]
-    return overlap_sat(sx[None, :], sy[None, :], sh[None, :], 4.32, 1.8, *lerp,
-                       tl[:, None], tw[:, None]).any()
+    return overlap_sat(Box(sx[None, :], sy[None, :], sh[None, :], 4.32, 1.8),
+                       Box(*lerp, tl[:, None], tw[:, None])).any()
 
 
 def test_check_matches_a_dense_check() -> None:
@@ -226,7 +228,8 @@ def test_a_near_miss_between_samples_is_not_an_overlap() -> None:
     assert run(ty, np.zeros(n_t))
     tx = -5.0 + 30.0 * t
     side = np.full(n_t, 1.95)
-    assert overlap_sat(0.0, 0.0, 0.0, 4.32, 1.8, tx, side, 0.0, 4.32, 1.8, margin=0.4).any()
+    assert overlap_sat(Box(0.0, 0.0, 0.0, 4.32, 1.8), Box(tx, side, 0.0, 4.32, 1.8),
+                       margin=0.4).any()
     assert not run(side, tx)
     assert not run(side, tx, margin=0.07)  # 15 cm apart: clear with 7 cm on each
     assert run(side, tx, margin=0.08)  # and not with 8 cm
@@ -293,7 +296,7 @@ def test_closed_form_hypotheses_give_what_their_rows_give() -> None:
                        groups=cells.groups)
         sv_hor = grid + 2.0
         tv_hor = np.where(np.isfinite(f.t_end), f.t_end, -np.inf) + 2.0
-        a, b, c = (check_candidates(t, sv, 4.32, 1.8, sv_hor, tv, tv_hor, margin=margin)
+        a, b, c = (check_candidates(t, sv, VehicleParams(), sv_hor, tv, tv_hor, margin=margin)
                    for tv in (listed, rows, cells))
         np.testing.assert_array_equal(a.collides, b.collides)
         assert (c.collides >= a.collides).all()

@@ -32,6 +32,7 @@ from cosim.params import PlannerConfig, RoadParams, VehicleParams, kmh  # noqa: 
 from cosim.planning.envelope import envelope_margin  # noqa: E402
 from cosim.planning.planner import LaneChangePlanner, SVPlanState  # noqa: E402
 from cosim.planning.prediction import (  # noqa: E402
+    C2Options,
     c2_lanes,
     category,
     constant_acceleration,
@@ -113,8 +114,8 @@ class Reference:
                 c2.append((j, m, v0, road.target_speed(*lanes),
                            road.lane_center(lanes[1]) - m.y, x0))
                 continue
-            f = predict([m], t, self.t, road, veh, planner.grid, envelope=cfg.envelope,
-                        safety_factor=cfg.safety_factor)
+            f = predict([m], t, self.t, road, veh, planner.grid,
+                        C2Options(cfg.envelope, cfg.safety_factor))
             for h in range(f.n_hypotheses):
                 end = f.t_end[h] - t if np.isfinite(f.t_end[h]) else -np.inf
                 self.rows.append((f.x[h], f.y[h], f.heading[h], f.length[h], f.width[h],

@@ -272,11 +272,7 @@ def judge(road: Road, planner: LaneChangePlanner, plan: Plan,
     np.testing.assert_allclose(grid, coarse.rel, atol=1e-12)  # the planner's own horizon
     rel = DT * np.arange(int(round(grid[-1] / DT)) + 1)
     # the planner's hypotheses, on the fine grid (the same call as plan() makes)
-    f = predict_lazy(messages, t, rel, rp, veh, planner.grid, envelope=cfg.envelope,
-                     safety_factor=cfg.safety_factor,
-                     stable_fn=planner._tv_stable if planner.use_maps else None,
-                     cells=cfg.collision_test == "exact",
-                     gap_end_speed=planner.prediction.gap_end_speed)
+    f = predict_lazy(messages, t, rel, rp, veh, planner.grid, planner.c2_options())
     assert f.vehicle_ids == coarse.vehicle_ids and f.categories == coarse.categories
     np.testing.assert_array_equal(f.owner, coarse.owner)
     np.testing.assert_array_equal(f.tau, coarse.tau)

@@ -9,6 +9,7 @@ from cosim.params import RoadParams, VehicleParams, kmh
 from cosim.planning.envelope import stable_set
 from cosim.planning.prediction import (
     LEADER_SPEED_STEP,
+    C2Options,
     c2_lanes,
     category,
     predict,
@@ -117,7 +118,8 @@ def test_c2_under_the_gap_policy_ends_no_faster_than_its_target_lane_leader() ->
     own = msg("own", x=60.0, lane=1, speed=3.0)  # its own lane's leader does not count
 
     def end_speed(messages: list[V2VMessage], gap: bool) -> np.ndarray:
-        f = predict_lazy(messages, 0.0, T_REL, ROAD, VEH, GRID, gap_end_speed=gap).materialise()
+        f = predict_lazy(messages, 0.0, T_REL, ROAD, VEH, GRID,
+                         C2Options(gap_end_speed=gap)).materialise()
         rows = f.owner == 0
         return (f.x[rows, -1] - f.x[rows, -2]) / (T_REL[-1] - T_REL[-2])
 
