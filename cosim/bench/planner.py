@@ -184,9 +184,13 @@ def loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: int
     return free
 
 
-def _overlap_scalar(ax: float, ay: float, ah: float, al: float, aw: float, bx: float,
-                    by: float, bh: float, bl: float, bw: float, m: float) -> bool:
-    """The separating-axes test on plain floats (one pair, one instant)."""
+Pose = tuple[float, float, float, float, float]  # m, m, rad, m, m: x, y, heading, length, width
+
+
+def _overlap_scalar(a: Pose, b: Pose, m: float) -> bool:
+    """The separating-axes test on plain floats (one pair, one instant), both grown by m."""
+    ax, ay, ah, al, aw = a
+    bx, by, bh, bl, bw = b
     ca, sa, cb, sb = math.cos(ah), math.sin(ah), math.cos(bh), math.sin(bh)
     c, s = abs(ca * cb + sa * sb), abs(sa * cb - ca * sb)
     hla, hwa, hlb, hwb = 0.5 * al + m, 0.5 * aw + m, 0.5 * bl + m, 0.5 * bw + m
@@ -227,11 +231,11 @@ def step_loop_plan(planner: LaneChangePlanner, t: float, sv: SVPlanState, target
         for k, tk in enumerate(t_rel.tolist()):  # eq. 10: over the horizon, sample by sample
             if tk > last:
                 break
+            sv_pose = (x[k], y[k], h[k], veh.length, veh.width)
             for j in range(futures.n_hypotheses):  # every TV trajectory at this sample
                 if tk > horizon[j]:
                     continue
-                if _overlap_scalar(x[k], y[k], h[k], veh.length, veh.width, fx[j][k],
-                                   fy[j][k], fh[j][k], fl[j], fw[j], m0):
+                if _overlap_scalar(sv_pose, (fx[j][k], fy[j][k], fh[j][k], fl[j], fw[j]), m0):
                     collides = True
                     break
             if collides:

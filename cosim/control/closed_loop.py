@@ -490,7 +490,7 @@ def warm_up() -> None:
 
     from .allocation import allocate
     from .longitudinal import longitudinal_force
-    from .triple_step import design_terms, mimo_law, siso_law
+    from .triple_step import LawErrors, design_terms, mimo_law, siso_law
 
     vehicle, gains = VehicleParams(), ControllerGains()
     ref = Trajectory(t0=0.0, tau=1.0, x0=0.0, y0=0.0, vx0=20.0, vxf=20.0, width=0.0)
@@ -514,6 +514,6 @@ def warm_up() -> None:
     allocate(vehicle, 0.0, 0.0, 0.0, gains.allocation_eps)
     longitudinal_force(vehicle, gains, 20.0, 20.0, 0.0)
     design_terms(vehicle, 20.0, 0.0, 0.0)
-    mimo_law(vehicle, gains, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    siso_law(vehicle, gains, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    mimo_law(vehicle, gains, 20.0, 0.0, LawErrors(0.0, 0.0, 0.0, 0.0))
+    siso_law(vehicle, gains, 20.0, 0.0, LawErrors(0.0, 0.0, 0.0, 0.0))
     ActuatorLimits().steer(0.0, 0.0, 0.005)

@@ -16,6 +16,8 @@ compiled substep loop; `mimo_law` and `siso_law` wrap them for Python callers.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from cosim.compiled import Array, njit
@@ -116,19 +118,26 @@ def design_terms(
                        float(kappa))
 
 
-def mimo_law(
-    vehicle: VehicleParams, gains: ControllerGains, vx: float, kappa: float,
-    ye: float, phi_e: float, ye_dot: float, phi_e_dot: float, int_ye: float, int_phi: float,
-) -> tuple[float, float]:
-    """(delta_f rad, dMz N m) of eq. 22-24."""
-    args = (vx, kappa, ye, phi_e, ye_dot, phi_e_dot, int_ye, int_phi)
+class LawErrors(NamedTuple):
+    """What eq. 22-24 act on: the path errors (eq. 16) and their integrals."""
+
+    ye: float  # m, lateral offset
+    phi_e: float  # rad, heading error
+    ye_dot: float  # m/s
+    phi_e_dot: float  # rad/s
+    int_ye: float = 0.0  # m s, int(ye)
+    int_phi: float = 0.0  # rad s, int(phi_e) (the MIMO law's only)
+
+
+def mimo_law(vehicle: VehicleParams, gains: ControllerGains, vx: float, kappa: float,
+             errors: LawErrors) -> tuple[float, float]:
+    """(delta_f rad, dMz N m) of eq. 22-24 at speed vx (m/s) on path curvature kappa (1/m)."""
+    args = (vx, kappa, *errors)
     return mimo_core(law_params(vehicle, gains), *(float(a) for a in args))
 
 
-def siso_law(
-    vehicle: VehicleParams, gains: ControllerGains, vx: float, kappa: float,
-    ye: float, phi_e: float, ye_dot: float, phi_e_dot: float, int_ye: float,
-) -> float:
+def siso_law(vehicle: VehicleParams, gains: ControllerGains, vx: float, kappa: float,
+             errors: LawErrors) -> float:
     """delta_f (rad): triple-step on ye alone, dMz = 0 (first row of eq. 21)."""
-    args = (vx, kappa, ye, phi_e, ye_dot, phi_e_dot, int_ye)
+    args = (vx, kappa, *errors[:5])
     return siso_core(law_params(vehicle, gains), *(float(a) for a in args))

@@ -365,21 +365,32 @@ class StraightFrame:
         return self.heading(s), self.curvature(s)
 
 
+@dataclass(frozen=True)
+class ArcTable:
+    """An arc spline's table: its knots every h of arc length and the arcs between."""
+
+    s_min: float  # m, s of the first knot
+    h: float  # m, arc length from one knot to the next
+    x: Array  # m, knot x
+    y: Array  # m, knot y
+    theta: Array  # rad, heading at the knot
+    kappa: Array  # 1/m, curvature of the arc that starts at the knot
+
+
 class ArcFrame:
     """The frame along an arc spline (see the module docstring). `d_offset` is added to
     the offset from the spline: d = 0 lies `d_offset` to the right of it."""
 
-    def __init__(self, s_min: float, h: float, x: Array, y: Array, theta: Array,
-                 kappa: Array, d_offset: float, length: float, extension: float,
+    def __init__(self, table: ArcTable, d_offset: float, length: float, extension: float,
                  quality: FrameQuality) -> None:
-        self.s_min = float(s_min)
-        self.h = float(h)
-        self.x = np.ascontiguousarray(x, dtype=np.float64)
-        self.y = np.ascontiguousarray(y, dtype=np.float64)
-        self.theta = np.ascontiguousarray(theta, dtype=np.float64)
+        self.s_min = float(table.s_min)
+        self.h = float(table.h)
+        self.x = np.ascontiguousarray(table.x, dtype=np.float64)
+        self.y = np.ascontiguousarray(table.y, dtype=np.float64)
+        self.theta = np.ascontiguousarray(table.theta, dtype=np.float64)
         self._cos = np.cos(self.theta)
         self._sin = np.sin(self.theta)
-        self.kappa = np.ascontiguousarray(kappa, dtype=np.float64)
+        self.kappa = np.ascontiguousarray(table.kappa, dtype=np.float64)
         self.d_offset = float(d_offset)
         self.length = float(length)  # m, s of the reference lane's end (its start: s = 0)
         self.s_max = self.s_min + self.h * len(self.kappa)
@@ -578,12 +589,12 @@ def _frame_of(points: Array, raw: Array, limits: FrameLimits, d_offset: float,
     kmax = float(np.abs(kappa).max())
     quality = FrameQuality(math.nan, math.inf if kmax == 0.0 else 1.0 / kmax, ell,
                            _max_kink(raw))
-    frame = ArcFrame(-n_ext * h, h, x, y, theta, kappa, d_offset, 0.0, limits.extension,
-                     quality)
+    frame = ArcFrame(ArcTable(-n_ext * h, h, x, y, theta, kappa), d_offset, 0.0,
+                     limits.extension, quality)
     s0, _ = frame.to_frenet(raw[0, 0], raw[0, 1], s_hint=0.0)
     end_hint = h * (len(x) - 1 - 2 * n_ext)
     s1, _ = frame.to_frenet(raw[-1, 0], raw[-1, 1], s_hint=end_hint)
-    return ArcFrame(-n_ext * h - s0, h, x, y, theta, kappa, d_offset, s1 - s0,
+    return ArcFrame(ArcTable(-n_ext * h - s0, h, x, y, theta, kappa), d_offset, s1 - s0,
                     limits.extension, quality)
 
 
@@ -652,8 +663,8 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
         raise InputError(source, "reference line deviation", f"{dev:.3f} m",
                          f"a route whose lanes can be smoothed within {limits.max_deviation:g} "
                          "m of SUMO's lane shape")
-    return ArcFrame(frame.s_min, h, frame.x, frame.y, frame.theta, frame.kappa, d_offset,
-                    frame.length, limits.extension,
+    return ArcFrame(ArcTable(frame.s_min, h, frame.x, frame.y, frame.theta, frame.kappa),
+                    d_offset, frame.length, limits.extension,
                     FrameQuality(dev, frame.quality.min_radius, ell,
                                  frame.quality.max_kink))
 

@@ -21,7 +21,7 @@ from cosim.control.reference import ReferencePath, frame_path_errors
 from cosim.driving.following import lane_keeping_reference
 from cosim.params import ControllerGains, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.road.frame import ArcFrame, FrameQuality, StraightFrame
+from cosim.road.frame import ArcFrame, ArcTable, FrameQuality, StraightFrame
 from cosim.road.road import Road, load_road
 from cosim.traffic.network import NETWORK_DIR
 from cosim.vehicle.chassis import chassis_for
@@ -101,7 +101,7 @@ def arc_frame(radius: float, length: float, straight: float = 300.0, h: float = 
     step = h * np.sinc(dth / (2.0 * np.pi))
     x = np.concatenate(([0.0], np.cumsum(step * np.cos(mid))))
     y = np.concatenate(([0.0], np.cumsum(step * np.sin(mid))))
-    return ArcFrame(0.0, h, x, y, theta, kappa, 1.875, kappa.size * h, 200.0,
+    return ArcFrame(ArcTable(0.0, h, x, y, theta, kappa), 1.875, kappa.size * h, 200.0,
                     FrameQuality(0.0, radius, 0.0, 0.0))
 
 

@@ -10,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from cosim.control.triple_step import (
+    LawErrors,
     check_gains,
     error_polynomial,
     is_hurwitz,
@@ -79,7 +80,8 @@ def test_mimo_law_leaves_the_error_equations_42_43(seed: int) -> None:
     vy, r = rnd.uniform(-0.5, 0.5), rnd.uniform(-0.1, 0.1)
     iy, ip = rnd.uniform(-0.2, 0.2), rnd.uniform(-0.01, 0.01)
     ye_dot, phi_e_dot = vx * phi_e + vy, r - kappa * vx  # eq. 16
-    delta, dmz = mimo_law(VEHICLE, PAPER, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, iy, ip)
+    delta, dmz = mimo_law(VEHICLE, PAPER, vx, kappa,
+                          LawErrors(ye, phi_e, ye_dot, phi_e_dot, iy, ip))
     plant = BicyclePlant(VEHICLE, PlantStart(vx=vx, vy=vy, yaw_rate=r))
     ydd, pdd = output_accelerations(plant, delta, dmz, kappa)
     g = PAPER
@@ -90,7 +92,7 @@ def test_mimo_law_leaves_the_error_equations_42_43(seed: int) -> None:
 def test_siso_law_regulates_ye_only() -> None:
     vx, kappa, ye, phi_e, vy, r = 25.0, 1e-3, 0.2, 0.02, 0.1, 0.03
     ye_dot, phi_e_dot = vx * phi_e + vy, r - kappa * vx
-    delta = siso_law(VEHICLE, PAPER, vx, kappa, ye, phi_e, ye_dot, phi_e_dot, 0.05)
+    delta = siso_law(VEHICLE, PAPER, vx, kappa, LawErrors(ye, phi_e, ye_dot, phi_e_dot, 0.05))
     plant = BicyclePlant(VEHICLE, PlantStart(vx=vx, vy=vy, yaw_rate=r))
     ydd, _ = output_accelerations(plant, delta, 0.0, kappa)
     g = PAPER
