@@ -37,7 +37,7 @@ import argparse
 import os
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -214,27 +214,42 @@ def _path(given: Path | None, default: str) -> Path:
     return given if given is not None else project_root() / default
 
 
-def measure(args: argparse.Namespace) -> dict[str, Any]:
+class Cases(NamedTuple):
+    """The scenarios the bench runs."""
+
+    dense: Scenario  # the dense traffic of the comparison (--scenario)
+    curved: Scenario  # its twin on the curved motorway (--curved)
+    baseline: Scenario  # the dense one with the SUMO-native baseline SV
+    paper: Scenario  # a paper case, for its real-time factor (--paper)
+
+
+ROW_KEYS = ("alone", "alone_sv", "floor", "floor_read", "ours", "curved", "baseline", "paper")
+TARGETS = {"cosim / sumo alone": "<= 1.25", "cosim / floor (cpu)": "<= 1.25",
+           "curved / straight (cpu)": "<= 1.3", "median plan() curved / straight": "<= 2",
+           "paper case real-time factor": ">= 50"}
+
+
+def _cases(args: argparse.Namespace) -> Cases:
     dense = with_overrides(load_scenario(_path(args.scenario, DEFAULT_DENSE)),
                            duration=float(args.duration))
     paper = load_scenario(_path(args.paper, DEFAULT_PAPER))
     curved = with_overrides(load_scenario(_path(args.curved, DEFAULT_CURVED)),
                             duration=float(args.duration))
-    repeats = max(int(args.repeats), 1)
+    return Cases(dense, curved, with_overrides(dense, controller="sumo"), paper)
 
-    start = time.perf_counter()
-    from cosim.control.warm import warm_up  # importing it compiles, or loads the cache
 
-    warm_up()
-    startup = time.perf_counter() - start
-    # warm-up (imports, first libsumo start), then alternate so drift hits both alike
+def _repeated(cases: Cases, repeats: int) -> tuple[dict[str, list[float]], dict[str, list[float]],
+                                                   dict[str, list[float]], dict[str, Any]]:
+    """(wall s, CPU s per row key, plan() s of the straight and curved runs, the last
+    cosim run's timing): a warm-up, then every case once per repeat, alternating so
+    that drift hits all alike."""
+    dense = cases.dense
     sumo_alone(with_overrides(dense, duration=1.0), with_sv=True)
     cosim_run(with_overrides(dense, duration=1.0))
-    baseline = with_overrides(dense, controller="sumo")
-    keys = ("alone", "alone_sv", "floor", "floor_read", "ours", "curved", "baseline", "paper")
     plans: dict[str, list[float]] = {"ours": [], "curved": []}  # s, every plan() call
-    walls: dict[str, list[float]] = {k: [] for k in keys}
-    cpus: dict[str, list[float]] = {k: [] for k in keys}
+    walls: dict[str, list[float]] = {k: [] for k in ROW_KEYS}
+    cpus: dict[str, list[float]] = {k: [] for k in ROW_KEYS}
+
     def timed(key: str, measured: tuple[Any, ...]) -> tuple[Any, ...]:
         walls[key].append(measured[0])
         cpus[key].append(measured[1])
@@ -248,12 +263,15 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         plans["ours"] += timing["plan_times"]
         timed("floor", sumo_floor(dense, timing["path"]))  # the path just driven
         timed("floor_read", sumo_floor(dense, timing["path"], timing["scene_read"]))
-        plans["curved"] += timed("curved", cosim_run(curved))[2]["plan_times"]
-        timed("baseline", cosim_run(baseline))
-        timed("paper", cosim_run(paper))
-    phases = phase_split(dense)
-    w = {k: float(np.median(v)) for k, v in walls.items()}
-    c = {k: float(np.median(v)) for k, v in cpus.items()}
+        plans["curved"] += timed("curved", cosim_run(cases.curved))[2]["plan_times"]
+        timed("baseline", cosim_run(cases.baseline))
+        timed("paper", cosim_run(cases.paper))
+    return walls, cpus, plans, timing
+
+
+def _rows(cases: Cases, w: dict[str, float], c: dict[str, float]) -> list[dict[str, Any]]:
+    """One row per case: median wall and CPU time, per step, real-time factors."""
+    dense, curved, baseline, paper = cases
     rows = []
     for key, label, sc in (("alone", f"sumo alone ({dense.name})", dense),
                            ("alone_sv", f"sumo alone, with a SUMO-driven SV ({dense.name})",
@@ -269,50 +287,74 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
         rows.append({"case": label, "wall_s": w[key], "cpu_s": c[key],
                      "per_step_ms": 1e3 * w[key] / sc.n_steps,
                      "realtime_x": sc.duration / w[key], "realtime_cpu_x": sc.duration / c[key]})
+    return rows
+
+
+def _ratios(cases: Cases, w: dict[str, float], c: dict[str, float],
+            plans: dict[str, list[float]], startup: float) -> dict[str, float]:
     t_alone, t_ours, t_paper = w["alone"], w["ours"], w["paper"]
+    paper = cases.paper
+    return {
+        "cosim / sumo alone": t_ours / t_alone,
+        "cosim / sumo alone (cpu)": c["ours"] / c["alone"],
+        "cosim / sumo alone with a SUMO-driven SV": t_ours / w["alone_sv"],
+        "cosim / floor": t_ours / w["floor"],
+        "cosim / floor (cpu)": c["ours"] / c["floor"],
+        "floor / sumo alone (cpu)": c["floor"] / c["alone"],
+        "floor and scene read / floor (cpu)": c["floor_read"] / c["floor"],
+        "cosim / floor and scene read (cpu)": c["ours"] / c["floor_read"],
+        "cosim / cosim with the SUMO baseline SV": t_ours / w["baseline"],
+        "curved / straight (cpu)": c["curved"] / c["ours"],
+        "median plan() curved / straight": _median(plans["curved"]) / _median(plans["ours"]),
+        "median plan() straight (ms)": 1e3 * _median(plans["ours"]),
+        "paper case real-time factor": paper.duration / t_paper,
+        "paper case real-time factor (cpu)": paper.duration / c["paper"],
+        "numba_startup_s": startup,
+    }
+
+
+def _notes(dense: Scenario, timing: dict[str, Any], phases: dict[str, float],
+           startup: float) -> list[str]:
+    return [
+        "wall times from SUMO start to close; 'sumo alone' steps the same traffic "
+        "(network, density, seed, inflow, band rule) through SumoSim without an SV",
+        "cpu: process CPU time (libsumo runs in-process), less sensitive to other load",
+        f"last cosim run split (s): SUMO step with its hooks "
+        f"{timing.get('wall_sumo_s', 0) - timing.get('wall_read_s', 0):.3f}, "
+        f"scene read (SumoSim.snapshot_near) {timing.get('wall_read_s', 0):.3f}, "
+        f"control+plant {timing.get('wall_control_s', 0):.3f}, "
+        f"planning {timing.get('wall_planning_s', 0):.3f}, the rest (SUMO start and "
+        f"traffic, trace rows and overlap check, decision rule, write-back) "
+        f"{_rest(timing):.3f}",
+        "the loop's parts in one extra cosim run (s, wall; cosim.bench.cosim.phase_split): "
+        + ", ".join(f"{name} {value:.3f}" for name, value in phases.items()),
+        f"plant {dense.sv.plant}, controller {dense.sv.controller}, "
+        f"{dense.substeps} substeps per {dense.step:g} s step",
+        f"closed loop compiled with numba: start-up in this process {startup:.2f} s "
+        "(once per process; the batch fork server pays it for all its runs), not in the rows",
+        f"1-min load average {os.getloadavg()[0]:.2f} at the end, {os.cpu_count()} cores",
+    ]
+
+
+def measure(args: argparse.Namespace) -> dict[str, Any]:
+    cases = _cases(args)
+    repeats = max(int(args.repeats), 1)
+    start = time.perf_counter()
+    from cosim.control.warm import warm_up  # importing it compiles, or loads the cache
+
+    warm_up()
+    startup = time.perf_counter() - start
+    walls, cpus, plans, timing = _repeated(cases, repeats)
+    phases = phase_split(cases.dense)
+    w = {k: float(np.median(v)) for k, v in walls.items()}
+    c = {k: float(np.median(v)) for k, v in cpus.items()}
+    dense = cases.dense
     return {
         "title": f"co-simulation cost: {dense.name}, {dense.duration:g} s simulated, "
                  f"{dense.traffic.density:g} veh/km/lane; median of {repeats}",
-        "rows": rows,
-        "ratios": {
-            "cosim / sumo alone": t_ours / t_alone,
-            "cosim / sumo alone (cpu)": c["ours"] / c["alone"],
-            "cosim / sumo alone with a SUMO-driven SV": t_ours / w["alone_sv"],
-            "cosim / floor": t_ours / w["floor"],
-            "cosim / floor (cpu)": c["ours"] / c["floor"],
-            "floor / sumo alone (cpu)": c["floor"] / c["alone"],
-            "floor and scene read / floor (cpu)": c["floor_read"] / c["floor"],
-            "cosim / floor and scene read (cpu)": c["ours"] / c["floor_read"],
-            "cosim / cosim with the SUMO baseline SV": t_ours / w["baseline"],
-            "curved / straight (cpu)": c["curved"] / c["ours"],
-            "median plan() curved / straight": _median(plans["curved"]) / _median(plans["ours"]),
-            "median plan() straight (ms)": 1e3 * _median(plans["ours"]),
-            "paper case real-time factor": paper.duration / t_paper,
-            "paper case real-time factor (cpu)": paper.duration / c["paper"],
-            "numba_startup_s": startup,
-        },
-        "targets": {"cosim / sumo alone": "<= 1.25", "cosim / floor (cpu)": "<= 1.25",
-                    "curved / straight (cpu)": "<= 1.3",
-                    "median plan() curved / straight": "<= 2",
-                    "paper case real-time factor": ">= 50"},
+        "rows": _rows(cases, w, c),
+        "ratios": _ratios(cases, w, c, plans, startup),
+        "targets": TARGETS,
         "phases": phases,
-        "notes": [
-            "wall times from SUMO start to close; 'sumo alone' steps the same traffic "
-            "(network, density, seed, inflow, band rule) through SumoSim without an SV",
-            "cpu: process CPU time (libsumo runs in-process), less sensitive to other load",
-            f"last cosim run split (s): SUMO step with its hooks "
-            f"{timing.get('wall_sumo_s', 0) - timing.get('wall_read_s', 0):.3f}, "
-            f"scene read (SumoSim.snapshot_near) {timing.get('wall_read_s', 0):.3f}, "
-            f"control+plant {timing.get('wall_control_s', 0):.3f}, "
-            f"planning {timing.get('wall_planning_s', 0):.3f}, the rest (SUMO start and "
-            f"traffic, trace rows and overlap check, decision rule, write-back) "
-            f"{_rest(timing):.3f}",
-            "the loop's parts in one extra cosim run (s, wall; cosim.bench.cosim.phase_split): "
-            + ", ".join(f"{name} {value:.3f}" for name, value in phases.items()),
-            f"plant {dense.sv.plant}, controller {dense.sv.controller}, "
-            f"{dense.substeps} substeps per {dense.step:g} s step",
-            f"closed loop compiled with numba: start-up in this process {startup:.2f} s "
-            "(once per process; the batch fork server pays it for all its runs), not in the rows",
-            f"1-min load average {os.getloadavg()[0]:.2f} at the end, {os.cpu_count()} cores",
-        ],
+        "notes": _notes(dense, timing, phases, startup),
     }

@@ -159,17 +159,10 @@ def read_network(source: str, key: str, written: str, path: Path,
         raise InputError(source, key, str(path), exc.allowed) from None
 
 
-def scenario_from_dict(
-    doc: Mapping[str, Any], path: str | Path = "<scenario>", source: str | None = None,
-) -> Scenario:
-    """Validate a scenario document (the parsed TOML, file units) into a Scenario.
-
-    Relative paths in it are resolved against `path`'s directory, then the project root.
-    """
-    from cosim.scenario.rules import check_route, check_scenario
-
-    p = Path(path)
-    src = source if source is not None else str(p)
+def _validated_tables(src: str, doc: Mapping[str, Any]
+                      ) -> tuple[dict[str, dict[str, Any]], tuple[TVSpec, ...]]:
+    """Every table of the document checked against its keys (file units in, SI out),
+    and the [[tv]] tables as TVSpecs."""
     check_table(src, "", doc)
     if "study" in doc:
         raise InputError(src, "study", "[study]", "a scenario file (this is a study: cosim batch)")
@@ -187,21 +180,87 @@ def scenario_from_dict(
         raise InputError(src, "tv", raw_tvs, f"an array of at most {MAX_TVS} [[tv]] tables")
     tvs = tuple(TVSpec(**validate_table(src, f"tv[{i}]", t, TV_FIELDS))
                 for i, t in enumerate(raw_tvs))
+    return tables, tvs
 
+
+def _network_of(src: str, doc: Mapping[str, Any], rd: dict[str, Any], base_dir: Path
+                ) -> tuple[Path, SumoConfig | None, str, Any]:
+    """(network file, [road] sumocfg read or None, the key that names the network and
+    what the file wrote there): `road.network`, or the net-file of `road.sumocfg`."""
+    network = _resolve(base_dir, rd["network"])
+    if rd["sumocfg"] is None:
+        return network, None, "road.network", rd["network"]
+    if "network" in doc.get("road", {}):
+        raise InputError(src, "road.network", rd["network"],
+                         "absent with road.sumocfg (the .sumocfg's net-file is the "
+                         "network)")
+    sumocfg = _resolve(base_dir, rd["sumocfg"])
+    config = read_sumocfg(src, "road.sumocfg", rd["sumocfg"], sumocfg)
+    return config.net_file, config, "road.sumocfg", rd["sumocfg"]
+
+
+def _road_of(src: str, rd: dict[str, Any], road_of_route: Road, found: Any, sv: SVSpec
+             ) -> tuple[RoadParams, Any, tuple[int, float] | None]:
+    """(the planner's road in (s, d), the one-edge view the rules read, and for a road
+    that is not the straight highway the SV's start as (track, s))."""
+    base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
+    road = road_params(road_of_route, base, src)
+    start: tuple[int, float] | None = None
+    if found is None:  # another road: the rules read it through its one-edge view
+        check_lanes(road_of_route, src, sv.edge, sv.lane)
+        _bands_per_through_lane(src, road_of_route, rd["speed_bands"])
+        start = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
+        found = route_view(road_of_route, sv.edge)
+    # lane geometry has one source: the network (the file may only repeat its width)
+    if (rd["lane_width"] is not None
+            and abs(rd["lane_width"] - road.lane_width) > max(1e-3, found.rounding)):
+        raise InputError(src, "road.lane_width_m", rd["lane_width"],
+                         f"the network's lane width {road.lane_width:g} m (or absent)")
+    return road, found, start
+
+
+def _name_of(src: str, written: str | None, p: Path) -> str:
+    """The scenario's name: as written, or the file's stem, held to the same rule."""
+    if written is not None:
+        return written
+    name = p.stem or "scenario"
+    if not re.fullmatch(NAME_PATTERN, name):
+        raise InputError(src, "scenario.name", MISSING,
+                         f"a name matching {NAME_PATTERN} (the file's stem {name!r} is not "
+                         "one: it names the output folder)")
+    return name
+
+
+def _check_rules(src: str, scenario: Scenario, start: tuple[int, float] | None,
+                 highway: Any) -> None:
+    """The scenario rules (cosim.scenario.rules), on another road in its track view."""
+    from cosim.scenario.rules import check_scenario
+
+    ruled = scenario
+    if start is not None:  # the rules' lane k is track k (every lane the file names
+        # shifted alike), their position the distance from the road's start
+        ruled = scenario.in_tracks(start[0])
+        ruled = dataclasses.replace(ruled, sv=dataclasses.replace(ruled.sv, position=start[1]))
+        _lanes_run_through(src, scenario, ruled)
+    check_scenario(src, ruled, highway)
+
+
+def scenario_from_dict(
+    doc: Mapping[str, Any], path: str | Path = "<scenario>", source: str | None = None,
+) -> Scenario:
+    """Validate a scenario document (the parsed TOML, file units) into a Scenario.
+
+    Relative paths in it are resolved against `path`'s directory, then the project root.
+    """
+    from cosim.scenario.rules import check_route
+
+    p = Path(path)
+    src = source if source is not None else str(p)
+    tables, tvs = _validated_tables(src, doc)
     sc, rd = tables["scenario"], tables["road"]
     base_dir = p.parent if p.is_absolute() else Path.cwd() / p.parent
-    network = _resolve(base_dir, rd["network"])
-    config = None  # [road] sumocfg: its net-file is the network (cosim.traffic.own_demand)
-    net_key, net_written = "road.network", rd["network"]
-    if rd["sumocfg"] is not None:
-        if "network" in doc.get("road", {}):
-            raise InputError(src, "road.network", rd["network"],
-                             "absent with road.sumocfg (the .sumocfg's net-file is the "
-                             "network)")
-        sumocfg = _resolve(base_dir, rd["sumocfg"])
-        config = read_sumocfg(src, "road.sumocfg", rd["sumocfg"], sumocfg)
-        network = config.net_file
-        net_key, net_written = "road.sumocfg", rd["sumocfg"]
+    # [road] sumocfg: its net-file is the network (cosim.traffic.own_demand)
+    network, config, net_key, net_written = _network_of(src, doc, rd, base_dir)
     sv = _lane_changes_in_lanes(src, SVSpec(**tables["sv"]))
     vehicle = vehicle_from_table(tables["vehicle"], {  # a preset, then the file's keys
         f.attr for f in VEHICLE_FIELDS if f.key in doc.get("vehicle", {})})
@@ -212,32 +271,13 @@ def scenario_from_dict(
     found = read_network(src, net_key, net_written, network, base_dir,
                          route=rd["route"])
     # the planner's road in (s, d) from the route's road (cosim.traffic.route_lanes.road_params;
-    # on the one straight edge of networks/highway.net.xml the RoadParams of before)
+    # on the one straight edge of networks/highway.net.xml the straight road's RoadParams)
     road_of_route = route_road(network, rd["route"], source=src)
     traffic = _traffic(src, tables["traffic"], base_dir)
     demand = _own_demand(src, traffic, tables["traffic"]["routes"], rd["sumocfg"], config,
                          network, [tv.id for tv in tvs], sc["step"])
-    base = RoadParams(speed_bands=rd["speed_bands"], mu=rd["mu"])
-    road = road_params(road_of_route, base, src)
-    start: tuple[int, float] | None = None
-    if found is None:  # another road: the rules read it through its one-edge view
-        check_lanes(road_of_route, src, sv.edge, sv.lane)
-        _bands_per_through_lane(src, road_of_route, rd["speed_bands"])
-        start = sv_start(road_of_route, sv.edge, sv.lane, sv.position)
-        found = route_view(road_of_route, sv.edge)
-    highway = found
-    # lane geometry has one source: the network (the file may only repeat its width)
-    if (rd["lane_width"] is not None
-            and abs(rd["lane_width"] - road.lane_width) > max(1e-3, highway.rounding)):
-        raise InputError(src, "road.lane_width_m", rd["lane_width"],
-                         f"the network's lane width {road.lane_width:g} m (or absent)")
-    name = sc.pop("name")
-    if name is None:  # the file's stem, held to the rule of a written name
-        name = p.stem or "scenario"
-        if not re.fullmatch(NAME_PATTERN, name):
-            raise InputError(src, "scenario.name", MISSING,
-                             f"a name matching {NAME_PATTERN} (the file's stem {name!r} is not "
-                             "one: it names the output folder)")
+    road, highway, start = _road_of(src, rd, road_of_route, found, sv)
+    name = _name_of(src, sc.pop("name"), p)
     scenario = Scenario(
         name=name,
         **sc,
@@ -256,13 +296,7 @@ def scenario_from_dict(
         sumocfg=None if config is None else config.path,
         demand=demand,
     )
-    ruled = scenario
-    if start is not None:  # the rules' lane k is track k (every lane the file names
-        # shifted alike), their position the distance from the road's start
-        ruled = scenario.in_tracks(start[0])
-        ruled = dataclasses.replace(ruled, sv=dataclasses.replace(ruled.sv, position=start[1]))
-        _lanes_run_through(src, scenario, ruled)
-    check_scenario(src, ruled, highway)
+    _check_rules(src, scenario, start, highway)
     return scenario
 
 
