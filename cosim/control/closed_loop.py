@@ -310,6 +310,22 @@ class LoopConfig:
     low_speed_gain: bool = True  # eq. 28's gain within the tyres' lag (False: as printed)
 
 
+def _check_config(config: LoopConfig, mu: float) -> None:
+    """InputError for a plant, law or setting the closed loop does not have."""
+    if config.plant not in PLANTS:
+        raise InputError("closed loop", "plant", config.plant, f"one of {', '.join(PLANTS)}")
+    if config.controller not in CONTROLLERS:
+        raise InputError("closed loop", "controller", config.controller,
+                         f"one of {', '.join(CONTROLLERS)}")
+    if config.control_every < 1:
+        raise InputError("closed loop", "control_every", config.control_every,
+                         "an integer >= 1")
+    if not 0.0 < mu <= 1.5:
+        raise InputError("closed loop", "mu", mu, "road friction in (0, 1.5]")
+    if not config.speed_floor > 0.0:
+        raise InputError("closed loop", "speed_floor", config.speed_floor, "> 0 m/s")
+
+
 class ClosedLoop:
     """One subject vehicle: plant, controller and actuators."""
 
@@ -327,21 +343,9 @@ class ClosedLoop:
     ) -> None:
         """`start`: the plant's state at the start (on a curve the yaw rate is the lane's,
         speed x kappa)."""
+        _check_config(config, mu)
         plant, controller = config.plant, config.controller
-        control_every, speed_floor = config.control_every, config.speed_floor
-        yaw_moment_share, low_speed_gain = config.yaw_moment_share, config.low_speed_gain
-        if plant not in PLANTS:
-            raise InputError("closed loop", "plant", plant, f"one of {', '.join(PLANTS)}")
-        if controller not in CONTROLLERS:
-            raise InputError(
-                "closed loop", "controller", controller, f"one of {', '.join(CONTROLLERS)}"
-            )
-        if control_every < 1:
-            raise InputError("closed loop", "control_every", control_every, "an integer >= 1")
-        if not 0.0 < mu <= 1.5:
-            raise InputError("closed loop", "mu", mu, "road friction in (0, 1.5]")
-        if not speed_floor > 0.0:
-            raise InputError("closed loop", "speed_floor", speed_floor, "> 0 m/s")
+        yaw_moment_share = config.yaw_moment_share
         check_gains(gains)
         self.limits = limits or ActuatorLimits()
         self.limits.check()
@@ -349,8 +353,8 @@ class ClosedLoop:
         self.vehicle = vehicle
         self.gains = gains
         self.controller = controller
-        self.control_every = control_every
-        self.speed_floor = speed_floor
+        self.control_every = config.control_every
+        self.speed_floor = config.speed_floor
         if yaw_moment_share is not None and not yaw_moment_share > 0.0:
             raise InputError("closed loop", "yaw_moment_share", yaw_moment_share,
                              "> 0, or None for no limit")
@@ -366,17 +370,8 @@ class ClosedLoop:
             self.plant = BicyclePlant(vehicle, start)
         self._kind = PLANT_CODES[plant]
         self._pforces = getattr(self.plant, "_forces", np.zeros(1))
-        # both plants get the force the same motors could deliver through wheels of radius R
-        lo, hi = self.limits.wheel_force_bounds(ch.wheel_radius)
         self._lp = law_params(vehicle, gains)
-        self._cp = np.array([
-            speed_floor, 1.0 if controller == "mimo" else 0.0,
-            self.limits.max_steer, self.limits.max_steer_rate, self.dmz_limit, lo, hi,
-            vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
-            speed_gain_inverse_lag(ch.tyre.relaxation_long) if low_speed_gain else 0.0,
-            vehicle.wheelbase * vehicle.lr * vehicle.cr, vehicle.lf * vehicle.mass,
-            vehicle.yaw_inertia,
-        ])
+        self._cp = self._controller_constants(ch)
         # the two-track car's tyres on curves (`cornering`; the bicycle's are linear)
         self._ff = cornering_params(vehicle, ch, mu, plant == "twotrack")
         self._cs = np.zeros(CS_SIZE)
@@ -386,6 +381,20 @@ class ClosedLoop:
         self.road_pose = (math.nan, math.nan, math.nan)  # `errors`: s, d, heading to the road
         self._path: ReferencePath | None = None
         self._counter = 0
+
+    def _controller_constants(self, ch: ChassisParams) -> Array:
+        """The controller's constant array `cp` (CP_* indices) for the compiled loop."""
+        vehicle, gains, config = self.vehicle, self.gains, self.config
+        # both plants get the force the same motors could deliver through wheels of radius R
+        lo, hi = self.limits.wheel_force_bounds(ch.wheel_radius)
+        return np.array([
+            config.speed_floor, 1.0 if config.controller == "mimo" else 0.0,
+            self.limits.max_steer, self.limits.max_steer_rate, self.dmz_limit, lo, hi,
+            vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
+            speed_gain_inverse_lag(ch.tyre.relaxation_long) if config.low_speed_gain else 0.0,
+            vehicle.wheelbase * vehicle.lr * vehicle.cr, vehicle.lf * vehicle.mass,
+            vehicle.yaw_inertia,
+        ])
 
     @property
     def _int_ye(self) -> float:

@@ -321,13 +321,39 @@ class TwoTrackPlant:
         self.max_step = max_step
         self.step_factor = step_factor
         ch = self.chassis
-        ty = ch.tyre
         self.wheel_radius = ch.wheel_radius
         self.fz0_front, self.fz0_rear = static_wheel_loads(vehicle)
         # cornering stiffness of one wheel at its static load: the axle has Cf (Cr) there
         # (times cornering_scale, 1 by default)
         self.k_alpha_front = ch.cornering_scale * vehicle.cf / 2.0
         self.k_alpha_rear = ch.cornering_scale * vehicle.cr / 2.0
+        self._const = self._constants()
+        st = start or PlantStart()
+        vx, vy, yaw_rate = st.vx, st.vy, st.yaw_rate
+        w0 = vx / ch.wheel_radius
+        self.state = np.zeros(N_STATE)
+        self.state[:10] = [st.x, st.y, st.heading, vx, vy, yaw_rate, w0, w0, w0, w0]
+        # relaxed lateral slips start at their kinematic values (no transient at t = 0)
+        for i, (px, py) in enumerate(((vehicle.lf, vehicle.half_track),
+                                      (vehicle.lf, -vehicle.half_track),
+                                      (-vehicle.lr, vehicle.half_track),
+                                      (-vehicle.lr, -vehicle.half_track))):
+            u, lat = vx - yaw_rate * py, vy + yaw_rate * px
+            self.state[16 + i] = -lat / abs(u) if abs(u) > ch.slip_speed_floor else 0.0
+        self._delta = 0.0
+        # held inputs: cos delta, sin delta, four wheel torques (N m)
+        self._inputs = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        # ax, ay, Fx1..4, Fy1..4, Fz1..4 at the last derivative evaluation, then the RK4
+        # work space of `twotrack_step`
+        self._forces = np.zeros(N_FORCES + 5 * N_STATE)
+        self._scratch = np.empty(N_STATE)  # the derivative `outputs` does not need
+
+    def _constants(self) -> Array:
+        """The constant array the compiled derivative reads (C_* indices), the tyre's
+        coefficients at its end."""
+        vehicle, ch, mu = self.vehicle, self.chassis, self.mu
+        max_step, step_factor = self.max_step, self.step_factor
+        ty = ch.tyre
         dlat, dlong = transfer_per_wheel(vehicle, ch)
         fz_max = 1.2 * max(self.fz0_front, self.fz0_rear)
         # low-speed damping as slip per slip speed (k_Vlow / K at the static load)
@@ -364,27 +390,9 @@ class TwoTrackPlant:
         const[C_DAMP_RATE] = ty.damping_long * ch.wheel_radius**2 / (
             ch.wheel_inertia * min(self.fz0_front, self.fz0_rear))
         const[C_MAX_STEP], const[C_STEP_FACTOR] = max_step, step_factor
-        self._const = np.array(const + ty.array())
-        assert self._const.size == N_CONST
-        st = start or PlantStart()
-        vx, vy, yaw_rate = st.vx, st.vy, st.yaw_rate
-        w0 = vx / ch.wheel_radius
-        self.state = np.zeros(N_STATE)
-        self.state[:10] = [st.x, st.y, st.heading, vx, vy, yaw_rate, w0, w0, w0, w0]
-        # relaxed lateral slips start at their kinematic values (no transient at t = 0)
-        for i, (px, py) in enumerate(((vehicle.lf, vehicle.half_track),
-                                      (vehicle.lf, -vehicle.half_track),
-                                      (-vehicle.lr, vehicle.half_track),
-                                      (-vehicle.lr, -vehicle.half_track))):
-            u, lat = vx - yaw_rate * py, vy + yaw_rate * px
-            self.state[16 + i] = -lat / abs(u) if abs(u) > ch.slip_speed_floor else 0.0
-        self._delta = 0.0
-        # held inputs: cos delta, sin delta, four wheel torques (N m)
-        self._inputs = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-        # ax, ay, Fx1..4, Fy1..4, Fz1..4 at the last derivative evaluation, then the RK4
-        # work space of `twotrack_step`
-        self._forces = np.zeros(N_FORCES + 5 * N_STATE)
-        self._scratch = np.empty(N_STATE)  # the derivative `outputs` does not need
+        out = np.array(const + ty.array())
+        assert out.size == N_CONST
+        return out
 
     # -- dynamics --------------------------------------------------------------
     def derivative(self, s: list[float] | Array) -> list[float]:
