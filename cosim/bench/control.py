@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections.abc import Callable
 from typing import Any
 
 from cosim.bench import median_time
@@ -34,62 +35,72 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="s simulated per repeat")
 
 
-def measure(args: argparse.Namespace) -> dict[str, Any]:
+STEP, SUBSTEPS = 0.05, 10  # s, a SUMO step; plant/controller substeps in it
+START = PlantStart(0.0, 1.875, 0.0, kmh(80.0))  # case 5.1's start, lane 0
 
+
+def _reference() -> LaneChangeTrajectory:
+    """Case 5.1's lane change at the paper's tau_opt."""
+    return LaneChangeTrajectory(
+        t0=0.0, tau=6.25, x0=0.0, y0=1.875, vx0=kmh(80.0), vxf=kmh(90.0), width=3.75
+    )
+
+
+def _closed_loop_times(config: LoopConfig, n: int, repeats: int) -> tuple[float, float]:
+    """(wall s, CPU s) medians of n steps of the closed loop on case 5.1's lane change."""
+    vehicle, gains, ref = VehicleParams(), ControllerGains(), _reference()
+
+    def run() -> None:
+        loop = ClosedLoop(config, vehicle, gains, 0.4, START)
+        for k in range(n):
+            loop.advance(k * STEP, STEP, SUBSTEPS, ref)
+
+    cpu = median_time(run, repeats, warmup=0, clock=time.process_time)
+    return median_time(run, repeats), cpu
+
+
+def _plant_alone(n: int) -> Callable[[], None]:
+    """n steps of the two-track plant alone, under constant wheel forces."""
+    vehicle = VehicleParams()
+
+    def run() -> None:
+        p = TwoTrackPlant(vehicle, 0.4, START)
+        fx = (60.0, 60.0, 60.0, 60.0)
+        for _ in range(n * SUBSTEPS):
+            p.step(STEP / SUBSTEPS, 0.0, fx)
+
+    return run
+
+
+def _row(case: str, wall: float, cpu: float, duration: float, n: int) -> dict[str, Any]:
+    return {"case": case, "wall_s": wall, "cpu_s": cpu, "realtime_factor": duration / wall,
+            "us_per_sumo_step": wall / n * 1e6}
+
+
+def measure(args: argparse.Namespace) -> dict[str, Any]:
     start = time.perf_counter()
     from cosim.control.warm import warm_up  # importing it compiles, or loads the cache
 
     warm_up()
     startup = time.perf_counter() - start
-    vehicle, gains = VehicleParams(), ControllerGains()
-    step, substeps = 0.05, 10
-    n = int(round(args.duration / step))
-    ref = LaneChangeTrajectory(
-        t0=0.0, tau=6.25, x0=0.0, y0=1.875, vx0=kmh(80.0), vxf=kmh(90.0), width=3.75
-    )
-
-    def closed_loop(plant: str, controller: str) -> tuple[float, float]:
-        def run() -> None:
-            loop = ClosedLoop(LoopConfig(plant, controller), vehicle, gains, 0.4,
-                              PlantStart(0.0, 1.875, 0.0, kmh(80.0)))
-            for k in range(n):
-                loop.advance(k * step, step, substeps, ref)
-
-        cpu = median_time(run, args.repeats, warmup=0, clock=time.process_time)
-        return median_time(run, args.repeats), cpu
-
-    def plant_alone() -> None:
-        p = TwoTrackPlant(vehicle, 0.4, PlantStart(0.0, 1.875, 0.0, kmh(80.0)))
-        fx = (60.0, 60.0, 60.0, 60.0)
-        for _ in range(n * substeps):
-            p.step(step / substeps, 0.0, fx)
-
+    n = int(round(args.duration / STEP))
     rows: list[dict[str, Any]] = []
     walls: dict[str, float] = {}
     load_before = os.getloadavg()[0]
     for plant in ("twotrack", "bicycle"):
         for controller in ("mimo", "siso"):
-            wall, cpu = closed_loop(plant, controller)
+            wall, cpu = _closed_loop_times(LoopConfig(plant, controller), n, args.repeats)
             walls[f"{plant}_{controller}"] = wall
-            rows.append({
-                "case": f"{plant} + {controller}",
-                "wall_s": wall,
-                "cpu_s": cpu,
-                "realtime_factor": args.duration / wall,
-                "us_per_sumo_step": wall / n * 1e6,
-            })
+            rows.append(_row(f"{plant} + {controller}", wall, cpu, args.duration, n))
+    plant_alone = _plant_alone(n)
     alone = median_time(plant_alone, args.repeats)
-    rows.append({
-        "case": "twotrack plant alone",
-        "wall_s": alone,
-        "cpu_s": median_time(plant_alone, args.repeats, warmup=0, clock=time.process_time),
-        "realtime_factor": args.duration / alone,
-        "us_per_sumo_step": alone / n * 1e6,
-    })
+    rows.append(_row("twotrack plant alone", alone,
+                     median_time(plant_alone, args.repeats, warmup=0, clock=time.process_time),
+                     args.duration, n))
     load_after = os.getloadavg()[0]
     return {
         "title": f"plant + controller, {args.duration:g} s lane change (case 5.1), "
-        f"{step:g} s steps x {substeps} substeps, median of {args.repeats}",
+        f"{STEP:g} s steps x {SUBSTEPS} substeps, median of {args.repeats}",
         "rows": rows,
         "ratios": {
             "twotrack_mimo_wall_s": walls["twotrack_mimo"],

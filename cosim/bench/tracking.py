@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from cosim.scenario import load_scenario, project_root, with_overrides
+from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
 
 SCENARIOS = ("paper_case1_overtaking", "paper_case2_tv_lane_change",
              "paper_case3_lane_exchange", "traffic_low", "traffic_medium", "traffic_high")
@@ -60,9 +60,23 @@ def corner_errors(trace: dict[str, np.ndarray], length: float,
     return across, lengthwise
 
 
-def measure(args: argparse.Namespace) -> dict[str, Any]:
+def _percentile(a: np.ndarray, p: float) -> float:
+    return float(np.percentile(a, p)) if a.size else math.nan
+
+
+def _case_errors(sc: Scenario, case: str) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+    """(the case's row, its across and along errors per step of a lane change, m)."""
     from cosim.run.loop import simulate
 
+    result = simulate(sc)
+    across, along = corner_errors(result.trace, sc.vehicle.length, sc.vehicle.width)
+    q = _percentile
+    return ({"case": case, "steps": float(across.size),
+             "across_p95_m": q(across, 95), "across_max_m": q(across, 100),
+             "along_p95_m": q(along, 95), "along_max_m": q(along, 100)}, across, along)
+
+
+def measure(args: argparse.Namespace) -> dict[str, Any]:
     start = time.perf_counter()
     rows = []
     pooled_across: list[np.ndarray] = []
@@ -74,22 +88,11 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
                 changes: dict[str, Any] = {"plant": plant, "controller": controller}
                 if args.duration is not None:
                     changes["duration"] = float(args.duration)
-                sc = with_overrides(base, **changes)
-                result = simulate(sc)
-                across, along = corner_errors(result.trace, sc.vehicle.length,
-                                              sc.vehicle.width)
+                row, across, along = _case_errors(with_overrides(base, **changes),
+                                                  f"{name} {plant} {controller}")
+                rows.append(row)
                 pooled_across.append(across)
                 pooled_along.append(along)
-
-                def q(a: np.ndarray, p: float) -> float:
-                    return float(np.percentile(a, p)) if a.size else math.nan
-
-                rows.append({
-                    "case": f"{name} {plant} {controller}",
-                    "steps": float(across.size),
-                    "across_p95_m": q(across, 95), "across_max_m": q(across, 100),
-                    "along_p95_m": q(along, 95), "along_max_m": q(along, 100),
-                })
     a = np.concatenate(pooled_across) if pooled_across else np.zeros(0)
     b = np.concatenate(pooled_along) if pooled_along else np.zeros(0)
     p95 = float(np.percentile(a, 95)) if a.size else math.nan

@@ -23,7 +23,7 @@ from cosim.errors import InputError
 from cosim.params import PlannerConfig
 from cosim.planning.collision import warm_up
 from cosim.planning.planner import LaneChangePlanner, Plan, Rejection
-from cosim.planning.situation import situation
+from cosim.planning.situation import Situation, situation
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -114,28 +114,38 @@ def report(name: str, plan: Plan, startup_s: float, map_build_s: float = 0.0) ->
     return "\n".join(lines)
 
 
-def run(args: argparse.Namespace) -> int:
-    from cosim.scenario import load_scenario
-
-    sc = load_scenario(args.scenario)
+def _config(args: argparse.Namespace, sc: Any) -> PlannerConfig:
+    """The scenario's planner settings with the flags' collision test and envelope."""
     cfg = sc.planner
     if args.collision_test:
         cfg = replace(cfg, collision_test=args.collision_test)
     if args.envelope:
         cfg = replace(cfg, envelope=args.envelope)
-    from cosim.driving.registry import prediction_of
+    return cfg
 
-    si = situation(sc)
-    planner = LaneChangePlanner(sc.vehicle, si.road, cfg, prediction=prediction_of(cfg.policy))
+
+def _timed_plan(planner: LaneChangePlanner, si: Situation) -> tuple[Plan, float, float]:
+    """(the plan, numba's start-up s, the tau_min maps' build s). The first call builds
+    the envelope's tau_min maps of this lane change (one-off, 0.2-0.6 s, cached for the
+    process); the plan reported is the second, identical call, so that planning_time_s
+    is the planner's own (as `cosim bench planner`)."""
     start = time.perf_counter()
     warm_up()  # so that the planning time is the planner's own
     startup_s = time.perf_counter() - start
-    # The first call builds the envelope's tau_min maps of this lane change (one-off,
-    # 0.2-0.6 s, cached for the process); the plan reported is the second, identical
-    # call, so that planning_time_s is the planner's own (as `cosim bench planner`).
     first = planner.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
     plan = planner.plan(si.t, si.sv, si.target_lane, si.messages, si.occupant)
-    map_build_s = max(first.planning_time_s - plan.planning_time_s, 0.0)
+    return plan, startup_s, max(first.planning_time_s - plan.planning_time_s, 0.0)
+
+
+def run(args: argparse.Namespace) -> int:
+    from cosim.driving.registry import prediction_of
+    from cosim.scenario import load_scenario
+
+    sc = load_scenario(args.scenario)
+    cfg = _config(args, sc)
+    si = situation(sc)
+    planner = LaneChangePlanner(sc.vehicle, si.road, cfg, prediction=prediction_of(cfg.policy))
+    plan, startup_s, map_build_s = _timed_plan(planner, si)
     figure = None
     if not args.no_plot:
         from cosim.output import check_output_dir

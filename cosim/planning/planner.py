@@ -469,23 +469,8 @@ class LaneChangePlanner:
         if vxf is None:
             vxf = road.target_speed(sv.lane, target_lane)
         width = road.lane_center(target_lane) - sv.y
-        st = self._stable_set(sv.boundary(vxf, width), MODES.get((sv.lane, target_lane)))
-        taus, stable = st.taus, st.stable
-        if math.isfinite(st.tau_min) and not (
-            np.abs(taus - st.tau_min) <= 1e-9 + 1e-5 * abs(st.tau_min)  # np.isclose, atol 1e-9
-        ).any():
-            # the interval starts at tau_min itself, not at the next grid point
-            at = int(np.searchsorted(taus, st.tau_min))
-            taus = np.concatenate((taus[:at], [st.tau_min], taus[at:]))
-            stable = np.concatenate((stable[:at], [True], stable[at:]))
-        if math.isfinite(max_curvature):
-            stable = stable & (path_curvature(sv, vxf, width, taus) <= max_curvature)
-        late = None
-        if math.isfinite(x_limit):
-            # each plan's end x (eq. 2 with a general start), against the deadline
-            c3, c4 = longitudinal_coefficients(sv.vx, vxf, taus, sv.ax)
-            x_end = sv.x + taus * (sv.vx + taus * (0.5 * sv.ax + taus * (c3 + taus * c4)))
-            late = stable & (x_end > x_limit + 1e-9)
+        st, taus, stable, late = self._stable_candidates(sv, vxf, width, target_lane,
+                                                         max_curvature, x_limit)
         cand = np.flatnonzero(stable if late is None else stable & ~late)
         t_rel, follow = self._horizon(t, 0.0, sv.x, sv.vx, vxf, target_lane, messages)
         futures = predict_lazy(messages, t, t_rel, road, self.vehicle, self.grid,
@@ -513,6 +498,32 @@ class LaneChangePlanner:
             vehicle_ids=futures.vehicle_ids, tv_categories=futures.categories,
             futures=futures, sv=sv, late=late,
         )
+
+    def _stable_candidates(
+        self, sv: SVPlanState, vxf: float, width: float, target_lane: int,
+        max_curvature: float, x_limit: float,
+    ) -> tuple[StableSet, Array, NDArray[np.bool_], NDArray[np.bool_] | None]:
+        """(the stable set, its durations with tau_min itself among them, which are stable
+        and bend no more than `max_curvature`, which of those end past `x_limit`, or None
+        without a limit)."""
+        st = self._stable_set(sv.boundary(vxf, width), MODES.get((sv.lane, target_lane)))
+        taus, stable = st.taus, st.stable
+        if math.isfinite(st.tau_min) and not (
+            np.abs(taus - st.tau_min) <= 1e-9 + 1e-5 * abs(st.tau_min)  # np.isclose, atol 1e-9
+        ).any():
+            # the interval starts at tau_min itself, not at the next grid point
+            at = int(np.searchsorted(taus, st.tau_min))
+            taus = np.concatenate((taus[:at], [st.tau_min], taus[at:]))
+            stable = np.concatenate((stable[:at], [True], stable[at:]))
+        if math.isfinite(max_curvature):
+            stable = stable & (path_curvature(sv, vxf, width, taus) <= max_curvature)
+        late = None
+        if math.isfinite(x_limit):
+            # each plan's end x (eq. 2 with a general start), against the deadline
+            c3, c4 = longitudinal_coefficients(sv.vx, vxf, taus, sv.ax)
+            x_end = sv.x + taus * (sv.vx + taus * (0.5 * sv.ax + taus * (c3 + taus * c4)))
+            late = stable & (x_end > x_limit + 1e-9)
+        return st, taus, stable, late
 
     def check(
         self, trajectory: LaneChangeTrajectory, t: float, messages: Sequence[V2VMessage]
