@@ -39,6 +39,7 @@ from cosim.commands import count
 from cosim.params import PlannerConfig, RoadParams, VehicleParams, kmh
 from cosim.planning.collision import (
     Box,
+    CollisionTest,
     SVCandidates,
     TVHypotheses,
     check_candidates,
@@ -122,7 +123,8 @@ def _loop_setup(planner: LaneChangePlanner, t: float, sv: SVPlanState, target: i
     taus, stable = planner.grid, st.stable
     t_rel, follow = planner._horizon(t, 0.0, sv.x, sv.vx, vxf, target, messages)
     c2 = C2Options(cfg.envelope, cfg.safety_factor,
-                   planner._tv_stable if planner.use_maps else None, cfg.collision_test == "exact")
+                   planner._tv_stable if planner.use_maps else None,
+                   cfg.collision_test == CollisionTest.EXACT)
     lazy = predict_lazy(messages, t, t_rel, road, veh, taus, c2)
     futures = lazy.materialise()
     tv_end = np.where(np.isfinite(futures.t_end), futures.t_end - t, -np.inf)

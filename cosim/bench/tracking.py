@@ -28,12 +28,11 @@ from typing import Any
 
 import numpy as np
 
+from cosim.control.closed_loop import CONTROLLERS, PLANTS
 from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
 
 SCENARIOS = ("paper_case1_overtaking", "paper_case2_tv_lane_change",
              "paper_case3_lane_exchange", "traffic_low", "traffic_medium", "traffic_high")
-PLANTS = ("twotrack", "bicycle")
-CONTROLLERS = ("mimo", "siso")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.commands import RESULTS, add_figure_format, flag_type, variant_folder
-from cosim.control.closed_loop import YAW_MOMENT_SHARE, LoopConfig
+from cosim.control.closed_loop import CONTROLLERS, PLANTS, YAW_MOMENT_SHARE, LoopConfig
 from cosim.control.tracking import IAE_COLUMNS, PAPER_TABLE2, TrackingRun, run_tracking
 from cosim.errors import InputError
 from cosim.params import VEHICLE_PRESETS, ControllerGains, RoadParams, VehicleParams, kmh
@@ -67,7 +67,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--case", choices=(*CASES, "all"), default="5.1",
                         help="the paper's case (default 5.1, the one of Table 2)")
-    parser.add_argument("--plant", choices=("twotrack", "bicycle", "both"), default="both",
+    parser.add_argument("--plant", choices=(*PLANTS, "both"), default="both",
                         help="vehicle model(s) (default: both)")
     parser.add_argument("--source", choices=("planner", "paper"), default=None,
                         help="case 5.1's reference: our planner's tau (default for 5.1 "
@@ -156,7 +156,7 @@ def table(runs: list[TrackingRun], with_paper: bool) -> str:
     first = 22
     lines = ["IAE".ljust(first) + "  ".join(c.rjust(15) for c in cols)]
     if with_paper:
-        for ctrl in ("mimo", "siso"):
+        for ctrl in CONTROLLERS:
             vals = PAPER_TABLE2[ctrl]
             lines.append(f"paper {ctrl.upper()} (veDYNA)".ljust(first)
                          + "  ".join(f"{vals[c]:15.3f}" for c in IAE_COLUMNS))
@@ -205,14 +205,14 @@ def _track_case(args: argparse.Namespace, case: PaperCase, source: str,
     whether MIMO beats SISO on the heading error on each."""
     chassis = dataclasses.replace(chassis_for(vehicle), cornering_scale=args.cornering_scale)
     share = None if args.paper_law else YAW_MOMENT_SHARE
-    plants = ("twotrack", "bicycle") if args.plant == "both" else (args.plant,)
+    plants = PLANTS if args.plant == "both" else (args.plant,)
     mu = case.mu if args.mu is None else args.mu
     ref, origin = case_reference(case, source, args.tau_s, mu)
     runs = [
         run_tracking(LoopConfig(p, c, yaw_moment_share=share, low_speed_gain=not args.paper_law),
                      ref, mu=mu, duration=args.duration_s, vehicle=vehicle,
                      gains=ControllerGains(), chassis=chassis)
-        for p in plants for c in ("mimo", "siso")
+        for p in plants for c in CONTROLLERS
     ]
     verdicts = {}
     for p in plants:

@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
@@ -93,10 +94,25 @@ from .longitudinal import longitudinal_core, speed_gain, speed_gain_inverse_lag
 from .reference import PathErrors, ReferencePath, frame_path_errors
 from .triple_step import check_gains, law_params, mimo_core, siso_core
 
-PLANTS = ("twotrack", "bicycle")
+
+class PlantKind(StrEnum):
+    """The vehicle model the closed loop steps."""
+
+    TWOTRACK = "twotrack"  # four wheels, Magic Formula tyres, load transfer (validation)
+    BICYCLE = "bicycle"  # the paper's 2-DOF single-track design model
+
+
+class ControlLaw(StrEnum):
+    """The lateral law."""
+
+    MIMO = "mimo"  # the triple-step law on ye and phi_e (eq. 22-24)
+    SISO = "siso"  # the baseline on ye alone, no yaw moment
+
+
+PLANTS = tuple(p.value for p in PlantKind)
 # -, default friction share of the yaw-moment limit (see the module docstring)
 YAW_MOMENT_SHARE = 0.2  # tuned: docs/tuned_constants.md
-CONTROLLERS = ("mimo", "siso")
+CONTROLLERS = tuple(c.value for c in ControlLaw)
 
 
 @dataclass(frozen=True)
@@ -302,8 +318,8 @@ def advance_core(kind: int, s: Array, pconst: Array, pinputs: Array, pforces: Ar
 class LoopConfig:
     """Which plant and which law the closed loop runs, and how (beyond the gains)."""
 
-    plant: str = "twotrack"  # one of PLANTS
-    controller: str = "mimo"  # one of CONTROLLERS
+    plant: str = PlantKind.TWOTRACK  # one of PLANTS
+    controller: str = ControlLaw.MIMO  # one of CONTROLLERS
     control_every: int = 1  # substeps from one control update to the next
     speed_floor: float = 1.0  # m/s, the control laws never divide by less
     yaw_moment_share: float | None = YAW_MOMENT_SHARE  # -, friction share of dMz (None: off)
@@ -364,7 +380,7 @@ class ClosedLoop:
         )
         ch = chassis or chassis_for(vehicle)
         self.plant: Plant
-        if plant == "twotrack":
+        if plant == PlantKind.TWOTRACK:
             self.plant = TwoTrackPlant(vehicle, mu, start, chassis=ch)
         else:
             self.plant = BicyclePlant(vehicle, start)
@@ -373,7 +389,7 @@ class ClosedLoop:
         self._lp = law_params(vehicle, gains)
         self._cp = self._controller_constants(ch)
         # the two-track car's tyres on curves (`cornering`; the bicycle's are linear)
-        self._ff = cornering_params(vehicle, ch, mu, plant == "twotrack")
+        self._ff = cornering_params(vehicle, ch, mu, plant == PlantKind.TWOTRACK)
         self._cs = np.zeros(CS_SIZE)
         self._cs[CS_S_ROAD] = math.nan
         self.frame = frame or StraightFrame(0.0, 0.0, 0.0)
@@ -388,7 +404,7 @@ class ClosedLoop:
         # both plants get the force the same motors could deliver through wheels of radius R
         lo, hi = self.limits.wheel_force_bounds(ch.wheel_radius)
         return np.array([
-            config.speed_floor, 1.0 if config.controller == "mimo" else 0.0,
+            config.speed_floor, 1.0 if config.controller == ControlLaw.MIMO else 0.0,
             self.limits.max_steer, self.limits.max_steer_rate, self.dmz_limit, lo, hi,
             vehicle.half_track, vehicle.lf, gains.allocation_eps, vehicle.mass, gains.kx1,
             speed_gain_inverse_lag(ch.tyre.relaxation_long) if config.low_speed_gain else 0.0,

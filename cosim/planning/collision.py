@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -52,7 +53,14 @@ from cosim.planning.trajectory import (
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-COLLISION_TESTS = ("exact", "col")
+class CollisionTest(StrEnum):
+    """How candidates and TVs are tested for overlap."""
+
+    EXACT = "exact"  # separating axes, continuous in time (the module docstring)
+    COL = "col"  # the paper's CoL at the samples (Appendix 9.2)
+
+
+COLLISION_TESTS = tuple(t.value for t in CollisionTest)
 # m, a grown test still overlapping when the cell's motion bound is below this counts
 # as an overlap (the cell is not split further)
 RESOLUTION = 1e-4
@@ -329,7 +337,7 @@ def check_candidates(
     first_k, first_h = _first_overlaps(t, sv.side(t, vehicle.length, vehicle.width,
                                                    sv_horizon),
                                        tv.side(tv_horizon, float(t[0]), dt), float(margin),
-                                       test == "col")
+                                       test == CollisionTest.COL)
     return ClusterHits(first_k >= 0, first_k, first_h)
 
 

@@ -32,6 +32,7 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,8 +44,16 @@ from cosim.planning.trajectory import BoundaryConditions, cluster_derivatives
 
 Array = NDArray[np.float64]
 
-YAW_MODELS = ("inverse_dynamics", "kinematic")
-ENVELOPES = ("inverse_dynamics", "kinematic", "paper_maps")
+class Envelope(StrEnum):
+    """How the planner judges a candidate's stability (Section 3.1)."""
+
+    INVERSE_DYNAMICS = "inverse_dynamics"  # eq. 5-6 with the yaw rate of the 2-DOF model
+    KINEMATIC = "kinematic"  # eq. 5-6 with the path's own yaw rate, V KL
+    PAPER_MAPS = "paper_maps"  # the paper's fitted tau_min maps (eq. 31-34)
+
+
+YAW_MODELS = (Envelope.INVERSE_DYNAMICS.value, Envelope.KINEMATIC.value)  # the envelope's
+ENVELOPES = tuple(e.value for e in Envelope)
 
 # eq. 31-34, vx0 in km/h: (c0, c_v, c_mu, c_v2, c_vmu, c_mu2) per mode
 PAPER_MAPS: dict[int, tuple[float, float, float, float, float, float]] = {
@@ -161,7 +170,7 @@ def envelope_margin(
     with np.errstate(invalid="ignore", divide="ignore"):
         Ax = (xd * xdd + yd * ydd) / V  # dVx*/dt
         a_n = (xd * ydd - yd * xdd) / V  # V^2 KL (eq. 15)
-    if yaw_model == "kinematic":
+    if yaw_model == Envelope.KINEMATIC:
         omega = a_n / V
     else:
         omega0 = a_n[:, 0] / V[:, 0]  # a plan that starts mid-curve starts on it
@@ -215,7 +224,7 @@ def stable_set(
     negative over the whole speed range: a misprint).
     """
     tau = np.atleast_1d(np.asarray(taus, dtype=float))
-    if envelope == "paper_maps":
+    if envelope == Envelope.PAPER_MAPS:
         if mode is None:
             raise InputError("planner", "envelope", envelope, "paper maps need a lane-change mode")
         vx0 = float(bc.vx0)

@@ -24,6 +24,7 @@ from cosim.errors import InputError
 from cosim.params import G, PlannerConfig, RoadParams, VehicleParams
 from cosim.planning.collision import (
     COLLISION_TESTS,
+    CollisionTest,
     SVCandidates,
     TVHypotheses,
     check_candidates,
@@ -304,7 +305,7 @@ class LaneChangePlanner:
 
     def _stable_set(self, bc: BoundaryConditions, mode: int | None) -> StableSet:
         cfg = self.config
-        tau_min = self._map_tau_min(bc, value=cfg.collision_test == "col")
+        tau_min = self._map_tau_min(bc, value=cfg.collision_test == CollisionTest.COL)
         if math.isfinite(tau_min):
             stable = self.grid >= tau_min - 1e-12
             return StableSet(self.grid, np.where(stable, 0.0, np.inf), stable, tau_min)
@@ -319,7 +320,7 @@ class LaneChangePlanner:
         apply, the rest in one batched envelope call. (The paper's CoL test takes the
         map's own value, as the paper takes its maps'.)"""
         n, grid = vx0.size, self.grid
-        lower = self.config.collision_test == "exact"
+        lower = self.config.collision_test == CollisionTest.EXACT
         tau_min = np.array([self._map_tau_min(
             BoundaryConditions(float(vx0[i]), float(vxf[i]), float(width[i]), 0.0,
                                float(vy0[i]), 0.0), lower=lower, value=not lower)
@@ -342,7 +343,7 @@ class LaneChangePlanner:
         cfg = self.config
         return C2Options(cfg.envelope, cfg.safety_factor,
                          self._tv_stable if self.use_maps else None,
-                         cfg.collision_test == "exact", self.prediction.gap_end_speed)
+                         cfg.collision_test == CollisionTest.EXACT, self.prediction.gap_end_speed)
 
     def _validate(self, sv: SVPlanState, target_lane: int, occupant: float) -> None:
         if not 0 <= target_lane < self.road.n_lanes or abs(target_lane - sv.lane) != 1:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import NamedTuple
 
 import numpy as np
@@ -29,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cosim.params import RoadParams, VehicleParams
 from cosim.planning.deadline import c2_deadline
-from cosim.planning.envelope import MODES, envelope_margin, paper_map_tau_min
+from cosim.planning.envelope import MODES, Envelope, envelope_margin, paper_map_tau_min
 from cosim.planning.trajectory import (
     LANE_CHANGE,
     BoundaryConditions,
@@ -68,11 +69,19 @@ class TVFutures:
         return int(self.owner.size)
 
 
-def category(msg: V2VMessage) -> str:
+class Category(StrEnum):
+    """A TV's prediction category (Section 3.2)."""
+
+    C1 = "C1"  # no lane-change intention: constant acceleration in its lane
+    C2 = "C2"  # an intention and no motion yet: its own stable cluster
+    C3 = "C3"  # a motion broadcast: the reference it sends
+
+
+def category(msg: V2VMessage) -> Category:
     """C3 when a motion is broadcast, C2 when only an intention, else C1."""
     if msg.motion is not None:
-        return "C3"
-    return "C2" if msg.intention != 0 else "C1"
+        return Category.C3
+    return Category.C2 if msg.intention != 0 else Category.C1
 
 
 def c2_lanes(msg: V2VMessage, road: RoadParams) -> tuple[int, int] | None:
@@ -295,7 +304,7 @@ def predict_lazy(
 
     for i, m in enumerate(messages):
         cat = category(m)
-        if cat == "C3":
+        if cat == Category.C3:
             mo = m.motion
             assert mo is not None
             if mo.profile == "quintic" and mo.t0 <= t_plan:  # eq. 2 / eq. 4 from rest
@@ -304,7 +313,7 @@ def predict_lazy(
                 meta(i, 1, mo.tau, mo.t0 + mo.tau)
             else:
                 add(i, *motion_path(mo, t), mo.tau, mo.t0 + mo.tau)
-        elif cat == "C2" and (lanes := c2_lanes(m, road)) is not None:
+        elif cat == Category.C2 and (lanes := c2_lanes(m, road)) is not None:
             c2.append((i, m, *lanes))
         else:
             cat = "C1"
@@ -323,7 +332,7 @@ def predict_lazy(
         tau_lo = np.full(len(c2), np.nan)
         if stable_fn is not None:
             stable, tau_lo = stable_fn(v0, vxf, width, vy0)
-        elif envelope == "paper_maps":
+        elif envelope == Envelope.PAPER_MAPS:
             tmin = np.array([
                 paper_map_tau_min(MODES.get((o, g), 1), v, road.mu)
                 for (_, _, o, g), v in zip(c2, v0, strict=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -268,9 +269,14 @@ class V2VSpec:
 
 DEFAULT_STEP = 0.05  # s, SUMO step
 DEFAULT_SUBSTEPS = 10  # plant/controller substeps per SUMO step
-# what a run does at its first collision onset: "stop", a crash ends the ride (the SV
-# never drives on through its leader); "continue", the run goes on (for cross-checks)
-ON_COLLISION = ("stop", "continue")
+class OnCollision(StrEnum):
+    """What a run does at its first collision onset."""
+
+    STOP = "stop"  # a crash ends the ride: the SV never drives on through its leader
+    CONTINUE = "continue"  # the run goes on (for cross-checks)
+
+
+ON_COLLISION = tuple(o.value for o in OnCollision)
 
 
 @dataclass(frozen=True)
