@@ -598,31 +598,13 @@ def _frame_of(points: Array, raw: Array, limits: FrameLimits, d_offset: float,
                     limits.extension, quality)
 
 
-def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
-           d_offset: float = 0.0, source: str = "network") -> ArcFrame:
-    """The arc-spline frame of a polyline (rows x, y; SUMO's lane shape), smoothed as
-    the module docstring says; `d_offset` (m) places d = 0 that far right of it.
-    Raises InputError(source, ...) if it cannot be smoothed within the limits."""
-    raw = np.asarray(polyline, dtype=np.float64)
-    keep = np.concatenate(([True], np.hypot(*np.diff(raw, axis=0).T) > 1e-9))
-    raw = raw[keep]
-    if raw.shape[0] < 2:
-        raise InputError(source, "reference lane", raw.tolist(),
-                         "a lane shape of two or more distinct points")
-    h = limits.spacing
-    line = _forward(raw)
+Attempt = tuple[float, ArcFrame, float, float]  # (ell m, frame, deviation m, min radius m)
 
-    def attempt(ell: float) -> tuple[float, ArcFrame, float, float]:
-        points = _whittaker(_resample(line, max(h, ell / 32.0))[0], ell)
-        frame = _frame_of(points, raw, limits, d_offset, ell)
-        return ell, frame, deviation(frame, raw), frame.quality.min_radius
 
-    lengths = [0.0] + [h * 2.0 ** (k / 2.0) for k in range(0, 15)]  # 0, 0.5 m .. 64 m
-    tried = []
-    for ell in lengths:  # deviation grows with ell: stop once past the largest bound
-        tried.append(attempt(ell))
-        if tried[-1][2] > limits.max_deviation:
-            break
+def _choose(tried: list[Attempt], raw: Array, limits: FrameLimits, source: str) -> Attempt:
+    """The smoothing to keep among those tried (by growing ell): the least that reaches
+    the radius the target deviation allows, at least SUMO's vertex spacing, more for
+    coarse vertices, and at least the limits' smallest radius (InputError if none)."""
     # the least smoothing that gets within RADIUS_SHARE of the largest smallest-radius
     # reachable within the target deviation: more would only bend SUMO's curves
     within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
@@ -658,6 +640,35 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
                              f"{best[1].x[k]:.1f}, y = {best[1].y[k]:.1f}, keeps a radius of "
                              f"{best[3]:.1f} m at a deviation of {best[2]:.3f} m)")
         chosen = min(better, key=lambda t: t[0])
+    return chosen
+
+
+def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
+           d_offset: float = 0.0, source: str = "network") -> ArcFrame:
+    """The arc-spline frame of a polyline (rows x, y; SUMO's lane shape), smoothed as
+    the module docstring says; `d_offset` (m) places d = 0 that far right of it.
+    Raises InputError(source, ...) if it cannot be smoothed within the limits."""
+    raw = np.asarray(polyline, dtype=np.float64)
+    keep = np.concatenate(([True], np.hypot(*np.diff(raw, axis=0).T) > 1e-9))
+    raw = raw[keep]
+    if raw.shape[0] < 2:
+        raise InputError(source, "reference lane", raw.tolist(),
+                         "a lane shape of two or more distinct points")
+    h = limits.spacing
+    line = _forward(raw)
+
+    def attempt(ell: float) -> Attempt:
+        points = _whittaker(_resample(line, max(h, ell / 32.0))[0], ell)
+        frame = _frame_of(points, raw, limits, d_offset, ell)
+        return ell, frame, deviation(frame, raw), frame.quality.min_radius
+
+    lengths = [0.0] + [h * 2.0 ** (k / 2.0) for k in range(0, 15)]  # 0, 0.5 m .. 64 m
+    tried = []
+    for ell in lengths:  # deviation grows with ell: stop once past the largest bound
+        tried.append(attempt(ell))
+        if tried[-1][2] > limits.max_deviation:
+            break
+    chosen = _choose(tried, raw, limits, source)
     ell, frame, dev, _ = chosen
     if dev > limits.max_deviation:
         raise InputError(source, "reference line deviation", f"{dev:.3f} m",
