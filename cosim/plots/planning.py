@@ -21,6 +21,7 @@ from matplotlib.patches import Polygon
 from cosim.params import RoadParams, VehicleParams
 from cosim.planning.collision import corners
 from cosim.planning.planner import Plan
+from cosim.planning.prediction import LazyFutures, TVFutures
 from cosim.planning.trajectory import cluster_derivatives
 from cosim.plots import save_figure
 
@@ -130,26 +131,55 @@ def draw_tau_sets(ax: Axes, plan: Plan) -> None:
     ax.legend(loc="upper left", fontsize=7, ncol=2)
 
 
+def _draw_now(ax: Axes, plan: Plan, road: RoadParams, vehicle: VehicleParams) -> None:
+    """Panel (c) without a lane change: the SV and each TV's first hypothesis now."""
+    f = plan.futures
+    ax.set_title("(c) no collision-free tau: keep lane (SV and TVs now)")
+    if plan.sv is None:
+        return
+    sv = plan.sv
+    ax.add_patch(Polygon(corners(sv.x, sv.y, sv.heading, vehicle.length, vehicle.width),
+                         closed=True, fill=False, ec="k", lw=1.2))
+    xs = [sv.x]
+    if f is not None and f.n_hypotheses:
+        first = np.unique(f.owner, return_index=True)[1]
+        for hh in first:
+            ax.add_patch(Polygon(corners(f.x[hh, 0], f.y[hh, 0], f.heading[hh, 0],
+                                         f.length[hh], f.width[hh]),
+                                 closed=True, fill=False, ec="C3", lw=1.0))
+        xs += list(f.x[first, 0])
+    ax.set_xlim(min(xs) - 20, max(xs) + 20)
+    ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
+
+
+def _draw_tv_boxes(ax: Axes, f: TVFutures | LazyFutures, j: int, k: np.ndarray,
+                   marks: np.ndarray) -> None:
+    """TV j's rectangles at the sample indices k (up to six of its hypotheses), the first
+    one's numbered with the seconds in `marks`, and its name."""
+    rows = np.flatnonzero(f.owner == j)
+    single = rows.size == 1
+    for hh in rows[:: max(1, rows.size // 6)]:
+        for m, i in enumerate(k):
+            ax.add_patch(Polygon(
+                corners(f.x[hh, i], f.y[hh, i], f.heading[hh, i], f.length[hh], f.width[hh]),
+                closed=True, fill=False, ec="C3", lw=1.0 if single else 0.5,
+                alpha=1.0 if single else 0.4))
+            if hh == rows[0]:
+                ax.annotate(f"{marks[m]:g}", (f.x[hh, i], f.y[hh, i] - 0.5 * f.width[hh]),
+                            fontsize=6, ha="center", va="top", color="C3")
+    if rows.size:
+        last = rows[0], k[-1]
+        ax.annotate(f"TV {f.vehicle_ids[j]}", (f.x[last], f.y[last]), fontsize=7,
+                    ha="left", va="center", color="C3", xytext=(6, 0),
+                    textcoords="offset points")
+
+
 def draw_snapshots(ax: Axes, plan: Plan, road: RoadParams, vehicle: VehicleParams) -> None:
     """Panel (c): the chosen trajectory and the TVs as rectangles every second (Fig. 10c-12c)."""
     _lanes(ax, road)
     f = plan.futures
     if plan.trajectory is None or f is None:
-        ax.set_title("(c) no collision-free tau: keep lane (SV and TVs now)")
-        if plan.sv is not None:
-            sv = plan.sv
-            ax.add_patch(Polygon(corners(sv.x, sv.y, sv.heading, vehicle.length, vehicle.width),
-                                 closed=True, fill=False, ec="k", lw=1.2))
-            xs = [sv.x]
-            if f is not None and f.n_hypotheses:
-                first = np.unique(f.owner, return_index=True)[1]
-                for hh in first:
-                    ax.add_patch(Polygon(corners(f.x[hh, 0], f.y[hh, 0], f.heading[hh, 0],
-                                                 f.length[hh], f.width[hh]),
-                                         closed=True, fill=False, ec="C3", lw=1.0))
-                xs += list(f.x[first, 0])
-            ax.set_xlim(min(xs) - 20, max(xs) + 20)
-            ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
+        _draw_now(ax, plan, road, vehicle)
         return
     tr = plan.trajectory
     marks = np.arange(0.0, tr.tau + 1e-9, RECT_TIMES)
@@ -164,22 +194,7 @@ def draw_snapshots(ax: Axes, plan: Plan, road: RoadParams, vehicle: VehicleParam
         ax.annotate(f"{marks[i]:g}", (x[i], y[i] + 0.5 * vehicle.width), fontsize=6,
                     ha="center", va="bottom", color="k")
     for j in range(len(f.vehicle_ids)):
-        rows = np.flatnonzero(f.owner == j)
-        single = rows.size == 1
-        for hh in rows[:: max(1, rows.size // 6)]:
-            for m, i in enumerate(k):
-                ax.add_patch(Polygon(
-                    corners(f.x[hh, i], f.y[hh, i], f.heading[hh, i], f.length[hh], f.width[hh]),
-                    closed=True, fill=False, ec="C3", lw=1.0 if single else 0.5,
-                    alpha=1.0 if single else 0.4))
-                if hh == rows[0]:
-                    ax.annotate(f"{marks[m]:g}", (f.x[hh, i], f.y[hh, i] - 0.5 * f.width[hh]),
-                                fontsize=6, ha="center", va="top", color="C3")
-        if rows.size:
-            last = rows[0], k[-1]
-            ax.annotate(f"TV {f.vehicle_ids[j]}", (f.x[last], f.y[last]), fontsize=7,
-                        ha="left", va="center", color="C3", xytext=(6, 0),
-                        textcoords="offset points")
+        _draw_tv_boxes(ax, f, j, k, marks)
     xs = np.concatenate([x, f.x[:, k].ravel()])
     ax.set_xlim(float(xs.min()) - 5, float(xs.max()) + 5)
     ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
