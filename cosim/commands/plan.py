@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
         check_output_dir(args.out)  # no escaping or empty name
         figure = figure_path(args.out, figure_stem(sc.name, cfg), args.figure_format)
     # The answer first, the figure after it: if standard output cannot take the answer (a
-    # full device), the command fails before it writes anything (README, `cosim plan`).
+    # full device), the command fails before it writes anything (docs/commands.md, `cosim plan`).
     if args.json:
         d = plan.to_dict()
         d["scenario"] = sc.name

@@ -113,20 +113,20 @@ ROAD_FIELDS = (
     Field("network", str, default=DEFAULT_NETWORK, parse=_parse_network, export=str,
           describe="the path of a SUMO .net.xml file", override="network",
           default_doc=f"`{DEFAULT_NETWORK}`",
-          doc="SUMO network: one straight edge along +x (README, Guarantees); relative to "
+          doc="SUMO network (a motorway: docs/roads.md says what is driven); relative to "
               "the file, then the project root"),
     Field("sumocfg", str, default=None, parse=_parse_sumocfg, export=str,
           describe="the path of a SUMO .sumocfg file",
           default_doc="none", doc="a SUMO configuration instead of `network`: its net-file is "
           "the network, its route-files (and the vTypes, routes and flows of its "
           "additional-files) the traffic, relative to it; every other option is ignored "
-          "(README \"Running cosim in your own SUMO scenario\"); relative to the file, "
+          "(docs/roads.md, \"Running cosim in your own SUMO scenario\"); relative to the file, "
           "then the project root"),
     Field("route", list, default=None, parse=_parse_route, export=list,
           describe=f"a list of 1 to {MAX_ROUTE_EDGES} SUMO edge ids",
           default_doc="the network's only edge",
-          doc="the SUMO edges the SV drives, in order, each connected to the next (README, "
-              "Roads); optional on a one-edge network"),
+          doc="the SUMO edges the SV drives, in order, each connected to the next "
+              "(docs/roads.md); optional on a one-edge network"),
 )
 
 SV_FIELDS = declared_fields(SVSpec)

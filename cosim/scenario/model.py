@@ -221,9 +221,9 @@ class TrafficSpec:
         "routes", list, default=None, parse=lambda src, key, v: parse_paths(src, key, v, 64),
         export=list, describe="a list of 1 to 64 paths of SUMO route files (.rou.xml)",
         default_doc="none: cosim's random traffic only",
-        doc="SUMO route / flow / vType files used as they are (README \"Running cosim in "
-            "your own SUMO scenario\"), relative to the file, then the project root; with "
-            "them density_veh_per_km_lane must be 0 (their traffic only)"), None)
+        doc="SUMO route / flow / vType files, their demand used as it is (docs/roads.md, "
+            "\"Running cosim in your own SUMO scenario\"), relative to the file, then the "
+            "project root; with them density_veh_per_km_lane must be 0 (their traffic only)"), None)
     warmup: float | None = declare(number_key(
         "warmup_s", "s", 0.0, 3600.0, None,
         "SUMO runs the user's demand (`routes`, `road.sumocfg`) alone this long before the "
