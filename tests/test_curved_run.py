@@ -12,7 +12,8 @@ import numpy as np
 import shapely
 
 from cosim.road.road import Road
-from cosim.run.loop import RunResult, simulate
+from cosim.run.loop import simulate
+from cosim.run.result import RunResult
 from cosim.scenario import load_scenario
 from cosim.scenario.load import project_root
 

@@ -190,7 +190,7 @@ def sumo_floor(scenario: Scenario, path: SvPath,
         road = world.start()
         sc = scenario
         world.add_controlled(SV_ID, world.sv_start_x, road.lane_center(sc.sv.lane), 0.0,
-                             sc.sv.speed, sc.vehicle.length, sc.vehicle.width, sc.sv.lane)
+                             sc.sv.speed, (sc.vehicle.length, sc.vehicle.width), sc.sv.lane)
         world.insert()
         n = min(scenario.n_steps + 1, len(x))
         world.replay_sv(x[:n], y[:n], heading[:n], speed[:n], accel[:n], read)

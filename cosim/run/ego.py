@@ -61,8 +61,8 @@ class PlannedEgo:
         self.world = world
         self._start = (sc, x0, y0)
         self.start_speed(sc.sv.speed, first_reference)
-        world.add_controlled(SV_ID, x0, y0, 0.0, sc.sv.speed, sc.vehicle.length,
-                             sc.vehicle.width, sc.sv.lane)
+        world.add_controlled(SV_ID, x0, y0, 0.0, sc.sv.speed,
+                             (sc.vehicle.length, sc.vehicle.width), sc.sv.lane)
         self.wall = 0.0
 
     def start_speed(self, speed: float, reference: LaneChangeTrajectory) -> None:

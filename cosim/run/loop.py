@@ -8,7 +8,8 @@ reads top to bottom, one part per job:
    arrays; the ego gives the SV's own state (our plant's, or SUMO's),
 2. recorder (cosim.run.recorder): row k of the trace: SV state, reference, errors,
    inputs, our exact overlap check of the SV against every TV, SUMO's
-   collisions of the last step, gap / TTC,
+   collisions of the last step, gap / TTC; the stop rules (cosim.run.stop) say
+   whether the run ends with this row,
 3. observer (cosim.run.observer): this step's V2V messages (scripted TVs: their own),
    through the channel (range, latency, loss), read when the policy plans,
 4. policy (cosim.driving, chosen by name from its registry): when to change lanes
@@ -18,14 +19,15 @@ reads top to bottom, one part per job:
 5. ego (cosim.run.ego): control + plant, `scenario.substeps` substeps from t_k to
    t_k+1 tracking the reference, and the pose to SUMO (moveToXY); the
    SUMO-driven baseline does nothing here,
-6. the scripted TVs to their poses at t_k+1,
+6. the world moves the scripted TVs to their poses at t_k+1,
 7. `simulationStep()`: SUMO moves its own vehicles to t_k+1.
 
-Start and end (issue 22): right after the step that inserts everyone, the SV's speed is
+Start and end: right after the step that inserts everyone, the SV's speed is
 lowered to one it can brake from if its leader is random traffic too close and slow
 (`World.start_speed`, SUMO's departSpeed rule), and the policy is built from that speed;
-the run stops with the row of our check's first collision onset (`[scenario]
-on_collision = "stop"`, the default), never driving on through the TV.
+the run ends early by the stop rules (cosim.run.stop): with the row of our check's
+first collision onset (`[scenario] on_collision = "stop"`, the default), never
+driving on through the TV, or with our SV at the end of a lane that ends.
 
 Controller "sumo" is the baseline: the SV is an ordinary SUMO vehicle of the
 SV's size (`SumoDrivenEgo`); scripted requests become `changeLane` calls, the
@@ -53,16 +55,11 @@ from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
 from cosim.road.road import Road
 from cosim.run.ego import Ego, PlannedEgo, SumoDrivenEgo
+from cosim.run.metrics_row import MetricsRow
 from cosim.run.observer import Observer, uncertain_config
-from cosim.run.recorder import (  # noqa: F401  (re-exported: the run's columns and records)
-    COLUMN,
-    METRIC_DOCS,
-    PLAN_COLUMNS,
-    TIMING_DOCS,
-    TRACE_COLUMNS,
-    Recorder,
-    RunResult,
-)
+from cosim.run.recorder import Recorder
+from cosim.run.result import RunResult
+from cosim.run.stop import StopRules
 from cosim.scenario import Scenario
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.world import Scene, World
@@ -94,7 +91,8 @@ class CoSimulation:
         road = self.road = world.start()
         sumo_drives = sc.sv.controller == "sumo"
         cls = registry.policy_class(SUMO_DRIVES if sumo_drives else sc.planner.policy)
-        self.observer = Observer(sc, road, world, listens=cls.listens)
+        scripted = world.add_scripted(road)
+        self.observer = Observer(sc, road, world, scripted, listens=cls.listens)
         ego: Ego
         planner = None
         y0 = road.lane_center(sc.sv.lane)
@@ -110,15 +108,16 @@ class CoSimulation:
                                         curve=road_curve(world.route_road, sc))
         self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road,
                                  route_road=world.route_road)
+        self.stop = StopRules(road, sc.vehicle.length, self.dt, self.n_steps,
+                              on_collision=sc.on_collision == "stop",
+                              at_lane_ends=ego.tracks_reference)
         world.insert()
         ego.inserted()
         # the SV starts at a speed it can brake from for the random traffic ahead (SUMO's
         # departSpeed rule, `World.start_speed`); the policy is built from that speed
         sumo_traffic = sc.traffic.density > 0 or sc.demand is not None
-        self.start = world.start_speed(sc.sv.speed, road.mu) if sumo_traffic else (
-            sc.sv.speed, "", math.inf, math.nan)
-        if self.start[0] < sc.sv.speed:
-            v0 = self.start[0]
+        v0 = world.start_speed(sc.sv.speed, road.mu) if sumo_traffic else sc.sv.speed
+        if v0 < sc.sv.speed:
             keep = sc.sv.desired_speed if (sc.sv.desired_speed or sc.sv.decision) else sc.sv.speed
             sc = self.sc = replace(sc, sv=replace(sc.sv, speed=v0, desired_speed=keep))
             ego.start_speed(v0, lane_keeping_reference(0.0, world.sv_start_x, y0, v0, 0.0))
@@ -135,24 +134,21 @@ class CoSimulation:
         cpu0 = time.process_time()
         try:
             self._start()
-            world, ego, policy, observer, recorder = (
-                self.world, self.ego, self.policy, self.observer, self.recorder)
+            world, ego, policy, observer, recorder, stop = (
+                self.world, self.ego, self.policy, self.observer, self.recorder, self.stop)
             for k in range(self.n_steps + 1):
                 t = k * self.dt
                 everyone = world.read(observer.radius, full=observer.full_scene)
                 scene = Scene.around(t, ego.state(everyone), everyone)
                 ego.write_trace(recorder.record(k, scene, policy.status(scene.sv)))
-                if k == self.n_steps or (self.sc.on_collision == "stop"
-                                         and recorder.stop_at_collision(k)):
-                    break  # the end, or the first collision onset (on_collision = "stop")
-                if ego.tracks_reference and recorder.stop_at_lane_end(k, scene.sv, self.dt):
-                    break  # our SV at the end of a lane that ends (issue 24)
+                if k == self.n_steps or stop.stops(k, scene.sv, recorder.first_collision):
+                    break  # the end, or a stop rule (cosim.run.stop)
                 reference = policy.update(t, scene, observer.inbox(scene))
                 if world.gap_requests:  # gap requests due reach their TVs
                     world.deliver_gap_requests(t, scene.tvs, scene.sv.x,
                                                not policy.gaps_held(scene.sv))
                 ego.advance(t, self.dt, reference)
-                observer.move_scripted(t + self.dt)
+                world.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())
                 if progress is not None:
                     progress(1)
@@ -163,25 +159,25 @@ class CoSimulation:
         return self._result(wall, time.process_time() - cpu0, events)
 
     def _result(self, wall: float, cpu: float, events: list[str]) -> RunResult:
-        sc, recorder = self.sc, self.recorder
-        trace = recorder.trace()
-        self.ego.finish_trace(trace)
+        sc, recorder, ego = self.sc, self.recorder, self.ego
+        trace = recorder.trace(self.stop.last_row)
+        ego.finish_trace(trace)
         done = self.policy.summary(trace["t_s"], trace["d_m"])  # d: across the road
-        metrics = recorder.metrics(sc, trace, done, plant=self.ego.plant,
-                                   tracks_reference=self.ego.tracks_reference,
-                                   n_steps=self.n_steps, events=len(events))
+        metrics = MetricsRow(self.road, sc.vehicle.length, recorder.tracks).row(
+            sc, trace, done, recorder, self.stop, plant=ego.plant,
+            tracks_reference=ego.tracks_reference, events=len(events))
         timing = {
             "scenario": sc.name,
             "wall_time_s": wall,
             "wall_sumo_s": self.world.wall,
             "wall_planning_s": self.policy.wall,
-            "wall_control_s": self.ego.wall,
+            "wall_control_s": ego.wall,
             "wall_realtime_factor": float(trace["t_s"][-1]) / wall if wall > 0 else float("nan"),
             "cpu_time_s": cpu,
         }
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
-                         records=self.ego.records, first_plan=done.first_plan,
+                         records=ego.records, first_plan=done.first_plan,
                          edges=tuple(recorder.edges), route_road=self.world.route_road)
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -58,13 +59,11 @@ def gap_ttc(
     sv_x: float,
     sv_y: float,
     sv_vx: float,
-    sv_hx: float,
-    sv_hy: float,
+    sv_half: tuple[float, float],
     tv_x: ArrayLike,
     tv_y: ArrayLike,
     tv_vx: ArrayLike,
-    tv_hx: ArrayLike,
-    tv_hy: ArrayLike,
+    tv_half: tuple[ArrayLike, ArrayLike],
 ) -> tuple[Array, Array]:
     """Along-lane gap (m) and time-to-collision (s) from the SV to every TV.
 
@@ -72,8 +71,11 @@ def gap_ttc(
     its strip of road); others get gap = ttc = inf. The gap is the distance
     between the rectangles' x extents (negative: the extents overlap); the
     TTC is gap / closing speed when the two are closing, 0 when the gap is
-    already <= 0, inf otherwise. `*_vx` are global x velocities (m/s).
+    already <= 0, inf otherwise. `*_vx` are global x velocities (m/s); `*_half` the
+    half extents (m) along x and y (`half_extents`).
     """
+    sv_hx, sv_hy = sv_half
+    tv_hx, tv_hy = tv_half
     tx = np.asarray(tv_x, dtype=float)
     dx = tx - sv_x
     lateral = np.abs(np.asarray(tv_y, dtype=float) - sv_y) < (sv_hy + np.asarray(tv_hy))
@@ -142,18 +144,6 @@ def lane_change_durations(
     for i, (s, yt, e) in enumerate(zip(starts, y_targets, ends, strict=True)):
         out[i] = settle_time(t, y, s, yt, e, tol) - s
     return out
-
-
-def count_onsets(flags: ArrayLike) -> int:
-    """Number of False -> True transitions (a collision that lasts counts once);
-    `flags` is (n_t,) or (n_t, n_pairs)."""
-    f = np.asarray(flags, dtype=bool)
-    if f.size == 0:
-        return 0
-    if f.ndim == 1:
-        f = f[:, None]
-    prev = np.vstack([np.zeros((1, f.shape[1]), dtype=bool), f[:-1]])
-    return int(np.sum(f & ~prev))
 
 
 IAE_COLUMNS = {
@@ -326,32 +316,42 @@ def collision_seen_by(ours: int, sumo: int) -> str:
     return "ours" if ours else "sumo" if sumo else "none"
 
 
-def lane_change_status(requests: int, completed: bool, durations: Array, ends: Sequence[float],
-                       t_end: float, y_end: float, centres: Array, tol: float,
-                       stopped: bool = False) -> str:
+@dataclass(frozen=True)
+class LaneChangeEnd:
+    """How a run's lane changes stood when it ended (`lane_change_status`)."""
+
+    requests: int  # lane changes requested
+    completed: bool  # lane_change_completed
+    durations: Array  # s, each lane change's duration (NaN: did not settle)
+    ends: Sequence[float]  # s, the end of each one's settling window
+    t_end: float  # s, the run's end
+    y_end: float  # m, the SV's d at the end
+    stopped: bool = False  # a collision stopped the run ([scenario] on_collision = "stop")
+
+
+def lane_change_status(end: LaneChangeEnd, centres: Array, tol: float) -> str:
     """One of LANE_CHANGE_STATUSES: unfinished when a requested change did not
-    complete because the run ended first: the SV ends more than `tol` from every lane
-    centre (still moving over), or its last lane change's settling window reached the
-    run's end without settling (durations[-1] NaN). A run a collision stopped
-    (`stopped`, [scenario] on_collision = "stop") did not end by itself: failed."""
-    if requests == 0:
+    complete because the run ended first: the SV ends more than `tol` (m) from every
+    lane centre in `centres` (still moving over), or its last lane change's settling
+    window reached the run's end without settling (durations[-1] NaN). A run a
+    collision stopped did not end by itself: failed."""
+    if end.requests == 0:
         return "none"
-    if completed:
+    if end.completed:
         return "completed"
-    if stopped:
+    if end.stopped:
         return "failed"
-    between = float(np.min(np.abs(np.asarray(centres, dtype=float) - y_end))) > tol
-    cut = (len(durations) > 0 and not np.isfinite(durations[-1])
-           and ends[-1] >= t_end - 1e-9)
+    between = float(np.min(np.abs(np.asarray(centres, dtype=float) - end.y_end))) > tol
+    cut = (len(end.durations) > 0 and not np.isfinite(end.durations[-1])
+           and end.ends[-1] >= end.t_end - 1e-9)
     return "unfinished" if between or cut else "failed"
 
 
-def outcome_columns(*, collisions: int, sumo_collisions: int, requests: int, completed: bool,
-                    durations: Array, ends: Sequence[float], t_end: float, y_end: float,
-                    centres: Array, tol: float, stopped: bool = False) -> dict[str, Any]:
-    """The OUTCOME_DOCS columns of a run's metrics row."""
-    status = lane_change_status(requests, completed, durations, ends, t_end, y_end, centres,
-                                tol, stopped)
+def outcome_columns(collisions: int, sumo_collisions: int, end: LaneChangeEnd,
+                    centres: Array, tol: float) -> dict[str, Any]:
+    """The OUTCOME_DOCS columns of a run's metrics row: our check's and SUMO's
+    collision events, how its lane changes ended."""
+    status = lane_change_status(end, centres, tol)
     return {"sumo_collision": int(sumo_collisions > 0),
             "collision_seen_by": collision_seen_by(collisions, sumo_collisions),
             "lane_change_status": status,

@@ -2,11 +2,10 @@
 own messages, and the safety margin widened for what the channel does not tell
 exactly.
 
-The scripted TVs ([[tv]] in a scenario) are added to SUMO as controlled vehicles
-and moved along their scripts each step; they publish their planned manoeuvre
-(`scripted.ScriptedTV.message`). Every other TV is read from SUMO and sent
-through the channel (range, latency, loss; or measured with noise in the
-"perception" mode, scripted TVs included).
+The scripted TVs ([[tv]] in a scenario; the world moves them along their scripts,
+cosim.traffic.scripted) publish their planned manoeuvre (`ScriptedTV.message`).
+Every other TV is read from SUMO and sent through the channel (range, latency,
+loss; or measured with noise in the "perception" mode, scripted TVs included).
 
 Without latency or loss the messages at a planning call are exactly those
 published then: the channel runs only when the policy reads its `Inbox` (building
@@ -16,7 +15,7 @@ the messages is the costly part); otherwise it runs every step.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,6 +23,9 @@ from cosim.params import PlannerConfig, RoadParams
 from cosim.scenario import Scenario
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import NEAR_RANGE, SV_ID, Scene, World
+
+if TYPE_CHECKING:
+    from cosim.traffic.scripted import ScriptedTraffic
 
 UNCERTAIN_CLOSING_SPEED = 5.0  # m/s, closing speed assumed for the V2V latency margin
 
@@ -63,23 +65,20 @@ class Inbox:
 
 
 class Observer:
-    """The V2V channel and the scripted TVs of one run (see the module docstring).
+    """The V2V channel of one run and the scripted TVs' messages (see the module
+    docstring).
 
     `listens` False (the SUMO-driven SV never plans): the channel does not run every
     step. `radius` (m) is how far around the SV the world is read each step."""
 
-    def __init__(self, scenario: Scenario, road: RoadParams, world: World, *,
-                 listens: bool = True) -> None:
+    def __init__(self, scenario: Scenario, road: RoadParams, world: World,
+                 scripted: ScriptedTraffic, *, listens: bool = True) -> None:
         from cosim.traffic.v2v import V2VChannel
 
         sc = scenario
         self.world = world
-        self.dt = sc.step
         self.v2v = sc.v2v
-        self.scripted: list[Any] = []
-        self.scripted_ids: tuple[str, ...] = tuple(tv.id for tv in sc.tvs)
-        self.scripted_poses: list[list[tuple[float, ...]]] = []
-        self._start_scripted(sc, road, world.sv_start_x)
+        self.scripted = scripted
         self.channel = V2VChannel.from_spec(sc.v2v, road, sc.seed)
         v2v = sc.v2v
         every_step = v2v.latency > 0 or v2v.loss > 0 or v2v.mode != "v2v"
@@ -91,32 +90,6 @@ class Observer:
         self.read_everyone = not every_step and v2v.range > NEAR_RANGE
         # accelerations and signals each step only when the channel runs each step
         self.full_scene = self.every_step
-
-    def _start_scripted(self, sc: Scenario, road: RoadParams, x_sv: float) -> None:
-        """Add the scenario's [[tv]] vehicles as controlled vehicles on their scripts."""
-        if not sc.tvs:
-            return
-        from cosim.traffic import scripted
-
-        # the scripts are known in advance: evaluate them once for every step time
-        times = sc.step * np.arange(sc.n_steps + 2)
-        for spec in sc.tvs:
-            tv = scripted.ScriptedTV(spec, road, x_sv)
-            k = tv.kinematics(times)
-            poses = list(zip(k.x.tolist(), k.y.tolist(), k.heading.tolist(), k.speed.tolist(),
-                             k.accel.tolist(), strict=True))
-            x, y, h, v, _a = poses[0]
-            self.world.add_controlled(spec.id, x, y, h, v, spec.length, spec.width,
-                                      spec.lane, vtype="tv_scripted")
-            self.scripted.append(tv)
-            self.scripted_poses.append(poses)
-
-    def move_scripted(self, t: float) -> None:
-        """The scripted TVs to their poses at t (they hold from the next SUMO step)."""
-        k = int(round(t / self.dt))
-        for tv, poses in zip(self.scripted, self.scripted_poses, strict=True):
-            x, y, h, v, a = poses[k]
-            self.world.move(tv.spec.id, x, y, h, v, a)
 
     def inbox(self, scene: Scene) -> Inbox:
         """This step's messages, for the policy."""
@@ -131,10 +104,10 @@ class Observer:
             everyone = self.world.read_again(everyone.ids)
         perceived = self.v2v.mode == "perception"  # scripted TVs are measured too
         public = everyone.select(np.array(
-            [vid != SV_ID and (perceived or vid not in self.scripted_ids)
+            [vid != SV_ID and (perceived or vid not in self.scripted.ids)
              for vid in everyone.ids],
             dtype=bool))
-        if perceived and self.scripted:
+        if perceived and self.scripted.tvs:
             public = self._scripted_accel(public, scene.t)
         return self.channel.exchange(public, scene.sv.x, scene.sv.y)
 
@@ -142,14 +115,13 @@ class Observer:
         """The snapshot with the scripted TVs' true accelerations: SUMO reports a wrong
         one for vehicles moved by moveToXY (+4 m/s^2 for a TV braking at 8 m/s^2)."""
         accel = np.array(snap.accel, dtype=float)
-        k = int(round(t / self.dt))
-        for tv, poses in zip(self.scripted, self.scripted_poses, strict=True):
+        for tv, pose in self.scripted.at(t):
             if tv.spec.id in snap.ids:
-                accel[snap.index(tv.spec.id)] = poses[k][4]
+                accel[snap.index(tv.spec.id)] = pose[4]
         return replace(snap, accel=accel)
 
     def scripted_messages(self, t: float) -> list[Any]:
         """The scripted TVs' own messages (none in the perception mode: measured)."""
         if self.v2v.mode == "perception":
             return []
-        return [m for m in (tv.message(t) for tv in self.scripted) if m is not None]
+        return list(self.scripted.messages(t))

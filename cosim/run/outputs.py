@@ -14,7 +14,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cosim.run.recorder import PLAN_COLUMNS, TRACE_COLUMNS, RunResult
+from cosim.driving.plans import PLAN_COLUMNS
+from cosim.run.recorder import TRACE_COLUMNS
+from cosim.run.result import RunResult
 
 Array = NDArray[np.float64]
 

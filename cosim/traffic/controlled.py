@@ -74,10 +74,12 @@ class ControlledVehicles:
         self.release_modes: dict[str, tuple[float, int]] = {}  # add_driven: (desired m/s, lc mode)
 
     def add(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
-            length: float, width: float, track: int, type_id: str) -> None:
+            size: tuple[float, float], track: int, type_id: str) -> None:
         """Insert it (in the next step) with speed mode 0 and lane-change mode 0 (out of
-        SUMO's control), at its centre pose, on `track` (a track id of the route: an SV
-        lane k is track k) and on the rest of the route from the edge its front is on."""
+        SUMO's control), at its centre pose, of `size` (length, width) m, on `track` (a
+        track id of the route: an SV lane k is track k) and on the rest of the route from
+        the edge its front is on."""
+        length, width = size
         sim = self.sim
         api = sim.api
         lanes = sim.lanes

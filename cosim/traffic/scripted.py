@@ -19,6 +19,7 @@ intention +-1 from t = 0 until the change ends if broadcast is "reference" or
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -175,3 +176,30 @@ class ScriptedTV:
 
     def message(self, t: float) -> V2VMessage:
         return message(self.spec, t, self.road, self.sv_position)
+
+
+class ScriptedTraffic:
+    """A scenario's scripted TVs in one run: their poses at the run's step times
+    t_k = k dt, k = 0 .. n - 1, evaluated once (the scripts are known in advance)."""
+
+    def __init__(self, specs: Sequence[TVSpec], road: RoadParams, sv_position: float,
+                 dt: float, n: int) -> None:
+        self.dt = dt  # s
+        self.tvs = [ScriptedTV(spec, road, sv_position) for spec in specs]
+        self.ids: tuple[str, ...] = tuple(spec.id for spec in specs)
+        times = dt * np.arange(n)
+        # per TV, per step: (x m, y m, heading rad, speed m/s, accel m/s^2) in road coordinates
+        self.poses: list[list[tuple[float, ...]]] = []
+        for tv in self.tvs:
+            k = tv.kinematics(times)
+            self.poses.append(list(zip(k.x.tolist(), k.y.tolist(), k.heading.tolist(),
+                                       k.speed.tolist(), k.accel.tolist(), strict=True)))
+
+    def at(self, t: float) -> list[tuple[ScriptedTV, tuple[float, ...]]]:
+        """Every scripted TV with its pose at step time t."""
+        k = int(round(t / self.dt))
+        return [(tv, poses[k]) for tv, poses in zip(self.tvs, self.poses, strict=True)]
+
+    def messages(self, t: float) -> list[V2VMessage]:
+        """The scripted TVs' own messages at t (`ScriptedTV.message`)."""
+        return [m for m in (tv.message(t) for tv in self.tvs) if m is not None]

@@ -292,7 +292,7 @@ class SumoSim:
         self.api.vehicletype.setImperfection(type_id, 0.0)
         self.dims[f"type:{type_id}"] = (length, width)
         x, y, heading = pose
-        self.add_controlled(vehicle_id, x, y, heading, speed, length, width, track,
+        self.add_controlled(vehicle_id, x, y, heading, speed, (length, width), track,
                             vtype=type_id)
         self.controlled.release_modes[vehicle_id] = (float(desired_speed),
                                                      1621 if own_lane_changes else 512)
@@ -326,17 +326,17 @@ class SumoSim:
         y: float,
         heading: float,
         speed: float,
-        length: float,
-        width: float,
+        size: tuple[float, float],
         lane: int,
         vtype: str = "sv",
     ) -> None:
-        """Add a vehicle SUMO does not drive (SV, scripted TV): centre pose, its own size,
-        on track `lane` (an SV lane k is track k; ControlledVehicles.add).
+        """Add a vehicle SUMO does not drive (SV, scripted TV): centre pose, its own size
+        (length, width) m, on track `lane` (an SV lane k is track k; ControlledVehicles.add).
 
         Speed mode 0 and lane-change mode 0 take it out of SUMO's control; the
         pose is written with moveToXY and holds from the next step on.
         """
+        length, width = size
         if length <= 0 or width <= 0:
             raise InputError("vehicle", "length/width", (length, width), "positive sizes in m")
         type_id = vtype
@@ -345,7 +345,7 @@ class SumoSim:
         if type_id not in self._types:
             self._ensure_type(type_id, length, width, traffic=False)
             self.dims[f"type:{type_id}"] = (length, width)
-        self.controlled.add(vehicle_id, x, y, heading, speed, length, width, lane, type_id)
+        self.controlled.add(vehicle_id, x, y, heading, speed, size, lane, type_id)
         self.dims[vehicle_id] = (length, width)
 
     def move(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
@@ -358,10 +358,6 @@ class SumoSim:
     def set_blinker(self, vehicle_id: str, direction: int) -> None:
         """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""
         self.controlled.set_blinker(vehicle_id, direction)
-
-    # aliases for the scripted-TV code (same operation as for the SV)
-    add_vehicle = add_controlled
-    move_vehicle = move
 
     def remove(self, vehicle_id: str) -> None:
         """Take a vehicle off the network (controlled or not)."""

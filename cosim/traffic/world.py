@@ -21,6 +21,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,6 +39,9 @@ from cosim.traffic.gui import GuiSettings
 from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
 from cosim.traffic.route_lanes import route_road, sv_start
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
+
+if TYPE_CHECKING:
+    from cosim.traffic.scripted import ScriptedTraffic
 
 Array = NDArray[np.float64]
 
@@ -140,6 +144,7 @@ class World:
         self.gap_requests: list[CooperationChannel] = []  # open_gap_requests
         self.cleared: list[str] = []  # the user's vehicles taken off at the SV's entry
         self.t_warmup = 0.0  # s, SUMO's clock at the end of the warm-up (none: 0)
+        self.scripted: ScriptedTraffic | None = None  # add_scripted
 
     def start(self) -> RoadParams:
         """Start SUMO and place the random traffic around the SV's start, or run the
@@ -225,27 +230,26 @@ class World:
         self.t_offset = self.sumo.time
         self.sumo.follow_in_gui(SV_ID)
 
-    def start_speed(self, speed: float, mu: float) -> tuple[float, str, float, float]:
-        """(m/s, leader id, gap m, leader speed m/s): the SV's start speed, `speed` or, when
-        its leader in its lane right after insertion is SUMO's traffic (random, or the
-        user's own demand: any vehicle but a scripted TV), at most the speed
-        from which it can brake for that leader (`demand.safe_start_speed`: SUMO's
-        departSpeed rule). A scripted leader's place and speed are the scenario's: kept."""
+    def start_speed(self, speed: float, mu: float) -> float:
+        """m/s, the SV's start speed: `speed` or, when its leader in its lane right after
+        insertion is SUMO's traffic (random, or the user's own demand: any vehicle but a
+        scripted TV), at most the speed from which it can brake for that leader on a road
+        of friction `mu` (`demand.safe_start_speed`: SUMO's departSpeed rule). A scripted
+        leader's place and speed are the scenario's: kept."""
         from cosim.traffic.demand import RANDOM_ID, safe_start_speed
 
         vehicle = self.sumo.api.vehicle
         found = vehicle.getLeader(SV_ID, 1000.0)  # gap from the SV's front + its minGap
         if not found or not found[0]:
-            return speed, "", float("inf"), float("nan")
+            return speed
         leader = str(found[0])
         sc = self.scenario
         # SUMO's traffic: cosim's random vehicles, or any of the user's own demand
         theirs = sc.demand is not None and leader not in {tv.id for tv in sc.tvs}
         if not (RANDOM_ID.fullmatch(leader) or theirs):
-            return speed, "", float("inf"), float("nan")
+            return speed
         gap = float(found[1]) + float(vehicle.getMinGap(SV_ID))
-        leader_speed = float(vehicle.getSpeed(leader))
-        return safe_start_speed(speed, gap, leader_speed, mu), leader, gap, leader_speed
+        return safe_start_speed(speed, gap, float(vehicle.getSpeed(leader)), mu)
 
     def read(self, radius: float, *, full: bool = True) -> TrafficSnapshot:
         """Every vehicle within `radius` of the SV (the SV included); without `full` no
@@ -289,14 +293,33 @@ class World:
                 for e in self.sumo.events]
 
     # ------------------------------------------------ vehicles we place and move
+    def add_scripted(self, road: RoadParams) -> ScriptedTraffic:
+        """The scenario's [[tv]] vehicles as controlled vehicles at their scripts' start
+        (cosim.traffic.scripted, on `road`); `move_scripted` moves them each step."""
+        from cosim.traffic.scripted import ScriptedTraffic
+
+        sc = self.scenario
+        self.scripted = ScriptedTraffic(sc.tvs, road, self.sv_start_x, sc.step, sc.n_steps + 2)
+        for tv, (x, y, h, v, _a) in self.scripted.at(0.0):
+            spec = tv.spec
+            self.add_controlled(spec.id, x, y, h, v, (spec.length, spec.width), spec.lane,
+                                vtype="tv_scripted")
+        return self.scripted
+
+    def move_scripted(self, t: float) -> None:
+        """The scripted TVs to their poses at step time t (they hold from the next step)."""
+        if self.scripted is None:
+            return
+        for tv, (x, y, h, v, a) in self.scripted.at(t):
+            self.move(tv.spec.id, x, y, h, v, a)
+
     def add_controlled(self, vehicle_id: str, x: float, y: float, heading: float,
-                       speed: float, length: float, width: float, lane: int,
+                       speed: float, size: tuple[float, float], lane: int,
                        vtype: str = "sv") -> None:
         """A vehicle SUMO does not drive (the SV, a scripted TV) at its centre pose in road
-        coordinates (s, d, heading to the road, speed along s)."""
+        coordinates (s, d, heading to the road, speed along s); `size`: (length, width) m."""
         cx, cy, ch, q = self.cartesian(x, y, heading)
-        self.sumo.add_controlled(vehicle_id, cx, cy, ch, speed * q, length, width, lane,
-                                 vtype=vtype)
+        self.sumo.add_controlled(vehicle_id, cx, cy, ch, speed * q, size, lane, vtype=vtype)
 
     def move(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
              accel: float | None = None) -> None:

@@ -13,9 +13,12 @@ import pandas as pd
 import pytest
 
 from cosim.cli import main
+from cosim.driving.plans import PLAN_COLUMNS
 from cosim.planning.planner import LaneChangePlanner, SVPlanState
 from cosim.run.loop import run_scenario, simulate
-from cosim.run.recorder import METRIC_DOCS, PLAN_COLUMNS, TRACE_COLUMNS, RunResult
+from cosim.run.metrics_row import METRIC_DOCS
+from cosim.run.recorder import TRACE_COLUMNS
+from cosim.run.result import RunResult
 from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
 from cosim.traffic.scripted import ScriptedTV
 
@@ -284,7 +287,7 @@ def test_cli_bad_scenario_exits_2_and_writes_nothing(tmp_path: Path) -> None:
 
 
 def test_docs_describe_every_output_column() -> None:
-    from cosim.run.recorder import TIMING_DOCS
+    from cosim.run.result import TIMING_DOCS
 
     text = (project_root() / "docs" / "outputs.md").read_text(encoding="utf-8")
     for columns in (TRACE_COLUMNS, PLAN_COLUMNS, METRIC_DOCS, TIMING_DOCS):

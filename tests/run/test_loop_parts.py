@@ -11,7 +11,8 @@ import cosim
 
 PACKAGE = Path(cosim.__file__).resolve().parent
 LOOP_PARTS = ("run/loop.py", "run/ego.py", "run/observer.py", "run/recorder.py",
-              "traffic/world.py",
+              "run/stop.py", "run/metrics_row.py", "run/result.py",
+              "traffic/world.py", "traffic/scripted.py",
               "traffic/sumo.py", "traffic/snapshot.py", "traffic/process.py",
               "traffic/traffic_vehicles.py", "traffic/controlled.py", "traffic/route_lanes.py",
               "driving/manoeuvre.py",
@@ -61,7 +62,7 @@ def test_the_loop_parts_are_all_there() -> None:
     names = {name.split(":")[1] for name, _ in classes()}
     assert {"CoSimulation", "World", "PlannedEgo", "SumoDrivenEgo", "PaperPolicy",
             "GapPolicy", "SumoPolicy", "Manoeuvre", "CarFollowing", "Observer", "Recorder",
-            "SumoSim"} <= names
+            "StopRules", "MetricsRow", "ScriptedTraffic", "SumoSim"} <= names
 
 
 def test_no_class_of_the_loop_is_too_big() -> None:

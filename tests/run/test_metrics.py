@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from cosim.run.metrics import (
-    count_onsets,
     gap_ttc,
     half_extents,
     iae,
@@ -43,9 +42,9 @@ def test_half_extents_of_a_turned_rectangle() -> None:
 def test_gap_and_ttc_to_a_slower_leader_and_a_faster_follower() -> None:
     hx, hy = half_extents(4.32, 1.8, 0.0)
     gap, ttc = gap_ttc(
-        0.0, 0.0, 25.0, hx, hy,
+        0.0, 0.0, 25.0, (hx, hy),
         tv_x=[20.0, -30.0, 10.0], tv_y=[0.2, -0.3, 3.75], tv_vx=[20.0, 30.0, 0.0],
-        tv_hx=[hx] * 3, tv_hy=[hy] * 3,
+        tv_half=([hx] * 3, [hy] * 3),
     )
     # leader: 20 m centre to centre minus one car length; closing at 5 m/s
     assert gap[0] == pytest.approx(20.0 - 4.32)
@@ -59,16 +58,16 @@ def test_gap_and_ttc_to_a_slower_leader_and_a_faster_follower() -> None:
 
 def test_ttc_is_infinite_when_opening_and_zero_when_overlapping() -> None:
     hx, hy = half_extents(4.32, 1.8, 0.0)
-    gap, ttc = gap_ttc(0.0, 0.0, 20.0, hx, hy, [10.0, 3.0], [0.0, 0.0], [25.0, 20.0],
-                       [hx, hx], [hy, hy])
+    gap, ttc = gap_ttc(0.0, 0.0, 20.0, (hx, hy), [10.0, 3.0], [0.0, 0.0], [25.0, 20.0],
+                       ([hx, hx], [hy, hy]))
     assert math.isinf(ttc[0]) and gap[0] > 0
     assert gap[1] < 0 and ttc[1] == 0.0
 
 
 def test_lateral_overlap_threshold_is_the_sum_of_half_widths() -> None:
     hx, hy = half_extents(4.32, 1.8, 0.0)
-    gap, _ = gap_ttc(0.0, 0.0, 20.0, hx, hy, [10.0, 10.0], [1.79, 1.81], [20.0, 20.0],
-                     [hx, hx], [hy, hy])
+    gap, _ = gap_ttc(0.0, 0.0, 20.0, (hx, hy), [10.0, 10.0], [1.79, 1.81], [20.0, 20.0],
+                     ([hx, hx], [hy, hy]))
     assert np.isfinite(gap[0]) and math.isinf(gap[1])
 
 
@@ -90,12 +89,6 @@ def test_lane_change_duration_is_time_to_settle_in_the_target_lane() -> None:
     assert 0.8 * tau < d[0] <= tau
     # never reaching the target: NaN
     assert math.isnan(settle_time(t, y, 1.0, 7.5, 10.0))
-
-
-def test_count_onsets_counts_each_contact_once() -> None:
-    flags = np.array([[0, 0], [1, 0], [1, 0], [0, 1], [1, 1]], dtype=bool)
-    assert count_onsets(flags) == 3
-    assert count_onsets(np.zeros(0, dtype=bool)) == 0
 
 
 def test_iae_row_uses_the_window_and_kilonewtons() -> None:
@@ -212,21 +205,26 @@ def test_collision_seen_by_names_the_checks() -> None:
 
 
 def test_lane_change_status_tells_unfinished_from_failed() -> None:
-    from cosim.run.metrics import lane_change_status
+    from cosim.run.metrics import LaneChangeEnd, lane_change_status
 
     centres = np.array([1.875, 5.625, 9.375])
     nan = np.array([np.nan])
+
+    def status(requests: int, completed: bool, durations: np.ndarray, ends: list[float],
+               y_end: float) -> str:
+        end = LaneChangeEnd(requests, completed, durations, ends, t_end=20.0, y_end=y_end)
+        return lane_change_status(end, centres, 0.1)
+
     # a request, no start, the SV in its lane at the end: failed
-    assert lane_change_status(1, False, np.array([]), [], 20.0, 5.6, centres, 0.1) == "failed"
-    assert lane_change_status(0, False, np.array([]), [], 20.0, 5.6, centres, 0.1) == "none"
-    assert lane_change_status(1, True, np.array([3.0]), [20.0], 20.0, 9.4, centres,
-                              0.1) == "completed"
+    assert status(1, False, np.array([]), [], 5.6) == "failed"
+    assert status(0, False, np.array([]), [], 5.6) == "none"
+    assert status(1, True, np.array([3.0]), [20.0], 9.4) == "completed"
     # still between the lanes at the end
-    assert lane_change_status(1, False, nan, [20.0], 20.0, 7.5, centres, 0.1) == "unfinished"
+    assert status(1, False, nan, [20.0], 7.5) == "unfinished"
     # in the band of the target lane, but the settling window ran into the end
-    assert lane_change_status(1, False, nan, [20.0], 20.0, 9.45, centres, 0.1) == "unfinished"
+    assert status(1, False, nan, [20.0], 9.45) == "unfinished"
     # a change that did not settle before the next manoeuvre: failed, not cut short
-    assert lane_change_status(1, False, nan, [12.0], 20.0, 5.6, centres, 0.1) == "failed"
+    assert status(1, False, nan, [12.0], 5.6) == "failed"
 
 
 @pytest.mark.sumo

@@ -33,8 +33,8 @@ def test_gap_ttc_min_is_the_minimum_of_metrics_gap_ttc_to_the_bit() -> None:
         near = np.empty(tv["x"].size, dtype=bool)
         got = gap_ttc_min(x, y, vx, hx, hy, diag, tv["x"], tv["y"], tv["vx"], tv["h"],
                           tv["length"], tv["width"], near)
-        tv_hx, tv_hy = mx.half_extents(tv["length"], tv["width"], tv["h"])
-        gap, ttc = mx.gap_ttc(x, y, vx, hx, hy, tv["x"], tv["y"], tv["vx"], tv_hx, tv_hy)
+        tv_half = mx.half_extents(tv["length"], tv["width"], tv["h"])
+        gap, ttc = mx.gap_ttc(x, y, vx, (hx, hy), tv["x"], tv["y"], tv["vx"], tv_half)
         want = (float(gap.min()) if gap.size else math.inf,
                 float(ttc.min()) if ttc.size else math.inf)
         assert got == want, trial

@@ -97,8 +97,7 @@ def test_road_columns_follow_the_track_across_a_junction_on_the_curved_motorway(
                                ch=np.array([heading]))
         cartesian.append((float(x), float(y), math.degrees(float(heading))))
         rec.record(k, Scene.around(0.05 * k, sv, snap), KEEPING)
-    rec.last_row = len(s_values) - 1
-    frame = trace_frame(rec.trace(), rec.edges)
+    frame = trace_frame(rec.trace(len(s_values) - 1), rec.edges)
     assert list(frame["edge"]) == [p.edge for p in lane.track.pieces]
     assert (frame["track"] == 1).all()
     assert {"e2", "e3"} <= set(frame["edge"]) and frame["sumo_lane"].nunique() > 1
@@ -121,18 +120,31 @@ def test_road_columns_on_the_straight_road_are_x_and_y() -> None:
 
 
 def test_our_sv_at_the_end_of_a_lane_that_ends_stops_the_run() -> None:
-    """Issue 24: lane 0 ends at s = 194.5 m (y_right -3.75: an acceleration lane); the row
-    whose next step would take the SV's front past it is the run's last
-    (lane_end_reached); in a lane that runs on, or short of the end, nothing happens."""
-    from cosim.params import RoadParams
-    from cosim.run.recorder import Recorder
-    from cosim.traffic.world import SVState
+    """Lane 0 ends at s = 194.5 m (y_right -3.75: an acceleration lane); the row whose
+    next step would take the SV's front past it is the run's last (lane_end_reached);
+    in a lane that runs on, or short of the end, nothing happens."""
+    from cosim.run.stop import StopRules
 
     road = RoadParams(speed_bands=((15.0, 25.0),) * 4, y_right=-3.75,
                       lane_ends=(194.5, math.inf, math.inf, math.inf))
-    rec = Recorder(100, 4.32, 1.8, road)
-    assert not rec.stop_at_lane_end(10, SVState(190.0, -1.875, 0.0, 20.0, 0.0, 0), 0.05)
-    assert not rec.stop_at_lane_end(11, SVState(400.0, 1.875, 0.0, 20.0, 0.0, 1), 0.05)
-    assert rec.stop_at_lane_end(12, SVState(191.5, -1.875, 0.0, 20.0, 0.0, 0), 0.05)
-    assert rec.at_lane_end and rec.last_row == 12
-    assert not rec.stop_at_lane_end(13, SVState(192.0, -1.875, 0.0, 20.0, 0.0, 0), 0.05)
+    stop = StopRules(road, 4.32, 0.05, 100, on_collision=True, at_lane_ends=True)
+    assert not stop.stops(10, SVState(190.0, -1.875, 0.0, 20.0, 0.0, 0), None)
+    assert not stop.stops(11, SVState(400.0, 1.875, 0.0, 20.0, 0.0, 1), None)
+    assert stop.stops(12, SVState(191.5, -1.875, 0.0, 20.0, 0.0, 0), None)
+    assert stop.at_lane_end and stop.last_row == 12
+    assert not stop.stops(13, SVState(192.0, -1.875, 0.0, 20.0, 0.0, 0), None)
+
+
+def test_the_first_collision_onset_stops_the_run_only_when_asked() -> None:
+    """on_collision "stop": the row holding the first collision onset is the run's last
+    (stopped_by_collision); otherwise the run drives on."""
+    from cosim.run.stop import StopRules
+
+    sv = SVState(100.0, Y0, 0.0, 20.0, 0.0, 0)
+    onset = (1.5, "a")
+    going_on = StopRules(ROAD, L, 0.05, 100, on_collision=False, at_lane_ends=True)
+    assert not going_on.stops(30, sv, onset) and going_on.last_row == 100
+    stop = StopRules(ROAD, L, 0.05, 100, on_collision=True, at_lane_ends=True)
+    assert not stop.stops(29, sv, None)
+    assert stop.stops(30, sv, onset)
+    assert stop.by_collision and stop.last_row == 30

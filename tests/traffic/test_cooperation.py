@@ -33,7 +33,7 @@ def run_side_by_side(cfg: CooperationConfig, seconds: float = 14.0, request_at: 
         road = sim.road()
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
         x_sv = 600.0
-        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, V, L, W, 1)
+        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, V, (L, W), 1)
         sim.add_traffic("tv", 0, x_sv - 2.0, 1.0, speed=V)
         sim.api.vehicle.setMaxSpeed("tv", V)
         sim.api.vehicle.setLaneChangeMode("tv", 0)
@@ -125,7 +125,7 @@ def test_sumo_follower_brakes_as_predicted_when_the_sv_cuts_in() -> None:
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
         x_tv = 600.0
         x_sv = x_tv + 0.5 * L + 12.0 + 0.5 * L
-        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, v_sv, L, W, 1)
+        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, v_sv, (L, W), 1)
         sim.add_traffic("tv", 0, x_tv, 1.0, speed=v_tv)
         sim.api.vehicle.setMaxSpeed("tv", v_tv)
         sim.api.vehicle.setLaneChangeMode("tv", 0)
@@ -166,7 +166,7 @@ def run_passing(release: bool, seconds: float = 16.0) -> tuple[np.ndarray, np.nd
         road = sim.road()
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
         x_sv, v_sv = 600.0, V
-        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, V, L, W, 1)
+        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, V, (L, W), 1)
         sim.add_traffic("tv", 0, x_sv - 2.0, 1.0, speed=V)
         sim.api.vehicle.setMaxSpeed("tv", V)
         sim.api.vehicle.setLaneChangeMode("tv", 0)
@@ -212,7 +212,7 @@ def run_beside_standing_sv(rule: str, seconds: float = 14.0) -> tuple[float, flo
         road = sim.road()
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
         x_sv = 600.0
-        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, 0.0, L, W, 1)
+        sim.add_controlled("sv", x_sv, road.lane_center(1), 0.0, 0.0, (L, W), 1)
         sim.add_traffic("tv", 0, x_sv - 15.0, 1.0, speed=7.0)
         sim.api.vehicle.setMaxSpeed("tv", 7.0)
         sim.api.vehicle.setLaneChangeMode("tv", 0)

@@ -173,7 +173,7 @@ def test_a_controlled_vehicle_follows_its_track_to_the_route_end(
         frame = road.frame
         start = 20.0
         x, y, h = sim.centre_pose(1, start)
-        sim.add_controlled("sv", x, y, h, 30.0, L, W, 1)
+        sim.add_controlled("sv", x, y, h, 30.0, (L, W), 1)
         sim.step()
         s, speed = start, 30.0
         end = min(road.lane(1).end, road.lane(2).end) - L

@@ -42,7 +42,7 @@ def test_pose_written_is_pose_read_back_to_a_micrometre() -> None:
     with make_sim() as sim:
         road = sim.road()
         x, y, h = 200.0, road.lane_center(1), 0.0
-        sim.add_controlled("sv", x, y, h, 30.0, L, W, 1)
+        sim.add_controlled("sv", x, y, h, 30.0, (L, W), 1)
         api = sim.api
         for k in range(60):
             sim.step()
@@ -65,7 +65,7 @@ def test_lane_index_follows_the_lateral_position() -> None:
     with make_sim() as sim:
         road = sim.road()
         x, y = 300.0, road.lane_center(0)
-        sim.add_controlled("sv", x, y, 0.0, 25.0, L, W, 0)
+        sim.add_controlled("sv", x, y, 0.0, 25.0, (L, W), 0)
         seen = set()
         while y < road.lane_center(2):
             sim.step()
@@ -83,7 +83,7 @@ def test_lane_index_follows_the_lateral_position() -> None:
 def test_scripted_vehicle_shows_its_lateral_speed_and_blinker() -> None:
     """A moved TV (scripted) is seen by the snapshot as it moves: SUMO itself reports 0."""
     with make_sim() as sim:
-        sim.add_vehicle("s1", 100.0, 1.875, 0.0, 25.0, L, W, 0, vtype="scripted")
+        sim.add_controlled("s1", 100.0, 1.875, 0.0, 25.0, (L, W), 0, vtype="scripted")
         sim.set_blinker("s1", 1)
         y = 1.875
         for k in range(1, 21):
@@ -98,13 +98,13 @@ def test_scripted_vehicle_shows_its_lateral_speed_and_blinker() -> None:
             if k == 10:
                 sim.set_blinker("s1", 0)
             y += 0.05
-            sim.move_vehicle("s1", 100.0 + 1.25 * k, y, math.atan2(1.0, 25.0), 25.0)
+            sim.move("s1", 100.0 + 1.25 * k, y, math.atan2(1.0, 25.0), 25.0)
 
 
 def test_leaving_the_network_is_detected() -> None:
     with make_sim() as sim:
         end = sim.lanes.length  # m, s of the road's end (s = x on this network)
-        sim.add_controlled("sv", end - 30.0, 5.625, 0.0, 30.0, L, W, 1)
+        sim.add_controlled("sv", end - 30.0, 5.625, 0.0, 30.0, (L, W), 1)
         sim.step()
         with pytest.raises(SimulationError, match=r"sv left the network at x = 59\d\d\.\d\d m"):
             for k in range(1, 40):
@@ -117,7 +117,7 @@ def test_leaving_the_network_is_detected() -> None:
         assert end - L / 2 <= x_lost < end  # lost as soon as the front bumper passes the end
     # off the side of the road, recorded only when not strict
     with make_sim(strict=False) as sim:
-        sim.add_controlled("sv", 500.0, 5.625, 0.0, 30.0, L, W, 1)
+        sim.add_controlled("sv", 500.0, 5.625, 0.0, 30.0, (L, W), 1)
         sim.step()
         sim.move("sv", 501.5, -8.0, 0.0, 30.0)
         sim.step()
@@ -129,7 +129,7 @@ def _blocked_road(sim: SumoSim) -> None:
     """Three stopped controlled vehicles side by side, a TV coming up behind them."""
     road = sim.road()
     for k in range(3):
-        sim.add_controlled(f"block{k}", 300.0, road.lane_center(k), 0.0, 0.0, L, W, k)
+        sim.add_controlled(f"block{k}", 300.0, road.lane_center(k), 0.0, 0.0, (L, W), k)
     sim.add_traffic("tv", 0, 200.0, 0.5)
     for _ in range(int(3.0 / STEP)):
         for k in range(3):
@@ -155,7 +155,7 @@ def test_forced_overlap_is_reported_by_sumo_with_the_warn_action() -> None:
     with make_sim() as sim:
         road = sim.road()
         sim.add_traffic("tv", 1, 400.0, 0.5)
-        sim.add_controlled("sv", 380.0, road.lane_center(1), 0.0, 27.0, L, W, 1)
+        sim.add_controlled("sv", 380.0, road.lane_center(1), 0.0, 27.0, (L, W), 1)
         sim.step()
         assert sim.collisions() == []
         x_tv, _, _ = sim.reader.pose("tv")
@@ -174,7 +174,7 @@ def test_leader_is_the_next_vehicle_ahead_in_the_lane() -> None:
         road = sim.road()
         sim.add_traffic("ahead", 1, 460.0, 0.5)
         sim.add_traffic("other_lane", 2, 430.0, 0.5)
-        sim.add_controlled("sv", 400.0, road.lane_center(1), 0.0, 27.0, L, W, 1)
+        sim.add_controlled("sv", 400.0, road.lane_center(1), 0.0, 27.0, (L, W), 1)
         sim.step()
         found = sim.reader.leader("sv")
         assert found is not None
@@ -189,7 +189,7 @@ def _run_traffic(seed: int) -> list:
     out = []
     with make_sim(seed) as sim:
         populate(sim, sim.road(), 16.0, seed, 1500.0, exclude_zone=(480.0, 520.0))
-        sim.add_controlled("sv", 500.0, 5.625, 0.0, 28.0, L, W, 1)
+        sim.add_controlled("sv", 500.0, 5.625, 0.0, 28.0, (L, W), 1)
         for k in range(200):
             sim.step()
             sim.move("sv", 500.0 + 28.0 * STEP * (k + 1), 5.625, 0.0, 28.0)
@@ -212,7 +212,7 @@ def test_same_seed_gives_identical_snapshots() -> None:
 def test_close_flushes_a_pending_move() -> None:
     """A moveToXY still pending at close must not reach the next simulation."""
     with make_sim() as sim:
-        sim.add_controlled("sv", 100.0, 5.625, 0.0, 30.0, L, W, 1)
+        sim.add_controlled("sv", 100.0, 5.625, 0.0, 30.0, (L, W), 1)
         sim.step()
         sim.move("sv", 900.0, 5.625, 0.0, 30.0)
     with make_sim() as sim:
@@ -231,7 +231,7 @@ def test_traci_backend_runs_the_same_adapter() -> None:
     """The --gui code path (traci) with the headless binary: same poses as libsumo."""
     with make_sim(traci=True) as sim:
         assert sim.api.__name__ == "traci"
-        sim.add_controlled("sv", 200.0, 5.625, 0.0, 30.0, L, W, 1)
+        sim.add_controlled("sv", 200.0, 5.625, 0.0, 30.0, (L, W), 1)
         sim.add_traffic("tv", 2, 260.0, 0.5)
         for k in range(1, 6):
             sim.step()
@@ -304,7 +304,7 @@ def test_snapshot_near_drops_vehicles_that_arrive_between_refreshes() -> None:
         for i, x in enumerate(np.arange(end - 190.0, end - 20.0, 25.0)):
             sim.add_traffic(f"tv{i}", (0, 2)[i % 2], float(x), 1.0, speed=30.0)
         x_sv = end - 150.0
-        sim.add_controlled("sv", x_sv, 5.625, 0.0, 5.0, L, W, 1)
+        sim.add_controlled("sv", x_sv, 5.625, 0.0, 5.0, (L, W), 1)
         sim.step()
         assert not sim.reader.pending()  # every vehicle is a candidate from the first read on
         sim.snapshot_near("sv", 150.0)
@@ -329,7 +329,7 @@ def test_every_vehicle_type_is_of_the_class_the_lane_check_assumes() -> None:
 
     with make_sim(1) as sim:
         sim.add_traffic("t0", 0, 500.0, 0.5)
-        sim.add_controlled("c0", 700.0, sim.road().lane_center(1), 0.0, 25.0, 4.5, 1.8, 1)
+        sim.add_controlled("c0", 700.0, sim.road().lane_center(1), 0.0, 25.0, (4.5, 1.8), 1)
         sim.add_driven("d0", 2, sim.centre_pose(2, 900.0), 30.0, 30.0, 4.5, 1.8)
         sim.step()
         classes = {vid: sim.api.vehicle.getVehicleClass(vid) for vid in ("t0", "c0", "d0")}
@@ -341,15 +341,15 @@ def test_snapshot_sizes_follow_a_vehicle_added_again_under_its_id() -> None:
     added again under the same id with another size is read with the new one."""
     with make_sim() as sim:
         y = sim.road().lane_center(1)
-        sim.add_controlled("sv", 200.0, y, 0.0, 20.0, L, W, 1)
-        sim.add_controlled("tv", 230.0, y, 0.0, 20.0, 4.0, 1.7, 1, vtype="tv_scripted")
+        sim.add_controlled("sv", 200.0, y, 0.0, 20.0, (L, W), 1)
+        sim.add_controlled("tv", 230.0, y, 0.0, 20.0, (4.0, 1.7), 1, vtype="tv_scripted")
         sim.step()
         for _ in range(2):  # the second read takes the sizes kept from the first
             near = sim.snapshot_near("sv", 100.0)
             i = near.index("tv")
             assert (near.length[i], near.width[i]) == (4.0, 1.7)
         sim.remove("tv")
-        sim.add_controlled("tv", 240.0, y, 0.0, 20.0, 12.0, 2.5, 1, vtype="truck")
+        sim.add_controlled("tv", 240.0, y, 0.0, 20.0, (12.0, 2.5), 1, vtype="truck")
         sim.move("sv", 201.0, y, 0.0, 20.0)
         sim.step()
         near = sim.snapshot_near("sv", 100.0)
