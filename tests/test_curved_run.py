@@ -1,4 +1,4 @@
-"""A run on the shipped curved motorway through real SUMO (issue 23): the SV's body stays
+"""A run on the shipped curved motorway through real SUMO: the SV's body stays
 inside SUMO's own lanes at every step, and the road columns agree with the Cartesian
 ones."""
 

@@ -1,6 +1,6 @@
 """Stop-and-go through real SUMO (libsumo): a TV ahead brakes to a standstill, stands,
-drives off; the SV stops at least 2 m behind it and follows it off (issue 16; before
-the low-speed form every run ended with a non-finite control output at vx -> 0)."""
+drives off; the SV stops at least 2 m behind it and follows it off, its control output
+finite down to vx -> 0."""
 
 from __future__ import annotations
 
@@ -43,16 +43,16 @@ def test_traffic_jam_runs_through_a_queue_that_stops_and_restarts() -> None:
     r = simulate(load_scenario(project_root() / "scenarios" / "traffic_jam.toml"))
     m, vx = r.metrics, r.trace["vx_mps"]
     assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
-    # the queue stands (16 s; with 8 s its SUMO cars were still creeping up, issue 22) and
-    # the SV comes to a full stop in it
+    # the queue stands (16 s: long enough for its SUMO cars to stop creeping up) and the
+    # SV comes to a full stop in it
     assert vx.min() < 0.05
     assert vx.min() > -0.05 and np.all(np.isfinite(vx))
     assert vx[-1] > 15.0  # and it drove off with it
     # it stops at its standstill gap, not inside it: behind a standing leader within s0
-    # the reference speed is held at 0 (CarFollowing.holding; the IDM alone closed to
-    # 1.988 m, issue 22)
+    # the reference speed is held at 0 (CarFollowing.holding; the IDM alone closes in
+    # below 2 m)
     assert r.trace["leader_gap_m"].min() >= 2.0
-    # and no chatter on the way (issue 22: 52 % of samples below 16 m/s jumped > 5 m/s^2)
+    # and no chatter on the way (no step-to-step jump of ax of 2 m/s^2 or more at low speed)
     jumps = np.abs(np.diff(r.trace["ax_mps2"]))
     assert np.all(jumps[vx[1:] < 16.0] < 2.0)
     # no lane change was planned below the planner's minimum speed

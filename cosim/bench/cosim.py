@@ -68,6 +68,7 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
     start to close; with_sv: an SV of the scenario's size at its start, driven by
     SUMO's own models (no co-simulation loop at all)."""
     from cosim.traffic.demand import populate, start_zone
+    from cosim.traffic.process import SumoOptions
     from cosim.traffic.route_lanes import sv_start
     from cosim.traffic.sumo import SumoSim
     from cosim.traffic.world import SV_ID, SV_LENGTH_MARGIN
@@ -75,10 +76,11 @@ def sumo_alone(scenario: Scenario, *, with_sv: bool = False) -> tuple[float, flo
     start, cpu = time.perf_counter(), time.process_time()
     tr = scenario.traffic
     sim = SumoSim(scenario.network, scenario.step, scenario.seed,
-                  lanechange_duration=tr.lanechange_duration, sublane=tr.sublane,
+                  SumoOptions(lanechange_duration=tr.lanechange_duration, sublane=tr.sublane),
                   speed_bands=scenario.road.speed_bands)
     with sim:
-        _, x0 = sv_start(sim.lanes.road, scenario.sv.edge, scenario.sv.lane, scenario.sv.position)
+        _, x0 = sv_start(sim.lanes.route_road, scenario.sv.edge, scenario.sv.lane,
+                         scenario.sv.position)
         margin = SV_LENGTH_MARGIN * scenario.vehicle.length
         if tr.density > 0:
             sv = scenario.sv

@@ -6,16 +6,31 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.axes import Axes
 from numpy.typing import NDArray
 
 from cosim.params import RoadParams
 from cosim.plots import save_figure
 
 Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class TrajectoryMarks:
+    """What `global_trajectories` marks besides the paths."""
+
+    highlight: Sequence[str] = ()  # TVs drawn in colour (e.g. the scenario's scripted TVs)
+    roles: Mapping[str, str] = field(default_factory=dict)  # their roles, in the labels
+    # s, (start, end) of the SV's lane changes (a plan's start and its t0 + tau)
+    lane_changes: Sequence[tuple[float, float]] = ()
+    # s, when a lane change was asked for (it may start later, after retries or while
+    # the SV seeks a gap)
+    requests: Sequence[float] = ()
 
 
 def global_trajectories(
@@ -25,23 +40,16 @@ def global_trajectories(
     sv_y: Array,
     tv_tracks: Mapping[str, tuple[Array, Array, Array]],
     road: RoadParams,
-    *,
-    highlight: Sequence[str] = (),
-    lane_changes: Sequence[tuple[float, float]] = (),
-    requests: Sequence[float] = (),
-    roles: Mapping[str, str] | None = None,
+    marks: TrajectoryMarks | None = None,
     title: str = "",
 ) -> Path:
-    """Write a figure of x-y paths: the SV in colour, TVs in grey (those named in
-    `highlight`, e.g. the scenario's scripted TVs, in colour, labelled "TV <id>" with
-    their role from `roles`), dots every 1 s.
+    """Write a figure of x-y paths: the SV in colour, TVs in grey (those `marks`
+    highlights in colour, labelled "TV <id>" with their role), dots every 1 s; the lane
+    changes' starts and planned ends and the requests marked on the SV's path.
 
     tv_tracks: id -> (t, x, y) arrays while the TV was near the SV.
-    lane_changes: (start, end) simulation times of the SV's lane changes (a plan's
-    start and its t0 + tau); requests: when a lane change was asked for (it may start
-    later, after retries or while the SV seeks a gap).
     """
-    roles = roles or {}
+    marks = marks if marks is not None else TrajectoryMarks()
     fig, ax = plt.subplots(figsize=(11, 3.6))
     x_lo = float(np.nanmin(sv_x))
     x_hi = float(np.nanmax(sv_x))
@@ -49,46 +57,12 @@ def global_trajectories(
         if xx.size:
             x_lo, x_hi = min(x_lo, float(np.nanmin(xx))), max(x_hi, float(np.nanmax(xx)))
     pad = 0.02 * (x_hi - x_lo + 1.0)
-    for k in range(road.n_lanes + 1):
-        y_line = road.y_right + k * road.lane_width
-        style = "-" if k in (0, road.n_lanes) else "--"
-        ax.axhline(y_line, color="0.5", lw=0.8, ls=style, zorder=0)
-    for k in range(road.n_lanes):
-        ax.text(x_lo - 0.8 * pad, road.lane_center(k) + 0.3 * road.lane_width, f"lane {k}",
-                fontsize=7, va="center", ha="left", color="0.4")
-        end = road.lane_end(k)  # a lane that ends (issue 24): a bar across it there
-        if math.isfinite(end):
-            y_lo = road.y_right + k * road.lane_width
-            ax.plot([end, end], [y_lo, y_lo + road.lane_width], color="k", lw=3.0,
-                    solid_capstyle="butt", zorder=1)
-            ax.text(end, y_lo + 0.5 * road.lane_width, f" lane {k} ends", fontsize=7,
-                    va="center", ha="left", color="0.2")
-            x_hi = max(x_hi, end) if end < x_hi + 500.0 else x_hi
-    colour = 1
-    for tid, (tt, xx, yy) in sorted(tv_tracks.items()):
-        if tid in highlight:
-            c = f"C{colour}"
-            colour += 1
-            role = roles.get(tid, "")
-            ax.plot(xx, yy, color=c, lw=1.5, label=f"TV {tid}" + (f" ({role})" if role else ""))
-            every = _every_second(tt)
-            ax.plot(xx[every], yy[every], "o", color=c, ms=2.5)
-        else:
-            ax.plot(xx, yy, color="0.65", lw=0.7)
+    x_hi = _draw_lanes(ax, road, x_lo - 0.8 * pad, x_hi)
+    _draw_tvs(ax, tv_tracks, marks)
     ax.plot(sv_x, sv_y, color="C0", lw=2.0, label="SV")
     every = _every_second(t)
     ax.plot(sv_x[every], sv_y[every], "o", color="C0", ms=3)
-    marks = [(when, "x", "lane-change request") for when in requests]
-    for start, end in lane_changes:
-        marks += [(start, ">", "lane change starts (plan adopted)"),
-                  (end, "|", "planned end (start + tau)")]
-    shown: set[str] = set()
-    for when, marker, label in marks:
-        i = int(np.searchsorted(t, when - 1e-9))
-        if 0 <= i < t.size:
-            ax.plot(sv_x[i], sv_y[i], marker, color="k", ms=8,
-                    label=None if label in shown else label)
-            shown.add(label)
+    _draw_marks(ax, t, sv_x, sv_y, marks)
     ax.set_xlim(x_lo - pad, x_hi + pad)
     ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
     ax.set_xlabel("global x (m)")
@@ -97,6 +71,60 @@ def global_trajectories(
     ax.legend(loc="upper right", fontsize=8, ncol=4)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def _draw_lanes(ax: Axes, road: RoadParams, x_label: float, x_hi: float) -> float:
+    """The lane lines, each lane's name at `x_label`, a bar across a lane where it ends;
+    returns the right end of the view (`x_hi`, or a lane's end shortly past it)."""
+    for k in range(road.n_lanes + 1):
+        y_line = road.y_right + k * road.lane_width
+        style = "-" if k in (0, road.n_lanes) else "--"
+        ax.axhline(y_line, color="0.5", lw=0.8, ls=style, zorder=0)
+    for k in range(road.n_lanes):
+        ax.text(x_label, road.lane_center(k) + 0.3 * road.lane_width, f"lane {k}",
+                fontsize=7, va="center", ha="left", color="0.4")
+        end = road.lane_end(k)
+        if math.isfinite(end):
+            y_lo = road.y_right + k * road.lane_width
+            ax.plot([end, end], [y_lo, y_lo + road.lane_width], color="k", lw=3.0,
+                    solid_capstyle="butt", zorder=1)
+            ax.text(end, y_lo + 0.5 * road.lane_width, f" lane {k} ends", fontsize=7,
+                    va="center", ha="left", color="0.2")
+            x_hi = max(x_hi, end) if end < x_hi + 500.0 else x_hi
+    return x_hi
+
+
+def _draw_tvs(ax: Axes, tv_tracks: Mapping[str, tuple[Array, Array, Array]],
+              marks: TrajectoryMarks) -> None:
+    """The TVs' paths: grey, the highlighted ones in colour with dots every 1 s."""
+    colour = 1
+    for tid, (tt, xx, yy) in sorted(tv_tracks.items()):
+        if tid in marks.highlight:
+            c = f"C{colour}"
+            colour += 1
+            role = marks.roles.get(tid, "")
+            ax.plot(xx, yy, color=c, lw=1.5, label=f"TV {tid}" + (f" ({role})" if role else ""))
+            every = _every_second(tt)
+            ax.plot(xx[every], yy[every], "o", color=c, ms=2.5)
+        else:
+            ax.plot(xx, yy, color="0.65", lw=0.7)
+
+
+def _draw_marks(ax: Axes, t: Array, sv_x: Array, sv_y: Array, marks: TrajectoryMarks
+                ) -> None:
+    """The requests, lane-change starts and planned ends on the SV's path (each label
+    once in the legend)."""
+    shown: set[str] = set()
+    points = [(when, "x", "lane-change request") for when in marks.requests]
+    for start, end in marks.lane_changes:
+        points += [(start, ">", "lane change starts (plan adopted)"),
+                   (end, "|", "planned end (start + tau)")]
+    for when, marker, label in points:
+        i = int(np.searchsorted(t, when - 1e-9))
+        if 0 <= i < t.size:
+            ax.plot(sv_x[i], sv_y[i], marker, color="k", ms=8,
+                    label=None if label in shown else label)
+            shown.add(label)
 
 
 def gap_history(

@@ -125,7 +125,7 @@ class PlannedEgo:
         r = self.record = self.loop.advance(t, dt, self.substeps, reference)
         self.records.append(r)
         self.wall += time.perf_counter() - w0
-        self.world.move_xy(SV_ID, r.x, r.y, r.heading, r.vx, r.ax, road=self.loop.road_pose)
+        self.world.move_xy(SV_ID, r.x, r.y, r.heading, r.vx, r.ax, road_pose=self.loop.road_pose)
 
     def finish_trace(self, trace: dict[str, Array]) -> None:
         """Nothing to add: every column came from the closed loop."""

@@ -175,7 +175,7 @@ def iae_row(t: ArrayLike, trace: dict[str, Array], t0: float, t1: float) -> dict
 
 
 SETTLE_TOL = 0.1  # m, |y - target lane centre| below which a lane change counts as done
-FOLLOWER_PERCENTILE = 95  # the statistic of it issue 16 compares with SUMO's driver (batch)
+FOLLOWER_PERCENTILE = 95  # the percentile of the follower's braking the studies compare
 FOLLOWER_WINDOW = 3.0  # s, after the change settles, the new follower is still watched
 
 
@@ -197,11 +197,11 @@ def follower_max_decel(t: ArrayLike, speed: ArrayLike, start: float, settled: fl
     simulation). NaN: no follower (start NaN) or fewer than two known samples.
     An unsettled change (settled NaN) is watched to the end of the record.
 
-    `start` is the start of the change, for our drivers and SUMO's alike (issue 22):
-    SUMO's own driver is in the target lane for its followers from the moment its
-    change begins and its new follower brakes then, 1.5 s before the SV's centre
-    crosses the line; a window from the crossing missed that braking (up to 5.3 m/s^2,
-    read as 0.2-0.6), while our SV is seen only from the crossing on, inside both."""
+    `start` is the start of the change, for our drivers and SUMO's alike: SUMO's own
+    driver is in the target lane for its followers from the moment its change begins,
+    and its new follower brakes then, before the SV's centre crosses the line (a window
+    from the crossing would miss that braking); our SV is seen only from the crossing
+    on, inside the window either way."""
     if math.isnan(start):
         return math.nan
     tt = np.asarray(t, dtype=float)
@@ -216,8 +216,8 @@ def follower_max_decel(t: ArrayLike, speed: ArrayLike, start: float, settled: fl
 
 
 # ----------------------------------------------------------------------------- comfort
-# Riding comfort of the SV, for our drivers and SUMO's alike (issue 22): what the
-# paper's method exists for. Longitudinal acceleration and jerk over the run; around
+# Riding comfort of the SV, for our drivers and SUMO's alike: what the paper's method
+# exists for. Longitudinal acceleration and jerk over the run; around
 # each lane change: the time gap to the new leader as the SV enters the target lane,
 # the SV's hardest braking from then until POST_CHANGE_WINDOW after the change settles,
 # and how long after the request the SV got there.
@@ -291,7 +291,7 @@ def request_to_lane(t: ArrayLike, lane: ArrayLike, request: float, target_lane: 
 
 
 # --------------------------------------------------------------------------- outcomes
-# Which collision check saw what, and lane changes the run's end cut short (issue 26).
+# Which collision check saw what, and lane changes the run's end cut short.
 # Our exact overlap check is the referee; SUMO's getCollisions() is a cross-check that
 # sees only vehicles on the same lane index and, for the SV moved by moveToXY, counts
 # a gap below zero along its lane (docs/run_results.md, "Two collision checks").
@@ -359,8 +359,8 @@ def outcome_columns(collisions: int, sumo_collisions: int, end: LaneChangeEnd,
 
 
 # ----------------------------------------------------------------------------- merges
-# A lane that ends (an acceleration lane, a dropped lane: RoadParams.lane_ends, issue 24)
-# forces a lane change before its end. Read from the trace alone, for our drivers and
+# A lane that ends (an acceleration lane, a dropped lane: RoadParams.lane_ends) forces a
+# lane change before its end. Read from the trace alone, for our drivers and
 # SUMO's alike: did the SV's centre leave the lane it started in before that lane's end,
 # how far from the end, and how long it stood still.
 MERGE_COLUMNS = ("merge_success", "merge_distance_to_end_m", "stopped_time_s",

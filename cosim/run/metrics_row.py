@@ -92,8 +92,8 @@ METRIC_DOCS: dict[str, str] = {
     "rms_long_accel_mps2": "RMS of the SV's longitudinal acceleration ax over the run (m/s^2)",
     "rms_long_jerk_mps3": "RMS of its jerk d(ax)/dt between steps (m/s^3)",
     "max_long_jerk_mps3": "largest |d(ax)/dt| between steps (m/s^3)",
-    "long_accel_jump_share": "share of steps whose ax changes by more than 5 m/s^2 (-; the "
-    "chatter measure of issue 22)",
+    "long_accel_jump_share": "share of steps whose ax changes by more than 5 m/s^2 (-; a "
+    "measure of chatter)",
     "merge_time_gap_s": "time gap to the new leader when the SV's centre enters the target "
     "lane: bumper-to-bumper gap / SV speed, smallest over the lane changes (s; inf: no leader "
     "within 150 m; NaN: no lane change entered)",
@@ -104,7 +104,7 @@ METRIC_DOCS: dict[str, str] = {
     "drivers; else our driver's first decision-rule planner call) until the SV's centre is "
     "in the requested lane (s; NaN: no request, or never got there)",
     **mx.OUTCOME_DOCS,  # which check saw a collision; lane changes the end cut short
-    **mx.MERGE_DOCS,  # a start lane that ends (issue 24): the merge out of it
+    **mx.MERGE_DOCS,  # a start lane that ends: the merge out of it
     "lane_end_reached": "1 if the run stopped because our SV's front reached the end of "
     "the lane it was in (an acceleration lane, a dropped lane: SUMO would drop a vehicle "
     "moved past it; duration_s and steps are then up to it), else 0 (SUMO's own driver "
@@ -326,9 +326,8 @@ class MetricsRow:
         start = mx.merge_start(t, trace["d_m"], cross, self.road.lane_center(start_lane))
         centre = self.road.lane_center(target)
         # settling is looked for until the SV leaves the target lane's centre again (a
-        # next change begins, an aborted one too): to the run's end, its follower was
-        # watched through later manoeuvres (6.8 m/s^2 for another vehicle 22 s later;
-        # 2.96 through an aborted change 10 s later)
+        # next change begins, an aborted one too): watched to the run's end, the merge's
+        # follower would be charged with braking in later manoeuvres
         t_end = mx.merge_end(t, trace["d_m"], lane, cross, centre)
         durations = mx.lane_change_durations(t, trace["d_m"], [start], [centre], [t_end],
                                              SETTLE_TOL)

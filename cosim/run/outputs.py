@@ -90,7 +90,7 @@ def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> l
     from functools import partial
 
     from cosim import plots
-    from cosim.plots.run import gap_history, global_trajectories
+    from cosim.plots.run import TrajectoryMarks, gap_history, global_trajectories
 
     figure_path = partial(plots.figure_path, fmt=fmt)
 
@@ -102,11 +102,12 @@ def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> l
     paths = [
         # in road coordinates (s, d) as the planner sees them: x, y on the straight road
         global_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["s_m"], tr["d_m"],
-                            result.tv_tracks, result.road,
-                            highlight=[tv.id for tv in sc.tvs], lane_changes=spans,
-                            requests=[float(p["t_s"]) for p in result.plans
-                                      if p.get("trigger") in ("scripted", "decision")],
-                            roles={tv.id: tv_role(tv) for tv in sc.tvs},
+                            result.tv_tracks, result.road, TrajectoryMarks(
+                                highlight=[tv.id for tv in sc.tvs],
+                                roles={tv.id: tv_role(tv) for tv in sc.tvs},
+                                lane_changes=spans,
+                                requests=[float(p["t_s"]) for p in result.plans
+                                          if p.get("trigger") in ("scripted", "decision")]),
                             title=f"{sc.name}: {view} (dots every 1 s)"),
         gap_history(figure_path(out, "gaps"), tr["t_s"], tr["gap_min_m"], tr["leader_gap_m"],
                     tr["ttc_min_s"], lane_changes=spans,

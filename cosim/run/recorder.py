@@ -209,7 +209,7 @@ class Recorder:
             return
         row[C["s_m"]] = sv.x  # the scene is in road coordinates (road_view)
         row[C["d_m"]] = sv.y
-        lane = int(sv.sumo_lane)
+        lane = sv.sumo_lane
         row[C["track"]] = rr.track_ids.get(f"{edge}_{lane}", -1) if edge and lane >= 0 else -1
 
     def trace(self, last_row: int) -> dict[str, Array]:

@@ -37,8 +37,8 @@ from cosim.traffic.route_lanes import (
     RouteLanes,
     check_lanes,
     lane_width,
+    load_route_road,
     road_params,
-    route_road,
     sv_start,
     sv_tracks,
     through_tracks,
@@ -272,7 +272,7 @@ def scenario_from_dict(
                          route=rd["route"])
     # the planner's road in (s, d) from the route's road (cosim.traffic.route_lanes.road_params;
     # on the one straight edge of networks/highway.net.xml the straight road's RoadParams)
-    road_of_route = route_road(network, rd["route"], source=src)
+    road_of_route = load_route_road(network, rd["route"], source=src)
     traffic = _traffic(src, tables["traffic"], base_dir)
     demand = _own_demand(src, traffic, tables["traffic"]["routes"], rd["sumocfg"], config,
                          network, [tv.id for tv in tvs], sc["step"])

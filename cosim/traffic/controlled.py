@@ -83,7 +83,7 @@ class ControlledVehicles:
         sim = self.sim
         api = sim.api
         lanes = sim.lanes
-        s, _ = lanes.road.frame.to_frenet(x, y)
+        s, _ = lanes.route_road.frame.to_frenet(x, y)
         place = lanes.place(track, s + 0.5 * length)
         front = place.position
         if place.route_index == 0:  # its whole body on the route
@@ -109,12 +109,12 @@ class ControlledVehicles:
         y: float,
         heading: float,
         speed: float,
-        accel: float | None = None, road: tuple[float, float, float] | None = None,
+        accel: float | None = None, road_pose: tuple[float, float, float] | None = None,
     ) -> None:
         """Write a controlled vehicle's centre pose (takes effect in the next step).
 
         Also sets its speed (and acceleration), so the TVs that react to it in
-        the next step see the plant's speed, not last step's displacement. `road`: the
+        the next step see the plant's speed, not last step's displacement. `road_pose`: the
         same pose's (s, d, heading to the road), when the caller has it (its lateral
         speed is dd/dt, and the front's place along the road for the hint needs no
         search); else it is found from the Cartesian pose.
@@ -124,12 +124,12 @@ class ControlledVehicles:
             raise SimulationError(self.sim.time, f"{vehicle_id} is not a controlled vehicle")
         xf, yf = front_from_centre(x, y, heading, ctl.length)
         lanes = self.sim.lanes
-        if road is not None:
-            s_c, d_c, rel = road
+        if road_pose is not None:
+            s_c, d_c, rel = road_pose
             half = 0.5 * ctl.length
             s_f, d_f = s_c + half * math.cos(rel), d_c + half * math.sin(rel)
         else:
-            s_f, d_f = lanes.road.frame.to_frenet(xf, yf, s_hint=ctl.s_front)
+            s_f, d_f = lanes.route_road.frame.to_frenet(xf, yf, s_hint=ctl.s_front)
             d_c = y if lanes.straight else d_f  # (the front's d: near enough for dd/dt)
         if math.isfinite(s_f):  # NaN: no arc's normals reach it; keep the last hint
             ctl.s_front, ctl.hint = s_f, lanes.hint(s_f, d_f)

@@ -35,6 +35,7 @@ import numpy as np
 
 from cosim.errors import InputError
 from cosim.params import G, RoadParams
+from cosim.traffic.process import SumoOptions
 from cosim.traffic.sumo import TV_LENGTH, TV_TYPE, TV_WIDTH, SumoSim
 
 QUANTILE_RANGE = (0.1, 0.95)  # -, desired speeds stay off the band's edges (drivers dawdle)
@@ -42,14 +43,16 @@ SPACING_JITTER = 0.25  # -, spacing varies by +-25 % of 1000/density
 START_HEADWAY = 2.0  # s, free road ahead of the SV at t = 0 per m/s of its speed
 TV_MIN_GAP = 2.5  # m, SUMO's default minGap of the TV type (front to rear, standstill)
 TV_HEADWAY = 1.0  # s, SUMO's default tau of the TV type (Krauss safe headway)
-# The SV's start speed behind random traffic (`safe_start_speed`, issue 22)
+# The SV's start speed behind random traffic (`safe_start_speed`)
 START_DECEL = 4.5  # m/s^2, SUMO's `decel` of its passenger car, what its departSpeed rules use
 START_GRIP = 0.7  # -, share of mu g the SV's car-following may brake with (policy FOLLOW_GRIP)
-START_REACTION = 0.5  # s, the SV's car-following ramps its braking up (15 m/s^3) first
-UPSTREAM_LENGTH = 400.0  # m, on a route whose first edge the mainline feeds from an edge
-# before it, the random traffic also fills this much of that edge and enters there: beyond
-# the SV's sight (world.NEAR_RANGE 150 m, V2V up to 300 m), so a TV never appears beside
-# an SV that starts near the route's start (issue 24's acceleration lane, 20 m in)
+# s, the SV's car-following ramps its braking up (15 m/s^3) first
+START_REACTION = 0.5  # tuned: docs/tuned_constants.md
+# m, on a route whose first edge the mainline feeds from an edge before it, the random
+# traffic also fills this much of that edge and enters there: beyond the SV's sight
+# (world.NEAR_RANGE 150 m, V2V up to 300 m), so a TV never appears beside an SV that
+# starts near the route's start (an SV on an acceleration lane)
+UPSTREAM_LENGTH = 400.0  # tuned: docs/tuned_constants.md
 RANDOM_ID_PREFIX = "tv"  # random traffic is tv1, tv2, ... (scenario TV ids may not be)
 RANDOM_ID = re.compile(rf"{RANDOM_ID_PREFIX}\d+")
 
@@ -144,10 +147,9 @@ def safe_start_speed(speed: float, gap: float, leader_speed: float, mu: float) -
     follower braking alike) with b = min(START_DECEL, START_GRIP mu g), the braking the
     SV's car-following may use on this road, and tau = START_REACTION.
 
-    Beyond the paper (issue 22): at 65 veh/km/lane SUMO inserts the queue ahead at
-    ~8.5 m/s; the SV at 100 km/h 62 m behind it needs ~3.1 m/s^2 even if the queue held
-    its speed, more than the 2.75 m/s^2 its car-following may use on mu 0.4, and every
-    such run ended in an SV-caused rear-end collision at 4.8 s."""
+    Beyond the paper: in dense traffic SUMO inserts the queue ahead slow, and an SV
+    inserted at its scenario speed behind it could need more braking than its
+    car-following may use on a wet road (docs/tuned_constants.md)."""
     b = min(START_DECEL, START_GRIP * mu * G)
     room = max(gap - TV_MIN_GAP, 0.0) + leader_speed**2 / (2.0 * b)
     bt = b * START_REACTION
@@ -241,25 +243,29 @@ class LaneSpeeds:
         )
 
 
-def sample_lane_speeds(
-    network: Path,
-    density: float,
-    seed: int,
-    duration: float,
-    *,
-    step: float = 0.05,
-    lanechange_duration: float = 3.0,
-    length: float = 2000.0,
-    window: tuple[float, float] = (300.0, 2500.0),
-    every: int = 10,
-) -> LaneSpeeds:
-    """Run traffic alone for `duration` s and sample TV speeds per lane inside `window` (m)."""
+@dataclass(frozen=True)
+class SpeedSampling:
+    """How `sample_lane_speeds` runs the traffic and samples it."""
+
+    step: float = 0.05  # s, SUMO's step
+    lanechange_duration: float = 3.0  # s, the traffic's lane changes take this long
+    length: float = 2000.0  # m, stretch of road filled at t = 0
+    window: tuple[float, float] = (300.0, 2500.0)  # m, the x range sampled
+    every: int = 10  # -, one sample every this many steps
+
+
+def sample_lane_speeds(network: Path, density: float, seed: int, duration: float,
+                       sampling: SpeedSampling = SpeedSampling()) -> LaneSpeeds:
+    """Run traffic alone for `duration` s at `density` veh/km/lane and sample TV speeds per
+    lane inside `sampling.window` (m)."""
+    step, window, every = sampling.step, sampling.window, sampling.every
     speeds: list[list[float]] = []
     changes = 0
-    with SumoSim(network, step, seed, lanechange_duration=lanechange_duration) as sim:
+    options = SumoOptions(lanechange_duration=sampling.lanechange_duration)
+    with SumoSim(network, step, seed, options) as sim:
         road = sim.road()
         speeds = [[] for _ in range(road.n_lanes)]
-        populate(sim, road, density, seed, length)
+        populate(sim, road, density, seed, sampling.length)
         lanes: dict[str, int] = {}
         for k in range(int(round(duration / step))):
             sim.step()
@@ -300,15 +306,15 @@ def ramps(sim: SumoSim) -> tuple[Ramp, ...]:
     """The route's on-ramps (`Ramp`): for every track that begins on a route edge and does
     not run through (every lane of the route's first edge that ends, every lane that
     begins later), the edges off the route connected into its first lane."""
-    road = sim.lanes.road
+    route_road = sim.lanes.route_road
     through = {t.id for t in sim.lanes.through}
-    on_route = set(road.route.edges)
+    on_route = set(route_road.route.edges)
     found: list[Ramp] = []
-    for table in road.lanes:
+    for table in route_road.lanes:
         first = table.track.pieces[0]
         if table.id in through or first.internal:
             continue
-        lane = road.route.net.getLane(first.lane)
+        lane = route_road.route.net.getLane(first.lane)
         for conn in sorted(lane.getIncoming(), key=lambda ln: ln.getID()):
             edge = conn.getEdge()
             if edge.getID() in on_route or edge.getFunction() == "internal":
@@ -343,7 +349,8 @@ class RampFlow:
             api = sim.api
             rid = f"ramp_{ramp.edge}@{ramp.route_index}"
             if rid not in sim.lanes.extra_routes:
-                api.route.add(rid, [ramp.edge, *sim.lanes.road.route.edges[ramp.route_index:]])
+                edges = sim.lanes.route_road.route.edges[ramp.route_index:]
+                api.route.add(rid, [ramp.edge, *edges])
                 sim.lanes.extra_routes.add(rid)
             vid = self.traffic.new_id()
             lo, hi = QUANTILE_RANGE

@@ -1,4 +1,4 @@
-"""The user's own SUMO demand (issue 24): route, flow and vType files used as they are
+"""The user's own SUMO demand: route, flow and vType files used as they are
 (`[traffic] routes`) or a `.sumocfg`'s input files (`[road] sumocfg`), read and checked
 before SUMO starts.
 
@@ -173,20 +173,29 @@ class _Seen:
     refs: list[tuple[str, str, str, str]]  # (file key, what refers, "route"/"type", id)
 
 
+@dataclass(frozen=True)
+class _Rules:
+    """What every demand file is checked against."""
+
+    source: str  # the scenario (InputError's source)
+    net_edges: set[str]  # the network's edge ids
+    net_name: str  # the network's file name
+    reserved: set[str]  # vehicle ids cosim uses (the SV, the scripted TVs)
+
+
 def check_demand(source: str, files: Sequence[tuple[str, str, Path]], net_edges: set[str],
                  net_name: str, scripted: Iterable[str]) -> None:
     """Read every demand file (`(key, written value, path)`, keys like
     `traffic.routes[0]`) and raise InputError on the first fault (module docstring)."""
     seen = _Seen(types=set(SUMO_TYPES), routes=set(), vehicles={}, refs=[])
-    reserved = set(COSIM_VEHICLES) | set(scripted)
+    rules = _Rules(source, net_edges, net_name, set(COSIM_VEHICLES) | set(scripted))
     for key, written, path in files:
         root = _parse(source, key, written, path, "SUMO route file")
         if root.tag not in ROOTS:
             raise InputError(source, key, written,
                              f"a SUMO route or additional file (<routes> or <additional> "
                              f"root; {path.name} has <{root.tag}>)")
-        _read_file(source, key, written, path.name, root, seen, net_edges, net_name,
-                   reserved)
+        _read_file(rules, key, path.name, written, root, seen)
     for key, who, kind, ref in seen.refs:
         known = seen.routes if kind == "route" else seen.types
         if ref not in known:
@@ -196,8 +205,13 @@ def check_demand(source: str, files: Sequence[tuple[str, str, Path]], net_edges:
                                                " or one of SUMO's DEFAULT_* types"))
 
 
-def _read_file(source: str, key: str, written: str, name: str, root: ET.Element,
-               seen: _Seen, net_edges: set[str], net_name: str, reserved: set[str]) -> None:
+def _read_file(rules: _Rules, key: str, name: str, written: str, root: ET.Element,
+               seen: _Seen) -> None:
+    """One demand file's definitions and references into `seen` (file `name`, given as
+    `written` under `key`); InputError on a fault (module docstring)."""
+    source, net_edges, net_name, reserved = (rules.source, rules.net_edges, rules.net_name,
+                                             rules.reserved)
+
     def clash(what: str, ident: str, allowed: str) -> InputError:
         return InputError(source, key, f"{name}: {what} id={ident!r}", allowed)
 

@@ -15,7 +15,6 @@ One libsumo simulation per process: a second start silently replaces the first, 
 from __future__ import annotations
 
 import tempfile
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -156,18 +155,32 @@ class SumoProcess:
         return [line for line in self._read_log().splitlines() if line.strip()]
 
 
-def process(network: Path, step: float, seed: int, *, lanechange_duration: float,
-            sublane: bool, gui: bool | GuiSettings, extra_args: Sequence[str],
-            lateral_resolution: float, traci: bool, fcd_output: Path | None,
-            route_files: Sequence[Path] = (), additional_files: Sequence[Path] = ()
-            ) -> SumoProcess:
-    """The process settings of a SumoSim (`gui` True: sumo-gui's default settings)."""
-    settings = (gui if isinstance(gui, GuiSettings) else GuiSettings()) if gui else None
+@dataclass(frozen=True)
+class SumoOptions:
+    """How SUMO runs one simulation, beside its network, step and seed."""
+
+    lanechange_duration: float = 3.0  # s, traffic lane changes take this long (0: instant)
+    sublane: bool = False  # SUMO's sublane model instead (--lateral-resolution, slower)
+    lateral_resolution: float = 0.8  # m, the sublane model's
+    gui: bool | GuiSettings = False  # sumo-gui through traci (True: its default settings)
+    traci: bool = False  # the headless binary through traci instead of libsumo
+    extra_args: tuple[str, ...] = ()  # SUMO options; they replace cosim's of the same name
+    fcd_output: Path | None = None  # the file SUMO writes its floating-car data to
+    # the user's own demand (cosim.traffic.own_demand, checked before), loaded with
+    # cosim's vehicles
+    route_files: tuple[Path, ...] = ()  # --route-files
+    additional_files: tuple[Path, ...] = ()  # --additional-files
+
+
+def process(network: Path, step: float, seed: int, options: SumoOptions) -> SumoProcess:
+    """The process settings of a SumoSim."""
+    o = options
+    settings = (o.gui if isinstance(o.gui, GuiSettings) else GuiSettings()) if o.gui else None
     return SumoProcess(
         network=Path(network), step_length=float(step), seed=int(seed),
-        lanechange_duration=float(lanechange_duration), sublane=bool(sublane),
-        gui=settings, use_traci=bool(traci) or settings is not None,
-        extra_args=tuple(extra_args), lateral_resolution=float(lateral_resolution),
-        fcd_output=None if fcd_output is None else Path(fcd_output),
-        route_files=tuple(map(Path, route_files)),
-        additional_files=tuple(map(Path, additional_files)))
+        lanechange_duration=float(o.lanechange_duration), sublane=bool(o.sublane),
+        gui=settings, use_traci=bool(o.traci) or settings is not None,
+        extra_args=tuple(o.extra_args), lateral_resolution=float(o.lateral_resolution),
+        fcd_output=None if o.fcd_output is None else Path(o.fcd_output),
+        route_files=tuple(map(Path, o.route_files)),
+        additional_files=tuple(map(Path, o.additional_files)))

@@ -7,7 +7,7 @@ A *through track* runs the whole route, from its first edge to its last. The SV'
 ("lane k" in scenarios, the policy and RoadParams) are the tracks present on the
 route's first edge, k their track id (SUMO's lane index there): each runs through or
 ends on the route (an acceleration lane on the right, a lane dropped on the left or
-right; issue 24), and RoadParams.lane_ends says where. On
+right), and RoadParams.lane_ends says where. On
 networks/curved_motorway.net.xml they are tracks 0, 1, 2 (all through); on
 networks/onramp.net.xml along `acc main1 main2` tracks 0-3, track 0 the acceleration
 lane that ends after 194.5 m. Tracks that begin later (a lane added along the route)
@@ -57,8 +57,8 @@ class Place:
     route_index: int  # the edge's position in the route
 
 
-def route_road(network: Path | str, route: Sequence[str] | None = None,
-               source: str | None = None) -> Road:
+def load_route_road(network: Path | str, route: Sequence[str] | None = None,
+                    source: str | None = None) -> Road:
     """The Road of `route` on `network` (cosim.road.road.load_road), built once per
     process for a file as it is (cached on its path, modification time and size); an
     InputError names `source` (e.g. the scenario) if given."""
@@ -68,8 +68,8 @@ def route_road(network: Path | str, route: Sequence[str] | None = None,
     except (OSError, ValueError):  # load_road says what is wrong with it, in one line
         return load_road(network, route, source=source)
     try:
-        return _road(str(path.resolve()), st.st_mtime_ns, st.st_size,
-                     None if route is None else tuple(route))
+        return _cached_route_road(str(path.resolve()), st.st_mtime_ns, st.st_size,
+                                  None if route is None else tuple(route))
     except InputError:
         if source is None:
             raise
@@ -77,29 +77,30 @@ def route_road(network: Path | str, route: Sequence[str] | None = None,
 
 
 @functools.lru_cache(maxsize=8)
-def _road(path: str, mtime_ns: int, size: int, route: tuple[str, ...] | None) -> Road:
+def _cached_route_road(path: str, mtime_ns: int, size: int,
+                       route: tuple[str, ...] | None) -> Road:
     del mtime_ns, size  # part of the cache key only
     return load_road(path, route)
 
 
-def through_tracks(road: Road) -> tuple[LaneTable, ...]:
+def through_tracks(route_road: Road) -> tuple[LaneTable, ...]:
     """The tracks that run from the route's first edge to its last, in track id order."""
-    last = len(road.route.edges) - 1
-    return tuple(t for t in sv_tracks(road) if t.track.last_edge == last)
+    last = len(route_road.route.edges) - 1
+    return tuple(t for t in sv_tracks(route_road) if t.track.last_edge == last)
 
 
-def sv_tracks(road: Road) -> tuple[LaneTable, ...]:
+def sv_tracks(route_road: Road) -> tuple[LaneTable, ...]:
     """The SV's lanes: the tracks present on the route's first edge (running through or
     ending on the route), in track id order (SUMO's lane index on that edge)."""
-    return tuple(t for t in road.lanes
+    return tuple(t for t in route_road.lanes
                  if t.track.first_edge == 0 and not t.track.pieces[0].internal)
 
 
-def _feeding(road: Road, tracks: Sequence[LaneTable]) -> Iterator[tuple[LaneTable, Any]]:
+def _feeding(route_road: Road, tracks: Sequence[LaneTable]) -> Iterator[tuple[LaneTable, Any]]:
     """(track, sumolib connection) of each connection SUMO makes into the first lane of
     each of `tracks` from the edges before the route's first edge, in SUMO's order (none
     on a route that starts where the network does)."""
-    first = road.route.edge(0)
+    first = route_road.route.edge(0)
     for table in tracks:
         lane = table.track.pieces[0].lane
         for edge in first.getIncoming():
@@ -108,12 +109,12 @@ def _feeding(road: Road, tracks: Sequence[LaneTable]) -> Iterator[tuple[LaneTabl
                     yield table, conn
 
 
-def upstream_lanes(road: Road, tracks: Sequence[LaneTable]) -> dict[str, int]:
+def upstream_lanes(route_road: Road, tracks: Sequence[LaneTable]) -> dict[str, int]:
     """SUMO lane id -> track id of the lanes (and their junction lanes) that SUMO
     connects into the first lane of each of `tracks` from the edges before the route's
     first edge (`_feeding`)."""
     feeds: dict[str, int] = {}
-    for table, conn in _feeding(road, tracks):
+    for table, conn in _feeding(route_road, tracks):
         feeds.setdefault(conn.getFromLane().getID(), table.id)
         via = conn.getViaLaneID()
         if via:
@@ -126,19 +127,19 @@ class Upstream:
     """The lane before the route's first edge that feeds a through track's first lane
     (the mainline's upstream edge): where the random traffic enters the road, so that it
     comes up from behind the SV's horizon instead of appearing beside the route's start
-    (issue 24: an SV starting 20 m into an acceleration lane planned its merge with nobody
-    behind it, and inflow inserted at s = 0 appeared 18 m behind it at 23 m/s)."""
+    (where an SV starting on an acceleration lane would plan its merge with nobody behind
+    it, and see the inflow appear close behind it)."""
 
     edge: str  # SUMO edge id
     index: int  # SUMO lane index on it
     length: float  # m, SUMO's length of the lane
 
 
-def upstream_entries(road: Road, tracks: Sequence[LaneTable]) -> dict[int, Upstream]:
+def upstream_entries(route_road: Road, tracks: Sequence[LaneTable]) -> dict[int, Upstream]:
     """Track id -> the `Upstream` lane feeding it, for each of `tracks` fed from an edge
     before the route's first edge (the first connection `_feeding` gives)."""
     entries: dict[int, Upstream] = {}
-    for table, conn in _feeding(road, tracks):
+    for table, conn in _feeding(route_road, tracks):
         if table.id not in entries:
             source = conn.getFromLane()
             entries[table.id] = Upstream(source.getEdge().getID(), source.getIndex(),
@@ -146,25 +147,25 @@ def upstream_entries(road: Road, tracks: Sequence[LaneTable]) -> dict[int, Upstr
     return entries
 
 
-def lane_width(road: Road, source: str | None = None) -> float:
+def lane_width(route_road: Road, source: str | None = None) -> float:
     """m, the SV lanes' common width (InputError, one line, if they differ)."""
-    widths = sorted({round(float(w), 6) for t in sv_tracks(road) for w, p in
+    widths = sorted({round(float(w), 6) for t in sv_tracks(route_road) for w, p in
                      zip(t.width, t.track.pieces, strict=True) if not p.internal})
     if len(widths) != 1:
-        raise InputError(source or str(road.route.path), "lane widths", widths,
+        raise InputError(source or str(route_road.route.path), "lane widths", widths,
                          "lanes of one width along the route (the planner's lanes "
                          f"are one width; these are {', '.join(f'{w:g}' for w in widths)} m)")
     return widths[0]
 
 
-def expand_bands(road: Road, bands: tuple[tuple[float, float], ...]
+def expand_bands(route_road: Road, bands: tuple[tuple[float, float], ...]
                  ) -> tuple[tuple[float, float], ...]:
     """One speed band per SV lane from `bands`, one per through lane (the scenario's):
     an SV lane that ends takes its nearest through lane's band. `bands` of another
     length are returned as they are (one per SV lane already, or a count the scenario
     rules refuse)."""
-    lanes = sv_tracks(road)
-    through = [t.id for t in through_tracks(road)]
+    lanes = sv_tracks(route_road)
+    through = [t.id for t in through_tracks(route_road)]
     if len(bands) != len(through) or len(lanes) == len(through):
         return bands
     rank = {tid: k for k, tid in enumerate(through)}
@@ -175,7 +176,7 @@ def expand_bands(road: Road, bands: tuple[tuple[float, float], ...]
     return tuple(out)
 
 
-def road_params(road: Road, base: RoadParams | None = None,
+def road_params(route_road: Road, base: RoadParams | None = None,
                 source: str | None = None) -> RoadParams:
     """The planner's view of the road in (s, d): one lane per SV lane (`sv_tracks`), their
     width, y_right the d of lane 0's right border (d = 0 is the reference track's right
@@ -183,12 +184,12 @@ def road_params(road: Road, base: RoadParams | None = None,
     lane_ends where each ends (s, m; () when none does), speed bands (`base`'s, one per
     through lane, `expand_bands`) and mu from `base`."""
     base = base or RoadParams()
-    width = lane_width(road, source)
-    lanes = sv_tracks(road)
-    through = {t.id for t in through_tracks(road)}
-    below = sum(1 for t in lanes if t.id < road.reference.id)
+    width = lane_width(route_road, source)
+    lanes = sv_tracks(route_road)
+    through = {t.id for t in through_tracks(route_road)}
+    below = sum(1 for t in lanes if t.id < route_road.reference.id)
     ends = tuple(math.inf if t.id in through else t.end for t in lanes)
-    return RoadParams(lane_width=width, speed_bands=expand_bands(road, base.speed_bands),
+    return RoadParams(lane_width=width, speed_bands=expand_bands(route_road, base.speed_bands),
                       mu=base.mu, y_right=-below * width if below else 0.0,
                       lane_ends=ends if any(math.isfinite(e) for e in ends) else ())
 
@@ -196,25 +197,25 @@ def road_params(road: Road, base: RoadParams | None = None,
 class RouteLanes:
     """The route's tracks as SUMO sees them (see the module docstring)."""
 
-    def __init__(self, road: Road) -> None:
-        self.road = road
-        self.through = through_tracks(road)
-        self.sv = sv_tracks(road)  # the SV's lanes (through or ending on the route)
-        self.straight = isinstance(road.frame, StraightFrame)
+    def __init__(self, route_road: Road) -> None:
+        self.route_road = route_road
+        self.through = through_tracks(route_road)
+        self.sv = sv_tracks(route_road)  # the SV's lanes (through or ending on the route)
+        self.straight = isinstance(route_road.frame, StraightFrame)
         # SUMO lane id -> SV-lane (track) id, junction lanes included (the snapshot's lane)
         self.sv_lane: dict[str, int] = {
             p.lane: t.id for t in self.sv for p in t.track.pieces}
         # ... and the lanes feeding the through lanes from before the route's first edge
         # (the mainline's upstream edge): the traffic coming up behind an SV that starts
-        # near the route's start (on an acceleration lane: its new follower, issue 24) is
+        # near the route's start (on an acceleration lane: its new follower) is
         # seen at s < 0 on the frame's straight extension; not a ramp feeding a lane that
         # ends (it joins at an angle: off the frame's extension)
-        self.sv_lane |= upstream_lanes(road, self.through)
-        self.upstream = upstream_entries(road, self.through)  # where the inflow enters
+        self.sv_lane |= upstream_lanes(route_road, self.through)
+        self.upstream = upstream_entries(route_road, self.through)  # where the inflow enters
         # the lanes of route edges, with their tracks (a TV's band changes only there)
         self.edge_lanes: tuple[tuple[str, int], ...] = tuple(
-            (p.lane, t.id) for t in road.lanes for p in t.track.pieces if not p.internal)
-        self._s_end = {t.id: t.s_end.tolist() for t in road.lanes}
+            (p.lane, t.id) for t in route_road.lanes for p in t.track.pieces if not p.internal)
+        self._s_end = {t.id: t.s_end.tolist() for t in route_road.lanes}
         self._added: set[int] = set()  # route indices whose rest-of-route SUMO has
         self.extra_routes: set[str] = set()  # other routes added to SUMO (on-ramp traffic)
         self._sampled: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
@@ -229,7 +230,7 @@ class RouteLanes:
         """Track id -> index of its speed band in RoadParams.speed_bands (an SV lane's
         own; any other track: its neighbouring SV lane's)."""
         index = {t.id: k for k, t in enumerate(self.sv)}
-        for table in self.road.lanes:
+        for table in self.route_road.lanes:
             if table.id in index:
                 continue
             piece = next(p for p in table.track.pieces if not p.internal)
@@ -243,7 +244,7 @@ class RouteLanes:
         the whole route is added when SUMO starts)."""
         rid = ROUTE_ID if route_index == 0 else f"{ROUTE_ID}@{route_index}"
         if route_index not in self._added:
-            api.route.add(rid, list(self.road.route.edges[route_index:]))
+            api.route.add(rid, list(self.route_road.route.edges[route_index:]))
             self._added.add(route_index)
         return rid
 
@@ -255,7 +256,7 @@ class RouteLanes:
             return self.route_id(api, place.route_index)
         rid = f"{ROUTE_ID}^{place.edge}"
         if rid not in self.extra_routes:
-            api.route.add(rid, [place.edge, *self.road.route.edges])
+            api.route.add(rid, [place.edge, *self.route_road.route.edges])
             self.extra_routes.add(rid)
         return rid
 
@@ -284,9 +285,9 @@ class RouteLanes:
     def table(self, track: int) -> LaneTable:
         """The lane table of a track (InputError: no such track on the route)."""
         try:
-            return self.road.lane(track)
+            return self.route_road.lane(track)
         except KeyError:
-            ids = [t.id for t in self.road.lanes]
+            ids = [t.id for t in self.route_road.lanes]
             raise InputError("traffic", "track", track, f"a track of the route {ids}") from None
 
     def place(self, track: int, s: float) -> Place:
@@ -324,7 +325,7 @@ class RouteLanes:
         return found
 
     def _sample(self, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-        table = self.road.lane(track)
+        table = self.route_road.lane(track)
         piece = table.track.pieces[k]
         shape = np.asarray(piece.shape, dtype=np.float64)
         seg = np.hypot(*np.diff(shape, axis=0).T)
@@ -334,19 +335,19 @@ class RouteLanes:
         x = np.interp(offsets, cum, shape[:, 0])
         y = np.interp(offsets, cum, shape[:, 1])
         hint = float(table.s_start[k]) + offsets
-        s, _ = self.road.frame.to_frenet(x, y, s_hint=hint)
+        s, _ = self.route_road.frame.to_frenet(x, y, s_hint=hint)
         positions = offsets * (piece.length / cum[-1] if cum[-1] > 0 else 1.0)
         return np.maximum.accumulate(np.asarray(s)), positions
 
     def s_of(self, lane_id: str, position: float) -> float:
         """m, s of SUMO lane position `position` on lane `lane_id` (s_of_lane_position)."""
-        return s_of_lane_position(self.road, lane_id, position)
+        return s_of_lane_position(self.route_road, lane_id, position)
 
     def track_at(self, s: float, d: float) -> LaneTable:
         """The track whose lane holds (s, d) among those that exist at s (right border
         inclusive, left exclusive); outside them all, the one whose centre is nearest."""
         best, best_gap = None, math.inf
-        here = [t for t in self.road.lanes if t.begin <= s <= t.end] or self.road.lanes
+        here = [t for t in self.route_road.lanes if t.begin <= s <= t.end] or self.route_road.lanes
         for table in here:
             k = min(bisect.bisect_left(self._s_end[table.id], s), len(table.s_end) - 1)
             centre = float(table.d_start[k])
@@ -379,38 +380,38 @@ def _stretch(piece: TrackPiece) -> float:
     return piece.length / shape_length if shape_length > 0 else 1.0
 
 
-def s_of_lane_position(road: Road, lane_id: str, position: float) -> float:
+def s_of_lane_position(route_road: Road, lane_id: str, position: float) -> float:
     """m, s of SUMO lane position `position` on lane `lane_id` of a track (on the straight
     road exactly the lane's start s plus the position, as x was)."""
-    if isinstance(road.frame, StraightFrame):
-        table = road.track_of_lane(lane_id)
+    if isinstance(route_road.frame, StraightFrame):
+        table = route_road.track_of_lane(lane_id)
         k = next(i for i, p in enumerate(table.track.pieces) if p.lane == lane_id)
         return float(table.s_start[k]) + position / _stretch(table.track.pieces[k])
-    return road.s_of_lane_position(lane_id, position)
+    return route_road.s_of_lane_position(lane_id, position)
 
 
-def sv_start(road: Road, edge: str | None, lane: int, position: float) -> tuple[int, float]:
+def sv_start(route_road: Road, edge: str | None, lane: int, position: float) -> tuple[int, float]:
     """(track id, s in m) of the SV's start: SUMO lane `lane` (index) of `edge` (None:
     the route's first edge) at lane position `position` (its centre)."""
-    edge_id = edge if edge is not None else road.route.edges[0]
-    for table in road.lanes:
+    edge_id = edge if edge is not None else route_road.route.edges[0]
+    for table in route_road.lanes:
         piece = table.track.piece_on(edge_id)
         if piece is not None and piece.index == lane:
-            return table.id, s_of_lane_position(road, piece.lane, position)
-    raise InputError(str(road.route.path), "sv.lane", lane,
+            return table.id, s_of_lane_position(route_road, piece.lane, position)
+    raise InputError(str(route_road.route.path), "sv.lane", lane,
                      f"a lane of edge {edge_id!r} that a track of the route runs through")
 
 
-def check_lanes(road: Road, source: str, sv_edge: str | None = None,
+def check_lanes(route_road: Road, source: str, sv_edge: str | None = None,
                 sv_lane: int | None = None) -> None:
     """InputError (one line) unless the route's SV lanes (`sv_tracks`) can be driven: they
     are tracks 0..n-1 (no lane closed to cars among them), those that run through the
     whole route lie side by side (a lane that ends does so on the right or left of them,
     not between two that run on) and the SV starts on one of them (`sv_edge`, `sv_lane`:
     [sv] edge and lane; a lane that begins along the route is none)."""
-    lanes = [t.id for t in sv_tracks(road)]
-    through = [t.id for t in through_tracks(road)]
-    edges = list(road.route.edges)
+    lanes = [t.id for t in sv_tracks(route_road)]
+    through = [t.id for t in through_tracks(route_road)]
+    edges = list(route_road.route.edges)
     if lanes != list(range(len(lanes))):
         raise InputError(source, "road.route", edges,
                          f"a route whose first edge {edges[0]!r} has only lanes open to cars "
@@ -423,7 +424,7 @@ def check_lanes(road: Road, source: str, sv_edge: str | None = None,
                          "two that run on: not supported)")
     if sv_lane is not None:
         edge = sv_edge if sv_edge is not None else edges[0]
-        track = next((t for t in road.lanes if (p := t.track.piece_on(edge)) is not None
+        track = next((t for t in route_road.lanes if (p := t.track.piece_on(edge)) is not None
                       and p.index == sv_lane), None)
         if track is not None and track.id not in lanes:
             raise InputError(source, "sv.lane", sv_lane,

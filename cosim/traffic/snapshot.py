@@ -4,8 +4,8 @@
 seven libsumo getters per vehicle (with libsumo, its compiled functions directly:
 the Python wrappers around them double the read time), body sizes cached per
 vehicle, SUMO's front-bumper positions and navigational degrees turned into body
-centres and math radians. Plain and context subscriptions were measured no faster
-than these getters.
+centres and math radians. Plain and context subscriptions are no faster than these
+getters.
 """
 
 from __future__ import annotations

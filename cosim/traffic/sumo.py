@@ -39,8 +39,8 @@ from cosim.traffic.controlled import (  # noqa: F401  (re-exported)
     sumo_angle,
 )
 from cosim.traffic.gui import GuiSettings
-from cosim.traffic.process import SumoProcess, process
-from cosim.traffic.route_lanes import ROUTE_ID, RouteLanes, road_params, route_road  # noqa: F401
+from cosim.traffic.process import SumoOptions, SumoProcess, process
+from cosim.traffic.route_lanes import RouteLanes, load_route_road, road_params
 from cosim.traffic.snapshot import (  # noqa: F401  (TrafficSnapshot: re-exported)
     INVALID,
     SIGNAL_BLINKER_LEFT,
@@ -64,46 +64,38 @@ CONTROLLED_MAX_SPEED = 70.0  # m/s, a controlled vehicle's type cap (SUMO warns 
 
 class SumoSim:
     """One SUMO simulation of a route's road, as a context manager (`route`: the edges,
-    None on a one-edge network; `road`: the Road already built of them).
+    None on a one-edge network; `route_road`: the Road already built of them).
 
-    `lanechange_duration` (s) makes traffic lane changes continuous (constant
-    lateral speed for that long); `sublane` uses SUMO's sublane model instead
-    (`--lateral-resolution`, slower). `gui` runs sumo-gui through traci; `traci`
-    the headless binary so. `speed_bands` (m/s per SV lane, or per through track:
-    cosim.traffic.route_lanes.expand_bands) set each TV's desired speed on the track it is on.
-    `strict`: a controlled vehicle leaving the network, or SUMO teleporting or removing
-    the SUMO-driven SV, raises SimulationError (else it is only recorded in `events`).
-    `fcd_output`:
-    the file SUMO writes its floating-car data to (--fcd-output), complete once closed.
-    `route_files` / `additional_files`: the user's own demand (cosim.traffic.own_demand,
-    checked before), loaded by SUMO with cosim's vehicles.
+    `options`: how SUMO runs (cosim.traffic.process.SumoOptions, its defaults if None:
+    continuous or sublane lane changes, the GUI, traci, extra options, floating-car
+    data, the user's own demand). `speed_bands` (m/s per SV lane, or per through track:
+    cosim.traffic.route_lanes.expand_bands) set each TV's desired speed on the track it is
+    on. `strict`: a controlled vehicle leaving the network, or SUMO teleporting or
+    removing the SUMO-driven SV, raises SimulationError (else it is only recorded in
+    `events`).
     """
 
     def __init__(
-        self, network: Path, step: float, seed: int, *,
-        lanechange_duration: float = 3.0, sublane: bool = False,
-        gui: bool | GuiSettings = False, extra_args: Sequence[str] = (),
-        speed_bands: tuple[tuple[float, float], ...] | None = None,
-        lateral_resolution: float = 0.8, strict: bool = True, traci: bool = False,
-        fcd_output: Path | None = None, route: Sequence[str] | None = None,
-        road: Road | None = None, route_files: Sequence[Path] = (),
-        additional_files: Sequence[Path] = (),
+        self, network: Path, step: float, seed: int, options: SumoOptions | None = None, *,
+        speed_bands: tuple[tuple[float, float], ...] | None = None, strict: bool = True,
+        route: Sequence[str] | None = None, route_road: Road | None = None,
     ) -> None:
+        options = options if options is not None else SumoOptions()
         if step <= 0:
             raise InputError("SumoSim", "step", step, "a positive step length in s")
-        if lanechange_duration < 0:
-            raise InputError("SumoSim", "lanechange_duration", lanechange_duration, ">= 0 s")
+        if options.lanechange_duration < 0:
+            raise InputError("SumoSim", "lanechange_duration", options.lanechange_duration,
+                             ">= 0 s")
         # the route's road (cosim.road): SUMO's route is its edges, the SV's lanes its
-        # first edge's tracks (cosim.traffic.route_lanes); `road` if the caller has built it
-        self.lanes = RouteLanes(road if road is not None else route_road(network, route))
-        self.process: SumoProcess = process(
-            self.lanes.road.route.path, step, seed, lanechange_duration=lanechange_duration,
-            sublane=sublane, gui=gui, extra_args=extra_args,
-            lateral_resolution=lateral_resolution, traci=traci, fcd_output=fcd_output,
-            route_files=route_files, additional_files=additional_files)
+        # first edge's tracks (cosim.traffic.route_lanes); `route_road` if the caller has
+        # built it
+        self.lanes = RouteLanes(route_road if route_road is not None
+                                else load_route_road(network, route))
+        self.process: SumoProcess = process(self.lanes.route_road.route.path, step, seed,
+                                            options)
         self.strict = bool(strict)
         base = RoadParams() if speed_bands is None else RoadParams(speed_bands=speed_bands)
-        self._road = road_params(self.lanes.road, base, str(network))
+        self._road = road_params(self.lanes.route_road, base, str(network))
         n = len(self.lanes.sv)
         if self._road.n_lanes != n:
             raise InputError(str(network), "speed_bands", speed_bands,
@@ -299,7 +291,7 @@ class SumoSim:
 
     def centre_pose(self, track: int, s: float) -> tuple[float, float, float]:
         """(x m, y m, heading rad): the centre of `track`'s lane at arc length `s` (m)."""
-        frame = self.lanes.road.frame
+        frame = self.lanes.route_road.frame
         x, y, heading = frame.to_cartesian(s, float(self.lanes.table(track).centre(s)))
         return float(x), float(y), float(heading)
 
@@ -349,11 +341,11 @@ class SumoSim:
         self.dims[vehicle_id] = (length, width)
 
     def move(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
-             accel: float | None = None, road: tuple[float, float, float] | None = None
-             ) -> None:
+             accel: float | None = None,
+             road_pose: tuple[float, float, float] | None = None) -> None:
         """Write a controlled vehicle's centre pose (takes effect in the next step); see
-        ControlledVehicles.move (`road`: the pose's s, d, heading to the road)."""
-        self.controlled.move(vehicle_id, x, y, heading, speed, accel, road)
+        ControlledVehicles.move (`road_pose`: the pose's s, d, heading to the road)."""
+        self.controlled.move(vehicle_id, x, y, heading, speed, accel, road_pose)
 
     def set_blinker(self, vehicle_id: str, direction: int) -> None:
         """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""

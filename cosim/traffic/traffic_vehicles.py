@@ -68,7 +68,7 @@ class SpeedBands:
 
     A track change is seen as a TV new in a lane's vehicle list (one list per lane of
     the route's edges a step, not one lane read per TV: on the one-edge road three lists,
-    measured ~10x cheaper)."""
+    about 10x cheaper)."""
 
     def __init__(self, bands: tuple[tuple[float, float], ...],
                  lanes: tuple[tuple[str, int], ...], band_index: dict[int, int]) -> None:

@@ -36,8 +36,9 @@ from cosim.traffic.cooperation import (
     done_yielding,
 )
 from cosim.traffic.gui import GuiSettings
+from cosim.traffic.process import SumoOptions
 from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
-from cosim.traffic.route_lanes import route_road, sv_start
+from cosim.traffic.route_lanes import load_route_road, sv_start
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
 if TYPE_CHECKING:
@@ -55,18 +56,20 @@ NEAR_RANGE = 150.0  # m, TVs within this x distance of the SV are recorded for t
 
 @dataclass(frozen=True)
 class SVState:
-    """The SV at the top of a step, as the policy and the recorder see it (centre of
-    the body, global frame)."""
+    """The SV's state at the top of a step, as the policy and the recorder see it: its
+    centre in road coordinates (s along the route's reference line, d across it, heading
+    to the road: cosim.traffic.road_view; on the one straight edge these are the
+    Cartesian x, y, heading), its Cartesian centre pose in `cartesian`."""
 
-    x: float  # m
-    y: float  # m
-    heading: float  # rad
-    vx: float  # m/s, body longitudinal speed
+    x: float  # m, s of the centre
+    y: float  # m, d of the centre, + to the left
+    heading: float  # rad, to the road's direction
+    vx: float  # m/s, body longitudinal speed in road coordinates (the car's: stretch vx)
     vy: float  # m/s, body lateral speed
-    sumo_lane: float  # SUMO's lane index of the SV (-1: off the network)
+    sumo_lane: int  # SUMO's lane index of the SV on `edge` (-1: off the network)
     edge: str = ""  # SUMO's road id of the SV (a junction's internal edge too; "": off it)
     # (x m, y m, heading rad) in the Cartesian plane when x, y, heading are road
-    # coordinates (cosim.traffic.road_view); None: they are the Cartesian ones
+    # coordinates of a curved frame; None: the frame is the identity, they are the same
     cartesian: tuple[float, float, float] | None = None
     stretch: float = 1.0  # -, q of the frame at the SV: its speed is q vx (road_view)
 
@@ -78,7 +81,8 @@ class SVState:
 
 @dataclass(frozen=True)
 class Scene:
-    """What the loop sees at the top of step k: the SV and the vehicles around it."""
+    """The loop's view at the top of a step: the SV's state and the vehicles around it
+    (road coordinates, as `SVState`)."""
 
     t: float  # s, simulation time (0 at the first step)
     sv: SVState
@@ -121,14 +125,15 @@ class World:
         # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
         # edge the identity StraightFrame); SUMO runs on its route
         # (built once per process and network file: the scenario's loading built it)
-        self.route_road = route_road(sc.network, sc.route, source=str(sc.path))
+        self.route_road = load_route_road(sc.network, sc.route, source=str(sc.path))
         self.sumo = SumoSim(
-            sc.network, sc.step, sc.seed,
-            lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
+            sc.network, sc.step, sc.seed, SumoOptions(
+                lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
+                fcd_output=fcd_output,
+                route_files=sc.demand.route_files if sc.demand else (),
+                additional_files=sc.demand.additional_files if sc.demand else ()),
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
-            fcd_output=fcd_output, road=self.route_road,
-            route_files=sc.demand.route_files if sc.demand else (),
-            additional_files=sc.demand.additional_files if sc.demand else (),
+            route_road=self.route_road,
         )
         self.scenario = sc
         # everything read and written is converted through the route's frame
@@ -169,7 +174,7 @@ class World:
             traffic = populate(self.sumo, road, tr.density, sc.seed, tr.length,
                                exclude_zone=(x0 - margin, x0 + margin),
                                lane_zones={track: zone})
-        if tr.ramp_flow > 0:  # on-ramp traffic (issue 24), its own random stream
+        if tr.ramp_flow > 0:  # on-ramp traffic, its own random stream
             from cosim.traffic.demand import ramp_flow
 
             ramp_flow(self.sumo, tr.ramp_flow, sc.seed, traffic)
@@ -326,14 +331,14 @@ class World:
         """A controlled vehicle's centre pose in road coordinates (holds from the next step)."""
         cx, cy, ch, q = self.cartesian(x, y, heading)
         self.sumo.move(vehicle_id, cx, cy, ch, speed * q, None if accel is None else accel * q,
-                       road=(x, y, heading))
+                       road_pose=(x, y, heading))
 
     def move_xy(self, vehicle_id: str, x: float, y: float, heading: float, speed: float,
                 accel: float | None = None,
-                road: tuple[float, float, float] | None = None) -> None:
+                road_pose: tuple[float, float, float] | None = None) -> None:
         """A controlled vehicle's Cartesian centre pose (the SV's plant; from the next step);
-        `road`: the same pose in road coordinates (s, d, heading to the road), if known."""
-        self.sumo.move(vehicle_id, x, y, heading, speed, accel, road=road)
+        `road_pose`: the same pose in road coordinates (s, d, heading to the road), if known."""
+        self.sumo.move(vehicle_id, x, y, heading, speed, accel, road_pose=road_pose)
 
     def replay_sv(self, x: list[float], y: list[float], heading: list[float],
                   speed: list[float], accel: list[float],

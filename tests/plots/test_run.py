@@ -53,9 +53,9 @@ def test_trajectories_legend_names_markers_and_tvs(tmp_path: Path,
     tv = (t, 20.0 + 25.0 * t, np.full_like(t, 5.625))
     run_plots.global_trajectories(
         tmp_path / "trajectories.png", t, 25.0 * t, np.full_like(t, 1.875),
-        {"pvc": tv, "tv7": tv}, RoadParams(), highlight=["pvc"],
-        lane_changes=[(2.0, 8.0), (8.5, 9.5)], requests=[1.0],
-        roles={"pvc": "ahead, lane 1"})
+        {"pvc": tv, "tv7": tv}, RoadParams(), run_plots.TrajectoryMarks(
+            highlight=["pvc"], roles={"pvc": "ahead, lane 1"},
+            lane_changes=[(2.0, 8.0), (8.5, 9.5)], requests=[1.0]))
     labels = figures[0].axes[0].get_legend_handles_labels()[1]
     assert labels == ["TV pvc (ahead, lane 1)", "SV", "lane-change request",
                       "lane change starts (plan adopted)", "planned end (start + tau)"]

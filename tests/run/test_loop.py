@@ -144,7 +144,7 @@ def test_a_forced_overlap_is_detected_by_our_check(tmp_path: Path) -> None:
 
 def test_a_collision_stops_the_run_at_its_onset(tmp_path: Path) -> None:
     """The default `on_collision = "stop"`: the run ends with the row of the first onset
-    (a crash ends the ride; before issue 22 the SV drove on inside the TV), recorded with
+    (a crash ends the ride: the SV never drives on inside the TV), recorded with
     its time, the TV and the fault; "continue" runs to the end."""
     go_on = simulate(scenario_from(tmp_path, CUT_IN))
     t_hit = float(go_on.trace["t_s"][np.argmax(go_on.trace["collisions"] > 0)])
@@ -340,7 +340,7 @@ def test_scripted_requests_come_when_the_scenario_says(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("controller", ["mimo", "sumo"])
 def test_comfort_metrics_are_the_traces_for_both_drivers(controller: str) -> None:
-    """Issue 22: the comfort columns, for our driver and SUMO's alike (paper case 5.1)."""
+    """The comfort columns, for our driver and SUMO's alike (paper case 5.1)."""
     from cosim.run.metrics import COMFORT_COLUMNS
 
     sc = with_overrides(load_scenario(SCENARIOS / "paper_case1_overtaking.toml"),

@@ -151,7 +151,7 @@ def test_follower_max_decel_window_and_nan() -> None:
     assert np.isnan(follower_max_decel(t, v_odd, 4.0, 8.0))
 
 
-# ---------------------------------------------------------------- comfort (issue 22)
+# ---------------------------------------------------------------- comfort
 
 
 def test_longitudinal_comfort_measures_rms_jerk_and_chatter() -> None:
@@ -162,7 +162,7 @@ def test_longitudinal_comfort_measures_rms_jerk_and_chatter() -> None:
     assert smooth["rms_long_accel_mps2"] == pytest.approx(2.0)
     assert smooth["rms_long_jerk_mps3"] == 0.0 and smooth["max_long_jerk_mps3"] == 0.0
     assert smooth["long_accel_jump_share"] == 0.0
-    # the two-track chatter of issue 22: -6, +7, -6, ... every 0.05 s step
+    # chatter as the two-track plant can show it: -6, +7, -6, ... every 0.05 s step
     chatter = longitudinal_comfort(t, np.where(np.arange(t.size) % 2, 7.0, -6.0))
     assert chatter["long_accel_jump_share"] == 1.0
     assert chatter["max_long_jerk_mps3"] == pytest.approx(13.0 / 0.05)
@@ -231,10 +231,9 @@ def test_lane_change_status_tells_unfinished_from_failed() -> None:
 def test_a_collision_only_sumo_counts_is_reported_as_such() -> None:
     """study_gap_sample's paper policy, density 40, seed 1: late in the run the SV,
     changing lanes at a few degrees, comes inside a TV's x extent (min gap below 0,
-    -0.33 m since issue 22's start speed; TTC 0) without the rectangles touching;
-    SUMO, which measures gaps along the lane without the SV's heading, reports a
-    collision. The run ends before the
-    lane change settles: unfinished, not failed (docs/run_results.md)."""
+    TTC 0) without the rectangles touching; SUMO, which measures gaps along the lane
+    without the SV's heading, reports a collision. The run ends before the lane change
+    settles: unfinished, not failed (docs/run_results.md)."""
     from cosim.run.loop import simulate
     from cosim.scenario import load_scenario, project_root, with_overrides
 
@@ -261,7 +260,7 @@ def test_follower_max_decel_is_watched_from_the_change_start() -> None:
 
 
 def test_merge_crossing_stopped_time_and_start() -> None:
-    """The merge columns' parts (issue 24) on a hand-made trace: the SV in lane 0, which
+    """The merge columns' parts on a hand-made trace: the SV in lane 0, which
     ends at s = 190 m, crosses into lane 1 at t = 3 s (s = 75 m), having stood still for
     1 s; a crossing at or past the end is no merge."""
     from cosim.run.metrics import merge_crossing, merge_start, stopped_time

@@ -32,7 +32,7 @@ def scene(t: float, tvs: list[tuple[str, float, float, float]], sv_x: float = 10
     snap = TrafficSnapshot(t, ids, x, y, np.zeros(n), np.array([20.0, *(v[3] for v in tvs)]),
                            np.zeros(n), np.zeros(n, int), np.zeros(n), np.full(n, L),
                            np.full(n, W), np.zeros(n, int))
-    return Scene.around(t, SVState(sv_x, Y0, 0.0, 20.0, 0.0, 0.0), snap)
+    return Scene.around(t, SVState(sv_x, Y0, 0.0, 20.0, 0.0, 0), snap)
 
 
 def test_an_overlap_counts_once_and_a_tv_ahead_is_the_svs_fault() -> None:
@@ -88,7 +88,7 @@ def test_road_columns_follow_the_track_across_a_junction_on_the_curved_motorway(
         x, y, heading = road.frame.to_cartesian(s, d)
         index = int(piece.lane.rsplit("_", 1)[1])
         # the loop's scene is in road coordinates, the Cartesian pose beside it
-        sv = SVState(s, d, 0.0, 20.0, 0.0, float(index), piece.edge,
+        sv = SVState(s, d, 0.0, 20.0, 0.0, index, piece.edge,
                      cartesian=(float(x), float(y), float(heading)))
         snap = TrafficSnapshot(0.05 * k, (SV_ID,), np.array([s]), np.array([d]),
                                np.zeros(1), np.array([20.0]), np.zeros(1),
@@ -112,39 +112,8 @@ def test_road_columns_on_the_straight_road_are_x_and_y() -> None:
     road = load_road(project_root() / "networks" / "highway.net.xml")
     rec = Recorder(1, L, W, ROAD, route_road=road)
     snap = scene(0.0, [])
-    sv = SVState(123.456, 5.625, 0.0, 20.0, 0.0, 1.0, "highway")
+    sv = SVState(123.456, 5.625, 0.0, 20.0, 0.0, 1, "highway")
     rec.record(0, Scene(0.0, sv, snap.everyone, snap.tvs, snap.tv_vx), KEEPING)
     row = rec.data[0]
     assert (row[COLUMN["s_m"]], row[COLUMN["d_m"]]) == (123.456, 5.625)  # bit for bit
     assert row[COLUMN["track"]] == 1 and rec.edges == ["highway"]
-
-
-def test_our_sv_at_the_end_of_a_lane_that_ends_stops_the_run() -> None:
-    """Lane 0 ends at s = 194.5 m (y_right -3.75: an acceleration lane); the row whose
-    next step would take the SV's front past it is the run's last (lane_end_reached);
-    in a lane that runs on, or short of the end, nothing happens."""
-    from cosim.run.stop import StopRules
-
-    road = RoadParams(speed_bands=((15.0, 25.0),) * 4, y_right=-3.75,
-                      lane_ends=(194.5, math.inf, math.inf, math.inf))
-    stop = StopRules(road, 4.32, 0.05, 100, on_collision=True, at_lane_ends=True)
-    assert not stop.stops(10, SVState(190.0, -1.875, 0.0, 20.0, 0.0, 0), None)
-    assert not stop.stops(11, SVState(400.0, 1.875, 0.0, 20.0, 0.0, 1), None)
-    assert stop.stops(12, SVState(191.5, -1.875, 0.0, 20.0, 0.0, 0), None)
-    assert stop.at_lane_end and stop.last_row == 12
-    assert not stop.stops(13, SVState(192.0, -1.875, 0.0, 20.0, 0.0, 0), None)
-
-
-def test_the_first_collision_onset_stops_the_run_only_when_asked() -> None:
-    """on_collision "stop": the row holding the first collision onset is the run's last
-    (stopped_by_collision); otherwise the run drives on."""
-    from cosim.run.stop import StopRules
-
-    sv = SVState(100.0, Y0, 0.0, 20.0, 0.0, 0)
-    onset = (1.5, "a")
-    going_on = StopRules(ROAD, L, 0.05, 100, on_collision=False, at_lane_ends=True)
-    assert not going_on.stops(30, sv, onset) and going_on.last_row == 100
-    stop = StopRules(ROAD, L, 0.05, 100, on_collision=True, at_lane_ends=True)
-    assert not stop.stops(29, sv, None)
-    assert stop.stops(30, sv, onset)
-    assert stop.by_collision and stop.last_row == 30

@@ -16,6 +16,7 @@ from cosim.traffic.cooperation import (
     done_yielding,
 )
 from cosim.traffic.network import DEFAULT_NETWORK
+from cosim.traffic.process import SumoOptions
 from cosim.traffic.sumo import TV_TYPE, SumoSim
 
 STEP = 0.05  # s
@@ -29,7 +30,7 @@ def run_side_by_side(cfg: CooperationConfig, seconds: float = 14.0, request_at: 
     """SV (moved by us) in lane 1 at V; a SUMO-driven TV in lane 0 alongside it at V
     (no dawdling); the SV's change (for the channel) begins at `changing_at`. Returns
     t, gap (SV rear - TV front along x) and the TV's speed."""
-    with SumoSim(DEFAULT_NETWORK, STEP, 1, lanechange_duration=3.0) as sim:
+    with SumoSim(DEFAULT_NETWORK, STEP, 1, SumoOptions(lanechange_duration=3.0)) as sim:
         road = sim.road()
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
         x_sv = 600.0
@@ -120,7 +121,7 @@ def test_sumo_follower_brakes_as_predicted_when_the_sv_cuts_in() -> None:
     # the SV moves from lane 1 into lane 0 in one step, 12 m (bumpers) ahead of a TV
     # there that drives 5 m/s faster: SUMO's Krauss follower against ours
     v_tv, v_sv = 25.0, 20.0
-    with SumoSim(DEFAULT_NETWORK, STEP, 1, lanechange_duration=3.0) as sim:
+    with SumoSim(DEFAULT_NETWORK, STEP, 1, SumoOptions(lanechange_duration=3.0)) as sim:
         road = sim.road()
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
         x_tv = 600.0
@@ -162,7 +163,7 @@ def test_sumo_follower_brakes_as_predicted_when_the_sv_cuts_in() -> None:
 def run_passing(release: bool, seconds: float = 16.0) -> tuple[np.ndarray, np.ndarray]:
     """The TV alongside is asked to yield at 1 s (courtesy: at once); from 3 s the SV
     slows to a crawl, so the TV passes it. Returns t and the TV's speed."""
-    with SumoSim(DEFAULT_NETWORK, STEP, 1, lanechange_duration=3.0) as sim:
+    with SumoSim(DEFAULT_NETWORK, STEP, 1, SumoOptions(lanechange_duration=3.0)) as sim:
         road = sim.road()
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
         x_sv, v_sv = 600.0, V
@@ -208,7 +209,7 @@ def run_beside_standing_sv(rule: str, seconds: float = 14.0) -> tuple[float, flo
     `rule` says which TVs are released: "centre" (past the SV's centre) or "level" (also
     standing level with it, `done_yielding`). Returns the TV's speed and x offset to the
     SV."""
-    with SumoSim(DEFAULT_NETWORK, STEP, 1, lanechange_duration=3.0) as sim:
+    with SumoSim(DEFAULT_NETWORK, STEP, 1, SumoOptions(lanechange_duration=3.0)) as sim:
         road = sim.road()
         sim.api.vehicletype.setImperfection(TV_TYPE, 0.0)
         x_sv = 600.0

@@ -10,6 +10,7 @@ import pytest
 from cosim.errors import InputError
 from cosim.traffic.demand import placement, populate, start_zone
 from cosim.traffic.network import DEFAULT_NETWORK
+from cosim.traffic.process import SumoOptions
 from cosim.traffic.sumo import TV_LENGTH, SumoSim
 
 SV_ID = "sv"
@@ -19,7 +20,7 @@ KMH = 3.6
 
 
 def make_sim(seed: int) -> SumoSim:
-    return SumoSim(DEFAULT_NETWORK, STEP, seed, lanechange_duration=3.0, sublane=False)
+    return SumoSim(DEFAULT_NETWORK, STEP, seed, SumoOptions(lanechange_duration=3.0))
 
 
 @pytest.mark.parametrize("density", [8.0, 16.0, 28.0])

@@ -67,7 +67,7 @@ def test_a_netconvert_network_at_its_default_precision_is_read(
     tmp_path: Path, options: tuple[str, ...]
 ) -> None:
     """Lane centres rounded to the file's decimals are where they should be up to that
-    rounding (issue 25: a 1 mm tolerance refused netconvert's own 2-decimal output)."""
+    rounding (a tolerance of 1 mm would refuse netconvert's own 2-decimal output)."""
     net = _netconvert(tmp_path, *options)
     text = net.read_text()
     if not options or options[0] != "--precision":

@@ -1,4 +1,4 @@
-"""The user's own SUMO demand (issue 24): route / flow / vType files used as they are
+"""The user's own SUMO demand: route / flow / vType files used as they are
 (`[traffic] routes`) or through a `.sumocfg` (`[road] sumocfg`), with a warm-up before
 the SV enters. Real SUMO runs of the shipped scenarios (scenarios/own_demand_*.toml)."""
 

@@ -1,4 +1,4 @@
-"""Lanes that end, in real SUMO (issue 24): the SUMO-driven SV merges from the on-ramp's
+"""Lanes that end, in real SUMO: the SUMO-driven SV merges from the on-ramp's
 acceleration lane and is never teleported or removed (a removal fails the run); TVs on
 an ending SV lane read that lane; on-ramp traffic; the merge metrics of a SUMO-native
 ramp run."""
@@ -106,11 +106,11 @@ def test_ramp_traffic_comes_up_the_ramp_and_reads_lane_0_on_the_acceleration_lan
 def test_random_traffic_enters_before_the_route_out_of_the_svs_sight() -> None:
     """Route `acc main1 main2` (the ramp merge): the mainline that feeds it from `main0`
     is filled UPSTREAM_LENGTH m back at t = 0 at the density, and the inflow enters there,
-    so no TV first appears within 300 m behind the route's start (issue 24: the inflow
-    at s = 0 put TVs 18 m behind an SV that started 20 m into the acceleration lane)."""
+    so no TV first appears within 300 m behind the route's start (where an SV that
+    starts on the acceleration lane would see it appear close behind it)."""
     density = 20.0
     with SumoSim(NET, 0.1, 3, route=["acc", "main1", "main2"]) as sim:
-        start = sim.lanes.road.frame.to_cartesian(0.0, 0.0)[0]  # x of the route's start
+        start = sim.lanes.route_road.frame.to_cartesian(0.0, 0.0)[0]  # x of the route's start
         populate(sim, sim.road(), density, 3, 1500.0)
         sim.step()
         snap = sim.snapshot()

@@ -32,8 +32,8 @@ L, W = 4.32, 1.8  # m
 pytestmark = pytest.mark.sumo
 
 
-def curved_sim(seed: int = 1, **kw: object) -> SumoSim:
-    return SumoSim(CURVED, STEP, seed, route=ROUTE, **kw)  # type: ignore[arg-type]
+def curved_sim(seed: int = 1) -> SumoSim:
+    return SumoSim(CURVED, STEP, seed, route=ROUTE)
 
 
 def test_a_place_on_a_track_maps_back_to_its_s() -> None:
@@ -348,7 +348,7 @@ def test_a_run_past_the_routes_end_is_refused_and_a_first_lane_that_ends_is_an_s
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
         '<edge id="BC" from="B" to="C" numLanes="2" speed="33.3"/></edges>')
     road = load_road(net, ["AB", "BC"])
-    check_lanes(road, "s.toml")  # issue 24: lane 0 ends at B, an SV lane like the others
+    check_lanes(road, "s.toml")  # lane 0 ends at B, an SV lane like the others
     rp = road_params(road)
     assert rp.n_lanes == 3 and rp.y_right == pytest.approx(-rp.lane_width)
     assert rp.lane_end(0) <= 1000.0 and rp.lane_end(1) == rp.lane_end(2) == math.inf

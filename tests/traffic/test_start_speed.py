@@ -1,4 +1,4 @@
-"""Insertion the SV can survive (issue 22): behind random traffic it starts at a speed
+"""Insertion the SV can survive: behind random traffic it starts at a speed
 it can brake from (SUMO's departSpeed rule); scripted scenarios keep their speed."""
 
 from __future__ import annotations

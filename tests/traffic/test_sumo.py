@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ import pytest
 from cosim.errors import SimulationError
 from cosim.traffic.demand import populate
 from cosim.traffic.network import DEFAULT_NETWORK
+from cosim.traffic.process import SumoOptions
 from cosim.traffic.sumo import (
     SumoSim,
     centre_from_front,
@@ -23,8 +25,10 @@ STEP = 0.05  # s
 L, W = 4.32, 1.8  # m, the Table 1 car
 
 
-def make_sim(seed: int = 1, **kw: object) -> SumoSim:
-    return SumoSim(DEFAULT_NETWORK, STEP, seed, lanechange_duration=3.0, sublane=False, **kw)
+def make_sim(seed: int = 1, *, strict: bool = True, **options: Any) -> SumoSim:
+    """A simulation of the default network; `options`: SumoOptions' fields."""
+    return SumoSim(DEFAULT_NETWORK, STEP, seed,
+                   SumoOptions(**{"lanechange_duration": 3.0, **options}), strict=strict)
 
 
 def test_angle_and_front_bumper_conversions() -> None:
@@ -244,7 +248,7 @@ def test_traci_backend_runs_the_same_adapter() -> None:
 def test_sublane_option_gives_gradual_lateral_motion() -> None:
     """--lateral-resolution instead of --lanechange.duration: lateral speed ramps up."""
     lateral: list[float] = []
-    with SumoSim(DEFAULT_NETWORK, STEP, 3, sublane=True) as sim:
+    with SumoSim(DEFAULT_NETWORK, STEP, 3, SumoOptions(sublane=True)) as sim:
         assert "--lateral-resolution" in sim.command()
         assert "--lanechange.duration" not in sim.command()
         populate(sim, sim.road(), 16.0, 3, 1000.0)

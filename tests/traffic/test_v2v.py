@@ -12,6 +12,7 @@ from cosim.params import RoadParams
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.demand import populate
 from cosim.traffic.network import DEFAULT_NETWORK
+from cosim.traffic.process import SumoOptions
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 from cosim.traffic.v2v import LateralMotion, V2VChannel, lateral_motion, messages
 
@@ -82,7 +83,7 @@ def test_sumo_lane_changes_are_continuous_and_predictable_a_second_ahead() -> No
     lateral: list[float] = []
     blinker_agrees: list[bool] = []
     pending: dict[int, list[tuple[str, LateralMotion]]] = {}
-    with SumoSim(DEFAULT_NETWORK, STEP, 3, lanechange_duration=3.0) as sim:
+    with SumoSim(DEFAULT_NETWORK, STEP, 3, SumoOptions(lanechange_duration=3.0)) as sim:
         road = sim.road()
         populate(sim, road, 16.0, 3, 2000.0)
         for k in range(int(30.0 / STEP)):
