@@ -339,10 +339,6 @@ class RouteLanes:
         positions = offsets * (piece.length / cum[-1] if cum[-1] > 0 else 1.0)
         return np.maximum.accumulate(np.asarray(s)), positions
 
-    def s_of(self, lane_id: str, position: float) -> float:
-        """m, s of SUMO lane position `position` on lane `lane_id` (s_of_lane_position)."""
-        return s_of_lane_position(self.route_road, lane_id, position)
-
     def track_at(self, s: float, d: float) -> LaneTable:
         """The track whose lane holds (s, d) among those that exist at s (right border
         inclusive, left exclusive); outside them all, the one whose centre is nearest."""

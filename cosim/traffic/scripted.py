@@ -168,12 +168,6 @@ class ScriptedTV:
     def kinematics(self, t: ArrayLike) -> TVKinematics:
         return kinematics(self.spec, t, self.road, self.sv_position)
 
-    def state(self, t: float) -> tuple[float, float, float, float, float]:
-        """(x, y, heading, speed, accel) at simulation time t."""
-        k = self.kinematics(np.array([t]))
-        return (float(k.x[0]), float(k.y[0]), float(k.heading[0]), float(k.speed[0]),
-                float(k.accel[0]))
-
     def message(self, t: float) -> V2VMessage:
         return message(self.spec, t, self.road, self.sv_position)
 

@@ -289,10 +289,6 @@ class SnapshotReader:
         """m/s, SUMO's speed of a vehicle."""
         return float(self.api.vehicle.getSpeed(vehicle_id))
 
-    def lane_index(self, vehicle_id: str) -> int:
-        """The SV lane (track) a vehicle is on, as the snapshot's `lane` (-1: none)."""
-        return self.tracks.get(self.api.vehicle.getLaneID(vehicle_id), -1)
-
     def leader(self, vehicle_id: str, distance: float = 200.0) -> tuple[str, float] | None:
         """(id, gap in m bumper to bumper) of the leader in the vehicle's lane, or None."""
         vehicle = self.api.vehicle

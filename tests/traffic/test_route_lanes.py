@@ -17,7 +17,7 @@ import pytest
 from cosim.road.road import load_road
 from cosim.traffic.demand import populate
 from cosim.traffic.network import NETWORK_DIR
-from cosim.traffic.route_lanes import RouteLanes, sv_start
+from cosim.traffic.route_lanes import RouteLanes, s_of_lane_position, sv_start
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "road"))
 from handdrawn import netconvert  # noqa: E402
@@ -52,7 +52,8 @@ def test_a_place_on_a_track_maps_back_to_its_s() -> None:
             if place.position == 0.0:  # a junction's lane: the next edge's start
                 continue
             assert road.track_ids[lane_id] == track
-            assert lanes.s_of(lane_id, place.position) == pytest.approx(s, abs=0.01)
+            assert s_of_lane_position(road, lane_id, place.position) == pytest.approx(
+                s, abs=0.01)
             if track == 1:
                 indices.append((place.edge, place.index))
     assert [i for e, i in dict(indices).items()] == [1, 1, 2, 1]

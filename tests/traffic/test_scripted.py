@@ -83,8 +83,9 @@ def test_broadcast_reference_reproduces_the_kinematics() -> None:
 
 def test_scripted_tv_object() -> None:
     tv = scripted.ScriptedTV(spec(), ROAD, X_SV)
-    x, y, h, v, a = tv.state(1.0)
-    assert (x, y, h, v, a) == pytest.approx((150.0, ROAD.lane_center(0), 0.0, 20.0, 0.0))
+    k = tv.kinematics(np.array([1.0]))
+    assert (k.x[0], k.y[0], k.heading[0], k.speed[0], k.accel[0]) == pytest.approx(
+        (150.0, ROAD.lane_center(0), 0.0, 20.0, 0.0))
     assert tv.message(1.0).vehicle_id == "tv"
 
 

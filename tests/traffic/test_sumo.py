@@ -73,7 +73,8 @@ def test_lane_index_follows_the_lateral_position() -> None:
         seen = set()
         while y < road.lane_center(2):
             sim.step()
-            lane = sim.reader.lane_index("sv")
+            snap = sim.snapshot()
+            lane = int(snap.lane[snap.index("sv")])
             edge_dist = abs((y - road.y_right) / road.lane_width - round(
                 (y - road.y_right) / road.lane_width)) * road.lane_width
             if edge_dist > 0.05:  # away from a lane line, no ambiguity
@@ -291,8 +292,8 @@ def test_every_tv_has_its_current_lanes_band_after_every_step() -> None:
         lane_was: dict[str, int] = {}
         for _ in range(int(40.0 / STEP)):
             sim.step()
-            for vid in sim.reader.vehicle_ids():
-                lane = sim.reader.lane_index(vid)
+            snap = sim.snapshot()
+            for vid, lane in zip(snap.ids, snap.lane.tolist(), strict=True):
                 changes += int(lane_was.get(vid, lane) != lane)
                 lane_was[vid] = lane
                 want = bands.speed(lane, bands.quantile[vid])
