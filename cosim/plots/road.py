@@ -5,30 +5,34 @@ polyline's (kink angle / segment length), which shows what smoothing did."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from cosim.plots import save_figure
 
+if TYPE_CHECKING:
+    from cosim.road.road import Road
+
 STRETCH_BELOW = 0.05  # -, a map narrower than this share of its length is drawn stretched
 
 
-def plot_road(road: Any, path: Path, *, title: str = "",
+def plot_road(route_road: Road, path: Path, *, title: str = "",
               sv_path: tuple[Any, Any] | None = None) -> Path:
-    """Draw `road` (a cosim.road.road.Road) to `path`; `sv_path`: (x, y) arrays of the
+    """Draw the route's road `route_road` to `path`; `sv_path`: (x, y) arrays of the
     SV's centre drawn over it (a run's trace)."""
     import matplotlib.pyplot as plt
 
-    frame = road.frame
+    frame = route_road.frame
     fig, (ax_map, ax_k) = plt.subplots(2, 1, figsize=(10, 9),
                                        gridspec_kw={"height_ratios": [3, 1]})
-    shapes = [np.asarray(piece.shape) for track in road.tracks for piece in track.pieces]
+    shapes = [np.asarray(piece.shape)
+              for track in route_road.tracks for piece in track.pieces]
     for xy in shapes:
         ax_map.plot(xy[:, 0], xy[:, 1], color="0.75", lw=3.0, solid_capstyle="butt",
                     zorder=1)
     colours = plt.get_cmap("tab10")
-    for table in road.lanes:
+    for table in route_road.lanes:
         s = np.arange(table.begin, table.end, 1.0)
         if s.size < 2:
             continue
@@ -37,8 +41,8 @@ def plot_road(road: Any, path: Path, *, title: str = "",
             x, y, _ = frame.to_cartesian(s, d)
             ax_map.plot(x, y, color=colours(table.id % 10), lw=0.8, zorder=2,
                         label=f"track {table.id} ({table.track.name})" if k == 0 else None)
-    for edge in road.route.edges:
-        x, y = road.route.net.getEdge(edge).getShape()[0]
+    for edge in route_road.route.edges:
+        x, y = route_road.route.net.getEdge(edge).getShape()[0]
         ax_map.plot([x], [y], "k|", ms=12)
         ax_map.annotate(edge, (x, y), fontsize=8, xytext=(3, 6), textcoords="offset points")
     if sv_path is not None:
@@ -55,12 +59,12 @@ def plot_road(road: Any, path: Path, *, title: str = "",
     ax_map.set_xlabel(labels[0])
     ax_map.set_ylabel(labels[1])
     q = frame.quality
-    ax_map.set_title(title or f"route {' '.join(road.route.edges)}: deviation "
-                     f"{road.max_deviation * 100:.1f} cm, smallest radius "
+    ax_map.set_title(title or f"route {' '.join(route_road.route.edges)}: deviation "
+                     f"{route_road.max_deviation * 100:.1f} cm, smallest radius "
                      f"{q.min_radius:.0f} m")
     s = np.arange(0.0, frame.length, 0.5)
     ax_k.plot(s, 1e3 * np.asarray(frame.curvature(s)), lw=0.8, label="frame (smoothed)")
-    ref = np.asarray(road.reference.shape())
+    ref = np.asarray(route_road.reference.shape())
     v = np.diff(ref, axis=0)
     seg = np.hypot(v[:, 0], v[:, 1])
     turn = np.diff(np.unwrap(np.arctan2(v[:, 1], v[:, 0])))

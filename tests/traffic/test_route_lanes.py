@@ -40,8 +40,8 @@ def test_a_place_on_a_track_maps_back_to_its_s() -> None:
     """(track, s) -> SUMO (edge, index, lane position) is the inverse of the road's
     s of a lane position; the added lane's track maps onto e3 only; the SV's start
     on a later edge is its s there."""
-    road = load_road(CURVED, ROUTE)
-    lanes = RouteLanes(road)
+    route_road = load_road(CURVED, ROUTE)
+    lanes = RouteLanes(route_road)
     assert [t.id for t in lanes.through] == [0, 1, 2]
     assert lanes.band_index == {0: 0, 1: 1, 2: 2, 3: 0}  # the added lane: its neighbour's
     indices = []
@@ -51,27 +51,27 @@ def test_a_place_on_a_track_maps_back_to_its_s() -> None:
             lane_id = f"{place.edge}_{place.index}"
             if place.position == 0.0:  # a junction's lane: the next edge's start
                 continue
-            assert road.track_ids[lane_id] == track
-            assert s_of_lane_position(road, lane_id, place.position) == pytest.approx(
+            assert route_road.track_ids[lane_id] == track
+            assert s_of_lane_position(route_road, lane_id, place.position) == pytest.approx(
                 s, abs=0.01)
             if track == 1:
                 indices.append((place.edge, place.index))
     assert [i for e, i in dict(indices).items()] == [1, 1, 2, 1]
     assert lanes.place(3, 3500.0).edge == "e3" and lanes.place(3, 3500.0).index == 0
-    track, s = sv_start(road, "e3", 2, 100.0)
-    assert track == 1 and s == pytest.approx(road.lane(1).s_start[4] + 100.0, abs=0.5)
-    assert sv_start(road, None, 1, 300.0) == (1, pytest.approx(300.0, abs=0.01))
+    track, s = sv_start(route_road, "e3", 2, 100.0)
+    assert track == 1 and s == pytest.approx(route_road.lane(1).s_start[4] + 100.0, abs=0.5)
+    assert sv_start(route_road, None, 1, 300.0) == (1, pytest.approx(300.0, abs=0.01))
 
 
 def test_populate_fills_every_through_track_along_s_at_the_density() -> None:
     density, length = 20.0, 4000.0
     with curved_sim(3) as sim:
-        road = sim.lanes.road
+        route_road = sim.lanes.route_road
         traffic = populate(sim, sim.road(), density, 3, length, inflow=False)
         assert sorted(traffic.placed) == [0, 1, 2]
         sim.step()
         snap = sim.snapshot()
-        s, _ = road.frame.to_frenet(snap.x, snap.y)
+        s, _ = route_road.frame.to_frenet(snap.x, snap.y)
         shifted = 0
         for track in (0, 1, 2):
             mine = snap.lane == track
@@ -92,7 +92,7 @@ def test_speed_bands_follow_the_track_across_the_index_shift() -> None:
     every step; TVs that cross j2 in track 1 (index 1 -> 2) keep their desired speed and
     their snapshot lane; the added lane's TVs have track 0's band."""
     with curved_sim(5) as sim:
-        road = sim.lanes.road
+        route_road = sim.lanes.route_road
         populate(sim, sim.road(), 12.0, 5, 4000.0)
         # one TV that stays in track 1 from e2 across j2 into e3
         sim.add_traffic("keeper", 1, 3000.0, 0.5, speed=25.0)
@@ -114,7 +114,7 @@ def test_speed_bands_follow_the_track_across_the_index_shift() -> None:
             if k % 10:
                 continue
             for vid in sim.api.vehicle.getIDList():
-                track = road.track_ids.get(sim.api.vehicle.getLaneID(vid))
+                track = route_road.track_ids.get(sim.api.vehicle.getLaneID(vid))
                 if track is None:
                     continue
                 want = bands.speed(track, bands.quantile[vid])
@@ -157,7 +157,7 @@ def test_a_vehicle_on_a_bridge_over_the_route_is_on_no_lane(tmp_path: Path) -> N
             assert snap.lane[snap.index("bridge")] == -1
             assert snap.lane[snap.index("tv")] == 1
             # over the route's lanes: only its road tells them apart
-            s, d = sim.lanes.road.frame.to_frenet(snap.x[snap.index("bridge")],
+            s, d = sim.lanes.route_road.frame.to_frenet(snap.x[snap.index("bridge")],
                                                   snap.y[snap.index("bridge")])
             over += 0.0 < s < 1000.0 and 0.0 < d < 11.25
         assert over > 20
@@ -170,18 +170,18 @@ def test_a_controlled_vehicle_follows_its_track_to_the_route_end(
     SumoSim.move: SUMO keeps it on its route in the track's lane at every step, never
     teleported or dropped, to the route's end; the snapshot's lane is the track."""
     with curved_sim(2) as sim:
-        road = sim.lanes.road
-        frame = road.frame
+        route_road = sim.lanes.route_road
+        frame = route_road.frame
         start = 20.0
         x, y, h = sim.centre_pose(1, start)
         sim.add_controlled("sv", x, y, h, 30.0, (L, W), 1)
         sim.step()
         s, speed = start, 30.0
-        end = min(road.lane(1).end, road.lane(2).end) - L
+        end = min(route_road.lane(1).end, route_road.lane(2).end) - L
         checked = changed = 0
         while s < end:
             s += speed * STEP
-            d1, d2 = float(road.lane(1).centre(s)), float(road.lane(2).centre(s))
+            d1, d2 = float(route_road.lane(1).centre(s)), float(route_road.lane(2).centre(s))
             u = 0.0 if change_at is None else min(max((s - change_at) / 100.0, 0.0), 1.0)
             d = d1 + (d2 - d1) * u
             x, y, h = frame.to_cartesian(s, d)
@@ -190,8 +190,8 @@ def test_a_controlled_vehicle_follows_its_track_to_the_route_end(
             assert sim.api.vehicle.getRoute("sv") == ROUTE
             track = 1 if u < 0.5 else 2
             s_front = s + 0.5 * L
-            piece = road.lane(track).piece_at(s_front)
-            bounds = np.concatenate((road.lane(track).s_start, road.lane(track).s_end))
+            piece = route_road.lane(track).piece_at(s_front)
+            bounds = np.concatenate((route_road.lane(track).s_start, route_road.lane(track).s_end))
             if abs(u - 0.5) > 0.2 and np.abs(bounds - s_front).min() > 1.0:
                 assert sim.api.vehicle.getLaneID("sv") == piece.lane, (s, piece.lane)
                 snap = sim.snapshot_near("sv", 10.0)
@@ -251,10 +251,10 @@ def test_the_sv_starts_on_its_track_at_its_s() -> None:
     doc["scenario"]["duration_s"] = 5.0  # type: ignore[index]
     sc = scenario_from_dict(doc, path=DATA / "route_curved.toml")
     world = World(sc)
-    road = world.route_road
+    route_road = world.route_road
     assert world.sv_start_track == 1
-    assert world.sv_start_x == pytest.approx(road.s_of_lane_position("e3_2", 200.0), abs=1e-6)
-    assert world.sv_start_x == pytest.approx(float(road.lane(1).s_start[4]) + 200.0, abs=0.5)
+    assert world.sv_start_x == pytest.approx(route_road.s_of_lane_position("e3_2", 200.0), abs=1e-6)
+    assert world.sv_start_x == pytest.approx(float(route_road.lane(1).s_start[4]) + 200.0, abs=0.5)
 
 
 def test_a_route_whose_lanes_differ_in_width_is_refused_in_one_line(tmp_path: Path) -> None:
@@ -267,9 +267,9 @@ def test_a_route_whose_lanes_differ_in_width_is_refused_in_one_line(tmp_path: Pa
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3" width="3.75"/>'
         '<edge id="BC" from="B" to="C" numLanes="3" speed="33.3" width="3.75">'
         '<lane index="0" width="3.5"/></edge></edges>')
-    road = load_road(net, ["AB", "BC"])
+    route_road = load_road(net, ["AB", "BC"])
     with pytest.raises(InputError, match=r"lane widths = \[3.5, 3.75\].*3.5, 3.75 m"):
-        road_params(road)
+        road_params(route_road)
 
 
 @pytest.mark.parametrize(("s0", "first"), [(3300.0, "e3_2"), (3100.0, ":j2_0_1"),
@@ -280,7 +280,7 @@ def test_a_lane_change_asked_of_a_sumo_driven_car_is_to_its_track(s0: float,
     index 3 there, its own lane index 2), on the junction before it, and on e2 just before
     the junction (SUMO shifts the request as the index changes): it ends on track 2."""
     with curved_sim(4) as sim:
-        road = sim.lanes.road
+        route_road = sim.lanes.route_road
         sim.add_driven("sv", 1, sim.centre_pose(1, s0), 30.0, 30.0, L, W,
                        own_lane_changes=False)
         sim.step()
@@ -294,7 +294,7 @@ def test_a_lane_change_asked_of_a_sumo_driven_car_is_to_its_track(s0: float,
             if not seen or seen[-1] != lane_id:
                 seen.append(lane_id)
         assert "e3_3" in seen, seen
-        assert road.track_ids[seen[-1]] == 2, seen
+        assert route_road.track_ids[seen[-1]] == 2, seen
         assert sim.snapshot().lane[sim.snapshot().index("sv")] == 2
 
 
@@ -348,9 +348,9 @@ def test_a_run_past_the_routes_end_is_refused_and_a_first_lane_that_ends_is_an_s
         '<node id="C" x="2000" y="0"/></nodes>',
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
         '<edge id="BC" from="B" to="C" numLanes="2" speed="33.3"/></edges>')
-    road = load_road(net, ["AB", "BC"])
-    check_lanes(road, "s.toml")  # lane 0 ends at B, an SV lane like the others
-    rp = road_params(road)
+    route_road = load_road(net, ["AB", "BC"])
+    check_lanes(route_road, "s.toml")  # lane 0 ends at B, an SV lane like the others
+    rp = road_params(route_road)
     assert rp.n_lanes == 3 and rp.y_right == pytest.approx(-rp.lane_width)
     assert rp.lane_end(0) <= 1000.0 and rp.lane_end(1) == rp.lane_end(2) == math.inf
 
