@@ -61,6 +61,7 @@ from cosim.run.recorder import Recorder
 from cosim.run.result import RunResult
 from cosim.run.stop import StopRules
 from cosim.scenario import Scenario
+from cosim.scenario.model import OnCollision
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.world import Scene, World
 
@@ -109,7 +110,7 @@ class CoSimulation:
         self.recorder = Recorder(self.n_steps, sc.vehicle.length, sc.vehicle.width, road,
                                  route_road=world.route_road)
         self.stop = StopRules(road, sc.vehicle.length, self.dt, self.n_steps,
-                              on_collision=sc.on_collision == "stop",
+                              on_collision=sc.on_collision == OnCollision.STOP,
                               at_lane_ends=ego.tracks_reference)
         world.insert()
         ego.inserted()
