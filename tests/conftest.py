@@ -1,4 +1,4 @@
-"""Tests write only into temporary folders, never into the checkout (issue 26).
+"""Tests write only into temporary folders, never into the checkout.
 
 Every test process runs in a temporary working directory, so a command's default
 output folder (`results/...` under the current directory) lands there; and the

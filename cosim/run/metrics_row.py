@@ -87,7 +87,7 @@ METRIC_DOCS: dict[str, str] = {
     "mean_speed_mps": "SV's mean speed (m/s)",
     "start_speed_mps": "SV's speed at t = 0 (m/s): sv.speed_kmh, or lower where its leader at "
     "t = 0 is random traffic it could not brake for from that speed (SUMO's departSpeed rule: "
-    "README, Output files)",
+    "docs/outputs.md)",
     "sumo_events": "SUMO teleports / lost vehicles during the run",
     "rms_long_accel_mps2": "RMS of the SV's longitudinal acceleration ax over the run (m/s^2)",
     "rms_long_jerk_mps3": "RMS of its jerk d(ax)/dt between steps (m/s^3)",
