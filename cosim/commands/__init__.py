@@ -104,9 +104,9 @@ def overridden(before: Any, after: Any) -> Any:
     return None if after == before else after
 
 
-# s, numba compiling every hot loop on a cold cache: 23 s of CPU, 36 s wall measured on a
-# 2-core machine (126 s at load 9); the message says it is longer on a busy machine
-COMPILE_ESTIMATE_S = 40.0
+# s, numba compiling every hot loop on a cold cache, as the first run's message says (longer
+# on a busy machine)
+COMPILE_ESTIMATE_S = 40.0  # tuned: docs/tuned_constants.md
 
 
 def compile_first(stream: Any = None) -> float:
