@@ -26,6 +26,7 @@ from cosim.errors import (
     CosimError,
     InputError,
     OutputError,
+    check_signals,
     interrupted_status,
     signals_as_interrupts,
 )
@@ -139,7 +140,7 @@ def _say(text: str) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    previous = signals_as_interrupts()  # SIGTERM unwinds like Ctrl-C (exit 143)
+    previous = signals_as_interrupts()  # noted, acted on at `check_signals`
     streams = sys.stdout, sys.stderr
     # a closed descriptor (`2>&-`) leaves its stream None, which print skips but the
     # progress bar does not: what would go there goes nowhere, as the user asked
@@ -150,6 +151,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         check_figure_flags(args)
         status = int(args.func(args) or 0)
+        check_signals()  # a signal that came after the command's last check still counts
         sys.stdout.flush()  # a full stdout fails here, inside the command, not at exit
         return status
     except InputError as exc:

@@ -4,8 +4,10 @@ Everything a user can cause (a bad scenario, a bad flag, a missing network)
 raises `InputError`; the CLI prints it on one line and exits with status 2.
 Faults found while running (NaN in a plant, SUMO losing a vehicle) raise
 `SimulationError` with the simulation time, the state and the cause.
-SIGTERM is turned into `Terminated`, a KeyboardInterrupt, so it unwinds through the same
-clean-up as Ctrl-C (exit status 130 for Ctrl-C, 143 for SIGTERM).
+A signal (SIGINT, SIGTERM, SIGHUP) is only noted when it comes; `check_signals`, called
+where unwinding is safe (each step of a run, a batch's wait for its runs), raises it as
+KeyboardInterrupt (`Terminated`, `HungUp` for the others), which unwinds through the same
+clean-up as Ctrl-C (exit status 130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP).
 """
 
 from __future__ import annotations
@@ -67,25 +69,10 @@ class SimulationError(CosimError):
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where Python next runs, so `finally` blocks and staged output clean
-    up exactly as for Ctrl-C."""
+    """SIGTERM, raised at the next signal check (`check_signals`), so `finally` blocks and
+    staged output clean up exactly as for Ctrl-C."""
 
     exit_status = EXIT_TERMINATED
-
-
-_RECEIVED: list[int] = []  # exit statuses of the signals this process received, in order
-
-
-def _raise_interrupted(signum: int, frame: Any) -> None:
-    del signum, frame
-    _RECEIVED.append(EXIT_INTERRUPTED)
-    raise KeyboardInterrupt
-
-
-def _raise_terminated(signum: int, frame: Any) -> None:
-    del signum, frame
-    _RECEIVED.append(EXIT_TERMINATED)
-    raise Terminated("terminated (SIGTERM)")
 
 
 class HungUp(Terminated):
@@ -94,40 +81,90 @@ class HungUp(Terminated):
     exit_status = EXIT_HANGUP
 
 
-def _raise_hangup(signum: int, frame: Any) -> None:
-    del signum, frame
-    _RECEIVED.append(EXIT_HANGUP)
-    raise HungUp("hung up (SIGHUP)")
-
-
+_RECEIVED: list[int] = []  # exit statuses of the signals this process received, in order
+_PENDING: list[int] = []  # those received and not yet acted on by `check_signals`
 # What each signal's exit status is called on stderr.
 SIGNAL_WORDS = {EXIT_TERMINATED: "terminated (SIGTERM)", EXIT_HANGUP: "hung up (SIGHUP)"}
 
 
+def _note_signal(signum: int, frame: Any) -> None:
+    """The handler of SIGINT, SIGTERM and SIGHUP: it only notes the signal. Raising here
+    would raise wherever Python happens to be, and inside a weakref callback (the import
+    machinery's module locks) or a `__del__` the exception is printed and dropped: the run
+    would go on as if nothing came."""
+    del frame
+    status = _STATUS[signum]
+    _RECEIVED.append(status)
+    _PENDING.append(status)
+
+
+def _unwinding(status: int) -> KeyboardInterrupt:
+    """The exception a signal's exit status unwinds as."""
+    if status == EXIT_TERMINATED:
+        return Terminated(SIGNAL_WORDS[status])
+    if status == EXIT_HANGUP:
+        return HungUp(SIGNAL_WORDS[status])
+    return KeyboardInterrupt()
+
+
+_STATUS = {signal.SIGINT: EXIT_INTERRUPTED, signal.SIGTERM: EXIT_TERMINATED}
+if hasattr(signal, "SIGHUP"):  # POSIX
+    _STATUS[signal.SIGHUP] = EXIT_HANGUP
+
+
 def signals_as_interrupts() -> dict[int, Any]:
-    """Make SIGINT raise KeyboardInterrupt, SIGTERM `Terminated` and SIGHUP `HungUp` (main
-    thread only),
-    each remembered (`interrupted_status`); returns the previous handlers, by signal, for
-    `signal.signal` to put back (empty: nothing was changed)."""
+    """Note SIGINT, SIGTERM and SIGHUP as they come (main thread only); `check_signals`
+    then raises KeyboardInterrupt, `Terminated` or `HungUp` at a point where unwinding is
+    safe. Returns the previous handlers, by signal, for `signal.signal` to put back
+    (empty: nothing was changed)."""
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         return {}
-    handlers = [(signal.SIGINT, _raise_interrupted), (signal.SIGTERM, _raise_terminated)]
-    if hasattr(signal, "SIGHUP"):  # POSIX
-        handlers.append((signal.SIGHUP, _raise_hangup))
-    return {signum: signal.signal(signum, handler) for signum, handler in handlers}
+    _PENDING.clear()
+    return {signum: signal.signal(signum, _note_signal) for signum in _STATUS}
+
+
+def signals_noted() -> bool:
+    """True when this process's signal handlers note signals for `check_signals`."""
+    return signal.getsignal(signal.SIGINT) is _note_signal
+
+
+def signal_pending() -> bool:
+    """True when a signal came that no `check_signals` has acted on yet."""
+    return bool(_PENDING)
+
+
+def check_signals() -> None:
+    """Act on a signal received since the last check: raise KeyboardInterrupt (SIGINT),
+    `Terminated` (SIGTERM) or `HungUp` (SIGHUP); the first signal decides, the others
+    that came with it are spent. The run's loop calls this once per step, the batch while
+    it waits for its runs, and whatever waits long elsewhere (SUMO's start, the demand's
+    validation, the warm-up) as it waits."""
+    if _PENDING:
+        status = _PENDING[0]
+        _PENDING.clear()
+        raise _unwinding(status)
 
 
 @contextlib.contextmanager
 def signals_deferred() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM for the duration of a short critical section (a folder swap
-    and its clean-up) and deliver them after it, through the handlers in place before.
-    Only the main thread gets Python signal handlers; elsewhere this does nothing."""
+    """A short critical section (a folder swap and its clean-up) that a signal does not
+    cut: one that comes during it is acted on at its end. With `signals_as_interrupts`'
+    handlers in place signals only ever are noted, so the end is a `check_signals`; under
+    other handlers (Python's own, a library caller's), SIGINT, SIGTERM and SIGHUP are held
+    and the first is delivered at the end through the handler in place before. Only the
+    main thread gets Python signal handlers; elsewhere this does nothing."""
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         yield
+        return
+    if signals_noted():
+        try:
+            yield
+        finally:
+            check_signals()
         return
     held: list[int] = []
 
@@ -135,9 +172,7 @@ def signals_deferred() -> Iterator[None]:
         del frame
         held.append(signum)
 
-    signums = [signal.SIGINT, signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP")
-                                                 else [])
-    previous = {signum: signal.signal(signum, hold) for signum in signums}
+    previous = {signum: signal.signal(signum, hold) for signum in _STATUS}
     try:
         yield
     finally:
@@ -146,7 +181,7 @@ def signals_deferred() -> Iterator[None]:
         for signum in held[:1]:  # the first is enough: it ends the command
             handler = previous[signum]
             if callable(handler):
-                handler(signum, None)  # ours raise KeyboardInterrupt / Terminated
+                handler(signum, None)
             elif handler != signal.SIG_IGN:
                 signal.raise_signal(signum)  # SIG_DFL: what the signal would have done
 

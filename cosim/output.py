@@ -317,7 +317,7 @@ def staged_dir(path: str | Path) -> Iterator[Path]:
     the old folder's removal hold SIGINT / SIGTERM / SIGHUP until done (`signals_deferred`):
     a signal then finds the new folder in place (`COMPLETED`) and no hidden copy. A write
     that fails (no space left) is an `OutputError` naming the file as the user knows it."""
-    from cosim.errors import OutputError, signals_deferred
+    from cosim.errors import OutputError, check_signals, signals_deferred
 
     final = Path(path)
     if final.is_symlink():  # a link to a folder: build beside the folder, keep the link
@@ -335,6 +335,7 @@ def staged_dir(path: str | Path) -> Iterator[Path]:
     try:
         os.chmod(tmp, 0o777 & ~_read_umask())
         yield tmp
+        check_signals()  # a signal that came while the folder was built: it is not swapped in
         # The swap and the old folder's removal run whole: a Ctrl-C or SIGTERM now is
         # held until the new folder is in place and no hidden copy is left, then delivered
         # (the command reports the run complete: `completed`).

@@ -53,6 +53,7 @@ from cosim.driving import registry
 from cosim.driving.base import DrivingContext, LaneChangePolicy, WorldPorts
 from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
+from cosim.errors import check_signals
 from cosim.road.road import Road
 from cosim.run.ego import Ego, PlannedEgo, SumoDrivenEgo
 from cosim.run.metrics_row import MetricsRow
@@ -138,6 +139,7 @@ class CoSimulation:
             world, ego, policy, observer, recorder, stop = (
                 self.world, self.ego, self.policy, self.observer, self.recorder, self.stop)
             for k in range(self.n_steps + 1):
+                check_signals()  # a signal ends the run here, between two steps
                 t = k * self.dt
                 everyone = world.read(observer.radius, full=observer.full_scene)
                 scene = Scene.around(t, ego.state(everyone), everyone)
@@ -233,9 +235,24 @@ def simulate(scenario: Scenario, *, progress: bool = False, gui: bool | GuiSetti
     sim = CoSimulation(scenario, gui=gui, decision=decision, fcd_output=fcd_output)
     if not progress:
         return sim.run()
+    import contextlib
+
     from cosim.progress import Bar
 
-    # ETA from the rate after the first 5 % of the steps (SUMO's start, the first plan)
-    with Bar(sim.n_steps, desc=scenario.name, unit="step", file=sys.stderr,
-             leave=False) as bar:
+    with contextlib.ExitStack() as bars:
+        def warmup_bar(steps: int) -> ProgressFn:
+            """The warm-up's own bar (the run's stays at 0 meanwhile), gone when it ends."""
+            bar = bars.enter_context(Bar(steps, desc=f"{scenario.name} warm-up",
+                                         unit="step", file=sys.stderr, leave=False))
+
+            def count(n: int) -> None:
+                bar.update(n)
+                if bar.n >= steps:
+                    bar.close()
+            return count
+
+        sim.world.warmup_progress = warmup_bar
+        # ETA from the rate after the first 5 % of the steps (SUMO's start, the first plan)
+        bar = bars.enter_context(Bar(sim.n_steps, desc=scenario.name, unit="step",
+                                     file=sys.stderr, leave=False))
         return sim.run(bar.update)

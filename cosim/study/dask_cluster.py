@@ -9,11 +9,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import InputError, signals_deferred
+from cosim.errors import InputError, check_signals, signals_deferred
 from cosim.study.grid import RunSpec
 from cosim.study.worker import OnRecord, error_text, execute_run, failed_record
 
 LOCAL_CLUSTER = "local"  # the address `--dask local`: a LocalCluster of --workers processes
+SIGNAL_POLL = 0.2  # s, how often the wait for runs looks for a signal
 
 
 def dask_client(address: str, workers: int) -> Any:
@@ -81,10 +82,16 @@ def run_dask(specs: Sequence[RunSpec], out_dir: Path, client: Any, on_record: On
         key=[f"cosim-run-{s.run_id}-{time.time_ns()}" for s in specs],
     )
     spec_of = {f.key: s for f, s in zip(futures, specs, strict=True)}
-    for future in as_completed(futures):
-        try:
-            record = future.result()
-        except Exception as exc:  # KilledWorker and the like: the task never returned
-            record = failed_record(spec_of[future.key], f"worker died: {error_text(exc)}")
-        on_record(record)
-        future.release()
+    finished = as_completed(futures)
+    while not finished.is_empty():
+        check_signals()  # a signal is only noted when it comes: acted on here
+        done = finished.next_batch(block=False)
+        if not done:
+            time.sleep(SIGNAL_POLL)
+        for future in done:
+            try:
+                record = future.result()
+            except Exception as exc:  # KilledWorker and the like: the task never returned
+                record = failed_record(spec_of[future.key], f"worker died: {error_text(exc)}")
+            on_record(record)
+            future.release()

@@ -1,7 +1,8 @@
 """The local executor: a process pool with one fresh process per run (libsumo holds one
 simulation per process), forked from a fork server that has imported cosim already
 (`PRELOAD`, then cosim.study.fork_server). Left by Ctrl-C or SIGTERM, the pool ends its
-workers and the fork server before the exception goes on (`_ending_pool`)."""
+workers and the fork server before the exception goes on (`_ending_pool`); the parent
+notices a signal while it waits for its runs (`_wait_any`)."""
 
 from __future__ import annotations
 
@@ -9,16 +10,20 @@ import concurrent.futures as cf
 import contextlib
 import multiprocessing
 import os
+import shutil
+import tempfile
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
-from cosim.errors import signals_deferred
+from cosim.errors import check_signals, signals_deferred
 from cosim.study.grid import RunSpec
 from cosim.study.worker import OnRecord, error_text, execute_run, failed_record
 
 T = TypeVar("T")
+
+SIGNAL_POLL = 0.2  # s, how often a wait for runs looks for a signal
 
 # What a run imports, loaded once by the fork server rather than by every run.
 # libsumo is imported, never started, before the fork. cosim.control.warm compiles the
@@ -101,10 +106,27 @@ def _end_pool_now(pool: cf.ProcessPoolExecutor, timeout: float) -> None:
         server._stop()  # closes its pipe, reaps it, forgets it (the next pool starts anew)
 
 
+def _wait_any(futures: Iterable[cf.Future[T]]) -> set[cf.Future[T]]:
+    """The futures done once at least one is, looking for a signal every SIGNAL_POLL
+    seconds meanwhile (a signal is only noted when it comes: `check_signals` acts on it)."""
+    futures = list(futures)
+    while True:
+        check_signals()
+        done, _ = cf.wait(futures, timeout=SIGNAL_POLL, return_when=cf.FIRST_COMPLETED)
+        if done:
+            return done
+
+
+def _result(future: cf.Future[T]) -> T:
+    """`future.result()`, a signal acted on while it waits."""
+    _wait_any([future])
+    return future.result()
+
+
 def start_fork_server() -> None:
     """Start the fork server (imports included) now, e.g. before timing a study."""
     with _ending_pool(1) as pool:
-        _submit(pool, os.getpid).result()
+        _result(_submit(pool, os.getpid))
 
 
 def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: OnRecord) -> None:
@@ -113,16 +135,25 @@ def run_local(specs: Sequence[RunSpec], out_dir: Path, workers: int, on_record: 
     At most `workers` runs are submitted at a time, so that a run whose
     process dies (a crash, not an exception) breaks the pool with few runs in
     flight; those are then retried one by one, each alone in a pool, and the
-    one that breaks its pool alone is recorded as failed."""
+    one that breaks its pool alone is recorded as failed.
+
+    The workers' temporary folders (SUMO's log, the fcd file, ...) are made in a folder
+    of this batch's own, removed when the batch ends however it ends: a worker ended by
+    a signal leaves its folders there, not in the system's temporary folder."""
     queue = list(reversed(specs))
-    while queue:
-        broken = _run_until_broken(queue, out_dir, workers, on_record)
-        for spec in broken:
-            on_record(_run_alone(spec, out_dir))
+    tmp_root = tempfile.mkdtemp(prefix="cosim-batch-")
+    try:
+        while queue:
+            broken = _run_until_broken(queue, out_dir, workers, on_record, tmp_root)
+            for spec in broken:
+                on_record(_run_alone(spec, out_dir, tmp_root))
+    finally:
+        with signals_deferred():
+            shutil.rmtree(tmp_root, ignore_errors=True)
 
 
 def _run_until_broken(queue: list[RunSpec], out_dir: Path, workers: int,
-                      on_record: OnRecord) -> list[RunSpec]:
+                      on_record: OnRecord, tmp_root: str) -> list[RunSpec]:
     """Run the queue's runs (popped from its end) in one pool until it is empty or the pool
     breaks; return the runs in flight when it broke."""
     broken: list[RunSpec] = []
@@ -131,8 +162,8 @@ def _run_until_broken(queue: list[RunSpec], out_dir: Path, workers: int,
         while (queue or running) and not broken:
             while queue and len(running) < workers:
                 spec = queue.pop()
-                running[_submit(pool, execute_run, spec, str(out_dir))] = spec
-            done, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+                running[_submit(pool, execute_run, spec, str(out_dir), tmp_root)] = spec
+            done = _wait_any(running)
             for future in done:
                 spec = running.pop(future)
                 try:
@@ -143,12 +174,12 @@ def _run_until_broken(queue: list[RunSpec], out_dir: Path, workers: int,
     return broken
 
 
-def _run_alone(spec: RunSpec, out_dir: Path) -> dict[str, Any]:
+def _run_alone(spec: RunSpec, out_dir: Path, tmp_root: str) -> dict[str, Any]:
     """The record of one run in a pool of its own; failed if its process dies."""
     start = time.perf_counter()
     with _ending_pool(1) as alone:
         try:
-            return _submit(alone, execute_run, spec, str(out_dir)).result()
+            return _result(_submit(alone, execute_run, spec, str(out_dir), tmp_root))
         except cf.process.BrokenProcessPool as exc:
             return failed_record(
                 spec, f"worker process died: {error_text(exc)}", time.perf_counter() - start,

@@ -21,12 +21,19 @@ from cosim.study.run_table import RunStatus
 OnRecord = Callable[[dict[str, Any]], None]
 
 
-def execute_run(spec: RunSpec, out_dir: str) -> dict[str, Any]:
+def execute_run(spec: RunSpec, out_dir: str, tmp_root: str | None = None) -> dict[str, Any]:
     """Run one grid point and return its record; never raises.
 
     A run that raises is returned as a failed record with the error's type and message
-    (and the traceback, kept in the JSON record only)."""
+    (and the traceback, kept in the JSON record only). `tmp_root`: the folder this
+    process makes its temporary folders in (its executor removes it, whatever this process
+    left); only for a process that runs this one run (cosim.study.pool's workers)."""
     start = time.perf_counter()
+    if tmp_root is not None:
+        import os
+        import tempfile
+
+        tempfile.tempdir = os.environ["TMPDIR"] = tmp_root
     record: dict[str, Any] = {"run_id": spec.run_id, **spec.parameters()}
     try:
         from cosim.run.loop import run_scenario

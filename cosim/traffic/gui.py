@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
-from cosim.errors import InputError
+from cosim.errors import InputError, check_signals
 
 VIEW = "View #0"  # sumo-gui's main view
 SV_COLOUR = (30, 110, 255, 255)  # RGBA, the followed vehicle
@@ -169,7 +169,13 @@ def wait_for_windows(out: Any = None) -> None:
         return
     print("sumo-gui: the run is over; close its window to exit", file=out or sys.stderr)
     for window in list(_windows):
-        window.wait()
+        while True:
+            check_signals()  # Ctrl-C ends the wait (a signal is only noted when it comes)
+            try:
+                window.wait(timeout=0.2)
+                break
+            except subprocess.TimeoutExpired:
+                continue
     _windows.clear()
 
 

@@ -51,6 +51,13 @@ from cosim.validation import not_a_file
 
 MAX_DEMAND_BYTES = 64 * 2**20  # a route file of a motorway study is kB to a few MB
 GZIP_MAGIC = b"\x1f\x8b"  # the first bytes of a gzip file
+# SUMO builds every vehicle of a flow when it loads the demand (~3 kB each): a flow of
+# 10^9 vehicles fills the memory before the first step. 200 000 is two days of a full
+# three-lane motorway (2000 veh/h/lane): no run of cosim inserts that many.
+MAX_FLOW_VEHICLES = 200_000
+FLOW_END_DEFAULT = 86400.0  # s, a flow's end when it gives none (SUMO's default)
+DRY_LOAD_SECONDS = 120.0  # s, the validating SUMO's time (a motorway demand loads in ~1 s)
+DRY_LOAD_BYTES = 4 * 2**30  # its address space (it needs ~0.2 GiB for a motorway demand)
 ROOTS = ("routes", "additional")  # what SUMO reads as route or additional files
 VEHICLE_TAGS = ("vehicle", "trip", "flow")  # what enters the road as a car-like vehicle
 PERSON_TAGS = ("person", "personFlow", "container", "containerFlow")
@@ -260,6 +267,12 @@ def _read_file(rules: _Rules, key: str, name: str, written: str, root: ET.Elemen
                 raise clash(tag, ident, "ids given once across the demand files")
             seen.vehicles[ident] = tag
             who = f"{tag} {ident!r}"
+            size = flow_size(attrib) if tag.lower().endswith("flow") else None
+            if size is not None and size[0] > MAX_FLOW_VEHICLES:
+                raise InputError(source, key, f"{name}: {who} {size[1]}",
+                                 f"a flow of at most {MAX_FLOW_VEHICLES} vehicles (this one "
+                                 f"has {size[0]:.0f}; SUMO builds every vehicle of a flow "
+                                 "when it loads the demand)")
             for attr in ("from", "to", "via"):
                 if attr in attrib:
                     edges(who, attr, attrib[attr])
@@ -267,6 +280,34 @@ def _read_file(rules: _Rules, key: str, name: str, written: str, root: ET.Elemen
                 seen.refs.append((key, f"{name}: {who}", "route", attrib["route"]))
             if "type" in attrib:
                 seen.refs.append((key, f"{name}: {who}", "type", attrib["type"]))
+
+
+RATES = (("vehsPerHour", 3600.0), ("personsPerHour", 3600.0), ("containersPerHour", 3600.0))
+
+
+def flow_size(attrib: dict[str, str]) -> tuple[float, str] | None:
+    """How many vehicles (persons) a flow inserts over its whole interval, and the
+    attributes that say so (None: not plain numbers; SUMO's own load judges those)."""
+    try:
+        if "number" in attrib:
+            return float(attrib["number"]), f"number={attrib['number']}"
+        begin = float(attrib.get("begin", "0"))
+        span = max(float(attrib.get("end", FLOW_END_DEFAULT)) - begin, 0.0)
+        over = f"from begin={begin:g} to end={begin + span:g} s"
+        for name, per in RATES:
+            if name in attrib:
+                return float(attrib[name]) * span / per, f"{name}={attrib[name]} {over}"
+        if "period" in attrib:
+            period = attrib["period"]
+            if period.startswith("exp(") and period.endswith(")"):  # Poisson: mean rate
+                return float(period[4:-1]) * span, f"period={period} {over}"
+            return span / float(period), f"period={period} {over}"
+        if "probability" in attrib:  # at most one vehicle a second
+            return float(attrib["probability"]) * span, \
+                f"probability={attrib['probability']} {over}"
+    except (ValueError, ZeroDivisionError):
+        return None
+    return None
 
 
 DEMAND_TAGS = ("vType", "vTypeDistribution", "route", "routeDistribution", *VEHICLE_TAGS,
@@ -348,9 +389,11 @@ def _stamp(path: Path) -> tuple[int, int]:
 @functools.lru_cache(maxsize=16)
 def _dry_load(stamp: tuple[tuple[str, int, int], ...], n_routes: int) -> str:
     """SUMO's first error line loading the files of `stamp` (network, route files, then
-    additional files), "" if none."""
-    import subprocess
+    additional files), "" if none; SUMO bounded in time and memory (DRY_LOAD_SECONDS,
+    DRY_LOAD_BYTES) and killed with cosim (cosim.bounded_process)."""
     import tempfile
+
+    from cosim.bounded_process import run_bounded
 
     paths = [Path(p) for p, _, _ in stamp]
     network, routes, additional = paths[0], paths[1:1 + n_routes], paths[1 + n_routes:]
@@ -368,12 +411,19 @@ def _dry_load(stamp: tuple[tuple[str, int, int], ...], n_routes: int) -> str:
         for option, files in sumo_file_options(routes, additional, Path(tmp)):
             cmd += [option, files]
         try:
-            done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp)
-        except (OSError, subprocess.SubprocessError) as exc:
+            done = run_bounded(cmd, timeout=DRY_LOAD_SECONDS, memory_bytes=DRY_LOAD_BYTES,
+                               cwd=tmp)
+        except OSError as exc:
             return f"SUMO could not be run ({exc})"
     if done.returncode == 0:
         return ""
+    if done.timed_out:
+        return (f"it did not finish loading the demand in {DRY_LOAD_SECONDS:g} s; "
+                "a demand this large is more than a run can take")
     lines = [ln.strip() for ln in (done.stderr + done.stdout).splitlines() if ln.strip()]
+    if any("bad_alloc" in ln for ln in lines):  # its memory cap reached
+        return (f"loading the demand took more than {DRY_LOAD_BYTES // 2**30} GiB of memory; "
+                "a demand this large is more than a run can take")
     errors = [ln for ln in lines if ln.startswith("Error")] or lines or ["(no message)"]
     return errors[0].removeprefix("Error: ")
 

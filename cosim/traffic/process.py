@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
-from cosim.errors import SimulationError
+from cosim.errors import SimulationError, check_signals
 from cosim.traffic import gui as gui_window
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.own_demand import sumo_file_options
@@ -111,12 +111,14 @@ class SumoProcess:
         if _active is not None and _active is not self and _active.api is not None:
             raise SimulationError(0.0, "another SUMO simulation is running in this process")
         api = _import_api(self.use_traci)
+        check_signals()  # a signal that came while cosim loaded: SUMO is not started
         if self.gui:
             gui_window.start(api, self.command())
         else:
             api.start(self.command())
         self.api = api
         _active = self
+        check_signals()  # one that came while SUMO started (`close` then ends it)
         return api
 
     def close(self) -> None:

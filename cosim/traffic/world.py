@@ -19,6 +19,7 @@ SUMO-driven SV, gap requests to TVs through the cooperation channels).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -26,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from cosim.errors import SimulationError
+from cosim.errors import SimulationError, check_signals
 from cosim.params import RoadParams
 from cosim.scenario.model import Scenario
 from cosim.traffic.cooperation import (
@@ -45,6 +46,8 @@ if TYPE_CHECKING:
     from cosim.traffic.scripted import ScriptedTraffic
 
 Array = NDArray[np.float64]
+# Told the warm-up's number of steps, it returns what counts each step done.
+WarmupProgress = Callable[[int], Callable[[int], None]]
 
 SV_ID = "sv"
 SV_LANE_CHANGE_DURATION = 30.0  # s, SUMO keeps trying a lane change it is asked for this long
@@ -150,6 +153,7 @@ class World:
         self.cleared: list[str] = []  # the user's vehicles taken off at the SV's entry
         self.t_warmup = 0.0  # s, SUMO's clock at the end of the warm-up (none: 0)
         self.scripted: ScriptedTraffic | None = None  # add_scripted
+        self.warmup_progress: WarmupProgress | None = None  # the warm-up's progress
 
     def start(self) -> RoadParams:
         """Start SUMO and place the random traffic around the SV's start, or run the
@@ -157,8 +161,8 @@ class World:
         centres from the network, the scenario's bands and mu)."""
         sc = self.scenario
         tr = sc.traffic
+        self.started = True  # `close` ends SUMO even if its start is cut short
         self.sumo.start()
-        self.started = True
         road = sc.road  # lane geometry: the network's, read once by the scenario
         x0 = self.sv_start_x
         track = self.sv_start_track
@@ -179,18 +183,24 @@ class World:
 
             ramp_flow(self.sumo, tr.ramp_flow, sc.seed, traffic)
         if sc.demand is not None:
-            self.warm_up(sc.demand.warmup)
+            self.warm_up(sc.demand.warmup, self.warmup_progress)
         return road
 
-    def warm_up(self, warmup: float) -> list[str]:
+    def warm_up(self, warmup: float, progress: WarmupProgress | None = None) -> list[str]:
         """The user's own demand (cosim.traffic.own_demand) runs alone for `warmup` s
         (whole steps), then its vehicles inside the zones the SV and the scripted TVs start
         in are taken off the road (the zones random traffic leaves free: `start_zone` in
         their own lane, SV_LENGTH_MARGIN SV lengths around the SV in every lane), so no one
-        starts overlapping or too close; returns the ids taken off, in order."""
+        starts overlapping or too close; returns the ids taken off, in order. `progress`
+        is told the number of warm-up steps, then each step done."""
         sc = self.scenario
-        for _ in range(int(round(warmup / sc.step))):
+        steps = int(round(warmup / sc.step))
+        count = progress(steps) if progress is not None and steps else None
+        for _ in range(steps):
+            check_signals()  # a signal ends the warm-up between two steps
             self.sumo.step()
+            if count is not None:
+                count(1)
         self.t_warmup = self.sumo.time
         from cosim.traffic.demand import start_zone
 
