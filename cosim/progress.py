@@ -77,8 +77,9 @@ class Bar:
 
     def __init__(self, total: int, *, desc: str, unit: str, warm: int | None = None,
                  initial: int = 0, disable: bool = False, leave: bool = True,
-                 file: Any = None, clock: Callable[[], float] = time.monotonic) -> None:
-        self.eta = WarmEta(total - initial, warm if warm is not None else warm_units(total))
+                 file: Any = None, clock: Callable[[], float] = time.perf_counter) -> None:
+        self.eta = WarmEta(total - initial, warm if warm is not None else warm_units(total),
+                           clock)
         self.fields: dict[str, Any] = {}
         self.left: float | None = None
         self.file = file or sys.stderr

@@ -194,6 +194,18 @@ def not_a_file(path: Any) -> str | None:
     return file_kind(mode)
 
 
+def not_utf8(path: Any) -> str | None:
+    """Why SUMO cannot open `path` although it exists: its name holds bytes that are not
+    UTF-8 (SUMO takes file names as UTF-8); None when it can."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        shown = str(path).encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+        return (f"its name {shown!r} holds bytes that are not UTF-8, and SUMO reads UTF-8 "
+                "names only: rename the file or its folder")
+    return None
+
+
 def network_file(path: Any, max_bytes: int) -> Any:
     """The os.stat_result of a SUMO network file about to be read. InputError when it is
     not a readable regular file (saying what it is: `not_a_file`) or is over `max_bytes`."""
@@ -203,6 +215,9 @@ def network_file(path: Any, max_bytes: int) -> Any:
     if why is not None:
         raise InputError(str(path), "network", f"{path} ({why})",
                          "an existing SUMO .net.xml file")
+    why = not_utf8(path)
+    if why is not None:
+        raise InputError(str(path), "name", str(path), f"a file name SUMO can open ({why})")
     st = Path(path).stat()
     if st.st_size > max_bytes:
         raise InputError(str(path), "size", f"{st.st_size} bytes",

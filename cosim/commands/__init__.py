@@ -15,6 +15,29 @@ from typing import Any
 from cosim.errors import InputError
 from cosim.validation import Field
 
+
+class PlainHelp(argparse.HelpFormatter):
+    """Help as plain text: the description's paragraphs (blank-line separated) and list
+    items ("- ...", "1. ...") each re-filled to the terminal's width, Markdown's backticks
+    dropped, in the descriptions and in every flag's help."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        import textwrap
+
+        blocks = []
+        for paragraph in re.split(r"\n\s*\n", text.replace("`", "").strip()):
+            items = re.split(r"\n\s*(?=- |\d+\. )", paragraph)
+            blocks.append("\n".join(
+                textwrap.fill(" ".join(item.split()), width, initial_indent=indent,
+                              subsequent_indent=indent + ("  " if item.lstrip()[:1] in "-123456789"
+                                                          else ""))
+                for item in items))
+        return "\n\n".join(blocks)
+
+    def _split_lines(self, text: str, width: int) -> list[str]:
+        return super()._split_lines(text.replace("`", ""), width)
+
+
 FIGURE_FORMATS = ("png", "svg", "pdf")  # = cosim.plots.FORMATS (not imported: matplotlib)
 
 

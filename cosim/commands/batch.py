@@ -22,6 +22,7 @@ from typing import Any
 
 from cosim.commands import (
     WORKERS_PER_CORE,
+    PlainHelp,
     add_figure_format,
     compile_first,
     count,
@@ -45,7 +46,7 @@ from cosim.study.spec import (
     load_study,
 )
 from cosim.study.store import check_same_base
-from cosim.validation import Field, not_a_file
+from cosim.validation import MISSING, Field, not_a_file
 
 SOURCE = "command line"
 
@@ -55,7 +56,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "batch",
         help="a study: runs over density x seed x p x mu x driver x plant, resumable",
         description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=PlainHelp,
     )
     p.add_argument("study", nargs="?", type=Path, help="study file (TOML, [study] table)")
     p.add_argument("--scenario", type=Path, metavar="FILE",
@@ -137,7 +138,9 @@ def study_from_args(args: argparse.Namespace) -> Study:
             traces=False,
         )
     else:
-        raise InputError(SOURCE, "study", None, "a study file or --scenario FILE")
+        raise InputError(SOURCE, "STUDY", MISSING, "the study file is missing: give one "
+                         "(cosim batch STUDY.toml), or --scenario FILE with --densities and "
+                         "--seeds")
     if args.duration is not None and not 0 < args.duration <= 3600:
         raise InputError(SOURCE, "--duration", args.duration, "a number of seconds in (0, 3600]")
     study = study.with_flags(
@@ -154,8 +157,9 @@ def study_from_args(args: argparse.Namespace) -> Study:
     )
     problem = not_a_file(study.scenario)
     if problem is not None:
-        raise InputError(SOURCE, "--scenario", str(study.scenario), "an existing scenario file" + (
-            "" if problem == "not found" else f" (this is {problem})"))
+        raise InputError(SOURCE, "--scenario", str(study.scenario),
+                         "not found (a scenario file, .toml)" if problem == "not found"
+                         else f"a scenario file (this is {problem})")
     if not study.densities:
         raise InputError(SOURCE, "--densities", None, "required without a study file")
     if not study.seeds:

@@ -16,7 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from cosim.commands import add_figure_format, compile_first, flag_overrides
+from cosim.commands import PlainHelp, add_figure_format, compile_first, flag_overrides
 
 
 def drivers(policy: str) -> dict[str, dict[str, str]]:
@@ -37,7 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
         "compare", help="one scenario and seed driven by MIMO, SISO, the other lane-change "
         "policy and SUMO-native",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=__doc__, formatter_class=PlainHelp,
     )
     parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
     parser.add_argument("--out", type=Path, default=None,

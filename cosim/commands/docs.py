@@ -11,13 +11,14 @@ from __future__ import annotations
 import argparse
 import sys
 
+from cosim.commands import PlainHelp
 from cosim.errors import InputError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
         "docs", help="recompute the result tables of README.md and docs/ (or check them)",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=__doc__, formatter_class=PlainHelp,
     )
     parser.add_argument("--check", action="store_true",
                         help="write nothing; exit 1 if a table differs from the code's")

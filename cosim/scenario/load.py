@@ -94,8 +94,9 @@ def read_toml(path: str | Path, what: str = "scenario") -> dict[str, Any]:
     source = str(p)
     problem = not_a_file(p)
     if problem is not None:
-        raise InputError(source, "file", source, f"an existing {what} file (.toml)" + (
-            "" if problem == "not found" else f"; this is {problem}"))
+        raise InputError(source, "file", source, f"not found (a {what} file, .toml)"
+                         if problem == "not found" else f"a {what} file (.toml); this is "
+                         f"{problem}")
     try:
         size = p.stat().st_size
         if size > MAX_FILE_BYTES:
@@ -133,7 +134,7 @@ def _network_file(source: str, key: str, written: str, path: Path, base_dir: Pat
     """InputError naming the scenario unless `path` is a file."""
     problem = not_a_file(path)
     if problem == "not found":
-        looked = path if Path(written).is_absolute() else (
+        looked = path if Path(written).expanduser().is_absolute() else (
             f"{base_dir / written} or {project_root() / written}")
         raise InputError(source, key, written,
                          f"an existing SUMO .net.xml file (not found: {looked})")

@@ -67,6 +67,10 @@ def check_route(src: str, network: Path, route: tuple[str, ...] | None, sv: SVSp
                          "them by its allow / disallow)")
     half = 0.5 * sv_length
     length = float(lane.getLength())
+    if length < sv_length:
+        raise InputError(src, "sv.edge", edge_id,
+                         f"an edge at least as long as the SV ({sv_length:g} m; lane "
+                         f"{lane.getID()!r} is {length:g} m long): the SV does not fit on it")
     if not half <= sv.position <= length - half:
         raise InputError(src, "sv.position_m", sv.position,
                          f"on lane {lane.getID()!r}: in [{half:g}, {length - half:g}] m from "
@@ -265,6 +269,11 @@ def _check_positions(src: str, s: Scenario, net: Highway) -> None:
     run off its end in `duration` (SUMO would drop it silently)."""
     length = net.length
     half = 0.5 * s.vehicle.length
+    if length < s.vehicle.length:
+        raise InputError(
+            src, "road.network", str(net.path),
+            f"a road at least as long as the SV ({s.vehicle.length:g} m; the network's "
+            f"edge is {length:g} m long): the SV does not fit on it")
     if not half <= s.sv.position <= length - half:
         raise InputError(
             src, "sv.position_m", s.sv.position,

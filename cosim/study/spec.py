@@ -237,8 +237,9 @@ def study_from_dict(doc: Any, path: Path) -> Study:
         scenario = path.parent / scenario
     problem = not_a_file(scenario)
     if problem is not None:
-        raise InputError(source, "study.scenario", str(scenario), "an existing scenario file" + (
-            "" if problem == "not found" else f" (this is {problem})"))
+        raise InputError(source, "study.scenario", str(scenario),
+                         "not found (a scenario file, .toml)" if problem == "not found"
+                         else f"a scenario file (this is {problem})")
     origins = {attr: (source, f"study.{GRID[attr][1]}") for attr in GRID
                if values.get(attr) is not None}
     if "seed_count" in raw:

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from cosim.errors import InputError
-from cosim.validation import not_a_file
+from cosim.validation import not_a_file, not_utf8
 
 MAX_DEMAND_BYTES = 64 * 2**20  # a route file of a motorway study is kB to a few MB
 GZIP_MAGIC = b"\x1f\x8b"  # the first bytes of a gzip file
@@ -100,6 +100,9 @@ def _file_problem(path: Path) -> str | None:
     problem = not_a_file(path)
     if problem is not None:
         return f"not found: {path}" if problem == "not found" else f"{path} is {problem}"
+    problem = not_utf8(path)
+    if problem is not None:
+        return f"SUMO cannot open {path}: {problem}"
     size = path.stat().st_size
     if size > MAX_DEMAND_BYTES:
         return f"{path} has {size} bytes, at most {MAX_DEMAND_BYTES // 2**20} MiB allowed"

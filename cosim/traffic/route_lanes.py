@@ -66,14 +66,34 @@ def load_route_road(network: Path | str, route: Sequence[str] | None = None,
     try:
         st = path.stat()
     except (OSError, ValueError):  # load_road says what is wrong with it, in one line
-        return load_road(network, route, source=source)
+        return _load_road_as_scenario(network, route, source)
     try:
         return _cached_route_road(str(path.resolve()), st.st_mtime_ns, st.st_size,
                                   None if route is None else tuple(route))
     except InputError:
         if source is None:
             raise
-        return load_road(network, route, source=source)  # raises, naming `source`
+        return _load_road_as_scenario(network, route, source)  # raises, naming `source`
+
+
+# load_road's keys for the road's geometry: a scenario knows them as road.route (or
+# road.network, for a network's only edge)
+ROAD_SHAPE_KEYS = ("route", "reference lane", "reference line radius",
+                   "reference line deviation", "lane deviation")
+
+
+def _load_road_as_scenario(network: Path | str, route: Sequence[str] | None,
+                           source: str | None) -> Road:
+    """load_road; a fault of the road's shape is told under the scenario's key."""
+    try:
+        return load_road(network, route, source=source)
+    except InputError as exc:
+        if source is None or exc.key not in ROAD_SHAPE_KEYS:
+            raise
+        key, value = (("road.route", list(route)) if route is not None
+                      else ("road.network", str(network)))
+        what = "" if exc.key == "route" else f" ({exc.key}: {exc.value})"
+        raise InputError(exc.source, key, value, exc.allowed + what) from None
 
 
 @functools.lru_cache(maxsize=8)
