@@ -6,7 +6,9 @@ Cases (paper Section 5; SUMO lane indices):
 5.2 lane 1 -> 0, 110 -> 90 km/h, mu 0.6, tau_opt 5.56 s;
 5.3 lane 1 -> 2, 105 -> 110 km/h, mu 0.8, tau_opt 7.35 s.
 Table 2 is for the single lane change of case 5.1 (the default). Case 5.1's
-reference comes from `LaneChangePlanner` (`--source planner`, the default) or
+reference comes from `LaneChangePlanner` with the [planner] settings of
+scenarios/paper_case1_overtaking.toml, as `cosim plan` reads them (`--source
+planner`, the default) or
 from eq. 2/4 with the paper's tau_opt (`--source paper`); cases 5.2 and 5.3 use
 the paper's tau_opt (their traffic is the co-simulation's business); `--tau-s`
 forces any tau. `--case all` runs the three, as the paper's Fig. 13-15 show them.
@@ -50,6 +52,8 @@ class PaperCase:
     tau_opt: float  # s, the paper's reported choice
 
 
+# Case 5.1 as a scenario file (the planner's settings `cosim plan` uses for it)
+CASE_51_SCENARIO = "scenarios/paper_case1_overtaking.toml"
 CASES = {
     "5.1": PaperCase("5.1", 0, 1, 80.0, 0.4, 0.2, 6.25),
     "5.2": PaperCase("5.2", 1, 0, 110.0, 0.6, 0.5, 5.56),
@@ -102,7 +106,6 @@ def _planned(case: PaperCase, road: RoadParams) -> tuple[LaneChangeTrajectory, s
         from cosim.planning.planner import LaneChangePlanner, SVPlanState
     except ImportError:
         return None
-    from cosim.params import PlannerConfig
     from cosim.traffic.v2v import V2VMessage
 
     vehicle = VehicleParams()
@@ -114,15 +117,23 @@ def _planned(case: PaperCase, road: RoadParams) -> tuple[LaneChangeTrajectory, s
     )
     sv = SVPlanState(x=0.0, y=y0, heading=0.0, vx=kmh(case.vx0_kmh), ax=0.0, vy=0.0, ay=0.0,
                      lane=case.origin_lane)
-    plan = LaneChangePlanner(vehicle, road, PlannerConfig()).plan(
+    plan = LaneChangePlanner(vehicle, road, case_planner()).plan(
         0.0, sv, case.target_lane, [leader], case.occupant
     )
     if plan.trajectory is None or plan.tau is None:
         return None
     return plan.trajectory, (
-        f"planner: tau_min {plan.tau_min:.2f} s, tau_opt {plan.tau_opt:.2f} s, "
-        f"chosen tau {plan.tau:.2f} s (paper: 2.75, 6.25)"
+        f"planner ([planner] of {CASE_51_SCENARIO}): tau_min {plan.tau_min:.2f} s, "
+        f"tau_opt {plan.tau_opt:.2f} s, chosen tau {plan.tau:.2f} s (paper: 2.75, 6.25)"
     )
+
+
+def case_planner() -> Any:
+    """Case 5.1's planner configuration: the [planner] table of its scenario file, the
+    one `cosim plan` reads for the same lane change, so that both choose the same tau."""
+    from cosim.scenario import load_scenario, project_root
+
+    return load_scenario(project_root() / CASE_51_SCENARIO).planner
 
 
 def case_reference(
