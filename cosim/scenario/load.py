@@ -25,6 +25,7 @@ from cosim.scenario.model import (
     TVSpec,
     V2VSpec,
 )
+from cosim.traffic.departures import check_departures
 from cosim.traffic.network import SUPPORTED, Highway, load_highway, network_precision
 from cosim.traffic.own_demand import (
     OwnDemand,
@@ -412,8 +413,9 @@ def _own_demand(src: str, traffic: TrafficSpec, written_routes: tuple[str, ...] 
                          "0 with traffic.routes or road.sumocfg (their demand is the "
                          "traffic; cosim's random traffic would be placed on top of it)")
     net = read_sumo_network(network)
-    check_demand(src, files, {e.getID() for e in net.getEdges(withInternal=False)},
-                 network.name, scripted)
+    read = check_demand(src, files, {e.getID() for e in net.getEdges(withInternal=False)},
+                        network.name, scripted)
+    check_departures(src, read, net)  # every vehicle as it departs, however late
     demand = OwnDemand(
         route_files=(*(config.route_files if config else ()), *(Path(r) for r in resolved)),
         additional_files=config.additional_files if config else (), warmup=warmup)

@@ -194,11 +194,14 @@ class _Rules:
 
 
 def check_demand(source: str, files: Sequence[tuple[str, str, Path]], net_edges: set[str],
-                 net_name: str, scripted: Iterable[str]) -> None:
+                 net_name: str, scripted: Iterable[str]) -> list[tuple[str, str, ET.Element]]:
     """Read every demand file (`(key, written value, path)`, keys like
-    `traffic.routes[0]`) and raise InputError on the first fault (module docstring)."""
+    `traffic.routes[0]`) and raise InputError on the first fault (module docstring).
+    Returns what was read, `(key, file name, XML root)` per file, for the departures'
+    check (cosim.traffic.departures)."""
     seen = _Seen(types=set(SUMO_TYPES), routes=set(), vehicles={}, refs=[])
     rules = _Rules(source, net_edges, net_name, set(COSIM_VEHICLES) | set(scripted))
+    read: list[tuple[str, str, ET.Element]] = []
     for key, written, path in files:
         root = _parse(source, key, written, path, "SUMO route file")
         if root.tag not in ROOTS:
@@ -206,6 +209,7 @@ def check_demand(source: str, files: Sequence[tuple[str, str, Path]], net_edges:
                              f"a SUMO route or additional file (<routes> or <additional> "
                              f"root; {path.name} has <{root.tag}>)")
         _read_file(rules, key, path.name, written, root, seen)
+        read.append((key, path.name, root))
     for key, who, kind, ref in seen.refs:
         known = seen.routes if kind == "route" else seen.types
         if ref not in known:
@@ -213,6 +217,7 @@ def check_demand(source: str, files: Sequence[tuple[str, str, Path]], net_edges:
                              f"a {'route' if kind == 'route' else 'vType'} defined in the "
                              "demand files" + ("" if kind == "route" else
                                                " or one of SUMO's DEFAULT_* types"))
+    return read
 
 
 def _read_file(rules: _Rules, key: str, name: str, written: str, root: ET.Element,
