@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
+from cosim.road.network_numbers import RULE, network_numbers_problem
 from cosim.validation import read_network_file
 
 VCLASS = "passenger"  # lanes a car may use: sidewalks, bike and bus lanes are no tracks
@@ -53,6 +54,11 @@ def _read(path: str, mtime_ns: int, size: int) -> Any:
                           "a readable SUMO .net.xml file")
     if not normal_edges(net):
         return InputError(path, "network", "no edge found", "a SUMO network with an edge")
+    problem = network_numbers_problem(net)
+    if problem is not None:
+        return InputError(path, problem[0], problem[1],
+                          f"a SUMO network with numbers SUMO can use: {RULE} "
+                          f"({problem[0]} = {problem[1]})")
     return net
 
 

@@ -24,6 +24,7 @@ from pathlib import Path
 
 from cosim.errors import InputError
 from cosim.params import RoadParams
+from cosim.road.network_numbers import RULE, network_numbers_problem
 from cosim.validation import MAX_NETWORK_BYTES, read_network_file
 
 NETWORK_DIR = Path(__file__).resolve().parents[2] / "networks"  # repository's networks/
@@ -147,6 +148,11 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
     except Exception as exc:  # noqa: BLE001 - sumolib raises whatever its SAX handler meets
         return InputError(path, "network", f"{type(exc).__name__}: {exc}",
                           "a readable SUMO .net.xml file")
+    problem = network_numbers_problem(net)
+    if problem is not None:
+        return InputError(path, problem[0], problem[1],
+                          f"a SUMO network with numbers SUMO can use: {RULE} "
+                          f"({problem[0]} = {problem[1]})")
     edges = [e for e in net.getEdges() if e.getFunction() in ("", "normal")]
     if not edges:
         return InputError(path, "network", "no edge found",
