@@ -17,6 +17,7 @@ import difflib
 import functools
 import math
 import re
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -32,6 +33,7 @@ class _Missing:
 
 
 REQUIRED: Any = _Missing()
+SMALLEST_NORMAL = sys.float_info.min  # the least float above 0 that is not subnormal
 MISSING: Any = REQUIRED  # the value shown in an error about a missing key
 
 
@@ -61,6 +63,9 @@ class Field:
     hi: float | None = None  # highest allowed value, in the file's unit
     lo_open: bool = False  # lo itself not allowed
     hi_open: bool = False  # hi itself not allowed
+    # smallest meaningful magnitude of a value other than 0, in the file's unit (None: the
+    # smallest normal float; below it a number is subnormal, which SUMO cannot parse)
+    least: float | None = None
     choices: tuple[str, ...] = ()  # allowed strings
     pattern: str = ""  # regular expression a string must match in full
     default: Any = REQUIRED  # REQUIRED, None (optional, absent -> None) or a value (SI)
@@ -92,18 +97,25 @@ class Field:
                 text = "a string"
         elif self.kind in (int, float):
             noun = "an integer" if self.kind is int else "a finite number"
-            if self.lo is not None and self.hi is not None:
-                left = "(" if self.lo_open else "["
+            lo, lo_open, zero = self.lo, self.lo_open, ""
+            if self.least is not None and lo is not None and 0 <= lo <= self.least:
+                # the least meaningful value is the bound; 0 itself stays if it was allowed
+                zero = "" if lo_open or lo > 0 else "0 or "
+                lo, lo_open = self.least, False
+            if lo is not None and self.hi is not None:
+                left = "(" if lo_open else "["
                 right = ")" if self.hi_open else "]"
-                text = f"{noun} in {left}{_fmt(self.lo)}, {_fmt(self.hi)}{right}"
-            elif self.lo is not None:
-                text = f"{noun} {'>' if self.lo_open else '>='} {_fmt(self.lo)}"
+                text = f"{zero}{noun} in {left}{_fmt(lo)}, {_fmt(self.hi)}{right}"
+            elif lo is not None:
+                text = f"{zero}{noun} {'>' if lo_open else '>='} {_fmt(lo)}"
             elif self.hi is not None:
                 text = f"{noun} {'<' if self.hi_open else '<='} {_fmt(self.hi)}"
             else:
                 text = noun
             if self.unit:
                 text += f" {self.unit}"
+            if self.least is not None and not zero and lo != self.least:
+                text += f" (0 or at least {_fmt(self.least)} in magnitude)"
         else:
             text = f"a {self.kind.__name__}"
         if self.default is REQUIRED:
@@ -142,6 +154,12 @@ class Field:
                 raise bad
             if self.hi is not None and (value > self.hi or (self.hi_open and value == self.hi)):
                 raise bad
+            least = SMALLEST_NORMAL if self.least is None else self.least
+            if value != 0 and abs(value) < least:
+                raise InputError(source, key, value, self.allowed() + (
+                    "" if self.least is not None else
+                    f" (0 or at least {SMALLEST_NORMAL:.3g} in magnitude: a subnormal number "
+                    "is no quantity, and SUMO cannot read it)"))
             if self.kind is int:
                 return value
             return float(value) / self.si_divisor if self.si_divisor != 1.0 else float(value)

@@ -26,11 +26,18 @@ EDGE_PATTERN = r"[^\x00-\x1f]{1,200}"  # a SUMO edge id: any printable text
 MAX_ROUTE_EDGES = 1000  # edges in a route
 
 
+LEAST_TIME_S = 0.001  # s, the shortest scenario.step_s: a time other than 0 is no shorter
+LEAST_SPEED_KMH = 0.01  # km/h (2.8 mm/s), the least speed other than 0 that is one
+LEAST = {"s": LEAST_TIME_S, "km/h": LEAST_SPEED_KMH}  # by unit: Field.least
+
+
 def number_key(key: str, unit: str, lo: float | None, hi: float | None, default: Any,
                doc: str, **field: Any) -> Field:
-    """A float key, range-checked in the file's unit; `field`: more of Field's own
-    settings (lo_open, hi_open, si_divisor, override, default_doc)."""
-    return Field(key, float, unit=unit, lo=lo, hi=hi, default=default, doc=doc, **field)
+    """A float key, range-checked in the file's unit, a time or speed other than 0 at
+    least LEAST of its unit; `field`: more of Field's own settings (lo_open, hi_open,
+    si_divisor, override, default_doc)."""
+    return Field(key, float, unit=unit, lo=lo, hi=hi, default=default, doc=doc,
+                 least=LEAST.get(unit), **field)
 
 
 def speed_key(key: str, default: Any, doc: str, *, lo_open: bool = True, override: str = "",

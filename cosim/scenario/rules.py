@@ -78,6 +78,13 @@ def check_route(src: str, network: Path, route: tuple[str, ...] | None, sv: SVSp
 
 
 def _check_time_and_planner(src: str, s: Scenario) -> None:
+    if s.duration < s.step:
+        raise InputError(src, "scenario.duration_s", s.duration,
+                         f"at least one step, scenario.step_s = {s.step:g} s")
+    lane_change = s.traffic.lanechange_duration
+    if 0.0 < lane_change < s.step:
+        raise InputError(src, "traffic.lanechange_duration_s", lane_change,
+                         f"0 (instant) or at least one step, scenario.step_s = {s.step:g} s")
     ratio = s.duration / s.step
     if abs(ratio - round(ratio)) > STEP_TOLERANCE * max(1.0, ratio):
         raise InputError(src, "scenario.duration_s", s.duration,
