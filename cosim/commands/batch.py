@@ -7,6 +7,9 @@ skips the runs already recorded. Everything the user gives is checked before
 anything is written. DIR is results/batch/<study name>; a study file run with
 grid flags (a subset, or more) and no --out / --name gets its own folder named
 after the flags, so that it never replaces the whole study's summary.
+
+Exit status: 0 when every run of the grid finished, 1 when any failed (the summaries
+are written all the same; --retry-failed runs those again), 2 for bad input.
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ from cosim.study.store import check_same_base
 from cosim.validation import MISSING, Field, not_a_file
 
 SOURCE = "command line"
+EXIT_RUNS_FAILED = 1  # a study with failed runs, as `cosim run` when its run fails
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -271,4 +275,9 @@ def run(args: argparse.Namespace) -> int:
         f"  {out / 'runs.csv'}\n  {out / 'summary.csv'}\n  {out / 'summary.md'}"
         + "".join(f"\n  {p}" for p in result.plots)
     )
+    if result.failed:
+        print(f"cosim batch: {result.failed} of {len(result.runs)} runs failed (their errors "
+              f"in the column error of {out / 'runs.csv'}; --retry-failed runs them again)",
+              file=sys.stderr)
+        return EXIT_RUNS_FAILED
     return 0

@@ -126,3 +126,19 @@ def test_a_sound_late_demand_passes(tmp_path: Path) -> None:
     (tmp_path / "late.toml").write_text(SCENARIO)
     s = load_scenario(tmp_path / "late.toml")
     assert s.demand is not None
+
+
+def test_a_study_whose_runs_cannot_start_is_refused_before_running(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`cosim batch` on a base scenario whose demand has a late fault: refused like
+    `cosim run` (exit 2, one line), no run started, nothing written."""
+    elements = CASES["trip_without_path_in_the_warm_up"][0]
+    (tmp_path / "late.rou.xml").write_text(_routes(elements))
+    scenario = tmp_path / "late.toml"
+    scenario.write_text(SCENARIO)
+    out = tmp_path / "study"
+    assert main(["batch", "--scenario", str(scenario), "--densities", "0", "--seeds", "1-2",
+                 "-o", str(out), "--no-progress", "--no-plots", "--workers", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "trip 'back' to='e1'" in err, err
+    assert not out.exists()
