@@ -271,6 +271,20 @@ def _check_no_overlap(src: str, s: Scenario, net: Highway) -> None:
                 )
 
 
+def _check_density(src: str, s: Scenario) -> None:
+    """Random traffic no denser than its lanes hold at standstill, bumper to bumper at
+    SUMO's minGap: SUMO would insert only what fits and leave the rest waiting."""
+    from cosim.traffic.demand import TV_MIN_GAP
+    from cosim.traffic.traffic_vehicles import TV_LENGTH
+
+    capacity = 1000.0 / (TV_LENGTH + TV_MIN_GAP)  # veh/km/lane
+    if s.traffic.density > capacity:
+        raise InputError(src, "traffic.density_veh_per_km_lane", s.traffic.density,
+                         f"at most {capacity:.1f} veh/km/lane, what a lane holds at "
+                         f"standstill: 1000 m / (TV length {TV_LENGTH:g} m + minGap "
+                         f"{TV_MIN_GAP:g} m)")
+
+
 def _check_positions(src: str, s: Scenario, net: Highway) -> None:
     """Every vehicle starts on the road, the random traffic fits on it, and the SV cannot
     run off its end in `duration` (SUMO would drop it silently)."""
@@ -295,6 +309,7 @@ def _check_positions(src: str, s: Scenario, net: Highway) -> None:
                 f"a gap that puts the TV on the road (x = {x:g} m from the road's start is "
                 f"outside [0, {length:g}] m)",
             )
+    _check_density(src, s)
     if s.traffic.density > 0 and s.traffic.length > length:
         raise InputError(src, "traffic.length_m", s.traffic.length,
                          f"at most the network's length {length:g} m")
