@@ -11,6 +11,8 @@ the developer's doing, not the tests'.)
 from __future__ import annotations
 
 import os
+import signal
+import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -75,3 +77,24 @@ def _checkout_untouched(tmp_path_factory: pytest.TempPathFactory) -> Iterator[No
     touched = changes(before, snapshot(ROOT))
     assert not touched, ("the tests wrote into the checkout (they must use tmp_path): "
                          + "; ".join(touched[:20]))
+
+
+_HANDLED = tuple(s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
+                 if s is not None)
+
+
+@pytest.fixture(autouse=True)
+def _process_state_restored() -> Iterator[None]:
+    """A test leaves this process's signal handlers and temporary folder as it found them:
+    tests share their process (pytest-xdist), and a leaked SIG_IGN or a handler that only
+    notes signals would change what a later test's Ctrl-C does."""
+    handlers = {s: signal.getsignal(s) for s in _HANDLED}
+    tmp = (tempfile.tempdir, os.environ.get("TMPDIR"))
+    yield
+    leaked = [f"{signal.Signals(s).name}: {handlers[s]} -> {signal.getsignal(s)}"
+              for s in _HANDLED if signal.getsignal(s) != handlers[s]]
+    for s in _HANDLED:
+        signal.signal(s, handlers[s])
+    if (tempfile.tempdir, os.environ.get("TMPDIR")) != tmp:
+        leaked.append(f"temporary folder: {tmp} -> {(tempfile.tempdir, os.environ.get('TMPDIR'))}")
+    assert not leaked, "the test changed the process's state: " + "; ".join(leaked)

@@ -6,9 +6,11 @@ Child processes are bounded and die with cosim; a batch leaves no temporary fold
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -203,11 +205,18 @@ def test_a_signalled_batch_leaves_no_temporary_folder(
         tmp_path: Path, sig: signal.Signals, status: int) -> None:
     """SIGINT or SIGTERM while the workers run: their SUMO and fcd folders go with the
     batch's own temporary folder, the parent's to remove."""
-    tmp = tmp_path / "tmp"
-    tmp.mkdir()
+    # a short TMPDIR: the pool's fork server binds a Unix socket under it (at most 107 bytes)
+    tmp = Path(tempfile.mkdtemp(prefix="cosim-signal-test-", dir="/tmp"))
+    try:
+        _signal_a_batch(tmp_path, tmp, sig, status)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _signal_a_batch(tmp_path: Path, tmp: Path, sig: signal.Signals, status: int) -> None:
     proc = subprocess.Popen(
-        [sys.executable, "-m", "cosim.cli", "batch", "--scenario", str(_scenario(tmp_path)),
-         "--densities", "0", "--seeds", "1-4", "--duration", "10", "--workers", "2",
+        [sys.executable, "-m", "cosim.cli", "batch", "--scenario",
+         str(_scenario(tmp_path, 60.0)), "--densities", "0", "--seeds", "1-4", "--workers", "2",
          "--no-progress", "--no-plots", "-o", str(tmp_path / "study")],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         env={**os.environ, "TMPDIR": str(tmp)})
@@ -217,7 +226,10 @@ def test_a_signalled_batch_leaves_no_temporary_folder(
         if all(list(tmp.glob(f"cosim-batch-*/cosim-{what}-*")) for what in ("fcd", "sumo")):
             break
         time.sleep(0.02)  # polled: the event is the folders' appearance
-    assert proc.poll() is None, "the batch ended before the signal: the test proved nothing"
+    if proc.poll() is not None:
+        _, err = proc.communicate()
+        pytest.fail("the batch ended before the signal (the test proved nothing): "
+                    + err.decode()[-2000:])
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == status, err.decode()
