@@ -17,6 +17,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
@@ -277,7 +278,18 @@ def test_a_run_whose_process_dies_is_recorded_failed(tmp_path: Path) -> None:
     assert again.ran == 1 and again.failed == 0
 
 
-def test_a_worker_ignores_ctrl_c_and_sighup_from_its_start() -> None:
+@pytest.fixture
+def ctrl_c_raises() -> Iterator[None]:
+    """Ctrl-C raises KeyboardInterrupt in this process, as in a terminal's foreground, also
+    when the suite itself was started with SIGINT ignored (a script's background job)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def test_a_worker_ignores_ctrl_c_and_sighup_from_its_start(ctrl_c_raises: None) -> None:
     # The fork server sets this before it forks (cosim.study.fork_server), so no moment of a
     # worker's start-up lets a terminal's Ctrl-C, sent to the whole group, end it with a
     # traceback; the command's own process keeps its handlers.
@@ -293,7 +305,7 @@ def test_a_worker_ignores_ctrl_c_and_sighup_from_its_start() -> None:
 
 
 def test_ctrl_c_while_a_worker_starts_is_held_until_the_pool_can_end_it(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+        monkeypatch: pytest.MonkeyPatch, ctrl_c_raises: None) -> None:
     # A Ctrl-C landing between the fork server's fork and the pool's record of the new
     # worker would leave that worker to no one: it would outlive the batch and print a
     # traceback. The interrupt is sent here from inside the worker's start: held, it lands
