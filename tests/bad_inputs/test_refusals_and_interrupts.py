@@ -10,9 +10,11 @@ created or changed.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -165,13 +167,12 @@ def _short(folder: Path, duration: float = 2.0) -> Path:
     return scenario
 
 
-@pytest.fixture
-def tiny_disk(tmp_path: Path):  # type: ignore[no-untyped-def]
-    """A 64 kB tmpfs: a full disk for real (root only; skipped where mount is refused)."""
-    mount = tmp_path / "disk"
+@contextlib.contextmanager
+def _tmpfs(mount: Path, options: str) -> Iterator[Path]:
+    """A 64 kB tmpfs at `mount` with `options` (root only; skipped where mount is refused)."""
     mount.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
-                          capture_output=True)
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"{options}size=64k", "tmpfs",
+                           str(mount)], capture_output=True)
     if done.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
     try:
@@ -180,16 +181,17 @@ def tiny_disk(tmp_path: Path):  # type: ignore[no-untyped-def]
         subprocess.run(["umount", str(mount)], check=False)
 
 
+@pytest.fixture
+def tiny_disk(tmp_path: Path) -> Iterator[Path]:
+    """A full disk for real."""
+    with _tmpfs(tmp_path / "disk", "") as mount:
+        yield mount
+
+
 @pytest.mark.parametrize("command", ["run", "plan", "batch"])
 def test_a_read_only_file_system_is_refused_before_the_run(
         command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    mount = tmp_path / "ro"
-    mount.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(mount)],
-                          capture_output=True)
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
-    try:
+    with _tmpfs(tmp_path / "ro", "ro,") as mount:
         for out, allowed in ((mount / "out", f"a folder we may create ({mount} is read-only)"),
                              (mount, "a folder we may write into")):
             argv = _batch(out) if command == "batch" else [command, str(BASE), "--out",
@@ -197,8 +199,6 @@ def test_a_read_only_file_system_is_refused_before_the_run(
             assert main(argv) == 2
             line = _one_line(capsys.readouterr().err)
             assert f"--out = '{out}': {allowed}" in line, line
-    finally:
-        subprocess.run(["umount", str(mount)], check=False)
 
 
 def test_a_full_disk_is_one_line_and_the_previous_run_stays(
