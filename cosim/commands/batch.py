@@ -275,6 +275,15 @@ def run(args: argparse.Namespace) -> int:
         f"  {out / 'runs.csv'}\n  {out / 'summary.csv'}\n  {out / 'summary.md'}"
         + "".join(f"\n  {p}" for p in result.plots)
     )
+    runs = result.runs
+    if "vehicles_asked" in runs:
+        short = runs[runs["vehicles_inserted"] < runs["vehicles_asked"]]
+        if len(short):
+            print(f"cosim batch: in {len(short)} of {len(runs)} runs SUMO inserted fewer vehicles "
+                  f"at t = 0 than the density asked for (densities "
+                  f"{', '.join(f'{d:g}' for d in sorted(set(short['density'])))} veh/km/lane; "
+                  f"columns vehicles_asked, vehicles_inserted of {out / 'runs.csv'})",
+                  file=sys.stderr)
     if result.failed:
         print(f"cosim batch: {result.failed} of {len(result.runs)} runs failed (their errors "
               f"in the column error of {out / 'runs.csv'}; --retry-failed runs them again)",

@@ -113,6 +113,11 @@ def run(args: argparse.Namespace) -> int:
               f"{metrics['start_speed_mps'] * 3.6:.1f} km/h, not {scenario.sv.speed * 3.6:g}: "
               "the random traffic ahead was too close and slow to brake for from that speed "
               "(SUMO's departSpeed rule)", file=sys.stderr)
+    if metrics["vehicles_inserted"] < metrics["vehicles_asked"]:
+        print(f"cosim run: {scenario.name}: [traffic] density_veh_per_km_lane = "
+              f"{scenario.traffic.density:g}: SUMO inserted {metrics['vehicles_inserted']} of "
+              f"the {metrics['vehicles_asked']} vehicles asked for at t = 0 (no room at its "
+              "minimum gap); the run went on with fewer", file=sys.stderr)
     if metrics.get("stopped_by_collision"):
         print(f"cosim run: {scenario.name}: collision with {metrics['collision_with']} at "
               f"t = {metrics['collision_t_s']:.2f} s ({'SV' if metrics['collisions_sv'] else 'TV'}"

@@ -168,7 +168,8 @@ class CoSimulation:
         done = self.policy.summary(trace["t_s"], trace["d_m"])  # d: across the road
         metrics = MetricsRow(self.road, sc.vehicle.length, recorder.tracks).row(
             sc, trace, done, recorder, self.stop, plant=ego.plant,
-            tracks_reference=ego.tracks_reference, events=len(events))
+            tracks_reference=ego.tracks_reference, events=len(events),
+            vehicles=(len(self.world.placed), self.world.inserted))
         timing = {
             "scenario": sc.name,
             "wall_time_s": wall,

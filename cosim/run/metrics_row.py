@@ -89,6 +89,11 @@ METRIC_DOCS: dict[str, str] = {
     "t = 0 is random traffic it could not brake for from that speed (SUMO's departSpeed rule: "
     "docs/outputs.md)",
     "sumo_events": "SUMO teleports / lost vehicles during the run",
+    "vehicles_asked": "random-traffic vehicles placed at t = 0 ([traffic] density over its "
+    "length_m, every through lane, less the SV's zones)",
+    "vehicles_inserted": "of them, those SUMO inserted at t = 0 (SUMO leaves out a vehicle "
+    "with no room at its minimum gap: fewer than asked means the density was not reached; "
+    "docs/outputs.md)",
     "rms_long_accel_mps2": "RMS of the SV's longitudinal acceleration ax over the run (m/s^2)",
     "rms_long_jerk_mps3": "RMS of its jerk d(ax)/dt between steps (m/s^3)",
     "max_long_jerk_mps3": "largest |d(ax)/dt| between steps (m/s^3)",
@@ -123,11 +128,11 @@ class MetricsRow:
 
     def row(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres,
             recorder: Recorder, stop: StopRules, *, plant: str, tracks_reference: bool,
-            events: int) -> dict[str, Any]:
+            events: int, vehicles: tuple[int, int]) -> dict[str, Any]:
         """The metrics row (METRIC_DOCS, in its order) of a run's trace and what the
         policy did; `plant` its name ("none": SUMO drives), `tracks_reference` whether
         the SV tracked a reference (the IAE columns), `events` SUMO's teleports and
-        lost vehicles."""
+        lost vehicles, `vehicles` the random traffic's (asked, inserted) at t = 0."""
         t = trace["t_s"]
         durations = mx.lane_change_durations(t, trace["d_m"], done.starts, done.targets,
                                              done.ends, SETTLE_TOL)
@@ -159,6 +164,8 @@ class MetricsRow:
             mean_speed_mps=float(np.mean(trace["vx_mps"])),
             start_speed_mps=float(trace["vx_mps"][0]),
             sumo_events=events,
+            vehicles_asked=vehicles[0],
+            vehicles_inserted=vehicles[1],
         )
         m.update(self.comfort(sc, trace, done, durations))
         end = mx.LaneChangeEnd(

@@ -17,13 +17,17 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
-from cosim.errors import check_signals, signals_deferred
+from cosim.errors import InputError, check_signals, signals_deferred
 from cosim.study.grid import RunSpec
 from cosim.study.worker import OnRecord, error_text, execute_run, failed_record
 
 T = TypeVar("T")
 
 SIGNAL_POLL = 0.2  # s, how often a wait for runs looks for a signal
+# bytes, the longest socket path the kernel takes (sun_path: 108 with its NUL); the fork
+# server's socket is $TMPDIR/pymp-XXXXXXXX/listener-XXXXXXXX (multiprocessing's names)
+SOCKET_PATH_MAX = 107
+SOCKET_NAME = len("/pymp-XXXXXXXX/listener-XXXXXXXX")
 
 # What a run imports, loaded once by the fork server rather than by every run.
 # libsumo is imported, never started, before the fork. cosim.control.warm compiles the
@@ -34,6 +38,18 @@ PRELOAD = (  # tuned: docs/tuned_constants.md
     "cosim.vehicle.twotrack", "cosim.vehicle.bicycle", "libsumo", "sumolib",
     "cosim.control.warm", "cosim.study.fork_server",
 )
+
+
+def check_socket_room() -> None:
+    """Refuse a temporary folder whose path leaves no room for the fork server's socket
+    (multiprocessing would fail with "AF_UNIX path too long" once the batch has begun)."""
+    folder = tempfile.gettempdir()
+    room = SOCKET_PATH_MAX - SOCKET_NAME
+    if len(os.fsencode(folder)) > room:
+        raise InputError("environment", "TMPDIR", folder,
+                         f"a folder path of at most {room} bytes (the local batch's process "
+                         "pool makes its socket there; the kernel takes socket paths of at "
+                         f"most {SOCKET_PATH_MAX}): set TMPDIR=/tmp, or use --dask")
 
 
 def _pool(workers: int) -> cf.ProcessPoolExecutor:

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from cosim.study.dask_cluster import close_dask, run_dask, start_dask
 from cosim.study.grid import RunSpec
-from cosim.study.pool import run_local
+from cosim.study.pool import check_socket_room, run_local
 from cosim.study.run_table import RunStatus
 from cosim.study.store import (
     ResumeState,
@@ -104,6 +104,8 @@ def _run_pending(specs: Sequence[RunSpec], out_dir: Path, state: ResumeState,
     # Connect first: a bad address is an input error, before anything is written.
     client = (start_dask(options.dask, workers)
               if options.dask is not None and state.todo else None)
+    if options.dask is None and state.todo:
+        check_socket_room()
     bar = None
     try:
         if on_start is not None:

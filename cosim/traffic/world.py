@@ -154,6 +154,8 @@ class World:
         self.t_warmup = 0.0  # s, SUMO's clock at the end of the warm-up (none: 0)
         self.scripted: ScriptedTraffic | None = None  # add_scripted
         self.warmup_progress: WarmupProgress | None = None  # the warm-up's progress
+        self.placed: list[str] = []  # the random traffic's vehicles asked for at t = 0
+        self.inserted = 0  # of them, those SUMO inserted in the first step (`insert`)
 
     def start(self) -> RoadParams:
         """Start SUMO and place the random traffic around the SV's start, or run the
@@ -178,6 +180,7 @@ class World:
             traffic = populate(self.sumo, road, tr.density, sc.seed, tr.length,
                                exclude_zone=(x0 - margin, x0 + margin),
                                lane_zones={track: zone})
+            self.placed = [vid for ids in traffic.placed.values() for vid in ids]
         if tr.ramp_flow > 0:  # on-ramp traffic, its own random stream
             from cosim.traffic.demand import ramp_flow
 
@@ -244,6 +247,9 @@ class World:
         self.sumo.step()
         self.t_offset = self.sumo.time
         self.sumo.follow_in_gui(SV_ID)
+        if self.placed:  # SUMO leaves out a vehicle with no room at its minimum gap
+            on_road = set(self.sumo.api.vehicle.getIDList())
+            self.inserted = sum(vid in on_road for vid in self.placed)
 
     def start_speed(self, speed: float, mu: float) -> float:
         """m/s, the SV's start speed: `speed` or, when its leader in its lane right after
