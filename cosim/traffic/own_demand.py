@@ -8,14 +8,16 @@ for a vehicle that departs late: `--route-steps`), and then stops the whole simu
 So every file is read here first (ElementTree, bounded in size) and each problem is one
 InputError line naming the scenario, the key, the value and what is allowed:
 
-- the file exists, is XML, and its root is SUMO's `<routes>` or `<additional>`;
+- the file exists, is XML, and its root is SUMO's `<routes>` or `<additional>` (or
+  `<add>`, which older SUMO files use and SUMO still reads);
 - every edge a route, trip or flow names (`edges`, `from`, `to`, `via`) is an edge of
   the network; every `route` and `type` a vehicle or flow refers to is defined in the
   files (or is one of SUMO's default types);
 - no id clashes with cosim's own (`check_demand`): the SV (`sv`), the scenario's
   scripted TVs, cosim's vTypes (`tv`, `sv`, `sv_*`, `tv_scripted*`, `driven_*`) and its
-  routes (`highway_route`, `highway_route@*`); a file may not redefine
-  `DEFAULT_VEHTYPE`, which cosim's own types are copied from.
+  routes (`highway_route`, `highway_route@*`). A file may redefine SUMO's
+  `DEFAULT_VEHTYPE` (a vType or a vTypeDistribution, as SUMO's shipped scenarios do):
+  cosim's own types are copies of its own `cosim_base` (cosim.traffic.process).
 
 Then SUMO itself loads the whole demand once, without running a step (`dry_load`:
 `--route-steps 0`, cached per files as they stand), and its first error is the line:
@@ -58,15 +60,14 @@ MAX_FLOW_VEHICLES = 200_000
 FLOW_END_DEFAULT = 86400.0  # s, a flow's end when it gives none (SUMO's default)
 DRY_LOAD_SECONDS = 120.0  # s, the validating SUMO's time (a motorway demand loads in ~1 s)
 DRY_LOAD_BYTES = 4 * 2**30  # its address space (it needs ~0.2 GiB for a motorway demand)
-ROOTS = ("routes", "additional")  # what SUMO reads as route or additional files
+ROOTS = ("routes", "additional", "add")  # what SUMO reads as route or additional files
 VEHICLE_TAGS = ("vehicle", "trip", "flow")  # what enters the road as a car-like vehicle
 PERSON_TAGS = ("person", "personFlow", "container", "containerFlow")
 # SUMO's built-in vTypes: a vehicle may name them without defining them
 SUMO_TYPES = ("DEFAULT_VEHTYPE", "DEFAULT_PEDTYPE", "DEFAULT_BIKETYPE",
               "DEFAULT_CONTAINERTYPE", "DEFAULT_TAXITYPE", "DEFAULT_RAILTYPE")
-COSIM_COPIES = "DEFAULT_VEHTYPE"  # cosim's own vTypes are copies of it (cosim.traffic.sumo)
 # cosim's own SUMO ids (cosim.traffic.sumo, .route, .traffic_vehicles, cosim.run.observer)
-COSIM_TYPES = re.compile(r"tv|sv|sv_.*|tv_scripted.*|driven_.*")
+COSIM_TYPES = re.compile(r"tv|sv|sv_.*|tv_scripted.*|driven_.*|cosim_base")
 COSIM_ROUTES = re.compile(r"highway_route(@.*)?")
 COSIM_VEHICLES = ("sv",)
 # the .sumocfg options read (long name and SUMO's short synonym)
@@ -245,12 +246,9 @@ def _read_file(rules: _Rules, key: str, name: str, written: str, root: ET.Elemen
                              "which would leave the included one out): list that file "
                              "in traffic.routes instead")
         if tag in ("vType", "vTypeDistribution"):
-            if ident == COSIM_COPIES:
-                raise clash(tag, ident, "no redefinition of DEFAULT_VEHTYPE (cosim's own "
-                            "vTypes are copies of it): give your type another id")
             if COSIM_TYPES.fullmatch(ident):
                 raise clash(tag, ident, "a vType id cosim does not use (cosim's are tv, sv, "
-                            "sv_*, tv_scripted*, driven_*)")
+                            "sv_*, tv_scripted*, driven_*, cosim_base)")
             seen.types.add(ident)
             for member in attrib.get("vTypes", "").split():
                 seen.refs.append((key, f"{name}: {tag} {ident!r}", "type", member))

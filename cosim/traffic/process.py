@@ -24,6 +24,9 @@ from cosim.traffic import gui as gui_window
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.own_demand import sumo_file_options
 
+BASE_TYPE = "cosim_base"  # the vType cosim's own vTypes are copies of (SUMO's defaults)
+BASE_TYPE_FILE = f'<additional>\n    <vType id="{BASE_TYPE}"/>\n</additional>\n'
+
 _active: SumoProcess | None = None  # the one running simulation of this process
 
 
@@ -88,9 +91,16 @@ class SumoProcess:
         if self.fcd_output is not None:
             options.append(("--fcd-output", str(self.fcd_output)))
         # copies of their files holding their demand only, device outputs redirected
-        # into the temporary folder (own_demand.sumo_file_options)
-        options += sumo_file_options(self.route_files, self.additional_files,
-                                     Path(self._tmp.name))
+        # into the temporary folder (own_demand.sumo_file_options), after cosim's own
+        # base vType (their files may redefine SUMO's DEFAULT_VEHTYPE)
+        base = Path(self._tmp.name) / "cosim-types.add.xml"
+        base.write_text(BASE_TYPE_FILE, encoding="utf-8")
+        theirs = dict(sumo_file_options(self.route_files, self.additional_files,
+                                        Path(self._tmp.name)))
+        additional = theirs.pop("--additional-files", None)
+        options.append(("--additional-files", str(base) + ("," + additional if additional
+                                                           else "")))
+        options += theirs.items()
         if self.sublane:
             options.append(("--lateral-resolution", repr(self.lateral_resolution)))
         elif self.lanechange_duration > 0:

@@ -39,7 +39,7 @@ from cosim.traffic.controlled import (  # noqa: F401  (re-exported)
     sumo_angle,
 )
 from cosim.traffic.gui import GuiSettings
-from cosim.traffic.process import SumoOptions, SumoProcess, process
+from cosim.traffic.process import BASE_TYPE, SumoOptions, SumoProcess, process
 from cosim.traffic.route_lanes import RouteLanes, load_route_road, road_params
 from cosim.traffic.snapshot import (  # noqa: F401  (TrafficSnapshot: re-exported)
     INVALID,
@@ -247,7 +247,7 @@ class SumoSim:
         if type_id in self._types:
             return
         vt = self.api.vehicletype
-        vt.copy("DEFAULT_VEHTYPE", type_id)
+        vt.copy(BASE_TYPE, type_id)  # SUMO's defaults, whatever their demand defines
         vt.setLength(type_id, length)
         vt.setWidth(type_id, width)
         vt.setSpeedFactor(type_id, 1.0)  # desired speed = maxSpeed (set from the band)

@@ -163,7 +163,7 @@ SCENARIO_CASES: dict[str, tuple[str, str]] = {
     "routes_vehicle_is_sv.toml": ("traffic.routes[0]", "vehicle id='sv'"),
     "routes_vehicle_is_scripted_tv.toml": ("traffic.routes[0]", "vehicle id='lead'"),
     "routes_vtype_is_cosims.toml": ("traffic.routes[0]", "vType id='tv'"),
-    "routes_redefine_default_vtype.toml": ("traffic.routes[0]", "vType id='DEFAULT_VEHTYPE'"),
+    "routes_redefine_cosim_base.toml": ("traffic.routes[0]", "vType id='cosim_base'"),
     "routes_route_is_cosims.toml": ("traffic.routes[0]", "route id='highway_route'"),
     "routes_id_twice.toml": ("traffic.routes[0]", "flow id='a'"),
     "routes_sumo_refuses.toml": ("traffic.routes", "['demand_sumo_refuses.rou.xml']"),

@@ -242,3 +242,44 @@ def test_a_scripted_tv_among_their_traffic() -> None:
     result = simulate(scenario_from_dict(doc, path=s.path))
     assert result.metrics["collisions"] == 0 and result.metrics["sumo_events"] == 0
     assert result.trace["n_tvs"][0] >= 4  # the scripted TV and theirs
+
+
+def test_their_default_vtype_distribution_and_add_root_as_sumo_reads_them(
+        tmp_path: Path) -> None:
+    """SUMO's shipped scenarios redefine DEFAULT_VEHTYPE as a vTypeDistribution and give
+    additional files an <add> root: both accepted; their untyped vehicles take the
+    distribution's types, cosim's own vehicles keep SUMO's defaults (their length and
+    width are cosim's), and the run drives on."""
+    (tmp_path / "types.add.xml").write_text(
+        '<add>\n  <vTypeDistribution id="DEFAULT_VEHTYPE">\n'
+        '    <vType id="long" probability="0.5" length="12.0"/>\n'
+        '    <vType id="short" probability="0.5" length="5.0"/>\n'
+        '  </vTypeDistribution>\n</add>\n', encoding="utf-8")
+    (tmp_path / "flows.rou.xml").write_text(
+        '<routes>\n  <route id="through" edges="highway"/>\n'
+        '  <flow id="them" route="through" begin="0" end="3600" vehsPerHour="2400" '
+        'departLane="random" departSpeed="max"/>\n</routes>\n', encoding="utf-8")
+    cfg = tmp_path / "theirs.sumocfg"
+    cfg.write_text(
+        f'<configuration><input><net-file value="{ROOT / "networks" / "highway.net.xml"}"/>'
+        '<route-files value="flows.rou.xml"/><additional-files value="types.add.xml"/>'
+        '</input></configuration>\n', encoding="utf-8")
+    sc = with_overrides(_short(SUMOCFG), **{"road.sumocfg": str(cfg)})
+    from cosim.run.loop import CoSimulation
+
+    sim = CoSimulation(sc)
+    try:
+        sim._start()
+        api = sim.world.sumo.api
+        theirs = [v for v in api.vehicle.getIDList() if v.startswith("them.")]
+        assert len(theirs) > 10
+        assert {api.vehicle.getTypeID(v) for v in theirs} == {"long", "short"}
+        assert api.vehicletype.getLength("long") == 12.0
+        sv_type = api.vehicle.getTypeID("sv")
+        assert api.vehicletype.getLength(sv_type) == pytest.approx(sc.vehicle.length)
+        assert api.vehicletype.getAccel(sv_type) == api.vehicletype.getAccel("cosim_base")
+    finally:
+        sim.world.close()
+    run_scenario(sc, tmp_path / "out", write_figures=False)
+    metrics = next(csv.DictReader((tmp_path / "out" / "metrics.csv").open()))
+    assert metrics["collisions"] == "0"
