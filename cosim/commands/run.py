@@ -108,9 +108,18 @@ def run(args: argparse.Namespace) -> int:
     summary = ", ".join(f"{k} = {metrics[k]:.4g}" if isinstance(metrics[k], float)
                         else f"{k} = {metrics[k]}" for k in keys if k in metrics)
     print(f"{scenario.name}: {summary}")
-    if metrics.get("start_speed_mps", scenario.sv.speed) < scenario.sv.speed - 1e-6:
+    top = max(scenario.sv.speed, scenario.sv.desired_speed or 0.0,
+              *(hi for _, hi in scenario.road.speed_bands))
+    if metrics["curve_speed_mps"] < top:
+        print(f"cosim run: {scenario.name}: the SV drove at most "
+              f"{metrics['curve_speed_mps'] * 3.6:.1f} km/h, the curve speed of the route's "
+              f"tightest curve at sv.curve_lat_accel_mps2 = {scenario.sv.curve_lat_accel:g} "
+              f"on mu {scenario.road.mu:g} (its speeds and bands above it were capped)",
+              file=sys.stderr)
+    asked = min(scenario.sv.speed, metrics["curve_speed_mps"])
+    if metrics["start_speed_mps"] < asked - 1e-6:
         print(f"cosim run: {scenario.name}: the SV started at "
-              f"{metrics['start_speed_mps'] * 3.6:.1f} km/h, not {scenario.sv.speed * 3.6:g}: "
+              f"{metrics['start_speed_mps'] * 3.6:.1f} km/h, not {asked * 3.6:.4g}: "
               "the random traffic ahead was too close and slow to brake for from that speed "
               "(SUMO's departSpeed rule)", file=sys.stderr)
     if metrics["vehicles_inserted"] < metrics["vehicles_asked"]:

@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 from cosim.driving import registry
 from cosim.driving.base import DrivingContext, LaneChangePolicy, WorldPorts
+from cosim.driving.curve_speed import curve_speed, keep_to
 from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
 from cosim.errors import check_signals
@@ -92,6 +93,14 @@ class CoSimulation:
         world = self.world
         road = self.road = world.start()
         sumo_drives = sc.sv.controller == "sumo"
+        self.curve_speed = math.inf  # m/s, the SV's curve speed (cosim.driving.curve_speed)
+        if world.route_road.curved and not sumo_drives:  # SUMO's driver takes curves at will
+            kappa, d_abs = world.route_road.curvature_bound()
+            self.curve_speed = curve_speed(kappa, d_abs, road.mu, sc.sv.curve_lat_accel)
+            if self.curve_speed < max(sc.sv.speed, sc.sv.desired_speed or 0.0,
+                                      *(hi for _, hi in road.speed_bands)):
+                sc, road = keep_to(sc, road, self.curve_speed)
+                self.sc, self.road = sc, road
         cls = registry.policy_class(SUMO_DRIVES if sumo_drives else sc.planner.policy)
         scripted = world.add_scripted(road)
         self.observer = Observer(sc, road, world, scripted, listens=cls.listens)
@@ -169,7 +178,8 @@ class CoSimulation:
         metrics = MetricsRow(self.road, sc.vehicle.length, recorder.tracks).row(
             sc, trace, done, recorder, self.stop, plant=ego.plant,
             tracks_reference=ego.tracks_reference, events=len(events),
-            vehicles=(len(self.world.placed), self.world.inserted))
+            vehicles=(len(self.world.placed), self.world.inserted),
+            curve_speed=self.curve_speed)
         timing = {
             "scenario": sc.name,
             "wall_time_s": wall,

@@ -88,6 +88,9 @@ METRIC_DOCS: dict[str, str] = {
     "start_speed_mps": "SV's speed at t = 0 (m/s): sv.speed_kmh, or lower where its leader at "
     "t = 0 is random traffic it could not brake for from that speed (SUMO's departSpeed rule: "
     "docs/outputs.md)",
+    "curve_speed_mps": "the fastest our SV drives this route: sqrt(a / kappa) at its "
+    "tightest curve, a = sv.curve_lat_accel_mps2 (at most half of mu g); its start, desired "
+    "and band speeds are capped there (m/s; inf: a straight route, or SUMO drives the SV)",
     "sumo_events": "SUMO teleports / lost vehicles during the run",
     "vehicles_asked": "random-traffic vehicles placed at t = 0 ([traffic] density over its "
     "length_m, every through lane, less the SV's zones)",
@@ -128,11 +131,12 @@ class MetricsRow:
 
     def row(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres,
             recorder: Recorder, stop: StopRules, *, plant: str, tracks_reference: bool,
-            events: int, vehicles: tuple[int, int]) -> dict[str, Any]:
+            events: int, vehicles: tuple[int, int], curve_speed: float) -> dict[str, Any]:
         """The metrics row (METRIC_DOCS, in its order) of a run's trace and what the
         policy did; `plant` its name ("none": SUMO drives), `tracks_reference` whether
         the SV tracked a reference (the IAE columns), `events` SUMO's teleports and
-        lost vehicles, `vehicles` the random traffic's (asked, inserted) at t = 0."""
+        lost vehicles, `vehicles` the random traffic's (asked, inserted) at t = 0,
+        `curve_speed` the SV's (m/s, cosim.driving.curve_speed)."""
         t = trace["t_s"]
         durations = mx.lane_change_durations(t, trace["d_m"], done.starts, done.targets,
                                              done.ends, SETTLE_TOL)
@@ -163,6 +167,7 @@ class MetricsRow:
             final_offset_m=y_end - self.road.lane_center(final_lane),
             mean_speed_mps=float(np.mean(trace["vx_mps"])),
             start_speed_mps=float(trace["vx_mps"][0]),
+            curve_speed_mps=curve_speed,
             sumo_events=events,
             vehicles_asked=vehicles[0],
             vehicles_inserted=vehicles[1],

@@ -172,6 +172,11 @@ class SVSpec:
     desired_speed: float | None = declare(speed_key(
         "desired_speed_kmh", None, "speed the SV wants in traffic", override="desired_speed",
         default_doc="its lane's maximum"))
+    curve_lat_accel: float = declare(number_key(
+        "curve_lat_accel_mps2", "m/s^2", 0.0, 10.0, 2.0,
+        "comfortable lateral acceleration in curves: the SV drives a curved route at most at "
+        "sqrt(a / kappa) of its tightest curve (at most half the road's friction; "
+        "cosim.driving.curve_speed)", lo_open=True, override="curve_lat_accel"))
 
 
 @dataclass(frozen=True)

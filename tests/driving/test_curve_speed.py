@@ -1,0 +1,96 @@
+"""The SV's curve speed: a curved route is driven at a speed whose tightest curve takes
+at most the comfortable lateral acceleration (and half the road's friction), never
+refused for its speed; straight routes and SUMO's driver are not capped."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim.driving.curve_speed import CURVE_FRICTION_SHARE, curve_speed, keep_to
+from cosim.params import G, RoadParams
+from cosim.run.loop import simulate
+from cosim.scenario import load_scenario, project_root
+from cosim.scenario.load import scenario_from_dict
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "road"))
+from handdrawn import curved_route  # noqa: E402
+
+pytestmark = pytest.mark.sumo
+
+
+@pytest.mark.parametrize(("kappa", "d_abs", "mu", "a"), [
+    (1 / 400, 11.25, 0.8, 2.0), (1 / 139, 9.4, 0.6, 2.0), (1 / 400, 0.0, 0.3, 2.0)])
+def test_the_inner_lane_takes_exactly_the_allowed_lateral_acceleration(
+        kappa: float, d_abs: float, mu: float, a: float) -> None:
+    v = curve_speed(kappa, d_abs, mu, a)
+    inner = kappa / (1.0 - kappa * d_abs)
+    assert v * v * inner == pytest.approx(min(a, CURVE_FRICTION_SHARE * mu * G), rel=1e-9)
+    assert curve_speed(0.0, d_abs, mu, a) == math.inf
+
+
+def test_keep_to_caps_the_svs_speeds_and_bands_only() -> None:
+    sc = load_scenario(project_root() / "scenarios" / "traffic_high.toml")
+    capped, road = keep_to(sc, sc.road, 25.0)
+    assert capped.sv.speed == min(sc.sv.speed, 25.0)
+    assert all(hi <= 25.0 and lo <= hi for lo, hi in road.speed_bands)
+    assert capped.road == road
+    assert [lo for lo, _ in road.speed_bands] == [min(lo, 25.0) for lo, _ in sc.road.speed_bands]
+    same, _ = keep_to(sc, RoadParams(), math.inf)
+    assert same.sv == sc.sv
+
+
+def _r400(tmp: Path, lat: float | None = None) -> dict:
+    """A lane change to the left (inner) lane inside a left curve of R 400 m, drawn every
+    10 m, at 110 km/h asked for (the band of lane 1 tops at 110)."""
+    net = curved_route(tmp, 10.0, radius=400.0, length=700.0, curve_lanes=3, speed=36.1)
+    sv = {"edge": "BC", "lane": 1, "position_m": 100.0, "speed_kmh": 110.0,
+          "lane_changes": [{"at_s": 3.0, "direction": "left"}]}
+    if lat is not None:
+        sv["curve_lat_accel_mps2"] = lat
+    return {"scenario": {"name": "r400", "duration_s": 16.0, "seed": 1},
+            "road": {"network": str(net), "route": ["BC"], "mu": 0.8}, "sv": sv}
+
+
+def test_a_lane_change_in_an_r400_curve_at_the_curve_speed(tmp_path: Path) -> None:
+    result = simulate(scenario_from_dict(_r400(tmp_path), path=tmp_path / "r400.toml"))
+    m, tr = result.metrics, result.trace
+    kappa, d_abs = result.route_road.curvature_bound()
+    v_curve = curve_speed(kappa, d_abs, 0.8, 2.0)
+    assert m["curve_speed_mps"] == pytest.approx(v_curve, rel=1e-12)
+    assert v_curve < 110 / 3.6  # the cap is what this case tests
+    assert result.first_plan is not None
+    assert result.plans[0]["vxf_mps"] == pytest.approx(v_curve, rel=1e-9)  # planned at it
+    assert float(np.max(tr["vx_mps"])) <= 1.003 * v_curve  # never above the curve speed
+    assert m["lane_change_completed"] == 1 and m["final_lane"] == 2
+    assert abs(m["final_offset_m"]) < 0.05
+    assert m["collisions"] == 0 and m["sumo_events"] == 0
+    # the body's lateral acceleration stays near what the curve speed allows
+    # (the lane change adds its own, well below the friction left)
+    assert float(np.max(np.abs(tr["ay_mps2"]))) < 0.5 * 0.8 * G
+
+
+def test_a_tight_curve_is_driven_slower_not_refused(tmp_path: Path) -> None:
+    """R 150 m at 110 km/h would need 6.2 m/s^2: more than mu 0.6 leaves a lane change.
+    The SV drives it at its curve speed and keeps its lane, inside SUMO's lane."""
+    net = curved_route(tmp_path, 10.0, radius=150.0, length=300.0, curve_lanes=3, speed=36.1)
+    doc = {"scenario": {"name": "tight", "duration_s": 13.0, "seed": 1},
+           "road": {"network": str(net), "route": ["AB", "BC"], "mu": 0.6},
+           "sv": {"edge": "AB", "lane": 1, "position_m": 900.0, "speed_kmh": 100.0}}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "tight.toml"))
+    m, tr = result.metrics, result.trace
+    assert m["curve_speed_mps"] < 60 / 3.6
+    # never above the curve speed but for the frame's stretch along a lane off the
+    # reference line (1 - kappa d: 0.1 % on R 150 m) and the speed tracking error
+    assert float(np.max(tr["vx_mps"])) <= 1.003 * m["curve_speed_mps"]
+    assert float(np.max(tr["s_m"])) > 1000.0 + 100.0  # it drove into the curve
+    assert m["collisions"] == 0 and m["final_lane"] == 1
+
+
+def test_sumos_driver_and_straight_roads_are_not_capped() -> None:
+    sc = load_scenario(project_root() / "scenarios" / "paper_case1_overtaking.toml")
+    assert simulate(sc).metrics["curve_speed_mps"] == math.inf
