@@ -14,7 +14,9 @@ smallest lateral jump (the distance sideways from the end of one lane to the sta
 the other) continues the track. A track starts at the route's first edge or where a
 lane has no connection from the route's previous edge (a lane added), and ends where
 its lane has no connection onward (an acceleration lane, a lane drop) or at the
-route's end.
+route's end. A track that ends before the route's end *exits* when its last lane runs
+on onto an edge the route does not take (the lane that leaves at a diverge, onto an
+off-ramp), rather than ending or merging into a lane of the route's next edge.
 
 Track ids: the tracks present on the route's first edge have SUMO's index there
 (0 the rightmost: the paper's Lane 1/2/3 are tracks 0/1/2); tracks that start later are
@@ -55,6 +57,7 @@ class Track:
 
     id: int  # see the module docstring
     pieces: tuple[TrackPiece, ...]  # in driving order
+    exits: bool = False  # its last lane runs on off the route (see the module docstring)
 
     @property
     def name(self) -> str:
@@ -173,7 +176,20 @@ def follow_tracks(route: Route) -> tuple[Track, ...]:
                 now[j] = next_id
                 next_id += 1
         open_by_index = now
-    return tuple(Track(tid, tuple(pieces)) for tid, pieces in sorted(building.items()))
+    return tuple(Track(tid, tuple(pieces), _exits(route, pieces[-1]))
+                 for tid, pieces in sorted(building.items()))
+
+
+def _exits(route: Route, last: TrackPiece) -> bool:
+    """Whether the lane `last` (a track's last, on a route edge) connects onto an edge
+    the route does not take next: not a U-turn, a lane a car may use."""
+    k = last.route_index
+    if k + 1 >= len(route.edges):
+        return False  # the route's end: the track runs through
+    lane = route.net.getLane(last.lane)
+    return any(c.getToLane().getEdge().getID() != route.edges[k + 1]
+               and c.getDirection() != "t" and c.getToLane().allows(VCLASS)
+               for c in lane.getOutgoing())
 
 
 def reference_track(route: Route, tracks: tuple[Track, ...], source: str | None = None) -> Track:

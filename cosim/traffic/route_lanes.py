@@ -214,6 +214,14 @@ def road_params(route_road: Road, base: RoadParams | None = None,
                       lane_ends=ends if any(math.isfinite(e) for e in ends) else ())
 
 
+def exit_lanes(route_road: Road) -> tuple[int, ...]:
+    """The SV lanes (k, as in RoadParams) whose end is an exit: the lane runs on off the
+    route at a diverge (cosim.road.tracks) rather than ending. To the planner both end
+    where RoadParams.lane_ends says (the SV must have left the lane by then to stay on
+    its route); the figures tell them apart."""
+    return tuple(k for k, t in enumerate(sv_tracks(route_road)) if t.track.exits)
+
+
 class RouteLanes:
     """The route's tracks as SUMO sees them (see the module docstring)."""
 
