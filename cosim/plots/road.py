@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cosim.plots import save_figure
+from cosim.plots.labels import route_name, set_title
 
 if TYPE_CHECKING:
     from cosim.road.road import Road
@@ -41,12 +42,9 @@ def plot_road(route_road: Road, path: Path, *, title: str = "",
             x, y, _ = frame.to_cartesian(s, d)
             ax_map.plot(x, y, color=colours(table.id % 10), lw=0.8, zorder=2,
                         label=f"track {table.id} ({table.track.name})" if k == 0 else None)
-    for edge in route_road.route.edges:
-        x, y = route_road.route.net.getEdge(edge).getShape()[0]
-        ax_map.plot([x], [y], "k|", ms=12)
-        ax_map.annotate(edge, (x, y), fontsize=8, xytext=(3, 6), textcoords="offset points")
+    names = _mark_edges(ax_map, route_road)
     if sv_path is not None:
-        ax_map.plot(sv_path[0], sv_path[1], color="tab:red", lw=1.5, zorder=3, label="SV")
+        ax_map.plot(sv_path[0], sv_path[1], color="k", lw=1.5, zorder=3, label="SV")
     ax_map.legend(fontsize=7, loc="best", title="frame's lane borders (SUMO's lanes grey)",
                   title_fontsize=7)
     span = np.ptp(np.concatenate(shapes), axis=0)  # m, extent in x and in y
@@ -59,9 +57,9 @@ def plot_road(route_road: Road, path: Path, *, title: str = "",
     ax_map.set_xlabel(labels[0])
     ax_map.set_ylabel(labels[1])
     q = frame.quality
-    ax_map.set_title(title or f"route {' '.join(route_road.route.edges)}: deviation "
-                     f"{route_road.max_deviation * 100:.1f} cm, smallest radius "
-                     f"{q.min_radius:.0f} m")
+    set_title(ax_map, title or f"{route_name(route_road.route.edges, frame.length)}: "
+              f"deviation {route_road.max_deviation * 100:.1f} cm, smallest radius "
+              f"{q.min_radius:.0f} m")
     s = np.arange(0.0, frame.length, 0.5)
     ax_k.plot(s, 1e3 * np.asarray(frame.curvature(s)), lw=0.8, label="frame (smoothed)")
     ref = np.asarray(route_road.reference.shape())
@@ -76,4 +74,31 @@ def plot_road(route_road: Road, path: Path, *, title: str = "",
     ax_k.set_ylabel("curvature (1/km)")
     ax_k.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
+    _uncrowd(fig, names)
     return save_figure(fig, path)
+
+
+def _mark_edges(ax: Any, route_road: Road) -> list[Any]:
+    """A tick where each route edge begins and its name; returns the names
+    (`_uncrowd` them once the figure is laid out)."""
+    names = []
+    for edge in route_road.route.edges:
+        x, y = route_road.route.net.getEdge(edge).getShape()[0]
+        ax.plot([x], [y], "k|", ms=12)
+        names.append(ax.annotate(edge, (x, y), fontsize=8, xytext=(3, 6),
+                                 textcoords="offset points"))
+    return names
+
+
+def _uncrowd(fig: Any, names: list[Any]) -> None:
+    """Remove each edge name that would overlap one kept before it, in route order: a
+    real route has dozens of edges, some a few metres long (every edge keeps its tick)."""
+    fig.canvas.draw()  # the final limits (aspect, stretch) and layout place the names
+    renderer = fig.canvas.get_renderer()
+    kept: list[Any] = []
+    for name in names:
+        box = name.get_window_extent(renderer)
+        if any(box.overlaps(other) for other in kept):
+            name.remove()
+        else:
+            kept.append(box)

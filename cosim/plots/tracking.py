@@ -12,6 +12,7 @@ import numpy as np
 
 from cosim.control.tracking import TrackingRun
 from cosim.plots import save_figure
+from cosim.plots.labels import suptitle
 
 STYLE = {
     ("twotrack", "mimo"): ("tab:blue", "-"),
@@ -50,7 +51,7 @@ def plot_states(runs: Sequence[TrackingRun], path: Path, title: str) -> Path:
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, loc="lower right")
-    fig.suptitle(title, fontsize=10)
+    suptitle(fig, title, fontsize=10)
     fig.tight_layout()
     save_figure(fig, path)
     return path
@@ -95,7 +96,7 @@ def plot_inputs(runs: Sequence[TrackingRun], path: Path, title: str) -> Path:
     for ax in (steer, yaw, *wheels):
         ax.grid(alpha=0.3)
     steer.legend(fontsize=8)
-    fig.suptitle(title, fontsize=10)
+    suptitle(fig, title, fontsize=10)
     fig.tight_layout()
     save_figure(fig, path)
     return path
