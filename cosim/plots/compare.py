@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from cosim.plots import save_figure
+from cosim.plots.labels import D_LABEL, S_LABEL, suptitle
 
 LABELS = {"mimo": "ours, MIMO", "siso": "ours, SISO", "mimo_paper": "ours, MIMO, paper's method",
           "mimo_gap": "ours, MIMO, gap policy", "sumo": "SUMO-native"}
@@ -18,8 +19,9 @@ STYLES = {"mimo": ("C0", "-"), "siso": ("C1", "--"), "mimo_paper": ("C3", ":"),
 
 
 def compare_figure(path: Path, results: Mapping[str, Any], *, title: str) -> Path:
-    """SV path (y against x), body lateral acceleration, smallest gap and smallest
-    TTC over time, one line per driver; `results`: driver -> RunResult."""
+    """SV path in road coordinates (d against s, over the lane lines), body lateral
+    acceleration, smallest gap and smallest TTC over time, one line per driver;
+    `results`: driver -> RunResult."""
     fig, axes = plt.subplots(4, 1, figsize=(10, 11))
     road = next(iter(results.values())).road
     for k in range(road.n_lanes + 1):
@@ -29,7 +31,7 @@ def compare_figure(path: Path, results: Mapping[str, Any], *, title: str) -> Pat
         colour, ls = STYLES.get(driver, ("k", "-"))
         tr = result.trace
         label = LABELS.get(driver, driver)
-        axes[0].plot(tr["x_m"], tr["y_m"], color=colour, ls=ls, label=label)
+        axes[0].plot(tr["s_m"], tr["d_m"], color=colour, ls=ls, label=label)
         axes[1].plot(tr["t_s"], tr["ay_mps2"], color=colour, ls=ls, label=label)
         axes[2].plot(tr["t_s"], np.where(np.isfinite(tr["gap_min_m"]), tr["gap_min_m"], np.nan),
                      color=colour, ls=ls, label=label)
@@ -38,9 +40,9 @@ def compare_figure(path: Path, results: Mapping[str, Any], *, title: str) -> Pat
     t_end = max(float(r.trace["t_s"][-1]) for r in results.values())
     for ax in axes[1:]:
         ax.set_xlim(0.0, t_end)
-    axes[0].set_xlabel("global x (m)")
-    axes[0].set_ylabel("SV y (m)")
-    axes[0].set_title("SV trajectories", fontsize=9)
+    axes[0].set_xlabel(S_LABEL)
+    axes[0].set_ylabel(D_LABEL)
+    axes[0].set_title("SV trajectories in road coordinates (s, d)", fontsize=9)
     axes[1].set_ylabel("lateral acc. (m/s^2)")
     axes[2].set_ylabel("smallest gap (m)")
     axes[3].set_ylabel("smallest TTC (s)")
@@ -53,6 +55,6 @@ def compare_figure(path: Path, results: Mapping[str, Any], *, title: str) -> Pat
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[1].legend(fontsize=8, loc="upper right")
-    fig.suptitle(title, fontsize=10)
+    suptitle(fig, title, fontsize=10)
     fig.tight_layout()
     return save_figure(fig, path)

@@ -4,7 +4,8 @@
 whole clusters), the chosen trajectory in bold; (b) the tau sets: stable,
 collision-free, every rejected tau coloured by its reason, tau_opt and the choice;
 (c) the chosen lane change as rectangles once a second, with the TVs (for C2 TVs
-every hypothesis, faint).
+every hypothesis, faint). Positions are the planner's: road coordinates (s, d), which
+are the paper's x, y on its straight road.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from cosim.planning.planner import Plan
 from cosim.planning.prediction import LazyFutures, TVFutures
 from cosim.planning.trajectory import cluster_derivatives
 from cosim.plots import save_figure
+from cosim.plots.labels import D_LABEL, S_LABEL, set_title, suptitle
 
 RECT_TIMES = 1.0  # s, spacing of the rectangles of panel (c)
 MAX_NAMED = 6  # TVs named in a panel; more are drawn without a name each
@@ -38,7 +40,7 @@ def _lanes(ax: Axes, road: RoadParams) -> None:
 def _sv_cluster(
     plan: Plan, road: RoadParams, t_rel: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(taus, x, y) of the stable candidates on t_rel, global."""
+    """(taus, s, d) of the stable candidates on t_rel, in road coordinates."""
     sv = plan.sv
     assert sv is not None
     taus = plan.taus[plan.stable]
@@ -84,8 +86,8 @@ def draw_cluster(ax: Axes, plan: Plan, road: RoadParams) -> None:
         ts = plan.t + t_rel[t_rel <= tr.tau + 2.0]
         x, y = tr.position(ts)
         ax.plot(x, y, color="k", lw=2.2, label=f"chosen tau = {tr.tau:.2f} s")
-    ax.set_xlabel("global x (m)")
-    ax.set_ylabel("global y (m)")
+    ax.set_xlabel(S_LABEL)
+    ax.set_ylabel(D_LABEL)
     ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
     ax.set_title("(a) stable cluster (dotted: collides) and TV futures")
     ax.legend(loc="upper left", fontsize=7, ncol=3)
@@ -198,8 +200,8 @@ def draw_snapshots(ax: Axes, plan: Plan, road: RoadParams, vehicle: VehicleParam
     xs = np.concatenate([x, f.x[:, k].ravel()])
     ax.set_xlim(float(xs.min()) - 5, float(xs.max()) + 5)
     ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
-    ax.set_xlabel("global x (m)")
-    ax.set_ylabel("global y (m)")
+    ax.set_xlabel(S_LABEL)
+    ax.set_ylabel(D_LABEL)
     ax.set_title(f"(c) chosen lane change and TVs every {RECT_TIMES:g} s (black: SV; "
                  "numbers: s after the plan)")
 
@@ -212,7 +214,7 @@ def planning_figure(path: Path, plan: Plan, road: RoadParams, vehicle: VehiclePa
     draw_tau_sets(axes[1], plan)
     draw_snapshots(axes[2], plan, road, vehicle)
     if title:
-        fig.suptitle(title)
+        suptitle(fig, title)
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -222,6 +224,6 @@ def tau_sets(path: Path, plan: Plan, title: str = "") -> Path:
     fig, ax = plt.subplots(figsize=(9, 3.2))
     draw_tau_sets(ax, plan)
     if title:
-        ax.set_title(title)
+        set_title(ax, title)
     fig.tight_layout()
     return save_figure(fig, path)

@@ -1,11 +1,13 @@
-"""Figures of one co-simulation run: global trajectories of the SV and the TVs
-near it (like the paper's Fig. 16), with the lane lines and where each lane
-change started and ended."""
+"""Figures of one co-simulation run: the trajectories of the SV and the TVs near it in
+road coordinates (s along the route, d across it: the planner's view; like the paper's
+Fig. 16, whose straight road has s = x, d = y), with the lane lines, where each lane
+ends or exits, and where each lane change started and ended; the gaps and TTC over
+time."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -16,13 +18,14 @@ from numpy.typing import NDArray
 
 from cosim.params import RoadParams
 from cosim.plots import save_figure
+from cosim.plots.labels import D_LABEL, S_LABEL, set_title, suptitle
 
 Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
 class TrajectoryMarks:
-    """What `global_trajectories` marks besides the paths."""
+    """What `road_trajectories` marks besides the paths."""
 
     highlight: Sequence[str] = ()  # TVs drawn in colour (e.g. the scenario's scripted TVs)
     roles: Mapping[str, str] = field(default_factory=dict)  # their roles, in the labels
@@ -33,84 +36,93 @@ class TrajectoryMarks:
     requests: Sequence[float] = ()
 
 
-def global_trajectories(
+def road_trajectories(
     path: Path,
     t: Array,
-    sv_x: Array,
-    sv_y: Array,
+    sv_s: Array,
+    sv_d: Array,
     tv_tracks: Mapping[str, tuple[Array, Array, Array]],
     road: RoadParams,
     marks: TrajectoryMarks | None = None,
     title: str = "",
+    exits: Collection[int] = (),
 ) -> Path:
-    """Write a figure of x-y paths: the SV in colour, TVs in grey (those `marks`
-    highlights in colour, labelled "TV <id>" with their role), dots every 1 s; the lane
-    changes' starts and planned ends and the requests marked on the SV's path.
+    """Write a figure of paths in road coordinates (s, d): the SV in colour, TVs in grey
+    (those `marks` highlights in colour, labelled "TV <id>" with their role), dots every
+    1 s; the lane changes' starts and planned ends and the requests marked on the SV's
+    path; each of `road`'s lanes that ends barred where it ends ("lane k ends"), or, the
+    lanes in `exits` (they run on off the route at a diverge), where they leave the
+    route ("lane k exits").
 
-    tv_tracks: id -> (t, x, y) arrays while the TV was near the SV.
+    tv_tracks: id -> (t, s, d) arrays while the TV was near the SV.
     """
     marks = marks if marks is not None else TrajectoryMarks()
     fig, ax = plt.subplots(figsize=(11, 3.6))
-    x_lo = float(np.nanmin(sv_x))
-    x_hi = float(np.nanmax(sv_x))
-    for _tid, (_tt, xx, _yy) in tv_tracks.items():
-        if xx.size:
-            x_lo, x_hi = min(x_lo, float(np.nanmin(xx))), max(x_hi, float(np.nanmax(xx)))
-    pad = 0.02 * (x_hi - x_lo + 1.0)
-    x_hi = _draw_lanes(ax, road, x_lo - 0.8 * pad, x_hi)
+    s_lo = float(np.nanmin(sv_s))
+    s_hi = float(np.nanmax(sv_s))
+    for _tid, (_tt, ss, _dd) in tv_tracks.items():
+        if ss.size:
+            s_lo, s_hi = min(s_lo, float(np.nanmin(ss))), max(s_hi, float(np.nanmax(ss)))
+    pad = 0.02 * (s_hi - s_lo + 1.0)
+    s_hi = _draw_lanes(ax, road, s_lo - 0.8 * pad, s_hi, exits)
     _draw_tvs(ax, tv_tracks, marks)
-    ax.plot(sv_x, sv_y, color="C0", lw=2.0, label="SV")
+    ax.plot(sv_s, sv_d, color="C0", lw=2.0, label="SV")
     every = _every_second(t)
-    ax.plot(sv_x[every], sv_y[every], "o", color="C0", ms=3)
-    _draw_marks(ax, t, sv_x, sv_y, marks)
-    ax.set_xlim(x_lo - pad, x_hi + pad)
+    ax.plot(sv_s[every], sv_d[every], "o", color="C0", ms=3)
+    _draw_marks(ax, t, sv_s, sv_d, marks)
+    ax.set_xlim(s_lo - pad, s_hi + pad)
     ax.set_ylim(road.y_right - 0.5, road.y_right + road.n_lanes * road.lane_width + 0.5)
-    ax.set_xlabel("global x (m)")
-    ax.set_ylabel("global y (m)")
-    ax.set_title(title or "global trajectories (dots every 1 s)")
+    ax.set_xlabel(S_LABEL)
+    ax.set_ylabel(D_LABEL)
+    set_title(ax, title or "trajectories in road coordinates (s, d; dots every 1 s)")
     ax.legend(loc="upper right", fontsize=8, ncol=4)
     fig.tight_layout()
     return save_figure(fig, path)
 
 
-def _draw_lanes(ax: Axes, road: RoadParams, x_label: float, x_hi: float) -> float:
-    """The lane lines, each lane's name at `x_label`, a bar across a lane where it ends;
-    returns the right end of the view (`x_hi`, or a lane's end shortly past it)."""
+def _draw_lanes(ax: Axes, road: RoadParams, s_label: float, s_hi: float,
+                exits: Collection[int] = ()) -> float:
+    """The lane lines, each lane's name at `s_label`, a bar across a lane where it ends
+    or exits; returns the right end of the view (`s_hi`, or a lane's end shortly past
+    it)."""
     for k in range(road.n_lanes + 1):
-        y_line = road.y_right + k * road.lane_width
+        d_line = road.y_right + k * road.lane_width
         style = "-" if k in (0, road.n_lanes) else "--"
-        ax.axhline(y_line, color="0.5", lw=0.8, ls=style, zorder=0)
+        ax.axhline(d_line, color="0.5", lw=0.8, ls=style, zorder=0)
     for k in range(road.n_lanes):
-        ax.text(x_label, road.lane_center(k) + 0.3 * road.lane_width, f"lane {k}",
+        ax.text(s_label, road.lane_center(k) + 0.3 * road.lane_width, f"lane {k}",
                 fontsize=7, va="center", ha="left", color="0.4")
         end = road.lane_end(k)
         if math.isfinite(end):
-            y_lo = road.y_right + k * road.lane_width
-            ax.plot([end, end], [y_lo, y_lo + road.lane_width], color="k", lw=3.0,
+            d_lo = road.y_right + k * road.lane_width
+            # an exit is no end of the road: a dotted bar, the lane runs on off the route
+            ax.plot([end, end], [d_lo, d_lo + road.lane_width], color="k",
+                    lw=1.5 if k in exits else 3.0, ls=":" if k in exits else "-",
                     solid_capstyle="butt", zorder=1)
-            ax.text(end, y_lo + 0.5 * road.lane_width, f" lane {k} ends", fontsize=7,
+            ax.text(end, d_lo + 0.5 * road.lane_width,
+                    f" lane {k} {'exits' if k in exits else 'ends'}", fontsize=7,
                     va="center", ha="left", color="0.2")
-            x_hi = max(x_hi, end) if end < x_hi + 500.0 else x_hi
-    return x_hi
+            s_hi = max(s_hi, end) if end < s_hi + 500.0 else s_hi
+    return s_hi
 
 
 def _draw_tvs(ax: Axes, tv_tracks: Mapping[str, tuple[Array, Array, Array]],
               marks: TrajectoryMarks) -> None:
     """The TVs' paths: grey, the highlighted ones in colour with dots every 1 s."""
     colour = 1
-    for tid, (tt, xx, yy) in sorted(tv_tracks.items()):
+    for tid, (tt, ss, dd) in sorted(tv_tracks.items()):
         if tid in marks.highlight:
             c = f"C{colour}"
             colour += 1
             role = marks.roles.get(tid, "")
-            ax.plot(xx, yy, color=c, lw=1.5, label=f"TV {tid}" + (f" ({role})" if role else ""))
+            ax.plot(ss, dd, color=c, lw=1.5, label=f"TV {tid}" + (f" ({role})" if role else ""))
             every = _every_second(tt)
-            ax.plot(xx[every], yy[every], "o", color=c, ms=2.5)
+            ax.plot(ss[every], dd[every], "o", color=c, ms=2.5)
         else:
-            ax.plot(xx, yy, color="0.65", lw=0.7)
+            ax.plot(ss, dd, color="0.65", lw=0.7)
 
 
-def _draw_marks(ax: Axes, t: Array, sv_x: Array, sv_y: Array, marks: TrajectoryMarks
+def _draw_marks(ax: Axes, t: Array, sv_s: Array, sv_d: Array, marks: TrajectoryMarks
                 ) -> None:
     """The requests, lane-change starts and planned ends on the SV's path (each label
     once in the legend)."""
@@ -122,7 +134,7 @@ def _draw_marks(ax: Axes, t: Array, sv_x: Array, sv_y: Array, marks: TrajectoryM
     for when, marker, label in points:
         i = int(np.searchsorted(t, when - 1e-9))
         if 0 <= i < t.size:
-            ax.plot(sv_x[i], sv_y[i], marker, color="k", ms=8,
+            ax.plot(sv_s[i], sv_d[i], marker, color="k", ms=8,
                     label=None if label in shown else label)
             shown.add(label)
 
@@ -165,7 +177,7 @@ def gap_history(
         bottom.set_title("no TV ever closing in on the SV (TTC inf throughout)", fontsize=8)
     bottom.set_ylabel("time-to-collision (s)")
     bottom.set_xlabel("t (s)  (grey: the SV's lane changes)")
-    fig.suptitle(title or "gaps and time-to-collision", fontsize=10)
+    suptitle(fig, title or "gaps and time-to-collision", fontsize=10)
     fig.tight_layout()
     return save_figure(fig, path)
 

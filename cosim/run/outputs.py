@@ -90,34 +90,39 @@ def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> l
     from functools import partial
 
     from cosim import plots
-    from cosim.plots.run import TrajectoryMarks, gap_history, global_trajectories
+    from cosim.plots.run import TrajectoryMarks, gap_history, road_trajectories
+    from cosim.road.frame import StraightFrame
+    from cosim.traffic.route_lanes import exit_lanes
 
     figure_path = partial(plots.figure_path, fmt=fmt)
 
     tr = result.trace
     sc = result.scenario
     spans = [(lc.t0, lc.t0 + lc.tau) for lc in result.lane_changes]
-    curved = result.route_road is not None and result.route_road.curved
-    view = "road coordinates (s, d)" if curved else "global trajectories"
+    rr = result.route_road
+    # the SV's and the TVs' paths in road coordinates (s, d), as the planner sees them
+    # (the scene is in them: trace.csv's s_m, d_m and the recorder's TV tracks)
+    same = (rr is not None and isinstance(rr.frame, StraightFrame)
+            and rr.frame.x0 == 0.0 and rr.frame.y0 == 0.0)
+    view = "road coordinates (s, d" + (" = global x, y)" if same else ")")
     paths = [
-        # in road coordinates (s, d) as the planner sees them: x, y on the straight road
-        global_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["s_m"], tr["d_m"],
-                            result.tv_tracks, result.road, TrajectoryMarks(
-                                highlight=[tv.id for tv in sc.tvs],
-                                roles={tv.id: tv_role(tv) for tv in sc.tvs},
-                                lane_changes=spans,
-                                requests=[float(p["t_s"]) for p in result.plans
-                                          if p.get("trigger") in ("scripted", "decision")]),
-                            title=f"{sc.name}: {view} (dots every 1 s)"),
+        road_trajectories(figure_path(out, "trajectories"), tr["t_s"], tr["s_m"], tr["d_m"],
+                          result.tv_tracks, result.road, TrajectoryMarks(
+                              highlight=[tv.id for tv in sc.tvs],
+                              roles={tv.id: tv_role(tv) for tv in sc.tvs},
+                              lane_changes=spans,
+                              requests=[float(p["t_s"]) for p in result.plans
+                                        if p.get("trigger") in ("scripted", "decision")]),
+                          title=f"{sc.name}: trajectories in {view}, dots every 1 s",
+                          exits=exit_lanes(rr) if rr is not None else ()),
         gap_history(figure_path(out, "gaps"), tr["t_s"], tr["gap_min_m"], tr["leader_gap_m"],
                     tr["ttc_min_s"], lane_changes=spans,
                     title=f"{sc.name}: gaps and time-to-collision"),
     ]
-    if curved:  # the x-y map: SUMO's lanes, the frame's borders, the SV's path
+    if rr is not None and rr.curved:  # the x-y map: SUMO's lanes, frame's borders, SV's path
         from cosim.plots.road import plot_road
 
-        paths.append(plot_road(result.route_road, figure_path(out, "road"),
-                               sv_path=(tr["x_m"], tr["y_m"])))
+        paths.append(plot_road(rr, figure_path(out, "road"), sv_path=(tr["x_m"], tr["y_m"])))
     if result.records:
         from cosim.control.tracking import TrackingRun
         from cosim.plots.tracking import plot_inputs, plot_states
