@@ -215,6 +215,54 @@ def follower_max_decel(t: ArrayLike, speed: ArrayLike, start: float, settled: fl
     return decel if decel > 0.0 else 0.0
 
 
+# ----------------------------------------------------------------------------- entry
+# The SV's entry into the target lane as its new follower sees it: at the instant the
+# SV's centre enters, the follower's bumper gap and time gap, the deceleration it needs
+# to stay SUMO's minimum gap behind (if closing), and the smallest TTC to anyone in the
+# SV's strip over ENTRY_WINDOW after the entry. Smallest gaps and largest needs over the
+# lane changes of a run.
+ENTRY_WINDOW = 3.0  # s, the TTC after the entry is watched this long
+SUMO_MIN_GAP = 2.5  # m, SUMO's default minGap: the follower keeps it at a standstill
+ENTRY_DOCS: dict[str, str] = {
+    "entry_follower_gap_m": "bumper-to-bumper gap from the new follower (the nearest TV "
+    "behind the SV in the target lane) to the SV as the SV's centre enters that lane, "
+    "smallest over the lane changes (m; inf: no follower; NaN: no lane change entered)",
+    "entry_follower_time_gap_s": "that gap over the follower's speed then, smallest over the "
+    "lane changes (s; inf: no follower or it stands; NaN: no lane change entered)",
+    "entry_follower_needed_decel_mps2": "the deceleration that follower needs then to stay "
+    "SUMO's minimum gap (2.5 m) behind the SV, (v_f - v_sv)^2 / (2 (gap - 2.5)) when it is "
+    "faster (0: not closing; inf: closing within 2.5 m), largest over the lane changes "
+    "(m/s^2; NaN: no lane change with a follower)",
+    "entry_min_ttc_s": "smallest along-lane TTC to any TV sharing the SV's strip over the "
+    f"{ENTRY_WINDOW:g} s after each entry, smallest over the lane changes (s; inf: never "
+    "closing; NaN: no lane change entered)",
+}
+ENTRY_COLUMNS = tuple(ENTRY_DOCS)
+
+
+def follower_needed_decel(gap: float, follower_speed: float, sv_speed: float,
+                          min_gap: float = SUMO_MIN_GAP) -> float:
+    """m/s^2, the constant deceleration that brings a follower `gap` m behind (bumper to
+    bumper) from `follower_speed` to `sv_speed` (m/s) at `min_gap` m: 0 when it is not
+    faster, inf when it is faster and already within `min_gap`."""
+    closing = follower_speed - sv_speed
+    if closing <= 0.0:
+        return 0.0
+    room = gap - min_gap
+    return closing * closing / (2.0 * room) if room > 0.0 else math.inf
+
+
+def window_min(t: ArrayLike, values: ArrayLike, start: float, window: float) -> float:
+    """The smallest of `values` at times t in [start, start + window] (inf: none there;
+    NaN: start NaN)."""
+    if math.isnan(start):
+        return math.nan
+    tt = np.asarray(t, dtype=float)
+    inside = (tt >= start - 1e-9) & (tt <= start + window + 1e-9)
+    v = np.asarray(values, dtype=float)[inside]
+    return float(v.min()) if v.size else math.inf
+
+
 # ----------------------------------------------------------------------------- comfort
 # Riding comfort of the SV, for our drivers and SUMO's alike: what the paper's method
 # exists for. Longitudinal acceleration and jerk over the run; around

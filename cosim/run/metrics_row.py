@@ -75,6 +75,7 @@ METRIC_DOCS: dict[str, str] = {
     "max_abs_lat_accel_mps2": "largest |body lateral acceleration| (m/s^2)",
     "max_abs_long_accel_mps2": "largest |body longitudinal acceleration| (m/s^2)",
     "max_jerk_mps3": "largest |d(ax, ay)/dt| between steps (m/s^3)",
+    **mx.ENTRY_DOCS,  # the entry as the new follower sees it
     "iae_vx_mps_s": "IAE of ex = Vx - Vx* over the 10 s from the start of the first lane "
     "change (the whole run without one) (Table 2 column Vx) ((m/s) s)",
     "iae_ye_m_s": "IAE of ye, same window (Table 2 column ye) (m s)",
@@ -159,6 +160,7 @@ class MetricsRow:
             max_abs_long_accel_mps2=mx.max_abs(trace["ax_mps2"]),
             max_jerk_mps3=mx.max_abs(mx.jerk(t, trace["ax_mps2"], trace["ay_mps2"])),
         )
+        m.update(self.entry(trace, done))
         m.update(self._iae(trace, done, tracks_reference))
         y_end = float(trace["d_m"][-1])
         final_lane = self.road.lane_of(y_end)
@@ -235,33 +237,80 @@ class MetricsRow:
         t1 = t0 + IAE_WINDOW if done.first_start is not None else float(t[-1])
         return mx.iae_row(t, trace, t0, t1)
 
+    def _new_follower(self, trace: dict[str, Array], start: float, y_target: float,
+                      end: float) -> tuple[float, str | None, float]:
+        """When the SV's centre entered the target lane of a change (NaN: never), the id
+        of its new follower then (the nearest TV behind it in that lane; None: none, or
+        nobody near) and its length (m)."""
+        t = trace["t_s"]
+        lane, enter, k = self._entered(t, trace["lane"], start, y_target, end)
+        if k is None:
+            return enter, None, math.nan
+        _, ids, x, _ = self.tracks.chunks[k]
+        sv_x = float(np.interp(enter, t, trace["s_m"]))
+        behind = np.where(self._in_lane(k, lane) & (x < sv_x), x, -np.inf)
+        if not np.isfinite(behind.max()):
+            return enter, None, math.nan
+        i = int(np.argmax(behind))
+        return enter, str(ids[i]), float(self.tracks.lengths[k][i])
+
+    def _speed(self, tracks: dict[str, tuple[Array, Array, Array]], vid: str
+               ) -> tuple[Array, Array, Array]:
+        """A TV's sample times, positions along the road and speeds over each step (m/s:
+        SUMO's x += v dt; NaN across a gap in its samples), speed k from sample k to k+1."""
+        tt, xx, _ = tracks[vid]
+        dt = np.diff(tt)
+        step = float(np.min(dt)) if dt.size else math.nan
+        v = np.where(np.abs(dt - step) < 1e-9, np.diff(xx) / np.where(dt > 0, dt, 1.0), np.nan)
+        return tt, xx, v
+
     def follower_decel(self, trace: dict[str, Array], starts: list[float],
                        targets: list[float], ends: list[float], durations: Array) -> float:
         """m/s^2, `follower_max_decel_mps2` (METRIC_DOCS; metrics.follower_max_decel)
         over the lane changes starting at `starts` toward the lane centres `targets`."""
-        t = trace["t_s"]
         tracks: dict[str, tuple[Array, Array, Array]] | None = None
         worst = math.nan
         for s, y_target, e, d in zip(starts, targets, ends, durations, strict=True):
-            lane, enter, k = self._entered(t, trace["lane"], s, y_target, e)
-            if k is None:
-                continue  # never entered, or nobody near then
-            _, ids, x, _ = self.tracks.chunks[k]
-            sv_x = float(np.interp(enter, t, trace["s_m"]))
-            behind = np.where(self._in_lane(k, lane) & (x < sv_x), x, -np.inf)
-            if not np.isfinite(behind.max()):
-                continue  # no follower
+            _, follower, _ = self._new_follower(trace, s, y_target, e)
+            if follower is None:
+                continue  # never entered, nobody near then, or no follower
             tracks = tracks if tracks is not None else self.tracks.result()
-            tt, xx, _ = tracks[ids[int(np.argmax(behind))]]
-            dt = np.diff(tt)
-            step = float(np.min(dt)) if dt.size else math.nan
-            # speed over each step (SUMO: x += v dt), only across consecutive samples
-            v = np.where(np.abs(dt - step) < 1e-9, np.diff(xx) / np.where(dt > 0, dt, 1.0),
-                         np.nan)
+            tt, _, v = self._speed(tracks, follower)
             decel = mx.follower_max_decel(tt[1:], v, s, s + d)
             if math.isfinite(decel):
                 worst = decel if math.isnan(worst) else max(worst, decel)
         return worst
+
+    def entry(self, trace: dict[str, Array], done: Manoeuvres) -> dict[str, float]:
+        """The entry columns (metrics.ENTRY_DOCS) over the lane changes of `done`."""
+        t = trace["t_s"]
+        m = dict.fromkeys(mx.ENTRY_COLUMNS, math.nan)
+        tracks: dict[str, tuple[Array, Array, Array]] | None = None
+        for s, y_target, e in zip(done.starts, done.targets, done.ends, strict=True):
+            enter, follower, length = self._new_follower(trace, s, y_target, e)
+            if math.isnan(enter):
+                continue
+            ttc = mx.window_min(t, trace["ttc_min_s"], enter, mx.ENTRY_WINDOW)
+            m["entry_min_ttc_s"] = float(np.nanmin([m["entry_min_ttc_s"], ttc]))
+            gap, time_gap, need = math.inf, math.inf, math.nan
+            if follower is not None:
+                tracks = tracks if tracks is not None else self.tracks.result()
+                tt, xx, v = self._speed(tracks, follower)
+                k = int(np.clip(np.searchsorted(tt, enter - 1e-9), 0, len(tt) - 1))
+                sv_x = float(np.interp(enter, t, trace["s_m"]))
+                sv_v = float(np.interp(enter, t, trace["vx_mps"]))
+                gap = sv_x - float(xx[k]) - 0.5 * (self.sv_length + length)
+                speed = float(v[min(k, len(v) - 1)]) if v.size else math.nan
+                time_gap = gap / speed if speed > 0.0 else math.inf
+                need = (mx.follower_needed_decel(gap, speed, sv_v) if math.isfinite(speed)
+                        else math.nan)
+            m["entry_follower_gap_m"] = float(np.nanmin([m["entry_follower_gap_m"], gap]))
+            m["entry_follower_time_gap_s"] = float(np.nanmin(
+                [m["entry_follower_time_gap_s"], time_gap]))
+            if not math.isnan(need):
+                m["entry_follower_needed_decel_mps2"] = float(np.nanmax(
+                    [m["entry_follower_needed_decel_mps2"], need]))
+        return m
 
     def comfort(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres,
                 durations: Array) -> dict[str, float]:

@@ -165,10 +165,34 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         decel = _finite(ok, FOLLOWER_METRIC)
         row["follower_decel_mps2_n"] = len(decel)
         row.update(_p95_max(decel, "follower_decel_mps2"))
+        row.update(entry_summary(ok))
         row.update(comfort_summary(ok))
         row.update(merge_summary(ok))
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+# ------------------------------------------------------------------ entry
+HARD_FOLLOWER_BRAKE = 3.0  # m/s^2, a new follower braking this hard counts as forced
+
+
+def entry_summary(ok: pd.DataFrame) -> dict[str, float]:
+    """summary.csv's entry columns of one cell's finished runs (cosim.run.metrics.ENTRY_DOCS):
+    the smallest follower gap and time gap at entry and TTC after it (over runs where
+    they are finite), the largest deceleration a follower needed then (NaN before these
+    metrics existed) and `hard_follower_brakes` (runs whose new follower
+    braked harder than HARD_FOLLOWER_BRAKE)."""
+    row: dict[str, float] = {}
+    for metric in ("entry_follower_gap_m", "entry_follower_time_gap_s", "entry_min_ttc_s"):
+        row[f"{metric}_min"] = _stat(_finite(ok, metric), np.min)
+    # inf (a follower closing within SUMO's minimum gap) is the worst case: kept
+    need = (pd.to_numeric(ok["entry_follower_needed_decel_mps2"], errors="coerce").to_numpy(float)
+            if "entry_follower_needed_decel_mps2" in ok else np.empty(0))
+    row["entry_follower_needed_decel_mps2_max"] = _stat(need[~np.isnan(need)], np.max)
+    decel = _finite(ok, FOLLOWER_METRIC)
+    row["hard_follower_brakes"] = (float(np.sum(decel > HARD_FOLLOWER_BRAKE))
+                                   if FOLLOWER_METRIC in ok else math.nan)
+    return row
 
 
 # ------------------------------------------------------------------ comfort

@@ -266,6 +266,29 @@ def test_dense_traffic_run_writes_its_outputs(tmp_path: Path) -> None:
     assert "wall_time_s" in metrics and "wall_time_s" not in row.columns
 
 
+def test_the_entry_as_its_new_follower_sees_it() -> None:
+    """The scripted `lag` TV (lane 2, 30 m behind at 115 km/h) becomes the SV's follower
+    when the SV enters lane 2: the entry columns are its gap, time gap and needed
+    deceleration at that instant, recomputed here from the trace and its track."""
+    from cosim.run.metrics import ENTRY_WINDOW, follower_needed_decel
+
+    r = simulate(load_scenario(Path(__file__).resolve().parents[1] / "bad_inputs" / "base.toml"))
+    m, tr = r.metrics, r.trace
+    k = int(np.flatnonzero(tr["lane"] == 2)[0])  # the SV's centre enters lane 2
+    t_in = float(tr["t_s"][k])
+    tt, xx, _ = r.tv_tracks["lag"]
+    j = int(np.searchsorted(tt, t_in - 1e-9))
+    assert tt[j] == pytest.approx(t_in, abs=1e-9)
+    gap = float(tr["s_m"][k] - xx[j]) - 0.5 * (r.scenario.vehicle.length + 4.32)
+    v_lag = float((xx[j + 1] - xx[j]) / (tt[j + 1] - tt[j]))
+    assert m["entry_follower_gap_m"] == pytest.approx(gap, abs=1e-9)
+    assert m["entry_follower_time_gap_s"] == pytest.approx(gap / v_lag, abs=1e-9)
+    assert m["entry_follower_needed_decel_mps2"] == pytest.approx(
+        follower_needed_decel(gap, v_lag, float(tr["vx_mps"][k])), abs=1e-9)
+    after = (tr["t_s"] >= t_in) & (tr["t_s"] <= t_in + ENTRY_WINDOW + 1e-9)
+    assert m["entry_min_ttc_s"] == pytest.approx(float(tr["ttc_min_s"][after].min()))
+
+
 def test_sumo_baseline_runs_the_same_case(tmp_path: Path) -> None:
     sc = with_overrides(load_scenario(SCENARIOS / f"{PAPER_CASES[0]}.toml"), controller="sumo")
     r = simulate(sc)

@@ -296,3 +296,26 @@ def test_a_merge_is_watched_until_the_sv_leaves_the_lane_centre_again() -> None:
     passing = -1.875 + t  # on into lane 2 (d > 3.75) without settling in lane 1
     lanes = np.digitize(passing, [0.0, 3.75])
     assert merge_end(t, passing, lanes, 2.0, 1.875) == 6.0
+
+
+def test_follower_needed_decel_brings_it_to_the_svs_speed_at_the_minimum_gap() -> None:
+    from cosim.run.metrics import SUMO_MIN_GAP, follower_needed_decel
+
+    # 30 -> 25 m/s over 12.5 - 2.5 = 10 m: v^2 = 25 + 2 a 10 -> a = 1.25 m/s^2
+    assert follower_needed_decel(12.5, 30.0, 25.0) == pytest.approx(1.25, rel=1e-12)
+    need = follower_needed_decel(40.0, 33.0, 20.0)
+    # braking at that rate it reaches the SV's speed exactly at SUMO's minimum gap
+    # (the SV keeping its speed): its closing distance is (v_f - v_sv)^2 / (2 a)
+    assert 40.0 - (33.0 - 20.0) ** 2 / (2.0 * need) == pytest.approx(SUMO_MIN_GAP, abs=1e-9)
+    assert follower_needed_decel(1.0, 25.0, 25.0) == 0.0  # not closing: nothing needed
+    assert follower_needed_decel(2.0, 26.0, 25.0) == math.inf  # closing within 2.5 m
+
+
+def test_window_min_takes_the_window_only() -> None:
+    from cosim.run.metrics import window_min
+
+    t = np.arange(0.0, 10.0 + 1e-9, 0.5)
+    ttc = np.where(t < 2.0, 0.5, 10.0 - t)  # 0.5 s before the window, then falling
+    assert window_min(t, ttc, 2.0, 3.0) == pytest.approx(5.0)
+    assert window_min(t, ttc, 20.0, 3.0) == math.inf
+    assert math.isnan(window_min(t, ttc, math.nan, 3.0))

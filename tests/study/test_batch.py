@@ -21,6 +21,7 @@ from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -161,6 +162,10 @@ def test_local_study_records_every_run_and_summarises_each_cell(local_study: Pat
         assert cell["max_long_jerk_mps3_max"] == pytest.approx(mine["max_long_jerk_mps3"].max())
         assert 0.0 <= cell["long_accel_jump_share_p50"] <= 1.0
         assert cell["hard_post_change_brakes"] == (mine["post_change_max_decel_mps2"] > 3.0).sum()
+        assert cell["hard_follower_brakes"] == (mine["follower_max_decel_mps2"] > 3.0).sum()
+        gaps = mine["entry_follower_gap_m"][np.isfinite(mine["entry_follower_gap_m"])]
+        assert cell["entry_follower_gap_m_min"] == (pytest.approx(gaps.min()) if len(gaps)
+                                                    else pytest.approx(np.nan, nan_ok=True))
 
 
 def test_same_command_again_runs_nothing(local_study: Path, capsys: pytest.CaptureFixture) -> None:
