@@ -175,7 +175,8 @@ class CoSimulation:
         trace = recorder.trace(self.stop.last_row)
         ego.finish_trace(trace)
         done = self.policy.summary(trace["t_s"], trace["d_m"])  # d: across the road
-        metrics = MetricsRow(self.road, sc.vehicle.length, recorder.tracks).row(
+        metrics = MetricsRow(self.road, sc.vehicle.length, recorder.tracks,
+                             self.world.route_road).row(
             sc, trace, done, recorder, self.stop, plant=ego.plant,
             tracks_reference=ego.tracks_reference, events=len(events),
             vehicles=(len(self.world.placed), self.world.inserted),

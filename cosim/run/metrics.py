@@ -21,7 +21,7 @@ gap and time-to-collision (`gap_ttc`); this module reduces those columns:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -213,6 +213,37 @@ def follower_max_decel(t: ArrayLike, speed: ArrayLike, start: float, settled: fl
         return math.nan
     decel = float((-np.diff(v)[pair] / np.diff(tt)[pair]).max())
     return decel if decel > 0.0 else 0.0
+
+
+def polyline_distance(points: ArrayLike, shape: ArrayLike) -> NDArray[np.float64]:
+    """m, each point's (rows x, y) distance from the polyline `shape` (rows x, y)."""
+    p = np.asarray(points, dtype=float)[:, None, :]
+    a = np.asarray(shape, dtype=float)
+    if len(a) == 1:
+        return np.hypot(*(p[:, 0, :] - a[0]).T)
+    q0, q1 = a[:-1][None], a[1:][None]
+    v = q1 - q0
+    u = np.clip(np.sum((p - q0) * v, axis=-1) / np.maximum(np.sum(v * v, axis=-1), 1e-300),
+                0.0, 1.0)
+    return np.hypot(*(p - q0 - u[..., None] * v).transpose(2, 0, 1)).min(axis=1)
+
+
+def lane_keeping_offset(x: ArrayLike, y: ArrayLike, lane_ids: Sequence[str],
+                        keeping: ArrayLike, shapes: Mapping[str, Sequence[tuple[float, float]]]
+                        ) -> float:
+    """m, the largest distance of the SV's centre (x, y per step) from SUMO's centre line
+    of the lane it is in (`lane_ids` per step, shapes by that id) over the steps where
+    `keeping` (it keeps its lane); NaN: no such step on a known lane."""
+    xy = np.column_stack([np.asarray(x, dtype=float), np.asarray(y, dtype=float)])
+    keep = np.asarray(keeping, dtype=bool)
+    ids = np.asarray(lane_ids, dtype=object)
+    worst = math.nan
+    for lane in set(ids[keep].tolist()):
+        if lane not in shapes:
+            continue
+        d = polyline_distance(xy[keep & (ids == lane)], shapes[lane])
+        worst = float(d.max()) if math.isnan(worst) else max(worst, float(d.max()))
+    return worst
 
 
 # ----------------------------------------------------------------------------- entry

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from cosim.driving.base import Manoeuvres
 from cosim.params import RoadParams
+from cosim.road.road import Road
 from cosim.run import metrics as mx
 from cosim.run.metrics import SETTLE_TOL
 from cosim.run.recorder import Recorder, Tracks
@@ -85,6 +86,10 @@ METRIC_DOCS: dict[str, str] = {
     "column Fx) (kN s)",
     "final_lane": "SV's lane at the end (SUMO index, from y)",
     "final_offset_m": "SV's y minus its lane centre at the end (m)",
+    "lane_keeping_max_offset_m": "largest distance of the SV's centre from SUMO's centre line "
+    "of the lane it is in (its track's SUMO lane polylines joined, kinks and all), over the "
+    "steps where it keeps its lane (no planned lane change under way) (m; NaN: none on a "
+    "lane of the route)",
     "mean_speed_mps": "SV's mean speed (m/s)",
     "start_speed_mps": "SV's speed at t = 0 (m/s): sv.speed_kmh, or lower where its leader at "
     "t = 0 is random traffic it could not brake for from that speed (SUMO's departSpeed rule: "
@@ -125,10 +130,12 @@ class MetricsRow:
     """The metrics row of one run on `road` (the scenario's RoadParams) of an SV
     `sv_length` m long, with the TVs near it as the recorder kept them (`tracks`)."""
 
-    def __init__(self, road: RoadParams, sv_length: float, tracks: Tracks) -> None:
+    def __init__(self, road: RoadParams, sv_length: float, tracks: Tracks,
+                 route_road: Road | None = None) -> None:
         self.road = road
         self.sv_length = sv_length  # m
         self.tracks = tracks
+        self.route_road = route_road  # the route's lanes (None: no SUMO lane shapes)
 
     def row(self, sc: Scenario, trace: dict[str, Array], done: Manoeuvres,
             recorder: Recorder, stop: StopRules, *, plant: str, tracks_reference: bool,
@@ -167,6 +174,7 @@ class MetricsRow:
         m.update(
             final_lane=final_lane,
             final_offset_m=y_end - self.road.lane_center(final_lane),
+            lane_keeping_max_offset_m=self.lane_keeping_offset(trace),
             mean_speed_mps=float(np.mean(trace["vx_mps"])),
             start_speed_mps=float(trace["vx_mps"][0]),
             curve_speed_mps=curve_speed,
@@ -236,6 +244,18 @@ class MetricsRow:
         t0 = done.first_start if done.first_start is not None else 0.0
         t1 = t0 + IAE_WINDOW if done.first_start is not None else float(t[-1])
         return mx.iae_row(t, trace, t0, t1)
+
+    def lane_keeping_offset(self, trace: dict[str, Array]) -> float:
+        """m, `lane_keeping_max_offset_m` (METRIC_DOCS; metrics.lane_keeping_offset): from
+        the centre line of the SV's track, its SUMO lanes' polylines joined (SUMO's lane
+        of a vehicle crossing a junction may lag its position by a step)."""
+        if self.route_road is None:
+            return math.nan
+        shapes = {str(t.id): [pt for p in t.pieces for pt in p.shape]
+                  for t in self.route_road.tracks}
+        ids = [str(k) for k in trace["track"].astype(int).tolist()]
+        return mx.lane_keeping_offset(trace["x_m"], trace["y_m"], ids,
+                                      trace["changing"] == 0, shapes)
 
     def _new_follower(self, trace: dict[str, Array], start: float, y_target: float,
                       end: float) -> tuple[float, str | None, float]:

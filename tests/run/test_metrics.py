@@ -319,3 +319,25 @@ def test_window_min_takes_the_window_only() -> None:
     assert window_min(t, ttc, 2.0, 3.0) == pytest.approx(5.0)
     assert window_min(t, ttc, 20.0, 3.0) == math.inf
     assert math.isnan(window_min(t, ttc, math.nan, 3.0))
+
+
+def test_polyline_distance_and_lane_keeping_offset_against_shapely() -> None:
+    import shapely
+
+    from cosim.run.metrics import lane_keeping_offset, polyline_distance
+
+    rng = np.random.default_rng(7)
+    shape = np.cumsum(rng.uniform(-5.0, 20.0, size=(12, 2)), axis=0)
+    points = rng.uniform(shape.min(axis=0) - 10.0, shape.max(axis=0) + 10.0, size=(300, 2))
+    line = shapely.LineString(shape)
+    expected = shapely.distance(line, shapely.points(points))
+    assert np.allclose(polyline_distance(points, shape), expected, atol=1e-9, rtol=0.0)
+    # the largest over the steps on a known lane that keep their lane only
+    ids = np.where(np.arange(300) % 3 == 0, "other", "a_0")
+    keeping = np.arange(300) % 2 == 0
+    on = (ids == "a_0") & keeping
+    assert lane_keeping_offset(points[:, 0], points[:, 1], ids.tolist(), keeping,
+                               {"a_0": [tuple(p) for p in shape]}) == pytest.approx(
+        expected[on].max(), abs=1e-9)
+    assert math.isnan(lane_keeping_offset(points[:, 0], points[:, 1], ids.tolist(),
+                                          np.zeros(300, dtype=bool), {"a_0": shape}))
