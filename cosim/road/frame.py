@@ -48,8 +48,11 @@ line still bends at each vertex far tighter than the curve the vertices lie on
 `max_deviation` that reaches 90 % of that radius (or of the largest reachable there) is
 taken. If the smallest radius is then below `min_radius`, more smoothing is taken
 up to `max_deviation`; a line that cannot reach `min_radius` within `max_deviation` is
-refused (InputError naming the radius and the deviation). The deviation is the
-Hausdorff distance between the smoothed line and SUMO's polyline.
+refused (InputError naming the radius and the deviation), as is a polyline that the
+line through its vertices, unsmoothed, already leaves by more than `max_deviation` (a
+kink too sharp for the arc spline: lanes that jump sideways at a junction; named where
+the line first leaves it). The deviation is the Hausdorff distance between the smoothed
+line and SUMO's polyline.
 
 On a one-edge straight road along +x (`StraightFrame`) the frame is the identity up to
 an offset: s = x - x0 and d = y - y0, with (x0, y0) the start of the reference lane's
@@ -556,15 +559,40 @@ def deviation(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
     polyline's points (every <= 0.5 m, its vertices included) against the line (|d -
     centre(s)|, exact where centre is constant), each of the line's points (every 0.5 m)
     against the polyline's nearby segments."""
+    return _distances(frame, polyline, centre)[0]
+
+
+def departure(frame: StraightFrame | ArcFrame, polyline: ArrayLike, bound: float
+              ) -> tuple[float, float, float]:
+    """(m, m, m): the deviation of the frame's reference line from a SUMO polyline
+    (`deviation`) and the first place (x, y) along the polyline where the two lie more
+    than `bound` apart (nan, nan: nowhere). Past that place the line may stay off by
+    about as much (its positions are integrated), so the worst place can lie far
+    downstream of the cause."""
+    dev, one, other = _distances(frame, polyline, None)
+    for points, off in (one, other):
+        over = np.flatnonzero(~(off <= bound))  # nan (off the line's reach) counts as over
+        if over.size:
+            return dev, float(points[over[0], 0]), float(points[over[0], 1])
+    return dev, math.nan, math.nan
+
+
+def _distances(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
+               centre: Callable[[Array], Array] | None
+               ) -> tuple[float, tuple[Array, Array], tuple[Array, Array]]:
+    """`deviation` and, each in order along its line, the polyline's points with their
+    distances from the frame's line and the line's points with their distances from
+    the polyline (none where a point of the polyline lies beyond the line's reach)."""
     ref = float(getattr(frame, "d_offset", 0.0))
     line_d = centre if centre is not None else (lambda s: np.full(np.shape(s), ref))
     dense = _with_vertices(np.asarray(polyline, dtype=np.float64), 0.5)
     along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(dense, axis=0).T))))
     s0, _ = frame.to_frenet(dense[0, 0], dense[0, 1])
     s_raw, d_raw = frame.to_frenet(dense[:, 0], dense[:, 1], s_hint=s0 + along)
+    off_line = np.abs(d_raw - line_d(s_raw))
     if np.isnan(s_raw).any():
-        return math.inf
-    one = float(np.abs(d_raw - line_d(s_raw)).max())
+        return math.inf, (dense, off_line), (np.empty((0, 2)), np.empty(0))
+    one = float(off_line.max())
     knots = np.arange(s_raw[0], s_raw[-1], 0.5)
     kx, ky, _ = frame.to_cartesian(knots, line_d(knots))
     order = np.argsort(s_raw, kind="stable")
@@ -576,9 +604,9 @@ def deviation(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
     w = np.stack((kx, ky), axis=-1)[:, None, :] - q0
     t = np.clip(np.einsum("ijk,ijk->ij", w, v) / np.maximum(np.einsum("ijk,ijk->ij", v, v),
                                                               1e-300), 0.0, 1.0)
-    other = float(np.hypot(*(w - t[..., None] * v).transpose(2, 0, 1)).min(axis=1).max(
-        initial=0.0))
-    return max(one, other)
+    off_poly = np.hypot(*(w - t[..., None] * v).transpose(2, 0, 1)).min(axis=1)
+    other = float(off_poly.max(initial=0.0))
+    return max(one, other), (dense, off_line), (np.stack((kx, ky), axis=-1), off_poly)
 
 
 def _frame_of(points: Array, raw: Array, limits: FrameLimits, d_offset: float,
@@ -599,12 +627,15 @@ def _frame_of(points: Array, raw: Array, limits: FrameLimits, d_offset: float,
 
 
 Attempt = tuple[float, ArcFrame, float, float]  # (ell m, frame, deviation m, min radius m)
+Where = Callable[[float, float], str]  # a point (x, y) in the network's words ("on edge e1")
 
 
-def _choose(tried: list[Attempt], raw: Array, limits: FrameLimits, source: str) -> Attempt:
-    """The smoothing to keep among those tried (by growing ell): the least that reaches
-    the radius the target deviation allows, at least SUMO's vertex spacing, more for
-    coarse vertices, and at least the limits' smallest radius (InputError if none)."""
+def _choose(tried: list[Attempt], raw: Array, limits: FrameLimits, source: str,
+            where: Where | None) -> Attempt:
+    """The smoothing to keep among those tried (by growing ell, the first within
+    max_deviation): the least that reaches the radius the target deviation allows, at
+    least SUMO's vertex spacing, more for coarse vertices, and at least the limits'
+    smallest radius (InputError if none)."""
     # the least smoothing that gets within RADIUS_SHARE of the largest smallest-radius
     # reachable within the target deviation: more would only bend SUMO's curves
     within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
@@ -636,18 +667,20 @@ def _choose(tried: list[Attempt], raw: Array, limits: FrameLimits, source: str) 
             raise InputError(source, "reference line radius", f"{best[3]:.1f} m",
                              f"a route whose lanes can be smoothed to a radius of at least "
                              f"{limits.min_radius:g} m within {limits.max_deviation:g} m of "
-                             f"SUMO's lane shape (its tightest bend, near x = "
-                             f"{best[1].x[k]:.1f}, y = {best[1].y[k]:.1f}, keeps a radius of "
+                             f"SUMO's lane shape (its tightest bend, near "
+                             f"{_place(best[1].x[k], best[1].y[k], where)}, keeps a radius of "
                              f"{best[3]:.1f} m at a deviation of {best[2]:.3f} m)")
         chosen = min(better, key=lambda t: t[0])
     return chosen
 
 
 def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
-           d_offset: float = 0.0, source: str = "network") -> ArcFrame:
+           d_offset: float = 0.0, source: str = "network",
+           where: Where | None = None) -> ArcFrame:
     """The arc-spline frame of a polyline (rows x, y; SUMO's lane shape), smoothed as
     the module docstring says; `d_offset` (m) places d = 0 that far right of it.
-    Raises InputError(source, ...) if it cannot be smoothed within the limits."""
+    Raises InputError(source, ...) if it cannot be smoothed within the limits, naming
+    the place (x, y and what `where` says of it)."""
     raw = np.asarray(polyline, dtype=np.float64)
     keep = np.concatenate(([True], np.hypot(*np.diff(raw, axis=0).T) > 1e-9))
     raw = raw[keep]
@@ -668,16 +701,44 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
         tried.append(attempt(ell))
         if tried[-1][2] > limits.max_deviation:
             break
-    chosen = _choose(tried, raw, limits, source)
-    ell, frame, dev, _ = chosen
-    if dev > limits.max_deviation:
-        raise InputError(source, "reference line deviation", f"{dev:.3f} m",
-                         f"a route whose lanes can be smoothed within {limits.max_deviation:g} "
-                         "m of SUMO's lane shape")
+    if tried[0][2] > limits.max_deviation:  # more smoothing only departs further
+        raise _too_far(tried[0], raw, limits, source, where)
+    ell, frame, dev, _ = _choose(tried, raw, limits, source, where)
     return ArcFrame(ArcTable(frame.s_min, h, frame.x, frame.y, frame.theta, frame.kappa),
                     d_offset, frame.length, limits.extension,
                     FrameQuality(dev, frame.quality.min_radius, ell,
                                  frame.quality.max_kink))
+
+
+def _too_far(attempt: Attempt, raw: Array, limits: FrameLimits, source: str,
+             where: Where | None) -> InputError:
+    """The refusal of a lane shape that even the unsmoothed line (`attempt`, ell = 0)
+    does not follow within max_deviation: a kink too sharp for the arc spline through
+    its vertices (a road whose lanes jump sideways at a junction). It names where the
+    line first leaves SUMO's shape, not where it lies furthest off."""
+    _, frame, dev, _ = attempt
+    _, x, y = departure(frame, raw, limits.max_deviation)
+    turn = math.degrees(_turn_near(raw, x, y))
+    return InputError(source, "reference line deviation", f"{dev:.3f} m",
+                      f"a route whose lanes can be smoothed within {limits.max_deviation:g} m "
+                      f"of SUMO's lane shape (even the line through SUMO's vertices, "
+                      f"unsmoothed, is {dev:.3f} m off it, leaving it where SUMO's lane turns "
+                      f"by {turn:.0f} degrees, near {_place(x, y, where)})")
+
+
+def _place(x: float, y: float, where: Where | None) -> str:
+    """A point in words: its coordinates and what `where` says of it."""
+    said = f", {where(x, y)}" if where is not None else ""
+    return f"x = {x:.1f}, y = {y:.1f}{said}"
+
+
+def _turn_near(points: Array, x: float, y: float) -> float:
+    """rad, how far a polyline turns at its inner vertex nearest (x, y) (0: none)."""
+    if len(points) < 3:
+        return 0.0
+    i = 1 + int(np.argmin(np.hypot(points[1:-1, 0] - x, points[1:-1, 1] - y)))
+    a, b = points[i] - points[i - 1], points[i + 1] - points[i]
+    return abs(math.atan2(a[0] * b[1] - a[1] * b[0], a[0] * b[0] + a[1] * b[1]))
 
 
 def polyline_radius(points: Array) -> float:

@@ -30,7 +30,7 @@ from cosim.road.frame import (
 )
 from cosim.road.lanes import LaneTable, lane_tables
 from cosim.road.route import Route, make_route
-from cosim.road.tracks import Track, follow_tracks, reference_track
+from cosim.road.tracks import Track, follow_tracks, lateral_jump, reference_track
 
 
 @dataclass(frozen=True)
@@ -120,6 +120,33 @@ def _straight(route: Route, reference: Track) -> bool:
     return all(len(s) == 2 and s[0][1] == s[1][1] and s[1][0] > s[0][0] for s in shapes)
 
 
+def _where_on(route: Route, track: Track, x: float, y: float) -> str:
+    """Which of the track's SUMO lanes (x, y) lies on, in words; where a junction's lane
+    meets an edge's, the junction (a refusal's place is mostly a kink there)."""
+    from sumolib.geomhelper import distancePointToPolygon
+
+    gaps = [distancePointToPolygon((x, y), list(p.shape)) if len(p.shape) > 1
+            else math.dist((x, y), p.shape[0]) for p in track.pieces]
+    nearest = min(gaps)
+    piece = next((p for p, g in zip(track.pieces, gaps, strict=True)
+                  if p.internal and g <= nearest + 1e-6),
+                 track.pieces[gaps.index(nearest)])
+    if not piece.internal:
+        return f"on edge {piece.edge}"
+    k = piece.route_index
+    junction = route.net.getEdge(piece.edge).getFromNode().getID()
+    said = f"at junction {junction} between edges {route.edges[k]} and {route.edges[k + 1]}"
+    i = track.pieces.index(piece)
+    before = next((p for p in reversed(track.pieces[:i]) if not p.internal), None)
+    after = next((p for p in track.pieces[i + 1:] if not p.internal), None)
+    if before is None or after is None:
+        return said
+    step = lateral_jump(route.net.getLane(before.lane), route.net.getLane(after.lane))
+    # a sideways step is what no smoothing can follow (lanes re-spread at a junction)
+    return said + (f", across which SUMO's lane steps {step:.1f} m sideways"
+                   if step >= 0.05 else "")
+
+
 def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
               limits: FrameLimits = DEFAULT_LIMITS, source: str | None = None) -> Road:
     """The road of `edges` (None: the network's only edge) on `network`. InputError
@@ -138,7 +165,8 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
         frame: StraightFrame | ArcFrame = StraightFrame(x0, yc - half, x1 - x0,
                                                         limits.extension)
     else:
-        frame = smooth(np.array(ref.shape()), limits, d_offset=half, source=src)
+        frame = smooth(np.array(ref.shape()), limits, d_offset=half, source=src,
+                       where=functools.partial(_where_on, route, ref))
     tables = lane_tables(tracks, ref, frame, route.net)
     if any(not math.isfinite(v) for t in tables for v in (*t.s_start, *t.s_end)):
         raise InputError(src, "route", list(route.edges),

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -370,3 +371,18 @@ def test_the_scene_view_equals_the_conversions_it_stands_for_bit_for_bit() -> No
     for s in np.concatenate((s0, [frame.s_min, frame.s_max, -1e9, 1e9])):
         assert frame.curvature(float(s)) == frame.curvature(np.array(s))
         assert frame.heading(float(s)) == frame.heading(np.array(s))
+
+
+def test_a_sideways_step_is_refused_where_the_line_first_leaves_the_lane() -> None:
+    """Lanes that jump 4.8 m sideways over 4.8 m (SUMO's lanes re-spread at a junction):
+    even the unsmoothed line cannot follow within 0.2 m, and it stays off downstream,
+    so the refusal names the step, not the far end where the line lies furthest off."""
+    poly = [(0.0, 0.0), (1000.0, 0.0), (1000.0, 4.8), (1900.0, 4.8), (2000.0, 10.0)]
+    with pytest.raises(InputError) as err:
+        smooth(poly, source="net.xml", where=lambda x, y: f"where {x:.0f}")
+    text = str(err.value)
+    assert err.value.key == "reference line deviation" and "\n" not in text
+    assert "within 0.2 m of SUMO's lane shape" in text
+    # at one of the step's two corners
+    assert re.search(r"turns by 90 degrees, near x = 1000\.0, y = (0\.0|4\.8), where 1000\)$",
+                     text), text

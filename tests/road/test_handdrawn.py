@@ -60,6 +60,26 @@ def test_a_coarse_curve_is_refused_with_the_number_that_fails(tmp_path: Path) ->
     assert str(err.value).startswith("sc.toml: ")
 
 
+def test_lanes_that_step_sideways_at_a_junction_are_refused_naming_it(tmp_path: Path) -> None:
+    """A motorway whose edges spread their lanes differently (right of the centre line,
+    then centred, as on SUMO's tools/game/highway network at junction 1658939360): every
+    lane steps 1.5 lane widths sideways across the junction, which no frame follows."""
+    net = netconvert(
+        tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+        '<node id="C" x="2000" y="0"/></nodes>',
+        '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
+        '<edge id="BC" from="B" to="C" numLanes="3" speed="33.3" spreadType="center"/>'
+        "</edges>", name="step")
+    with pytest.raises(InputError) as err:
+        load_road(net, ["AB", "BC"], source="sc.toml")
+    text = str(err.value)
+    assert text.startswith("sc.toml: reference line deviation = '0.") and "\n" not in text
+    assert ("turns by 90 degrees, near x = 1000.0, y = -8.0, at junction B between edges "
+            "AB and BC, across which SUMO's lane steps 4.8 m sideways)") in text, text
+    # up to the junction the route builds
+    assert load_road(net, ["AB"]).max_deviation <= FrameLimits().max_deviation
+
+
 def test_a_lane_cars_may_not_use_is_no_track(tmp_path: Path) -> None:
     net = netconvert(
         tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="500" y="0"/></nodes>',
