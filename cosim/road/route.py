@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
+from cosim.road.driving_side import left_hand, left_hand_refusal
 from cosim.road.network_numbers import RULE, network_numbers_problem
 from cosim.validation import read_network_file
 
@@ -54,6 +55,8 @@ def _read(path: str, mtime_ns: int, size: int) -> Any:
                           "a readable SUMO .net.xml file")
     if not normal_edges(net):
         return InputError(path, "network", "no edge found", "a SUMO network with an edge")
+    if left_hand(path):
+        return InputError(path, "network", 'lefthand="true"', left_hand_refusal(path))
     problem = network_numbers_problem(net)
     if problem is not None:
         return InputError(path, problem[0], problem[1],

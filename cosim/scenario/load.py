@@ -14,6 +14,7 @@ from typing import Any
 
 from cosim.errors import InputError
 from cosim.params import ControllerGains, PlannerConfig, RoadParams, vehicle_from_table
+from cosim.road.driving_side import left_hand, left_hand_refusal
 from cosim.road.road import Road
 from cosim.road.route import read_network as read_sumo_network
 from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS, VEHICLE_FIELDS
@@ -132,7 +133,8 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 def _network_file(source: str, key: str, written: str, path: Path, base_dir: Path) -> None:
-    """InputError naming the scenario unless `path` is a file."""
+    """InputError naming the scenario unless `path` is a file of a network for
+    right-hand traffic (cosim.road.driving_side)."""
     problem = not_a_file(path)
     if problem == "not found":
         looked = path if Path(written).expanduser().is_absolute() else (
@@ -142,6 +144,8 @@ def _network_file(source: str, key: str, written: str, path: Path, base_dir: Pat
     if problem is not None:
         raise InputError(source, key, written,
                          f"a SUMO .net.xml file ({path} is {problem})")
+    if left_hand(path):
+        raise InputError(source, key, written, left_hand_refusal(path))
 
 
 def read_network(source: str, key: str, written: str, path: Path,

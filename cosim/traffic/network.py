@@ -24,6 +24,7 @@ from pathlib import Path
 
 from cosim.errors import InputError
 from cosim.params import RoadParams
+from cosim.road.driving_side import left_hand, left_hand_refusal
 from cosim.road.network_numbers import RULE, network_numbers_problem
 from cosim.validation import MAX_NETWORK_BYTES, read_network_file
 
@@ -157,6 +158,8 @@ def _read_highway(path: str, mtime_ns: int, size: int) -> Highway | InputError:
     if not edges:
         return InputError(path, "network", "no edge found",
                           "a SUMO .net.xml file (root <net> with one edge)")
+    if left_hand(path):
+        return InputError(path, "network", 'lefthand="true"', left_hand_refusal(path))
     if len(edges) != 1:
         return InputError(path, "edges", len(edges),
                           SUPPORTED + f" (this one has {len(edges)} edges)")

@@ -25,13 +25,15 @@ def arc(x0: float, y0: float, h0: float, radius: float, length: float,
             for i in range(1, n + 1)]
 
 
-def netconvert(tmp: Path, nodes: str, edges: str, name: str = "n") -> Path:
-    """`tmp/<name>.net.xml` built by netconvert from the <nodes> and <edges> documents."""
+def netconvert(tmp: Path, nodes: str, edges: str, name: str = "n",
+               options: tuple[str, ...] = ()) -> Path:
+    """`tmp/<name>.net.xml` built by netconvert from the <nodes> and <edges> documents
+    (with netconvert's `options` added)."""
     (tmp / f"{name}.nod.xml").write_text(nodes, encoding="utf-8")
     (tmp / f"{name}.edg.xml").write_text(edges, encoding="utf-8")
     out = tmp / f"{name}.net.xml"
     subprocess.run([netconvert_binary(), "-n", f"{name}.nod.xml", "-e", f"{name}.edg.xml",
-                    "-o", out.name, "--no-turnarounds", "true"], cwd=tmp, check=True,
+                    "-o", out.name, "--no-turnarounds", "true", *options], cwd=tmp, check=True,
                    capture_output=True)
     return out
 

@@ -132,5 +132,7 @@ def test_shipped_scenarios_validate_on_a_default_precision_network(tmp_path: Pat
 
 def test_a_left_hand_traffic_network_is_named_as_such(tmp_path: Path) -> None:
     net = _netconvert(tmp_path, "--lefthand", "true")
-    with pytest.raises(InputError, match="left-hand traffic network"):
+    with pytest.raises(InputError, match=r"left-hand traffic \(netconvert --lefthand\) is not "
+                       "supported") as err:
         load_highway(net)
+    assert err.value.source == str(net) and "n.net.xml says lefthand=" in str(err.value)
