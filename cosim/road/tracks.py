@@ -194,12 +194,33 @@ def _exits(route: Route, last: TrackPiece) -> bool:
 
 def reference_track(route: Route, tracks: tuple[Track, ...], source: str | None = None) -> Track:
     """The rightmost track that runs through the whole route: the road frame's reference.
-    Raises InputError if no lane runs from the route's first edge to its last."""
+    Raises InputError if no lane runs from the route's first edge to its last, saying
+    why: the route leaves its first edge's lanes at a diverge (an exit over an off-ramp)
+    or starts on lanes that end (an on-ramp's, before its lane runs beside the
+    mainline)."""
     through = [t for t in tracks if t.first_edge == 0 and t.last_edge == len(route.edges) - 1]
     if not through:
         raise InputError(source or str(route.path), "route", list(route.edges),
                          "a route along which at least one lane runs from the first edge to "
-                         "the last (no lane of it does; a route starting on an on-ramp before "
-                         "its lane runs beside the mainline is not supported: start it on the "
-                         "edge that carries the acceleration lane)")
+                         f"the last (no lane of it does; {_why_none_runs_through(route, tracks)})")
     return min(through, key=lambda t: t.pieces[0].index)
+
+
+def _why_none_runs_through(route: Route, tracks: tuple[Track, ...]) -> str:
+    """Why none of the lanes of the route's first edge reaches its last edge, in words:
+    where the last of them ends, they go on to another edge than the route's next (the
+    route leaves them over an off-ramp), or they end there (an acceleration lane)."""
+    first = [t for t in tracks if t.first_edge == 0]
+    k = max((t.last_edge for t in first), default=0)
+    here, onward = route.edges[k], route.edges[k + 1]
+    elsewhere = sorted({c.getTo().getID()
+                        for t in first if t.last_edge == k
+                        for c in route.net.getLane(t.pieces[-1].lane).getOutgoing()
+                        if c.getTo().getID() != onward and c.getToLane().allows(VCLASS)})
+    if elsewhere:
+        return (f"its lanes on {here} go on to {', '.join(elsewhere)}, and the route leaves "
+                f"them there for {onward}: a route leaving the mainline over an off-ramp is "
+                f"not supported yet: end the route before the diverge (on {here} at the "
+                "latest)")
+    return ("a route starting on an on-ramp before its lane runs beside the mainline is not "
+            "supported: start it on the edge that carries the acceleration lane")
