@@ -29,6 +29,7 @@ from cosim.scenario.model import (
     KMH,
     MAX_ROUTE_EDGES,
     MAX_SPEED_KMH,
+    DetectorSpec,
     LaneChangeCommand,
     Scenario,
     SVSpec,
@@ -207,6 +208,7 @@ TV_LANE_CHANGE_FIELDS = declared_fields(TVLaneChange)
 TV_BRAKE_FIELDS = declared_fields(TVBrake)
 TRAFFIC_FIELDS = declared_fields(TrafficSpec)
 V2V_FIELDS = declared_fields(V2VSpec)
+DETECTOR_FIELDS = declared_fields(DetectorSpec)
 
 TABLES: dict[str, tuple[Field, ...]] = {
     "scenario": SCENARIO_FIELDS,
@@ -218,6 +220,7 @@ TABLES: dict[str, tuple[Field, ...]] = {
     "tv": TV_FIELDS,  # an array of tables
     "traffic": TRAFFIC_FIELDS,
     "v2v": V2V_FIELDS,
+    "detectors": DETECTOR_FIELDS,
 }
 REQUIRED_TABLES = ("scenario", "sv")
 # Sub-tables, as the key reference lists them.

@@ -20,6 +20,7 @@ from cosim.road.route import read_network as read_sumo_network
 from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS, VEHICLE_FIELDS
 from cosim.scenario.model import (
     NAME_PATTERN,
+    DetectorSpec,
     Scenario,
     SVSpec,
     TrafficSpec,
@@ -301,6 +302,7 @@ def scenario_from_dict(
         route=rd["route"],
         sumocfg=None if config is None else config.path,
         demand=demand,
+        detectors=_detectors(src, tables["detectors"], road_of_route, sc["step"]),
     )
     _check_rules(src, scenario, start, highway)
     return scenario
@@ -449,3 +451,23 @@ def _traffic(src: str, values: dict[str, Any], base_dir: Path) -> TrafficSpec:
     if duration is None:
         duration = 0.0 if values["sublane"] else DEFAULT_LANECHANGE_DURATION
     return TrafficSpec(**{**values, "lanechange_duration": duration})
+
+
+def _detectors(src: str, values: dict[str, Any], road: Road, step: float) -> DetectorSpec:
+    """[detectors]: the period whole steps (SUMO aggregates over steps), the user's
+    positions on the route (within the SV lanes' extent along s)."""
+    from cosim.scenario.rules import STEP_TOLERANCE
+
+    spec = DetectorSpec(**values)
+    ratio = spec.period / step
+    if round(ratio) < 1 or abs(ratio - round(ratio)) > STEP_TOLERANCE * max(1.0, ratio):
+        raise InputError(src, "detectors.period_s", spec.period,
+                         f"a whole multiple of scenario.step_s = {step:g} s")
+    lanes = sv_tracks(road)
+    lo, hi = min(t.begin for t in lanes), max(t.end for t in lanes)
+    for i, s in enumerate(spec.positions):
+        if not lo - 1e-6 <= s <= hi + 1e-6:
+            raise InputError(src, f"detectors.positions_m[{i}]", s,
+                             f"a position along the route in [{max(lo, 0.0):g}, {hi:g}] m "
+                             "(where its SV lanes run)")
+    return spec

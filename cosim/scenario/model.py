@@ -7,6 +7,7 @@ declared in cosim.scenario.keys; everything else is declared here, beside its at
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
@@ -279,6 +280,49 @@ class V2VSpec:
         "from a gap request to the TV's reaction", override="cooperation_latency"), 0.1)
 
 
+MAX_DETECTOR_POSITIONS = 1000  # [detectors] positions_m
+
+
+def _parse_positions(source: str, key: str, value: Any) -> tuple[float, ...]:
+    """A list of positions along the route (m, s from the route's start), as written;
+    the route's extent is checked with the network (cosim.scenario.load)."""
+    if (not isinstance(value, list) or len(value) > MAX_DETECTOR_POSITIONS
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                       and math.isfinite(v) and v >= 0 for v in value)):
+        raise InputError(source, key, value,
+                         f"a list of at most {MAX_DETECTOR_POSITIONS} positions along the "
+                         "route in m (finite numbers >= 0)")
+    return tuple(float(v) for v in value)
+
+
+@dataclass(frozen=True)
+class DetectorSpec:
+    """SUMO's own detectors along the SV's route (cosim.traffic.detectors): induction
+    loops and lane-area detectors on the SV's lanes, written into detectors.csv."""
+
+    enabled: bool = declare(Field(
+        "enabled", bool, default=False,
+        doc="place SUMO's induction loops (E1) and lane-area detectors (E2) on every SV "
+            "lane of the route; `cosim run` writes their measures to detectors.csv "
+            "(docs/outputs.md)"), False)
+    spacing: float = declare(number_key(
+        "spacing_m", "m", 10.0, 1e5, 500.0,
+        "distance along the route between induction loops (at s = 0, spacing, 2 spacing, "
+        "..., and a few metres inside the start and the end of each lane that ends); a "
+        "lane-area detector covers each stretch between two loops that lies on one SUMO "
+        "lane (cosim.traffic.detectors)"), 500.0)
+    period: float = declare(number_key(
+        "period_s", "s", 0.0, 3600.0, 60.0,
+        "aggregation period of every detector (a whole multiple of scenario.step_s)",
+        lo_open=True), 60.0)
+    positions: tuple[float, ...] = declare(Field(
+        "positions_m", list, default=(), parse=_parse_positions, export=list,
+        describe=f"a list of at most {MAX_DETECTOR_POSITIONS} positions along the route in m",
+        default_doc="`[]`",
+        doc="more induction loops, at these positions s along the route (m from its start, "
+            "within the SV lanes' extent), on every SV lane there"), ())
+
+
 DEFAULT_STEP = 0.05  # s, SUMO step
 DEFAULT_SUBSTEPS = 10  # plant/controller substeps per SUMO step
 class OnCollision(StrEnum):
@@ -336,6 +380,8 @@ class Scenario:
     # user's demand SUMO loads with cosim's own (cosim.traffic.own_demand; None: none)
     sumocfg: Path | None = None
     demand: OwnDemand | None = None
+    # [detectors]: SUMO's detectors along the route (off by default)
+    detectors: DetectorSpec = field(default_factory=DetectorSpec)
 
     @property
     def n_steps(self) -> int:
