@@ -79,12 +79,14 @@ class CoSimulation:
 
     def __init__(self, scenario: Scenario, *, gui: bool | GuiSettings = False,
                  decision: DecisionConfig | None = None,
-                 fcd_output: Path | None = None) -> None:
+                 fcd_output: Path | None = None, detector_output: Path | None = None
+                 ) -> None:
         self.sc = scenario
         self.cfg = decision or DecisionConfig()
         self.dt = scenario.step
         self.n_steps = scenario.n_steps
-        self.world = World(scenario, gui=gui, fcd_output=fcd_output)
+        self.world = World(scenario, gui=gui, fcd_output=fcd_output,
+                           detector_output=detector_output)
 
     def _start(self) -> None:
         """SUMO with its traffic, the scripted TVs, the SV, then the first step that
@@ -193,7 +195,8 @@ class CoSimulation:
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
                          records=ego.records, first_plan=done.first_plan,
-                         edges=tuple(recorder.edges), route_road=self.world.route_road)
+                         edges=tuple(recorder.edges), route_road=self.world.route_road,
+                         detectors=self.world.detector_table())
 
 
 def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:
@@ -223,13 +226,15 @@ def run_scenario(
     into `out_dir` (None: write nothing); return the metrics row merged with the
     wall-time columns (names starting `wall_`). `fcd`: SUMO's floating-car data of the
     run goes into `out_dir` as fcd.xml, written by SUMO into a temporary folder and
-    moved in with the other outputs (an interrupted or failed run leaves none).
+    moved in with the other outputs (an interrupted or failed run leaves none); so do
+    the outputs of SUMO's detectors (`[detectors] enabled`), read into detectors.csv.
     `figure_format`: png (default), svg or pdf."""
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="cosim-fcd-") as tmp:
         fcd_path = Path(tmp) / "fcd.xml" if fcd and out_dir is not None else None
-        result = simulate(scenario, progress=progress, gui=gui, fcd_output=fcd_path)
+        result = simulate(scenario, progress=progress, gui=gui, fcd_output=fcd_path,
+                          detector_output=None if out_dir is None else Path(tmp))
         if out_dir is not None:
             from cosim.run.outputs import write_outputs
 
@@ -240,11 +245,13 @@ def run_scenario(
 
 
 def simulate(scenario: Scenario, *, progress: bool = False, gui: bool | GuiSettings = False,
-             decision: DecisionConfig | None = None,
-             fcd_output: Path | None = None) -> RunResult:
+             decision: DecisionConfig | None = None, fcd_output: Path | None = None,
+             detector_output: Path | None = None) -> RunResult:
     """Run one scenario and return everything it produced (nothing written but SUMO's
-    `fcd_output`, when given)."""
-    sim = CoSimulation(scenario, gui=gui, decision=decision, fcd_output=fcd_output)
+    `fcd_output` and, with `[detectors] enabled`, its detectors' outputs into the folder
+    `detector_output`, when given: RunResult.detectors their table)."""
+    sim = CoSimulation(scenario, gui=gui, decision=decision, fcd_output=fcd_output,
+                       detector_output=detector_output)
     if not progress:
         return sim.run()
     import contextlib

@@ -1,4 +1,5 @@
-"""What one run writes: trace.csv, plans.csv, metrics.csv, timing.csv and the figures.
+"""What one run writes: trace.csv, plans.csv, metrics.csv, timing.csv, the figures and,
+with `[detectors] enabled`, detectors.csv.
 
 Every file is written atomically (cosim.output); the CSVs use one fixed float
 format, so two runs of the same scenario and seed give byte-identical files
@@ -42,10 +43,10 @@ def trace_frame(trace: dict[str, Array], edges: Sequence[str] = ()) -> Any:
 def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                   write_figures: bool = True, extra_files: Sequence[Path] = (),
                   figure_format: str | None = None) -> list[Path]:
-    """trace.csv, plans.csv, metrics.csv, timing.csv and the figures (in `figure_format`,
-    default png), built in a hidden sibling folder and swapped in whole
-    (cosim.output.staged_dir): `out_dir` holds either this run's complete result or,
-    after an interrupt, exactly what it held before.
+    """trace.csv, plans.csv, metrics.csv, timing.csv, detectors.csv (with the run's
+    detectors) and the figures (in `figure_format`, default png), built in a hidden
+    sibling folder and swapped in whole (cosim.output.staged_dir): `out_dir` holds either
+    this run's complete result or, after an interrupt, exactly what it held before.
     `extra_files` (complete files, e.g. SUMO's fcd.xml) are copied in under their names."""
     import shutil
 
@@ -64,6 +65,9 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                                         float_format=CSV_FLOAT))
         written.append(atomic_write_csv(out / "timing.csv", pd.DataFrame([result.timing]),
                                         float_format=CSV_FLOAT))
+        if result.detectors is not None:  # SUMO's detectors ([detectors] enabled)
+            written.append(atomic_write_csv(out / "detectors.csv", result.detectors,
+                                            float_format=CSV_FLOAT))
         for path in extra_files:
             written.append(Path(shutil.copyfile(path, out / Path(path).name)))
         if write_figures:

@@ -46,3 +46,5 @@ class RunResult:
     first_plan: Any = None  # the planner's first Plan (for the tau-set figure)
     edges: tuple[str, ...] = ()  # SUMO road ids the trace's `edge` column indexes
     route_road: Road | None = None  # the route's road and (s, d) frame (cosim.road)
+    # detectors.csv's rows (cosim.traffic.detectors; a pandas DataFrame), None: no detectors
+    detectors: Any = None

@@ -60,6 +60,9 @@ class SumoProcess:
     # the user's own demand (cosim.traffic.own_demand), loaded with cosim's vehicles
     route_files: tuple[Path, ...] = ()  # --route-files
     additional_files: tuple[Path, ...] = ()  # --additional-files
+    # SUMO's detectors along the route (cosim.traffic.detectors): the additional file's
+    # text, written into the temporary folder ("": none)
+    detectors: str = ""
     api: ModuleType | None = None  # while running
     _tmp: tempfile.TemporaryDirectory[str] | None = None
     _log_text: str = ""
@@ -98,8 +101,14 @@ class SumoProcess:
         theirs = dict(sumo_file_options(self.route_files, self.additional_files,
                                         Path(self._tmp.name)))
         additional = theirs.pop("--additional-files", None)
-        options.append(("--additional-files", str(base) + ("," + additional if additional
-                                                           else "")))
+        files = [str(base)]
+        if self.detectors:
+            detectors = Path(self._tmp.name) / "cosim-detectors.add.xml"
+            detectors.write_text(self.detectors, encoding="utf-8")
+            files.append(str(detectors))
+        if additional:
+            files.append(additional)
+        options.append(("--additional-files", ",".join(files)))
         options += theirs.items()
         if self.sublane:
             options.append(("--lateral-resolution", repr(self.lateral_resolution)))
@@ -182,6 +191,8 @@ class SumoOptions:
     # cosim's vehicles
     route_files: tuple[Path, ...] = ()  # --route-files
     additional_files: tuple[Path, ...] = ()  # --additional-files
+    # SUMO's detectors (cosim.traffic.detectors.DetectorLayout.additional; "": none)
+    detectors: str = ""
 
 
 def process(network: Path, step: float, seed: int, options: SumoOptions) -> SumoProcess:
@@ -195,4 +206,4 @@ def process(network: Path, step: float, seed: int, options: SumoOptions) -> Sumo
         extra_args=tuple(o.extra_args), lateral_resolution=float(o.lateral_resolution),
         fcd_output=None if o.fcd_output is None else Path(o.fcd_output),
         route_files=tuple(map(Path, o.route_files)),
-        additional_files=tuple(map(Path, o.additional_files)))
+        additional_files=tuple(map(Path, o.additional_files)), detectors=o.detectors)

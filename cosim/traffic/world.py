@@ -22,7 +22,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +36,7 @@ from cosim.traffic.cooperation import (
     CooperationConfig,
     done_yielding,
 )
+from cosim.traffic.detectors import DetectorLayout, place_detectors
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.process import SumoOptions
 from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
@@ -122,19 +123,28 @@ class World:
     spent in SUMO's steps and reads (s), `wall_read` the reads' part of it."""
 
     def __init__(self, scenario: Scenario, *, gui: bool | GuiSettings = False,
-                 fcd_output: Path | None = None) -> None:
+                 fcd_output: Path | None = None, detector_output: Path | None = None
+                 ) -> None:
         sc = scenario
         tr = sc.traffic
         # the route's road (cosim.road): tracks and the (s, d) frame (on the one straight
         # edge the identity StraightFrame); SUMO runs on its route
         # (built once per process and network file: the scenario's loading built it)
         self.route_road = load_route_road(sc.network, sc.route, source=str(sc.path))
+        # SUMO's detectors along the route ([detectors] enabled), their outputs written
+        # into `detector_output` (None: no detectors)
+        self.detector_output = detector_output
+        self.detectors: DetectorLayout | None = None
+        if sc.detectors.enabled and detector_output is not None:
+            self.detectors = place_detectors(self.route_road, sc.detectors)
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed, SumoOptions(
                 lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
                 fcd_output=fcd_output,
                 route_files=sc.demand.route_files if sc.demand else (),
-                additional_files=sc.demand.additional_files if sc.demand else ()),
+                additional_files=sc.demand.additional_files if sc.demand else (),
+                detectors="" if self.detectors is None or detector_output is None else
+                self.detectors.additional(detector_output)),
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
             route_road=self.route_road,
         )
@@ -447,3 +457,11 @@ class World:
     def close(self) -> None:
         if self.started:
             self.sumo.close()
+
+    def detector_table(self) -> Any:
+        """detectors.csv's rows (cosim.traffic.detectors.DetectorLayout.table) once SUMO
+        has closed (its outputs are complete then), times on the run's clock; None
+        without detectors."""
+        if self.detectors is None or self.detector_output is None:
+            return None
+        return self.detectors.table(self.detector_output, self.t_warmup)
