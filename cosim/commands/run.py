@@ -49,7 +49,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--no-figures", action="store_true", help="skip the figures")
     parser.add_argument("--fcd", action="store_true",
                         help="also write SUMO's floating-car data (--fcd-output) of the run "
-                        "as fcd.xml into the output folder")
+                        "as fcd.xml into the output folder, and draw its time-space diagram "
+                        "(time_space.png)")
     add_figure_format(parser)
     parser.set_defaults(func=run)
 

@@ -192,11 +192,16 @@ class CoSimulation:
             "wall_realtime_factor": float(trace["t_s"][-1]) / wall if wall > 0 else float("nan"),
             "cpu_time_s": cpu,
         }
+        detectors = self.world.detector_table()
+        if detectors is not None:  # the traffic's flow, density, speed and waves
+            from cosim.traffic.traffic_measures import traffic_columns
+
+            metrics.update(traffic_columns(detectors))
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
                          records=ego.records, first_plan=done.first_plan,
                          edges=tuple(recorder.edges), route_road=self.world.route_road,
-                         detectors=self.world.detector_table())
+                         detectors=detectors, t_warmup=self.world.t_warmup)
 
 
 def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:
@@ -233,8 +238,9 @@ def run_scenario(
 
     with tempfile.TemporaryDirectory(prefix="cosim-fcd-") as tmp:
         fcd_path = Path(tmp) / "fcd.xml" if fcd and out_dir is not None else None
+        # (the detectors also without `out_dir`: their measures are metrics columns)
         result = simulate(scenario, progress=progress, gui=gui, fcd_output=fcd_path,
-                          detector_output=None if out_dir is None else Path(tmp))
+                          detector_output=Path(tmp))
         if out_dir is not None:
             from cosim.run.outputs import write_outputs
 

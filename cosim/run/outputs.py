@@ -71,7 +71,8 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
         for path in extra_files:
             written.append(Path(shutil.copyfile(path, out / Path(path).name)))
         if write_figures:
-            written += write_run_figures(result, out, figure_format)
+            fcd = next((Path(p) for p in extra_files if Path(p).name == "fcd.xml"), None)
+            written += write_run_figures(result, out, figure_format, fcd=fcd)
     return [Path(out_dir) / p.name for p in written]
 
 
@@ -88,9 +89,11 @@ def tv_role(tv: Any) -> str:
     return ", ".join(parts)
 
 
-def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> list[Path]:
+def write_run_figures(result: RunResult, out: Path, fmt: str | None = None, *,
+                      fcd: Path | None = None) -> list[Path]:
     """trajectories (Fig. 16), gaps (gap and TTC over time), tracking and inputs
-    (Fig. 13-15), tau_sets and planning (Fig. 10-12), in the format `fmt` (default png)."""
+    (Fig. 13-15), tau_sets and planning (Fig. 10-12), and with SUMO's floating-car data
+    `fcd` (`cosim run --fcd`) the time-space diagram, in the format `fmt` (default png)."""
     from functools import partial
 
     from cosim import plots
@@ -136,6 +139,8 @@ def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> l
         paths.append(plot_states([run], figure_path(out, "tracking"),
                                  f"{sc.name}: tracking (cf. Fig. 13-15)"))
         paths.append(plot_inputs([run], figure_path(out, "inputs"), f"{sc.name}: inputs"))
+    if fcd is not None and rr is not None:  # every vehicle along the route over time
+        paths.append(time_space_figure(result, fcd, figure_path(out, "time_space")))
     plan = result.first_plan
     if plan is not None:
         from cosim.plots.planning import planning_figure, tau_sets
@@ -147,3 +152,19 @@ def write_run_figures(result: RunResult, out: Path, fmt: str | None = None) -> l
                                      sc.vehicle,
                                      f"{sc.name}: plan at t = {plan.t:.2f} s (cf. Fig. 10-12)"))
     return paths
+
+
+def time_space_figure(result: RunResult, fcd: Path, path: Path) -> Path:
+    """The run's time-space diagram (cosim.plots.time_space) from its fcd.xml."""
+    from cosim.plots.time_space import DRAW_EVERY, time_space
+    from cosim.traffic.fcd import read_route_records
+    from cosim.traffic.route_lanes import sv_tracks
+    from cosim.traffic.world import SV_ID
+
+    rr = result.route_road
+    assert rr is not None
+    records = read_route_records(fcd, rr, result.t_warmup, every=DRAW_EVERY)
+    top = max(hi for _, hi in result.scenario.road.speed_bands)
+    return time_space(path, records, [t.id for t in sv_tracks(rr)], SV_ID,
+                      f"{result.scenario.name}: time-space diagram, every vehicle on the SV "
+                      f"lanes every {DRAW_EVERY:g} s, coloured by speed", v_max=top)

@@ -1,8 +1,9 @@
 """SUMO's detectors along the SV's route (`[detectors]`, cosim.traffic.detectors), in
 real SUMO: detectors.csv holds SUMO's own values (read here from its raw XML, apart from
 ours), E2 densities agree with our own count of the vehicles on each stretch, a run
-without detectors writes what it wrote before, and on a curved route of several edges
-and on an on-ramp every detector lies on a lane of its track, within the lane."""
+without detectors writes what it wrote before (with them: metrics.csv's traffic columns
+added), and on a curved route of several edges and on an on-ramp every detector lies on a
+lane of its track, within the lane."""
 
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ from cosim.traffic.detectors import (
     place_detectors,
 )
 from cosim.traffic.route_lanes import load_route_road, s_of_lane_position
+from cosim.traffic.traffic_measures import ROAD_DOCS
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "scenarios"
@@ -139,7 +141,8 @@ def test_e2_density_is_our_count_of_the_vehicles_on_the_stretch(dense: dict[str,
 def test_without_detectors_a_run_writes_what_it_wrote_before(tmp_path: Path) -> None:
     """No [detectors] table and `enabled = false` write the same files, byte for byte
     (timing.csv aside), and no detectors.csv; with detectors the vehicles move alike
-    (trace.csv, plans.csv, metrics.csv the same bytes) and detectors.csv is added."""
+    (trace.csv, plans.csv the same bytes, metrics.csv the same values before the traffic's
+    columns) and detectors.csv is added."""
     base = load_scenario(SCENARIOS / "traffic_high.toml")
     assert "detectors" not in base.document
     runs = {"absent": with_overrides(base, duration=10.0),
@@ -155,9 +158,15 @@ def test_without_detectors_a_run_writes_what_it_wrote_before(tmp_path: Path) -> 
         assert (tmp_path / "off" / name).read_bytes() == (tmp_path / "absent" / name
                                                           ).read_bytes()
     assert files["on"] == ["detectors.csv", *files["absent"]]
-    for name in ("metrics.csv", "plans.csv", "trace.csv"):
+    for name in ("plans.csv", "trace.csv"):
         assert (tmp_path / "on" / name).read_bytes() == (tmp_path / "absent" / name
                                                          ).read_bytes()
+    # metrics.csv: the same values, then the traffic's columns (cosim.traffic.traffic_measures)
+    before = pd.read_csv(tmp_path / "absent" / "metrics.csv", dtype=str, keep_default_na=False)
+    after = pd.read_csv(tmp_path / "on" / "metrics.csv", dtype=str, keep_default_na=False)
+    assert list(after.columns[:len(before.columns)]) == list(before.columns)
+    assert after[before.columns].equals(before)
+    assert list(after.columns[len(before.columns):])[:len(ROAD_DOCS)] == list(ROAD_DOCS)
     written = pd.read_csv(tmp_path / "on" / "detectors.csv")
     layout = place_detectors(load_route_road(base.network, base.route), runs["on"].detectors)
     assert list(written.columns) == list(COLUMNS)

@@ -1,0 +1,53 @@
+"""The time-space diagram of a run (time_space.png): per SV lane, every vehicle's position
+along the route over time coloured by its speed, from SUMO's floating-car data
+(cosim.traffic.fcd); the SV drawn in black. A stop-and-go wave shows as a band of low
+speed whose edges run backwards (upstream) against the traffic."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from cosim.plots import save_figure
+from cosim.plots.labels import S_LABEL, suptitle
+from cosim.traffic.fcd import RouteRecords
+
+KMH = 3.6  # km/h per m/s, for the colour bar only
+DRAW_EVERY = 0.5  # s, the records drawn: a wave's edges move over seconds
+
+
+def time_space(path: Path, records: RouteRecords, tracks: list[int], sv_id: str,
+               title: str = "", v_max: float | None = None) -> Path:
+    """Write the diagram: one panel per track in `tracks` (the leftmost lane on top, as
+    seen from above), time across, s up, each record a dot coloured by speed (0 to
+    `v_max` m/s, default the fastest record); `sv_id`'s records on that lane in black."""
+    top = float(np.max(records.speed)) if v_max is None and len(records.speed) else (v_max or 1.0)
+    n = len(tracks)
+    fig, axes = plt.subplots(n, 1, figsize=(10, 2.4 * n + 1.0), sharex=True, squeeze=False,
+                             layout="constrained")
+    sv = records.of(sv_id)
+    dots = None
+    for row, k in enumerate(sorted(tracks, reverse=True)):
+        ax = axes[row, 0]
+        on = records.track == k
+        other = on & ~sv
+        dots = ax.scatter(records.t[other], records.s[other], c=records.speed[other] * KMH,
+                          cmap="RdYlGn", vmin=0.0, vmax=top * KMH, s=1.5, linewidths=0,
+                          rasterized=True)
+        mine = on & sv
+        if mine.any():
+            ax.plot(records.t[mine], records.s[mine], ".", color="black", markersize=2.5,
+                    label="SV")
+            ax.legend(loc="upper left", fontsize=8, markerscale=3)
+        ax.set_ylabel(f"lane {k}\n{S_LABEL}", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time t (s)")
+    if dots is not None:
+        bar = fig.colorbar(dots, ax=axes[:, 0].tolist(), fraction=0.03, pad=0.01)
+        bar.set_label("speed (km/h)")
+    if title:
+        suptitle(fig, title, fontsize=10)
+    save_figure(fig, path)
+    return Path(path)
