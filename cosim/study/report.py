@@ -1,6 +1,8 @@
 """A study's report beside runs.csv: summary.csv (cosim.study.summary's table),
 summary.md and comfort.md (its main and its comfort figures as Markdown tables) and the
-density figure in DIR/plots/ (cosim.plots.batch)."""
+density figure in DIR/plots/ (cosim.plots.batch); with SUMO's detectors in the runs, the
+fundamental diagram (cosim.study.fundamental: fundamental.csv, fundamental.md,
+plots/fundamental.png)."""
 
 from __future__ import annotations
 
@@ -27,7 +29,30 @@ def write_report(runs: pd.DataFrame, out_dir: Path, *, title: str, plots: bool,
         from cosim.plots.batch import plot_summary
 
         figures = plot_summary(summary, out_dir / "plots", title=title, fmt=figure_format)
+    figures += write_fundamental(runs, out_dir, title=title, plots=plots,
+                                 figure_format=figure_format)
     return summary, figures
+
+
+def write_fundamental(runs: pd.DataFrame, out_dir: Path, *, title: str, plots: bool,
+                      figure_format: str | None) -> list[Path]:
+    """With SUMO's detectors in the runs (cosim.study.fundamental): fundamental.csv (the
+    medians per line, lane and density cell), fundamental.md (capacity and critical
+    density) and, if `plots`, plots/fundamental.png; nothing otherwise. Returns the figures."""
+    from cosim.study import fundamental as fdm
+
+    if not fdm.traffic_columns(runs):
+        return []
+    pts = fdm.points(runs)
+    fd = fdm.medians(pts)
+    cap = fdm.capacity(fd)
+    atomic_write_csv(out_dir / "fundamental.csv", fd)
+    atomic_write_text(out_dir / "fundamental.md", fdm.capacity_markdown(cap))
+    if not plots or fd.empty:
+        return []
+    from cosim.plots.fundamental import plot_fundamental
+
+    return [plot_fundamental(pts, fd, cap, out_dir / "plots", title=title, fmt=figure_format)]
 
 
 def comfort_markdown(summary: pd.DataFrame) -> str:

@@ -127,7 +127,8 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     intervals, and
     lane-change duration and minimum TTC: mean, percentiles, and the median's
     distribution-free interval (`median_ci`); the new follower's largest deceleration:
-    count, 95th percentile and maximum.
+    count, 95th percentile and maximum; with SUMO's detectors in the runs, the median
+    of each traffic measure (cosim.study.fundamental.traffic_summary).
 
     Rates are over the runs that finished (status ok): a failed run is a fault
     of the tool, not an outcome of the manoeuvre, and is counted apart."""
@@ -135,6 +136,9 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     if "variant" not in runs:
         runs = runs.assign(variant=NO_VARIANT)
     runs = runs.assign(variant=runs["variant"].fillna(NO_VARIANT).astype(str))
+    from cosim.study.fundamental import traffic_columns, traffic_summary
+
+    traffic = traffic_columns(runs)  # runs with SUMO's detectors: their measures' medians
     for cell, group in runs.groupby(list(CELL), sort=True):
         ok = group[group["status"] == RunStatus.OK]
         n = len(ok)
@@ -168,6 +172,8 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         row.update(entry_summary(ok))
         row.update(comfort_summary(ok))
         row.update(merge_summary(ok))
+        if traffic:
+            row.update(traffic_summary(ok, traffic))
         rows.append(row)
     return pd.DataFrame(rows)
 

@@ -153,6 +153,9 @@ def test_local_study_records_every_run_and_summarises_each_cell(local_study: Pat
     table = (local_study / "summary.md").read_text().splitlines()
     assert len(table) == 2 + 4 and table[0].startswith("| driver | density")
     assert (local_study / "plots" / "density.png").stat().st_size > 10_000
+    # no detectors in its runs: no fundamental diagram, no traffic columns
+    assert not (local_study / "fundamental.csv").exists()
+    assert not [c for c in summary.columns if c.startswith(("traffic_", "speed_spread"))]
     # the comfort block: per cell, from the runs' own metrics
     comfort = (local_study / "comfort.md").read_text().splitlines()
     assert len(comfort) == 2 + 4 and "max jerk" in comfort[0]
