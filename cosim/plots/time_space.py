@@ -19,10 +19,12 @@ DRAW_EVERY = 0.5  # s, the records drawn: a wave's edges move over seconds
 
 
 def time_space(path: Path, records: RouteRecords, tracks: list[int], sv_id: str,
-               title: str = "", v_max: float | None = None) -> Path:
+               title: str = "", v_max: float | None = None,
+               s_limits: tuple[float, float] | None = None) -> Path:
     """Write the diagram: one panel per track in `tracks` (the leftmost lane on top, as
-    seen from above), time across, s up, each record a dot coloured by speed (0 to
-    `v_max` m/s, default the fastest record); `sv_id`'s records on that lane in black."""
+    seen from above), time across, s up (within `s_limits`, m, if given), each record a
+    dot coloured by speed (0 to `v_max` m/s, default the fastest record); `sv_id`'s
+    records on that lane in black."""
     top = float(np.max(records.speed)) if v_max is None and len(records.speed) else (v_max or 1.0)
     n = len(tracks)
     fig, axes = plt.subplots(n, 1, figsize=(10, 2.4 * n + 1.0), sharex=True, squeeze=False,
@@ -42,6 +44,8 @@ def time_space(path: Path, records: RouteRecords, tracks: list[int], sv_id: str,
                     label="SV")
             ax.legend(loc="upper left", fontsize=8, markerscale=3)
         ax.set_ylabel(f"lane {k}\n{S_LABEL}", fontsize=9)
+        if s_limits is not None:
+            ax.set_ylim(*s_limits)
         ax.grid(alpha=0.3)
     axes[-1, 0].set_xlabel("time t (s)")
     if dots is not None:

@@ -22,7 +22,10 @@ SUMO's last interval of one step and the warm-up's are left out.
 
 The road's values are the means over its lanes of theirs (flow and density per lane:
 veh/h/lane, veh/km/lane, comparable with [traffic] density_veh_per_km_lane); its
-space-mean speed is over all its E2s.
+space-mean speed is over all its E2s. Its outflow is what leaves the stretch measured: the
+flow summed over the lanes at the route's last cross-section of loops that a vehicle
+passed (a bottleneck's throughput, with loops placed downstream of it), mean over the
+periods.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+S_SECTION = 1.0  # m, loops of different lanes this close along s are one cross-section
 # the road's columns, then each lane's: (name, doc); <k> is the track
 ROAD_DOCS: dict[str, str] = {
     "traffic_flow_veh_per_h_lane": "SUMO's detectors: the flow, mean over the SV lanes of "
@@ -44,6 +48,12 @@ ROAD_DOCS: dict[str, str] = {
     "speed_spread_space_lane<k>_mps (m/s; NaN: no lane with two loops measuring)",
     "speed_spread_time_mps": "the speed's spread over time: mean over the lanes of "
     "speed_spread_time_lane<k>_mps (m/s; NaN: none)",
+    "outflow_veh_per_h": "the outflow: the vehicles passing the route's last cross-section "
+    "of loops a vehicle passed (outflow_s_m; every lane with a loop there), summed over its "
+    "lanes, per hour, mean over full periods (veh/h; NaN: no loop passed)",
+    "outflow_s_m": "where the outflow is counted: the largest s of an induction loop that "
+    "a vehicle passed in a full period (a loop at the route's very end counts none: vehicles "
+    "leave the network as they reach it) (m)",
 }
 LANE_DOCS: dict[str, str] = {
     "traffic_flow_lane<k>_veh_per_h": "lane k (track k, as detectors.csv's `track`): "
@@ -132,6 +142,23 @@ def traffic_columns(table: Any) -> dict[str, float]:
         "speed_spread_space_mps": over_lanes("speed_spread_space_lane<k>_mps"),
         "speed_spread_time_mps": over_lanes("speed_spread_time_lane<k>_mps"),
     }
+    out.update(zip(("outflow_veh_per_h", "outflow_s_m"), outflow(rows), strict=True))
     for k in tracks:
         out.update({lane_column(p, k): v for p, v in lanes[k].items()})
     return out
+
+
+def outflow(rows: Any) -> tuple[float, float]:
+    """(veh/h, m): the flow over the last cross-section of loops a vehicle passed, summed
+    over the lanes whose loop lies there (within S_SECTION of its s), mean over the periods
+    of `rows` (full ones), and that s."""
+    loops = rows[rows.kind == "e1"]
+    passed = loops.groupby("s_m").vehicles.sum()
+    passed = passed[passed > 0]
+    if not len(passed):
+        return math.nan, math.nan
+    # a loop at the route's very end counts no one (vehicles leave the network there)
+    last = float(passed.index.max())
+    section = loops[loops.s_m >= last - S_SECTION]
+    per_period = section.groupby("begin_s", sort=True).flow_veh_per_h.sum()
+    return float(per_period.mean()), last

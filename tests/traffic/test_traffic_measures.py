@@ -80,6 +80,16 @@ def test_metrics_are_the_hand_computation_from_detectors_csv(run: dict[str, Any]
                           ("speed_spread_space_mps", "speed_spread_space_lane<k>_mps"),
                           ("speed_spread_time_mps", "speed_spread_time_lane<k>_mps")):
         assert m[road] == pytest.approx(np.mean([hand[k][pattern] for k in tracks]), rel=1e-6)
+    # the outflow: the loops at the largest s, summed over the lanes, mean over periods
+    full = det[(det.kind == "e1") & (det.begin_s >= 0)
+               & ((det.end_s - det.begin_s - PERIOD).abs() < 1e-9)]
+    passed = full.groupby("s_m").vehicles.sum()
+    last = passed[passed > 0].index.max()
+    assert last < full.s_m.max()  # the loops at the route's end (6 km) count no one
+    assert m["outflow_s_m"] == last
+    sums = [sum(r.flow_veh_per_h for r in full.itertuples() if r.begin_s == b and r.s_m == last)
+            for b in sorted(set(full.begin_s))]
+    assert m["outflow_veh_per_h"] == pytest.approx(statistics.fmean(sums), rel=1e-9)
     # the columns: METRIC_DOCS' first, then the road's, then each lane's
     names = list(m.index)
     lanes = [lane_column(p, k) for k in tracks for p in LANE_DOCS]
@@ -112,3 +122,21 @@ def test_one_loop_and_one_period_give_no_spread() -> None:
     assert out["traffic_speed_lane0_mps"] == 18.0
     assert math.isnan(out["speed_spread_space_lane0_mps"])
     assert math.isnan(out["speed_spread_time_lane0_mps"])
+
+
+def test_the_bottlenecks_outflow_is_counted_past_the_drop(tmp_path: Path) -> None:
+    """scenarios/bottleneck.toml, 10 s: the outflow is counted at s = 4500 m, 1 km past
+    the lane drop, over the two lanes that run on (the loops at the route's end, 5 km,
+    count no one), and is their flows' sum."""
+    sc = with_overrides(load_scenario(ROOT / "scenarios" / "bottleneck.toml"), duration=10.0,
+                        **{"detectors.period_s": 5.0})
+    run_scenario(sc, tmp_path, write_figures=False)
+    m = pd.read_csv(tmp_path / "metrics.csv").iloc[0]
+    det = pd.read_csv(tmp_path / "detectors.csv")
+    assert m["outflow_s_m"] == pytest.approx(4500.0, abs=0.5)
+    at = det[(det.kind == "e1") & (abs(det.s_m - 4500.0) < 0.5) & (det.end_s - det.begin_s == 5.0)]
+    assert sorted(set(at.track)) == [0, 1]
+    assert m["outflow_veh_per_h"] == pytest.approx(at.groupby("begin_s").flow_veh_per_h.sum()
+                                                   .mean())
+    assert m["outflow_veh_per_h"] > 1000.0  # the 16 veh/km/lane filled in at t = 0
+    assert {2} <= set(det.track) and det[det.track == 2].s_m.max() < 3500.0  # the drop
