@@ -348,3 +348,22 @@ def test_lane_changes_may_say_a_direction_instead_of_a_lane() -> None:
                                  {"at_s": 4.0, "direction": "right"}]
     with pytest.raises(InputError, match=r"\[1\].direction = 'right': a side with a lane"):
         scenario_from_dict(doc, path=BASE)
+
+
+def test_fleet_is_off_by_default_and_checked_like_every_key() -> None:
+    """[fleet]: no automated vehicle unless asked for; share in [0, 1]; vtypes name the
+    user's own demand; the fleet is driven by our planner and controller, not SUMO."""
+    s = load_scenario(BASE)
+    assert not s.fleet.enabled and s.fleet.share == 0.0 and s.fleet.vtypes == ()
+    assert with_overrides(s, **{"fleet.share": 0.2}).fleet.share == 0.2
+    for changes, key, fragment in [
+        ({"fleet.share": 1.5}, "fleet.share", "[0, 1]"),
+        ({"fleet.vtypes": "av"}, "fleet.vtypes", "a list of at most 64"),
+        ({"fleet.vtypes": ["av", "av"]}, "fleet.vtypes", "distinct"),
+        ({"fleet.vtypes": ["av"]}, "fleet.vtypes", "own demand"),
+        ({"fleet.share": 0.2, "controller": "sumo"}, "sv.controller", "with a [fleet]"),
+    ]:
+        with pytest.raises(InputError) as info:
+            with_overrides(s, **changes)
+        assert info.value.key == key and fragment in str(info.value), (changes, info.value)
+        assert "\n" not in str(info.value)

@@ -7,7 +7,8 @@ before anything runs. Keys in the file carry their unit (`speed_kmh`,
 paper's Lane 1/2/3 are SUMO lanes 0/1/2).
 
 Tables: [scenario] [road] [sv] [planner] [vehicle] [controller] [[tv]]
-(with an optional [tv.lane_change] or [tv.brake]) [traffic] [v2v] [detectors].
+(with an optional [tv.lane_change] or [tv.brake]) [traffic] [v2v] [detectors]
+[fleet].
 
 The package, one job per module:
 - `model`: the dataclasses, each attribute declared once with its key (`declare`);
@@ -29,6 +30,7 @@ from cosim.scenario.keys import (
     CONTROLLER_FIELDS,
     DEFAULT_NETWORK,
     DETECTOR_FIELDS,
+    FLEET_FIELDS,
     LANE_CHANGE_FIELDS,
     NESTED,
     OVERRIDES,
@@ -60,6 +62,7 @@ from cosim.scenario.model import (
     MAX_SPEED_KMH,
     NAME_PATTERN,
     DetectorSpec,
+    FleetSpec,
     LaneChangeCommand,
     Scenario,
     SVSpec,
@@ -73,7 +76,7 @@ from cosim.validation import Field, table_to_dict, validate_table
 
 __all__ = [
     "CONTROLLER_FIELDS", "DEFAULT_LANECHANGE_DURATION", "DEFAULT_NETWORK", "DEFAULT_STEP",
-    "DEFAULT_SUBSTEPS", "DETECTOR_FIELDS", "DetectorSpec", "KMH", "LANE_CHANGE_FIELDS",
+    "DEFAULT_SUBSTEPS", "DETECTOR_FIELDS", "DetectorSpec", "FLEET_FIELDS", "FleetSpec", "KMH", "LANE_CHANGE_FIELDS",
     "MAX_FILE_BYTES", "MAX_SPEED_KMH",
     "NAME_PATTERN", "NESTED", "OVERRIDES", "PLANNER_FIELDS", "REQUIRED_TABLES", "ROAD_FIELDS",
     "SCENARIO_FIELDS", "SV_FIELDS", "TABLES", "TRAFFIC_FIELDS", "TV_BRAKE_FIELDS", "TV_FIELDS",

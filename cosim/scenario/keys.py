@@ -30,6 +30,7 @@ from cosim.scenario.model import (
     MAX_ROUTE_EDGES,
     MAX_SPEED_KMH,
     DetectorSpec,
+    FleetSpec,
     LaneChangeCommand,
     Scenario,
     SVSpec,
@@ -209,6 +210,7 @@ TV_BRAKE_FIELDS = declared_fields(TVBrake)
 TRAFFIC_FIELDS = declared_fields(TrafficSpec)
 V2V_FIELDS = declared_fields(V2VSpec)
 DETECTOR_FIELDS = declared_fields(DetectorSpec)
+FLEET_FIELDS = declared_fields(FleetSpec)
 
 TABLES: dict[str, tuple[Field, ...]] = {
     "scenario": SCENARIO_FIELDS,
@@ -221,6 +223,7 @@ TABLES: dict[str, tuple[Field, ...]] = {
     "traffic": TRAFFIC_FIELDS,
     "v2v": V2V_FIELDS,
     "detectors": DETECTOR_FIELDS,
+    "fleet": FLEET_FIELDS,
 }
 REQUIRED_TABLES = ("scenario", "sv")
 # Sub-tables, as the key reference lists them.

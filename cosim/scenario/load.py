@@ -21,6 +21,7 @@ from cosim.scenario.keys import REQUIRED_TABLES, TABLES, TV_FIELDS, VEHICLE_FIEL
 from cosim.scenario.model import (
     NAME_PATTERN,
     DetectorSpec,
+    FleetSpec,
     Scenario,
     SVSpec,
     TrafficSpec,
@@ -303,6 +304,7 @@ def scenario_from_dict(
         sumocfg=None if config is None else config.path,
         demand=demand,
         detectors=_detectors(src, tables["detectors"], road_of_route, sc["step"]),
+        fleet=_fleet(src, tables["fleet"], sv.controller, demand is not None),
     )
     _check_rules(src, scenario, start, highway)
     return scenario
@@ -470,4 +472,18 @@ def _detectors(src: str, values: dict[str, Any], road: Road, step: float) -> Det
             raise InputError(src, f"detectors.positions_m[{i}]", s,
                              f"a position along the route in [{max(lo, 0.0):g}, {hi:g}] m "
                              "(where its SV lanes run)")
+    return spec
+
+
+def _fleet(src: str, values: dict[str, Any], controller: str, own_demand: bool) -> FleetSpec:
+    """[fleet]: vtypes name vehicles of the user's own demand; the automated vehicles are
+    driven by the scenario's planner and controller, not by SUMO."""
+    spec = FleetSpec(**values)
+    if spec.vtypes and not own_demand:
+        raise InputError(src, "fleet.vtypes", list(spec.vtypes),
+                         "[] without the user's own demand (traffic.routes or road.sumocfg)")
+    if spec.enabled and controller == "sumo":
+        raise InputError(src, "sv.controller", controller,
+                         "mimo or siso with a [fleet] (its automated vehicles are driven by "
+                         "the scenario's planner and controller)")
     return spec

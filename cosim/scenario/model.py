@@ -323,6 +323,45 @@ class DetectorSpec:
             "within the SV lanes' extent), on every SV lane there"), ())
 
 
+MAX_FLEET_VTYPES = 64  # [fleet] vtypes
+VTYPE_ID_PATTERN = r"[^\s\x00-\x1f]{1,100}"  # a SUMO vType id as a file names it
+
+
+def _parse_vtypes(source: str, key: str, value: Any) -> tuple[str, ...]:
+    """A list of distinct vType ids, as written."""
+    import re
+
+    if (not isinstance(value, list) or len(value) > MAX_FLEET_VTYPES
+            or not all(isinstance(v, str) and re.fullmatch(VTYPE_ID_PATTERN, v) for v in value)
+            or len(set(value)) != len(value)):
+        raise InputError(source, key, value,
+                         f"a list of at most {MAX_FLEET_VTYPES} distinct vType ids (1 to 100 "
+                         "characters, no spaces)")
+    return tuple(value)
+
+
+@dataclass(frozen=True)
+class FleetSpec:
+    """Automated vehicles besides the SV (cosim.run.fleet): vehicles SUMO inserts during
+    the run, taken over by the scenario's driver. None by default."""
+
+    share: float = declare(number_key(
+        "share", "", 0.0, 1.0, 0.0,
+        "probability that a vehicle SUMO inserts during the run (after t = 0) is automated, "
+        "drawn per vehicle in SUMO's insertion order from the run's seed (0: none)"), 0.0)
+    vtypes: tuple[str, ...] = declare(Field(
+        "vtypes", list, default=(), parse=_parse_vtypes, export=list,
+        describe=f"a list of at most {MAX_FLEET_VTYPES} vType ids",
+        default_doc="`[]`",
+        doc="every vehicle of these vTypes in the user's own demand (`traffic.routes`, "
+            "`road.sumocfg`) that SUMO inserts during the run is automated"), ())
+
+    @property
+    def enabled(self) -> bool:
+        """Some vehicle may be automated."""
+        return self.share > 0.0 or bool(self.vtypes)
+
+
 DEFAULT_STEP = 0.05  # s, SUMO step
 DEFAULT_SUBSTEPS = 10  # plant/controller substeps per SUMO step
 class OnCollision(StrEnum):
@@ -382,6 +421,8 @@ class Scenario:
     demand: OwnDemand | None = None
     # [detectors]: SUMO's detectors along the route (off by default)
     detectors: DetectorSpec = field(default_factory=DetectorSpec)
+    # [fleet]: automated vehicles besides the SV (none by default)
+    fleet: FleetSpec = field(default_factory=FleetSpec)
 
     @property
     def n_steps(self) -> int:
