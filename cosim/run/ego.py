@@ -51,6 +51,8 @@ class PlannedEgo:
     """Our SV: plant + controller (`scenario.sv.plant`, `scenario.sv.controller`)."""
 
     tracks_reference = True
+    vehicle_id = SV_ID  # its SUMO id (an automated vehicle of the fleet: its own)
+    keeps_records = True  # every step's StepRecord kept (for the tracking figures)
 
     def __init__(self, scenario: Scenario, world: World, y0: float,
                  first_reference: LaneChangeTrajectory) -> None:
@@ -90,7 +92,7 @@ class PlannedEgo:
 
     def state(self, everyone: TrafficSnapshot) -> SVState:
         r = self.record
-        road_id, lane = self.world.sv_lane()
+        road_id, lane = self.world.sv_lane(self.vehicle_id)
         if is_identity(self.world.frame):
             return SVState(r.x, r.y, r.heading, r.vx, r.vy, lane, road_id)
         s, d, rel = self.loop.road_pose
@@ -123,9 +125,11 @@ class PlannedEgo:
         assert reference is not None, "the planned SV always tracks a reference"
         w0 = time.perf_counter()
         r = self.record = self.loop.advance(t, dt, self.substeps, reference)
-        self.records.append(r)
+        if self.keeps_records:
+            self.records.append(r)
         self.wall += time.perf_counter() - w0
-        self.world.move_xy(SV_ID, r.x, r.y, r.heading, r.vx, r.ax, road_pose=self.loop.road_pose)
+        self.world.move_xy(self.vehicle_id, r.x, r.y, r.heading, r.vx, r.ax,
+                           road_pose=self.loop.road_pose)
 
     def finish_trace(self, trace: dict[str, Array]) -> None:
         """Nothing to add: every column came from the closed loop."""

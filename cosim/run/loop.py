@@ -69,6 +69,7 @@ from cosim.traffic.world import Scene, World
 
 if TYPE_CHECKING:
     from cosim.planning.planner import RoadCurve
+    from cosim.run.fleet import Fleet
 
 ProgressFn = Callable[[int], None]
 SUMO_DRIVES = "sumo"  # the registered policy of the SUMO-driven SV (controller "sumo")
@@ -141,20 +142,28 @@ class CoSimulation:
         policy: LaneChangePolicy = cls(DrivingContext.of(sc, road, decision=self.cfg,
                                                          planner=planner, ports=ports))
         self.ego, self.policy = ego, policy
+        self.fleet: Fleet | None = None  # automated vehicles besides the SV ([fleet])
+        if sc.fleet.enabled:
+            from cosim.run.fleet import Fleet
+
+            self.fleet = Fleet(sc, world, road, cls, self.cfg, self.observer)
 
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()
         cpu0 = time.process_time()
         try:
             self._start()
-            world, ego, policy, observer, recorder, stop = (
-                self.world, self.ego, self.policy, self.observer, self.recorder, self.stop)
+            world, ego, policy, observer, recorder, stop, fleet = (
+                self.world, self.ego, self.policy, self.observer, self.recorder, self.stop,
+                self.fleet)
             for k in range(self.n_steps + 1):
                 check_signals()  # a signal ends the run here, between two steps
                 t = k * self.dt
                 everyone = world.read(observer.radius, full=observer.full_scene)
                 scene = Scene.around(t, ego.state(everyone), everyone)
                 ego.write_trace(recorder.record(k, scene, policy.status(scene.sv)))
+                if fleet is not None:  # the AVs' rows k (cosim.run.fleet)
+                    fleet.observe(k, t)
                 if k == self.n_steps or stop.stops(k, scene.sv, recorder.first_collision):
                     break  # the end, or a stop rule (cosim.run.stop)
                 reference = policy.update(t, scene, observer.inbox(scene))
@@ -162,8 +171,13 @@ class CoSimulation:
                     world.deliver_gap_requests(t, scene.tvs, scene.sv.x,
                                                not policy.gaps_held(scene.sv))
                 ego.advance(t, self.dt, reference)
+                if fleet is not None:  # the AVs' policies and closed loops
+                    fleet.decide(t)
+                    fleet.advance(t, self.dt)
                 world.move_scripted(t + self.dt)
                 recorder.sumo_collisions(world.step())
+                if fleet is not None:  # their SUMO collisions; the next takeovers
+                    fleet.stepped(k + 1)
                 if progress is not None:
                     progress(1)
             events = world.events()
@@ -201,7 +215,9 @@ class CoSimulation:
                          recorder.tracks.result(), metrics, timing, events,
                          records=ego.records, first_plan=done.first_plan,
                          edges=tuple(recorder.edges), route_road=self.world.route_road,
-                         detectors=detectors, t_warmup=self.world.t_warmup)
+                         detectors=detectors, t_warmup=self.world.t_warmup,
+                         fleet=None if self.fleet is None else self.fleet.result(
+                             self.stop.last_row, self.world.teleported()))
 
 
 def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:

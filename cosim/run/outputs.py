@@ -58,6 +58,8 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
     with staged_dir(out_dir) as out:
         if write_trace:
             frame = trace_frame(result.trace, result.edges)
+            if result.fleet is not None:  # every vehicle's rows, a vehicle_id column
+                frame = result.fleet.trace_frame(frame)
             written.append(atomic_write_csv(out / "trace.csv", frame, float_format=CSV_FLOAT))
             plans = pd.DataFrame(result.plans, columns=list(PLAN_COLUMNS))
             written.append(atomic_write_csv(out / "plans.csv", plans, float_format=CSV_FLOAT))
@@ -65,6 +67,11 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                                         float_format=CSV_FLOAT))
         written.append(atomic_write_csv(out / "timing.csv", pd.DataFrame([result.timing]),
                                         float_format=CSV_FLOAT))
+        if result.fleet is not None:  # one row per automated vehicle (cosim.run.fleet)
+            from cosim.run.fleet import FLEET_COLUMNS
+
+            written.append(atomic_write_csv(out / "fleet.csv", pd.DataFrame(
+                result.fleet.rows, columns=list(FLEET_COLUMNS)), float_format=CSV_FLOAT))
         if result.detectors is not None:  # SUMO's detectors ([detectors] enabled)
             written.append(atomic_write_csv(out / "detectors.csv", result.detectors,
                                             float_format=CSV_FLOAT))

@@ -110,9 +110,10 @@ class Recorder:
     """Trace rows, collision onsets and the SV's fault, SUMO's collisions, the TVs near."""
 
     def __init__(self, n_steps: int, sv_length: float, sv_width: float, road: RoadParams,
-                 route_road: Road | None = None) -> None:
+                 route_road: Road | None = None, *, keep_tracks: bool = True) -> None:
         self.data = np.full((n_steps + 1, len(TRACE_COLUMNS)), np.nan)
         self.tracks = Tracks()
+        self.keep_tracks = keep_tracks  # the TVs near it kept (for the figures)
         self.road = road
         self.route_road = route_road  # the (s, d) frame and tracks (None: s, d NaN)
         self.edges: list[str] = []  # road ids in the order met (the `edge` column's index)
@@ -185,7 +186,8 @@ class Recorder:
         row[C["collisions"]] = len(hits)
         row[C["sumo_collisions"]] = self.sumo_step_collisions
         row[C["n_tvs"]] = len(tvs)
-        self.tracks.add(scene.t, tvs)
+        if self.keep_tracks:
+            self.tracks.add(scene.t, tvs)
         return row
 
     def sumo_collisions(self, pairs: set[tuple[str, ...]]) -> None:

@@ -49,3 +49,5 @@ class RunResult:
     # detectors.csv's rows (cosim.traffic.detectors; a pandas DataFrame), None: no detectors
     detectors: Any = None
     t_warmup: float = 0.0  # s, SUMO's clock at the run's clock's 0 (SUMO's outputs' times)
+    # the fleet's trace rows and fleet.csv (cosim.run.fleet.FleetResult), None: no [fleet]
+    fleet: Any = None

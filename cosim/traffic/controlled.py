@@ -62,6 +62,9 @@ class _Controlled:
     hint: TrackPiece | None = None  # the SUMO lane of the track its front was in
 
 
+SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (its own strategic changes)
+
+
 class ControlledVehicles:
     """The vehicles SUMO does not drive (the SV, scripted TVs): added at a centre pose,
     moved with moveToXY each step, their blinkers held, and caught when SUMO drops
@@ -101,6 +104,25 @@ class ControlledVehicles:
         api.vehicle.setLaneChangeMode(vehicle_id, 0)
         self.vehicles[vehicle_id] = _Controlled(length, width, (x, y, heading))
         self.move(vehicle_id, x, y, heading, speed)
+
+    def take(self, vehicle_id: str, x: float, y: float, heading: float,
+             size: tuple[float, float]) -> None:
+        """Take a vehicle SUMO drives out of its control (an automated vehicle of the fleet,
+        at its Cartesian centre pose now, of `size` (length, width) m): speed mode 0 and
+        lane-change mode 0, moved by `move` from now on."""
+        vehicle = self.sim.api.vehicle
+        vehicle.setSpeedMode(vehicle_id, 0)
+        vehicle.setLaneChangeMode(vehicle_id, 0)
+        length, width = size
+        self.vehicles[vehicle_id] = _Controlled(length, width, (x, y, heading), inserted=True)
+
+    def hand_back(self, vehicle_id: str) -> None:
+        """Give a vehicle taken by `take` back to SUMO: its default speed mode (all
+        safety checks) and lane-change mode."""
+        vehicle = self.sim.api.vehicle
+        vehicle.setSpeedMode(vehicle_id, 31)
+        vehicle.setLaneChangeMode(vehicle_id, SUMO_LANE_CHANGE_MODE)
+        self.vehicles.pop(vehicle_id, None)
 
     def move(
         self,

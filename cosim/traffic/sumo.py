@@ -347,6 +347,26 @@ class SumoSim:
         ControlledVehicles.move (`road_pose`: the pose's s, d, heading to the road)."""
         self.controlled.move(vehicle_id, x, y, heading, speed, accel, road_pose)
 
+    def take_over(self, vehicle_id: str, size: tuple[float, float]) -> tuple[float, float, float]:
+        """Take a vehicle SUMO inserted out of its control (ControlledVehicles.take), its
+        body now `size` (length, width) m; returns its Cartesian centre pose (x m, y m,
+        heading rad) now."""
+        x, y, heading = self.reader.pose(vehicle_id)
+        length, width = size
+        vehicle = self.api.vehicle
+        if (vehicle.getLength(vehicle_id), vehicle.getWidth(vehicle_id)) != (length, width):
+            vehicle.setLength(vehicle_id, length)
+            vehicle.setWidth(vehicle_id, width)
+            self.reader.untracked()  # its size changed (the reader's sizes are cached)
+        self.dims[vehicle_id] = (length, width)
+        self.bands.forget(vehicle_id)  # its speed is ours now, not its lane's band
+        self.controlled.take(vehicle_id, x, y, heading, size)
+        return x, y, heading
+
+    def hand_back(self, vehicle_id: str) -> None:
+        """SUMO drives a vehicle taken over again (ControlledVehicles.hand_back)."""
+        self.controlled.hand_back(vehicle_id)
+
     def set_blinker(self, vehicle_id: str, direction: int) -> None:
         """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""
         self.controlled.set_blinker(vehicle_id, direction)

@@ -1,0 +1,349 @@
+"""The fleet: automated vehicles (AVs) besides the SV, each a full SV of its own.
+
+`[fleet]` (cosim.scenario.model.FleetSpec) says which vehicles SUMO inserts during the
+run are automated: each with probability `share`, drawn from a generator of the run's
+seed in SUMO's insertion order, and every vehicle of the vTypes `vtypes`. An AV whose
+route runs to the end of the scenario's route (the route's road and frame are then its
+own) is taken over (`World.take_over`: out of SUMO's control, moved by moveToXY) once it
+has driven TAKEOVER_CLEARANCE from where SUMO inserted it, and gets the scenario's
+driver: a closed loop of the scenario's plant and controller (`cosim.run.ego.PlannedEgo`),
+the scenario's policy and planner with the SV's settings (but no scripted requests: it
+decides its lane changes by the decision rule, wanting its lane's limit), a V2V channel
+of its own and a recorder of its own (the trace columns, our exact overlap check, SUMO's
+collisions). Near the route's end (HANDBACK_DISTANCE), never during a lane change, SUMO
+drives it again to its arrival (`World.hand_back`).
+
+Per step the loop calls `observe` (one read of the whole road; each AV's scene is a
+selection of it; its trace row), `decide` (the policies), `advance` (the closed loops,
+the poses to SUMO) and, after SUMO's step, `stepped` (SUMO's collisions, the takeovers).
+`result` gives the fleet's trace rows (with the SV's: trace.csv's `vehicle_id`) and
+fleet.csv's rows, one per AV.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import partial
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cosim.driving.base import DrivingContext, LaneChangePolicy, PolicyStatus, WorldPorts
+from cosim.driving.following import lane_keeping_reference
+from cosim.driving.rule import DecisionConfig
+from cosim.run.ego import PlannedEgo
+from cosim.run.observer import uncertain_config
+from cosim.run.recorder import Recorder
+from cosim.scenario import Scenario
+from cosim.traffic.road_view import stretch
+from cosim.traffic.sumo import TrafficSnapshot
+from cosim.traffic.world import SV_ID, Scene, World
+
+if TYPE_CHECKING:
+    from cosim.params import RoadParams
+    from cosim.run.observer import Observer
+    from cosim.traffic.v2v import V2VChannel
+
+FLEET_STREAM = 18  # -, second seed word of the fleet's draws (world.COURTESY_STREAM + 1)
+V2V_STREAM = 19  # -, the same for the AVs' V2V channels (third word: the AV's number)
+# m an automated vehicle drives from where SUMO inserted it before it is taken over: SUMO
+# inserts only by the lane a vehicle is on, so one may appear in the lane a vehicle just
+# inserted beside it is moving into, unseen when that change was planned; past this the
+# inflow's next vehicles appear behind, in sight (V2V, the planner's scene)
+TAKEOVER_CLEARANCE = 100.0
+HANDBACK_DISTANCE = 150.0  # m before the route's end: an AV keeping its lane goes to SUMO
+HANDBACK_LAST = 40.0  # m before it: handed back whatever it does (moveToXY past the
+# route's end would take it off the network)
+
+FLEET_COLUMNS: dict[str, str] = {
+    "vehicle_id": "SUMO id of the automated vehicle",
+    "vtype": "its SUMO vType",
+    "inserted_t_s": "time SUMO inserted it (after the step that did) (s)",
+    "taken_over_t_s": "time it was taken over, TAKEOVER_CLEARANCE m on (its first trace "
+                      "row) (s)",
+    "end_t_s": "time of its last trace row (s)",
+    "end": "handed_back (to SUMO near the route's end) or running (at the run's end)",
+    "s_start_m": "arc length s along the route at the takeover (m)",
+    "s_end_m": "arc length s at its last row (m)",
+    "mean_speed_mps": "mean speed over its rows (m/s)",
+    "lane_changes": "lane changes it adopted (planned and flown)",
+    "collisions": "collision onsets by our exact check, with anyone",
+    "caused_collisions": "of them, those it caused (changing lanes, or hitting a vehicle ahead)",
+    "sumo_collisions": "collision events SUMO reported involving it (onsets)",
+    "gap_min_m": "smallest along-lane gap to a vehicle sharing its strip (m; inf: none)",
+    "ttc_min_s": "smallest along-lane time-to-collision (s; inf: none)",
+    "teleported": "1 if SUMO teleported it (never, for a vehicle under our control), else 0",
+}
+
+
+@dataclass
+class FleetResult:
+    """What the fleet produced: each vehicle's trace rows and fleet.csv's rows."""
+
+    traces: list[tuple[str, dict[str, Any], tuple[str, ...]]]  # (id, trace, its edges)
+    rows: list[dict[str, Any]]
+
+    def trace_frame(self, sv_frame: Any) -> Any:
+        """trace.csv with a fleet: the SV's rows (`sv_frame`, cosim.run.outputs.trace_frame)
+        and every AV's, a `vehicle_id` column, ordered by time, then id."""
+        import pandas as pd
+
+        from cosim.run.outputs import trace_frame
+
+        frames = [sv_frame.assign(vehicle_id=SV_ID)]
+        frames += [trace_frame(trace, edges).assign(vehicle_id=vid)
+                   for vid, trace, edges in self.traces]
+        frame = pd.concat(frames, ignore_index=True)
+        return frame.sort_values(["t_s", "vehicle_id"], kind="stable", ignore_index=True)
+
+
+class AutomatedEgo(PlannedEgo):
+    """An AV's closed loop: PlannedEgo started where SUMO had the vehicle at its takeover."""
+
+    keeps_records = False  # a fleet's StepRecords would be many (the trace has them)
+
+    def __init__(self, sc: Scenario, world: World, vehicle_id: str,
+                 pose: tuple[float, float, float], speed: float, t0: float,
+                 reference: Any) -> None:
+        from cosim.control.closed_loop import ClosedLoop, LoopConfig
+        from cosim.vehicle.plant import PlantStart
+
+        self.vehicle_id = vehicle_id
+        self.plant = sc.sv.plant
+        self.substeps = sc.substeps
+        self.world = world
+        self.wall = 0.0
+        s, d, heading = pose
+        cx, cy, ch, q = world.cartesian(s, d, heading)
+        yaw_rate = speed * float(world.frame.curvature(s))
+        self.loop = ClosedLoop(LoopConfig(sc.sv.plant, sc.sv.controller), sc.vehicle, sc.gains,
+                               sc.road.mu, PlantStart(cx, cy, ch, speed * q, yaw_rate=yaw_rate),
+                               frame=world.frame)
+        self.loop.set_reference(reference)
+        self.record = self.loop.record(t0)
+        self.records: list[Any] = []
+
+
+class AVInbox:
+    """An AV's V2V messages at one step (cosim.run.observer.Inbox for an AV): the
+    channel's, of everyone on the road but itself, and the scripted TVs'."""
+
+    def __init__(self, av: AutomatedVehicle, scene: Scene) -> None:
+        self.av, self.scene = av, scene
+        self.received: list[Any] | None = None
+        if av.every_step:
+            self.received = self._exchange()
+
+    def _exchange(self) -> list[Any]:
+        av, scene = self.av, self.scene
+        everyone = scene.everyone
+        perceived = av.observer.v2v.mode == "perception"
+        scripted = av.observer.scripted.ids
+        public = everyone.select(np.array(
+            [vid != av.id and (perceived or vid not in scripted) for vid in everyone.ids],
+            dtype=bool))
+        return av.channel.exchange(public, scene.sv.x, scene.sv.y)
+
+    def read(self) -> list[Any]:
+        if self.received is None:
+            self.received = self._exchange()
+        return self.received + self.av.observer.scripted_messages(self.scene.t)
+
+
+@dataclass
+class AutomatedVehicle:
+    """One AV: its closed loop, policy, recorder, channel, and its rows."""
+
+    id: str
+    vtype: str
+    ego: AutomatedEgo
+    policy: LaneChangePolicy
+    recorder: Recorder
+    channel: V2VChannel
+    observer: Observer
+    every_step: bool  # the channel runs every step (latency, loss, perception)
+    k0: int  # its first trace row
+    inserted: float  # s, when SUMO inserted it
+    k_end: int = -1  # its last trace row (-1: still driving)
+    end: str = "running"
+    status: PolicyStatus | None = None
+    scene: Scene | None = None
+    reference: Any = None
+
+
+class Fleet:
+    """The AVs of one run (module docstring)."""
+
+    def __init__(self, sc: Scenario, world: World, road: RoadParams, policy_class: Any,
+                 decision: DecisionConfig, observer: Observer) -> None:
+        self.sc, self.world, self.road = sc, world, road
+        self.cls, self.decision, self.observer = policy_class, decision, observer
+        self.spec = sc.fleet
+        self.rng = np.random.default_rng([sc.seed, FLEET_STREAM])
+        rr = world.route_road
+        self.last_edge = rr.route.edges[-1]
+        self.edges = rr.edge_ids
+        self.route_end = max(lane.end for lane in rr.lanes)  # m, s where the route ends
+        self.active: list[AutomatedVehicle] = []
+        self.done: list[AutomatedVehicle] = []
+        self.drawn = 0  # vehicles SUMO inserted during the run (each drawn once)
+        # drawn automated, not yet TAKEOVER_CLEARANCE on: id -> (vType, s m and t s at
+        # insertion)
+        self.pending: dict[str, tuple[str, float, float]] = {}
+        self.declined = 0  # drawn automated, but their route leaves the SV's
+        v2v = sc.v2v
+        self.every_step = (v2v.latency > 0 or v2v.loss > 0 or v2v.mode != "v2v") \
+            and policy_class.listens
+        self.everyone: TrafficSnapshot | None = None
+
+    # ------------------------------------------------------------------ the step
+    def observe(self, k: int, t: float) -> None:
+        """Row k of every AV; those near the route's end handed back to SUMO."""
+        if not self.active:
+            return
+        everyone = self.world.read_all()  # once for all: each scene is a selection of it
+        handed: list[AutomatedVehicle] = []
+        for av in self.active:
+            sv = av.ego.state(everyone)
+            status = av.status = av.policy.status(sv)
+            scene = av.scene = Scene.around(t, sv, everyone, av.id)
+            av.ego.write_trace(av.recorder.record(k, scene, status))
+            left = self.route_end - sv.x
+            if left <= HANDBACK_LAST or (left <= HANDBACK_DISTANCE and not status.changing):
+                handed.append(av)
+        for av in handed:
+            self.world.hand_back(av.id)
+            self._finish(av, k, "handed_back")
+
+    def decide(self, t: float) -> None:
+        """Each AV's policy: the reference it tracks from t."""
+        for av in self.active:
+            assert av.scene is not None
+            av.reference = av.policy.update(t, av.scene, AVInbox(av, av.scene))
+
+    def advance(self, t: float, dt: float) -> None:
+        """Each AV's closed loop from t to t + dt, its pose to SUMO."""
+        for av in self.active:
+            av.ego.advance(t, dt, av.reference)
+
+    def stepped(self, k: int) -> None:
+        """After SUMO's step to row k: its collisions of the AVs; the vehicles it
+        inserted in that step drawn; those drawn automated taken over (their first row:
+        k) once TAKEOVER_CLEARANCE m past where they were inserted."""
+        if self.active:
+            pairs = self.world.collisions()
+            for av in self.active:
+                av.recorder.sumo_collisions({p for p in pairs if av.id in p})
+        departed = self.world.departed()
+        if departed:
+            self._draw(departed, k * self.sc.step)
+        if self.pending:
+            self._take_over_clear(k)
+
+    def _draw(self, departed: tuple[str, ...], t: float) -> None:
+        """Which of the vehicles SUMO just inserted are automated (one draw each, in its
+        insertion order); those whose route runs to the route's end on its road wait
+        for their takeover in `pending`."""
+        draws = self.rng.random(len(departed))
+        self.drawn += len(departed)
+        vtypes = self.spec.vtypes
+        world = self.world
+        for vid, u in zip(departed, draws.tolist(), strict=True):
+            vtype = world.vtype_of(vid)
+            if not (u < self.spec.share or vtype in vtypes):
+                continue
+            route = world.route_of(vid)
+            if not route or route[-1] != self.last_edge or not set(route) <= self.edges:
+                self.declined += 1
+                continue
+            snap = world.read_again((vid,))
+            self.pending[vid] = (vtype, float(snap.x[0]), t)
+
+    def _take_over_clear(self, k: int) -> None:
+        """The pending vehicles TAKEOVER_CLEARANCE m past their insertion, on one of the
+        route's tracks, taken over."""
+        everyone = self.world.read_all()
+        index = {vid: i for i, vid in enumerate(everyone.ids)}
+        for vid, (vtype, s0, t_in) in list(self.pending.items()):
+            i = index.get(vid)
+            if i is None:  # gone (its route ended, or SUMO took it off)
+                del self.pending[vid]
+                self.declined += 1
+                continue
+            if everyone.x[i] - s0 < TAKEOVER_CLEARANCE or everyone.lane[i] < 0 \
+                    or everyone.lateral_speed[i] != 0.0:  # not during SUMO's lane change
+                continue
+            del self.pending[vid]
+            self._take_over(vid, vtype, k, t_in, everyone.select(np.arange(len(everyone)) == i))
+
+    def _take_over(self, vid: str, vtype: str, k: int, t_in: float,
+                   snap: TrafficSnapshot) -> None:
+        """The vehicle `vid` (its row of the road's snapshot `snap`) as an AV from row k."""
+        world, sc = self.world, self.sc
+        track = int(snap.lane[0])
+        t = k * sc.step
+        _, _, _, speed = world.take_over(vid, (sc.vehicle.length, sc.vehicle.width))
+        s, d, rel = float(snap.x[0]), float(snap.y[0]), float(snap.heading[0])
+        q = float(stretch(world.frame, s, d))
+        v = speed / q  # m/s along s
+        y0 = self.road.lane_center(track)
+        ego = AutomatedEgo(sc, world, vid, (s, d, rel), v, t,
+                           lane_keeping_reference(t, s, y0, v, 0.0))
+        # the SV's driver without what is the SV's own: its start, its scripted requests,
+        # its desired speed; an AV decides its lane changes (the decision rule), wanting
+        # its lane's limit
+        av_sc = replace(sc, sv=replace(sc.sv, lane=track, speed=v, lane_changes=(),
+                                       desired_speed=None, decision=True))
+        policy = self.cls(DrivingContext.of(
+            av_sc, self.road, decision=self.decision, planner=self._planner(),
+            ports=WorldPorts(blinker=partial(world.set_blinker, vid))))
+        from cosim.traffic.v2v import V2VChannel
+
+        number = len(self.active) + len(self.done)
+        channel = V2VChannel.from_spec(sc.v2v, self.road, 0)
+        channel.rng = np.random.default_rng([sc.seed, V2V_STREAM, number])
+        recorder = Recorder(sc.n_steps, sc.vehicle.length, sc.vehicle.width, self.road,
+                            route_road=world.route_road, keep_tracks=False)
+        self.active.append(AutomatedVehicle(vid, vtype, ego, policy, recorder, channel,
+                                            self.observer, self.every_step, k, t_in))
+
+    def _planner(self) -> Any:
+        from cosim.planning.planner import LaneChangePlanner
+        from cosim.run.loop import road_curve
+
+        sc = self.sc
+        return LaneChangePlanner(sc.vehicle, self.road, uncertain_config(sc),
+                                 prediction=self.cls.prediction,
+                                 curve=road_curve(self.world.route_road, sc))
+
+    def _finish(self, av: AutomatedVehicle, k: int, end: str) -> None:
+        av.k_end, av.end = k, end
+        self.active.remove(av)
+        self.done.append(av)
+
+    # ------------------------------------------------------------------ the end
+    def result(self, last_row: int, teleported: set[str]) -> FleetResult:
+        """Every AV's rows up to the run's last row, and fleet.csv's rows (by id)."""
+        for av in list(self.active):
+            self._finish(av, last_row, "running")
+        traces, rows = [], []
+        for av in sorted(self.done, key=lambda a: a.id):
+            full = av.recorder.trace(av.k_end)
+            trace = {name: column[av.k0:] for name, column in full.items()}
+            traces.append((av.id, trace, tuple(av.recorder.edges)))
+            done = av.policy.summary(trace["t_s"], trace["d_m"])
+            rec = av.recorder
+            rows.append({
+                "vehicle_id": av.id, "vtype": av.vtype, "inserted_t_s": av.inserted,
+                "taken_over_t_s": float(trace["t_s"][0]), "end_t_s": float(trace["t_s"][-1]),
+                "end": av.end,
+                "s_start_m": float(trace["s_m"][0]), "s_end_m": float(trace["s_m"][-1]),
+                "mean_speed_mps": float(np.mean(trace["vx_mps"])),
+                "lane_changes": len(done.lane_changes),
+                "collisions": rec.collisions, "caused_collisions": rec.sv_fault,
+                "sumo_collisions": rec.sumo_new,
+                "gap_min_m": float(np.min(trace["gap_min_m"])),
+                "ttc_min_s": float(np.min(trace["ttc_min_s"])),
+                "teleported": int(av.id in teleported),
+            })
+        return FleetResult(traces, rows)

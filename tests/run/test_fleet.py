@@ -1,0 +1,129 @@
+"""The fleet (cosim.run.fleet) in real SUMO: vehicles SUMO inserts during the run taken
+over by the scenario's driver, driven to the route's end and handed back; trace.csv's
+rows per vehicle, fleet.csv; the same seed, the same fleet."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cosim.run.fleet import FLEET_COLUMNS, HANDBACK_DISTANCE, TAKEOVER_CLEARANCE
+from cosim.run.loop import run_scenario, simulate
+from cosim.run.result import RunResult
+from cosim.scenario import scenario_from_dict
+from cosim.traffic.network import build_network
+
+ROAD_LENGTH = 900.0  # m: an AV inserted at the start reaches the hand-back within the run
+
+
+def short_highway(folder: Path) -> Path:
+    """The shipped highway's three lanes, ROAD_LENGTH m long."""
+    (folder / "short.nod.xml").write_text(
+        f'<nodes><node id="start" x="0.0" y="11.25" type="priority"/>'
+        f'<node id="end" x="{ROAD_LENGTH}" y="11.25" type="priority"/></nodes>')
+    (folder / "short.edg.xml").write_text(
+        '<edges><edge id="highway" from="start" to="end" numLanes="3" width="3.75" '
+        'spreadType="right"><lane index="0" speed="25.0"/>'
+        '<lane index="1" speed="30.555555555555557"/>'
+        '<lane index="2" speed="33.333333333333336"/></edge></edges>')
+    return build_network(folder, "short")
+
+
+def fleet_doc(network: Path, **fleet: Any) -> dict[str, Any]:
+    """Medium traffic on the short highway; the SV cruises in lane 0 at 60 km/h (it
+    stays on the road); the fleet decides its own lane changes (gap policy)."""
+    return {
+        "scenario": {"name": "fleet", "duration_s": 30.0, "seed": 2},
+        "road": {"network": str(network), "lane_speeds_kmh": [[60, 90], [90, 110],
+                                                               [110, 120]]},
+        "sv": {"lane": 0, "position_m": 100.0, "speed_kmh": 60.0},
+        "traffic": {"density_veh_per_km_lane": 14.0, "length_m": ROAD_LENGTH},
+        "planner": {"policy": "gap"},
+        "fleet": fleet,
+    }
+
+
+@pytest.fixture(scope="module")
+def network(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return short_highway(tmp_path_factory.mktemp("net"))
+
+
+@pytest.fixture(scope="module")
+def run(network: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[RunResult, Path]:
+    folder = tmp_path_factory.mktemp("fleet")
+    sc = scenario_from_dict(fleet_doc(network, share=0.4), path=folder / "fleet.toml")
+    result = simulate(sc)
+    from cosim.run.outputs import write_outputs
+
+    write_outputs(result, folder / "out", write_figures=False)
+    return result, folder / "out"
+
+
+def test_automated_vehicles_are_taken_over_driven_and_handed_back(
+        run: tuple[RunResult, Path]) -> None:
+    result, _ = run
+    rows = pd.DataFrame(result.fleet.rows)
+    assert len(rows) >= 5  # 40 % of the inflow (about 2 vehicles a second on 3 lanes)
+    assert (rows["inserted_t_s"] > 0).all()  # inserted during the run, not at t = 0
+    # taken over once clear of where the inflow enters (near s = 0)
+    assert (rows["s_start_m"] >= TAKEOVER_CLEARANCE).all()
+    assert (rows["s_start_m"] < TAKEOVER_CLEARANCE + 10.0).all()
+    handed = rows[rows["end"] == "handed_back"]
+    assert len(handed) >= 1
+    assert (handed["s_end_m"] >= ROAD_LENGTH - HANDBACK_DISTANCE).all()
+    assert set(rows["end"]) <= {"handed_back", "running"}
+    # none teleported or lost, no collision of an AV (our check and SUMO's), none caused
+    assert result.events == []
+    assert (rows[["collisions", "caused_collisions", "sumo_collisions", "teleported"]]
+            == 0).all().all()
+    assert rows["lane_changes"].sum() >= 1  # their own decisions, planned and flown
+    # each AV's trace: its own rows from its takeover, tracking its references closely
+    for vid, trace, _ in result.fleet.traces:
+        row = rows[rows["vehicle_id"] == vid].iloc[0]
+        t = trace["t_s"]
+        assert t[0] == row["taken_over_t_s"] and t[-1] == row["end_t_s"]
+        assert np.allclose(np.diff(t), 0.05)
+        assert np.nanmax(np.abs(trace["ye_m"])) < 0.5
+        assert (trace["collisions"] == 0).all()
+
+
+def test_trace_has_every_vehicle_by_time_then_id_and_fleet_csv(
+        run: tuple[RunResult, Path]) -> None:
+    result, out = run
+    trace = pd.read_csv(out / "trace.csv", keep_default_na=False)
+    assert list(trace.columns)[-1] == "vehicle_id"
+    keys = list(zip(trace["t_s"], trace["vehicle_id"], strict=True))
+    assert keys == sorted(keys)
+    counts = trace["vehicle_id"].value_counts()
+    assert counts["sv"] == len(result.trace["t_s"])
+    for vid, tr, _ in result.fleet.traces:
+        assert counts[vid] == len(tr["t_s"])
+    fleet = pd.read_csv(out / "fleet.csv")
+    assert list(fleet.columns) == list(FLEET_COLUMNS)
+    assert len(fleet) == len(result.fleet.rows)
+
+
+def test_no_fleet_writes_what_it_always_wrote(network: Path, tmp_path: Path) -> None:
+    """Without [fleet] no vehicle_id column and no fleet.csv (a short run)."""
+    doc = fleet_doc(network)
+    doc["scenario"]["duration_s"] = 2.0
+    sc = scenario_from_dict(doc, path=tmp_path / "none.toml")
+    run_scenario(sc, tmp_path / "out", write_figures=False)
+    assert "vehicle_id" not in pd.read_csv(tmp_path / "out" / "trace.csv").columns
+    assert not (tmp_path / "out" / "fleet.csv").exists()
+
+
+def test_the_same_seed_gives_the_same_fleet_byte_for_byte(network: Path, tmp_path: Path
+                                                          ) -> None:
+    doc = fleet_doc(network, share=0.5)
+    doc["scenario"]["duration_s"] = 12.0
+    sc = scenario_from_dict(doc, path=tmp_path / "twice.toml")
+    for name in ("a", "b"):
+        run_scenario(sc, tmp_path / name, write_figures=False)
+    assert len(pd.read_csv(tmp_path / "a" / "fleet.csv")) >= 2
+    for csv in ("trace.csv", "plans.csv", "metrics.csv", "fleet.csv"):
+        assert (tmp_path / "a" / csv).read_bytes() == (tmp_path / "b" / csv).read_bytes(), csv
