@@ -22,6 +22,7 @@ fleet.csv's rows, one per AV.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import partial
 from typing import TYPE_CHECKING, Any
@@ -32,12 +33,12 @@ from cosim.driving.base import DrivingContext, LaneChangePolicy, PolicyStatus, W
 from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
 from cosim.run.ego import PlannedEgo
-from cosim.run.observer import uncertain_config
 from cosim.run.recorder import Recorder
 from cosim.scenario import Scenario
 from cosim.traffic.road_view import stretch
 from cosim.traffic.sumo import TrafficSnapshot
-from cosim.traffic.world import SV_ID, Scene, World
+from cosim.traffic.takeover import Takeovers
+from cosim.traffic.world import Scene, World
 
 if TYPE_CHECKING:
     from cosim.params import RoadParams
@@ -78,24 +79,11 @@ FLEET_COLUMNS: dict[str, str] = {
 
 @dataclass
 class FleetResult:
-    """What the fleet produced: each vehicle's trace rows and fleet.csv's rows."""
+    """What the fleet produced: each AV's trace rows (cosim.run.outputs writes them into
+    trace.csv with the SV's) and fleet.csv's rows."""
 
     traces: list[tuple[str, dict[str, Any], tuple[str, ...]]]  # (id, trace, its edges)
     rows: list[dict[str, Any]]
-
-    def trace_frame(self, sv_frame: Any) -> Any:
-        """trace.csv with a fleet: the SV's rows (`sv_frame`, cosim.run.outputs.trace_frame)
-        and every AV's, a `vehicle_id` column, ordered by time, then id."""
-        import pandas as pd
-
-        from cosim.run.outputs import trace_frame
-
-        frames = [sv_frame.assign(vehicle_id=SV_ID)]
-        frames += [trace_frame(trace, edges).assign(vehicle_id=vid)
-                   for vid, trace, edges in self.traces]
-        frame = pd.concat(frames, ignore_index=True)
-        return frame.sort_values(["t_s", "vehicle_id"], kind="stable", ignore_index=True)
-
 
 class AutomatedEgo(PlannedEgo):
     """An AV's closed loop: PlannedEgo started where SUMO had the vehicle at its takeover."""
@@ -175,9 +163,13 @@ class Fleet:
     """The AVs of one run (module docstring)."""
 
     def __init__(self, sc: Scenario, world: World, road: RoadParams, policy_class: Any,
-                 decision: DecisionConfig, observer: Observer) -> None:
+                 decision: DecisionConfig, observer: Observer,
+                 planner: Callable[[], Any]) -> None:
+        """`planner` makes a planner for one AV (the SV's kind)."""
         self.sc, self.world, self.road = sc, world, road
+        self.sumo = Takeovers(world)
         self.cls, self.decision, self.observer = policy_class, decision, observer
+        self.make_planner = planner
         self.spec = sc.fleet
         self.rng = np.random.default_rng([sc.seed, FLEET_STREAM])
         rr = world.route_road
@@ -212,7 +204,7 @@ class Fleet:
             if left <= HANDBACK_LAST or (left <= HANDBACK_DISTANCE and not status.changing):
                 handed.append(av)
         for av in handed:
-            self.world.hand_back(av.id)
+            self.sumo.hand_back(av.id)
             self._finish(av, k, "handed_back")
 
     def decide(self, t: float) -> None:
@@ -231,10 +223,10 @@ class Fleet:
         inserted in that step drawn; those drawn automated taken over (their first row:
         k) once TAKEOVER_CLEARANCE m past where they were inserted."""
         if self.active:
-            pairs = self.world.collisions()
+            pairs = self.sumo.collisions()
             for av in self.active:
                 av.recorder.sumo_collisions({p for p in pairs if av.id in p})
-        departed = self.world.departed()
+        departed = self.sumo.departed()
         if departed:
             self._draw(departed, k * self.sc.step)
         if self.pending:
@@ -247,12 +239,12 @@ class Fleet:
         draws = self.rng.random(len(departed))
         self.drawn += len(departed)
         vtypes = self.spec.vtypes
-        world = self.world
+        world, sumo = self.world, self.sumo
         for vid, u in zip(departed, draws.tolist(), strict=True):
-            vtype = world.vtype_of(vid)
+            vtype = sumo.vtype_of(vid)
             if not (u < self.spec.share or vtype in vtypes):
                 continue
-            route = world.route_of(vid)
+            route = sumo.route_of(vid)
             if not route or route[-1] != self.last_edge or not set(route) <= self.edges:
                 self.declined += 1
                 continue
@@ -282,7 +274,7 @@ class Fleet:
         world, sc = self.world, self.sc
         track = int(snap.lane[0])
         t = k * sc.step
-        _, _, _, speed = world.take_over(vid, (sc.vehicle.length, sc.vehicle.width))
+        speed = self.sumo.take_over(vid, (sc.vehicle.length, sc.vehicle.width))
         s, d, rel = float(snap.x[0]), float(snap.y[0]), float(snap.heading[0])
         q = float(stretch(world.frame, s, d))
         v = speed / q  # m/s along s
@@ -295,8 +287,8 @@ class Fleet:
         av_sc = replace(sc, sv=replace(sc.sv, lane=track, speed=v, lane_changes=(),
                                        desired_speed=None, decision=True))
         policy = self.cls(DrivingContext.of(
-            av_sc, self.road, decision=self.decision, planner=self._planner(),
-            ports=WorldPorts(blinker=partial(world.set_blinker, vid))))
+            av_sc, self.road, decision=self.decision, planner=self.make_planner(),
+            ports=WorldPorts(blinker=partial(self.sumo.set_blinker, vid))))
         from cosim.traffic.v2v import V2VChannel
 
         number = len(self.active) + len(self.done)
@@ -307,23 +299,15 @@ class Fleet:
         self.active.append(AutomatedVehicle(vid, vtype, ego, policy, recorder, channel,
                                             self.observer, self.every_step, k, t_in))
 
-    def _planner(self) -> Any:
-        from cosim.planning.planner import LaneChangePlanner
-        from cosim.run.loop import road_curve
-
-        sc = self.sc
-        return LaneChangePlanner(sc.vehicle, self.road, uncertain_config(sc),
-                                 prediction=self.cls.prediction,
-                                 curve=road_curve(self.world.route_road, sc))
-
     def _finish(self, av: AutomatedVehicle, k: int, end: str) -> None:
         av.k_end, av.end = k, end
         self.active.remove(av)
         self.done.append(av)
 
     # ------------------------------------------------------------------ the end
-    def result(self, last_row: int, teleported: set[str]) -> FleetResult:
+    def result(self, last_row: int) -> FleetResult:
         """Every AV's rows up to the run's last row, and fleet.csv's rows (by id)."""
+        teleported = self.sumo.teleported()
         for av in list(self.active):
             self._finish(av, last_row, "running")
         traces, rows = [], []

@@ -46,6 +46,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -144,9 +145,12 @@ class CoSimulation:
         self.ego, self.policy = ego, policy
         self.fleet: Fleet | None = None  # automated vehicles besides the SV ([fleet])
         if sc.fleet.enabled:
+            from cosim.planning.planner import LaneChangePlanner
             from cosim.run.fleet import Fleet
 
-            self.fleet = Fleet(sc, world, road, cls, self.cfg, self.observer)
+            self.fleet = Fleet(sc, world, road, cls, self.cfg, self.observer, partial(
+                LaneChangePlanner, sc.vehicle, road, uncertain_config(sc),
+                prediction=cls.prediction, curve=road_curve(world.route_road, sc)))
 
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()
@@ -217,7 +221,7 @@ class CoSimulation:
                          edges=tuple(recorder.edges), route_road=self.world.route_road,
                          detectors=detectors, t_warmup=self.world.t_warmup,
                          fleet=None if self.fleet is None else self.fleet.result(
-                             self.stop.last_row, self.world.teleported()))
+                             self.stop.last_row))
 
 
 def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:

@@ -16,8 +16,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim.driving.plans import PLAN_COLUMNS
+from cosim.run.fleet import FLEET_COLUMNS, FleetResult
 from cosim.run.recorder import TRACE_COLUMNS
 from cosim.run.result import RunResult
+from cosim.traffic.world import SV_ID
 
 Array = NDArray[np.float64]
 
@@ -40,6 +42,18 @@ def trace_frame(trace: dict[str, Array], edges: Sequence[str] = ()) -> Any:
     return frame
 
 
+def fleet_trace_frame(sv_frame: Any, fleet: FleetResult) -> Any:
+    """trace.csv with a fleet: the SV's rows (`sv_frame`, `trace_frame`) and every
+    automated vehicle's, a `vehicle_id` column, ordered by time, then id."""
+    import pandas as pd
+
+    frames = [sv_frame.assign(vehicle_id=SV_ID)]
+    frames += [trace_frame(trace, edges).assign(vehicle_id=vid)
+               for vid, trace, edges in fleet.traces]
+    frame = pd.concat(frames, ignore_index=True)
+    return frame.sort_values(["t_s", "vehicle_id"], kind="stable", ignore_index=True)
+
+
 def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                   write_figures: bool = True, extra_files: Sequence[Path] = (),
                   figure_format: str | None = None) -> list[Path]:
@@ -59,7 +73,7 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
         if write_trace:
             frame = trace_frame(result.trace, result.edges)
             if result.fleet is not None:  # every vehicle's rows, a vehicle_id column
-                frame = result.fleet.trace_frame(frame)
+                frame = fleet_trace_frame(frame, result.fleet)
             written.append(atomic_write_csv(out / "trace.csv", frame, float_format=CSV_FLOAT))
             plans = pd.DataFrame(result.plans, columns=list(PLAN_COLUMNS))
             written.append(atomic_write_csv(out / "plans.csv", plans, float_format=CSV_FLOAT))
@@ -68,8 +82,6 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
         written.append(atomic_write_csv(out / "timing.csv", pd.DataFrame([result.timing]),
                                         float_format=CSV_FLOAT))
         if result.fleet is not None:  # one row per automated vehicle (cosim.run.fleet)
-            from cosim.run.fleet import FLEET_COLUMNS
-
             written.append(atomic_write_csv(out / "fleet.csv", pd.DataFrame(
                 result.fleet.rows, columns=list(FLEET_COLUMNS)), float_format=CSV_FLOAT))
         if result.detectors is not None:  # SUMO's detectors ([detectors] enabled)

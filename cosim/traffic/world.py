@@ -325,10 +325,6 @@ class World:
         return [f"{e.time - self.t_offset:.2f} s {e.kind} {e.vehicle_id}: {e.detail}"
                 for e in self.sumo.events]
 
-    def teleported(self) -> set[str]:
-        """The vehicles SUMO teleported during the run."""
-        return {e.vehicle_id for e in self.sumo.events if e.kind == "teleport"}
-
     # ------------------------------------------------ vehicles we place and move
     def add_scripted(self, road: RoadParams) -> ScriptedTraffic:
         """The scenario's [[tv]] vehicles as controlled vehicles at their scripts' start
@@ -426,43 +422,6 @@ class World:
     def change_sv_lane(self, lane: int) -> None:
         """Ask SUMO to move the SUMO-driven SV to `lane` (with SUMO's safety checks)."""
         self.sumo.change_lane(SV_ID, lane, SV_LANE_CHANGE_DURATION)
-
-    # ------------------------------------------------ the fleet (cosim.run.fleet)
-    def departed(self) -> tuple[str, ...]:
-        """The vehicles SUMO inserted in its last step, in its insertion order."""
-        return tuple(self.sumo.api.simulation.getDepartedIDList())
-
-    def route_of(self, vehicle_id: str) -> tuple[str, ...]:
-        """The edges a vehicle still has to drive, the one it is on first."""
-        vehicle = self.sumo.api.vehicle
-        route = vehicle.getRoute(vehicle_id)
-        return tuple(route[max(int(vehicle.getRouteIndex(vehicle_id)), 0):])
-
-    def vtype_of(self, vehicle_id: str) -> str:
-        """A vehicle's vType as its demand names it (not the one SUMO makes for it alone
-        when one of its values is set, "<vType>@<vehicle id>")."""
-        type_id = str(self.sumo.api.vehicle.getTypeID(vehicle_id))
-        return type_id.removesuffix(f"@{vehicle_id}")
-
-    def take_over(self, vehicle_id: str, size: tuple[float, float]
-                  ) -> tuple[float, float, float, float]:
-        """Take a vehicle SUMO drives out of its control (from now on moved by `move_xy`),
-        its body `size` (length, width) m; returns its Cartesian centre pose and speed now
-        (x m, y m, heading rad, m/s)."""
-        x, y, heading = self.sumo.take_over(vehicle_id, size)
-        return x, y, heading, float(self.sumo.api.vehicle.getSpeed(vehicle_id))
-
-    def hand_back(self, vehicle_id: str) -> None:
-        """SUMO drives a vehicle taken over again."""
-        self.sumo.hand_back(vehicle_id)
-
-    def set_blinker(self, vehicle_id: str, direction: int) -> None:
-        """A controlled vehicle's blinker: -1 right, 0 off, +1 left."""
-        self.sumo.set_blinker(vehicle_id, direction)
-
-    def collisions(self) -> set[tuple[str, ...]]:
-        """Every collision SUMO reported in its last step (sorted id pairs)."""
-        return {tuple(sorted(p)) for p in self.sumo.collisions()}
 
     def read_all(self) -> TrafficSnapshot:
         """Every vehicle on the network, accelerations and signals included."""
