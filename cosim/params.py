@@ -62,6 +62,10 @@ class RoadParams:
     # m, s (x on the straight road) where lane k ends: an acceleration lane, a lane drop;
     # a lane not listed, or listed as inf, runs on to the end of the route
     lane_ends: tuple[float, ...] = ()
+    # m, s where lane k begins beside the others: on a route from an on-ramp the
+    # mainline's lanes, on one leaving over an off-ramp the deceleration lane; a lane not
+    # listed, or listed as -inf, is there from the route's start
+    lane_begins: tuple[float, ...] = ()
 
     @property
     def n_lanes(self) -> int:
@@ -74,6 +78,10 @@ class RoadParams:
     def lane_end(self, lane: int) -> float:
         """m, s where `lane` ends (inf: it runs to the end of the route)."""
         return self.lane_ends[lane] if lane < len(self.lane_ends) else math.inf
+
+    def lane_begin(self, lane: int) -> float:
+        """m, s where `lane` begins beside the others (-inf: at the route's start)."""
+        return self.lane_begins[lane] if lane < len(self.lane_begins) else -math.inf
 
     def lane_of(self, y: float) -> int:
         """The lane whose strip holds global y (clipped to the road)."""

@@ -88,12 +88,10 @@ class LaneTable:
         return self.track.pieces[int(self._piece_index(s))]
 
 
-def lane_tables(tracks: tuple[Track, ...], reference: Track, frame: Any,
-                net: Any) -> tuple[LaneTable, ...]:
-    """Every track's table in `frame`, whose d = 0 is the reference track's right border
-    on the route's first edge."""
-    d_ref = reference.pieces[0].width / 2.0  # d = 0 on its right border (see road.frame)
-    ref_lane = {p.edge: p for p in reference.pieces if not p.internal}
+def lane_tables(tracks: tuple[Track, ...], reference: dict[str, tuple[TrackPiece, float]],
+                frame: Any, net: Any) -> tuple[LaneTable, ...]:
+    """Every track's table in `frame`; `reference`: route edge id -> (the reference lane
+    on it, d of its centre) (cosim.road.road.reference_lanes)."""
     tables = []
     for track in tracks:
         n = len(track.pieces)
@@ -108,7 +106,8 @@ def lane_tables(tracks: tuple[Track, ...], reference: Track, frame: Any,
         centre = np.full(n, np.nan)
         for k, piece in enumerate(track.pieces):
             if not piece.internal:
-                centre[k] = _edge_offset(net, piece, ref_lane[piece.edge], d_ref)
+                ref, d_ref = reference[piece.edge]
+                centre[k] = _edge_offset(net, piece, ref, d_ref)
         d0, d1 = centre.copy(), centre.copy()
         for k, piece in enumerate(track.pieces):
             if piece.internal:

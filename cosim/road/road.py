@@ -30,7 +30,14 @@ from cosim.road.frame import (
 )
 from cosim.road.lanes import LaneTable, lane_tables
 from cosim.road.route import Route, make_route
-from cosim.road.tracks import Track, follow_tracks, lateral_jump, reference_track
+from cosim.road.tracks import (
+    LeadIn,
+    Track,
+    TrackPiece,
+    follow_tracks,
+    lateral_jump,
+    reference_tracks,
+)
 
 
 @dataclass(frozen=True)
@@ -42,6 +49,12 @@ class Road:
     reference: Track  # the frame's reference track
     frame: StraightFrame | ArcFrame
     lanes: tuple[LaneTable, ...]  # in track id order (ids may skip a lane cars may not use)
+    lead_in: LeadIn | None = None  # the reference's lead-in (a route from an on-ramp, ...)
+
+    @property
+    def carriageway(self) -> int:
+        """Route index of the edge whose lanes are the SV's (cosim.road.tracks)."""
+        return 0 if self.lead_in is None else self.lead_in.edge
 
     @property
     def max_deviation(self) -> float:
@@ -147,6 +160,45 @@ def _where_on(route: Route, track: Track, x: float, y: float) -> str:
                    if step >= 0.05 else "")
 
 
+def reference_lanes(ref: Track, lead: LeadIn | None) -> dict[str, tuple[TrackPiece, float]]:
+    """Route edge id -> (the reference's lane on it, d of that lane's centre): the
+    reference track's, its centre half its width left of d = 0; before the carriageway
+    edge, the lead-in's, `shift` to the right of the reference line."""
+    half = ref.pieces[0].width / 2.0
+    lanes = {p.edge: (p, half) for p in ref.pieces if not p.internal}
+    if lead is not None:
+        lanes |= {p.edge: (p, half - lead.shift) for p in lead.pieces() if not p.internal}
+    return lanes
+
+
+def reference_line(ref: Track, lead: LeadIn | None) -> np.ndarray:
+    """m, the polyline the frame smooths: the reference track's centre line, led in by the
+    lead-in's shifted `shift` to its left (the line where the reference's lane would run
+    beside it)."""
+    points = np.array(ref.shape())
+    if lead is None:
+        return points
+    before = Track(lead.track.id, lead.pieces()).shape()
+    shifted = shift_left(np.array(before), lead.shift)
+    if math.dist(tuple(shifted[-1]), tuple(points[0])) < 1e-9:
+        shifted = shifted[:-1]
+    return np.vstack([shifted, points])
+
+
+def shift_left(points: np.ndarray, amount: float) -> np.ndarray:
+    """m, the polyline `points` moved `amount` m to its left (negative: right), each
+    vertex along the bisector of its two segments (a parallel line at the vertices)."""
+    seg = np.diff(points, axis=0)
+    seg = seg / np.maximum(np.hypot(seg[:, 0], seg[:, 1]), 1e-12)[:, None]
+    tangent = np.vstack([seg[:1], seg[:-1] + seg[1:], seg[-1:]])
+    tangent /= np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-12)[:, None]
+    normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+    # at a vertex the bisector's offset is amount / cos(half the turn)
+    cos_half = np.ones(len(points))
+    cos_half[1:-1] = np.maximum(np.einsum("ij,ij->i", tangent[1:-1], seg[1:]), 0.2)
+    return points + normal * (amount / cos_half)[:, None]
+
+
 def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
               limits: FrameLimits = DEFAULT_LIMITS, source: str | None = None) -> Road:
     """The road of `edges` (None: the network's only edge) on `network`. InputError
@@ -157,7 +209,7 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
     tracks = follow_tracks(route)
     if not tracks:
         raise InputError(src, "route", list(route.edges), "a route with a lane a car may use")
-    ref = reference_track(route, tracks, src)
+    ref, lead = reference_tracks(route, tracks, src)
     first = ref.pieces[0]
     half = first.width / 2.0
     if _straight(route, ref):
@@ -165,9 +217,10 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
         frame: StraightFrame | ArcFrame = StraightFrame(x0, yc - half, x1 - x0,
                                                         limits.extension)
     else:
-        frame = smooth(np.array(ref.shape()), limits, d_offset=half, source=src,
-                       where=functools.partial(_where_on, route, ref))
-    tables = lane_tables(tracks, ref, frame, route.net)
+        line = ref if lead is None else Track(ref.id, (*lead.pieces(), *ref.pieces))
+        frame = smooth(reference_line(ref, lead), limits, d_offset=half, source=src,
+                       where=functools.partial(_where_on, route, line))
+    tables = lane_tables(tracks, reference_lanes(ref, lead), frame, route.net)
     if any(not math.isfinite(v) for t in tables for v in (*t.s_start, *t.s_end)):
         raise InputError(src, "route", list(route.edges),
                          "a route whose lanes all lie within the reference line's reach "
@@ -178,4 +231,4 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
                          f"lanes whose centre lines stay within {limits.max_deviation:g} m of "
                          f"SUMO's lane shapes (track {worst.id}, from {worst.track.name}, "
                          "does not)")
-    return Road(route, tracks, ref, frame, tables)
+    return Road(route, tracks, ref, frame, tables, lead)

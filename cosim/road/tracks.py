@@ -18,8 +18,17 @@ route's end. A track that ends before the route's end *exits* when its last lane
 on onto an edge the route does not take (the lane that leaves at a diverge, onto an
 off-ramp), rather than ending or merging into a lane of the route's next edge.
 
-Track ids: the tracks present on the route's first edge have SUMO's index there
-(0 the rightmost: the paper's Lane 1/2/3 are tracks 0/1/2); tracks that start later are
+The route's *carriageway edge* is the edge whose lanes are the SV's: its first edge,
+unless no lane of the first edge runs to the route's last edge but one runs beside a lane
+that does, from where that lane begins: a route that starts on an on-ramp (its lane runs
+on as the acceleration lane beside the mainline, whose lanes begin on the edge that
+carries it) or leaves over an off-ramp (the mainline's lanes run beside the
+deceleration lane, which begins along the route and runs on onto the ramp). Then the
+carriageway edge is where the first lane that runs to the route's end begins, and the
+lane of the first edge beside it there is the reference's *lead-in* (`reference_tracks`).
+
+Track ids: the tracks present on the carriageway edge have SUMO's index there
+(0 the rightmost: the paper's Lane 1/2/3 are tracks 0/1/2); the other tracks are
 numbered on from there, in driving order and right to left. On a one-edge network
 track id = SUMO lane index.
 """
@@ -27,7 +36,8 @@ track id = SUMO lane index.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 from cosim.errors import InputError
@@ -176,8 +186,34 @@ def follow_tracks(route: Route) -> tuple[Track, ...]:
                 now[j] = next_id
                 next_id += 1
         open_by_index = now
-    return tuple(Track(tid, tuple(pieces), _exits(route, pieces[-1]))
-                 for tid, pieces in sorted(building.items()))
+    tracks = [Track(tid, tuple(pieces), _exits(route, pieces[-1]))
+              for tid, pieces in sorted(building.items())]
+    k = carriageway(route, tracks)
+    if k == 0:
+        return tuple(tracks)
+    # numbered by SUMO's index on the carriageway edge, the others on from there
+    on = {t.id: p.index for t in tracks if (p := t.piece_on(route.edges[k])) is not None}
+    ids = dict(on)
+    next_id = max(on.values()) + 1
+    for t in tracks:
+        if t.id not in ids:
+            ids[t.id] = next_id
+            next_id += 1
+    return tuple(sorted((replace(t, id=ids[t.id]) for t in tracks), key=lambda t: t.id))
+
+
+def carriageway(route: Route, tracks: Sequence[Track]) -> int:
+    """Route index of the carriageway edge (module docstring): 0 unless no lane of the
+    first edge runs to the route's last edge and one of them runs beside a lane that
+    does, from where that lane begins (the earliest such)."""
+    last = len(route.edges) - 1
+    through = [t for t in tracks if t.last_edge == last]
+    if not through or any(t.first_edge == 0 for t in through):
+        return 0
+    k = min(t.first_edge for t in through)
+    lead = any(t.first_edge == 0 and t.last_edge >= k and t.piece_on(route.edges[k])
+               is not None for t in tracks)
+    return k if lead else 0
 
 
 def _exits(route: Route, last: TrackPiece) -> bool:
@@ -192,24 +228,78 @@ def _exits(route: Route, last: TrackPiece) -> bool:
                for c in lane.getOutgoing())
 
 
+@dataclass(frozen=True)
+class LeadIn:
+    """The reference's lead-in: on a route whose carriageway edge is not its first, the
+    lane of the first edge beside the reference where the reference begins; before it
+    the reference line runs `shift` m to the left of this track (a ramp's lane)."""
+
+    track: Track
+    shift: float  # m, the reference's centre left of this track's on the carriageway edge
+    edge: int  # route index of the carriageway edge (where the reference begins)
+
+    def pieces(self) -> tuple[TrackPiece, ...]:
+        """Its pieces before the carriageway edge (junction lanes into it included)."""
+        return tuple(p for p in self.track.pieces if p.route_index < self.edge)
+
+
+def reference_tracks(route: Route, tracks: tuple[Track, ...], source: str | None = None
+                     ) -> tuple[Track, LeadIn | None]:
+    """The frame's reference: the rightmost track that runs from the carriageway edge to
+    the route's last; on a route whose carriageway edge is not its first, also its
+    `LeadIn` (the nearest lane of the first edge beside it there, on a tie the right).
+    Raises InputError if no lane runs through, saying why (`reference_track`)."""
+    k = carriageway(route, tracks)
+    if k == 0:
+        return reference_track(route, tracks, source), None
+    last = len(route.edges) - 1
+    edge = route.edges[k]
+    ref = min((t for t in tracks if t.first_edge == k and t.last_edge == last),
+              key=lambda t: t.pieces[0].index)
+    at = ref.pieces[0]
+    lead = min((t for t in tracks if t.first_edge == 0 and t.last_edge >= k
+                and t.piece_on(edge) is not None),
+               key=lambda t: (abs(_on(t, edge).index - at.index), _on(t, edge).index))
+    return ref, LeadIn(lead, side_gap(route.net, edge, _on(lead, edge).index, at.index), k)
+
+
+def _on(track: Track, edge: str) -> TrackPiece:
+    piece = track.piece_on(edge)
+    assert piece is not None
+    return piece
+
+
+def side_gap(net: Any, edge: str, i: int, j: int) -> float:
+    """m, how far the centre of lane `j` of `edge` lies left of lane `i`'s (SUMO places
+    an edge's lanes side by side)."""
+    widths = {ln.getIndex(): float(ln.getWidth()) for ln in net.getEdge(edge).getLanes()}
+    if i == j:
+        return 0.0
+    lo, hi = sorted((i, j))
+    gap = 0.5 * widths[lo] + sum(widths[m] for m in range(lo + 1, hi)) + 0.5 * widths[hi]
+    return gap if j > i else -gap
+
+
 def reference_track(route: Route, tracks: tuple[Track, ...], source: str | None = None) -> Track:
-    """The rightmost track that runs through the whole route: the road frame's reference.
+    """The rightmost track that runs through the whole route: the road frame's reference
+    on a route whose carriageway edge is its first (`reference_tracks` for any route).
     Raises InputError if no lane runs from the route's first edge to its last, saying
-    why: the route leaves its first edge's lanes at a diverge (an exit over an off-ramp)
-    or starts on lanes that end (an on-ramp's, before its lane runs beside the
-    mainline)."""
+    why: the route leaves its first edge's lanes at a diverge with no deceleration lane
+    beside them, or they end before a lane that runs on begins beside them."""
     through = [t for t in tracks if t.first_edge == 0 and t.last_edge == len(route.edges) - 1]
     if not through:
         raise InputError(source or str(route.path), "route", list(route.edges),
                          "a route along which at least one lane runs from the first edge to "
-                         f"the last (no lane of it does; {_why_none_runs_through(route, tracks)})")
+                         "the last, or from beside them (no lane of it does; "
+                         f"{_why_none_runs_through(route, tracks)})")
     return min(through, key=lambda t: t.pieces[0].index)
 
 
 def _why_none_runs_through(route: Route, tracks: tuple[Track, ...]) -> str:
-    """Why none of the lanes of the route's first edge reaches its last edge, in words:
-    where the last of them ends, they go on to another edge than the route's next (the
-    route leaves them over an off-ramp), or they end there (an acceleration lane)."""
+    """Why none of the lanes of the route's first edge reaches its last edge, nor runs
+    beside a lane that does where that lane begins, in words: where the last of them
+    ends, they go on to another edge than the route's next (the route leaves them at a
+    diverge), or they end there (an on-ramp's acceleration lane, a lane drop)."""
     first = [t for t in tracks if t.first_edge == 0]
     k = max((t.last_edge for t in first), default=0)
     here, onward = route.edges[k], route.edges[k + 1]
@@ -219,8 +309,8 @@ def _why_none_runs_through(route: Route, tracks: tuple[Track, ...]) -> str:
                         if c.getTo().getID() != onward and c.getToLane().allows(VCLASS)})
     if elsewhere:
         return (f"its lanes on {here} go on to {', '.join(elsewhere)}, and the route leaves "
-                f"them there for {onward}: a route leaving the mainline over an off-ramp is "
-                f"not supported yet: end the route before the diverge (on {here} at the "
-                "latest)")
-    return ("a route starting on an on-ramp before its lane runs beside the mainline is not "
-            "supported: start it on the edge that carries the acceleration lane")
+                f"them there for {onward} with no lane beside them that runs on to it (a "
+                "deceleration lane): end the route before the diverge (on "
+                f"{here} at the latest)")
+    return (f"the lanes of its first edge end on {here} before a lane that runs to the "
+            f"route's last edge runs beside them: start the route on {here} or end it there")

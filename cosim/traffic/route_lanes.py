@@ -110,20 +110,28 @@ def through_tracks(route_road: Road) -> tuple[LaneTable, ...]:
 
 
 def sv_tracks(route_road: Road) -> tuple[LaneTable, ...]:
-    """The SV's lanes: the tracks present on the route's first edge (running through or
-    ending on the route), in track id order (SUMO's lane index on that edge)."""
+    """The SV's lanes: the tracks present on the route's carriageway edge (its first
+    edge, or where the mainline begins on a route from an on-ramp or the deceleration
+    lane on one that leaves over an off-ramp: cosim.road.tracks), running through or
+    ending on the route, in track id order (SUMO's lane index on that edge)."""
+    k = route_road.carriageway
     return tuple(t for t in route_road.lanes
-                 if t.track.first_edge == 0 and not t.track.pieces[0].internal)
+                 if t.track.first_edge <= k <= t.track.last_edge
+                 and not t.track.pieces[0].internal)
 
 
 def _feeding(route_road: Road, tracks: Sequence[LaneTable]) -> Iterator[tuple[LaneTable, Any]]:
     """(track, sumolib connection) of each connection SUMO makes into the first lane of
-    each of `tracks` from the edges before the route's first edge, in SUMO's order (none
-    on a route that starts where the network does)."""
-    first = route_road.route.edge(0)
+    each of `tracks` from the edges before the track's first edge (the route's first
+    edge, or the carriageway edge where the mainline begins beside an on-ramp's lane)
+    that are not on the route, in SUMO's order (none on a route that starts where the
+    network does)."""
     for table in tracks:
+        first = route_road.route.edge(table.track.first_edge)
         lane = table.track.pieces[0].lane
         for edge in first.getIncoming():
+            if edge.getID() in route_road.route.edges:
+                continue
             for conn in edge.getConnections(first):
                 if conn.getToLane().getID() == lane:
                     yield table, conn
@@ -153,6 +161,7 @@ class Upstream:
     edge: str  # SUMO edge id
     index: int  # SUMO lane index on it
     length: float  # m, SUMO's length of the lane
+    joins: int = 0  # route index of the edge it feeds (the track's first)
 
 
 def upstream_entries(route_road: Road, tracks: Sequence[LaneTable]) -> dict[int, Upstream]:
@@ -163,7 +172,7 @@ def upstream_entries(route_road: Road, tracks: Sequence[LaneTable]) -> dict[int,
         if table.id not in entries:
             source = conn.getFromLane()
             entries[table.id] = Upstream(source.getEdge().getID(), source.getIndex(),
-                                         float(source.getLength()))
+                                         float(source.getLength()), table.track.first_edge)
     return entries
 
 
@@ -209,9 +218,11 @@ def road_params(route_road: Road, base: RoadParams | None = None,
     through = {t.id for t in through_tracks(route_road)}
     below = sum(1 for t in lanes if t.id < route_road.reference.id)
     ends = tuple(math.inf if t.id in through else t.end for t in lanes)
+    begins = tuple(t.begin if t.track.first_edge > 0 else -math.inf for t in lanes)
     return RoadParams(lane_width=width, speed_bands=expand_bands(route_road, base.speed_bands),
                       mu=base.mu, y_right=-below * width if below else 0.0,
-                      lane_ends=ends if any(math.isfinite(e) for e in ends) else ())
+                      lane_ends=ends if any(math.isfinite(e) for e in ends) else (),
+                      lane_begins=begins if any(math.isfinite(b) for b in begins) else ())
 
 
 def exit_lanes(route_road: Road) -> tuple[int, ...]:
@@ -284,7 +295,8 @@ class RouteLanes:
             return self.route_id(api, place.route_index)
         rid = f"{ROUTE_ID}^{place.edge}"
         if rid not in self.extra_routes:
-            api.route.add(rid, [place.edge, *self.route_road.route.edges])
+            joins = next(u.joins for u in self.upstream.values() if u.edge == place.edge)
+            api.route.add(rid, [place.edge, *self.route_road.route.edges[joins:]])
             self.extra_routes.add(rid)
         return rid
 

@@ -9,11 +9,12 @@ import pytest
 
 from cosim.errors import InputError
 from cosim.road.route import make_route
-from cosim.road.tracks import follow_tracks, reference_track
+from cosim.road.tracks import carriageway, follow_tracks, reference_track, reference_tracks
 from cosim.traffic.network import NETWORK_DIR
 
 sys.path.insert(0, str(Path(__file__).parent))
 from handdrawn import netconvert  # noqa: E402
+from ramps import build as build_ramps  # noqa: E402
 
 CURVED = NETWORK_DIR / "curved_motorway.net.xml"
 ROUTE = ("e1", "e2", "e3", "e4")
@@ -85,45 +86,78 @@ def _exit(tmp: Path) -> Path:
 def _refusal(network: Path, edges: tuple[str, ...]) -> str:
     route = make_route(network, edges)
     with pytest.raises(InputError) as err:
-        reference_track(route, follow_tracks(route), "s.toml")
+        reference_tracks(route, follow_tracks(route), "s.toml")
     assert err.value.key == "route" and "\n" not in str(err.value)
     return str(err.value)
 
 
-def test_a_route_leaving_over_an_off_ramp_is_refused_as_an_exit(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def ramps(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return build_ramps(tmp_path_factory.mktemp("ramps"))
+
+
+def test_a_route_leaving_over_an_off_ramp_runs_beside_the_deceleration_lane(
+        tmp_path: Path) -> None:
+    """AB BC CE: none of AB's lanes reaches CE, but BC's deceleration lane, which runs on
+    onto the off-ramp, begins beside them: BC is the carriageway edge, its lanes the SV's
+    (numbered by SUMO's index there), the deceleration lane the reference, led in along
+    AB's right lane one lane width to its right."""
     net = _exit(tmp_path)
-    text = _refusal(net, ("AB", "BC", "CE"))
-    assert text.endswith(
-        "(no lane of it does; its lanes on BC go on to CD, and the route leaves them there "
-        "for CE: a route leaving the mainline over an off-ramp is not supported yet: end the "
-        "route before the diverge (on BC at the latest))"), text
-    assert "on-ramp" not in text
-    # the mainline past the exit, and the route ended before the diverge, are roads
+    route = make_route(net, ("AB", "BC", "CE"))
+    tracks = follow_tracks(route)
+    assert carriageway(route, tracks) == 1
+    assert [(t.id, _lanes(t)[0][0], t.exits) for t in tracks] == [
+        (0, "BC_0", False), (1, "AB_0", True), (2, "AB_1", True)]
+    ref, lead = reference_tracks(route, tracks)
+    assert ref.id == 0 and lead is not None and lead.track.id == 1 and lead.edge == 1
+    assert lead.shift == pytest.approx(-3.2)  # netconvert's default width, to the right
+    assert [p.edge for p in lead.pieces()] == ["AB", ":B_0"]
+    # the mainline past the exit, and the route ended before the diverge: as before
     for edges in (("AB", "BC", "CD"), ("AB", "BC")):
         route = make_route(net, edges)
-        assert reference_track(route, follow_tracks(route)).name == "AB_0"
+        tracks = follow_tracks(route)
+        assert carriageway(route, tracks) == 0
+        assert reference_tracks(route, tracks)[0].name == "AB_0"
+        assert reference_tracks(route, tracks)[1] is None
 
 
-def test_a_scenario_leaving_over_an_off_ramp_is_refused_in_one_line_exit_2(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_route_from_an_on_ramp_runs_beside_the_mainline_where_it_begins(
+        ramps: Path) -> None:
+    """onramp acc b: the ramp's lane runs on as the acceleration lane acc_0, where the
+    mainline's lanes begin (on this route): acc is the carriageway edge; the mainline's
+    right lane the reference, led in along the ramp one lane width to its left."""
+    route = make_route(ramps, ("onramp", "acc", "b"))
+    tracks = follow_tracks(route)
+    assert carriageway(route, tracks) == 1
+    assert [(t.id, _lanes(t)) for t in tracks] == [
+        (0, [("onramp_0", 0), (":g1_0_0", 0), ("acc_0", 0)]),
+        (1, [("acc_1", 1), (":e1_0_0", 0), ("b_0", 0)]),
+        (2, [("acc_2", 2), (":e1_0_1", 1), ("b_1", 1)])]
+    ref, lead = reference_tracks(route, tracks)
+    assert ref.id == 1 and lead is not None and lead.track.id == 0
+    assert lead.shift == pytest.approx(3.75)
+
+
+def test_a_route_from_an_on_ramp_over_an_off_ramp_is_refused_in_one_line(ramps: Path) -> None:
+    text = _refusal(ramps, ("onramp", "acc", "b", "dec", "offramp"))
+    assert text.endswith(
+        "(no lane of it does; the lanes of its first edge end on acc before a lane that runs "
+        "to the route's last edge runs beside them: start the route on acc or end it "
+        "there)"), text
+
+
+def test_a_scenario_from_an_on_ramp_over_an_off_ramp_is_refused_in_one_line_exit_2(
+        tmp_path: Path, ramps: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from cosim.cli import main
 
     scenario = tmp_path / "s.toml"
     scenario.write_text(
-        f'[scenario]\nname = "exit"\nduration_s = 5.0\n[road]\nnetwork = "{_exit(tmp_path)}"'
-        '\nroute = ["AB", "BC", "CE"]\n[sv]\nlane = 0\nposition_m = 50.0\nspeed_kmh = 100.0\n',
-        encoding="utf-8")
+        f'[scenario]\nname = "both"\nduration_s = 5.0\n[road]\nnetwork = "{ramps}"'
+        '\nroute = ["onramp", "acc", "b", "dec", "offramp"]\n[sv]\nedge = "onramp"\n'
+        'lane = 0\nposition_m = 50.0\nspeed_kmh = 80.0\n', encoding="utf-8")
     assert main(["run", str(scenario), "--no-figures", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"cosim run: error: {scenario}: road.route = ['AB', 'BC', 'CE']: "
-                          "a route along which at least one lane runs"), err
-    assert "\n" not in err and err.endswith("(on BC at the latest))"), err
-
-
-def test_a_route_starting_on_an_on_ramp_keeps_the_on_ramp_message() -> None:
-    text = _refusal(NETWORK_DIR / "onramp.net.xml", ("ramp", "acc", "main1"))
-    assert text.endswith(
-        "(no lane of it does; a route starting on an on-ramp before its lane runs beside the "
-        "mainline is not supported: start it on the edge that carries the acceleration "
-        "lane)"), text
-    assert "off-ramp" not in text
+    assert err.startswith(f"cosim run: error: {scenario}: road.route = ['onramp', 'acc', 'b', "
+                          "'dec', 'offramp']: a route along which at least one lane runs"), err
+    assert "\n" not in err and err.endswith("start the route on acc or end it there)"), err
+    assert not (tmp_path / "o").exists()

@@ -391,3 +391,43 @@ def test_the_lanes_feeding_the_routes_first_edge_map_to_its_tracks() -> None:
     assert "ramp_0" not in lanes.sv_lane and upstream
     straight = RouteLanes(load_road(NETWORK_DIR / "highway.net.xml"))
     assert set(straight.sv_lane) == {p.lane for t in straight.sv for p in t.track.pieces}
+
+
+def test_a_route_from_an_on_ramp_and_one_over_an_off_ramp_give_lanes_that_begin(
+        tmp_path: Path) -> None:
+    """The SV's lanes are those of the carriageway edge (cosim.road.tracks): from the
+    on-ramp, the ramp's lane (lane 0, to the acceleration lane's end) and the mainline's
+    lanes, which begin beside it; over the off-ramp, the deceleration lane (lane 0, on to
+    the ramp's end), which begins beside the mainline's, which exit. The mainline's
+    upstream edge feeds the mainline where it begins (its traffic's route joins there)."""
+    sys.path.insert(0, str(Path(__file__).parents[1] / "road"))
+    from ramps import build
+
+    from cosim.params import RoadParams
+    from cosim.traffic.route_lanes import exit_lanes, road_params
+
+    net = build(tmp_path)
+    on = load_road(net, ("onramp", "acc", "b"))
+    lanes = RouteLanes(on)
+    rp = road_params(on, RoadParams())
+    acc = on.lane(1).begin
+    assert [t.id for t in lanes.sv] == [0, 1, 2] and [t.id for t in lanes.through] == [1, 2]
+    assert rp.y_right == -3.75 and rp.lane_begins[0] == -math.inf
+    assert rp.lane_begins[1:] == pytest.approx((acc, acc), abs=0.05)
+    assert rp.lane_ends == (on.lane(0).end, math.inf, math.inf)
+    assert rp.lane_end(0) - acc == pytest.approx(194.5, abs=0.5)  # the acceleration lane
+    assert on.lane(0).begin == pytest.approx(0.0, abs=1e-6) and acc > 200.0
+    # the ramp's lane lies one lane right of the mainline's, along the ramp too
+    s = np.linspace(0.0, on.lane(0).end, 50)
+    assert np.allclose(on.lane(0).centre(s), -1.875) and on.lane(0).deviation < 0.05
+    up = lanes.upstream[1]
+    assert (up.edge, up.index, up.joins) == ("a", 0, 1)
+    assert "a_0" in lanes.sv_lane and lanes.sv_lane["a_0"] == 1
+    off = load_road(net, ("b", "dec", "offramp"))
+    rp = road_params(off, RoadParams(speed_bands=((20.0, 25.0),) * 3))
+    dec = off.lane(0).begin
+    assert rp.y_right == 0.0 and rp.lane_begins == (dec, -math.inf, -math.inf)
+    assert rp.lane_ends == (math.inf, off.lane(1).end, off.lane(2).end)
+    assert exit_lanes(off) == (1, 2) and off.lane(1).end - dec == pytest.approx(194.5, abs=0.5)
+    # nothing changes on a route along the mainline
+    assert road_params(load_road(net, ("a", "acc", "b")), RoadParams()).lane_begins == ()

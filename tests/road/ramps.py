@@ -1,0 +1,73 @@
+"""A small motorway with an on-ramp and an off-ramp as netconvert connects them, for the
+tests of routes that start on an on-ramp and leave over an off-ramp.
+
+Along +x, two lanes of 3.75 m (the left borders at y = 7.5, lanes spread to the right):
+
+    a (0-600) -> acc (600-800, 3 lanes) -> b (800-1500) -> dec (1500-1700, 3 lanes) -> c (-2500)
+    onramp -> acc (lane 0, the acceleration lane: no connection onward)
+    dec (lane 0, the deceleration lane, begins at x = 1500) -> offramp
+
+The ramps are drawn as netconvert users draw them: a straight at 12 degrees and a curve of
+R 500 m drawn every 10 m, tangent to the mainline at the gore (the on-ramp's lane runs on
+as the acceleration lane, the deceleration lane runs on as the off-ramp's)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from handdrawn import netconvert
+
+RADIUS = 500.0  # m, the ramps' curve
+TURN = math.radians(12.0)  # rad, the ramps' angle to the mainline before the curve
+LEAD = 150.0  # m, the ramps' straight
+STEP = 10.0  # m, vertex spacing on the curves
+SPEED = 33.33  # m/s, the mainline (120 km/h)
+RAMP_SPEED = 22.22  # m/s, the ramps (80 km/h)
+
+
+def _curve(x_gore: float, into: bool) -> list[tuple[float, float]]:
+    """The ramp's left border from its far end to the gore at (x_gore, 0) (`into`: the
+    on-ramp, else from the gore away: the off-ramp)."""
+    n = int(round(RADIUS * TURN / STEP))
+    phis = [TURN * i / n for i in range(n + 1)]
+    arc = [(x_gore + (-1 if into else 1) * RADIUS * math.sin(p), -RADIUS * (1 - math.cos(p)))
+           for p in phis]
+    x, y = arc[-1]
+    far = (x + (-1 if into else 1) * LEAD * math.cos(TURN), y - LEAD * math.sin(TURN))
+    points = [*arc, far]
+    return points[::-1] if into else points
+
+
+def build(directory: Path) -> Path:
+    """`directory/ramps.net.xml`, built by netconvert."""
+    top = 7.5
+    xs = {"n0": 0.0, "g1": 600.0, "e1": 800.0, "d1": 1500.0, "g2": 1700.0, "n5": 2500.0}
+    on, off = _curve(600.0, True), _curve(1700.0, False)
+    nodes = "".join(f'<node id="{k}" x="{x:g}" y="{top:g}" type="priority"/>'
+                    for k, x in xs.items())
+    nodes += (f'<node id="r0" x="{on[0][0]:.2f}" y="{on[0][1]:.2f}" type="priority"/>'
+              f'<node id="r9" x="{off[-1][0]:.2f}" y="{off[-1][1]:.2f}" type="priority"/>')
+
+    def main(eid: str, a: str, b: str, lanes: int) -> str:
+        return (f'<edge id="{eid}" from="{a}" to="{b}" numLanes="{lanes}" speed="{SPEED}" '
+                f'width="3.75" spreadType="right" '
+                f'shape="{xs[a]:g},{top:g} {xs[b]:g},{top:g}"/>')
+
+    def ramp(eid: str, a: str, b: str, points: list[tuple[float, float]]) -> str:
+        shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in points)
+        return (f'<edge id="{eid}" from="{a}" to="{b}" numLanes="1" speed="{RAMP_SPEED}" '
+                f'width="3.75" spreadType="right" shape="{shape}"/>')
+
+    edges = (main("a", "n0", "g1", 2) + main("acc", "g1", "e1", 3) + main("b", "e1", "d1", 2)
+             + main("dec", "d1", "g2", 3) + main("c", "g2", "n5", 2)
+             + ramp("onramp", "r0", "g1", on) + ramp("offramp", "g2", "r9", off))
+    links = [("a", "acc", [(0, 1), (1, 2)]), ("onramp", "acc", [(0, 0)]),
+             ("acc", "b", [(1, 0), (2, 1)]), ("b", "dec", [(0, 1), (1, 2)]),
+             ("dec", "c", [(1, 0), (2, 1)]), ("dec", "offramp", [(0, 0)])]
+    cons = "".join(f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
+                   for a, b, pairs in links for i, j in pairs)
+    (directory / "ramps.con.xml").write_text(f"<connections>{cons}</connections>",
+                                             encoding="utf-8")
+    return netconvert(directory, f"<nodes>{nodes}</nodes>", f"<edges>{edges}</edges>",
+                      "ramps", ("-x", "ramps.con.xml"))
