@@ -105,6 +105,7 @@ class SVLaneEnds:
         self.sv_length = sv_length
         self.end_s = tuple(lanes.end_s(k) for k in range(lanes.n_lanes))  # m, per lane
         self.any = any(math.isfinite(e) for e in self.end_s)  # a lane ends on this road
+        self.begin_s = tuple(lanes.begin_s(k) for k in range(lanes.n_lanes))  # m, per lane
         self.due_lane = -1  # the lane whose mandatory change became due (-1: none)
         self.due_horizon = 0.0  # m, the longest look-ahead since
 
@@ -119,7 +120,7 @@ class SVLaneEnds:
         """The end of the SV's `lane` once the mandatory change is due, else None; once
         due it stays due on that lane, its look-ahead the longest it had."""
         end = self.ahead(lane, sv.x, sv.vx)
-        if end is None:
+        if end is None or not self.begun(end.target, sv.x):
             return None
         if self.due_lane != lane:
             self.due_horizon = 0.0
@@ -140,6 +141,17 @@ class SVLaneEnds:
         for a change the SV wants (a mandatory change would have to leave it again)."""
         end = self.ahead(lane, sv.x, sv.vx)
         return end is not None and end.due
+
+    def begun(self, lane: int, x: float) -> bool:
+        """`lane` runs beside the whole SV at centre x (m): a lane that begins along the
+        route (the mainline beside an on-ramp's lane, a deceleration lane) is no lane to
+        change into before its start."""
+        return x - 0.5 * self.sv_length >= self.begin_s[lane]
+
+    def closed(self, lane: int, sv: SVState) -> bool:
+        """No lane to change into by choice: `lane` ends soon (`ends_soon`) or has not
+        begun beside the SV (`begun`)."""
+        return self.ends_soon(lane, sv) or not self.begun(lane, sv.x)
 
     def x_limit(self, end: LaneEnd | None) -> float:
         """m, the latest centre x of the SV at the end of a manoeuvre out of a lane

@@ -67,6 +67,10 @@ class LaneLayout:
         """m, s where a lane ends (inf: it runs to the end of the route)."""
         return self.road.lane_end(lane)
 
+    def begin_s(self, lane: int) -> float:
+        """m, s where a lane begins beside the others (-inf: at the route's start)."""
+        return self.road.lane_begin(lane)
+
     def end_speed(self, origin: int, target: int) -> float:
         """m/s, the band rule's speed at the end of a change from `origin` to `target`
         (Section 3.1, Fig. 5)."""

@@ -235,6 +235,8 @@ class Manoeuvre:
         the lane and ask again after `retry_interval` (waiting)."""
         from cosim.planning.planner import SVPlanState
 
+        if not self.ends.begun(target, sv.x):
+            return  # a lane that begins ahead: asked again once it runs beside the SV
         lane = self.lanes.lane_of(sv.y)
         limits = self.ends.limits(lane, sv, target, vxf, trigger == Trigger.MANDATORY)
         # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans

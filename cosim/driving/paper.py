@@ -78,7 +78,7 @@ class PaperPolicy:
             if target is not None:
                 trigger = Trigger.SCRIPTED
             elif (allow_decision and d.target_lane is not None
-                  and not self.ends.ends_soon(d.target_lane, sv)):
+                  and not self.ends.closed(d.target_lane, sv)):
                 target, trigger = d.target_lane, Trigger.DECISION
         trajectory = m.advance(t, sv, target, trigger, messages)
         return trajectory if trajectory is not None else self.following.reference(t, sv)

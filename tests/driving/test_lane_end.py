@@ -463,3 +463,32 @@ def test_the_gap_policy_lets_a_merging_tv_in(gap: float, tv_speed: float,
               road=replace(RAMP, lane_ends=()), lane=1)
     q.policy.update(0.0, ramp_tv_scene(q, 100.0 + HALF + gap + 2.16, tv_speed), q.inbox)
     assert p.policy.following.accel == q.policy.following.accel
+
+
+# ------------------------------------------------------------------ lanes that begin
+
+
+@pytest.mark.parametrize("name", ["paper", "gap"])
+def test_no_change_into_a_lane_before_it_begins_beside_the_sv(name: str) -> None:
+    """A route from an on-ramp: lane 0 (the ramp's lane, then the acceleration lane)
+    from the start, the mainline's lanes only from BEGIN on. The change out of lane 0 is
+    due long before (its end is 200 m on), but neither planned nor sought until the whole
+    SV is beside lane 1; then it is asked for as mandatory and flown, ending in time; a
+    scripted request for lane 1 before it waits the same way."""
+    begin = 100.0
+    road = replace(RAMP, lane_begins=(-math.inf, begin, begin, begin))
+    x0, v = 20.0, 20.0
+    d = Drive(name, scenario(v, requests=((0.5, 1),), road=road), x0, road=road)
+    ends = d.policy.manoeuvre.ends
+    assert not ends.begun(1, x0) and ends.begun(0, x0) and ends.begun(1, begin + HALF)
+    assert ends.due(0, d.sv) is None  # within its look-ahead, but lane 1 is not there yet
+    reach = (begin + HALF - x0) / v  # s, when the SV's rear passes BEGIN
+    d.run(reach - 0.1)
+    assert d.plans == [] and d.policy.manoeuvre.active is None
+    d.run(reach + 0.5)
+    assert d.plans and d.plans[0]["ok"] == 1
+    assert d.plans[0]["t_s"] == pytest.approx(reach, abs=DT + 1e-9)
+    lc = d.policy.manoeuvre.active
+    assert lc is not None and (lc.start_lane, lc.target_lane) == (0, 1)
+    assert lc.trigger == Trigger.MANDATORY
+    assert_plans_end_before_the_end(d)

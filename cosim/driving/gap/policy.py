@@ -208,6 +208,8 @@ class GapPolicy:
         end = self.ends.ahead(lane, sv.x, sv.vx)  # its lane ends: stop before it, change
         due = None if end is None else self.ends.due(lane, sv)
         scripted = self.manoeuvre.due_scripted(t, sv)
+        if scripted is not None and not self.ends.begun(scripted, sv.x):
+            scripted = None  # a lane that begins ahead: sought once it runs beside the SV
         if self.wanted is not None and (self.wanted[0] != lane or t > self.wanted[2]):
             self.wanted = None
         wanted = scripted if scripted is not None else (
@@ -242,7 +244,7 @@ class GapPolicy:
         d = gap_decision(following.view(sv), traffic, self.lanes,
                          GapRules(following.cfg, gap_cfg, self.follower), seeking)
         if (wants.wanted is None and d.target_lane is not None
-                and self.ends.ends_soon(d.target_lane, sv)):
+                and self.ends.closed(d.target_lane, sv)):
             # the rule's faster lane ends within the look-ahead: not a lane to change into
             d = gap_decision(following.view(sv), traffic, self.lanes,
                              GapRules(following.cfg, self.gap_cfg, self.follower),

@@ -1,0 +1,89 @@
+"""Routes whose SV lanes begin along the route, through the whole loop in real SUMO
+(plant, controller, moveToXY) on a netconvert motorway with ramps (tests/road/ramps.py):
+the SV starts on an on-ramp, drives it, enters the acceleration lane and merges into the
+mainline once it runs beside it; and it leaves the mainline over an off-ramp, changing
+into the deceleration lane once it begins, then driving onto the ramp."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim.run.loop import simulate
+from cosim.scenario.load import scenario_from_dict
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "road"))
+from ramps import build  # noqa: E402
+
+pytestmark = pytest.mark.sumo
+
+
+@pytest.fixture(scope="module")
+def network(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return build(tmp_path_factory.mktemp("ramps"))
+
+
+def _edges(result) -> list[str]:  # type: ignore[no-untyped-def]
+    return [result.edges[int(k)] for k in result.trace["edge"]]
+
+
+def _no_move_before(result, lane: int, begin: float) -> None:  # type: ignore[no-untyped-def]
+    """The SV keeps its lane's centre until its rear is past `begin` (m of s)."""
+    tr, half = result.trace, 0.5 * result.scenario.vehicle.length
+    before = np.asarray(tr["s_m"]) - half < begin
+    assert before.any()
+    centre = result.road.lane_center(lane)
+    assert np.max(np.abs(np.asarray(tr["d_m"])[before] - centre)) < 0.02
+
+
+def test_the_sv_drives_an_on_ramp_and_merges_into_the_mainline(
+        network: Path, tmp_path: Path) -> None:
+    doc = {"scenario": {"name": "from_onramp", "duration_s": 11.0, "seed": 2},
+           "road": {"network": str(network), "route": ["onramp", "acc", "b"], "mu": 0.8,
+                    "lane_speeds_kmh": [[60, 90], [90, 120]]},
+           "sv": {"edge": "onramp", "lane": 0, "position_m": 140.0, "speed_kmh": 80.0,
+                  "decision": False},
+           "traffic": {"density_veh_per_km_lane": 15.0, "length_m": 800.0},
+           "planner": {"policy": "gap", "replanning": True}}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "on.toml"))
+    m, road = result.metrics, result.road
+    edges = _edges(result)
+    assert edges[0] == "onramp" and edges[-1] in ("acc", "b")
+    assert road.lane_begin(1) > 200.0  # the mainline begins beside the ramp's lane
+    _no_move_before(result, 0, road.lane_begin(1))
+    assert m["merge_success"] == 1 and m["lane_end_reached"] == 0
+    assert result.plans[0]["trigger"] == "mandatory"
+    # on the mainline: its right lane (SUMO's acc_1 there)
+    assert m["final_lane"] == 1 and int(result.trace["lane"][-1]) == 1
+    assert int(result.trace["sumo_lane"][-1]) == (1 if edges[-1] == "acc" else 0)
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
+    assert int(np.max(result.trace["n_tvs"])) > 0  # with the mainline's traffic about
+
+
+def test_the_sv_leaves_over_an_off_ramp_from_the_deceleration_lane(
+        network: Path, tmp_path: Path) -> None:
+    (tmp_path / "flows.rou.xml").write_text(
+        '<routes><route id="main" edges="b dec c"/><flow id="m" route="main" begin="0" '
+        'end="3600" vehsPerHour="1800" departLane="random" departSpeed="max"/></routes>',
+        encoding="utf-8")
+    doc = {"scenario": {"name": "to_offramp", "duration_s": 15.0, "seed": 1},
+           "road": {"network": str(network), "route": ["b", "dec", "offramp"], "mu": 0.8,
+                    "lane_speeds_kmh": [[60, 80], [90, 110], [110, 120]]},
+           "sv": {"edge": "b", "lane": 0, "position_m": 550.0, "speed_kmh": 100.0,
+                  "decision": True},
+           "traffic": {"routes": ["flows.rou.xml"], "warmup_s": 30.0},
+           "planner": {"policy": "gap", "replanning": True}}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "off.toml"))
+    m, road, tr = result.metrics, result.road, result.trace
+    assert int(tr["lane"][0]) == 1  # SUMO's b_0, beside which the deceleration lane begins
+    _no_move_before(result, 1, road.lane_begin(0))
+    assert m["merge_success"] == 1 and m["final_lane"] == 0 and m["lane_end_reached"] == 0
+    # in the deceleration lane before the diverge, then onto the ramp
+    first = int(np.argmax(np.asarray(tr["lane"]) == 0))
+    assert float(tr["s_m"][first]) < road.lane_end(1) - 50.0
+    assert _edges(result)[-1] == "offramp"
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
+    assert int(np.max(tr["n_tvs"])) > 0  # SUMO's flow on the mainline beside it
