@@ -28,6 +28,7 @@ SLOW = {
         "240 runs",
     "cosim run scenarios/traffic_medium.toml --gui": "needs a display; waits for its window",
     "cosim bench planner": "minutes: loop transcriptions",
+    "cosim bench tracking": "24 runs (tests/bench/test_tracking.py runs case 5.1's four)",
     "cosim bench cosim": "three 30 s dense runs and more",
     "cosim bench batch": "a 16-run study three times",
     "cosim batch scenarios/study_replanning.toml -o results/batch/study_replanning_fixed":

@@ -24,11 +24,16 @@ def dask_client(address: str, workers: int) -> Any:
     if address == LOCAL_CLUSTER:
         import logging
 
-        # errors only: a study ended by Ctrl-C or SIGTERM cancels its tasks, and the
-        # workers' warnings about that would bury the one line that says so
+        # critical only: a study ended by Ctrl-C or SIGTERM cancels its tasks and closes
+        # the scheduler, and the workers' warnings and heartbeat errors about that (with
+        # tracebacks, on a loaded machine) would bury the one line that says so; a run's
+        # own failure comes back as its record, a dead worker as KilledWorker
         cluster = LocalCluster(
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-            silence_logs=logging.ERROR,
+            silence_logs=logging.CRITICAL,
+            # no dashboard, and the scheduler's HTTP server (health routes) on a free port:
+            # on its default 8787, a second study on the machine prints a UserWarning
+            scheduler_kwargs={"dashboard": False, "dashboard_address": ":0"},
         )
         return Client(cluster)
     try:
