@@ -38,6 +38,9 @@ SLOW = {
     "cosim bench cosim --repeats 5 --json": "five times seven 30 s runs",
     "cosim batch scenarios/study_curved.toml": "20 runs of 60 s",
     "cosim batch scenarios/study_merge.toml": "200 runs of 40 s",
+    "cosim batch scenarios/study_fundamental.toml": "24 runs of 40 s, up to 100 veh/km/lane",
+    "cosim run scenarios/traffic_jam.toml --controller sumo --fcd":
+        "60 s of traffic with its fcd.xml and figures: about 20 s",
 }
 # A synopsis: placeholders (FILE, N, ...), alternatives ([...], a|b) or globs.
 # A bare command name that needs an argument is a mention ("`cosim run`'s outputs").

@@ -39,7 +39,9 @@ def plot_fundamental(pts: pd.DataFrame, fd: pd.DataFrame, cap: pd.DataFrame, out
         for i, key in enumerate(keys):
             colour = colours(i % 10)
             match = (fd[list(LINE)].apply(tuple, axis=1) == key) & (fd.lane == lane)
-            line = fd[match].sort_values("density")
+            # joined along the measured density (a cell SUMO could not fill lies left of
+            # its grid value)
+            line = fd[match].sort_values("density_veh_per_km_p50")
             mine = pts[(pts[list(LINE)].apply(tuple, axis=1) == key) & (pts.lane == lane)]
             label = _label(key, varying)
             top.plot(mine.density_veh_per_km, mine.flow_veh_per_h, ".", color=colour,
