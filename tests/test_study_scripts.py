@@ -76,7 +76,7 @@ def test_the_gap_table_has_a_row_per_variant_and_a_cell_per_density(tmp_path: Pa
 
 
 @pytest.mark.parametrize("name", ["study_merge_table.py", "study_comfort_table.py",
-                                  "study_gap_table.py"])
+                                  "study_gap_table.py", "study_entry_table.py"])
 def test_a_folder_without_runs_is_refused_in_one_line(name: str, tmp_path: Path) -> None:
     figure = tmp_path / "fig.png"
     out = script(name, str(tmp_path / "none"), "--figure", str(figure))

@@ -73,6 +73,7 @@ class DrivingContext:
     replanning: bool = False  # [planner] replanning: re-check the plan under way
     recheck_interval: float = 0.1  # s
     ports: WorldPorts = field(default_factory=WorldPorts)
+    sv_width: float = 1.8  # m, the SV's body width
 
     @classmethod
     def of(cls, scenario: Scenario, road: RoadParams, *, decision: DecisionConfig | None = None,
@@ -82,7 +83,8 @@ class DrivingContext:
         return cls(sv=sc.sv, sv_length=sc.vehicle.length, step=sc.step,
                    lanes=LaneLayout(road), mu=road.mu, decision=decision or DecisionConfig(),
                    planner=planner, replanning=sc.planner.replanning,
-                   recheck_interval=sc.planner.recheck_interval, ports=ports or WorldPorts())
+                   recheck_interval=sc.planner.recheck_interval, ports=ports or WorldPorts(),
+                   sv_width=sc.vehicle.width)
 
 
 @dataclass(frozen=True)

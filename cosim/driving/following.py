@@ -49,6 +49,7 @@ class CarFollowing:
     def __init__(self, ctx: DrivingContext, cfg: DecisionConfig) -> None:
         self.sv = ctx.sv
         self.sv_length = ctx.sv_length
+        self.sv_width = ctx.sv_width
         self.lanes, self.mu, self.cfg, self.dt = ctx.lanes, ctx.mu, cfg, ctx.step
         self.v_cruise = ctx.sv.speed  # m/s, speed kept without a leader (no decision rule)
         self.v_ref = ctx.sv.speed  # m/s, lane-keeping reference speed (integrated IDM)
@@ -67,7 +68,7 @@ class CarFollowing:
         """The SV as the decision rules see it: at the reference's speed, wanting its
         desired speed in the lane it is in."""
         return SVView(sv.x, sv.y, self.v_ref, self.sv_length,
-                  self.desired_speed(self.lanes.lane_of(sv.y)))
+                      self.desired_speed(self.lanes.lane_of(sv.y)), self.sv_width)
 
     def update(self, sv: SVState, scene: Scene, allow_change: bool,
                stop_gap: float = math.inf) -> Decision:

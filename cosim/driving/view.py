@@ -25,6 +25,7 @@ class SVView:
     speed: float  # m/s, the speed the rule reasons with (the car-following reference's)
     length: float  # m
     desired_speed: float  # m/s
+    width: float = 0.0  # m (0: unknown, it is taken to enter a lane with its centre)
 
 
 @dataclass(frozen=True)

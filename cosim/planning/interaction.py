@@ -1,8 +1,9 @@
 """How the SV's new follower in the target lane reacts to the SV (beyond the paper).
 
 The paper's prediction (S1-S3) lets every TV keep its motion. SUMO's vehicles do
-not: a vehicle does not see the SV until the SV's centre crosses into its lane
-(SUMO_NOTES.md), then treats it as its leader and brakes for it with its
+not: a vehicle does not see the SV until the SV is in its lane (its centre across the
+line, SUMO_NOTES.md; with SUMO's continuous lane change its side already, the shadow
+lane: `check_follower`), then treats it as its leader and brakes for it with its
 car-following model. This module predicts that follower and bounds what the
 manoeuvre may ask of it.
 
@@ -76,11 +77,18 @@ class FollowerModel:
     delta: float = 4.0  # -, IDM acceleration exponent
     leader_decel: float = 4.5  # m/s^2, the decel the follower assumes of its leader (Krauss)
     b_safe: float = B_SAFE  # m/s^2, MOBIL safe-braking limit the manoeuvre may ask
+    reaction: float = 0.0  # s, after the SV enters its lane the follower goes on as before
+    # this long (SUMO's follower sees the SV at its next step and acts on it the step after)
 
     def limited(self, decel: float) -> FollowerModel:
         """The same follower, with the manoeuvre asking it no more than `decel` (m/s^2)
         within b_safe."""
         return replace(self, b_safe=min(self.b_safe, decel))
+
+    def wary(self, share: float, gap: float) -> FollowerModel:
+        """The same follower asked for `share` of what it may be asked and kept `gap`
+        (m) farther from the SV: the entry rule with a margin (a follower just refused)."""
+        return replace(self, b_safe=share * self.b_safe, min_gap=self.min_gap + gap)
 
     def check(self, source: str = "follower model") -> None:
         """Raise InputError naming the first bad field."""
@@ -91,8 +99,10 @@ class FollowerModel:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise InputError(source, name, value, "a finite number > 0")
-        if not (math.isfinite(self.min_gap) and self.min_gap >= 0.0):
-            raise InputError(source, "min_gap", self.min_gap, "a finite number >= 0 m")
+        for name in ("min_gap", "reaction"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise InputError(source, name, value, "a finite number >= 0")
         if self.emergency_decel < self.decel:
             raise InputError(source, "emergency_decel", self.emergency_decel,
                              f">= decel = {self.decel:g} m/s^2")
@@ -226,15 +236,15 @@ def _accepted_gap_array(kind: int, p: Array, v: Array, vs: Array, dt: float,
 @njit
 def _follow_core(kind: int, p: Array, t: Array, sv_rear: Array, sv_speed: Array,
                  t_enter: float, x0: float, v0: float, x: Array, v: Array, a: Array,
-                 a_before: float) -> None:
+                 a_before: float, reaction: float) -> None:
     """The follower's Euler recursion on the grid t (SUMO's update: v then x), into
     x (front bumper, m), v (m/s), a (m/s^2, applied over the step that follows);
-    before t_enter it drives at a_before (down to a standstill)."""
+    before t_enter + reaction it drives at a_before (down to a standstill)."""
     x[0], v[0] = x0, v0
     n = t.size
     for k in range(n - 1):
         dt = t[k + 1] - t[k]
-        if t[k] >= t_enter - 1e-9:
+        if t[k] >= t_enter + reaction - 1e-9:
             ak = _accel_core(kind, p, sv_rear[k] - x[k], v[k], sv_speed[k], dt)
         else:
             ak = a_before  # it cannot see the SV yet
@@ -255,11 +265,18 @@ class FollowerPrediction:
     accel: Array  # m/s^2, over the step that follows each time
     max_decel: float  # m/s^2 (>= 0), the largest deceleration from entry on
     min_gap: float  # m, smallest gap follower front -> SV rear from entry on (inf: none)
+    entry_gap: float = math.inf  # m, that gap as the SV enters the lane
+    needed_decel: float = 0.0  # m/s^2 (>= 0), the largest constant deceleration the
+    # follower needs from entry on to stay its min_gap behind the SV at the SV's speed,
+    # (v_f - v_sv)^2 / (2 (gap - min_gap)) while closing (inf: closing within min_gap)
 
     def safe(self, m: FollowerModel) -> bool:
-        """The MOBIL criterion over the whole prediction: max_decel <= b_safe and the
-        follower never reaches the SV."""
-        return bool(self.max_decel <= m.b_safe + 1e-9 and self.min_gap > 0.0)
+        """The entry rule over the whole prediction: MOBIL's max_decel <= b_safe, the
+        needed deceleration within b_safe too, and the follower never closer to the SV
+        than its min_gap (SUMO's minGap) from the entry on."""
+        return bool(self.max_decel <= m.b_safe + 1e-9
+                    and self.needed_decel <= m.b_safe + 1e-9
+                    and self.min_gap >= m.min_gap - 1e-6)
 
 
 def predict_follower(t: ArrayLike, sv_rear_x: ArrayLike, sv_speed: ArrayLike,
@@ -267,7 +284,7 @@ def predict_follower(t: ArrayLike, sv_rear_x: ArrayLike, sv_speed: ArrayLike,
                      m: FollowerModel, accel_before: float = 0.0) -> FollowerPrediction:
     """Predict the new follower: it keeps its speed (or its acceleration
     `accel_before`, m/s^2: a TV yielding to the SV, `check_follower`) until the SV
-    enters its lane at `t_enter` (s; the SV's centre crosses the lane line), then
+    enters its lane at `t_enter` (s; `check_follower`), then, after its `m.reaction`,
     follows the SV's rear (x of the rear bumper and speed on the grid t) by its model."""
     tt = np.ascontiguousarray(t, dtype=float)
     rear = np.ascontiguousarray(sv_rear_x, dtype=float)
@@ -277,12 +294,21 @@ def predict_follower(t: ArrayLike, sv_rear_x: ArrayLike, sv_speed: ArrayLike,
     x, v, a = np.empty_like(tt), np.empty_like(tt), np.empty_like(tt)
     _follow_core(MODELS.index(m.model), _params(m), tt, rear, vs, float(t_enter),
                  float(follower_front_x), float(follower_speed), x, v, a,
-                 float(accel_before))
+                 float(accel_before), float(m.reaction))
     after = tt >= t_enter - 1e-9
     max_decel = float(max(np.max(-a[after], initial=0.0), 0.0))
     gaps = (rear - x)[after]
+    if not gaps.size:
+        return FollowerPrediction(t=tt, x=x, speed=v, accel=a, max_decel=max_decel,
+                                  min_gap=math.inf)
+    closing = np.maximum(v[after] - vs[after], 0.0)
+    room = gaps - m.min_gap
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.where(closing > 0.0,
+                        np.where(room > 0.0, closing * closing / (2.0 * room), np.inf), 0.0)
     return FollowerPrediction(t=tt, x=x, speed=v, accel=a, max_decel=max_decel,
-                              min_gap=float(gaps.min()) if gaps.size else math.inf)
+                              min_gap=float(gaps.min()), entry_gap=float(gaps[0]),
+                              needed_decel=float(need.max()))
 
 
 FOLLOW_AFTER = 3.0  # s, the follower is predicted this long after the manoeuvre ends
@@ -293,7 +319,7 @@ class FollowerCheck:
     """What a planned lane change asks of the new follower in the target lane."""
 
     follower: int  # index into the TV arrays, -1: none (nothing asked)
-    t_enter: float  # s, when the SV's centre crosses into the target lane (nan: never)
+    t_enter: float  # s, when the SV enters the target lane (`check_follower`; nan: never)
     prediction: FollowerPrediction | None  # None: no follower
     safe: bool  # MOBIL: max_decel <= b_safe and no contact
 
@@ -324,18 +350,23 @@ class LaneTraffic:
 
 
 def check_follower(trajectory: LaneChangeTrajectory, sv_length: float, tvs: LaneTraffic,
-                   m: FollowerModel, dt: float = 0.05) -> FollowerCheck:
+                   m: FollowerModel, dt: float = 0.05, sv_width: float = 0.0
+                   ) -> FollowerCheck:
     """Predict the new follower of a planned lane change (`trajectory`, from its t0):
     among the TVs in the target lane (`tvs`: constant speeds until the SV enters, or
     braking at `tvs.braking` down to a standstill), the nearest one behind the SV when
-    the SV's centre crosses the lane line (half the lateral displacement); it then
-    follows the SV's rear by its model until FOLLOW_AFTER after the manoeuvre ends
-    (`predict_follower`). What it is asked is its braking from then on."""
+    it enters that lane: when the side of its body (`sv_width`, m; 0: its centre)
+    crosses the lane line, where SUMO's continuous lane change puts a vehicle into the
+    lane it moves into as well (its shadow lane) and that lane's follower starts to
+    brake for it; it then follows the SV's rear by its model (after its reaction)
+    until FOLLOW_AFTER after the manoeuvre ends (`predict_follower`). What it is asked
+    is its braking from then on, and the gap it keeps (`FollowerPrediction.safe`)."""
     tr = trajectory
     t = tr.t0 + np.arange(0.0, tr.tau + FOLLOW_AFTER + 0.5 * dt, dt)
     xs, ys = tr.position(t)
     vx, vy = tr.derivative(t, 1)
-    crossed = np.abs(ys - tr.y0) >= 0.5 * abs(tr.width)
+    edge = max(0.5 * abs(tr.width) - 0.5 * sv_width, 0.0)
+    crossed = np.abs(ys - tr.y0) >= edge
     if tr.width == 0.0 or not crossed.any():
         return FollowerCheck(-1, math.nan, None, True)
     k_in = int(np.argmax(crossed))

@@ -233,3 +233,60 @@ def test_check_follower_counts_on_a_yielding_tv_only_when_told() -> None:
     # zero braking is the TV keeping its speed
     same = check_follower(tr, 5.0, LaneTraffic.of(x, v, length, lane, np.zeros(1)), KRAUSS)
     assert same.max_decel == keeps.max_decel
+
+
+def test_the_sv_enters_with_the_side_of_its_body() -> None:
+    from cosim.planning.interaction import LaneTraffic, check_follower
+    from cosim.planning.trajectory import LaneChangeTrajectory
+
+    # SUMO's continuous lane change puts the SV into the target lane (its shadow lane)
+    # as soon as its side crosses the line: the follower (20 m behind, 2 m/s slower)
+    # sees it then, before the centre crosses, nearer by what the SV gains meanwhile
+    tr = LaneChangeTrajectory(t0=0.0, tau=4.0, x0=0.0, y0=0.0, vx0=10.0, vxf=10.0,
+                              width=3.75)
+    tvs = LaneTraffic.of([-20.0], [8.0], [5.0], [True])
+    centre = check_follower(tr, 5.0, tvs, KRAUSS)
+    side = check_follower(tr, 5.0, tvs, KRAUSS, sv_width=1.8)
+    assert side.t_enter < centre.t_enter - 0.3
+    assert side.prediction is not None and centre.prediction is not None
+    assert side.prediction.entry_gap < centre.prediction.entry_gap - 0.5
+    assert side.prediction.entry_gap == pytest.approx(
+        15.0 + 2.0 * side.t_enter, abs=0.2)  # centres 20 m apart, half lengths 5 m
+
+
+def test_the_entry_rule_keeps_the_follower_min_gap_behind_and_within_its_need() -> None:
+    from cosim.planning.interaction import LaneTraffic, check_follower
+    from cosim.planning.trajectory import LaneChangeTrajectory
+
+    # a follower that would close to within SUMO's minimum gap (2.5 m) of the SV, or
+    # needs more than b_safe of constant braking to stay that far behind, is refused
+    # even where its Krauss prediction brakes within b_safe; with a reaction it closes
+    # on before it brakes
+    tr = LaneChangeTrajectory(t0=0.0, tau=3.0, x0=0.0, y0=0.0, vx0=10.0, vxf=10.0,
+                              width=3.75)
+    m = FollowerModel(reaction=0.1)
+    for x_tv, v_tv in ((-14.5, 12.0), (-9.0, 10.0), (-30.0, 16.0)):
+        c = check_follower(tr, 5.0, LaneTraffic.of([x_tv], [v_tv], [5.0], [True]), m,
+                           sv_width=1.8)
+        p = c.prediction
+        assert p is not None
+        expected = (p.max_decel <= m.b_safe + 1e-9 and p.needed_decel <= m.b_safe + 1e-9
+                    and p.min_gap >= m.min_gap - 1e-6)
+        assert c.safe == expected
+    # nearer than the min gap at the entry: refused whatever its braking
+    near = check_follower(tr, 5.0, LaneTraffic.of([-7.0], [10.0], [5.0], [True]), m,
+                          sv_width=1.8)
+    assert near.prediction is not None and near.prediction.entry_gap < 2.5 and not near.safe
+    # the reaction: it keeps its speed for `reaction` after the entry
+    p = predict_follower(T, 12.0 + 10.0 * T, np.full(T.size, 10.0), 1.0, 0.0, 14.0,
+                         FollowerModel(reaction=0.2))
+    k = int(round(1.0 / DT))
+    np.testing.assert_allclose(p.speed[: k + 5], 14.0)
+    assert p.speed[k + 6] < 14.0
+
+
+def test_a_wary_follower_is_asked_less_and_kept_farther() -> None:
+    w = KRAUSS.limited(2.0).wary(0.7, 1.0)
+    assert w.b_safe == pytest.approx(1.4) and w.min_gap == pytest.approx(3.5)
+    with pytest.raises(InputError, match="reaction"):
+        FollowerModel(reaction=-0.1).check()

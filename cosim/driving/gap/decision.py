@@ -86,6 +86,9 @@ class GapDecision:
     held: Array | None = None  # m/s^2 per TV: the braking of the TVs
     # yielding to the SV that the plan counts on them going on with until the SV is in
     # their lane (their courtesy held; `Seeking.yielding`); None: it counts on nothing
+    refused: int = -1  # TV index: the new follower the entry test refused this step (-1:
+    # none; the policy then takes it only with a margin, `Seeking.wary`)
+    follower: int = -1  # TV index: the new follower of the entry planned now (-1: none)
 
 
 @dataclass(frozen=True)
@@ -112,6 +115,9 @@ class Seeking:
     # room for the SV: an entry that holds only if they go on with it until the SV is in
     # their lane is taken too (`GapDecision.held`), after one that asks nothing of them;
     # None: not counted on
+    wary: NDArray[np.bool_] | None = None  # per TV: a follower refused moments ago, taken
+    # only with the entry rule's margin (`GapConfig.wary_share`, `wary_gap`): a refusal
+    # does not turn into an acceptance a step later while the situation is the same
 
 
 @dataclass(frozen=True)
@@ -187,9 +193,10 @@ def gap_decision(sv: SVView, traffic: TrafficView, lanes: LaneLayout, rules: Gap
     entry, asked, held = _first_entry(at, lanes, rules, seeking)
     if entry.ok:
         return _go(at, d, gap_cfg, choice, entry, asked, held)
+    refused = entry.follower if not entry.follower_ok else -1
     if choice is None:
-        return _pace_the_lane(at, keep, rules)
-    return _approach(at, d, rules, choice)
+        return replace(_pace_the_lane(at, keep, rules), refused=refused)
+    return replace(_approach(at, d, rules, choice), refused=refused)
 
 
 def _wanted(sv: SVView, traffic: TrafficView, lanes: LaneLayout, cfg: DecisionConfig,
@@ -222,7 +229,8 @@ def _first_entry(at: _Situation, lanes: LaneLayout, rules: GapRules, seeking: Se
     on); the last tried when none passes."""
     gap_cfg, sv = rules.gap, at.sv
     y0 = lanes.centre(at.lane)
-    start = ChangeStart(sv.x, y0, sv.speed, sv.length, lanes.centre(at.target) - y0)
+    start = ChangeStart(sv.x, y0, sv.speed, sv.length, lanes.centre(at.target) - y0,
+                        sv.width)
 
     def enters(speeds: Array, limit: float, braking: Array | None) -> Entry:
         """`entry_test` of the change, the TVs at `speeds`."""
@@ -248,9 +256,19 @@ def _first_entry(at: _Situation, lanes: LaneLayout, rules: GapRules, seeking: Se
             # TVs behind the SV a little faster too (`GapConfig.insist_margin`)
             faster = np.where(at.tvs.x < sv.x, speeds + gap_cfg.insist_margin, speeds)
             entry = replace(entry, ok=enters(faster, limit, braking).ok)
+        if entry.ok and _is_wary(seeking, entry.follower):
+            wary = rules.follower.limited(limit).wary(gap_cfg.wary_share, gap_cfg.wary_gap)
+            tvs = replace(at.tvs, speed=speeds, braking=braking)
+            again = entry_test(start, replace(at.target_lane, tvs=tvs), gap_cfg, wary)
+            entry = replace(entry, ok=again.ok, follower_ok=again.follower_ok)
         if entry.ok:
             break
     return entry, limit, braking
+
+
+def _is_wary(seeking: Seeking, k: int) -> bool:
+    """Whether TV `k` (-1: none) is a follower refused moments ago."""
+    return k >= 0 and seeking.wary is not None and bool(seeking.wary[k])
 
 
 def _go(at: _Situation, d: Decision, cfg: GapConfig, choice: GapChoice | None, entry: Entry,
@@ -262,7 +280,7 @@ def _go(at: _Situation, d: Decision, cfg: GapConfig, choice: GapChoice | None, e
         target_lane=at.target, accel=float(accel), leader_gap=d.leader_gap, plan_now=True,
         vxf=entry.vxf, gap=choice, cooperate_with=-1,
         reason=f"lane {at.target}: gap reached", leader_speed=d.leader_speed,
-        follower_decel=asked, held=held)
+        follower_decel=asked, held=held, follower=entry.follower)
 
 
 def _pace_the_lane(at: _Situation, keep: GapDecision, rules: GapRules) -> GapDecision:

@@ -120,9 +120,10 @@ class GapConfig:
     patience: float = 1.0  # s, after seeking this long without an entry within plan_decel,
     # the SV takes one that asks its new follower up to `insist_decel` (SUMO's own driver
     # goes at once into gaps whose follower then brakes at its full decel)
-    insist_decel: float = 4.0  # m/s^2, that limit: MOBIL's b_safe of its paper (4 m/s^2),
-    # below the Krauss follower's decel (4.5): an entry that makes it brake at its decel
-    # at once is never taken
+    insist_decel: float = 2.0  # m/s^2, that limit: a comfortable deceleration (the IDM's
+    # b, the courtesy's COURTESY_DECEL), so that with SUMO's dawdling (up to 0.52 m/s^2)
+    # the new follower brakes less than 3 m/s^2; an entry that makes it brake at its
+    # decel (4.5) at once is never taken
     # tuned: docs/tuned_constants.md
     hold_after: float = 0.7  # s, after seeking this long a scripted change also takes an
     # entry that counts on the TVs yielding to the SV braking on as they do until it is
@@ -136,6 +137,13 @@ class GapConfig:
     ask_decel: float = math.inf  # m/s^2, with no gap in reach, the TV asked to make room
     # is the nearest behind the SV that can still fall back behind its rear braking this
     # hard (inf: the nearest; a mandatory change: the courtesy's, decision.mandatory_config)
+    wary_share: float = 0.7  # -, a new follower refused moments ago (`wary_memory`) is
+    # taken only if it is asked for at most this share of the limit ...
+    wary_gap: float = 1.0  # m, ... and kept this much farther than its minimum gap: the
+    # entry rule's hysteresis (a refusal does not flip to an acceptance a step later on a
+    # prediction that moved by a few cm/s)
+    wary_memory: float = 1.0  # s, how long a refused follower is remembered
+    # tuned: docs/tuned_constants.md
     nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the
     # planner's eq. 13 optimum at the speeds of motorway traffic)
     # tuned: docs/tuned_constants.md
@@ -392,6 +400,7 @@ class ChangeStart:
     speed: float  # m/s
     length: float  # m
     width: float  # m, the lateral move (+ left)
+    body_width: float = 0.0  # m, the SV's width (0: it enters the lane with its centre)
 
 
 @dataclass(frozen=True)
@@ -402,10 +411,11 @@ class Entry:
     vxf: float  # m/s, its end speed: the new leader's speed within the lane's band
     leader: int  # index of the TV ahead of the SV when it enters (-1: none)
     follower: int  # index of the TV behind it then (-1: none)
-    t_enter: float  # s after now, when the SV's centre crosses the lane line (nan: never)
+    t_enter: float  # s after now, when the SV enters the lane (check_follower; nan: never)
     follower_decel: float  # m/s^2, the new follower's predicted largest braking
     leader_gap: float  # m, bumper gap to the new leader at the entry (inf: none)
     secure: float  # m, the SV's secure gap to it then (GapConfig.headway)
+    follower_ok: bool = True  # its new follower keeps its limits (the entry rule)
 
 
 def entry_test(start: ChangeStart, lane: TargetLane, cfg: GapConfig,
@@ -413,10 +423,11 @@ def entry_test(start: ChangeStart, lane: TargetLane, cfg: GapConfig,
     """Whether a lane change started now (a nominal manoeuvre of `cfg.nominal_tau` from
     the SV's speed to the new leader's) enters a usable gap in `lane`: its TVs keep
     their speeds (or go on braking at `lane.tvs.braking`: those that yield to the SV)
-    until the SV's centre crosses the lane line (they do not see it before,
-    SUMO_NOTES.md); then
+    until the SV enters the lane (its side across the line with `start.body_width`:
+    they do not see it before, SUMO_NOTES.md); then
     - its new follower, predicted by its model (`interaction.check_follower`, `follower`
-      limited to what the policy asks), brakes within the limit, and
+      limited to what the policy asks), keeps its minimum gap and brakes within the
+      limit (the entry rule, `FollowerPrediction.safe`), and
     - its new leader's rear is at least the SV's secure gap (`GapConfig.sv_model`, the
       slot's headway) ahead of the SV's front, at the SV's speed then.
     The test of the manoeuvre itself, not of where the SV is: a gap coming up from
@@ -446,14 +457,14 @@ def entry_test(start: ChangeStart, lane: TargetLane, cfg: GapConfig,
                          cfg.min_gap + cfg.headway * v_in))
     else:
         gap, need = math.inf, 0.0
-    check = check_follower(tr, start.length, tvs, follower)
+    check = check_follower(tr, start.length, tvs, follower, sv_width=start.body_width)
     # nobody beside the SV's body at the entry (neither leader nor follower: level with it)
     beside = inside & (np.abs(x + v * t_in - x_in) < half + 0.5 * start.length)
     ok = (check.safe and not beside.any() and gap >= need
           and abs(start.speed - vxf) <= cfg.max_speed_change and start.speed >= cfg.min_speed)
     return Entry(ok=bool(ok), vxf=vxf, leader=lead, follower=check.follower,
                  t_enter=check.t_enter, follower_decel=check.max_decel, leader_gap=gap,
-                 secure=need)
+                 secure=need, follower_ok=check.safe)
 
 
 def _new_leader(start: ChangeStart, lane: TargetLane, tau: float, t_in: float

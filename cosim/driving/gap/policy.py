@@ -85,6 +85,11 @@ RETRY = 0.1  # s, a plan refused although the entry test passed is asked for aga
 # rule's retry_interval would cost that much from request to lane each time)
 # tuned: docs/tuned_constants.md
 
+REACTION = 0.1  # s, SUMO's follower brakes for the SV this long after the SV's body
+# entered its lane (it sees the SV's shadow at its next step and acts the step after;
+# measured: the new follower's braking begins 0.1 s after the SV's side crossed the line)
+# tuned: docs/tuned_constants.md
+
 
 @dataclass(frozen=True)
 class _Wants:
@@ -126,14 +131,17 @@ class GapPolicy:
         self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal)
         self.ends = self.manoeuvre.ends  # the SV's lane-end reasoning
         self.gap_cfg = gap or GapConfig()
-        self.follower = follower or FollowerModel()
+        self.follower = follower or FollowerModel(reaction=REACTION)
         # what a flown plan may ask of its new follower: the policy's own limit within b_safe
         self.plan_follower = self.follower.limited(self.gap_cfg.plan_decel)
         self.sv_length = ctx.sv_length
+        self.sv_width = ctx.sv_width
         self.decision = ctx.sv.decision
         self.wanted: tuple[int, int, float] | None = None  # (origin, target, until t)
         self.last: GapDecision | None = None  # this step's decision (for inspection)
         self.seeking_since: float | None = None  # s, since when it seeks a gap (None: not)
+        self.refused: dict[str, float] = {}  # TV id -> s, when it was last refused as the
+        # new follower (by the entry test or a plan's check): taken with a margin a while
 
     @property
     def wall(self) -> float:
@@ -240,9 +248,11 @@ class GapPolicy:
             wanted_lane=wants.wanted,
             allow_change=wants.mandatory or wants.scripted is not None or by_choice,
             insist=insist, urgency=0.0 if wants.due is None else wants.due.urgency,
-            yielding=braking if held else None)
+            yielding=braking if held else None, wary=self._wary(t, traffic.ids))
         d = gap_decision(following.view(sv), traffic, self.lanes,
                          GapRules(following.cfg, gap_cfg, self.follower), seeking)
+        if d.refused >= 0:
+            self.refused[str(traffic.ids[d.refused])] = t
         if (wants.wanted is None and d.target_lane is not None
                 and self.ends.closed(d.target_lane, sv)):
             # the rule's faster lane ends within the look-ahead: not a lane to change into
@@ -250,6 +260,15 @@ class GapPolicy:
                              GapRules(following.cfg, self.gap_cfg, self.follower),
                              Seeking(allow_change=False))
         return d
+
+    def _wary(self, t: float, ids: tuple[str, ...]) -> np.ndarray | None:
+        """Per TV of `ids`: refused as the new follower within the last
+        `GapConfig.wary_memory` (None: nobody)."""
+        memory = self.gap_cfg.wary_memory
+        self.refused = {k: v for k, v in self.refused.items() if t - v <= memory + 1e-9}
+        if not self.refused or not ids:
+            return None
+        return np.fromiter((k in self.refused for k in ids), dtype=bool, count=len(ids))
 
     def _drive(self, sv: SVState, traffic: TrafficView, wants: _Wants, d: GapDecision
                ) -> None:
@@ -294,10 +313,17 @@ class GapPolicy:
         tvs = LaneTraffic.of(traffic.x, traffic.speed, traffic.length,
                              in_lane(target, traffic, self.lanes),
                              None if self.last is None else self.last.held)
-        check = check_follower(plan.trajectory, self.sv_length, tvs, follower)
+        check = check_follower(plan.trajectory, self.sv_length, tvs, follower,
+                               sv_width=self.sv_width)
+        if check.safe and check.follower >= 0 and str(traffic.ids[check.follower]) in self.refused:
+            # refused moments ago: taken only with the entry rule's margin
+            wary = follower.wary(self.gap_cfg.wary_share, self.gap_cfg.wary_gap)
+            check = replace(check, safe=check_follower(
+                plan.trajectory, self.sv_length, tvs, wary, sv_width=self.sv_width).safe)
         if check.safe:
             return ""
         # the follower that would brake too hard blocks: ask it to make room
+        self.refused[str(traffic.ids[check.follower])] = t
         self.ask_gap(t, str(traffic.ids[check.follower]))
         return (f"follower {traffic.ids[check.follower]} would brake "
                 f"{check.max_decel:.2f} m/s^2 > {follower.b_safe:g}")

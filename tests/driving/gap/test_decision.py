@@ -165,3 +165,22 @@ def test_a_mandatory_change_asks_a_tv_that_can_still_fall_back_behind_the_sv() -
         assert d.target_lane == 2 and not d.plan_now and d.gap is None
         asked[name] = d.cooperate_with
     assert asked == {"choice": 0, "mandatory": 1}
+
+
+def test_a_refused_follower_is_taken_only_with_a_margin() -> None:
+    # a follower in lane 2 closing on the SV: find where its entry just passes (and is
+    # not refused), then a follower just refused (`Seeking.wary`) is not taken there
+    # while the same entry a few metres farther back passes the margin as well
+    passes = []
+    for back in np.arange(8.0, 60.0, 1.0):
+        tvs = scene([-back], [2], [26.0])
+        plain = drive(0.0, 25.0, tvs, wanted_lane=2)
+        wary = drive(0.0, 25.0, tvs, wanted_lane=2, wary=np.array([True]))
+        passes.append((back, plain.plan_now, wary.plan_now))
+        if not plain.plan_now:
+            assert plain.refused == 0  # its follower check refused it: the policy remembers
+        if wary.plan_now:
+            assert plain.plan_now and plain.follower == 0
+    first_plain = min(b for b, p, _ in passes if p)
+    first_wary = min(b for b, _, w in passes if w)
+    assert first_wary >= first_plain + 1.0
