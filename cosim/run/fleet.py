@@ -16,8 +16,8 @@ drives it again to its arrival (`World.hand_back`).
 Per step the loop calls `observe` (one read of the whole road; each AV's scene is a
 selection of it; its trace row), `decide` (the policies), `advance` (the closed loops,
 the poses to SUMO) and, after SUMO's step, `stepped` (SUMO's collisions, the takeovers).
-`result` gives the fleet's trace rows (with the SV's: trace.csv's `vehicle_id`) and
-fleet.csv's rows, one per AV.
+`result` gives the fleet's trace and plans rows (with the SV's: trace.csv's and
+plans.csv's `vehicle_id`), fleet.csv's rows, one per AV, and metrics.csv's fleet columns.
 """
 
 from __future__ import annotations
@@ -77,6 +77,20 @@ FLEET_COLUMNS: dict[str, str] = {
 }
 
 
+FLEET_METRIC_DOCS: dict[str, str] = {
+    "fleet_vehicles": "automated vehicles taken over (fleet.csv's rows)",
+    "fleet_handed_back": "of them, those handed back to SUMO near the route's end",
+    "fleet_lane_changes": "lane changes the automated vehicles adopted, summed",
+    "fleet_collisions": "their collision onsets by our exact check, summed (one between two "
+                        "automated vehicles counts twice)",
+    "fleet_caused_collisions": "of them, those an automated vehicle caused",
+    "fleet_sumo_collisions": "collision events SUMO reported involving an automated vehicle, "
+                             "summed",
+    "fleet_teleported": "automated vehicles SUMO teleported",
+    "fleet_mean_speed_mps": "mean speed of the automated vehicles over all their rows (m/s)",
+}
+
+
 @dataclass
 class FleetResult:
     """What the fleet produced: each AV's trace rows (cosim.run.outputs writes them into
@@ -84,6 +98,23 @@ class FleetResult:
 
     traces: list[tuple[str, dict[str, Any], tuple[str, ...]]]  # (id, trace, its edges)
     rows: list[dict[str, Any]]
+    plans: list[dict[str, Any]]  # every AV's plans.csv rows, each with its vehicle_id
+
+    def metrics(self) -> dict[str, Any]:
+        """metrics.csv's fleet columns (FLEET_METRIC_DOCS)."""
+        rows = self.rows
+        steps = sum(len(trace["t_s"]) for _, trace, _ in self.traces)
+        speed = sum(float(trace["vx_mps"].sum()) for _, trace, _ in self.traces)
+        return {
+            "fleet_vehicles": len(rows),
+            "fleet_handed_back": sum(r["end"] == "handed_back" for r in rows),
+            "fleet_lane_changes": sum(r["lane_changes"] for r in rows),
+            "fleet_collisions": sum(r["collisions"] for r in rows),
+            "fleet_caused_collisions": sum(r["caused_collisions"] for r in rows),
+            "fleet_sumo_collisions": sum(r["sumo_collisions"] for r in rows),
+            "fleet_teleported": sum(r["teleported"] for r in rows),
+            "fleet_mean_speed_mps": speed / steps if steps else float("nan"),
+        }
 
 class AutomatedEgo(PlannedEgo):
     """An AV's closed loop: PlannedEgo started where SUMO had the vehicle at its takeover."""
@@ -310,12 +341,13 @@ class Fleet:
         teleported = self.sumo.teleported()
         for av in list(self.active):
             self._finish(av, last_row, "running")
-        traces, rows = [], []
+        traces, rows, plans = [], [], []
         for av in sorted(self.done, key=lambda a: a.id):
             full = av.recorder.trace(av.k_end)
             trace = {name: column[av.k0:] for name, column in full.items()}
             traces.append((av.id, trace, tuple(av.recorder.edges)))
             done = av.policy.summary(trace["t_s"], trace["d_m"])
+            plans += [{"vehicle_id": av.id, **row} for row in done.plans]
             rec = av.recorder
             rows.append({
                 "vehicle_id": av.id, "vtype": av.vtype, "inserted_t_s": av.inserted,
@@ -330,4 +362,4 @@ class Fleet:
                 "ttc_min_s": float(np.min(trace["ttc_min_s"])),
                 "teleported": int(av.id in teleported),
             })
-        return FleetResult(traces, rows)
+        return FleetResult(traces, rows, plans)

@@ -215,13 +215,14 @@ class CoSimulation:
             from cosim.traffic.traffic_measures import traffic_columns
 
             metrics.update(traffic_columns(detectors))
+        fleet = None if self.fleet is None else self.fleet.result(self.stop.last_row)
+        if fleet is not None:  # the fleet's aggregates (cosim.run.fleet)
+            metrics.update(fleet.metrics())
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
                          records=ego.records, first_plan=done.first_plan,
                          edges=tuple(recorder.edges), route_road=self.world.route_road,
-                         detectors=detectors, t_warmup=self.world.t_warmup,
-                         fleet=None if self.fleet is None else self.fleet.result(
-                             self.stop.last_row))
+                         detectors=detectors, t_warmup=self.world.t_warmup, fleet=fleet)
 
 
 def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:

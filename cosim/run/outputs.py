@@ -54,6 +54,17 @@ def fleet_trace_frame(sv_frame: Any, fleet: FleetResult) -> Any:
     return frame.sort_values(["t_s", "vehicle_id"], kind="stable", ignore_index=True)
 
 
+def fleet_plans_frame(sv_plans: Any, fleet: FleetResult) -> Any:
+    """plans.csv with a fleet: the SV's rows and every automated vehicle's, a
+    `vehicle_id` column, ordered by time, then id."""
+    import pandas as pd
+
+    frame = pd.concat([sv_plans.assign(vehicle_id=SV_ID),
+                       pd.DataFrame(fleet.plans, columns=[*PLAN_COLUMNS, "vehicle_id"])],
+                      ignore_index=True)
+    return frame.sort_values(["t_s", "vehicle_id"], kind="stable", ignore_index=True)
+
+
 def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                   write_figures: bool = True, extra_files: Sequence[Path] = (),
                   figure_format: str | None = None) -> list[Path]:
@@ -76,6 +87,8 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                 frame = fleet_trace_frame(frame, result.fleet)
             written.append(atomic_write_csv(out / "trace.csv", frame, float_format=CSV_FLOAT))
             plans = pd.DataFrame(result.plans, columns=list(PLAN_COLUMNS))
+            if result.fleet is not None:  # every vehicle's plans, a vehicle_id column
+                plans = fleet_plans_frame(plans, result.fleet)
             written.append(atomic_write_csv(out / "plans.csv", plans, float_format=CSV_FLOAT))
         written.append(atomic_write_csv(out / "metrics.csv", pd.DataFrame([result.metrics]),
                                         float_format=CSV_FLOAT))

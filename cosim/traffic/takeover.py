@@ -1,10 +1,13 @@
 """The fleet's calls into SUMO (cosim.run.fleet): who SUMO inserted in its last step,
-their routes and vTypes, taking a vehicle out of SUMO's control and handing it back,
+their routes and vTypes, taking a vehicle out of SUMO's control (coloured green in
+sumo-gui) and handing it back,
 an automated vehicle's blinker, every collision of a step, who was teleported."""
 
 from __future__ import annotations
 
 from cosim.traffic.world import World
+
+AUTOMATED_COLOUR = (0, 200, 80, 255)  # RGBA, automated vehicles in sumo-gui (the SV: blue)
 
 
 class Takeovers:
@@ -33,6 +36,7 @@ class Takeovers:
         """Take a vehicle SUMO drives out of its control (from now on moved by
         `World.move_xy`), its body `size` (length, width) m; returns its speed now (m/s)."""
         self.sumo.take_over(vehicle_id, size)
+        self.sumo.api.vehicle.setColor(vehicle_id, AUTOMATED_COLOUR)  # apart in sumo-gui
         return float(self.sumo.api.vehicle.getSpeed(vehicle_id))
 
     def hand_back(self, vehicle_id: str) -> None:

@@ -105,6 +105,17 @@ def test_trace_has_every_vehicle_by_time_then_id_and_fleet_csv(
     fleet = pd.read_csv(out / "fleet.csv")
     assert list(fleet.columns) == list(FLEET_COLUMNS)
     assert len(fleet) == len(result.fleet.rows)
+    # plans.csv: every vehicle's plans, by time then id; metrics.csv: the fleet's sums
+    plans = pd.read_csv(out / "plans.csv", keep_default_na=False)
+    assert list(plans.columns)[-1] == "vehicle_id"
+    keys = list(zip(plans["t_s"], plans["vehicle_id"], strict=True))
+    assert keys == sorted(keys)
+    adopted = plans[(plans["vehicle_id"] != "sv") & (plans["ok"] == 1)]
+    assert len(adopted) >= fleet["lane_changes"].sum()
+    metrics = pd.read_csv(out / "metrics.csv").iloc[0]
+    assert metrics["fleet_vehicles"] == len(fleet)
+    assert metrics["fleet_lane_changes"] == fleet["lane_changes"].sum()
+    assert metrics["fleet_caused_collisions"] == 0 and metrics["fleet_teleported"] == 0
 
 
 def test_no_fleet_writes_what_it_always_wrote(network: Path, tmp_path: Path) -> None:
