@@ -138,3 +138,27 @@ def test_the_same_seed_gives_the_same_fleet_byte_for_byte(network: Path, tmp_pat
     assert len(pd.read_csv(tmp_path / "a" / "fleet.csv")) >= 2
     for csv in ("trace.csv", "plans.csv", "metrics.csv", "fleet.csv"):
         assert (tmp_path / "a" / csv).read_bytes() == (tmp_path / "b" / csv).read_bytes(), csv
+
+
+def test_vtypes_of_the_users_own_demand_are_automated(network: Path, tmp_path: Path) -> None:
+    """[fleet] vtypes: every vehicle of the named vType SUMO inserts after the warm-up is
+    automated (one of another size given the scenario's), the others stay SUMO's."""
+    (tmp_path / "own.rou.xml").write_text(
+        '<routes><vType id="car" length="4.5" width="1.8" sigma="0.5" maxSpeed="36.1"/>'
+        '<vType id="av" length="4.6" width="1.9" maxSpeed="36.1"/>'
+        '<route id="through" edges="highway"/>'
+        '<flow id="cars" type="car" route="through" begin="0" end="3600" vehsPerHour="2400" '
+        'departLane="random" departSpeed="max"/>'
+        '<flow id="avs" type="av" route="through" begin="0" end="3600" vehsPerHour="600" '
+        'departLane="random" departSpeed="max"/></routes>')
+    doc = fleet_doc(network, vtypes=["av"])
+    doc["scenario"]["duration_s"] = 25.0
+    doc["traffic"] = {"routes": [str(tmp_path / "own.rou.xml")], "warmup_s": 30.0}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "own.toml"))
+    rows = pd.DataFrame(result.fleet.rows)
+    assert len(rows) >= 2 and set(rows["vtype"]) == {"av"}
+    assert (rows["inserted_t_s"] > 0).all()  # after the warm-up, on the run's clock
+    assert result.events == []
+    assert (rows[["collisions", "caused_collisions", "sumo_collisions"]] == 0).all().all()
+    for _, trace, _ in result.fleet.traces:  # the car it drives is the scenario's
+        assert np.nanmax(np.abs(trace["ye_m"])) < 0.5
