@@ -302,15 +302,20 @@ class DetectorSpec:
 
     enabled: bool = declare(Field(
         "enabled", bool, default=False,
-        doc="place SUMO's induction loops (E1) and lane-area detectors (E2) on every SV "
-            "lane of the route; `cosim run` writes their measures to detectors.csv "
-            "(docs/outputs.md)"), False)
+        doc="place SUMO's induction loops (E1) on every SV lane of the route (and "
+            "lane-area detectors with `areas`); `cosim run` writes their measures to "
+            "detectors.csv (docs/outputs.md)"), False)
     spacing: float = declare(number_key(
         "spacing_m", "m", 10.0, 1e5, 500.0,
         "distance along the route between induction loops (at s = 0, spacing, 2 spacing, "
-        "..., and a few metres inside the start and the end of each lane that ends); a "
-        "lane-area detector covers each stretch between two loops that lies on one SUMO "
-        "lane (cosim.traffic.detectors)"), 500.0)
+        "..., and a few metres inside the start and the end of each lane that ends)"),
+        500.0)
+    areas: bool = declare(Field(
+        "areas", bool, default=False,
+        doc="also a lane-area detector (E2) over each stretch between two loops that lies "
+            "on one SUMO lane (density; cosim.traffic.detectors); off by default: on the "
+            "whole route they cost 15-25 % of a dense run's CPU, the loops 2 % "
+            "(`cosim bench measures`)"), False)
     period: float = declare(number_key(
         "period_s", "s", 0.0, 3600.0, 60.0,
         "aggregation period of every detector (a whole multiple of scenario.step_s)",

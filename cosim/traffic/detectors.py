@@ -4,9 +4,12 @@ them and turns what SUMO wrote into one tidy table (detectors.csv).
 Placement (`place_detectors`), on every SV lane of the route (route_lanes.sv_tracks: the
 tracks through or ending on it): an induction loop (E1) at s = 0, spacing, 2 spacing, ...
 up to the lane's end, LANE_END_INSET inside the start and the end of each lane that ends
-(an acceleration lane, a lane drop) and at each of the user's positions; a lane-area
-detector (E2) over each stretch between two consecutive loops of a lane that lies on one
-SUMO lane and is at least MIN_AREA_LENGTH long (a stretch across a junction gets none).
+(an acceleration lane, a lane drop) and at each of the user's positions; with `areas`, a
+lane-area detector (E2) over each stretch between two consecutive loops of a lane that
+lies on one SUMO lane and is at least MIN_AREA_LENGTH long (a stretch across a junction
+gets none). E2s are off by default for their cost: SUMO follows every vehicle on each of
+them every step, and with one per stretch they cover the whole route (measured in
+docs/outputs.md: 15-25 % of a dense run's CPU, the loops about 2 %).
 A point s of a track maps to SUMO's (lane, lane position) through RouteLanes.place (on a
 junction's lane: the start of the next edge), and a detector's s is read back from where
 it is (route_lanes.s_of_lane_position), so s_m says where SUMO measures.
@@ -169,6 +172,8 @@ def place_detectors(route_road: Road, spec: DetectorSpec) -> DetectorLayout:
             placed.append(Detector(unique(f"e1_t{table.id}_s{_name(at)}"), "e1", piece.lane,
                                    table.id, place.position, place.position, at))
         loops += placed
+        if not spec.areas:
+            continue
         for a, b in zip(placed, placed[1:], strict=False):
             if a.lane == b.lane and b.position - a.position >= MIN_AREA_LENGTH:
                 areas.append(Detector(unique(f"e2_t{table.id}_s{_name(a.s)}-{_name(b.s)}"),

@@ -38,7 +38,7 @@ PERIOD = 20.0  # s
 
 def _on(name: str, **keys: Any) -> Any:
     return with_overrides(load_scenario(SCENARIOS / f"{name}.toml"),
-                          **{"detectors.enabled": True, **keys})
+                          **{"detectors.enabled": True, "detectors.areas": True, **keys})
 
 
 def _sumo_intervals(folder: Path) -> dict[tuple[str, float], dict[str, str]]:
@@ -148,6 +148,7 @@ def test_without_detectors_a_run_writes_what_it_wrote_before(tmp_path: Path) -> 
     runs = {"absent": with_overrides(base, duration=10.0),
             "off": with_overrides(base, duration=10.0, **{"detectors.enabled": False}),
             "on": with_overrides(base, duration=10.0, **{"detectors.enabled": True,
+                                                         "detectors.areas": True,
                                                          "detectors.period_s": 5.0})}
     for name, sc in runs.items():
         run_scenario(sc, tmp_path / name, write_figures=False)
@@ -240,3 +241,17 @@ def test_bad_detector_keys_are_refused_in_one_line() -> None:
     layout = place_detectors(load_route_road(base.network, base.route), user.detectors)
     assert {d.s for d in layout.detectors if d.track == 1 and d.kind == "e1"} >= {250.0,
                                                                                 1234.5}
+
+
+def test_lane_area_detectors_only_when_asked() -> None:
+    """`areas` off (the default): the same loops and no lane-area detector; on: an E2
+    between each two loops of a lane (traffic_high: 13 loops and 12 stretches a lane)."""
+    base = load_scenario(SCENARIOS / "traffic_high.toml")
+    road = load_route_road(base.network, base.route)
+    loops = with_overrides(base, **{"detectors.enabled": True}).detectors
+    both = with_overrides(base, **{"detectors.enabled": True, "detectors.areas": True})
+    assert not loops.areas
+    plain, full = place_detectors(road, loops), place_detectors(road, both.detectors)
+    assert {d.kind for d in plain.detectors} == {"e1"}
+    assert plain.detectors == tuple(d for d in full.detectors if d.kind == "e1")
+    assert [len(plain.detectors), len(full.detectors)] == [39, 75]

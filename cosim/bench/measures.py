@@ -1,0 +1,112 @@
+"""`cosim bench measures`: what measuring the traffic costs a run.
+
+The same dense run (our SV, planner, controller and plant; SUMO's traffic), from SUMO's
+start to its close, with and without each measure, side by side: the cases alternate
+within each repeat so that drift and other jobs on the machine hit them alike, and each
+ratio is the median over the repeats of the ratio of a case's CPU time to the plain run's
+measured just before it (more robust on a shared machine than a ratio of medians).
+
+Cases (CASES): the plain run; `[detectors]` with its defaults (induction loops); with
+lane-area detectors too (`areas`); SUMO's SSM device on every vehicle (`[ssm]`); on the
+SV and its neighbours only (`ssm.vehicles = "sv"`). Targets: detectors at most 5 % more
+CPU than the plain run; SSM's cost measured, the limited device offered above 20 %.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cosim.commands import count, seconds
+from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
+
+DEFAULT_SCENARIO = "scenarios/traffic_high.toml"
+# (key, label, overrides of the dense scenario); the first is the plain run
+CASES: tuple[tuple[str, str, dict[str, Any]], ...] = (
+    ("plain", "no measures", {}),
+    ("detectors", "[detectors] defaults: induction loops", {"detectors.enabled": True}),
+    ("areas", "[detectors] with lane-area detectors (areas = true)",
+     {"detectors.enabled": True, "detectors.areas": True}),
+)
+TARGETS = {"detectors / plain (cpu)": "<= 1.05"}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--scenario", type=Path, default=None,
+                        help=f"dense traffic scenario (default {DEFAULT_SCENARIO})")
+    parser.add_argument("--duration", type=seconds("--duration"), default=60.0,
+                        help="simulated seconds per run (default 60)")
+    parser.add_argument("--repeats", type=count("--repeats"), default=5,
+                        help="repeats of every case (median; default 5)")
+
+
+def timed_run(scenario: Scenario) -> tuple[float, float]:
+    """s, wall and CPU time of one run, SUMO start to close, its measures' outputs
+    written by SUMO into a temporary folder and read in as `cosim run` reads them."""
+    from cosim.run.loop import simulate
+
+    with tempfile.TemporaryDirectory(prefix="cosim-bench-measures-") as tmp:
+        start, cpu = time.perf_counter(), time.process_time()
+        simulate(scenario, detector_output=Path(tmp))
+        return time.perf_counter() - start, time.process_time() - cpu
+
+
+def repeated(cases: dict[str, Scenario], repeats: int,
+             run: Callable[[Scenario], tuple[float, float]] = timed_run
+             ) -> tuple[dict[str, list[float]], dict[str, list[float]]]:
+    """(wall s, CPU s) of every case per repeat: a short warm-up run, then the cases in
+    turn, `repeats` times."""
+    first = next(iter(cases.values()))
+    run(with_overrides(first, duration=1.0))  # compiled code loaded, SUMO's files cached
+    walls: dict[str, list[float]] = {k: [] for k in cases}
+    cpus: dict[str, list[float]] = {k: [] for k in cases}
+    for _ in range(repeats):
+        for key, scenario in cases.items():
+            wall, cpu = run(scenario)
+            walls[key].append(wall)
+            cpus[key].append(cpu)
+    return walls, cpus
+
+
+def measure(args: argparse.Namespace) -> dict[str, Any]:
+    path = args.scenario if args.scenario is not None else project_root() / DEFAULT_SCENARIO
+    dense = with_overrides(load_scenario(path), duration=float(args.duration))
+    cases = {key: with_overrides(dense, **keys) for key, _, keys in CASES}
+    repeats = max(int(args.repeats), 1)
+    load_before = os.getloadavg()[0]
+    walls, cpus = repeated(cases, repeats)
+    plain = np.array(cpus["plain"])
+    rows, ratios = [], {}
+    for key, label, _ in CASES:
+        cpu = np.array(cpus[key])
+        rows.append({"case": label, "wall_s": float(np.median(walls[key])),
+                     "cpu_s": float(np.median(cpu)),
+                     "cpu_per_step_ms": 1e3 * float(np.median(cpu)) / dense.n_steps,
+                     "cpu_vs_plain": float(np.median(cpu / plain))})
+        if key != "plain":
+            ratios[f"{key} / plain (cpu)"] = float(np.median(cpu / plain))
+    return {
+        "title": f"the cost of measuring: {dense.name}, {dense.duration:g} s simulated, "
+                 f"{dense.traffic.density:g} veh/km/lane; median of {repeats}",
+        "rows": rows,
+        "ratios": ratios,
+        "targets": TARGETS,
+        "notes": [
+            "cpu: process CPU time of a whole run (libsumo runs in-process), SUMO start "
+            "to close; cpu_vs_plain and the ratios: the median over the repeats of each "
+            "run's CPU over the plain run's of the same repeat",
+            "per-repeat ratios: " + "; ".join(
+                f"{key} " + ", ".join(f"{c / p:.3f}" for c, p in
+                                      zip(cpus[key], cpus["plain"], strict=True))
+                for key, _, _ in CASES[1:]),
+            f"{os.cpu_count()} cores; 1-min load average {load_before:.1f} before, "
+            f"{os.getloadavg()[0]:.1f} after",
+        ],
+    }

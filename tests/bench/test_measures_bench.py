@@ -1,0 +1,42 @@
+"""`cosim bench measures`: every case runs the same dense scenario, changed only by its
+measures' keys, in turn within each repeat; the table and the ratios come out of it."""
+
+from __future__ import annotations
+
+import argparse
+
+from cosim.bench import report
+from cosim.bench.measures import CASES, TARGETS, measure, repeated
+from cosim.scenario import load_scenario, project_root, with_overrides
+
+
+def test_cases_alternate_and_differ_only_by_their_measures() -> None:
+    base = with_overrides(load_scenario(project_root() / "scenarios/traffic_high.toml"),
+                          duration=2.0)
+    cases = {key: with_overrides(base, **keys) for key, _, keys in CASES}
+    order: list[str] = []
+
+    def fake(scenario):  # type: ignore[no-untyped-def]
+        key = next(k for k, s in cases.items() if s == scenario) if scenario.duration == 2.0 \
+            else "warm-up"
+        order.append(key)
+        return 1.0, 2.0
+
+    walls, cpus = repeated(cases, 2, run=fake)
+    assert order == ["warm-up", *cases, *cases]
+    assert all(v == [2.0, 2.0] for v in cpus.values()) and set(walls) == set(cases)
+    assert not cases["plain"].detectors.enabled
+    assert cases["detectors"].detectors.enabled and not cases["detectors"].detectors.areas
+    assert cases["areas"].detectors.areas
+    for key in cases:  # nothing else differs
+        assert with_overrides(cases[key], **{"detectors.enabled": False,
+                                             "detectors.areas": False}) == cases["plain"]
+
+
+def test_a_short_measure_gives_a_row_per_case_and_the_ratios() -> None:
+    args = argparse.Namespace(scenario=None, duration=0.5, repeats=1)
+    result = measure(args)
+    assert [r["case"] for r in result["rows"]] == [label for _, label, _ in CASES]
+    assert all(r["cpu_s"] > 0 for r in result["rows"])
+    assert set(TARGETS) <= set(result["ratios"])
+    assert "detectors / plain (cpu): " in report(result)
