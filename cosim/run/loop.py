@@ -218,11 +218,17 @@ class CoSimulation:
         fleet = None if self.fleet is None else self.fleet.result(self.stop.last_row)
         if fleet is not None:  # the fleet's aggregates (cosim.run.fleet)
             metrics.update(fleet.metrics())
+        conflicts = self.world.conflict_table()
+        if conflicts is not None:  # SUMO's surrogate safety measures ([ssm] enabled)
+            from cosim.traffic.ssm import conflict_counts
+
+            metrics.update(conflict_counts(conflicts))
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
                          records=ego.records, first_plan=done.first_plan,
                          edges=tuple(recorder.edges), route_road=self.world.route_road,
-                         detectors=detectors, t_warmup=self.world.t_warmup, fleet=fleet)
+                         detectors=detectors, conflicts=conflicts,
+                         t_warmup=self.world.t_warmup, fleet=fleet)
 
 
 def road_curve(route_road: Road, sc: Scenario) -> RoadCurve | None:

@@ -1,5 +1,5 @@
 """What one run writes: trace.csv, plans.csv, metrics.csv, timing.csv, the figures and,
-with `[detectors] enabled`, detectors.csv.
+with `[detectors] enabled`, detectors.csv, with `[ssm] enabled`, conflicts.csv.
 
 Every file is written atomically (cosim.output); the CSVs use one fixed float
 format, so two runs of the same scenario and seed give byte-identical files
@@ -69,9 +69,10 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                   write_figures: bool = True, extra_files: Sequence[Path] = (),
                   figure_format: str | None = None) -> list[Path]:
     """trace.csv, plans.csv, metrics.csv, timing.csv, detectors.csv (with the run's
-    detectors) and the figures (in `figure_format`, default png), built in a hidden
-    sibling folder and swapped in whole (cosim.output.staged_dir): `out_dir` holds either
-    this run's complete result or, after an interrupt, exactly what it held before.
+    detectors), conflicts.csv (with SUMO's SSM device) and the figures (in
+    `figure_format`, default png), built in a hidden sibling folder and swapped in whole
+    (cosim.output.staged_dir): `out_dir` holds either this run's complete result or,
+    after an interrupt, exactly what it held before.
     `extra_files` (complete files, e.g. SUMO's fcd.xml) are copied in under their names."""
     import shutil
 
@@ -99,6 +100,9 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
                 result.fleet.rows, columns=list(FLEET_COLUMNS)), float_format=CSV_FLOAT))
         if result.detectors is not None:  # SUMO's detectors ([detectors] enabled)
             written.append(atomic_write_csv(out / "detectors.csv", result.detectors,
+                                            float_format=CSV_FLOAT))
+        if result.conflicts is not None:  # SUMO's SSM device ([ssm] enabled)
+            written.append(atomic_write_csv(out / "conflicts.csv", result.conflicts,
                                             float_format=CSV_FLOAT))
         for path in extra_files:
             written.append(Path(shutil.copyfile(path, out / Path(path).name)))

@@ -48,6 +48,8 @@ class RunResult:
     route_road: Road | None = None  # the route's road and (s, d) frame (cosim.road)
     # detectors.csv's rows (cosim.traffic.detectors; a pandas DataFrame), None: no detectors
     detectors: Any = None
+    # conflicts.csv's rows (cosim.traffic.ssm; a pandas DataFrame), None: no SSM device
+    conflicts: Any = None
     t_warmup: float = 0.0  # s, SUMO's clock at the run's clock's 0 (SUMO's outputs' times)
     # the fleet's trace rows and fleet.csv (cosim.run.fleet.FleetResult), None: no [fleet]
     fleet: Any = None

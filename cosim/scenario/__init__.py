@@ -8,7 +8,7 @@ paper's Lane 1/2/3 are SUMO lanes 0/1/2).
 
 Tables: [scenario] [road] [sv] [planner] [vehicle] [controller] [[tv]]
 (with an optional [tv.lane_change] or [tv.brake]) [traffic] [v2v] [detectors]
-[fleet].
+[fleet] [ssm].
 
 The package, one job per module:
 - `model`: the dataclasses, each attribute declared once with its key (`declare`);
@@ -65,6 +65,7 @@ from cosim.scenario.model import (
     FleetSpec,
     LaneChangeCommand,
     Scenario,
+    SsmSpec,
     SVSpec,
     TrafficSpec,
     TVBrake,
@@ -81,7 +82,7 @@ __all__ = [
     "NAME_PATTERN", "NESTED", "OVERRIDES", "PLANNER_FIELDS", "REQUIRED_TABLES", "ROAD_FIELDS",
     "SCENARIO_FIELDS", "SV_FIELDS", "TABLES", "TRAFFIC_FIELDS", "TV_BRAKE_FIELDS", "TV_FIELDS",
     "TV_LANE_CHANGE_FIELDS", "V2V_FIELDS", "VEHICLE_FIELDS", "Field", "LaneChangeCommand",
-    "SVSpec", "Scenario", "TVBrake", "TVLaneChange", "TVSpec", "TrafficSpec", "V2VSpec",
+    "SVSpec", "Scenario", "SsmSpec", "TVBrake", "TVLaneChange", "TVSpec", "TrafficSpec", "V2VSpec",
     "apply_overrides", "load_scenario", "override_target", "project_root", "read_toml",
     "scenario_from_dict", "scenario_to_dict", "schema_markdown", "table_to_dict",
     "validate_table", "with_overrides",

@@ -80,7 +80,7 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     objects: dict[str, Any] = {
         "scenario": s, "road": road, "sv": s.sv, "planner": s.planner, "vehicle": s.vehicle,
         "controller": s.gains, "traffic": s.traffic, "v2v": s.v2v,
-        "detectors": s.detectors, "fleet": s.fleet,
+        "detectors": s.detectors, "fleet": s.fleet, "ssm": s.ssm,
     }
     out = {name: table_to_dict(TABLES[name], obj) for name, obj in objects.items()}
     out["tv"] = [table_to_dict(TABLES["tv"], tv) for tv in s.tvs]

@@ -33,6 +33,7 @@ from cosim.scenario.model import (
     FleetSpec,
     LaneChangeCommand,
     Scenario,
+    SsmSpec,
     SVSpec,
     TrafficSpec,
     TVBrake,
@@ -211,6 +212,7 @@ TRAFFIC_FIELDS = declared_fields(TrafficSpec)
 V2V_FIELDS = declared_fields(V2VSpec)
 DETECTOR_FIELDS = declared_fields(DetectorSpec)
 FLEET_FIELDS = declared_fields(FleetSpec)
+SSM_FIELDS = declared_fields(SsmSpec)
 
 TABLES: dict[str, tuple[Field, ...]] = {
     "scenario": SCENARIO_FIELDS,
@@ -224,6 +226,7 @@ TABLES: dict[str, tuple[Field, ...]] = {
     "v2v": V2V_FIELDS,
     "detectors": DETECTOR_FIELDS,
     "fleet": FLEET_FIELDS,
+    "ssm": SSM_FIELDS,
 }
 REQUIRED_TABLES = ("scenario", "sv")
 # Sub-tables, as the key reference lists them.

@@ -23,6 +23,7 @@ from cosim.scenario.model import (
     DetectorSpec,
     FleetSpec,
     Scenario,
+    SsmSpec,
     SVSpec,
     TrafficSpec,
     TVSpec,
@@ -305,6 +306,7 @@ def scenario_from_dict(
         demand=demand,
         detectors=_detectors(src, tables["detectors"], road_of_route, sc["step"]),
         fleet=_fleet(src, tables["fleet"], sv.controller, demand is not None),
+        ssm=SsmSpec(**tables["ssm"]),
     )
     _check_rules(src, scenario, start, highway)
     return scenario

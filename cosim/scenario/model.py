@@ -281,6 +281,8 @@ class V2VSpec:
 
 
 MAX_DETECTOR_POSITIONS = 1000  # [detectors] positions_m
+# [detectors] areas: one lane-area detector per SUMO lane, or per stretch between loops
+AREAS = ("none", "lanes", "stretches")
 
 
 def _parse_positions(source: str, key: str, value: Any) -> tuple[float, ...]:
@@ -302,20 +304,22 @@ class DetectorSpec:
 
     enabled: bool = declare(Field(
         "enabled", bool, default=False,
-        doc="place SUMO's induction loops (E1) on every SV lane of the route (and "
-            "lane-area detectors with `areas`); `cosim run` writes their measures to "
+        doc="place SUMO's induction loops (E1), and lane-area detectors (E2) as `areas` "
+            "says, on every SV lane of the route; `cosim run` writes their measures to "
             "detectors.csv (docs/outputs.md)"), False)
     spacing: float = declare(number_key(
         "spacing_m", "m", 10.0, 1e5, 500.0,
         "distance along the route between induction loops (at s = 0, spacing, 2 spacing, "
         "..., and a few metres inside the start and the end of each lane that ends)"),
         500.0)
-    areas: bool = declare(Field(
-        "areas", bool, default=False,
-        doc="also a lane-area detector (E2) over each stretch between two loops that lies "
-            "on one SUMO lane (density; cosim.traffic.detectors); off by default: on the "
-            "whole route they cost 15-25 % of a dense run's CPU, the loops 2 % "
-            "(`cosim bench measures`)"), False)
+    areas: str = declare(Field(
+        "areas", str, choices=AREAS, default="none",
+        doc="lane-area detectors (E2: density and space-mean speed, and metrics.csv's "
+            "traffic density and speed): `none`; `lanes`, one over each SUMO lane of an "
+            "SV lane from its first loop to its last; `stretches`, one over each stretch "
+            "between two loops on one SUMO lane. They cost: on a dense run about 10 % "
+            "(`lanes`) and 25-35 % (`stretches`) more CPU, the loops alone 2-8 % "
+            "(`cosim bench measures`)"), "none")
     period: float = declare(number_key(
         "period_s", "s", 0.0, 3600.0, 60.0,
         "aggregation period of every detector (a whole multiple of scenario.step_s)",
@@ -366,6 +370,40 @@ class FleetSpec:
         """Some vehicle may be automated."""
         return self.share > 0.0 or bool(self.vtypes)
 
+SSM_VEHICLES = ("all", "sv")  # [ssm] vehicles: who carries SUMO's SSM device
+
+
+@dataclass(frozen=True)
+class SsmSpec:
+    """SUMO's surrogate safety measures device (cosim.traffic.ssm): TTC, DRAC and PET of
+    every encounter, written into conflicts.csv, counted in metrics.csv."""
+
+    enabled: bool = declare(Field(
+        "enabled", bool, default=False,
+        doc="SUMO's SSM device logs each conflict (an encounter passing a threshold "
+            "below); `cosim run` writes them to conflicts.csv and counts them in "
+            "metrics.csv (docs/outputs.md)"), False)
+    ttc: float = declare(number_key(
+        "ttc_s", "s", 0.0, 60.0, 1.5,
+        "a conflict when the time-to-collision falls below this", lo_open=True), 1.5)
+    pet: float = declare(number_key(
+        "pet_s", "s", 0.0, 60.0, 1.0,
+        "a conflict when the post-encroachment time falls below this (where paths "
+        "cross or merge)", lo_open=True), 1.0)
+    drac: float = declare(number_key(
+        "drac_mps2", "m/s^2", 0.0, 100.0, 3.35,
+        "a conflict when the deceleration to avoid the crash rises above this",
+        lo_open=True), 3.35)
+    vehicles: str = declare(Field(
+        "vehicles", str, choices=SSM_VEHICLES, default="all",
+        doc="who carries the device: `all` (every vehicle's encounters) or `sv` (the SV "
+            "alone: its encounters with every vehicle within `range_m`, its neighbours; "
+            "on every vehicle the device multiplies a dense run's CPU by 2-2.6, on the SV "
+            "alone it costs nothing measurable: `cosim bench measures`)"), "all")
+    range: float = declare(number_key(
+        "range_m", "m", 1.0, 1000.0, 50.0,
+        "how far from a device's vehicle SUMO looks for encounters (SUMO's "
+        "device.ssm.range)"), 50.0)
 
 DEFAULT_STEP = 0.05  # s, SUMO step
 DEFAULT_SUBSTEPS = 10  # plant/controller substeps per SUMO step
@@ -428,6 +466,9 @@ class Scenario:
     detectors: DetectorSpec = field(default_factory=DetectorSpec)
     # [fleet]: automated vehicles besides the SV (none by default)
     fleet: FleetSpec = field(default_factory=FleetSpec)
+
+    # [ssm]: SUMO's surrogate safety measures device (off by default)
+    ssm: SsmSpec = field(default_factory=SsmSpec)
 
     @property
     def n_steps(self) -> int:

@@ -174,6 +174,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         row.update(merge_summary(ok))
         if traffic:
             row.update(traffic_summary(ok, traffic))
+        row.update(ssm_summary(ok))
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -250,3 +251,24 @@ def merge_summary(ok: pd.DataFrame) -> dict[str, float]:
     row.update(_p95_max(_finite(ok, "merge_follower_max_decel_mps2"),
                         "merge_follower_decel_mps2"))
     return row
+
+
+# ------------------------------------------------------------------ surrogate safety
+# Per grid cell: the mean count of SUMO's SSM conflicts per run (cosim.traffic.ssm
+# COUNT_DOCS) with its Student-t interval; only for studies whose runs measured them.
+SSM_COUNTS = ("ssm_conflicts", "ssm_ttc_conflicts", "ssm_drac_conflicts",
+              "ssm_pet_conflicts", "ssm_sv_conflicts")
+
+
+def ssm_summary(ok: pd.DataFrame) -> dict[str, float]:
+    """summary.csv's SSM columns of one cell's finished runs: for each of SSM_COUNTS
+    present in the runs, `<count>_mean` per run with its `_ci_low` / `_ci_high`
+    (`mean_ci`: NaN for fewer than two runs); none without [ssm] runs."""
+    out: dict[str, float] = {}
+    for metric in SSM_COUNTS:
+        if metric not in ok:
+            continue
+        values = pd.to_numeric(ok[metric], errors="coerce").to_numpy(float)
+        (out[f"{metric}_mean"], out[f"{metric}_ci_low"],
+         out[f"{metric}_ci_high"]) = mean_ci(values)
+    return out

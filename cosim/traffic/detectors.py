@@ -4,12 +4,15 @@ them and turns what SUMO wrote into one tidy table (detectors.csv).
 Placement (`place_detectors`), on every SV lane of the route (route_lanes.sv_tracks: the
 tracks through or ending on it): an induction loop (E1) at s = 0, spacing, 2 spacing, ...
 up to the lane's end, LANE_END_INSET inside the start and the end of each lane that ends
-(an acceleration lane, a lane drop) and at each of the user's positions; with `areas`, a
-lane-area detector (E2) over each stretch between two consecutive loops of a lane that
-lies on one SUMO lane and is at least MIN_AREA_LENGTH long (a stretch across a junction
-gets none). E2s are off by default for their cost: SUMO follows every vehicle on each of
-them every step, and with one per stretch they cover the whole route (measured in
-docs/outputs.md: 15-25 % of a dense run's CPU, the loops about 2 %).
+(an acceleration lane, a lane drop) and at each of the user's positions; lane-area
+detectors (E2) only as `areas` asks, at least MIN_AREA_LENGTH long, on one SUMO lane
+each: with "lanes" one over each SUMO lane of a track from its first loop to its last,
+with "stretches" one over each stretch between two consecutive loops on one SUMO lane (a
+stretch across a junction gets none). None by default for their cost: SUMO follows every
+vehicle on an E2 every step, and the cost grows with the road they cover and with their
+number (docs/outputs.md: per stretch 25-35 % of a dense run's CPU, per lane about 10 %,
+the loops a few %). Per lane, "lanes" measures what "stretches" does on average (an
+E2's vehicles and their speeds add up over the stretches it covers).
 A point s of a track maps to SUMO's (lane, lane position) through RouteLanes.place (on a
 junction's lane: the start of the next edge), and a detector's s is read back from where
 it is (route_lanes.s_of_lane_position), so s_m says where SUMO measures.
@@ -144,6 +147,23 @@ def loop_positions(lanes: RouteLanes, track: int, spec: DetectorSpec) -> list[fl
     return kept
 
 
+def _area_ends(loops: list[Detector], areas: str) -> list[tuple[Detector, Detector]]:
+    """The (first, last) loops of each lane-area detector of a track's loops (by s):
+    "stretches", each two consecutive loops on one SUMO lane; "lanes", the first and the
+    last loop of each run of loops on one SUMO lane; "none", none."""
+    if areas == "none":
+        return []
+    if areas == "stretches":
+        return [(a, b) for a, b in zip(loops, loops[1:], strict=False) if a.lane == b.lane]
+    runs: list[list[Detector]] = []
+    for d in loops:
+        if runs and runs[-1][-1].lane == d.lane:
+            runs[-1].append(d)
+        else:
+            runs.append([d])
+    return [(run[0], run[-1]) for run in runs if len(run) > 1]
+
+
 def place_detectors(route_road: Road, spec: DetectorSpec) -> DetectorLayout:
     """The run's detectors on the route's SV lanes (see the module docstring)."""
     lanes = RouteLanes(route_road)
@@ -172,10 +192,8 @@ def place_detectors(route_road: Road, spec: DetectorSpec) -> DetectorLayout:
             placed.append(Detector(unique(f"e1_t{table.id}_s{_name(at)}"), "e1", piece.lane,
                                    table.id, place.position, place.position, at))
         loops += placed
-        if not spec.areas:
-            continue
-        for a, b in zip(placed, placed[1:], strict=False):
-            if a.lane == b.lane and b.position - a.position >= MIN_AREA_LENGTH:
+        for a, b in _area_ends(placed, spec.areas):
+            if b.position - a.position >= MIN_AREA_LENGTH:
                 areas.append(Detector(unique(f"e2_t{table.id}_s{_name(a.s)}-{_name(b.s)}"),
                                       "e2", a.lane, table.id, a.position, b.position, a.s))
     return DetectorLayout(tuple(loops + areas), spec.period)

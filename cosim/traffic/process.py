@@ -63,6 +63,9 @@ class SumoProcess:
     # SUMO's detectors along the route (cosim.traffic.detectors): the additional file's
     # text, written into the temporary folder ("": none)
     detectors: str = ""
+    # SUMO options of cosim's measures (cosim.traffic.ssm: the SSM device), outputs in
+    # folders the caller gives
+    measures: tuple[tuple[str, str], ...] = ()
     api: ModuleType | None = None  # while running
     _tmp: tempfile.TemporaryDirectory[str] | None = None
     _log_text: str = ""
@@ -110,6 +113,7 @@ class SumoProcess:
             files.append(additional)
         options.append(("--additional-files", ",".join(files)))
         options += theirs.items()
+        options += self.measures
         if self.sublane:
             options.append(("--lateral-resolution", repr(self.lateral_resolution)))
         elif self.lanechange_duration > 0:
@@ -193,6 +197,8 @@ class SumoOptions:
     additional_files: tuple[Path, ...] = ()  # --additional-files
     # SUMO's detectors (cosim.traffic.detectors.DetectorLayout.additional; "": none)
     detectors: str = ""
+    # SUMO options of cosim's measures (cosim.traffic.ssm.sumo_options; (): none)
+    measures: tuple[tuple[str, str], ...] = ()
 
 
 def process(network: Path, step: float, seed: int, options: SumoOptions) -> SumoProcess:
@@ -206,4 +212,5 @@ def process(network: Path, step: float, seed: int, options: SumoOptions) -> Sumo
         extra_args=tuple(o.extra_args), lateral_resolution=float(o.lateral_resolution),
         fcd_output=None if o.fcd_output is None else Path(o.fcd_output),
         route_files=tuple(map(Path, o.route_files)),
-        additional_files=tuple(map(Path, o.additional_files)), detectors=o.detectors)
+        additional_files=tuple(map(Path, o.additional_files)), detectors=o.detectors,
+        measures=tuple(o.measures))

@@ -41,6 +41,8 @@ from cosim.traffic.gui import GuiSettings
 from cosim.traffic.process import SumoOptions
 from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
 from cosim.traffic.route_lanes import load_route_road, sv_start
+from cosim.traffic.ssm import conflicts_table
+from cosim.traffic.ssm import sumo_options as ssm_options
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
 if TYPE_CHECKING:
@@ -139,6 +141,8 @@ class World:
         self.detectors: DetectorLayout | None = None
         if sc.detectors.enabled and detector_output is not None:
             self.detectors = place_detectors(self.route_road, sc.detectors)
+        # SUMO's SSM device ([ssm] enabled), its output into the same folder
+        self.ssm = sc.ssm if sc.ssm.enabled and detector_output is not None else None
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed, SumoOptions(
                 lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
@@ -146,7 +150,9 @@ class World:
                 route_files=sc.demand.route_files if sc.demand else (),
                 additional_files=sc.demand.additional_files if sc.demand else (),
                 detectors="" if self.detectors is None or detector_output is None else
-                self.detectors.additional(detector_output)),
+                self.detectors.additional(detector_output),
+                measures=() if self.ssm is None or detector_output is None else
+                ssm_options(self.ssm, detector_output, SV_ID)),
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
             route_road=self.route_road,
         )
@@ -467,3 +473,10 @@ class World:
         if self.detectors is None or self.detector_output is None:
             return None
         return self.detectors.table(self.detector_output, self.t_warmup)
+
+    def conflict_table(self) -> Any:
+        """conflicts.csv's rows (cosim.traffic.ssm.conflicts_table) once SUMO has closed,
+        times on the run's clock; None without the SSM device."""
+        if self.ssm is None or self.detector_output is None:
+            return None
+        return conflicts_table(self.detector_output, self.ssm, SV_ID, self.t_warmup)

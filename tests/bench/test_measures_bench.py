@@ -26,11 +26,16 @@ def test_cases_alternate_and_differ_only_by_their_measures() -> None:
     assert order == ["warm-up", *cases, *cases]
     assert all(v == [2.0, 2.0] for v in cpus.values()) and set(walls) == set(cases)
     assert not cases["plain"].detectors.enabled
-    assert cases["detectors"].detectors.enabled and not cases["detectors"].detectors.areas
-    assert cases["areas"].detectors.areas
+    assert cases["detectors"].detectors.enabled
+    assert cases["detectors"].detectors.areas == "none"
+    assert cases["lanes"].detectors.areas == "lanes"
+    assert cases["stretches"].detectors.areas == "stretches"
+    assert cases["ssm"].ssm.enabled and cases["ssm"].ssm.vehicles == "all"
+    assert cases["ssm_sv"].ssm.vehicles == "sv"
     for key in cases:  # nothing else differs
-        assert with_overrides(cases[key], **{"detectors.enabled": False,
-                                             "detectors.areas": False}) == cases["plain"]
+        assert with_overrides(cases[key], **{
+            "detectors.enabled": False, "detectors.areas": "none", "ssm.enabled": False,
+            "ssm.vehicles": "all"}) == cases["plain"]
 
 
 def test_a_short_measure_gives_a_row_per_case_and_the_ratios() -> None:

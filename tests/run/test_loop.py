@@ -313,11 +313,14 @@ def test_docs_describe_every_output_column() -> None:
     from cosim.run.fleet import FLEET_COLUMNS, FLEET_METRIC_DOCS
     from cosim.run.result import TIMING_DOCS
     from cosim.traffic.detectors import COLUMNS as DETECTOR_COLUMNS
+    from cosim.traffic.ssm import COLUMNS as CONFLICT_COLUMNS
+    from cosim.traffic.ssm import COUNT_DOCS
     from cosim.traffic.traffic_measures import TRAFFIC_DOCS
 
     text = (project_root() / "docs" / "outputs.md").read_text(encoding="utf-8")
     for columns in (TRACE_COLUMNS, PLAN_COLUMNS, METRIC_DOCS, TIMING_DOCS, DETECTOR_COLUMNS,
-                    TRAFFIC_DOCS, FLEET_COLUMNS, FLEET_METRIC_DOCS, ("vehicle_id",)):
+                    TRAFFIC_DOCS, FLEET_COLUMNS, FLEET_METRIC_DOCS, ("vehicle_id",),
+                    CONFLICT_COLUMNS, COUNT_DOCS):
         for name in columns:
             assert f"| `{name}` |" in text, name
 

@@ -138,3 +138,24 @@ def test_summary_counts_unfinished_apart_and_shows_both_collision_checks() -> No
     assert "unfinished" in text.splitlines()[0] and "SUMO's" in text.splitlines()[0]
     cells = [c.strip() for c in text.splitlines()[2].split("|")]
     assert cells[4:7] == ["2", "100 [34, 100]", "0 [0, 49] (25)"]
+
+
+def test_ssm_counts_get_a_mean_and_its_interval_only_where_measured() -> None:
+    """SUMO's SSM counts per run (metrics.csv, [ssm]): per cell their mean over the
+    finished runs with its Student-t interval; a study without them gets no such
+    columns."""
+    runs = pd.DataFrame({
+        "driver": ["mimo"] * 4, "plant": ["twotrack"] * 4, "occupant": [0.5] * 4,
+        "mu": [0.8] * 4, "density": [10.0] * 4, "seed": [1, 2, 3, 4],
+        "status": [RunStatus.OK] * 3 + [RunStatus.FAILED],
+        "lane_change_completed": [True] * 3 + [None], "collision": [False] * 3 + [None],
+        "ssm_conflicts": [1, 2, 3, None], "ssm_ttc_conflicts": [0, 0, 3, None],
+    })
+    row = summarize(runs).iloc[0]
+    assert row["ssm_conflicts_mean"] == 2.0
+    assert row["ssm_conflicts_ci_high"] - 2.0 == pytest.approx(4.302653 / 3**0.5, rel=1e-6)
+    assert row["ssm_ttc_conflicts_mean"] == 1.0
+    assert "ssm_drac_conflicts_mean" not in row
+    assert not [c for c in summarize(runs.drop(columns=["ssm_conflicts",
+                                                        "ssm_ttc_conflicts"])).columns
+                if c.startswith("ssm_")]

@@ -38,7 +38,7 @@ PERIOD = 20.0  # s
 
 def _on(name: str, **keys: Any) -> Any:
     return with_overrides(load_scenario(SCENARIOS / f"{name}.toml"),
-                          **{"detectors.enabled": True, "detectors.areas": True, **keys})
+                          **{"detectors.enabled": True, "detectors.areas": "stretches", **keys})
 
 
 def _sumo_intervals(folder: Path) -> dict[tuple[str, float], dict[str, str]]:
@@ -148,7 +148,7 @@ def test_without_detectors_a_run_writes_what_it_wrote_before(tmp_path: Path) -> 
     runs = {"absent": with_overrides(base, duration=10.0),
             "off": with_overrides(base, duration=10.0, **{"detectors.enabled": False}),
             "on": with_overrides(base, duration=10.0, **{"detectors.enabled": True,
-                                                         "detectors.areas": True,
+                                                         "detectors.areas": "stretches",
                                                          "detectors.period_s": 5.0})}
     for name, sc in runs.items():
         run_scenario(sc, tmp_path / name, write_figures=False)
@@ -243,15 +243,25 @@ def test_bad_detector_keys_are_refused_in_one_line() -> None:
                                                                                 1234.5}
 
 
-def test_lane_area_detectors_only_when_asked() -> None:
-    """`areas` off (the default): the same loops and no lane-area detector; on: an E2
-    between each two loops of a lane (traffic_high: 13 loops and 12 stretches a lane)."""
+def test_lane_area_detectors_only_as_asked() -> None:
+    """`areas`: "none" (the default) places the loops alone; "lanes" the same loops and
+    on each lane one E2 over what the stretches cover; "stretches" one between each two
+    loops (traffic_high: 13 loops and 12 stretches a lane, 0 to 6000 m)."""
     base = load_scenario(SCENARIOS / "traffic_high.toml")
     road = load_route_road(base.network, base.route)
-    loops = with_overrides(base, **{"detectors.enabled": True}).detectors
-    both = with_overrides(base, **{"detectors.enabled": True, "detectors.areas": True})
-    assert not loops.areas
-    plain, full = place_detectors(road, loops), place_detectors(road, both.detectors)
-    assert {d.kind for d in plain.detectors} == {"e1"}
-    assert plain.detectors == tuple(d for d in full.detectors if d.kind == "e1")
-    assert [len(plain.detectors), len(full.detectors)] == [39, 75]
+    placed = {}
+    for areas in ("none", "lanes", "stretches"):
+        keys = {"detectors.enabled": True} if areas == "none" else {
+            "detectors.enabled": True, "detectors.areas": areas}
+        spec = with_overrides(base, **keys).detectors
+        assert spec.areas == areas
+        placed[areas] = place_detectors(road, spec).detectors
+    loops = placed["none"]
+    assert len(loops) == 39 and {d.kind for d in loops} == {"e1"}
+    for areas in ("lanes", "stretches"):
+        assert [d for d in placed[areas] if d.kind == "e1"] == list(loops)
+    lanes = [d for d in placed["lanes"] if d.kind == "e2"]
+    assert [(d.track, d.s, d.length) for d in lanes] == [(k, 0.0, 6000.0) for k in range(3)]
+    assert len(placed["stretches"]) == 39 + 36
+    with pytest.raises(InputError, match="detectors.areas"):
+        with_overrides(base, **{"detectors.areas": "all"})

@@ -29,7 +29,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     sc = with_overrides(load_scenario(ROOT / "scenarios" / "traffic_jam.toml"),
                         controller="sumo", duration=20.0,
                         **{"detectors.enabled": True, "detectors.period_s": PERIOD,
-                           "detectors.spacing_m": 200.0})
+                           "detectors.spacing_m": 200.0, "detectors.areas": "stretches"})
     run_scenario(sc, out, write_figures=False)
     return {"metrics": pd.read_csv(out / "metrics.csv").iloc[0],
             "detectors": pd.read_csv(out / "detectors.csv")}
