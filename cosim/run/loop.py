@@ -214,7 +214,7 @@ class CoSimulation:
         if detectors is not None:  # the traffic's flow, density, speed and waves
             from cosim.traffic.traffic_measures import traffic_columns
 
-            metrics.update(traffic_columns(detectors))
+            metrics.update(traffic_columns(detectors, sc.detectors.measure_from))
         fleet = None if self.fleet is None else self.fleet.result(self.stop.last_row)
         if fleet is not None:  # the fleet's aggregates (cosim.run.fleet)
             metrics.update(fleet.metrics())

@@ -324,6 +324,11 @@ class DetectorSpec:
         "period_s", "s", 0.0, 3600.0, 60.0,
         "aggregation period of every detector (a whole multiple of scenario.step_s)",
         lo_open=True), 60.0)
+    measure_from: float = declare(number_key(
+        "measure_from_s", "s", 0.0, 1e5, 0.0,
+        "metrics.csv's traffic columns (flow, density, speed, spread, outflow) count only "
+        "the periods that begin at or after this time on the run's clock, leaving out the "
+        "start's transient; detectors.csv keeps every period"), 0.0)
     positions: tuple[float, ...] = declare(Field(
         "positions_m", list, default=(), parse=_parse_positions, export=list,
         describe=f"a list of at most {MAX_DETECTOR_POSITIONS} positions along the route in m",

@@ -3,8 +3,9 @@ detectors): per SV lane (track) its flow, density and space-mean speed, and how 
 speed varies along the lane and over time (stop-and-go waves); metrics.csv's columns of a
 run with `[detectors] enabled` (TRAFFIC_DOCS).
 
-Only full periods on the run's clock count (begin_s >= 0, end_s - begin_s the period):
-SUMO's last interval of one step and the warm-up's are left out.
+Only full periods on the run's clock count (begin_s >= 0, end_s - begin_s the period), and
+of them those beginning at or after [detectors] measure_from_s: SUMO's last interval of
+one step, the warm-up's and the start's transient are left out.
 
 - flow: the mean over the lane's induction loops (E1) and periods of SUMO's flow (veh/h);
 - density: the lane-area detectors' (E2) vehicles over their length, length-weighted
@@ -77,13 +78,15 @@ def lane_column(pattern: str, track: int) -> str:
     return pattern.replace("<k>", str(track))
 
 
-def full_periods(table: Any) -> Any:
-    """The rows of detectors.csv's table over full periods on the run's clock."""
+def full_periods(table: Any, since: float = 0.0) -> Any:
+    """The rows of detectors.csv's table over full periods beginning at or after `since`
+    (s, on the run's clock; at least 0)."""
     span = table.end_s - table.begin_s
     if not len(table):
         return table
     period = float(span.max())
-    return table[(table.begin_s >= 0.0) & np.isclose(span, period, rtol=0.0, atol=1e-6)]
+    return table[(table.begin_s >= max(since, 0.0) - 1e-9)
+                 & np.isclose(span, period, rtol=0.0, atol=1e-6)]
 
 
 def _mean(values: np.ndarray) -> float:
@@ -122,10 +125,11 @@ def lane_measures(rows: Any) -> dict[str, float]:
     }
 
 
-def traffic_columns(table: Any) -> dict[str, float]:
+def traffic_columns(table: Any, since: float = 0.0) -> dict[str, float]:
     """metrics.csv's traffic columns (TRAFFIC_DOCS: the road's, then each lane's by track)
-    from detectors.csv's table."""
-    rows = full_periods(table)
+    from detectors.csv's table, over its full periods beginning at or after `since` (s;
+    [detectors] measure_from_s)."""
+    rows = full_periods(table, since)
     tracks = sorted(int(k) for k in set(table.track))
     lanes = {k: lane_measures(rows[rows.track == k]) for k in tracks}
     areas = rows[rows.kind == "e2"]

@@ -35,9 +35,10 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
             "detectors": pd.read_csv(out / "detectors.csv")}
 
 
-def _hand(det: pd.DataFrame, track: int) -> dict[str, float]:
-    """One lane's values as the docs define them, with plain loops over the rows."""
-    full = [r for r in det.itertuples() if r.track == track and r.begin_s >= 0
+def _hand(det: pd.DataFrame, track: int, since: float = 0.0) -> dict[str, float]:
+    """One lane's values as the docs define them, with plain loops over the rows (the
+    full periods beginning at or after `since`)."""
+    full = [r for r in det.itertuples() if r.track == track and r.begin_s >= since
             and abs(r.end_s - r.begin_s - PERIOD) < 1e-9]
     loops = [r for r in full if r.kind == "e1"]
     areas = [r for r in full if r.kind == "e2"]
@@ -90,6 +91,12 @@ def test_metrics_are_the_hand_computation_from_detectors_csv(run: dict[str, Any]
     sums = [sum(r.flow_veh_per_h for r in full.itertuples() if r.begin_s == b and r.s_m == last)
             for b in sorted(set(full.begin_s))]
     assert m["outflow_veh_per_h"] == pytest.approx(statistics.fmean(sums), rel=1e-9)
+    # [detectors] measure_from_s: only the periods from then on
+    late = traffic_columns(det, since=10.0)
+    for k in tracks:
+        for pattern, value in _hand(det, k, since=10.0).items():
+            assert late[lane_column(pattern, k)] == pytest.approx(value, rel=1e-6, nan_ok=True)
+    assert late["traffic_speed_lane1_mps"] != pytest.approx(m["traffic_speed_lane1_mps"])
     # the columns: METRIC_DOCS' first, then the road's, then each lane's
     names = list(m.index)
     lanes = [lane_column(p, k) for k in tracks for p in LANE_DOCS]
@@ -129,7 +136,7 @@ def test_the_bottlenecks_outflow_is_counted_past_the_drop(tmp_path: Path) -> Non
     the lane drop, over the two lanes that run on (the loops at the route's end, 5 km,
     count no one), and is their flows' sum."""
     sc = with_overrides(load_scenario(ROOT / "scenarios" / "bottleneck.toml"), duration=10.0,
-                        **{"detectors.period_s": 5.0})
+                        **{"detectors.period_s": 5.0, "detectors.measure_from_s": 0.0})
     run_scenario(sc, tmp_path, write_figures=False)
     m = pd.read_csv(tmp_path / "metrics.csv").iloc[0]
     det = pd.read_csv(tmp_path / "detectors.csv")
