@@ -137,12 +137,12 @@ def _continuations(net: Any, a: Any, b: Any) -> dict[int, tuple[int, list[Any]]]
     for _, i, j, c in candidates:
         if i in taken_from or j in taken_to:
             continue
-        taken_from[i] = (j, _via_chain(net, c))
+        taken_from[i] = (j, via_chain(net, c))
         taken_to.add(j)
     return taken_from
 
 
-def _via_chain(net: Any, connection: Any) -> list[Any]:
+def via_chain(net: Any, connection: Any) -> list[Any]:
     """The internal lanes a connection runs through, in order (an internal junction
     splits them in two)."""
     lanes: list[Any] = []

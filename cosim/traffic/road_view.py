@@ -17,12 +17,20 @@ identity and the snapshot is returned as it is.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from cosim.road.frame import ArcFrame, StraightFrame
+from cosim.road.tracks import via_chain
 from cosim.traffic.snapshot import TrafficSnapshot
+
+if TYPE_CHECKING:
+    from cosim.road.road import Road
+    from cosim.traffic.route_lanes import Upstream
 
 
 def is_identity(frame: StraightFrame | ArcFrame) -> bool:
@@ -67,3 +75,91 @@ def cartesian_pose(frame: StraightFrame | ArcFrame, s: float, d: float,
         return s, d, heading, 1.0
     x, y, theta = frame.to_cartesian(s, d)
     return float(x), float(y), float(theta) + heading, float(stretch(frame, s, d))
+
+
+@dataclass(frozen=True)
+class UpstreamLane:
+    """A lane before the carriageway edge of a route from an on-ramp that feeds one of
+    its through tracks (the mainline beside the ramp, cosim.traffic.route_lanes.Upstream):
+    the frame there runs along the ramp, so a vehicle on it is placed by its lane
+    position instead, as if the track ran on back along it."""
+
+    track: int  # the track it feeds
+    begin: float  # m, s where that track begins
+    junction: float  # m, SUMO's length of the junction's lanes between the two
+    d: float  # m, d of the track's centre there
+    length: float  # m, SUMO's length of the lane
+    shape: np.ndarray  # m, SUMO's centre line of the lane, (n, 2)
+
+
+def upstream_lanes(route_road: Road, upstream: Mapping[int, Upstream]
+                   ) -> dict[str, UpstreamLane]:
+    """SUMO lane id -> `UpstreamLane` of the lanes feeding the through tracks of a route
+    whose carriageway edge is not its first (`upstream`: RouteLanes.upstream); empty on
+    every other route (their vehicles are read by their pose alone)."""
+    if route_road.lead_in is None:
+        return {}
+    out = {}
+    for track, up in upstream.items():
+        if up.joins == 0:
+            continue
+        table = route_road.lane(track)
+        net = route_road.route.net
+        lane = net.getLane(f"{up.edge}_{up.index}")
+        into = [c for c in lane.getOutgoing()
+                if c.getToLane().getID() == table.track.pieces[0].lane]
+        junction = sum(float(v.getLength()) for v in via_chain(net, into[0])) if into else 0.0
+        out[lane.getID()] = UpstreamLane(track, table.begin, junction,
+                                         float(table.centre(table.begin)), up.length,
+                                         np.asarray(lane.getShape(), dtype=float))
+    return out
+
+
+def place_upstream(seen: TrafficSnapshot, frame: StraightFrame | ArcFrame, api: ModuleType,
+                   lanes: Mapping[str, UpstreamLane], skip: str) -> TrafficSnapshot:
+    """`seen` (a `road_view`) with the vehicles on `lanes` placed by their lane position:
+    s = the track's begin less the junction, the rest of the lane to its end and half the
+    vehicle (where its pose puts it once its front is in the junction), d =
+    the track's centre there plus the vehicle's offset from its lane's centre, heading
+    relative to the lane, speed along it (SUMO's own). Only vehicles whose track is one
+    of those lanes' and whose s lies near or before that track's begin are asked for their
+    lane (`skip`: a vehicle never on them, the SV)."""
+    if not lanes or not len(seen):
+        return seen
+    begins: dict[int, float] = {}
+    for up in lanes.values():
+        begins[up.track] = max(begins.get(up.track, -np.inf), up.begin)
+    rows = [i for i, (vid, k) in enumerate(zip(seen.ids, seen.lane.tolist(), strict=True))
+            if vid != skip and k in begins and seen.x[i] <= begins[k] + UPSTREAM_REACH]
+    if not rows:
+        return seen
+    x, y, heading = seen.x.copy(), seen.y.copy(), seen.heading.copy()
+    speed, accel = seen.speed.copy(), seen.accel.copy()
+    vehicle = api.vehicle
+    for i in rows:
+        up = lanes.get(vehicle.getLaneID(seen.ids[i]))
+        if up is None:
+            continue
+        front = float(vehicle.getLanePosition(seen.ids[i]))
+        q = float(stretch(frame, x[i], y[i]))
+        speed[i], accel[i] = speed[i] * q, accel[i] * q  # SUMO's own, along the lane
+        x[i] = up.begin - up.junction - (up.length - front) - 0.5 * float(seen.length[i])
+        y[i] = up.d + float(vehicle.getLateralLanePosition(seen.ids[i]))
+        assert seen.ch is not None
+        heading[i] = (float(seen.ch[i]) - _lane_angle(up, front) + np.pi) % (2 * np.pi) - np.pi
+    return replace(seen, x=x, y=y, heading=heading, speed=speed, accel=accel)
+
+
+UPSTREAM_REACH = 10.0  # m, past a track's begin a vehicle's pose may still be on the lane
+# before it (the junction between): such a vehicle is asked for its lane too
+
+
+def _lane_angle(up: UpstreamLane, offset: float) -> float:
+    """rad, the direction of the lane's centre line `offset` m from its start (SUMO's
+    lane positions stretched onto its shape)."""
+    seg = np.diff(up.shape, axis=0)
+    lengths = np.hypot(seg[:, 0], seg[:, 1])
+    cum = np.cumsum(lengths)
+    at = offset * cum[-1] / up.length if up.length > 0 else offset
+    k = min(int(np.searchsorted(cum, at)), len(seg) - 1)
+    return float(np.arctan2(seg[k, 1], seg[k, 0]))

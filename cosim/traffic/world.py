@@ -39,7 +39,13 @@ from cosim.traffic.cooperation import (
 from cosim.traffic.detectors import DetectorLayout, place_detectors
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.process import SumoOptions
-from cosim.traffic.road_view import cartesian_pose, is_identity, road_view
+from cosim.traffic.road_view import (
+    cartesian_pose,
+    is_identity,
+    place_upstream,
+    road_view,
+    upstream_lanes,
+)
 from cosim.traffic.route_lanes import load_route_road, sv_start
 from cosim.traffic.ssm import conflicts_table
 from cosim.traffic.ssm import sumo_options as ssm_options
@@ -161,6 +167,9 @@ class World:
         # (cosim.traffic.road_view; the identity on the one straight edge)
         self.frame = self.route_road.frame
         self._s_hint: float | None = None  # m, the SV's s at the last read
+        # on a route from an on-ramp: the mainline's lanes beside the ramp, whose vehicles
+        # are placed by their lane position (road_view.place_upstream; else empty)
+        self._upstream = upstream_lanes(self.route_road, self.sumo.lanes.upstream)
         # the SV's start: (track id, s in m) of [sv] edge, lane, position_m
         self.sv_start = sv_start(self.route_road, sc.sv.edge, sc.sv.lane, sc.sv.position)
         self.started = False
@@ -303,9 +312,14 @@ class World:
                                   "the SV is no longer on the network (end of the road?)")
         if is_identity(self.frame):
             return self._run_clock(snap)
-        seen = road_view(snap, self.frame, self._s_hint)
+        seen = self._view(snap)
         self._s_hint = float(seen.x[seen.index(SV_ID)])
         return self._run_clock(seen)
+
+    def _view(self, snap: TrafficSnapshot) -> TrafficSnapshot:
+        """The snapshot in road coordinates (cosim.traffic.road_view)."""
+        seen = road_view(snap, self.frame, self._s_hint)
+        return place_upstream(seen, self.frame, self.sumo.api, self._upstream, SV_ID)
 
     def _run_clock(self, snap: TrafficSnapshot) -> TrafficSnapshot:
         """The snapshot timed on the run's clock past the warm-up (SUMO's time minus the
@@ -431,11 +445,11 @@ class World:
 
     def read_all(self) -> TrafficSnapshot:
         """Every vehicle on the network, accelerations and signals included."""
-        return self._run_clock(road_view(self.sumo.snapshot(), self.frame, self._s_hint))
+        return self._run_clock(self._view(self.sumo.snapshot()))
 
     def read_again(self, ids: tuple[str, ...]) -> TrafficSnapshot:
         """These vehicles again, accelerations and signals included."""
-        return self._run_clock(road_view(self.sumo.reader.read(ids), self.frame, self._s_hint))
+        return self._run_clock(self._view(self.sumo.reader.read(ids)))
 
     # ------------------------------------------------ gap requests (cooperation)
     def open_gap_requests(self) -> None:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import functools
 import math
 import re
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -386,3 +388,27 @@ def test_a_sideways_step_is_refused_where_the_line_first_leaves_the_lane() -> No
     # at one of the step's two corners
     assert re.search(r"turns by 90 degrees, near x = 1000\.0, y = (0\.0|4\.8), where 1000\)$",
                      text), text
+
+
+def test_lanes_re_spread_at_a_lane_count_change_are_refused_naming_the_step(
+        tmp_path: Path) -> None:
+    """3 -> 4 -> 3 lanes as netconvert connects them with its lanes centred on each edge
+    (spreadType "center"): every lane steps half a lane sideways through each junction's
+    4 m, which no smoothing within 0.2 m follows (SUMO's own drivers do it laterally in
+    no time). Refused in one line naming the junction and the step."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from handdrawn import netconvert
+
+    edges = "".join(f'<edge id="{e}" from="{a}" to="{b}" numLanes="{n}" speed="33.3" '
+                    'spreadType="center"/>'
+                    for e, a, b, n in (("AB", "A", "B", 3), ("BC", "B", "C", 4),
+                                       ("CD", "C", "D", 3)))
+    net = netconvert(tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+                     '<node id="C" x="1300" y="0"/><node id="D" x="2300" y="0"/></nodes>',
+                     f"<edges>{edges}</edges>", name="c343")
+    with pytest.raises(InputError) as err:
+        load_road(net, ["AB", "BC", "CD"])
+    text = str(err.value)
+    assert err.value.key == "reference line radius" and "\n" not in text
+    assert re.search(r"at junction [BC] between edges (AB and BC|BC and CD), across which "
+                     r"SUMO's lane steps 1\.6 m sideways", text), text
