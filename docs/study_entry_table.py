@@ -6,7 +6,8 @@ wet) or of scenarios/study_merge.toml:
     python docs/study_entry_table.py /tmp/study_merge
     python docs/study_entry_table.py /tmp/study_entry --figure docs/entry_density.png
 
-Per friction and density, the gap policy / SUMO's driver: runs whose new follower
+Per friction and density, the gap policy / SUMO's driver: lane changes completed of the
+runs, runs whose new follower
 braked harder than 3 m/s^2 (`follower_max_decel_mps2`), the smallest bumper gap and
 the largest needed deceleration at the entry (`entry_follower_gap_m`,
 `entry_follower_needed_decel_mps2`), the median request-to-lane time and its ratio,
@@ -36,7 +37,7 @@ def _runs(folder: Path) -> pd.DataFrame:
 def table(folder: Path) -> str:
     runs = _runs(folder)
     merge = "merge_distance_to_end_m" in runs and runs["merge_distance_to_end_m"].notna().any()
-    head = ["mu", "density (veh/km/lane)", "runs", "follower > 3 m/s^2",
+    head = ["mu", "density (veh/km/lane)", "lane changes", "follower > 3 m/s^2",
             "min entry gap m", "max needed decel m/s^2", "request to lane s (median)",
             "ratio", "SV-caused collisions", "peak jerk m/s^3 (median)",
             "ax jump share (median)", "braking > 3 after the change",
@@ -59,7 +60,8 @@ def table(folder: Path) -> str:
         rescue = " / ".join(
             f"{int(x['emergency_brakes'].sum())}, {int(x['aborts'].sum())}, "
             f"{int(x['replans'].sum())}" for x in (a, b))
-        row = [f"{mu:g}", f"{dens:g}", f"{len(a)} / {len(b)}",
+        row = [f"{mu:g}", f"{dens:g}",
+               " / ".join(f"{int(x['lane_change_completed'].sum())}/{len(x)}" for x in (a, b)),
                count("follower_max_decel_mps2", HARD_FOLLOWER_BRAKE),
                pair("entry_follower_gap_m", "min", 2),
                pair("entry_follower_needed_decel_mps2", "max", 2),

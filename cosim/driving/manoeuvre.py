@@ -153,7 +153,7 @@ class Manoeuvre:
         self.calls = PlannerCalls(ctx.planner, ctx.sv.occupant)
         self.ends = SVLaneEnds(ctx.lanes, ctx.sv_length)  # the SV's lane-end reasoning
         self.recheck = Recheck(self.calls, self.ends, ctx.lanes, ctx.mu,
-                               ctx.recheck_interval, ctx.replanning)
+                               ctx.recheck_interval, ctx.replanning, ctx.sv_length)
         self.scripted = ScriptedRequests(ctx.sv.lane_changes)
         self.mode = Mode.KEEPING
         self.active: LaneChange | None = None  # the manoeuvre under way

@@ -37,6 +37,18 @@ BRAKE_DECELS = (1.0, 2.0, 3.0)  # m/s^2, mean decelerations of a brake tried bef
 # grip's, the gentlest the re-check passes first: a collision predicted seconds ahead
 # rarely needs the grip's braking
 # tuned: docs/tuned_constants.md
+CLEAR_AHEAD = 2.0  # s, a collision the re-check predicts at least this far ahead with a
+# TV ahead of the SV that the SV closes on slowly enough (CLEAR_DECEL) and that is not
+# braking leaves the plan under way alone: the plan's check extrapolates the SV at its
+# end speed, but its car following keeps it behind that TV once the change ends, and
+# the next re-check sees the TV if it starts braking (a merge braked at 3.4 m/s^2 over a
+# TV 24-31 m ahead that nobody was closing on; re-checks replanned, aborted and braked
+# over collisions predicted 6-11 s ahead)
+# tuned: docs/tuned_constants.md
+CLEAR_DECEL = 1.0  # m/s^2, the constant braking that matches the TV's speed within the
+# gap left when the plan ends, at most this (0 for a TV not slower than the SV)
+CLEAR_MIN_GAP = 2.5  # m, bumper gap kept to that TV (SUMO's minGap)
+CLEAR_BRAKING = 0.5  # m/s^2, that TV braking harder than this closes the gap
 BRAKE_TAU = 3.0  # s, emergency brake's duration when the planner gave no tau_min
 BRAKE_TAU_MIN = 1.5  # s, shortest emergency brake (lateral move to the nearest centre)
 
@@ -79,8 +91,9 @@ class Recheck:
     gives (`run`: the module docstring's steps), and how often each outcome came."""
 
     def __init__(self, calls: PlannerCalls, ends: SVLaneEnds, lanes: LaneLayout, mu: float,
-                 interval: float, enabled: bool) -> None:
+                 interval: float, enabled: bool, sv_length: float = 0.0) -> None:
         self.calls, self.ends, self.lanes, self.mu = calls, ends, lanes, mu
+        self.sv_length = sv_length  # m
         self.interval = interval  # s, between re-checks
         self.enabled = enabled  # [planner] replanning
         self.next_check = math.inf  # s, the next re-check of the plan under way
@@ -99,7 +112,8 @@ class Recheck:
         replaces it (`braking`: `lc` is a gentle brake already, braked anew)."""
         self.next_check = t + self.interval
         rejection = self.calls.check(lc.trajectory, t, messages)
-        if rejection is None:
+        if rejection is None or clear_ahead(t, lc.trajectory, rejection, messages,
+                                            self.sv_length):
             return None
         when = math.nan if rejection.time is None else rejection.time
         reason = f"re-check: collision with {rejection.vehicle_id} at {when:.2f} s"
@@ -160,6 +174,32 @@ class Recheck:
         row.update(reason=reason, tau_s=trajectory.tau, ok=1,
                    target_lane=self.lanes.lane_of(trajectory.y_final))
         return Rescue(Trigger.BRAKE, plan, trajectory, row, gentle)
+
+
+def clear_ahead(t: float, trajectory: LaneChangeTrajectory, rejection: Any,
+                messages: list[Any], sv_length: float) -> bool:
+    """Whether the collision a re-check at t found for the plan under way (`rejection`:
+    the TV and the time) is with a TV ahead of the SV, CLEAR_AHEAD or more away, that
+    the SV closes on slowly enough to match its speed at CLEAR_DECEL once the plan ends
+    (CLEAR_AHEAD's comment; the TV as its message has it, kept at its speed, the SV as
+    the plan's reference): then it does not replace the plan."""
+    when, tv_id = rejection.time, rejection.vehicle_id
+    if when is None or when - t < CLEAR_AHEAD or tv_id is None:
+        return False
+    tv = next((m for m in messages if m.vehicle_id == tv_id), None)
+    if tv is None or tv.accel < -CLEAR_BRAKING:
+        return False
+    t_end = max(trajectory.t_end, t)
+    x_now, _ = trajectory.position(t)
+    x_end, _ = trajectory.position(t_end)
+    half = 0.5 * (tv.length + sv_length)
+    if tv.x - float(x_now) - half < CLEAR_MIN_GAP:
+        return False
+    room = tv.x + tv.speed * (t_end - t) - float(x_end) - half - CLEAR_MIN_GAP
+    closing = float(trajectory.vxf) - tv.speed
+    if room <= 0.0:
+        return False
+    return closing <= 0.0 or closing * closing / (2.0 * room) <= CLEAR_DECEL
 
 
 def brake_to_stop(vx: float, ax: float, tau: float, vxf: float, decel: float,

@@ -1,0 +1,39 @@
+"""The re-check's rule for a collision far ahead with a TV the SV closes on slowly or not
+at all (cosim.driving.recheck.clear_ahead), on hand-made plans and messages."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from cosim.driving.recheck import CLEAR_AHEAD, clear_ahead
+from cosim.planning.planner import Rejection
+from cosim.planning.trajectory import LaneChangeTrajectory
+from cosim.traffic.v2v import V2VMessage
+
+L = 4.5
+# a merge under way at 20 m/s, from t = 10 s over 4 s into y = 3.75 at the same speed
+PLAN = LaneChangeTrajectory(t0=10.0, tau=4.0, x0=0.0, y0=0.0, vx0=20.0, vxf=20.0,
+                            width=3.75)
+# the SV's centre at t = 11 s is at x = 20; a TV 27 m ahead of it at 21 m/s, cruising
+TV = V2VMessage(vehicle_id="tv1", t=11.0, x=47.0 + 0.5 * L, y=3.75, heading=0.0, speed=21.0,
+                accel=0.0, lane=1, lateral_speed=0.0, length=L, width=1.8, intention=0)
+
+
+def test_a_collision_far_ahead_with_a_tv_nobody_closes_on_keeps_the_plan() -> None:
+    far = Rejection(4.0, "collision", "tv1", 11.0 + CLEAR_AHEAD + 0.5)
+    assert clear_ahead(11.0, PLAN, far, [TV], L)
+    # closing at 1 m/s on it: matched within the 21 m left at the plan's end at 0.02 m/s^2
+    assert clear_ahead(11.0, PLAN, far, [replace(TV, speed=19.0)], L)
+
+
+def test_a_near_closing_braking_or_unknown_tv_replaces_it() -> None:
+    far = Rejection(4.0, "collision", "tv1", 11.0 + CLEAR_AHEAD + 0.5)
+    soon = Rejection(4.0, "collision", "tv1", 11.0 + CLEAR_AHEAD - 0.5)
+    assert not clear_ahead(11.0, PLAN, soon, [TV], L)  # too soon to leave it to chance
+    assert not clear_ahead(11.0, PLAN, far, [replace(TV, speed=12.0)], L)  # closing fast
+    assert not clear_ahead(11.0, PLAN, far, [replace(TV, accel=-2.0)], L)  # it brakes
+    assert not clear_ahead(11.0, PLAN, far, [replace(TV, x=22.0)], L)  # beside the SV
+    assert not clear_ahead(11.0, PLAN, far, [replace(TV, vehicle_id="tv2")], L)  # unseen
+    faster = LaneChangeTrajectory(t0=10.0, tau=4.0, x0=0.0, y0=0.0, vx0=20.0, vxf=30.0,
+                                  width=3.75)
+    assert not clear_ahead(11.0, faster, far, [TV], L)  # the plan ends 9 m/s faster
