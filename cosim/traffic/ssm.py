@@ -52,7 +52,8 @@ COLUMNS = ("begin_s", "end_s", "ego", "foe", "sv",
 
 COUNT_DOCS: dict[str, str] = {
     "ssm_conflicts": "encounters SUMO's SSM device logged as conflicts (any measure past "
-                     "its [ssm] threshold), each pair's encounter once (-)",
+                     "its [ssm] threshold on the run's clock, t >= 0: not in a warm-up), "
+                     "each pair's encounter once (-)",
     "ssm_ttc_conflicts": "of them, those whose minimum TTC fell below ssm.ttc_s (-)",
     "ssm_drac_conflicts": "those whose maximum DRAC rose above ssm.drac_mps2 (-)",
     "ssm_pet_conflicts": "those whose PET fell below ssm.pet_s (-)",
@@ -114,16 +115,22 @@ def conflicts_table(folder: Path, spec: SsmSpec, sv_id: str, t0: float = 0.0) ->
 
 def conflict_counts(table: Any) -> dict[str, float]:
     """metrics.csv's SSM columns (COUNT_DOCS) of a conflicts table: each encounter once
-    (its pair and begin time, whichever side logged it)."""
+    (its pair and begin time, whichever side logged it), a measure only when its extreme
+    came on the run's clock (t >= 0: not during a warm-up)."""
     import numpy as np
 
-    if len(table):
-        pair = [tuple(sorted(p)) for p in zip(table.ego, table.foe, strict=True)]
-        once = table.assign(pair=pair).drop_duplicates(["pair", "begin_s"])
+    run = table.assign(
+        ttc_conflict=table.ttc_conflict & (table.ttc_min_t_s >= 0),
+        drac_conflict=table.drac_conflict & (table.drac_max_t_s >= 0),
+        pet_conflict=table.pet_conflict & (table.pet_t_s >= 0))
+    run = run[run.ttc_conflict | run.drac_conflict | run.pet_conflict]
+    if len(run):
+        pair = [tuple(sorted(p)) for p in zip(run.ego, run.foe, strict=True)]
+        once = run.assign(pair=pair).drop_duplicates(["pair", "begin_s"])
     else:
-        once = table
-    ttc = table["ttc_min_s"].to_numpy(float)
-    drac = table["drac_max_mps2"].to_numpy(float)
+        once = run
+    ttc = table["ttc_min_s"].to_numpy(float)[table["ttc_min_t_s"].to_numpy(float) >= 0]
+    drac = table["drac_max_mps2"].to_numpy(float)[table["drac_max_t_s"].to_numpy(float) >= 0]
     return {
         "ssm_conflicts": len(once),
         "ssm_ttc_conflicts": int(once["ttc_conflict"].sum()),

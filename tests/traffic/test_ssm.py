@@ -18,7 +18,7 @@ from cosim.errors import InputError
 from cosim.run.loop import CoSimulation, run_scenario
 from cosim.run.metrics import gap_ttc, half_extents
 from cosim.scenario import load_scenario, with_overrides
-from cosim.traffic.ssm import COLUMNS, COUNT_DOCS, OUTPUT_FILE
+from cosim.traffic.ssm import COLUMNS, COUNT_DOCS, OUTPUT_FILE, conflict_counts
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "scenarios"
@@ -163,3 +163,14 @@ def test_bad_ssm_keys_are_refused_in_one_line() -> None:
         with pytest.raises(InputError, match=r"ssm\.") as info:
             with_overrides(base, **keys)
         assert allowed in str(info.value) and "\n" not in str(info.value)
+
+
+def test_counts_leave_out_what_came_during_the_warm_up(overtaking: dict[str, Any]) -> None:
+    """A measure whose extreme came before the run's t = 0 (a warm-up) counts for nothing;
+    the pass's two rows, moved 5 s earlier, count no conflict and no extreme."""
+    table = overtaking["result"].conflicts
+    shifted = table.assign(**{c: table[c] - 5.0 for c in table.columns if c.endswith("_t_s")})
+    m = conflict_counts(shifted)
+    assert m["ssm_conflicts"] == m["ssm_ttc_conflicts"] == m["ssm_sv_conflicts"] == 0
+    assert math.isnan(m["ssm_min_ttc_s"]) and math.isnan(m["ssm_max_drac_mps2"])
+    assert conflict_counts(table)["ssm_conflicts"] == 1
