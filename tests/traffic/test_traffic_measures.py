@@ -132,16 +132,16 @@ def test_one_loop_and_one_period_give_no_spread() -> None:
 
 
 def test_the_bottlenecks_outflow_is_counted_past_the_drop(tmp_path: Path) -> None:
-    """scenarios/bottleneck.toml, 10 s: the outflow is counted at s = 4500 m, 1 km past
+    """scenarios/bottleneck.toml, 6 s: the outflow is counted at s = 4500 m, 1 km past
     the lane drop, over the two lanes that run on (the loops at the route's end, 5 km,
     count no one), and is their flows' sum."""
-    sc = with_overrides(load_scenario(ROOT / "scenarios" / "bottleneck.toml"), duration=10.0,
-                        **{"detectors.period_s": 5.0, "detectors.measure_from_s": 0.0})
+    sc = with_overrides(load_scenario(ROOT / "scenarios" / "bottleneck.toml"), duration=6.0,
+                        **{"detectors.period_s": 3.0, "detectors.measure_from_s": 0.0})
     run_scenario(sc, tmp_path, write_figures=False)
     m = pd.read_csv(tmp_path / "metrics.csv").iloc[0]
     det = pd.read_csv(tmp_path / "detectors.csv")
     assert m["outflow_s_m"] == pytest.approx(4500.0, abs=0.5)
-    at = det[(det.kind == "e1") & (abs(det.s_m - 4500.0) < 0.5) & (det.end_s - det.begin_s == 5.0)]
+    at = det[(det.kind == "e1") & (abs(det.s_m - 4500.0) < 0.5) & (det.end_s - det.begin_s == 3.0)]
     assert sorted(set(at.track)) == [0, 1]
     assert m["outflow_veh_per_h"] == pytest.approx(at.groupby("begin_s").flow_veh_per_h.sum()
                                                    .mean())
