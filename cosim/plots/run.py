@@ -83,8 +83,8 @@ def road_trajectories(
 def _draw_lanes(ax: Axes, road: RoadParams, s_label: float, s_hi: float,
                 exits: Collection[int] = ()) -> float:
     """The lane lines, each lane's name at `s_label`, a bar across a lane where it ends
-    or exits; returns the right end of the view (`s_hi`, or a lane's end shortly past
-    it)."""
+    or exits and a dashed one where it begins along the route; returns the right end of
+    the view (`s_hi`, or a lane's end shortly past it)."""
     for k in range(road.n_lanes + 1):
         d_line = road.y_right + k * road.lane_width
         style = "-" if k in (0, road.n_lanes) else "--"
@@ -103,6 +103,13 @@ def _draw_lanes(ax: Axes, road: RoadParams, s_label: float, s_hi: float,
                     f" lane {k} {'exits' if k in exits else 'ends'}", fontsize=7,
                     va="center", ha="left", color="0.2")
             s_hi = max(s_hi, end) if end < s_hi + 500.0 else s_hi
+        begin = road.lane_begin(k)
+        if math.isfinite(begin) and begin < s_hi:  # the mainline beside a ramp's lane, ...
+            d_lo = road.y_right + k * road.lane_width
+            ax.plot([begin, begin], [d_lo, d_lo + road.lane_width], color="k", lw=1.5,
+                    ls="--", zorder=1)
+            ax.text(begin, d_lo + 0.5 * road.lane_width, f"lane {k} begins ", fontsize=7,
+                    va="center", ha="right", color="0.2")
     return s_hi
 
 

@@ -124,6 +124,22 @@ def test_trajectories_are_in_road_coordinates_and_say_how_a_lane_stops(
     assert said == [f"lane 0 {word}"]
 
 
+def test_trajectories_say_where_a_lane_begins_along_the_route(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A route over an off-ramp: the deceleration lane (lane 0) begins at 700 m, the
+    mainline's lanes exit at 895 m."""
+    import cosim.plots.run as run_plots
+
+    figures = _keep(run_plots, monkeypatch)
+    t = np.arange(0.0, 10.0, 0.05)
+    road = RoadParams(lane_ends=(np.inf, 895.0, 895.0), lane_begins=(700.0, -np.inf, -np.inf))
+    run_plots.road_trajectories(tmp_path / "t.png", t, 600.0 + 25.0 * t,
+                                np.full_like(t, 5.625), {}, road, exits=(1, 2))
+    said = sorted(x.get_text().strip() for x in figures[0].axes[0].texts
+                  if x.get_text().strip().startswith("lane ") and " " in x.get_text().strip()[5:])
+    assert said == ["lane 0 begins", "lane 1 exits", "lane 2 exits"]
+
+
 def test_a_long_title_is_wrapped_to_the_figure(tmp_path: Path) -> None:
     import matplotlib.pyplot as plt
 
