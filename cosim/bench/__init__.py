@@ -25,6 +25,7 @@ BENCHMARKS = {
     "tracking": "the plant's tracking error as corner motion: the default safety margin",
     "road": "the road frame's conversions (s, d) <-> (x, y) on the curved motorway",
     "measures": "what SUMO's detectors and SSM device cost a dense run",
+    "fleet": "the fleet's automated vehicles: CPU per step over the share, per AV and part",
 }
 
 
