@@ -31,6 +31,7 @@ SLOW = {
     "cosim bench tracking": "24 runs (tests/bench/test_tracking.py runs case 5.1's four)",
     "cosim bench cosim": "three 30 s dense runs and more",
     "cosim bench batch": "a 16-run study three times",
+    "cosim bench measures": "five times six 60 s dense runs (tests/bench/test_measures_bench.py)",
     "cosim bench fleet": "nine 30 s dense runs with up to 19 automated vehicles",
     "cosim batch scenarios/study_replanning.toml -o results/batch/study_replanning_fixed":
         "800 runs",

@@ -128,6 +128,28 @@ def cooperation_channels(sc: Scenario) -> list[CooperationChannel]:
             for stream, cfg in configs]
 
 
+def in_start_zones(snap: TrafficSnapshot, sc: Scenario, x0: float, track: int) -> list[str]:
+    """The ids, sorted, of the vehicles in `snap` that reach into the zones the SV (at
+    road coordinate `x0` in `track`) and the scenario's scripted TVs start in: `start_zone`
+    in their own lane, SV_LENGTH_MARGIN SV lengths around the SV in every lane."""
+    from cosim.traffic.demand import start_zone
+
+    bands = sc.road.speed_bands
+    margin = SV_LENGTH_MARGIN * sc.vehicle.length
+    zones = [(-1, x0 - margin, x0 + margin),
+             (track, *start_zone(x0, sc.vehicle.length, sc.sv.speed, bands[track][1]))]
+    for tv in sc.in_tracks(track).tvs:
+        if 0 <= tv.lane < len(bands):
+            zones.append((tv.lane, *start_zone(x0 + tv.gap, tv.length, tv.speed,
+                                               bands[tv.lane][1])))
+    lo, hi = snap.x - 0.5 * snap.length, snap.x + 0.5 * snap.length
+    inside = np.zeros(len(snap), dtype=bool)
+    for lane, z_lo, z_hi in zones:
+        on = (snap.lane >= 0) if lane < 0 else (snap.lane == lane)
+        inside |= on & (hi >= z_lo) & (lo <= z_hi)
+    return sorted(vid for vid, hit in zip(snap.ids, inside, strict=True) if hit)
+
+
 class World:
     """SUMO with the scenario's traffic, as the loop uses it; `wall` is the wall time
     spent in SUMO's steps and reads (s), `wall_read` the reads' part of it."""
@@ -232,24 +254,7 @@ class World:
             if count is not None:
                 count(1)
         self.t_warmup = self.sumo.time
-        from cosim.traffic.demand import start_zone
-
-        bands = sc.road.speed_bands
-        x0, track = self.sv_start_x, self.sv_start_track
-        margin = SV_LENGTH_MARGIN * sc.vehicle.length
-        zones = [(-1, x0 - margin, x0 + margin),
-                 (track, *start_zone(x0, sc.vehicle.length, sc.sv.speed, bands[track][1]))]
-        for tv in sc.in_tracks(track).tvs:
-            if 0 <= tv.lane < len(bands):
-                zones.append((tv.lane, *start_zone(x0 + tv.gap, tv.length, tv.speed,
-                                                   bands[tv.lane][1])))
-        snap = self.read_all()
-        lo, hi = snap.x - 0.5 * snap.length, snap.x + 0.5 * snap.length
-        inside = np.zeros(len(snap), dtype=bool)
-        for lane, z_lo, z_hi in zones:
-            on = (snap.lane >= 0) if lane < 0 else (snap.lane == lane)
-            inside |= on & (hi >= z_lo) & (lo <= z_hi)
-        removed = sorted(vid for vid, hit in zip(snap.ids, inside, strict=True) if hit)
+        removed = in_start_zones(self.read_all(), sc, self.sv_start_x, self.sv_start_track)
         for vid in removed:
             self.sumo.remove(vid)
         self.cleared = removed
