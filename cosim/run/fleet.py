@@ -198,7 +198,7 @@ class Fleet:
                  planner: Callable[[], Any]) -> None:
         """`planner` makes a planner for one AV (the SV's kind)."""
         self.sc, self.world, self.road = sc, world, road
-        self.sumo = Takeovers(world)
+        self.takeovers = Takeovers(world)
         self.cls, self.decision, self.observer = policy_class, decision, observer
         self.make_planner = planner
         self.spec = sc.fleet
@@ -235,7 +235,7 @@ class Fleet:
             if left <= HANDBACK_LAST or (left <= HANDBACK_DISTANCE and not status.changing):
                 handed.append(av)
         for av in handed:
-            self.sumo.hand_back(av.id)
+            self.takeovers.hand_back(av.id)
             self._finish(av, k, "handed_back")
 
     def decide(self, t: float) -> None:
@@ -254,10 +254,10 @@ class Fleet:
         inserted in that step drawn; those drawn automated taken over (their first row:
         k) once TAKEOVER_CLEARANCE m past where they were inserted."""
         if self.active:
-            pairs = self.sumo.collisions()
+            pairs = self.takeovers.collisions()
             for av in self.active:
                 av.recorder.sumo_collisions({p for p in pairs if av.id in p})
-        departed = self.sumo.departed()
+        departed = self.takeovers.departed()
         if departed:
             self._draw(departed, k * self.sc.step)
         if self.pending:
@@ -270,12 +270,12 @@ class Fleet:
         draws = self.rng.random(len(departed))
         self.drawn += len(departed)
         vtypes = self.spec.vtypes
-        world, sumo = self.world, self.sumo
+        world, takeovers = self.world, self.takeovers
         for vid, u in zip(departed, draws.tolist(), strict=True):
-            vtype = sumo.vtype_of(vid)
+            vtype = takeovers.vtype_of(vid)
             if not (u < self.spec.share or vtype in vtypes):
                 continue
-            route = sumo.route_of(vid)
+            route = takeovers.route_of(vid)
             if not route or route[-1] != self.last_edge or not set(route) <= self.edges:
                 self.declined += 1
                 continue
@@ -305,7 +305,7 @@ class Fleet:
         world, sc = self.world, self.sc
         track = int(snap.lane[0])
         t = k * sc.step
-        speed = self.sumo.take_over(vid, (sc.vehicle.length, sc.vehicle.width))
+        speed = self.takeovers.take_over(vid, (sc.vehicle.length, sc.vehicle.width))
         s, d, rel = float(snap.x[0]), float(snap.y[0]), float(snap.heading[0])
         q = float(stretch(world.frame, s, d))
         v = speed / q  # m/s along s
@@ -319,7 +319,7 @@ class Fleet:
                                        desired_speed=None, decision=True))
         policy = self.cls(DrivingContext.of(
             av_sc, self.road, decision=self.decision, planner=self.make_planner(),
-            ports=WorldPorts(blinker=partial(self.sumo.set_blinker, vid))))
+            ports=WorldPorts(blinker=partial(self.takeovers.set_blinker, vid))))
         from cosim.traffic.v2v import V2VChannel
 
         number = len(self.active) + len(self.done)
@@ -338,7 +338,7 @@ class Fleet:
     # ------------------------------------------------------------------ the end
     def result(self, last_row: int) -> FleetResult:
         """Every AV's rows up to the run's last row, and fleet.csv's rows (by id)."""
-        teleported = self.sumo.teleported()
+        teleported = self.takeovers.teleported()
         for av in list(self.active):
             self._finish(av, last_row, "running")
         traces, rows, plans = [], [], []
