@@ -108,7 +108,8 @@ class GapConfig:
     # reach the SV paces the lane and asks for room instead of dropping back far
     # tuned: docs/tuned_constants.md
     reach: float = 80.0  # m, nor gaps whose aim is farther (the lane is seen to ~150 m)
-    min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this
+    min_speed: float = PLANNER_MIN_SPEED  # m/s, no lane change is planned below this,
+    # nor into a gap moving slower (a crawling queue: every candidate hits it, found late)
     follow_tau: float = 1.0  # s, the SV's Krauss headway behind its own leader while seeking
     # (SUMO's tau: SUMO's own SV closes up this far before it changes lanes)
     follow_decel: float = 4.5  # m/s^2, the braking assumed of the SV and its own leader then
@@ -461,7 +462,8 @@ def entry_test(start: ChangeStart, lane: TargetLane, cfg: GapConfig,
     # nobody beside the SV's body at the entry (neither leader nor follower: level with it)
     beside = inside & (np.abs(x + v * t_in - x_in) < half + 0.5 * start.length)
     ok = (check.safe and not beside.any() and gap >= need
-          and abs(start.speed - vxf) <= cfg.max_speed_change and start.speed >= cfg.min_speed)
+          and abs(start.speed - vxf) <= cfg.max_speed_change
+          and min(start.speed, vxf) >= cfg.min_speed)
     return Entry(ok=bool(ok), vxf=vxf, leader=lead, follower=check.follower,
                  t_enter=check.t_enter, follower_decel=check.max_decel, leader_gap=gap,
                  secure=need, follower_ok=check.safe)
