@@ -98,3 +98,13 @@ def _process_state_restored() -> Iterator[None]:
     if (tempfile.tempdir, os.environ.get("TMPDIR")) != tmp:
         leaked.append(f"temporary folder: {tmp} -> {(tempfile.tempdir, os.environ.get('TMPDIR'))}")
     assert not leaked, "the test changed the process's state: " + "; ".join(leaked)
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Compile the numba functions once, before xdist's workers start: on a cold cache
+    each worker, and each command a test starts before the cache is written, would
+    otherwise compile them all again (about 75 s of the suite's wall time on 2 cores,
+    against about 40 s for one compile here). Workers and commands then load the cache."""
+    if hasattr(session.config, "workerinput"):  # an xdist worker: its controller did it
+        return
+    import cosim.control.warm  # noqa: F401  (compiles or loads every compiled function)
