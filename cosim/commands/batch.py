@@ -2,7 +2,8 @@
 processes (default) or a Dask cluster (`--dask ADDRESS` or `--dask local`).
 
 Writes DIR/runs/<run_id>.json (one per finished run), DIR/runs.csv,
-DIR/summary.csv, DIR/summary.md and DIR/plots/density.png. Running the same command again
+DIR/summary.csv, DIR/summary.md, DIR/plots/density.png and, over --shares, fleet.md and
+DIR/plots/share.png. Running the same command again
 skips the runs already recorded. Everything the user gives is checked before
 anything is written. DIR is results/batch/<study name>; a study file run with
 grid flags (a subset, or more) and no --out / --name gets its own folder named
@@ -44,6 +45,7 @@ from cosim.study.spec import (
     OCCUPANT,
     PLANT,
     SEED,
+    SHARE,
     Study,
     check_seed_count,
     load_study,
@@ -58,7 +60,7 @@ EXIT_RUNS_FAILED = 1  # a study with failed runs, as `cosim run` when its run fa
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "batch",
-        help="a study: runs over density x seed x p x mu x driver x plant, resumable",
+        help="a study: runs over density x seed x p x mu x share x driver x plant, resumable",
         description=__doc__,
         formatter_class=PlainHelp,
     )
@@ -73,6 +75,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="comma-separated seeds or a range A-B, e.g. 1-10")
     p.add_argument("--occupants", metavar="LIST", help="occupant types p, comma-separated")
     p.add_argument("--mu", metavar="LIST", help="road friction values, comma-separated")
+    p.add_argument("--shares", metavar="LIST",
+                   help="automated vehicles' shares ([fleet] share, 0-1), comma-separated, "
+                   "e.g. 0,0.1,0.2,0.4")
     p.add_argument("--drivers", metavar="LIST",
                    help="SV drivers: mimo, siso, sumo (comma-separated)")
     p.add_argument("--plants", metavar="LIST",
@@ -154,6 +159,7 @@ def study_from_args(args: argparse.Namespace) -> Study:
         seeds=parse_list(args.seeds, "--seeds", SEED),
         occupants=parse_list(args.occupants, "--occupants", OCCUPANT),
         mus=parse_list(args.mu, "--mu", MU),
+        shares=parse_list(args.shares, "--shares", SHARE),
         drivers=parse_list(args.drivers, "--drivers", DRIVER),
         plants=parse_list(args.plants, "--plants", PLANT),
         duration=args.duration,
@@ -211,14 +217,15 @@ def specs_of(study: Study) -> list[RunSpec]:
         densities=study.densities, seeds=study.seeds,
         occupants=study.occupants or (base.sv.occupant,), mus=study.mus or (base.road.mu,),
         drivers=study.drivers or (base.sv.controller,), plants=study.plants or (base.sv.plant,),
+        shares=study.shares or (base.fleet.share,),
         duration=study.duration, variants=study.variants,
     )
     return expand(study.scenario, grid, traces=study.traces)
 
 
 # Flags that change which runs a study file's grid holds (--traces changes no result).
-GRID_FLAGS = ("scenario", "densities", "seeds", "occupants", "mu", "drivers", "plants",
-              "duration")
+GRID_FLAGS = ("scenario", "densities", "seeds", "occupants", "mu", "shares", "drivers",
+              "plants", "duration")
 
 
 def subset_name(args: argparse.Namespace, study: Study) -> str:

@@ -28,7 +28,7 @@ PANELS = (
 RATES = ("success", "collision", "sv_collision")
 DRIVER_LABELS = {Driver.MIMO: "ours, MIMO", Driver.SISO: "ours, SISO",
                  Driver.SUMO: "SUMO-native"}
-_OTHER = ("variant", "plant", "occupant", "mu")
+_OTHER = ("variant", "plant", "occupant", "mu", "share")
 
 
 def _variant(row: pd.Series, varying: list[str]) -> str:

@@ -362,7 +362,8 @@ class FleetSpec:
     share: float = declare(number_key(
         "share", "", 0.0, 1.0, 0.0,
         "probability that a vehicle SUMO inserts during the run (after t = 0) is automated, "
-        "drawn per vehicle in SUMO's insertion order from the run's seed (0: none)"), 0.0)
+        "drawn per vehicle in SUMO's insertion order from the run's seed (0: none)",
+        override="share"), 0.0)
     vtypes: tuple[str, ...] = declare(Field(
         "vtypes", list, default=(), parse=_parse_vtypes, export=list,
         describe=f"a list of at most {MAX_FLEET_VTYPES} vType ids",

@@ -33,6 +33,7 @@ class RunSpec:
     traces: bool = False  # keep the run's trace and metrics files
     variant: str = NO_VARIANT  # name of a set of scenario overrides (study `variants`)
     overrides: tuple[tuple[str, Any], ...] = ()  # the variant's (override name, value) pairs
+    share: float = 0.0  # -, [fleet] share: the automated vehicles' share of the inserted
 
     @property
     def run_id(self) -> str:
@@ -46,6 +47,9 @@ class RunSpec:
         key["mu"] = float(key["mu"])
         key["density"] = float(key["density"])
         key["seed"] = int(key["seed"])
+        key["share"] = float(key["share"])
+        if key["share"] == 0.0:
+            del key["share"]  # a run without automated vehicles: the id of before shares
         if self.variant == NO_VARIANT:
             del key["variant"]  # a run without a variant: its id does not name the field
         else:
@@ -67,6 +71,7 @@ class GridValues:
     mus: Sequence[float]  # -, road friction
     drivers: Sequence[str]  # `Driver`s
     plants: Sequence[str]  # plants of our drivers (the SUMO-native driver runs NO_PLANT)
+    shares: Sequence[float] = (0.0,)  # -, [fleet] share
     duration: float | None = None  # s, simulated time of every run (None: the scenario's)
     # name -> scenario overrides (`cosim.scenario.with_overrides` names): one more grid
     # dimension for our drivers; the SUMO-native driver runs once, as the base scenario
@@ -89,11 +94,12 @@ def expand(scenario: str | Path, grid: GridValues, *, traces: bool = False) -> l
         RunSpec(
             scenario=str(Path(scenario).resolve()), scenario_sha=sha, duration=grid.duration,
             driver=d, plant=pl, occupant=float(p), mu=float(m), density=float(k), seed=int(s),
-            traces=traces, variant=v, overrides=ov,
+            traces=traces, variant=v, overrides=ov, share=float(f),
         )
         for d in grid.drivers for pl in (grid.plants if d != Driver.SUMO else (NO_PLANT,))
         for v, ov in (named if d != Driver.SUMO else [(NO_VARIANT, ())])
-        for p in grid.occupants for m in grid.mus for k in grid.densities for s in grid.seeds
+        for p in grid.occupants for m in grid.mus for f in grid.shares
+        for k in grid.densities for s in grid.seeds
     ]
     ids = [s.run_id for s in specs]
     if len(set(ids)) != len(ids):
@@ -121,6 +127,7 @@ def apply_spec(spec: RunSpec) -> Any:
         "occupant": spec.occupant,
         "mu": spec.mu,
         "controller": spec.driver,
+        "share": spec.share,
     }
     if spec.plant != NO_PLANT:
         changes["plant"] = spec.plant

@@ -29,6 +29,9 @@ def write_report(runs: pd.DataFrame, out_dir: Path, *, title: str, plots: bool,
         from cosim.plots.batch import plot_summary
 
         figures = plot_summary(summary, out_dir / "plots", title=title, fmt=figure_format)
+        from cosim.plots.share import plot_share
+
+        figures += plot_share(summary, out_dir / "plots", title=title, fmt=figure_format)
     figures += write_fundamental(runs, out_dir, title=title, plots=plots,
                                  figure_format=figure_format)
     return summary, figures
@@ -119,7 +122,7 @@ def summary_markdown(summary: pd.DataFrame) -> str:
         return ours if not math.isfinite(sumo) else f"{ours} ({100 * sumo:.0f})"
 
     ours = summary[summary["plant"] != NO_PLANT]
-    varying = [c for c in ("variant", "plant", "occupant", "mu")
+    varying = [c for c in ("variant", "plant", "occupant", "mu", "share")
                if (ours if c == "plant" else summary)[c].nunique() > 1]
     head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
             "unfinished", "success % of finished [95 % CI]",
@@ -143,3 +146,48 @@ def write_tables(runs: pd.DataFrame, summary: pd.DataFrame, out_dir: Path) -> No
     atomic_write_csv(out_dir / "summary.csv", summary)
     atomic_write_text(out_dir / "summary.md", summary_markdown(summary))
     atomic_write_text(out_dir / "comfort.md", comfort_markdown(summary))
+    if has_fleet_figures(summary):
+        atomic_write_text(out_dir / "fleet.md", fleet_markdown(summary))
+
+
+# (summary column, table heading, digits) of fleet.md
+FLEET_TABLE = (
+    ("fleet_vehicles", "AVs", 1),
+    ("fleet_lane_changes_per_vehicle", "lane changes per AV", 2),
+    ("fleet_collisions", "AV collisions (ours)", 2),
+    ("fleet_caused_collisions", "AV-caused", 2),
+    ("fleet_sumo_collisions", "SUMO's", 2),
+    ("fleet_max_long_jerk_mps3", "AV peak jerk m/s^3 (median over AVs)", 1),
+    ("fleet_follower_max_decel_mps2", "AV follower's max decel m/s^2", 2),
+    ("fleet_mean_speed_mps", "AV mean speed m/s", 2),
+    ("traffic_speed_mps", "traffic speed m/s", 2),
+    ("outflow_veh_per_h", "outflow veh/h", 0),
+    ("speed_spread_space_mps", "speed spread m/s", 2),
+    ("ssm_conflicts_per_vehicle_km", "SSM conflicts per veh-km", 3),
+)
+
+
+def has_fleet_figures(summary: pd.DataFrame) -> bool:
+    """Whether the study varies the share or its runs have fleet figures (fleet.md)."""
+    return ("share" in summary and summary["share"].nunique() > 1) or any(
+        f"{name}_mean" in summary for name, _, _ in FLEET_TABLE[:2])
+
+
+def fleet_markdown(summary: pd.DataFrame) -> str:
+    """fleet.md: per cell the automated vehicles' and the traffic's means over the runs
+    with their 95 % Student-t intervals (cosim.study.fleet_summary), columns the runs lack
+    left out."""
+    from cosim.study.fleet_summary import mean_text
+
+    columns = [(n, h, d) for n, h, d in FLEET_TABLE if f"{n}_mean" in summary]
+    keys = [c for c in ("driver", "fleet_driver", "variant", "mu")
+            if c in summary and summary[c].nunique() > 1]
+    head = [*keys, "share", "density (veh/km/lane)", "runs ok",
+            *(h for _, h, _ in columns)]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for _, row in summary.iterrows():
+        cells = [*(str(row[k]) for k in keys), f"{row.get('share', 0.0):g}",
+                 f"{row['density']:g}", f"{row['ok']}",
+                 *(mean_text(row, n, d) for n, _, d in columns)]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"

@@ -7,8 +7,9 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-# Grid parameters, in the order runs.csv lists (and sorts) them.
-PARAMETERS = ("driver", "variant", "plant", "occupant", "mu", "density", "seed")
+# Grid parameters, in the order runs.csv lists (and sorts) them; `share` is [fleet] share,
+# the automated vehicles' share of the inserted ones.
+PARAMETERS = ("driver", "variant", "plant", "occupant", "mu", "share", "density", "seed")
 # The variant of runs without one (and of the SUMO-native driver, which no variant
 # changes): the base scenario as it is.
 NO_VARIANT = ""

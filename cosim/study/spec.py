@@ -9,6 +9,7 @@ densities_veh_per_km_lane = [5, 10, 15, 20, 25]
 seeds = [1, 2, 3]                     # or seed_count = 10 (seeds 1..10)
 occupants = [0.5]                     # p; absent: the base scenario's
 mu = [0.8, 0.5]                       # absent: the base scenario's
+shares = [0, 0.1, 0.2, 0.4]           # [fleet] share; absent: the base scenario's
 drivers = ["mimo", "siso", "sumo"]    # SV driver (by its controller); absent: the base's
 plants = ["twotrack"]                 # absent: the base scenario's
 duration_s = 30.0                     # absent: the base scenario's
@@ -39,6 +40,7 @@ from typing import Any
 
 from cosim.errors import InputError
 from cosim.scenario import (
+    FLEET_FIELDS,
     NAME_PATTERN,
     ROAD_FIELDS,
     SCENARIO_FIELDS,
@@ -74,6 +76,7 @@ DENSITY = _scenario_field(TRAFFIC_FIELDS, "density_veh_per_km_lane")
 SEED = _scenario_field(SCENARIO_FIELDS, "seed")
 OCCUPANT = _scenario_field(SV_FIELDS, "occupant")
 MU = _scenario_field(ROAD_FIELDS, "mu")
+SHARE = _scenario_field(FLEET_FIELDS, "share")  # the automated vehicles' ([fleet])
 # A *driver* is a controller with a lane-change policy: mimo / siso fly the base scenario's
 # policy (and each variant's), sumo is SUMO's own models for both (it runs no variant):
 # the grid's `drivers` are named by their controller.
@@ -104,6 +107,7 @@ GRID = {
     "seeds": ("seed", "seeds", "--seeds"),
     "occupants": ("occupant", "occupants", "--occupants"),
     "mus": ("mu", "mu", "--mu"),
+    "shares": ("share", "shares", "--shares"),
     "drivers": ("controller", "drivers", "--drivers"),
     "plants": ("plant", "plants", "--plants"),
     "duration": ("duration", "duration_s", "--duration"),
@@ -154,6 +158,7 @@ STUDY_FIELDS = (
     Field("seed_count", int, lo=1, hi=MAX_SEEDS, default=None),
     Field("occupants", list, parse=_list_of(OCCUPANT), describe=_describe(OCCUPANT), default=None),
     Field("mu", list, name="mus", parse=_list_of(MU), describe=_describe(MU), default=None),
+    Field("shares", list, parse=_list_of(SHARE), describe=_describe(SHARE), default=None),
     Field("drivers", list, parse=_list_of(DRIVER), describe=_describe(DRIVER), default=None),
     Field("plants", list, parse=_list_of(PLANT), describe=_describe(PLANT), default=None),
     replace(DURATION, name="duration", default=None),
@@ -179,6 +184,7 @@ class Study:
     plants: tuple[str, ...] | None
     duration: float | None  # s, simulated time of every run (None: the scenario's)
     traces: bool  # keep each run's trace files
+    shares: tuple[float, ...] | None = None  # -, [fleet] share (automated vehicles)
     variants: dict[str, dict[str, Any]] | None = None  # name -> scenario overrides
     # attribute -> (source, key) that set it: error messages name the file key or the flag
     origins: dict[str, tuple[str, str]] = field(default_factory=dict, compare=False)
@@ -199,7 +205,8 @@ class Study:
     @property
     def size(self) -> int:
         n = len(self.densities) * len(self.seeds)
-        for values in (self.occupants, self.mus, self.drivers, self.plants, self.variants):
+        for values in (self.occupants, self.mus, self.shares, self.drivers, self.plants,
+                       self.variants):
             n *= len(values) if values else 1
         return n
 

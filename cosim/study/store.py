@@ -131,6 +131,7 @@ def assemble(specs: Iterable[RunSpec], out_dir: Path) -> pd.DataFrame:
     records = [r for r in records if r is not None]
     for r in records:
         r.setdefault("variant", NO_VARIANT)  # records of studies without variants
+        r.setdefault("share", 0.0)  # records made before the share was a grid value
     records.sort(key=lambda r: tuple(r[p] for p in PARAMETERS))
     head = ["run_id", *PARAMETERS, "status", "error"]
     metric_columns: list[str] = []

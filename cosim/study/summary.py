@@ -18,10 +18,11 @@ import numpy as np
 import pandas as pd
 
 from cosim.run.metrics import FOLLOWER_PERCENTILE
+from cosim.study.fleet_summary import fleet_summary
 from cosim.study.run_table import NO_VARIANT, RunStatus
 
 # Parameters that define a grid cell of summary.csv (every parameter but the seed).
-CELL = ("driver", "variant", "plant", "occupant", "mu", "density")
+CELL = ("driver", "variant", "plant", "occupant", "mu", "share", "density")
 # Metrics summarised per grid cell (names as cosim.run.metrics writes them).
 SUCCESS_METRIC = "lane_change_completed"  # bool: the commanded lane change ended in its lane
 COLLISION_METRIC = "collision"  # bool: our geometric check saw an overlap
@@ -136,6 +137,8 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     if "variant" not in runs:
         runs = runs.assign(variant=NO_VARIANT)
     runs = runs.assign(variant=runs["variant"].fillna(NO_VARIANT).astype(str))
+    if "share" not in runs:  # runs.csv of a study made before the share was a grid value
+        runs = runs.assign(share=0.0)
     from cosim.study.fundamental import traffic_columns, traffic_summary
 
     traffic = traffic_columns(runs)  # runs with SUMO's detectors: their measures' medians
@@ -175,6 +178,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         if traffic:
             row.update(traffic_summary(ok, traffic))
         row.update(ssm_summary(ok))
+        row.update(fleet_summary(ok))
         rows.append(row)
     return pd.DataFrame(rows)
 
