@@ -74,17 +74,20 @@ class DrivingContext:
     recheck_interval: float = 0.1  # s
     ports: WorldPorts = field(default_factory=WorldPorts)
     sv_width: float = 1.8  # m, the SV's body width
+    notice: float = 0.0  # s, how long it signals before it starts a lane change (its V2V
+    # partners' time to hear its intention: cosim.run.announcements.notice; 0: none)
 
     @classmethod
     def of(cls, scenario: Scenario, road: RoadParams, *, decision: DecisionConfig | None = None,
-           planner: Any = None, ports: WorldPorts | None = None) -> DrivingContext:
+           planner: Any = None, ports: WorldPorts | None = None,
+           notice: float = 0.0) -> DrivingContext:
         """The pieces of a scenario a policy needs, on `road` (the network's lanes)."""
         sc = scenario
         return cls(sv=sc.sv, sv_length=sc.vehicle.length, step=sc.step,
                    lanes=LaneLayout(road), mu=road.mu, decision=decision or DecisionConfig(),
                    planner=planner, replanning=sc.planner.replanning,
                    recheck_interval=sc.planner.recheck_interval, ports=ports or WorldPorts(),
-                   sv_width=sc.vehicle.width)
+                   sv_width=sc.vehicle.width, notice=notice)
 
 
 @dataclass(frozen=True)

@@ -144,8 +144,8 @@ def motion_path(m: LateralMotion, t: Array) -> tuple[Array, Array, Array]:
         moving = (rel > 0) & (rel < m.tau)
         heading = np.where(moving, np.arctan2(m.width / m.tau, m.vx0), 0.0)
         return m.x0 + m.vx0 * rel, m.y0 + m.width * s, heading
-    d = cluster_derivatives(BoundaryConditions(m.vx0, m.vxf, m.width), np.array([m.tau]), rel,
-                            (0, 1))
+    d = cluster_derivatives(BoundaryConditions(m.vx0, m.vxf, m.width, m.ax0, m.vy0, m.ay0),
+                            np.array([m.tau]), rel, (0, 1))
     (x, y), (xd, yd) = d[0], d[1]
     return x[0] + m.x0, y[0] + m.y0, np.arctan2(yd[0], xd[0])
 
@@ -307,7 +307,7 @@ def predict_lazy(
         if cat == Category.C3:
             mo = m.motion
             assert mo is not None
-            if mo.profile == "quintic" and mo.t0 <= t_plan:  # eq. 2 / eq. 4 from rest
+            if mo.profile == "quintic" and mo.from_rest and mo.t0 <= t_plan:  # eq. 2 / 4
                 blocks.append(_Closed(np.array([mo.tau]), False, mo.vx0, mo.vxf, mo.width,
                                       mo.x0, mo.y0, mo.t0 - t_plan))
                 meta(i, 1, mo.tau, mo.t0 + mo.tau)

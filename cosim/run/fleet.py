@@ -32,6 +32,7 @@ import numpy as np
 from cosim.driving.base import DrivingContext, LaneChangePolicy, PolicyStatus, WorldPorts
 from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
+from cosim.run.announcements import Announcements, notice
 from cosim.run.ego import PlannedEgo
 from cosim.run.recorder import Recorder
 from cosim.scenario import Scenario
@@ -145,10 +146,12 @@ class AutomatedEgo(PlannedEgo):
 
 class AVInbox:
     """An AV's V2V messages at one step (cosim.run.observer.Inbox for an AV): the
-    channel's, of everyone on the road but itself, and the scripted TVs'."""
+    channel's, of everyone on the road but itself (the automated vehicles' with their
+    announcements, those that give way to it without their intention), and the
+    scripted TVs'."""
 
-    def __init__(self, av: AutomatedVehicle, scene: Scene) -> None:
-        self.av, self.scene = av, scene
+    def __init__(self, av: AutomatedVehicle, scene: Scene, heard: Announcements) -> None:
+        self.av, self.scene, self.heard = av, scene, heard
         self.received: list[Any] | None = None
         if av.every_step:
             self.received = self._exchange()
@@ -161,12 +164,13 @@ class AVInbox:
         public = everyone.select(np.array(
             [vid != av.id and (perceived or vid not in scripted) for vid in everyone.ids],
             dtype=bool))
-        return av.channel.exchange(public, scene.sv.x, scene.sv.y)
+        return av.channel.exchange(public, scene.sv.x, scene.sv.y, self.heard.overrides())
 
     def read(self) -> list[Any]:
         if self.received is None:
             self.received = self._exchange()
-        return self.received + self.av.observer.scripted_messages(self.scene.t)
+        return (self.heard.give_way(self.av.id, self.scene.sv.y, self.received)
+                + self.av.observer.scripted_messages(self.scene.t))
 
 
 @dataclass
@@ -218,10 +222,16 @@ class Fleet:
         self.every_step = (v2v.latency > 0 or v2v.loss > 0 or v2v.mode != "v2v") \
             and policy_class.listens
         self.everyone: TrafficSnapshot | None = None
+        # what every automated vehicle (the SV too) broadcasts (cosim.run.announcements)
+        self.announcements = Announcements(road)
+        observer.hear(self.announcements)
+        # s, how long each automated vehicle (the SV too) signals before it changes lanes
+        self.notice = notice(v2v.latency, v2v.loss, sc.step) if v2v.mode == "v2v" else 0.0
 
     # ------------------------------------------------------------------ the step
     def observe(self, k: int, t: float) -> None:
         """Row k of every AV; those near the route's end handed back to SUMO."""
+        self.announcements.t = t  # a blinker set from now on begins at t
         if not self.active:
             return
         everyone = self.world.read_all()  # once for all: each scene is a selection of it
@@ -239,10 +249,13 @@ class Fleet:
             self._finish(av, k, "handed_back")
 
     def decide(self, t: float) -> None:
-        """Each AV's policy: the reference it tracks from t."""
+        """Each AV's policy: the reference it tracks from t, broadcast at once (an AV
+        deciding after it in this step hears it as a zero-latency channel would)."""
+        heard = self.announcements
         for av in self.active:
             assert av.scene is not None
-            av.reference = av.policy.update(t, av.scene, AVInbox(av, av.scene))
+            av.reference = av.policy.update(t, av.scene, AVInbox(av, av.scene, heard))
+            heard.flying(av.id, av.reference)
 
     def advance(self, t: float, dt: float) -> None:
         """Each AV's closed loop from t to t + dt, its pose to SUMO."""
@@ -319,7 +332,8 @@ class Fleet:
                                        desired_speed=None, decision=True))
         policy = self.cls(DrivingContext.of(
             av_sc, self.road, decision=self.decision, planner=self.make_planner(),
-            ports=WorldPorts(blinker=partial(self.takeovers.set_blinker, vid))))
+            ports=WorldPorts(blinker=self.announcements.blinker(
+                vid, partial(self.takeovers.set_blinker, vid))), notice=self.notice))
         from cosim.traffic.v2v import V2VChannel
 
         number = len(self.active) + len(self.done)
@@ -332,6 +346,7 @@ class Fleet:
 
     def _finish(self, av: AutomatedVehicle, k: int, end: str) -> None:
         av.k_end, av.end = k, end
+        self.announcements.forget(av.id)
         self.active.remove(av)
         self.done.append(av)
 

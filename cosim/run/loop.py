@@ -66,7 +66,7 @@ from cosim.run.stop import StopRules
 from cosim.scenario import Scenario
 from cosim.scenario.model import OnCollision
 from cosim.traffic.gui import GuiSettings
-from cosim.traffic.world import Scene, World
+from cosim.traffic.world import SV_ID, Scene, World
 
 if TYPE_CHECKING:
     from cosim.planning.planner import RoadCurve
@@ -138,12 +138,8 @@ class CoSimulation:
             ego.start_speed(v0, lane_keeping_reference(0.0, world.sv_start_x, y0, v0, 0.0))
         if cls.asks_for_gaps:
             world.open_gap_requests()
-        ports = WorldPorts(blinker=world.set_sv_blinker, change_lane=world.change_sv_lane,
-                           ask_gap=world.ask_gap)
-        policy: LaneChangePolicy = cls(DrivingContext.of(sc, road, decision=self.cfg,
-                                                         planner=planner, ports=ports))
-        self.ego, self.policy = ego, policy
         self.fleet: Fleet | None = None  # automated vehicles besides the SV ([fleet])
+        blinker = world.set_sv_blinker
         if sc.fleet.enabled:
             from cosim.planning.planner import LaneChangePlanner
             from cosim.run.fleet import Fleet
@@ -151,6 +147,14 @@ class CoSimulation:
             self.fleet = Fleet(sc, world, road, cls, self.cfg, self.observer, partial(
                 LaneChangePlanner, sc.vehicle, road, uncertain_config(sc),
                 prediction=cls.prediction, curve=road_curve(world.route_road, sc)))
+            # the SV announces its intention to the AVs as they do to each other
+            blinker = self.fleet.announcements.blinker(SV_ID, blinker)
+        ports = WorldPorts(blinker=blinker, change_lane=world.change_sv_lane,
+                           ask_gap=world.ask_gap)
+        policy: LaneChangePolicy = cls(DrivingContext.of(
+            sc, road, decision=self.cfg, planner=planner, ports=ports,
+            notice=0.0 if self.fleet is None else self.fleet.notice))
+        self.ego, self.policy = ego, policy
 
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()
@@ -175,7 +179,8 @@ class CoSimulation:
                     world.deliver_gap_requests(t, scene.tvs, scene.sv.x,
                                                not policy.gaps_held(scene.sv))
                 ego.advance(t, self.dt, reference)
-                if fleet is not None:  # the AVs' policies and closed loops
+                if fleet is not None:  # the SV's broadcast; the AVs' policies and loops
+                    fleet.announcements.flying(SV_ID, reference)
                     fleet.decide(t)
                     fleet.advance(t, self.dt)
                 world.move_scripted(t + self.dt)

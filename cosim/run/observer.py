@@ -25,6 +25,7 @@ from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import NEAR_RANGE, SV_ID, Scene, World
 
 if TYPE_CHECKING:
+    from cosim.run.announcements import Announcements
     from cosim.traffic.scripted import ScriptedTraffic
 
 UNCERTAIN_CLOSING_SPEED = 5.0  # m/s, closing speed assumed for the V2V latency margin
@@ -61,7 +62,10 @@ class Inbox:
     def read(self) -> list[Any]:
         if self.received is None:
             self.received = self.observer.exchange(self.scene)
-        return self.received + self.observer.scripted_messages(self.scene.t)
+        heard = self.observer.announcements
+        received = self.received if heard is None else heard.give_way(
+            SV_ID, self.scene.sv.y, self.received)
+        return received + self.observer.scripted_messages(self.scene.t)
 
 
 class Observer:
@@ -90,6 +94,12 @@ class Observer:
         self.read_everyone = not every_step and v2v.range > NEAR_RANGE
         # accelerations and signals each step only when the channel runs each step
         self.full_scene = self.every_step
+        # with a fleet: what the automated vehicles announce (cosim.run.announcements)
+        self.announcements: Announcements | None = None
+
+    def hear(self, announcements: Announcements) -> None:
+        """The automated vehicles' announcements go into the SV's messages."""
+        self.announcements = announcements
 
     def inbox(self, scene: Scene) -> Inbox:
         """This step's messages, for the policy."""
@@ -109,7 +119,9 @@ class Observer:
             dtype=bool))
         if perceived and self.scripted.tvs:
             public = self._scripted_accel(public, scene.t)
-        return self.channel.exchange(public, scene.sv.x, scene.sv.y)
+        heard = self.announcements
+        return self.channel.exchange(public, scene.sv.x, scene.sv.y,
+                                     None if heard is None else heard.overrides())
 
     def _scripted_accel(self, snap: TrafficSnapshot, t: float) -> TrafficSnapshot:
         """The snapshot with the scripted TVs' true accelerations: SUMO reports a wrong

@@ -18,7 +18,7 @@ import math
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -26,6 +26,7 @@ from cosim.errors import InputError
 from cosim.params import RoadParams
 
 if TYPE_CHECKING:
+    from cosim.planning.trajectory import LaneChangeTrajectory
     from cosim.traffic.sumo import TrafficSnapshot
 
 
@@ -46,6 +47,23 @@ class LateralMotion:
     vxf: float  # m/s, longitudinal speed at t0 + tau
     width: float  # m, signed lateral displacement (+ to the left)
     profile: str = "quintic"  # "quintic" | "linear"
+    # "quintic": the start's accelerations and lateral speed (0 for a plan, which starts
+    # from rest; a re-check's rescue starts under way)
+    ax0: float = 0.0  # m/s^2, longitudinal acceleration at t0
+    vy0: float = 0.0  # m/s, lateral speed at t0
+    ay0: float = 0.0  # m/s^2, lateral acceleration at t0
+
+    @classmethod
+    def of(cls, tr: LaneChangeTrajectory) -> LateralMotion:
+        """The broadcast of a planned lane change (eq. 2, 4), exactly as it is flown."""
+        return cls(t0=tr.t0, tau=tr.tau, x0=tr.x0, y0=tr.y0, vx0=tr.vx0, vxf=tr.vxf,
+                   width=tr.width, ax0=tr.ax0, vy0=tr.vy0, ay0=tr.ay0)
+
+    @property
+    def from_rest(self) -> bool:
+        """A quintic change from rest laterally and at constant speed (eq. 2, 4 as the
+        paper plans it: x'' = y' = y'' = 0 at t0)."""
+        return self.ax0 == 0.0 and self.vy0 == 0.0 and self.ay0 == 0.0
 
     def position(self, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """m, global (x, y) of the TV's centre at absolute time(s) t.
@@ -66,6 +84,7 @@ class LateralMotion:
         ref = LaneChangeTrajectory(
             t0=self.t0, tau=self.tau, x0=self.x0, y0=self.y0,
             vx0=self.vx0, vxf=self.vxf, width=self.width,
+            ax0=self.ax0, vy0=self.vy0, ay0=self.ay0,
         )  # fmt: skip
         x, y = ref.position(np.maximum(t, self.t0))
         before = dt < 0.0
@@ -89,6 +108,8 @@ class V2VMessage:
     width: float  # m
     intention: int  # -1 wants to change right, 0 none, +1 wants to change left (blinker)
     motion: LateralMotion | None = None  # set while the TV is changing lanes (C3)
+    since: float = math.nan  # s, when its intention began (an automated vehicle's own
+    # announcement, cosim.run.announcements; nan: not known)
 
 
 LATERAL_SPEED_EPS = 1e-6  # m/s, below this a TV is not moving sideways
@@ -142,7 +163,12 @@ def lateral_motion(
     )
 
 
-Override = tuple[int, "LateralMotion | None"]  # (intention, motion) a vehicle announces
+class Override(NamedTuple):
+    """What a vehicle that knows its own plan announces instead of what SUMO shows."""
+
+    intention: int  # -1 right, 0 none, +1 left
+    motion: LateralMotion | None  # its lane change under way (C3; None: none)
+    since: float = math.nan  # s, when the intention began (nan: not known)
 
 
 def messages(
@@ -154,14 +180,16 @@ def messages(
 
     A SUMO TV's lane change is rebuilt from its lateral motion (`lateral_motion`).
     `overrides` replaces (intention, motion) for vehicles that know their own plan:
-    scripted TVs broadcast their min-jerk reference, or only an intention, or nothing.
+    the automated vehicles of a fleet broadcast their blinker and the lane change they
+    fly (cosim.run.announcements).
     """
     intention = snapshot.intention
     overrides = overrides or {}
     out = []
     for i, vid in enumerate(snapshot.ids):
+        since = math.nan
         if vid in overrides:
-            announced, motion = overrides[vid]
+            announced, motion, since = overrides[vid]
         else:
             announced = int(intention[i])
             motion = lateral_motion(
@@ -189,6 +217,7 @@ def messages(
                 width=float(snapshot.width[i]),
                 intention=int(announced),
                 motion=motion,
+                since=since,
             )
         )
     return out

@@ -14,7 +14,7 @@ from cosim.traffic.demand import populate
 from cosim.traffic.network import DEFAULT_NETWORK
 from cosim.traffic.process import SumoOptions
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
-from cosim.traffic.v2v import LateralMotion, V2VChannel, lateral_motion, messages
+from cosim.traffic.v2v import LateralMotion, Override, V2VChannel, lateral_motion, messages
 
 ROAD = RoadParams()
 STEP = 0.05  # s
@@ -167,11 +167,12 @@ def test_scripted_vehicles_announce_their_own_plan() -> None:
     snap = snapshot(1.0, [10.0, 20.0, 30.0], [2.0, 5.625, 9.375], lateral_speed=[0.5, 0.0, 0.0],
                     signals=[0, 0, 2])  # fmt: skip
     ch = V2VChannel(ROAD)
-    got = {m.vehicle_id: m for m in ch.exchange(snap, 0.0, 5.0, {"v0": (1, plan), "v2": (0, None)})}
+    got = {m.vehicle_id: m
+           for m in ch.exchange(snap, 0.0, 5.0, {"v0": Override(1, plan), "v2": Override(0, None)})}
     assert got["v0"].motion is plan and got["v0"].intention == 1  # "reference"
     assert got["v2"].motion is None and got["v2"].intention == 0  # "none": blinker not told
     assert got["v1"].motion is None and got["v1"].intention == 0
-    seen = V2VChannel(ROAD, mode="perception").exchange(snap, 0.0, 5.0, {"v0": (1, plan)})
+    seen = V2VChannel(ROAD, mode="perception").exchange(snap, 0.0, 5.0, {"v0": Override(1, plan)})
     assert all(m.motion is None and m.intention == 0 for m in seen)
 
 

@@ -127,6 +127,8 @@ class GapPolicy:
         self.held: LaneChange | None = None  # the change flown on the courtesy held
         self._blinker = ctx.ports.blinker
         self.signal = 0  # the SV's blinker now: -1 right, 0 off, +1 left
+        self.signal_since = 0.0  # s, since when it signals as it seeks a gap
+        self.notice = ctx.notice  # s, it signals this long before it starts a change
         self.following = CarFollowing(ctx, cfg)
         self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal)
         self.ends = self.manoeuvre.ends  # the SV's lane-end reasoning
@@ -288,7 +290,10 @@ class GapPolicy:
         """It signals while it seeks a gap, as SUMO's drivers do while they wait for one
         (what the traffic's courtesy answers, cosim.traffic.cooperation), and asks the
         TV the decision names to open the gap."""
-        self._signal(0 if d.target_lane is None else (1 if d.target_lane > lane else -1))
+        direction = 0 if d.target_lane is None else (1 if d.target_lane > lane else -1)
+        if direction != self.signal:
+            self.signal_since = t
+        self._signal(direction)
         if d.cooperate_with >= 0:
             self.ask_gap(t, str(traffic.ids[d.cooperate_with]))
 
@@ -297,6 +302,8 @@ class GapPolicy:
         """The trigger to plan with now (None: not now)."""
         if not d.plan_now or d.target_lane is None:
             return None
+        if self.notice > 0.0 and t - self.signal_since < self.notice - 1e-9:
+            return None  # its V2V partners have not all heard its intention yet
         if wants.mandatory:
             return Trigger.MANDATORY if self.manoeuvre.may_merge(t) else None
         if wants.scripted is not None:

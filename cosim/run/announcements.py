@@ -1,0 +1,133 @@
+"""What the automated vehicles of a run announce to each other over V2V, and who of two
+that want the same lane goes first.
+
+The paper's prediction classes C2 and C3 assume V2V partners; with a fleet
+(cosim.run.fleet) they exist. Every automated vehicle (the SV and each AV) broadcasts,
+besides its state:
+- its intention (C2): the blinker its policy sets (-1 right, +1 left; a policy signals
+  while it seeks a gap and while it changes lanes), with the time it began (`since`);
+- while it changes lanes, the lane change it flies (C3): the planner's min-jerk
+  trajectory (eq. 2, 4), or a re-check's rescue that replaced it, exactly as flown.
+These replace what SUMO would show of the vehicle (its signal bits, a lateral motion
+rebuilt from its sideways speed) in the messages every receiver's own V2V channel
+carries (cosim.traffic.v2v: range, latency, loss), so the receivers' planners predict
+it with C2 / C3 as they predict scripted TVs' broadcasts.
+
+Right of way (`give_way`). Two automated vehicles signalling into the same lane, from
+both sides or from one lane at one gap, would each find its plan crossing the other's
+C2 cluster (every lane change the other may start now) and wait for good. One already
+changing lanes goes first, else the one that began signalling first (equal: the smaller
+id): the other keeps predicting its C2 cluster and waits, while the first predicts the
+other as keeping its lane (C1) as long as it only signals. A lane change under way (C3)
+is always predicted as sent.
+Both sides apply the same rule to the same broadcast numbers, so they agree, whatever
+the channel's latency, once each has heard the other: an automated vehicle therefore
+signals for `notice` before it starts a change (the channel's latency and enough steps
+that a partner in range misses all of them with a chance below NOTICE_MISS), and one
+whose intention began later has heard the earlier one's before it could start.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+from cosim.traffic.v2v import LateralMotion, Override, V2VMessage
+
+NOTICE_MISS = 1e-3  # -, the chance a partner in range missed every message of the notice
+
+if TYPE_CHECKING:
+    from cosim.params import RoadParams
+    from cosim.planning.trajectory import LaneChangeTrajectory
+
+
+@dataclass(frozen=True)
+class Announcement:
+    """What one automated vehicle announces now."""
+
+    intention: int = 0  # -1 right, 0 none, +1 left (its blinker)
+    since: float = math.nan  # s, when that intention began (nan: none)
+    motion: LateralMotion | None = None  # the lane change it flies (C3; None: none)
+
+    def override(self) -> Override:
+        return Override(self.intention, self.motion, self.since)
+
+
+def _changes_lane(trajectory: LaneChangeTrajectory | None) -> bool:
+    """Whether a reference moves sideways (a lane change, an abort, a rescue), not the
+    straight lane-keeping reference (width 0 from rest)."""
+    return trajectory is not None and (trajectory.width != 0.0 or trajectory.vy0 != 0.0)
+
+
+class Announcements:
+    """The current announcement of every automated vehicle of a run, by SUMO id."""
+
+    def __init__(self, road: RoadParams) -> None:
+        self.road = road
+        self.t = 0.0  # s, the step being decided (the time a new intention begins)
+        self.now: dict[str, Announcement] = {}
+
+    def blinker(self, vehicle_id: str, forward: Callable[[int], None]
+                ) -> Callable[[int], None]:
+        """A blinker port for `vehicle_id` that announces its intention and sets the
+        blinker in SUMO through `forward`."""
+        def signal(direction: int) -> None:
+            old = self.now.get(vehicle_id, Announcement())
+            if direction != old.intention:
+                since = self.t if direction != 0 else math.nan
+                self.now[vehicle_id] = replace(old, intention=direction, since=since)
+            forward(direction)
+        return signal
+
+    def flying(self, vehicle_id: str, reference: LaneChangeTrajectory | None) -> None:
+        """The reference `vehicle_id` tracks from now: broadcast while it moves sideways."""
+        old = self.now.get(vehicle_id, Announcement())
+        motion = LateralMotion.of(reference) if (
+            reference is not None and _changes_lane(reference)) else None
+        if motion != old.motion:
+            self.now[vehicle_id] = replace(old, motion=motion)
+
+    def forget(self, vehicle_id: str) -> None:
+        """SUMO drives it again: what SUMO shows of it is its broadcast."""
+        self.now.pop(vehicle_id, None)
+
+    def overrides(self) -> dict[str, Override]:
+        """The announcements as a V2V channel's overrides (cosim.traffic.v2v.messages)."""
+        return {vid: a.override() for vid, a in self.now.items()}
+
+    def give_way(self, vehicle_id: str, y: float, messages: Sequence[V2VMessage]
+                 ) -> list[V2VMessage]:
+        """`messages` as `vehicle_id` (at lateral position y) plans with them: the
+        intentions of those that give way to it dropped (module docstring)."""
+        me = self.now.get(vehicle_id)
+        if me is None or me.intention == 0 or not messages:
+            return list(messages)
+        road = self.road
+        target = road.lane_of(y) + me.intention
+        # who goes first: one changing lanes already, then the earlier intention, then
+        # the smaller id
+        mine = (me.motion is None, _tick(me.since), vehicle_id)
+        out = []
+        for m in messages:
+            if (m.intention != 0 and m.motion is None and math.isfinite(m.since)
+                    and road.lane_of(m.y) + m.intention == target
+                    and mine < (True, _tick(m.since), m.vehicle_id)):
+                m = replace(m, intention=0)  # it waits for this vehicle: C1
+            out.append(m)
+        return out
+
+
+def notice(latency: float, loss: float, step: float) -> float:
+    """s, how long an automated vehicle signals before it starts a lane change: the
+    channel's `latency` plus the steps after which every message of it was lost with a
+    chance below NOTICE_MISS (one step without loss)."""
+    steps = 1 if loss <= 0.0 else (
+        math.inf if loss >= 1.0 else max(1, math.ceil(math.log(NOTICE_MISS) / math.log(loss))))
+    return latency + steps * step
+
+
+def _tick(t: float) -> float:
+    """s, a time compared as both sides see it (the step times, free of rounding)."""
+    return round(t, 6)

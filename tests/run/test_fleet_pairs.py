@@ -1,0 +1,126 @@
+"""Pairs of automated vehicles in real SUMO (cosim.run.fleet with cosim.run.announcements):
+two of them, each stuck behind a slow car, signalling into the same free lane at once,
+from both sides or one behind the other in one lane, hearing each other through V2V
+with latency and loss. The one with the right of way goes first, the other yields to
+its intention (C2) and its broadcast trajectory (C3) and follows it over; nobody
+collides and nobody waits for good."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import pytest
+
+from cosim.run.loop import simulate
+from cosim.run.result import RunResult
+from cosim.scenario import scenario_from_dict
+from cosim.traffic.network import build_network
+
+ROAD_LENGTH = 1200.0  # m
+LATENCY = 0.1  # s
+LOSS = 0.2
+
+
+def highway(folder: Path) -> Path:
+    """The shipped highway's three lanes, ROAD_LENGTH m long."""
+    (folder / "pairs.nod.xml").write_text(
+        f'<nodes><node id="start" x="0.0" y="11.25" type="priority"/>'
+        f'<node id="end" x="{ROAD_LENGTH}" y="11.25" type="priority"/></nodes>')
+    (folder / "pairs.edg.xml").write_text(
+        '<edges><edge id="highway" from="start" to="end" numLanes="3" width="3.75" '
+        'spreadType="right"><lane index="0" speed="25.0"/>'
+        '<lane index="1" speed="30.555555555555557"/>'
+        '<lane index="2" speed="33.333333333333336"/></edge></edges>')
+    return build_network(folder, "pairs")
+
+
+def demand(folder: Path, avs: dict[str, tuple[int, float]]) -> Path:
+    """Slow cars (12 m/s) ahead in lanes 0 and 2; the automated vehicles `avs` (id ->
+    lane, departure position m) inserted at t = 0.5 s at 22 m/s; lane 1 free. No SUMO
+    lane changes of their own (they keep their lanes until taken over)."""
+    keep = 'lcSpeedGain="0" lcKeepRight="0" lcCooperative="0" sigma="0"'
+    cars = "".join(
+        f'<vehicle id="{vid}" type="av" route="through" depart="0.5" departLane="{lane}" '
+        f'departPos="{pos}" departSpeed="22"/>' for vid, (lane, pos) in avs.items())
+    path = folder / "pairs.rou.xml"
+    path.write_text(
+        f'<routes><vType id="slow" length="4.5" width="1.8" maxSpeed="12" {keep}/>'
+        f'<vType id="av" length="4.6" width="1.9" maxSpeed="22" {keep}/>'
+        '<route id="through" edges="highway"/>'
+        '<vehicle id="slow0" type="slow" route="through" depart="0" departLane="0" '
+        'departPos="150" departSpeed="12"/>'
+        '<vehicle id="slow2" type="slow" route="through" depart="0" departLane="2" '
+        'departPos="150" departSpeed="12"/>'
+        f'{cars}</routes>')
+    return path
+
+
+def pair_doc(network: Path, routes: Path) -> dict[str, Any]:
+    """The SV far ahead in lane 1 (out of their way); the pair's V2V late and lossy."""
+    return {
+        "scenario": {"name": "pairs", "duration_s": 16.0, "seed": 3},
+        "road": {"network": str(network), "lane_speeds_kmh": [[60, 90], [90, 110],
+                                                               [110, 120]]},
+        "sv": {"lane": 1, "position_m": 500.0, "speed_kmh": 110.0},
+        "traffic": {"routes": [str(routes)]},
+        "planner": {"policy": "gap"},
+        "v2v": {"latency_s": LATENCY, "loss": LOSS},
+        "fleet": {"vtypes": ["av"]},
+    }
+
+
+def run_pair(folder: Path, avs: dict[str, tuple[int, float]]) -> RunResult:
+    network = highway(folder)
+    doc = pair_doc(network, demand(folder, avs))
+    return simulate(scenario_from_dict(doc, path=folder / "pairs.toml"))
+
+
+@pytest.fixture(scope="module")
+def both_sides(tmp_path_factory: pytest.TempPathFactory) -> RunResult:
+    """a in lane 0, b in lane 2, level: both want lane 1 at the same step."""
+    return run_pair(tmp_path_factory.mktemp("sides"), {"a": (0, 0.0), "b": (2, 0.0)})
+
+
+@pytest.fixture(scope="module")
+def one_gap(tmp_path_factory: pytest.TempPathFactory) -> RunResult:
+    """a and b in lane 0, b 25 m behind a: both aim at the free lane beside them."""
+    return run_pair(tmp_path_factory.mktemp("gap"), {"a": (0, 25.0), "b": (0, 0.0)})
+
+
+def changes(result: RunResult) -> pd.DataFrame:
+    """The first adopted plan of each of the pair (start t_s, origin and target lane), in
+    time order."""
+    plans = pd.DataFrame(result.fleet.plans)
+    return plans[plans["ok"] == 1].sort_values("t_s").drop_duplicates("vehicle_id")
+
+
+def no_collision(result: RunResult) -> None:
+    rows = pd.DataFrame(result.fleet.rows)
+    assert set(rows["vehicle_id"]) == {"a", "b"}
+    assert result.events == []  # none teleported or removed by SUMO
+    assert (rows[["collisions", "caused_collisions", "sumo_collisions"]] == 0).all().all()
+    assert result.metrics["collisions"] == 0  # the SV's
+
+
+def test_both_sides_one_goes_first_the_other_follows(both_sides: RunResult) -> None:
+    no_collision(both_sides)
+    adopted = changes(both_sides)
+    # both changed into lane 1: nobody waited for good; a (equal start: the smaller id)
+    # first, b only once a's change is under way and heard
+    assert list(adopted["vehicle_id"]) == ["a", "b"]
+    assert (adopted["target_lane"] == 1).all()
+    t_a, t_b = adopted["t_s"].tolist()
+    assert t_b >= t_a + LATENCY
+    plans = pd.DataFrame(both_sides.fleet.plans)
+    b_waits = plans[(plans["vehicle_id"] == "b") & (plans["t_s"] < t_b)]
+    # b's plans before its own go were refused for hitting a (its C2, then its C3)
+    assert len(b_waits) >= 1 and b_waits["rejections"].str.contains("a:").all()
+
+
+def test_one_gap_two_in_one_lane_go_in_turn(one_gap: RunResult) -> None:
+    no_collision(one_gap)
+    adopted = changes(one_gap)
+    assert list(adopted["vehicle_id"]) == ["a", "b"]  # a signalled first (taken over first)
+    assert (adopted["target_lane"] == 1).all()
