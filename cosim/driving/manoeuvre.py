@@ -142,15 +142,16 @@ class ScriptedRequests:
 class Manoeuvre:
     """The module docstring's component. `blinker(direction)` sets the SV's blinker
     (-1 right, 0 off, +1 left); the context's planner has `plan(t, state, target,
-    messages, occupant, vxf=None, x_limit=inf, max_curvature=inf)` and `check(trajectory,
-    t, messages)` (cosim.planning.planner.LaneChangePlanner)."""
+    messages, occupant, vxf=None, x_limit=inf, max_curvature=inf, max_tau=inf)` and
+    `check(trajectory, t, messages)` (cosim.planning.planner.LaneChangePlanner);
+    `max_tau` (s) bounds the manoeuvres it plans (inf: eq. 13 alone)."""
 
     def __init__(self, ctx: DrivingContext, timer: LaneChangeTimer,
-                 blinker: Callable[[int], None]) -> None:
+                 blinker: Callable[[int], None], max_tau: float = math.inf) -> None:
         self.lanes = ctx.lanes
         self.blinker = blinker
         self.timer = timer
-        self.calls = PlannerCalls(ctx.planner, ctx.sv.occupant)
+        self.calls = PlannerCalls(ctx.planner, ctx.sv.occupant, max_tau)
         self.ends = SVLaneEnds(ctx.lanes, ctx.sv_length)  # the SV's lane-end reasoning
         self.recheck = Recheck(self.calls, self.ends, ctx.lanes, ctx.mu,
                                ctx.recheck_interval, ctx.replanning, ctx.sv_length)

@@ -107,11 +107,13 @@ def request_row(t: float, origin: int, target: int, vx0: float, ok: int,
 class PlannerCalls:
     """The planner (cosim.planning.planner.LaneChangePlanner, or a double with its
     `plan` and `check`) as a policy calls it: each call timed into `wall` (s); the
-    occupant's weight in eq. 13 (`occupant`) given with every plan."""
+    occupant's weight in eq. 13 (`occupant`) and the policy's longest manoeuvre
+    (`max_tau`, s; inf: eq. 13 alone) given with every plan."""
 
-    def __init__(self, planner: Any, occupant: float) -> None:
+    def __init__(self, planner: Any, occupant: float, max_tau: float = math.inf) -> None:
         self.planner = planner
         self.occupant = occupant
+        self.max_tau = max_tau
         self.wall = 0.0  # s, wall time in the planner (and in a policy's own check)
 
     @contextmanager
@@ -131,7 +133,8 @@ class PlannerCalls:
         at most `curvature`, 1/m)."""
         with self.timed():
             return self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf,
-                                     x_limit=x_limit, max_curvature=curvature)
+                                     x_limit=x_limit, max_curvature=curvature,
+                                     max_tau=self.max_tau)
 
     def check(self, trajectory: Any, t: float, messages: list[Any]) -> Any:
         """The planner's collision check of `trajectory` from t against fresh predictions:

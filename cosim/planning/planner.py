@@ -453,7 +453,7 @@ class LaneChangePlanner:
     def plan(
         self, t: float, sv: SVPlanState, target_lane: int, messages: Sequence[V2VMessage],
         occupant: float, vxf: float | None = None, x_limit: float = math.inf,
-        max_curvature: float = math.inf,
+        max_curvature: float = math.inf, max_tau: float = math.inf,
     ) -> Plan:
         """Plan a lane change from sv.lane to `target_lane` at simulation time t, ending
         at `vxf` (m/s; None: the band rule's target speed). `x_limit` (m): the latest
@@ -462,7 +462,8 @@ class LaneChangePlanner:
         leave its lane is predicted as signalling it (`deadline.merging_messages`).
         `max_curvature` (1/m): plans whose path bends more sharply anywhere are not
         stable (a steering limit the envelope does not have at low speed: a merge from a
-        standstill, cosim.driving.lane_end)."""
+        standstill, cosim.driving.lane_end). `max_tau` (s): the chosen tau is the free one
+        nearest min(eq. 13's tau_opt, max_tau) (`selection.choose`)."""
         start = time.perf_counter()
         self._validate(sv, target_lane, occupant)
         cfg, road = self.config, self.road
@@ -484,7 +485,7 @@ class LaneChangePlanner:
                 futures, follow)
             free[cand[~collides]] = True
         w = omega(occupant, road.mu)
-        tau, t_opt = choose(taus, free, w)
+        tau, t_opt = choose(taus, free, w, max_tau)
         trajectory = None
         if tau is not None:
             trajectory = LaneChangeTrajectory(

@@ -43,13 +43,16 @@ def intervals(taus: Array, mask: NDArray[np.bool_]) -> list[tuple[float, float]]
     return [(float(taus[a]), float(taus[b])) for a, b in zip(starts, ends, strict=True)]
 
 
-def choose(taus: Array, free: NDArray[np.bool_], w: float) -> tuple[float | None, float]:
-    """(chosen tau or None, tau_opt): the free grid tau nearest eq. 13's tau_opt
-    (ties to the longer, gentler one). tau_opt is nan when nothing is free."""
+def choose(taus: Array, free: NDArray[np.bool_], w: float,
+           max_tau: float = np.inf) -> tuple[float | None, float]:
+    """(chosen tau or None, tau_opt): the free grid tau nearest eq. 13's tau_opt, or
+    nearest `max_tau` (s) when tau_opt is longer (beyond the paper: a policy that bounds
+    its manoeuvre's duration; the paper's: inf) (ties to the longer, gentler one).
+    tau_opt is nan when nothing is free."""
     ok = taus[np.asarray(free, dtype=bool)]
     if ok.size == 0:
         return None, float("nan")
     target = tau_opt(w, float(ok.min()), float(ok.max()))
-    dist = np.abs(ok - target)
+    dist = np.abs(ok - min(target, max_tau))
     best = np.flatnonzero(dist <= dist.min() + 1e-12)[-1]
     return float(ok[best]), target

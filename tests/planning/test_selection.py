@@ -51,6 +51,16 @@ def test_choose_nearest_in_a_split_set() -> None:
                                                                          nan_ok=True))
 
 
+def test_choose_bounded_by_max_tau() -> None:
+    # a policy's longest manoeuvre caps eq. 13's choice (a wet road's long optimum) but
+    # never a shorter optimum, and a cap with nothing free below it takes the shortest free
+    taus = np.round(np.arange(2.0, 10.01, 0.5), 6)
+    free = taus >= 2.5
+    assert choose(taus, free, 0.8, max_tau=3.5) == (3.5, pytest.approx(8.5))
+    assert choose(taus, free, 0.1, max_tau=3.5) == choose(taus, free, 0.1)
+    assert choose(taus, taus >= 6.0, 0.8, max_tau=3.5)[0] == 6.0
+
+
 def test_jerk_cost_falls_with_tau() -> None:
     j = j_xy(22.0, 25.0, 3.75, np.linspace(2, 10, 20))
     assert (np.diff(j) < 0).all()

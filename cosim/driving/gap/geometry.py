@@ -148,6 +148,10 @@ class GapConfig:
     nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the
     # planner's eq. 13 optimum at the speeds of motorway traffic)
     # tuned: docs/tuned_constants.md
+    max_tau: float = 3.5  # s, the longest manoeuvre it plans when a shorter one is free
+    # (about nominal_tau, so that it flies the change its entry test predicted; eq. 13
+    # on a wet road, mu 0.4, asks for 8-9 s, twice SUMO's drivers' 3 s change)
+    # tuned: docs/tuned_constants.md
 
     def follow_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its own leader while it seeks a gap."""

@@ -130,9 +130,10 @@ class GapPolicy:
         self.signal_since = 0.0  # s, since when it signals as it seeks a gap
         self.notice = ctx.notice  # s, it signals this long before it starts a change
         self.following = CarFollowing(ctx, cfg)
-        self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal)
-        self.ends = self.manoeuvre.ends  # the SV's lane-end reasoning
         self.gap_cfg = gap or GapConfig()
+        self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal,
+                                   max_tau=self.gap_cfg.max_tau)
+        self.ends = self.manoeuvre.ends  # the SV's lane-end reasoning
         self.follower = follower or FollowerModel(reaction=REACTION)
         # what a flown plan may ask of its new follower: the policy's own limit within b_safe
         self.plan_follower = self.follower.limited(self.gap_cfg.plan_decel)
