@@ -32,6 +32,7 @@ from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig
 
 if TYPE_CHECKING:
+    from cosim.driving.cadence import CadenceConfig
     from cosim.params import RoadParams
     from cosim.planning.planner import PredictionOptions
     from cosim.planning.trajectory import LaneChangeTrajectory
@@ -76,18 +77,20 @@ class DrivingContext:
     sv_width: float = 1.8  # m, the SV's body width
     notice: float = 0.0  # s, how long it signals before it starts a lane change (its V2V
     # partners' time to hear its intention: cosim.run.announcements.notice; 0: none)
+    cadence: CadenceConfig | None = None  # how often it decides while keeping its lane
+    # (cosim.driving.cadence; None: every step, as the SV)
 
     @classmethod
     def of(cls, scenario: Scenario, road: RoadParams, *, decision: DecisionConfig | None = None,
            planner: Any = None, ports: WorldPorts | None = None,
-           notice: float = 0.0) -> DrivingContext:
+           notice: float = 0.0, cadence: CadenceConfig | None = None) -> DrivingContext:
         """The pieces of a scenario a policy needs, on `road` (the network's lanes)."""
         sc = scenario
         return cls(sv=sc.sv, sv_length=sc.vehicle.length, step=sc.step,
                    lanes=LaneLayout(road), mu=road.mu, decision=decision or DecisionConfig(),
                    planner=planner, replanning=sc.planner.replanning,
                    recheck_interval=sc.planner.recheck_interval, ports=ports or WorldPorts(),
-                   sv_width=sc.vehicle.width, notice=notice)
+                   sv_width=sc.vehicle.width, notice=notice, cadence=cadence)
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,9 @@ collisions). Near the route's end (HANDBACK_DISTANCE), never during a lane chang
 drives it again to its arrival (`World.hand_back`).
 
 Per step the loop calls `observe` (one read of the whole road; each AV's scene is a
-selection of it; its trace row), `decide` (the policies), `advance` (the closed loops,
+selection of it; its trace row), `decide` (the policies; one keeping its lane holds its
+last decision until its cadence or an event asks for a new one: cosim.driving.cadence),
+`advance` (the closed loops,
 the poses to SUMO) and, after SUMO's step, `stepped` (SUMO's collisions, the takeovers).
 `result` gives the fleet's trace and plans rows (with the SV's: trace.csv's and
 plans.csv's `vehicle_id`), fleet.csv's rows, one per AV, and metrics.csv's fleet columns.
@@ -30,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cosim.driving.base import DrivingContext, LaneChangePolicy, PolicyStatus, WorldPorts
+from cosim.driving.cadence import CadenceConfig
 from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
 from cosim.run.announcements import Announcements, notice
@@ -192,6 +195,7 @@ class AutomatedVehicle:
     status: PolicyStatus | None = None
     scene: Scene | None = None
     reference: Any = None
+    hold: Callable[[float, Scene], Any] | None = None  # the policy's `hold`, if it has one
 
 
 class Fleet:
@@ -250,11 +254,15 @@ class Fleet:
 
     def decide(self, t: float) -> None:
         """Each AV's policy: the reference it tracks from t, broadcast at once (an AV
-        deciding after it in this step hears it as a zero-latency channel would)."""
+        deciding after it in this step hears it as a zero-latency channel would); its last
+        decision held while it keeps its lane and nothing changes (cosim.driving.cadence)."""
         heard = self.announcements
         for av in self.active:
-            assert av.scene is not None
-            av.reference = av.policy.update(t, av.scene, AVInbox(av, av.scene, heard))
+            scene = av.scene
+            assert scene is not None
+            inbox = AVInbox(av, scene, heard)  # the channel runs every step when it must
+            held = av.hold(t, scene) if av.hold is not None else None
+            av.reference = held if held is not None else av.policy.update(t, scene, inbox)
             heard.flying(av.id, av.reference)
 
     def advance(self, t: float, dt: float) -> None:
@@ -333,7 +341,8 @@ class Fleet:
         policy = self.cls(DrivingContext.of(
             av_sc, self.road, decision=self.decision, planner=self.make_planner(),
             ports=WorldPorts(blinker=self.announcements.blinker(
-                vid, partial(self.takeovers.set_blinker, vid))), notice=self.notice))
+                vid, partial(self.takeovers.set_blinker, vid))), notice=self.notice,
+            cadence=CadenceConfig()))
         from cosim.traffic.v2v import V2VChannel
 
         number = len(self.active) + len(self.done)
@@ -342,7 +351,8 @@ class Fleet:
         recorder = Recorder(sc.n_steps, sc.vehicle.length, sc.vehicle.width, self.road,
                             route_road=world.route_road, keep_tracks=False)
         self.active.append(AutomatedVehicle(vid, vtype, ego, policy, recorder, channel,
-                                            self.observer, self.every_step, k, t_in))
+                                            self.observer, self.every_step, k, t_in,
+                                            hold=getattr(policy, "hold", None)))
 
     def _finish(self, av: AutomatedVehicle, k: int, end: str) -> None:
         av.k_end, av.end = k, end

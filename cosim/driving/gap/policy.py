@@ -45,7 +45,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
-from cosim.driving.following import CarFollowing
+from cosim.driving.cadence import Cadence
+from cosim.driving.following import HOLD_SPEED, CarFollowing
 from cosim.driving.gap.decision import (
     GapDecision,
     GapRules,
@@ -57,7 +58,7 @@ from cosim.driving.gap.decision import (
 from cosim.driving.gap.geometry import GapConfig
 from cosim.driving.gap.yielding import YieldWatch
 from cosim.driving.lane_end import stop_gap
-from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre
+from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre, Mode
 from cosim.driving.plans import Trigger
 from cosim.driving.registry import register
 from cosim.driving.view import TrafficView
@@ -66,6 +67,7 @@ from cosim.planning.interaction import FollowerModel, LaneTraffic, check_followe
 from cosim.planning.planner import PredictionOptions
 
 if TYPE_CHECKING:
+    from cosim.driving.layout import Neighbours
     from cosim.driving.manoeuvre import LaneChange
     from cosim.planning.planner import Plan
     from cosim.planning.trajectory import LaneChangeTrajectory
@@ -145,6 +147,9 @@ class GapPolicy:
         self.seeking_since: float | None = None  # s, since when it seeks a gap (None: not)
         self.refused: dict[str, float] = {}  # TV id -> s, when it was last refused as the
         # new follower (by the entry test or a plan's check): taken with a margin a while
+        # its decisions while keeping its lane held between steps (None: it decides every
+        # step, as the SV)
+        self.cadence = None if ctx.cadence is None else Cadence(ctx.cadence)
 
     @property
     def wall(self) -> float:
@@ -193,7 +198,41 @@ class GapPolicy:
                 vxf=d.vxf if math.isfinite(d.vxf) else None,
                 accept=lambda plan: self.accept(t, plan, target, traffic))
             self.held = m.active if d.held is not None else None
+            if self.cadence is not None and m.active is None:
+                self.cadence.decided(t, sv.vx, self._own(sv, traffic), traffic.ids)
         return trajectory if trajectory is not None else self.following.reference(t, sv)
+
+    def _own(self, sv: SVState, traffic: TrafficView) -> Neighbours:
+        """Its leader and follower in its own lane."""
+        return self.lanes.neighbours(self.lanes.lane_of(sv.y), sv.x, self.sv_length, traffic,
+                                     leaving=True)
+
+    def hold(self, t: float, scene: Scene) -> LaneChangeTrajectory | None:
+        """The lane-keeping reference from t with the last decision's acceleration held,
+        or None: decide now (`update`). Only with a cadence (cosim.driving.cadence), while
+        it keeps its lane with no entry open (one its notice or timer holds back), no lane
+        end ahead and no leader (nor itself) near standstill
+        (the standstill hold needs the gap of every step), until the cadence is due or the
+        held acceleration takes the reference across the speed it wants."""
+        c, m, f = self.cadence, self.manoeuvre, self.following
+        if c is None or m.active is not None or m.mode != Mode.KEEPING or (
+                self.last is not None and self.last.plan_now):  # an entry open: plan soon
+            return None
+        sv = scene.sv
+        lane = self.lanes.lane_of(sv.y)
+        if f.v_ref < HOLD_SPEED or f.leader_speed < HOLD_SPEED or (
+                self.ends.any and self.ends.ahead(lane, sv.x, sv.vx) is not None):
+            return None
+        traffic = TrafficView.of(scene)
+        own = self._own(sv, traffic)
+        desired = f.desired_speed(lane)
+        if (c.due(t, own, traffic.ids) or (own.leader >= 0 and own.leader_speed < HOLD_SPEED)
+                or (f.v_ref - desired) * (f.v_ref + f.accel * f.dt - desired) < 0.0):
+            return None
+        if abs(f.leader_gap - c.gap) <= 1e-6:  # the decision followed its own leader
+            f.leader_gap = own.gap_ahead
+            f.leader_speed = own.leader_speed if own.leader >= 0 else math.inf
+        return f.reference(t, sv)
 
     def seek(self, t: float, sv: SVState, traffic: TrafficView, allow_scripted: bool,
              allow_decision: bool) -> tuple[GapDecision, Trigger | None]:
