@@ -16,7 +16,8 @@ drives it again to its arrival (`World.hand_back`).
 Per step the loop calls `observe` (one read of the whole road; each AV's scene is a
 selection of it; its trace row), `decide` (the policies; one keeping its lane holds its
 last decision until its cadence or an event asks for a new one: cosim.driving.cadence),
-`advance` (the closed loops, the poses to SUMO) and, after SUMO's step, `stepped` (SUMO's collisions, the takeovers).
+`advance` (the closed loops, the poses to SUMO) and, after SUMO's step, `stepped`
+(SUMO's collisions, the takeovers).
 `result` gives the fleet's trace and plans rows (with the SV's: trace.csv's and
 plans.csv's `vehicle_id`), fleet.csv's rows, one per AV, and metrics.csv's fleet columns.
 """
