@@ -32,7 +32,7 @@ SLOW = {
     "cosim bench cosim": "three 30 s dense runs and more",
     "cosim bench batch": "a 16-run study three times",
     "cosim bench measures": "five times six 60 s dense runs (tests/bench/test_measures_bench.py)",
-    "cosim bench fleet": "nine 30 s dense runs with up to 19 automated vehicles",
+    "cosim bench fleet": "five dense runs with up to 100 automated vehicles and their floors",
     "cosim batch scenarios/study_replanning.toml -o results/batch/study_replanning_fixed":
         "800 runs",
     "cosim bench cosim --repeats 5 --duration 30": "ten 30 s dense runs and more",

@@ -294,7 +294,7 @@ class Fleet:
         world, takeovers = self.world, self.takeovers
         for vid, u in zip(departed, draws.tolist(), strict=True):
             vtype = takeovers.vtype_of(vid)
-            if not (u < self.spec.share or vtype in vtypes):
+            if not (u < self.spec.share or vtype in vtypes) or self._full():
                 continue
             route = takeovers.route_of(vid)
             if not route or route[-1] != self.last_edge or not set(route) <= self.edges:
@@ -302,6 +302,11 @@ class Fleet:
                 continue
             snap = world.read_again((vid,))
             self.pending[vid] = (vtype, float(snap.x[0]), t)
+
+    def _full(self) -> bool:
+        """As many AVs drive or wait for their takeover as `[fleet] max_vehicles`."""
+        cap = self.spec.max_vehicles
+        return cap is not None and len(self.active) + len(self.pending) >= cap
 
     def _take_over_clear(self, k: int) -> None:
         """The pending vehicles TAKEOVER_CLEARANCE m past their insertion, on one of the

@@ -370,6 +370,12 @@ class FleetSpec:
         default_doc="`[]`",
         doc="every vehicle of these vTypes in the user's own demand (`traffic.routes`, "
             "`road.sumocfg`) that SUMO inserts during the run is automated"), ())
+    max_vehicles: int | None = declare(Field(
+        "max_vehicles", int, lo=1, hi=100000, default=None,
+        doc="at most this many automated vehicles at once: one drawn while as many drive "
+            "(or wait for their takeover) stays SUMO's (its draw still made: the same seed "
+            "draws the same vehicles); with `share = 1` the fleet keeps this many",
+        default_doc="none: no limit"), None)
 
     @property
     def enabled(self) -> bool:

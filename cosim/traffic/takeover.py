@@ -1,11 +1,36 @@
 """The fleet's calls into SUMO (cosim.run.fleet): who SUMO inserted in its last step,
 their routes and vTypes, taking a vehicle out of SUMO's control (coloured green in
 sumo-gui) and handing it back,
-an automated vehicle's blinker, every collision of a step, who was teleported."""
+an automated vehicle's blinker, every collision of a step, who was teleported; and the
+fleet's floor (`replay`): SUMO with the SV and the automated vehicles moved along the
+paths a fleet run recorded, nothing else (`cosim bench fleet`)."""
 
 from __future__ import annotations
 
-from cosim.traffic.world import World
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from cosim.traffic.world import SV_ID, World
+
+
+@dataclass(frozen=True)
+class RecordedPath:
+    """A vehicle's path as a run recorded it, from trace row k0 on: its centre's pose
+    (m, m, rad), speed (m/s) and acceleration (m/s^2) at each row."""
+
+    vehicle_id: str
+    k0: int  # its first row (the SV: 0; an AV: the row it was taken over at)
+    x: list[float]
+    y: list[float]
+    heading: list[float]
+    speed: list[float]
+    accel: list[float]
+    handed_back: bool = False  # an AV handed back to SUMO at its last row
+
+    @property
+    def k_end(self) -> int:
+        """Its last row."""
+        return self.k0 + len(self.x) - 1
 
 AUTOMATED_COLOUR = (0, 200, 80, 255)  # RGBA, automated vehicles in sumo-gui (the SV: blue)
 
@@ -50,6 +75,46 @@ class Takeovers:
     def collisions(self) -> set[tuple[str, ...]]:
         """Every collision SUMO reported in its last step (sorted id pairs)."""
         return {tuple(sorted(p)) for p in self.sumo.collisions()}
+
+    def replay(self, sv: RecordedPath, avs: Sequence[RecordedPath], size: tuple[float, float],
+               on_row: Callable[[int], None] | None = None) -> int:
+        """The fleet's floor: the SV and the AVs `avs` (bodies `size`, length and width m)
+        moved along their recorded paths by moveToXY, nothing read, planned, controlled or
+        checked. As the fleet does it: an AV taken over after SUMO's step to its first
+        row, moved to its row k + 1 before SUMO's step from row k, handed back at its
+        last row if it was. `on_row(k)` is called at the top of each row k. Returns how
+        many AVs were not on the network at their takeover (none when SUMO's traffic
+        is the recorded run's)."""
+        sumo = self.sumo
+        starts: dict[int, list[RecordedPath]] = {}
+        for av in avs:
+            starts.setdefault(av.k0, []).append(av)
+        driving: list[RecordedPath] = []
+        missing = 0
+        for k in range(sv.k_end):
+            if on_row is not None:
+                on_row(k)
+            ending = [av for av in driving if av.k_end == k]
+            for av in ending:
+                driving.remove(av)
+                if av.handed_back:
+                    self.hand_back(av.vehicle_id)
+            j = k + 1
+            sumo.move(SV_ID, sv.x[j], sv.y[j], sv.heading[j], sv.speed[j], sv.accel[j])
+            for av in driving:
+                i = j - av.k0
+                sumo.move(av.vehicle_id, av.x[i], av.y[i], av.heading[i], av.speed[i],
+                          av.accel[i])
+            sumo.step()
+            for av in starts.get(j, ()):
+                if av.vehicle_id not in sumo.api.vehicle.getIDList():
+                    missing += 1
+                    continue
+                self.take_over(av.vehicle_id, size)
+                driving.append(av)
+        if on_row is not None:
+            on_row(sv.k_end)
+        return missing
 
     def teleported(self) -> set[str]:
         """The vehicles SUMO teleported during the run."""

@@ -7,7 +7,15 @@ import argparse
 
 import pytest
 
-from cosim.bench.fleet import PARTS, _shares, part_split
+from cosim.bench.fleet import (
+    PARTS,
+    _avs,
+    _shares,
+    fleet_floor,
+    fleet_window_run,
+    measure_avs,
+    part_split,
+)
 from cosim.scenario import load_scenario, project_root, with_overrides
 
 
@@ -27,3 +35,32 @@ def test_shares_flag() -> None:
     for bad in ("", "0,x", "1.5", "-0.1"):
         with pytest.raises(argparse.ArgumentTypeError, match="in \\[0, 1\\]"):
             _shares(bad)
+
+
+def test_fixed_numbers_of_avs_beside_their_floor() -> None:
+    """Two cases (1 and 2 AVs at once: share 1 capped by max_vehicles) on light short
+    traffic: each measured over its window once N drive, never more than N, and its
+    floor replays the same AVs (all found at their takeover steps)."""
+    sc = with_overrides(load_scenario(project_root() / "scenarios/fleet_share20.toml"),
+                        density=12.0, traffic_length=1000.0)
+    window = 10  # steps
+    clock, parts, result = fleet_window_run(with_overrides(
+        sc, duration=30.0, **{"fleet.share": 1.0, "fleet.max_vehicles": 2}), 2, window)
+    first, last = clock.span()
+    assert clock.first >= 0 and last - first == window  # 2 AVs reached, window rows on
+    assert max(clock.avs) == 2 and clock.avs[first] == 2  # the cap holds
+    assert result.trace["t_s"][-1] == pytest.approx(last * sc.step)  # stopped there
+    assert set(parts) == set(PARTS) and parts["advance"] > 0
+    cpu, wall, missing = fleet_floor(sc, result, (first, last))
+    assert missing == 0 and cpu > 0 and wall > 0
+    out = measure_avs(sc, (1, 2), 0.25, 1)
+    assert [r["case"] for r in out["rows"]] == ["N = 1", "N = 2"]
+    assert all(r["floor_cpu_ms_per_step"] > 0 for r in out["rows"])
+    assert "marginal CPU per AV and step (us)" in out["ratios"]
+
+
+def test_avs_flag() -> None:
+    assert _avs("1,10,100") == (1, 10, 100)
+    for bad in ("", "0", "1,x", "2.5"):
+        with pytest.raises(argparse.ArgumentTypeError, match="in \\[1, 1000\\]"):
+            _avs(bad)
