@@ -33,8 +33,10 @@ def test_an_osm_motorway_with_coarse_curves_ramps_and_a_bridge(tmp_path: Path) -
     m, tr, road = result.metrics, result.trace, result.route_road
     assert road is not None and road.curved
     # smoothing spent deviation on the 60 m chords instead of keeping R ~170 m spikes
+    # (within 0.2 m: R ~460 m), towards the R 1200 m curve as far as its 130 km/h limit
+    # needs (R 651 m at 2 m/s^2)
     quality = road.frame.quality  # type: ignore[union-attr]
-    assert quality.max_deviation <= 0.2 and quality.min_radius > 400.0
+    assert quality.max_deviation <= 0.5 and quality.min_radius > 0.9 * 651.0
     assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
     assert m["final_lane"] == 1  # left, then back right
     assert np.diff(tr["lane"]).nonzero()[0].size >= 2

@@ -32,7 +32,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"route {' '.join(road.route.edges)}: {type(frame).__name__}, s 0 to "
           f"{frame.length:.2f} m, deviation from SUMO's lanes {road.max_deviation:.3f} m, "
           f"smallest radius {radius} (SUMO's largest kink "
-          f"{math.degrees(q.max_kink):.2f} deg, smoothing length {q.smoothing_length:.1f} m)")
+          f"{math.degrees(q.max_kink):.2f} deg, smoothing length {q.smoothing_length:.1f} m"
+          f"{'; a coarse curve, smoothed beyond max_deviation' if q.coarse else ''})")
     for t in road.lanes:
         lanes = " ".join(f"{p.lane}[{p.index}]" for p in t.track.pieces if not p.internal)
         ref = " (reference)" if t.track is road.reference else ""

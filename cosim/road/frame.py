@@ -46,13 +46,18 @@ SUMO's vertices lie far apart (an OSM import: 60 m, 3 degree kinks) that
 line still bends at each vertex far tighter than the curve the vertices lie on
 (`polyline_radius`: segment length over turn angle); then the least smoothing within
 `max_deviation` that reaches 90 % of that radius (or of the largest reachable there) is
-taken. If the smallest radius is then below `min_radius`, more smoothing is taken
-up to `max_deviation`; a line that cannot reach `min_radius` within `max_deviation` is
-refused (InputError naming the radius and the deviation), as is a polyline that the
-line through its vertices, unsmoothed, already leaves by more than `max_deviation` (a
-kink too sharp for the arc spline: lanes that jump sideways at a junction; named where
-the line first leaves it). The deviation is the Hausdorff distance between the smoothed
-line and SUMO's polyline.
+taken, and where that still bends at least 10 % tighter, up to `coarse_deviation`:
+SUMO's chords are the curve's drawing, and within 0.2 m of a 6.6-degree kink no line
+bends wider than ~R 100 m (a line that bends at R keeps about R theta^2 / 16 from a
+kink of theta). The radius smoothed towards is at most what the route's speed limit
+needs at `limit_lat_accel` (more would only leave SUMO's lanes further), and where
+kinks sit between straights (a junction's jog) it is that radius. If the smallest radius
+is then below `min_radius`, more smoothing is taken up to `max_deviation`; a line that
+cannot reach `min_radius` within `max_deviation` is refused (InputError naming the
+radius and the deviation), as is a polyline that the line through its vertices,
+unsmoothed, already leaves by more than `max_deviation` (a kink too sharp for the arc
+spline: lanes that jump sideways at a junction; named where the line first leaves it).
+The deviation is the Hausdorff distance between the smoothed line and SUMO's polyline.
 
 On a one-edge straight road along +x (`StraightFrame`) the frame is the identity up to
 an offset: s = x - x0 and d = y - y0, with (x0, y0) the start of the reference lane's
@@ -75,6 +80,7 @@ from cosim.errors import InputError
 Array = NDArray[np.float64]
 WINDOW = 16  # arcs searched either side of the hint (8 m at h = 0.5 m)
 RADIUS_SHARE = 0.9  # smoothing stops once the radius is within 10 % of the best it can get
+COARSE_BISECTIONS = 4  # halvings of the smoothing length's step (2^(1/32)) at coarse_deviation
 _EPS_U = 1e-9  # m, slack on an arc's ends when deciding which arc a point projects onto
 
 
@@ -85,6 +91,14 @@ class FrameLimits:
 
     target_deviation: float = 0.05  # m, smoothing spends up to this to lower curvature
     max_deviation: float = 0.20  # m, beyond this a network is refused
+    # m, a curve drawn coarsely (an OSM import's node every 50-60 m, kinks of 2-7
+    # degrees) may be smoothed this far from SUMO's polyline to bend as the curve its
+    # vertices lie on: within 0.2 m a 6.6 degree kink keeps R ~100 m; a car 1.8 m wide
+    # still keeps 0.2 m inside a 3.2 m lane
+    coarse_deviation: float = 0.50  # tuned: docs/tuned_constants.md
+    # m/s^2, smoothing seeks no radius beyond v^2 / this at the route's highest speed
+    # limit v (the SV's default curve_lat_accel_mps2): wider only leaves SUMO's lanes
+    limit_lat_accel: float = 2.0  # tuned: docs/tuned_constants.md
     # m, a reference line bending tighter is refused: lanes reach |d| <= ~15 m from it,
     # so 1 - kappa d >= 0.85 (the frame's stretch across a lane stays within 15 %)
     min_radius: float = 100.0
@@ -103,6 +117,7 @@ class FrameQuality:
     min_radius: float  # m, smallest radius of the reference line (inf: straight)
     smoothing_length: float  # m, ell of the smoothing spline (0: none)
     max_kink: float  # rad, SUMO's polyline's largest turn at one vertex
+    coarse: bool = False  # smoothed beyond max_deviation, up to coarse_deviation
 
 
 # ---------------------------------------------------------------- compiled kernels
@@ -630,12 +645,13 @@ Attempt = tuple[float, ArcFrame, float, float]  # (ell m, frame, deviation m, mi
 Where = Callable[[float, float], str]  # a point (x, y) in the network's words ("on edge e1")
 
 
-def _choose(tried: list[Attempt], raw: Array, limits: FrameLimits, source: str,
-            where: Where | None) -> Attempt:
+def _choose(tried: list[Attempt], wider: Callable[[], list[Attempt]], raw: Array,
+            wanted: float, limits: FrameLimits, source: str, where: Where | None) -> Attempt:
     """The smoothing to keep among those tried (by growing ell, the first within
     max_deviation): the least that reaches the radius the target deviation allows, at
-    least SUMO's vertex spacing, more for coarse vertices, and at least the limits'
-    smallest radius (InputError if none)."""
+    least SUMO's vertex spacing, more for coarse vertices (up to coarse_deviation,
+    `wider`, where max_deviation leaves the line far tighter than the curve its
+    vertices lie on), and at least the limits' smallest radius (InputError if none)."""
     # the least smoothing that gets within RADIUS_SHARE of the largest smallest-radius
     # reachable within the target deviation: more would only bend SUMO's curves
     within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
@@ -649,14 +665,22 @@ def _choose(tried: list[Attempt], raw: Array, limits: FrameLimits, source: str,
     smoother = [t for t in within if t[0] >= max(spacing, chosen[0])]
     if smoother:
         chosen = smoother[0]
-    implied = polyline_radius(raw)
+    # the radius worth smoothing towards: the curve SUMO's vertices lie on (none where
+    # kinks sit between straights: a junction's jog), at most what the speed limit needs
+    implied = min(polyline_radius(raw), wanted)
     if math.isfinite(implied) and chosen[3] < RADIUS_SHARE * implied:
-        # coarse vertices (an OSM import: 60 m apart, 3 degree kinks): within the target
-        # the line still bends far tighter at each vertex than the curve the vertices
-        # lie on, so spend up to max_deviation to come nearer that curve's radius
-        wider = [t for t in tried if t[2] <= limits.max_deviation]
-        goal = RADIUS_SHARE * min(implied, max(t[3] for t in wider))
-        chosen = next(t for t in wider if t[3] >= goal)
+        # coarse vertices (an OSM import: 60 m apart, 3 degree kinks) or a jog: within
+        # the target the line still bends far tighter at each vertex than the curve the
+        # vertices lie on, so spend up to max_deviation to come nearer that radius
+        near = [t for t in tried if t[2] <= limits.max_deviation]
+        goal = RADIUS_SHARE * min(implied, max(t[3] for t in near))
+        chosen = next(t for t in near if t[3] >= goal)
+        if chosen[3] < RADIUS_SHARE * implied:
+            # still kinked at the vertices (a 6.6 degree kink keeps R ~100 m within 0.2
+            # m): the road bends as the curve they lie on, SUMO's chords are its drawing
+            near += wider()
+            goal = RADIUS_SHARE * min(implied, max(t[3] for t in near))
+            chosen = next(t for t in near if t[3] >= goal)
     if chosen[3] < limits.min_radius:
         better = [t for t in tried if t[2] <= limits.max_deviation
                   and t[3] >= limits.min_radius]
@@ -676,9 +700,11 @@ def _choose(tried: list[Attempt], raw: Array, limits: FrameLimits, source: str,
 
 def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
            d_offset: float = 0.0, source: str = "network",
-           where: Where | None = None) -> ArcFrame:
+           where: Where | None = None, speed_limit: float = math.inf) -> ArcFrame:
     """The arc-spline frame of a polyline (rows x, y; SUMO's lane shape), smoothed as
-    the module docstring says; `d_offset` (m) places d = 0 that far right of it.
+    the module docstring says; `d_offset` (m) places d = 0 that far right of it;
+    `speed_limit` (m/s) the route's highest: a radius over speed_limit^2 /
+    limits.limit_lat_accel is all smoothing needs to reach.
     Raises InputError(source, ...) if it cannot be smoothed within the limits, naming
     the place (x, y and what `where` says of it)."""
     raw = np.asarray(polyline, dtype=np.float64)
@@ -703,11 +729,41 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
             break
     if tried[0][2] > limits.max_deviation:  # more smoothing only departs further
         raise _too_far(tried[0], raw, limits, source, where)
-    ell, frame, dev, _ = _choose(tried, raw, limits, source, where)
+
+    def wider() -> list[Attempt]:
+        """More smoothing, up to coarse_deviation: the ladder on from where it stopped,
+        then halving the step between the last ell within the bound and the first
+        beyond (deviation grows with ell)."""
+        if limits.coarse_deviation <= limits.max_deviation:
+            return []
+        more = [t for t in tried if limits.max_deviation < t[2] <= limits.coarse_deviation]
+        last = tried[-1]
+        for ell in lengths[len(tried):]:
+            if last[2] > limits.coarse_deviation:
+                break
+            last = attempt(ell)
+            if last[2] <= limits.coarse_deviation:
+                more.append(last)
+        below = max((t[0] for t in tried + more if t[2] <= limits.coarse_deviation),
+                    default=0.0)
+        if last[2] > limits.coarse_deviation and below > 0.0:
+            lo, hi = below, last[0]
+            for _ in range(COARSE_BISECTIONS):
+                mid = attempt(math.sqrt(lo * hi))
+                if mid[2] <= limits.coarse_deviation:
+                    more.append(mid)
+                    lo = mid[0]
+                else:
+                    hi = mid[0]
+        return sorted(more, key=lambda t: t[0])
+
+    wanted = speed_limit**2 / limits.limit_lat_accel
+    chosen = _choose(tried, wider, raw, wanted, limits, source, where)
+    ell, frame, dev, _ = chosen
     return ArcFrame(ArcTable(frame.s_min, h, frame.x, frame.y, frame.theta, frame.kappa),
                     d_offset, frame.length, limits.extension,
                     FrameQuality(dev, frame.quality.min_radius, ell,
-                                 frame.quality.max_kink))
+                                 frame.quality.max_kink, dev > limits.max_deviation))
 
 
 def _too_far(attempt: Attempt, raw: Array, limits: FrameLimits, source: str,

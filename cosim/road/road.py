@@ -14,7 +14,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -218,17 +218,25 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
                                                         limits.extension)
     else:
         line = ref if lead is None else Track(ref.id, (*lead.pieces(), *ref.pieces))
+        top = max(p.speed for t in tracks for p in t.pieces)
         frame = smooth(reference_line(ref, lead), limits, d_offset=half, source=src,
-                       where=functools.partial(_where_on, route, line))
+                       where=functools.partial(_where_on, route, line), speed_limit=top)
     tables = lane_tables(tracks, reference_lanes(ref, lead), frame, route.net)
     if any(not math.isfinite(v) for t in tables for v in (*t.s_start, *t.s_end)):
         raise InputError(src, "route", list(route.edges),
                          "a route whose lanes all lie within the reference line's reach "
                          "(a lane's end could not be placed along it)")
     worst = max(tables, key=lambda t: t.deviation)
-    if worst.deviation > limits.max_deviation:
+    # a coarse curve smoothed towards the curve its vertices lie on (FrameLimits)
+    allowed = limits.coarse_deviation if frame.quality.coarse else limits.max_deviation
+    if worst.deviation > allowed and frame.quality.coarse:
+        # not a coarse curve after all (lanes that step sideways at a junction): judged
+        # within max_deviation, as any other route, so the refusal names its cause
+        return load_road(network, edges, source=source,
+                         limits=replace(limits, coarse_deviation=limits.max_deviation))
+    if worst.deviation > allowed:
         raise InputError(src, "lane deviation", f"{worst.deviation:.3f} m",
-                         f"lanes whose centre lines stay within {limits.max_deviation:g} m of "
+                         f"lanes whose centre lines stay within {allowed:g} m of "
                          f"SUMO's lane shapes (track {worst.id}, from {worst.track.name}, "
                          "does not)")
     return Road(route, tracks, ref, frame, tables, lead)

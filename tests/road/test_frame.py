@@ -338,16 +338,38 @@ def test_polyline_radius_is_the_radius_the_vertices_lie_on() -> None:
 
 def test_a_curve_drawn_every_60_m_is_smoothed_towards_its_own_radius() -> None:
     # an OSM-style R 1200 m curve, a node every 60 m (2.9 degree kinks): within the 5 cm
-    # target the line keeps R ~170 m at every vertex; it spends up to 0.2 m instead
+    # target the line keeps R ~170 m at every vertex, within 0.2 m R ~460 m; it spends
+    # up to coarse_deviation to bend as the curve does, off SUMO's chords by their sagitta
+    # (0.375 m on the circle through the vertices)
     poly = _arc_polyline(1200.0, 60.0, 1500.0)
-    tight = smooth(poly, FrameLimits(max_deviation=FrameLimits().target_deviation))
+    target = FrameLimits().target_deviation
+    tight = smooth(poly, FrameLimits(max_deviation=target, coarse_deviation=target))
+    near = smooth(poly, FrameLimits(coarse_deviation=FrameLimits().max_deviation))
     frame = smooth(poly)
     assert tight.quality.min_radius < 200.0
-    assert frame.quality.min_radius > 400.0
-    assert frame.quality.max_deviation <= FrameLimits().max_deviation
+    assert 400.0 < near.quality.min_radius < 600.0 and not near.quality.coarse
+    assert frame.quality.min_radius > 0.85 * 1200.0 and frame.quality.coarse
+    assert frame.quality.max_deviation <= FrameLimits().coarse_deviation
     # a curve drawn finely is left as it was (the shipped motorway: 10 m vertices)
     fine = smooth(_arc_polyline(800.0, 10.0, 1000.0))
     assert fine.quality.max_deviation <= FrameLimits().target_deviation
+
+
+def test_a_junctions_jog_is_smoothed_to_the_radius_the_speed_limit_needs() -> None:
+    """Two straights joined by a 22 cm jog over 4.4 m (2.9-degree kinks, as on SUMO's
+    Bremen motorway where its lanes change edges): within the 5 cm target the line
+    bends at R ~140 m there; for a 160 km/h limit (R 988 m at 2 m/s^2) it spends up
+    to max_deviation instead. Without a speed limit the line is as before."""
+    a = math.radians(2.9)
+    poly = np.array([(-300.0, 0.0), (0.0, 0.0), (4.4 * math.cos(a), 4.4 * math.sin(a)),
+                     (304.4, 4.4 * math.sin(a))])
+    plain = smooth(poly)
+    frame = smooth(poly, speed_limit=160.0 / 3.6)
+    assert plain.quality.min_radius < 200.0
+    wanted = (160.0 / 3.6) ** 2 / FrameLimits().limit_lat_accel
+    assert frame.quality.min_radius >= 0.9 * wanted
+    assert frame.quality.max_deviation <= FrameLimits().max_deviation
+    assert not frame.quality.coarse
 
 
 def test_the_curved_motorway_is_smoothed_over_its_vertex_spacing() -> None:

@@ -60,6 +60,22 @@ def test_a_coarse_curve_is_refused_with_the_number_that_fails(tmp_path: Path) ->
     assert str(err.value).startswith("sc.toml: ")
 
 
+def test_a_curve_drawn_with_6_degree_kinks_bends_as_the_road(tmp_path: Path) -> None:
+    """A R 480 m curve drawn every 55 m (6.6-degree kinks, as SUMO's shipped A10
+    interchange, an OSM import): within 0.2 m of SUMO's polyline the line keeps R ~110 m
+    at every vertex; it bends as the curve instead, up to what its 100 km/h limit needs
+    (R 386 m at 2 m/s^2), every lane within coarse_deviation of SUMO's."""
+    net = curved_route(tmp_path, 55.0, radius=480.0, curve_lanes=3, speed=27.8)
+    road = load_road(net, ["AB", "BC"])
+    q, limits = road.frame.quality, FrameLimits()
+    assert q.max_kink == pytest.approx(55.0 / 480.0, rel=0.02)
+    assert q.coarse and q.min_radius >= 0.9 * 27.8**2 / limits.limit_lat_accel
+    assert road.max_deviation <= limits.coarse_deviation
+    near = load_road(net, ["AB", "BC"],
+                     limits=FrameLimits(coarse_deviation=limits.max_deviation))
+    assert near.frame.quality.min_radius < 150.0
+
+
 def test_lanes_that_step_sideways_at_a_junction_are_refused_naming_it(tmp_path: Path) -> None:
     """A motorway whose edges spread their lanes differently (right of the centre line,
     then centred, as on SUMO's tools/game/highway network at junction 1658939360): every

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from cosim.errors import InputError
+from cosim.road.frame import FrameLimits
 from cosim.road.onramp import ACC_LENGTH, NAME, build, main, stale
 from cosim.road.road import load_road
 from cosim.traffic.network import NETWORK_DIR
@@ -62,11 +63,17 @@ def test_the_lane_drop_ends_the_left_lane_and_the_ramp_is_no_sv_lane() -> None:
     assert lanes.band_index[3] == 0  # and drives at lane 0's band
 
 
-def test_a_route_starting_on_the_ramp_is_refused_for_its_kink_in_one_line() -> None:
+def test_a_route_starting_on_the_ramp_is_smoothed_through_its_kink() -> None:
     """The ramp bends 7.6 degrees at one vertex 100 m before its gore: a route from it,
-    led in along the ramp (cosim.road.tracks), smooths to R 90 m within 0.2 m there."""
+    led in along the ramp (cosim.road.tracks), smooths to R 90 m within 0.2 m there
+    (refused, below R 100 m); up to coarse_deviation it bends at R ~255 m."""
+    road = load_road(NET, ["ramp", "acc", "main1"])
+    q = road.frame.quality
+    assert q.coarse and q.min_radius > 200.0
+    assert road.max_deviation <= FrameLimits().coarse_deviation
     with pytest.raises(InputError, match="radius of at least 100 m") as err:
-        load_road(NET, ["ramp", "acc", "main1"])
+        load_road(NET, ["ramp", "acc", "main1"],
+                  limits=FrameLimits(coarse_deviation=FrameLimits().max_deviation))
     assert err.value.key == "reference line radius" and "on edge ramp" in str(err.value)
     assert "\n" not in str(err.value)
 
