@@ -3,14 +3,13 @@ record on an SV lane as (time, vehicle, track, s, speed) arrays, the time-space
 diagram's data (cosim.plots.time_space).
 
 A record's s is where SUMO's lane position (the vehicle's front bumper) lies along the
-route: per SUMO lane of a track, s_of_lane_position sampled every SAMPLE_STEP along the
-lane and interpolated (on the straight road exactly linear). Records on lanes no SV lane's
+route: per SUMO lane of a track, s sampled along the lane (route_lanes.lane_samples) and
+interpolated (on the straight road exactly linear). Records on lanes no SV lane's
 track runs through (an on-ramp, a lane added along the route) are left out.
 """
 
 from __future__ import annotations
 
-import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,10 +18,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cosim.road.road import Road
-from cosim.traffic.route_lanes import s_of_lane_position, sv_tracks
+from cosim.traffic.route_lanes import lane_samples, sv_tracks
 
 Array = NDArray[np.float64]
-SAMPLE_STEP = 5.0  # m, lane positions sampled for s (a curve's s is smooth over this)
 
 
 @dataclass(frozen=True)
@@ -47,11 +45,9 @@ def _lane_maps(route_road: Road) -> dict[str, tuple[int, Array, Array]]:
     """SUMO lane id -> (track, lane positions, their s) for every lane of an SV lane."""
     maps = {}
     for table in sv_tracks(route_road):
-        for piece in table.track.pieces:
-            n = max(2, int(math.ceil(piece.length / SAMPLE_STEP)) + 1)
-            pos = np.linspace(0.0, piece.length, n)
-            s = np.array([s_of_lane_position(route_road, piece.lane, float(p)) for p in pos])
-            maps[piece.lane] = (table.id, pos, s)
+        for k, piece in enumerate(table.track.pieces):
+            s, positions = lane_samples(route_road, table.id, k)
+            maps[piece.lane] = (table.id, positions, s)
     return maps
 
 

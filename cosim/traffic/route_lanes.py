@@ -361,23 +361,8 @@ class RouteLanes:
         first use)."""
         found = self._sampled.get((track, k))
         if found is None:
-            found = self._sampled[(track, k)] = self._sample(track, k)
+            found = self._sampled[(track, k)] = lane_samples(self.route_road, track, k)
         return found
-
-    def _sample(self, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-        table = self.route_road.lane(track)
-        piece = table.track.pieces[k]
-        shape = np.asarray(piece.shape, dtype=np.float64)
-        seg = np.hypot(*np.diff(shape, axis=0).T)
-        cum = np.concatenate(([0.0], np.cumsum(seg)))
-        n = max(2, int(math.ceil(cum[-1] / SAMPLE_STEP)) + 1)
-        offsets = np.linspace(0.0, cum[-1], n)
-        x = np.interp(offsets, cum, shape[:, 0])
-        y = np.interp(offsets, cum, shape[:, 1])
-        hint = float(table.s_start[k]) + offsets
-        s, _ = self.route_road.frame.to_frenet(x, y, s_hint=hint)
-        positions = offsets * (piece.length / cum[-1] if cum[-1] > 0 else 1.0)
-        return np.maximum.accumulate(np.asarray(s)), positions
 
     def track_at(self, s: float, d: float) -> LaneTable:
         """The track whose lane holds (s, d) among those that exist at s (right border
@@ -408,6 +393,25 @@ class RouteLanes:
 
 
 @functools.lru_cache(maxsize=1024)
+def lane_samples(route_road: Road, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(s in m, SUMO lane positions in m) every ~SAMPLE_STEP m along piece k of a track:
+    SUMO stretches lane positions onto the lane's shape (the lanes of one edge share a
+    length); s made non-decreasing against the frame's rounding."""
+    table = route_road.lane(track)
+    piece = table.track.pieces[k]
+    shape = np.asarray(piece.shape, dtype=np.float64)
+    seg = np.hypot(*np.diff(shape, axis=0).T)
+    cum = np.concatenate(([0.0], np.cumsum(seg)))
+    n = max(2, int(math.ceil(cum[-1] / SAMPLE_STEP)) + 1)
+    offsets = np.linspace(0.0, cum[-1], n)
+    x = np.interp(offsets, cum, shape[:, 0])
+    y = np.interp(offsets, cum, shape[:, 1])
+    hint = float(table.s_start[k]) + offsets
+    s, _ = route_road.frame.to_frenet(x, y, s_hint=hint)
+    positions = offsets * (piece.length / cum[-1] if cum[-1] > 0 else 1.0)
+    return np.maximum.accumulate(np.asarray(s)), positions
+
+
 def _stretch(piece: TrackPiece) -> float:
     """SUMO's lane length over its shape's length (1.0 when they agree)."""
     from sumolib.geomhelper import polyLength
