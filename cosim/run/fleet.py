@@ -25,7 +25,7 @@ plans.csv's `vehicle_id`), fleet.csv's rows, one per AV, and metrics.csv's fleet
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
@@ -47,6 +47,7 @@ from cosim.traffic.world import Scene, World
 if TYPE_CHECKING:
     from cosim.params import RoadParams
     from cosim.run.observer import Observer
+    from cosim.traffic.cooperation import CooperationChannel
     from cosim.traffic.v2v import V2VChannel
 
 FLEET_STREAM = 18  # -, second seed word of the fleet's draws (world.COURTESY_STREAM + 1)
@@ -119,6 +120,13 @@ class FleetResult:
             "fleet_teleported": sum(r["teleported"] for r in rows),
             "fleet_mean_speed_mps": speed / steps if steps else float("nan"),
         }
+
+def _ask_gap(channels: list[CooperationChannel], t: float, tv_id: str) -> bool:
+    """An AV's ask_gap port: the request sent through its channels; whether any."""
+    for channel in channels:
+        channel.request(t, tv_id)
+    return bool(channels)
+
 
 class AutomatedEgo(PlannedEgo):
     """An AV's closed loop: PlannedEgo started where SUMO had the vehicle at its takeover."""
@@ -196,6 +204,7 @@ class AutomatedVehicle:
     scene: Scene | None = None
     reference: Any = None
     hold: Callable[[float, Scene], Any] | None = None  # the policy's `hold`, if it has one
+    gaps: list[CooperationChannel] = field(default_factory=list)  # its gap requests
 
 
 class Fleet:
@@ -264,6 +273,10 @@ class Fleet:
             held = av.hold(t, scene) if av.hold is not None else None
             av.reference = held if held is not None else av.policy.update(t, scene, inbox)
             heard.flying(av.id, av.reference)
+            if av.gaps:  # its gap requests due reach their TVs
+                sv = av.scene.sv
+                self.takeovers.deliver_gap_requests(av.gaps, av.id, t, av.scene.tvs, sv.x,
+                                                    not av.policy.gaps_held(sv))
 
     def advance(self, t: float, dt: float) -> None:
         """Each AV's closed loop from t to t + dt, its pose to SUMO."""
@@ -343,21 +356,26 @@ class Fleet:
         # its lane's limit
         av_sc = replace(sc, sv=replace(sc.sv, lane=track, speed=v, lane_changes=(),
                                        desired_speed=None, decision=True))
+        number = len(self.active) + len(self.done)
+        # its gap requests to SUMO's drivers: the traffic's courtesy and cooperative V2V,
+        # as the SV's (SUMO's own lane changers get that courtesy from SUMO; a vehicle
+        # moved by moveToXY does not)
+        gaps = self.takeovers.gap_requests(number) if self.cls.asks_for_gaps else []
         policy = self.cls(DrivingContext.of(
             av_sc, self.road, decision=self.decision, planner=self.make_planner(),
             ports=WorldPorts(blinker=self.announcements.blinker(
-                vid, partial(self.takeovers.set_blinker, vid))), notice=self.notice,
+                vid, partial(self.takeovers.set_blinker, vid)),
+                ask_gap=partial(_ask_gap, gaps)), notice=self.notice,
             cadence=CadenceConfig()))
         from cosim.traffic.v2v import V2VChannel
 
-        number = len(self.active) + len(self.done)
         channel = V2VChannel.from_spec(sc.v2v, self.road, 0)
         channel.rng = np.random.default_rng([sc.seed, V2V_STREAM, number])
         recorder = Recorder(sc.n_steps, sc.vehicle.length, sc.vehicle.width, self.road,
                             route_road=world.route_road, keep_tracks=False)
         self.active.append(AutomatedVehicle(vid, vtype, ego, policy, recorder, channel,
                                             self.observer, self.every_step, k, t_in,
-                                            hold=getattr(policy, "hold", None)))
+                                            hold=getattr(policy, "hold", None), gaps=gaps))
 
     def _finish(self, av: AutomatedVehicle, k: int, end: str) -> None:
         av.k_end, av.end = k, end

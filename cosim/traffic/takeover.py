@@ -1,7 +1,9 @@
 """The fleet's calls into SUMO (cosim.run.fleet): who SUMO inserted in its last step,
 their routes and vTypes, taking a vehicle out of SUMO's control (coloured green in
 sumo-gui) and handing it back,
-an automated vehicle's blinker, every collision of a step, who was teleported; and the
+an automated vehicle's blinker and the gap requests it sends SUMO's drivers (the
+traffic's courtesy and cooperative V2V, as the SV's: cosim.traffic.cooperation), every
+collision of a step, who was teleported; and the
 fleet's floor (`replay`): SUMO with the SV and the automated vehicles moved along the
 paths a fleet run recorded, nothing else (`cosim bench fleet`)."""
 
@@ -9,8 +11,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from cosim.traffic.world import SV_ID, World
+from cosim.traffic.world import SV_ID, World, cooperation_channels, deliver_requests
+
+if TYPE_CHECKING:
+    from cosim.traffic.cooperation import CooperationChannel
+    from cosim.traffic.sumo import TrafficSnapshot
 
 
 @dataclass(frozen=True)
@@ -40,6 +47,7 @@ class Takeovers:
 
     def __init__(self, world: World) -> None:
         self.sumo = world.sumo
+        self.scenario = world.scenario
 
     def departed(self) -> tuple[str, ...]:
         """The vehicles SUMO inserted in its last step, in its insertion order."""
@@ -71,6 +79,17 @@ class Takeovers:
     def set_blinker(self, vehicle_id: str, direction: int) -> None:
         """A controlled vehicle's blinker: -1 right, 0 off, +1 left."""
         self.sumo.set_blinker(vehicle_id, direction)
+
+    def gap_requests(self, number: int) -> list[CooperationChannel]:
+        """The gap-request channels of the automated vehicle `number` (its own draws)."""
+        return cooperation_channels(self.scenario, (number,))
+
+    def deliver_gap_requests(self, channels: list[CooperationChannel], vehicle_id: str,
+                             t: float, tvs: TrafficSnapshot, x: float, changing: bool
+                             ) -> None:
+        """One step of the requests `vehicle_id` (centre x, m) sent (World's for the SV)."""
+        deliver_requests(channels, self.sumo.api, vehicle_id, t, tvs, x,
+                         self.scenario.vehicle.length, changing)
 
     def collisions(self) -> set[tuple[str, ...]]:
         """Every collision SUMO reported in its last step (sorted id pairs)."""

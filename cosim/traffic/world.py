@@ -113,10 +113,12 @@ class Scene:
         return cls(t, sv, everyone, tvs, tvs.speed * np.cos(tvs.heading))
 
 
-def cooperation_channels(sc: Scenario) -> list[CooperationChannel]:
+def cooperation_channels(sc: Scenario, words: tuple[int, ...] = ()
+                         ) -> list[CooperationChannel]:
     """The gap requests' channels of a run (cosim.traffic.cooperation): the traffic's
     courtesy (`[traffic] courtesy`) and cooperative V2V (`[v2v] cooperation`); each
-    draws from a generator of its own, seeded by the scenario's seed."""
+    draws from a generator of its own, seeded by the scenario's seed (and `words`: an
+    automated vehicle's own, cosim.run.fleet)."""
     configs = []
     if sc.traffic.courtesy:
         configs.append((COURTESY_STREAM, COURTESY))
@@ -124,8 +126,20 @@ def cooperation_channels(sc: Scenario) -> list[CooperationChannel]:
         configs.append((COOPERATION_STREAM, CooperationConfig(
             enabled=True, compliance=sc.v2v.cooperation_compliance,
             latency=sc.v2v.cooperation_latency)))
-    return [CooperationChannel(cfg, np.random.default_rng([sc.seed, stream]))
+    return [CooperationChannel(cfg, np.random.default_rng([sc.seed, stream, *words]))
             for stream, cfg in configs]
+
+
+def deliver_requests(channels: list[CooperationChannel], api: Any, vehicle_id: str, t: float,
+                     tvs: TrafficSnapshot, x: float, length: float, changing: bool) -> None:
+    """One step of the gap requests `vehicle_id` (centre x m, `length` m) sent through
+    `channels`, among the TVs around it `tvs`: those yielding told when its change
+    begins, those due delivered, those ahead of it or standing level released."""
+    ahead = done_yielding(tvs.x, tvs.length, tvs.speed, x, length)
+    for channel in channels:
+        channel.changing(api, vehicle_id, changing, tvs.ids)
+        channel.deliver(t, api, vehicle_id, tvs.ids)
+        channel.release(api, tvs.ids, ahead)
 
 
 def in_start_zones(snap: TrafficSnapshot, sc: Scenario, x0: float, track: int) -> list[str]:
@@ -473,13 +487,8 @@ class World:
         """The step's gap requests: the yielding TVs told when the SV's change begins,
         the requests due reach their TVs, TVs ahead of the SV or standing level with it
         stop yielding (cooperation.done_yielding)."""
-        api = self.sumo.api
-        ahead = done_yielding(tvs.x, tvs.length, tvs.speed, sv_x,
-                              self.scenario.vehicle.length)
-        for channel in self.gap_requests:
-            channel.changing(api, SV_ID, changing, tvs.ids)
-            channel.deliver(t, api, SV_ID, tvs.ids)
-            channel.release(api, tvs.ids, ahead)
+        deliver_requests(self.gap_requests, self.sumo.api, SV_ID, t, tvs, sv_x,
+                         self.scenario.vehicle.length, changing)
 
     def close(self) -> None:
         if self.started:

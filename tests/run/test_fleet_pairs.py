@@ -125,3 +125,41 @@ def test_one_gap_two_in_one_lane_go_in_turn(one_gap: RunResult) -> None:
     adopted = changes(one_gap)
     assert list(adopted["vehicle_id"]) == ["a", "b"]  # a signalled first (taken over first)
     assert (adopted["target_lane"] == 1).all()
+
+
+def platoon_doc(folder: Path, courtesy: bool) -> dict[str, Any]:
+    """One AV in lane 0 behind a slow car; lane 1 a platoon of SUMO's drivers 30 m
+    apart at 22 m/s (no gap an AV takes unasked); lane 2 empty."""
+    keep = 'lcSpeedGain="0" lcKeepRight="0" sigma="0"'
+    routes = folder / "platoon.rou.xml"
+    routes.write_text(
+        f'<routes><vType id="slow" length="4.5" width="1.8" maxSpeed="12" {keep}/>'
+        f'<vType id="car" length="4.5" width="1.8" maxSpeed="22" {keep}/>'
+        f'<vType id="av" length="4.6" width="1.9" maxSpeed="20" {keep}/>'
+        '<route id="through" edges="highway"/>'
+        '<vehicle id="slow0" type="slow" route="through" depart="0" departLane="0" '
+        'departPos="150" departSpeed="12"/>'
+        '<flow id="platoon" type="car" route="through" begin="0" end="30" period="1.364" '
+        'departLane="1" departPos="0" departSpeed="22"/>'
+        '<vehicle id="a" type="av" route="through" depart="0.5" departLane="0" '
+        'departPos="0" departSpeed="20"/></routes>')
+    doc = pair_doc(highway(folder), routes)
+    doc["sv"] = {"lane": 2, "position_m": 500.0, "speed_kmh": 110.0}
+    doc["scenario"]["duration_s"] = 14.0
+    doc["traffic"]["courtesy"] = courtesy
+    return doc
+
+
+@pytest.mark.parametrize("courtesy", [True, False])
+def test_sumo_drivers_make_room_for_an_automated_vehicle_that_asks(
+        tmp_path: Path, courtesy: bool) -> None:
+    """An AV seeking a gap asks the SUMO driver blocking it to make room, as the SV does
+    (the traffic's courtesy): with it the AV gets into the dense lane, without it (no
+    gap opens: SUMO's own courtesy never reaches a vehicle moved by moveToXY) it stays
+    behind its slow car."""
+    result = simulate(scenario_from_dict(platoon_doc(tmp_path, courtesy),
+                                         path=tmp_path / "platoon.toml"))
+    rows = pd.DataFrame(result.fleet.rows)
+    assert list(rows["vehicle_id"]) == ["a"] and result.events == []
+    assert (rows[["collisions", "sumo_collisions"]] == 0).all().all()
+    assert (rows["lane_changes"].iloc[0] >= 1) == courtesy
