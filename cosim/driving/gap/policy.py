@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cosim.driving.base import DrivingContext, Manoeuvres, Messages, PolicyStatus
+from cosim.driving.blinker import Blinker
 from cosim.driving.cadence import Cadence
 from cosim.driving.following import HOLD_SPEED, CarFollowing
 from cosim.driving.gap.decision import (
@@ -127,10 +128,8 @@ class GapPolicy:
         self._ask_gap = ctx.ports.ask_gap
         self.yielding = YieldWatch()  # the braking of the TVs asked to make room
         self.held: LaneChange | None = None  # the change flown on the courtesy held
-        self._blinker = ctx.ports.blinker
-        self.signal = 0  # the SV's blinker now: -1 right, 0 off, +1 left
-        self.signal_since = 0.0  # s, since when it signals as it seeks a gap
-        self.notice = ctx.notice  # s, it signals this long before it starts a change
+        # the SV's blinker: it signals for the context's notice before it starts a change
+        self.blinker = Blinker(ctx.ports.blinker, ctx.notice)
         self.following = CarFollowing(ctx, cfg)
         self.gap_cfg = gap or GapConfig()
         self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal,
@@ -157,9 +156,7 @@ class GapPolicy:
 
     def _signal(self, direction: int) -> None:
         """The blinker, set in SUMO only when it changes."""
-        if direction != self.signal:
-            self.signal = direction
-            self._blinker(direction)
+        self.blinker.set(direction)
 
     def ask_gap(self, t: float, tv_id: str) -> None:
         """Ask `tv_id` to make room (the context's port) and, if a channel carries the
@@ -331,9 +328,7 @@ class GapPolicy:
         (what the traffic's courtesy answers, cosim.traffic.cooperation), and asks the
         TV the decision names to open the gap."""
         direction = 0 if d.target_lane is None else (1 if d.target_lane > lane else -1)
-        if direction != self.signal:
-            self.signal_since = t
-        self._signal(direction)
+        self.blinker.set(direction, t)
         if d.cooperate_with >= 0:
             self.ask_gap(t, str(traffic.ids[d.cooperate_with]))
 
@@ -342,7 +337,7 @@ class GapPolicy:
         """The trigger to plan with now (None: not now)."""
         if not d.plan_now or d.target_lane is None:
             return None
-        if self.notice > 0.0 and t - self.signal_since < self.notice - 1e-9:
+        if not self.blinker.noticed(t):
             return None  # its V2V partners have not all heard its intention yet
         if wants.mandatory:
             return Trigger.MANDATORY if self.manoeuvre.may_merge(t) else None

@@ -139,7 +139,7 @@ def test_only_a_follower_behind_the_sv_that_blocks_the_gap_is_asked(
     d = Drive(xs, asked)
     d.step()
     assert [tv for _, tv in asked] == ([] if asked_tv is None else [asked_tv])
-    assert d.policy.signal == 1  # it signals for lane 1 (left) while it seeks a gap
+    assert d.policy.blinker.direction == 1  # it signals for lane 1 (left) while it seeks a gap
     assert d.policy.following.cfg.idm_min_gap == STOP_GAP >= 2.0
 
 
