@@ -392,7 +392,6 @@ class RouteLanes:
         return table.track.pieces[k]
 
 
-@functools.lru_cache(maxsize=1024)
 def lane_samples(route_road: Road, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:
     """(s in m, SUMO lane positions in m) every ~SAMPLE_STEP m along piece k of a track:
     SUMO stretches lane positions onto the lane's shape (the lanes of one edge share a
@@ -412,6 +411,7 @@ def lane_samples(route_road: Road, track: int, k: int) -> tuple[np.ndarray, np.n
     return np.maximum.accumulate(np.asarray(s)), positions
 
 
+@functools.lru_cache(maxsize=1024)
 def _stretch(piece: TrackPiece) -> float:
     """SUMO's lane length over its shape's length (1.0 when they agree)."""
     from sumolib.geomhelper import polyLength
