@@ -41,6 +41,7 @@ from cosim.study.runner import StudyOptions, run_study
 from cosim.study.spec import (
     DENSITY,
     DRIVER,
+    FLEET_DRIVER,
     MU,
     OCCUPANT,
     PLANT,
@@ -78,6 +79,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--shares", metavar="LIST",
                    help="automated vehicles' shares ([fleet] share, 0-1), comma-separated, "
                    "e.g. 0,0.1,0.2,0.4")
+    p.add_argument("--fleet-drivers", metavar="LIST",
+                   help="who drives the automated vehicles ([fleet] driver): cosim, sumo, acc, "
+                   "cacc (comma-separated)")
     p.add_argument("--drivers", metavar="LIST",
                    help="SV drivers: mimo, siso, sumo (comma-separated)")
     p.add_argument("--plants", metavar="LIST",
@@ -160,6 +164,7 @@ def study_from_args(args: argparse.Namespace) -> Study:
         occupants=parse_list(args.occupants, "--occupants", OCCUPANT),
         mus=parse_list(args.mu, "--mu", MU),
         shares=parse_list(args.shares, "--shares", SHARE),
+        fleet_drivers=parse_list(args.fleet_drivers, "--fleet-drivers", FLEET_DRIVER),
         drivers=parse_list(args.drivers, "--drivers", DRIVER),
         plants=parse_list(args.plants, "--plants", PLANT),
         duration=args.duration,
@@ -218,14 +223,16 @@ def specs_of(study: Study) -> list[RunSpec]:
         occupants=study.occupants or (base.sv.occupant,), mus=study.mus or (base.road.mu,),
         drivers=study.drivers or (base.sv.controller,), plants=study.plants or (base.sv.plant,),
         shares=study.shares or (base.fleet.share,),
+        fleet_drivers=study.fleet_drivers or (base.fleet.driver,),
+        zero_share_once=not base.fleet.vtypes,
         duration=study.duration, variants=study.variants,
     )
     return expand(study.scenario, grid, traces=study.traces)
 
 
 # Flags that change which runs a study file's grid holds (--traces changes no result).
-GRID_FLAGS = ("scenario", "densities", "seeds", "occupants", "mu", "shares", "drivers",
-              "plants", "duration")
+GRID_FLAGS = ("scenario", "densities", "seeds", "occupants", "mu", "shares", "fleet_drivers",
+              "drivers", "plants", "duration")
 
 
 def subset_name(args: argparse.Namespace, study: Study) -> str:

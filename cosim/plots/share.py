@@ -1,7 +1,8 @@
 """The figure of a study over the automated vehicles' share (plots/share.png): the fleet's
 and the traffic's figures (summary.csv's means, cosim.study.fleet_summary) against the
 share, one colour per driver (the SV's, and the fleet's where the study varies it), one
-line style per density, the 95 % intervals as error bars."""
+line style per density, the 95 % intervals as error bars; the runs at share 0 (no
+automated vehicle, one run for every fleet driver) start each fleet driver's line."""
 
 from __future__ import annotations
 
@@ -39,6 +40,10 @@ def plot_share(summary: pd.DataFrame, out_dir: Path, *, title: str = "study",
         return []
     out_dir.mkdir(parents=True, exist_ok=True)
     by_fleet = "fleet_driver" in summary and summary["fleet_driver"].nunique() > 1
+    if by_fleet:  # a study's one run at share 0 (no AV) starts every fleet driver's line
+        zero = summary[summary["share"] == 0.0]
+        summary = pd.concat([summary[summary["share"] > 0.0], *(
+            zero.assign(fleet_driver=d) for d in summary["fleet_driver"].unique())])
     summary = summary.assign(line=[_driver(r, by_fleet) for _, r in summary.iterrows()])
     drivers = list(dict.fromkeys(summary["line"]))
     densities = sorted(set(summary["density"]))

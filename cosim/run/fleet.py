@@ -20,6 +20,11 @@ last decision until its cadence or an event asks for a new one: cosim.driving.ca
 (SUMO's collisions, the takeovers).
 `result` gives the fleet's trace and plans rows (with the SV's: trace.csv's and
 plans.csv's `vehicle_id`), fleet.csv's rows, one per AV, and metrics.csv's fleet columns.
+
+`[fleet] driver` other than `cosim` is a baseline (cosim.run.fleet_watch): the same
+drawn vehicles, at the same takeover, left to SUMO (marked; with `acc` / `cacc` their
+vType switched to SUMO's ACC / CACC model) and measured alike: no trace rows, fleet.csv's
+rows and the metrics from SUMO's snapshot.
 """
 
 from __future__ import annotations
@@ -37,6 +42,8 @@ from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
 from cosim.run.announcements import Announcements, notice
 from cosim.run.ego import PlannedEgo
+from cosim.run.fleet_watch import COSIM, FleetWatch
+from cosim.run.metrics import longitudinal_comfort
 from cosim.run.recorder import Recorder
 from cosim.scenario import Scenario
 from cosim.traffic.road_view import stretch
@@ -79,6 +86,16 @@ FLEET_COLUMNS: dict[str, str] = {
     "gap_min_m": "smallest along-lane gap to a vehicle sharing its strip (m; inf: none)",
     "ttc_min_s": "smallest along-lane time-to-collision (s; inf: none)",
     "teleported": "1 if SUMO teleported it (never, for a vehicle under our control), else 0",
+    "driver": "who drove it ([fleet] driver): cosim, or SUMO's sumo / acc / cacc (a "
+              "baseline: its rows from SUMO's snapshot; collisions and caused_collisions "
+              "then SUMO's, caused: SUMO's collider; lane_changes its lane changes in "
+              "SUMO; gap_min_m and ttc_min_s NaN)",
+    "max_long_jerk_mps3": "its peak abs(d(ax)/dt) between steps (m/s^3; cosim: the plant's ax "
+                          "of its trace rows; a baseline: SUMO's acceleration)",
+    "follower_max_decel_mps2": "its new followers' braking: the largest deceleration of "
+                               "the vehicle behind it on its lane (SUMO's) within 5 s of "
+                               "each of its lane changes in SUMO (m/s^2; NaN: no change, "
+                               "or no follower)",
 }
 
 
@@ -93,6 +110,11 @@ FLEET_METRIC_DOCS: dict[str, str] = {
                              "summed",
     "fleet_teleported": "automated vehicles SUMO teleported",
     "fleet_mean_speed_mps": "mean speed of the automated vehicles over all their rows (m/s)",
+    "fleet_max_long_jerk_mps3": "median over the automated vehicles of each one's peak "
+                                "jerk (fleet.csv's max_long_jerk_mps3; m/s^3)",
+    "fleet_follower_max_decel_mps2": "the largest of fleet.csv's follower_max_decel_mps2: "
+                                     "a new follower's hardest braking after an automated "
+                                     "vehicle's lane change (m/s^2; NaN: none)",
 }
 
 
@@ -104,12 +126,17 @@ class FleetResult:
     traces: list[tuple[str, dict[str, Any], tuple[str, ...]]]  # (id, trace, its edges)
     rows: list[dict[str, Any]]
     plans: list[dict[str, Any]]  # every AV's plans.csv rows, each with its vehicle_id
+    # the baselines' rows of SUMO's snapshot (no trace rows): (sum of speeds m/s, rows)
+    baseline_speed: tuple[float, int] = (0.0, 0)
 
     def metrics(self) -> dict[str, Any]:
         """metrics.csv's fleet columns (FLEET_METRIC_DOCS)."""
         rows = self.rows
-        steps = sum(len(trace["t_s"]) for _, trace, _ in self.traces)
-        speed = sum(float(trace["vx_mps"].sum()) for _, trace, _ in self.traces)
+        steps = sum(len(trace["t_s"]) for _, trace, _ in self.traces) + self.baseline_speed[1]
+        speed = sum(float(trace["vx_mps"].sum()) for _, trace, _ in self.traces) \
+            + self.baseline_speed[0]
+        jerk = np.array([r["max_long_jerk_mps3"] for r in rows], dtype=float)
+        follower = np.array([r["follower_max_decel_mps2"] for r in rows], dtype=float)
         return {
             "fleet_vehicles": len(rows),
             "fleet_handed_back": sum(r["end"] == "handed_back" for r in rows),
@@ -119,6 +146,10 @@ class FleetResult:
             "fleet_sumo_collisions": sum(r["sumo_collisions"] for r in rows),
             "fleet_teleported": sum(r["teleported"] for r in rows),
             "fleet_mean_speed_mps": speed / steps if steps else float("nan"),
+            "fleet_max_long_jerk_mps3": float(np.nanmedian(jerk)) if np.isfinite(jerk).any()
+            else float("nan"),
+            "fleet_follower_max_decel_mps2": float(np.nanmax(follower))
+            if np.isfinite(follower).any() else float("nan"),
         }
 
 def _ask_gap(channels: list[CooperationChannel], t: float, tv_id: str) -> bool:
@@ -240,14 +271,18 @@ class Fleet:
         observer.hear(self.announcements)
         # s, how long each automated vehicle (the SV too) signals before it changes lanes
         self.notice = notice(v2v.latency, v2v.loss, sc.step) if v2v.mode == "v2v" else 0.0
+        self.watch = FleetWatch(sc.step)  # every fleet vehicle in SUMO's snapshot
 
     # ------------------------------------------------------------------ the step
     def observe(self, k: int, t: float) -> None:
         """Row k of every AV; those near the route's end handed back to SUMO."""
         self.announcements.t = t  # a blinker set from now on begins at t
-        if not self.active:
+        if not self.active and not self.watch.active:
             return
         everyone = self.world.read_all()  # once for all: each scene is a selection of it
+        self.watch.observe(t, everyone)
+        for vid in self.watch.ending(self.route_end, HANDBACK_DISTANCE, HANDBACK_LAST):
+            self.watch.finish(vid, k, "handed_back")  # a baseline: left to SUMO alone
         handed: list[AutomatedVehicle] = []
         for av in self.active:
             sv = av.ego.state(everyone)
@@ -287,8 +322,10 @@ class Fleet:
         """After SUMO's step to row k: its collisions of the AVs; the vehicles it
         inserted in that step drawn; those drawn automated taken over (their first row:
         k) once TAKEOVER_CLEARANCE m past where they were inserted."""
-        if self.active:
-            pairs = self.takeovers.collisions()
+        if self.active or self.watch.active:
+            events = self.takeovers.collision_events()
+            self.watch.collided(events)
+            pairs = {tuple(sorted(p)) for p in events}
             for av in self.active:
                 av.recorder.sumo_collisions({p for p in pairs if av.id in p})
         departed = self.takeovers.departed()
@@ -319,7 +356,11 @@ class Fleet:
     def _full(self) -> bool:
         """As many AVs drive or wait for their takeover as `[fleet] max_vehicles`."""
         cap = self.spec.max_vehicles
-        return cap is not None and len(self.active) + len(self.pending) >= cap
+        if cap is None:
+            return False
+        # a baseline's vehicles (SUMO drives them) count as its AVs
+        baselines = sum(w.baseline for w in self.watch.active.values())
+        return len(self.active) + baselines + len(self.pending) >= cap
 
     def _take_over_clear(self, k: int) -> None:
         """The pending vehicles TAKEOVER_CLEARANCE m past their insertion, on one of the
@@ -342,6 +383,11 @@ class Fleet:
                    snap: TrafficSnapshot) -> None:
         """The vehicle `vid` (its row of the road's snapshot `snap`) as an AV from row k."""
         world, sc = self.world, self.sc
+        baseline = self.spec.driver != COSIM
+        self.watch.add(vid, vtype, k, t_in, baseline=baseline)
+        if baseline:  # SUMO drives it on, marked (with its ACC / CACC model)
+            self.takeovers.drive_as(vid, self.spec.driver)
+            return
         track = int(snap.lane[0])
         t = k * sc.step
         speed = self.takeovers.take_over(vid, (sc.vehicle.length, sc.vehicle.width))
@@ -381,6 +427,7 @@ class Fleet:
         av.k_end, av.end = k, end
         self.announcements.forget(av.id)
         self.active.remove(av)
+        self.watch.finish(av.id, k, end)
         self.done.append(av)
 
     # ------------------------------------------------------------------ the end
@@ -389,6 +436,7 @@ class Fleet:
         teleported = self.takeovers.teleported()
         for av in list(self.active):
             self._finish(av, last_row, "running")
+        watched = self.watch.close(last_row)
         traces, rows, plans = [], [], []
         for av in sorted(self.done, key=lambda a: a.id):
             full = av.recorder.trace(av.k_end)
@@ -408,6 +456,16 @@ class Fleet:
                 "sumo_collisions": rec.sumo_new,
                 "gap_min_m": float(np.min(trace["gap_min_m"])),
                 "ttc_min_s": float(np.min(trace["ttc_min_s"])),
-                "teleported": int(av.id in teleported),
+                "teleported": int(av.id in teleported), "driver": COSIM,
+                "max_long_jerk_mps3": longitudinal_comfort(
+                    trace["t_s"], trace["ax_mps2"])["max_long_jerk_mps3"],
+                "follower_max_decel_mps2": watched[av.id].new_follower_decel(self.sc.step),
             })
-        return FleetResult(traces, rows, plans)
+        speed = (0.0, 0)
+        for w in watched.values():
+            if w.baseline:
+                rows.append({**self.watch.baseline_row(w, self.spec.driver),
+                             "teleported": int(w.id in teleported)})
+                speed = (speed[0] + float(np.sum(w.speed)), speed[1] + len(w.speed))
+        rows.sort(key=lambda r: r["vehicle_id"])
+        return FleetResult(traces, rows, plans, speed)

@@ -228,6 +228,8 @@ class CoSimulation:
             from cosim.traffic.ssm import conflict_counts
 
             metrics.update(conflict_counts(conflicts))
+            if self.world.distance is not None:
+                metrics.update(self.world.distance.columns())
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
                          records=ego.records, first_plan=done.first_plan,

@@ -484,8 +484,8 @@ def _fleet(src: str, values: dict[str, Any], controller: str, own_demand: bool) 
     if spec.vtypes and not own_demand:
         raise InputError(src, "fleet.vtypes", list(spec.vtypes),
                          "[] without the user's own demand (traffic.routes or road.sumocfg)")
-    if spec.enabled and controller == "sumo":
+    if spec.enabled and controller == "sumo" and spec.driver == "cosim":
         raise InputError(src, "sv.controller", controller,
-                         "mimo or siso with a [fleet] (its automated vehicles are driven by "
-                         "the scenario's planner and controller)")
+                         "mimo or siso with a [fleet] whose driver is cosim (its automated "
+                         "vehicles are driven by the scenario's planner and controller)")
     return spec

@@ -338,6 +338,7 @@ class DetectorSpec:
 
 
 MAX_FLEET_VTYPES = 64  # [fleet] vtypes
+FLEET_DRIVERS = ("cosim", "sumo", "acc", "cacc")  # [fleet] driver (cosim.run.fleet_watch)
 VTYPE_ID_PATTERN = r"[^\s\x00-\x1f]{1,100}"  # a SUMO vType id as a file names it
 
 
@@ -376,6 +377,13 @@ class FleetSpec:
             "(or wait for their takeover) stays SUMO's (its draw still made: the same seed "
             "draws the same vehicles); with `share = 1` the fleet keeps this many",
         default_doc="none: no limit"), None)
+    driver: str = declare(Field(
+        "driver", str, choices=FLEET_DRIVERS, default="cosim", override="fleet_driver",
+        doc="who drives the vehicles drawn automated: `cosim` (the scenario's driver) or a "
+            "baseline at the same share, the same vehicles: `sumo` (SUMO's own driver, "
+            "only marked), `acc` / `cacc` (SUMO with its ACC / CACC car-following model: "
+            "their vType switched to a copy with it); each measured alike in fleet.csv "
+            "(docs/traffic_flow.md)"), "cosim")
 
     @property
     def enabled(self) -> bool:

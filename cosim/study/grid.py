@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import InputError
-from cosim.study.run_table import NO_PLANT, NO_VARIANT, PARAMETERS, Driver
+from cosim.study.run_table import NO_FLEET_DRIVER, NO_PLANT, NO_VARIANT, PARAMETERS, Driver
 
 
 @dataclass(frozen=True)
@@ -34,6 +34,7 @@ class RunSpec:
     variant: str = NO_VARIANT  # name of a set of scenario overrides (study `variants`)
     overrides: tuple[tuple[str, Any], ...] = ()  # the variant's (override name, value) pairs
     share: float = 0.0  # -, [fleet] share: the automated vehicles' share of the inserted
+    fleet_driver: str = NO_FLEET_DRIVER  # [fleet] driver: who drives them
 
     @property
     def run_id(self) -> str:
@@ -50,6 +51,8 @@ class RunSpec:
         key["share"] = float(key["share"])
         if key["share"] == 0.0:
             del key["share"]  # a run without automated vehicles: the id of before shares
+        if key["fleet_driver"] == NO_FLEET_DRIVER:
+            del key["fleet_driver"]  # likewise: the ids of studies before fleet drivers
         if self.variant == NO_VARIANT:
             del key["variant"]  # a run without a variant: its id does not name the field
         else:
@@ -72,6 +75,10 @@ class GridValues:
     drivers: Sequence[str]  # `Driver`s
     plants: Sequence[str]  # plants of our drivers (the SUMO-native driver runs NO_PLANT)
     shares: Sequence[float] = (0.0,)  # -, [fleet] share
+    fleet_drivers: Sequence[str] = (NO_FLEET_DRIVER,)  # [fleet] driver
+    # share 0 draws no vehicle automated (no [fleet] vtypes): one run, labelled with the
+    # first fleet driver, stands for every fleet driver's
+    zero_share_once: bool = True
     duration: float | None = None  # s, simulated time of every run (None: the scenario's)
     # name -> scenario overrides (`cosim.scenario.with_overrides` names): one more grid
     # dimension for our drivers; the SUMO-native driver runs once, as the base scenario
@@ -94,11 +101,13 @@ def expand(scenario: str | Path, grid: GridValues, *, traces: bool = False) -> l
         RunSpec(
             scenario=str(Path(scenario).resolve()), scenario_sha=sha, duration=grid.duration,
             driver=d, plant=pl, occupant=float(p), mu=float(m), density=float(k), seed=int(s),
-            traces=traces, variant=v, overrides=ov, share=float(f),
+            traces=traces, variant=v, overrides=ov, share=float(f), fleet_driver=fd,
         )
         for d in grid.drivers for pl in (grid.plants if d != Driver.SUMO else (NO_PLANT,))
         for v, ov in (named if d != Driver.SUMO else [(NO_VARIANT, ())])
         for p in grid.occupants for m in grid.mus for f in grid.shares
+        for fd in (grid.fleet_drivers[:1] if f == 0.0 and grid.zero_share_once
+                   else grid.fleet_drivers)
         for k in grid.densities for s in grid.seeds
     ]
     ids = [s.run_id for s in specs]
@@ -128,6 +137,7 @@ def apply_spec(spec: RunSpec) -> Any:
         "mu": spec.mu,
         "controller": spec.driver,
         "share": spec.share,
+        "fleet_driver": spec.fleet_driver,
     }
     if spec.plant != NO_PLANT:
         changes["plant"] = spec.plant

@@ -186,7 +186,9 @@ def fleet_markdown(summary: pd.DataFrame) -> str:
             *(h for _, h, _ in columns)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for _, row in summary.iterrows():
-        cells = [*(str(row[k]) for k in keys), f"{row.get('share', 0.0):g}",
+        # share 0: no automated vehicle, one run whatever the fleet driver
+        cells = [*("-" if k == "fleet_driver" and row.get("share", 0.0) == 0.0 else str(row[k])
+                   for k in keys), f"{row.get('share', 0.0):g}",
                  f"{row['density']:g}", f"{row['ok']}",
                  *(mean_text(row, n, d) for n, _, d in columns)]
         lines.append("| " + " | ".join(cells) + " |")

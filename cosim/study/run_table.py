@@ -8,8 +8,11 @@ from __future__ import annotations
 from enum import StrEnum
 
 # Grid parameters, in the order runs.csv lists (and sorts) them; `share` is [fleet] share,
-# the automated vehicles' share of the inserted ones.
-PARAMETERS = ("driver", "variant", "plant", "occupant", "mu", "share", "density", "seed")
+# the automated vehicles' share of the inserted ones, `fleet_driver` [fleet] driver, who
+# drives them (cosim, or SUMO's sumo / acc / cacc).
+PARAMETERS = ("driver", "variant", "plant", "occupant", "mu", "share", "fleet_driver",
+              "density", "seed")
+NO_FLEET_DRIVER = "cosim"  # [fleet] driver's default: a run's id names any other
 # The variant of runs without one (and of the SUMO-native driver, which no variant
 # changes): the base scenario as it is.
 NO_VARIANT = ""

@@ -10,6 +10,7 @@ seeds = [1, 2, 3]                     # or seed_count = 10 (seeds 1..10)
 occupants = [0.5]                     # p; absent: the base scenario's
 mu = [0.8, 0.5]                       # absent: the base scenario's
 shares = [0, 0.1, 0.2, 0.4]           # [fleet] share; absent: the base scenario's
+fleet_drivers = ["cosim", "acc"]      # [fleet] driver; absent: the base scenario's
 drivers = ["mimo", "siso", "sumo"]    # SV driver (by its controller); absent: the base's
 plants = ["twotrack"]                 # absent: the base scenario's
 duration_s = 30.0                     # absent: the base scenario's
@@ -77,6 +78,7 @@ SEED = _scenario_field(SCENARIO_FIELDS, "seed")
 OCCUPANT = _scenario_field(SV_FIELDS, "occupant")
 MU = _scenario_field(ROAD_FIELDS, "mu")
 SHARE = _scenario_field(FLEET_FIELDS, "share")  # the automated vehicles' ([fleet])
+FLEET_DRIVER = _scenario_field(FLEET_FIELDS, "driver")  # who drives them
 # A *driver* is a controller with a lane-change policy: mimo / siso fly the base scenario's
 # policy (and each variant's), sumo is SUMO's own models for both (it runs no variant):
 # the grid's `drivers` are named by their controller.
@@ -108,6 +110,7 @@ GRID = {
     "occupants": ("occupant", "occupants", "--occupants"),
     "mus": ("mu", "mu", "--mu"),
     "shares": ("share", "shares", "--shares"),
+    "fleet_drivers": ("fleet_driver", "fleet_drivers", "--fleet-drivers"),
     "drivers": ("controller", "drivers", "--drivers"),
     "plants": ("plant", "plants", "--plants"),
     "duration": ("duration", "duration_s", "--duration"),
@@ -159,6 +162,8 @@ STUDY_FIELDS = (
     Field("occupants", list, parse=_list_of(OCCUPANT), describe=_describe(OCCUPANT), default=None),
     Field("mu", list, name="mus", parse=_list_of(MU), describe=_describe(MU), default=None),
     Field("shares", list, parse=_list_of(SHARE), describe=_describe(SHARE), default=None),
+    Field("fleet_drivers", list, parse=_list_of(FLEET_DRIVER), describe=_describe(FLEET_DRIVER),
+          default=None),
     Field("drivers", list, parse=_list_of(DRIVER), describe=_describe(DRIVER), default=None),
     Field("plants", list, parse=_list_of(PLANT), describe=_describe(PLANT), default=None),
     replace(DURATION, name="duration", default=None),
@@ -185,6 +190,7 @@ class Study:
     duration: float | None  # s, simulated time of every run (None: the scenario's)
     traces: bool  # keep each run's trace files
     shares: tuple[float, ...] | None = None  # -, [fleet] share (automated vehicles)
+    fleet_drivers: tuple[str, ...] | None = None  # [fleet] driver
     variants: dict[str, dict[str, Any]] | None = None  # name -> scenario overrides
     # attribute -> (source, key) that set it: error messages name the file key or the flag
     origins: dict[str, tuple[str, str]] = field(default_factory=dict, compare=False)
@@ -205,8 +211,8 @@ class Study:
     @property
     def size(self) -> int:
         n = len(self.densities) * len(self.seeds)
-        for values in (self.occupants, self.mus, self.shares, self.drivers, self.plants,
-                       self.variants):
+        for values in (self.occupants, self.mus, self.shares, self.fleet_drivers,
+                       self.drivers, self.plants, self.variants):
             n *= len(values) if values else 1
         return n
 

@@ -24,7 +24,13 @@ from typing import TYPE_CHECKING, Any
 from cosim.errors import InputError
 from cosim.output import atomic_write_json, make_output_dir, stale_temp_files
 from cosim.study.grid import RunSpec
-from cosim.study.run_table import NO_VARIANT, PARAMETERS, RunStatus, is_timing_column
+from cosim.study.run_table import (
+    NO_FLEET_DRIVER,
+    NO_VARIANT,
+    PARAMETERS,
+    RunStatus,
+    is_timing_column,
+)
 
 if TYPE_CHECKING:  # pandas loads lazily: a worker process does not need it
     import pandas as pd
@@ -132,6 +138,7 @@ def assemble(specs: Iterable[RunSpec], out_dir: Path) -> pd.DataFrame:
     for r in records:
         r.setdefault("variant", NO_VARIANT)  # records of studies without variants
         r.setdefault("share", 0.0)  # records made before the share was a grid value
+        r.setdefault("fleet_driver", NO_FLEET_DRIVER)  # ... before fleet drivers
     records.sort(key=lambda r: tuple(r[p] for p in PARAMETERS))
     head = ["run_id", *PARAMETERS, "status", "error"]
     metric_columns: list[str] = []

@@ -19,10 +19,10 @@ import pandas as pd
 
 from cosim.run.metrics import FOLLOWER_PERCENTILE
 from cosim.study.fleet_summary import fleet_summary
-from cosim.study.run_table import NO_VARIANT, RunStatus
+from cosim.study.run_table import NO_FLEET_DRIVER, NO_VARIANT, RunStatus
 
 # Parameters that define a grid cell of summary.csv (every parameter but the seed).
-CELL = ("driver", "variant", "plant", "occupant", "mu", "share", "density")
+CELL = ("driver", "variant", "plant", "occupant", "mu", "share", "fleet_driver", "density")
 # Metrics summarised per grid cell (names as cosim.run.metrics writes them).
 SUCCESS_METRIC = "lane_change_completed"  # bool: the commanded lane change ended in its lane
 COLLISION_METRIC = "collision"  # bool: our geometric check saw an overlap
@@ -139,6 +139,8 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     runs = runs.assign(variant=runs["variant"].fillna(NO_VARIANT).astype(str))
     if "share" not in runs:  # runs.csv of a study made before the share was a grid value
         runs = runs.assign(share=0.0)
+    if "fleet_driver" not in runs:
+        runs = runs.assign(fleet_driver=NO_FLEET_DRIVER)
     from cosim.study.fundamental import traffic_columns, traffic_summary
 
     traffic = traffic_columns(runs)  # runs with SUMO's detectors: their measures' medians

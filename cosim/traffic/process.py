@@ -25,7 +25,14 @@ from cosim.traffic.gui import GuiSettings
 from cosim.traffic.own_demand import sumo_file_options
 
 BASE_TYPE = "cosim_base"  # the vType cosim's own vTypes are copies of (SUMO's defaults)
-BASE_TYPE_FILE = f'<additional>\n    <vType id="{BASE_TYPE}"/>\n</additional>\n'
+# SUMO's ACC and CACC car-following models (SUMO's defaults otherwise): the fleet's
+# baselines switch the vehicles they drive to copies of their own vType with one
+# (cosim.traffic.takeover.Takeovers.drive_as); a model is chosen only by a file
+BASELINE_TYPES = {"ACC": "cosim_acc", "CACC": "cosim_cacc"}
+BASE_TYPE_FILE = (f'<additional>\n    <vType id="{BASE_TYPE}"/>\n'
+                  + "".join(f'    <vType id="{i}" carFollowModel="{m}"/>\n'
+                            for m, i in BASELINE_TYPES.items())
+                  + "</additional>\n")
 
 _active: SumoProcess | None = None  # the one running simulation of this process
 

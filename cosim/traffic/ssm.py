@@ -140,3 +140,37 @@ def conflict_counts(table: Any) -> dict[str, float]:
         "ssm_min_ttc_s": float(np.nanmin(ttc)) if np.isfinite(ttc).any() else math.nan,
         "ssm_max_drac_mps2": float(np.nanmax(drac)) if np.isfinite(drac).any() else math.nan,
     }
+
+
+VEHICLE_KM_DOCS = {
+    "vehicle_km": "kilometres all vehicles drove on the run's clock (t > 0), summed over "
+                  "SUMO's edges of each step's vehicles times their mean speed (km; runs "
+                  "with [ssm]: the denominator of conflicts per vehicle-km)",
+}
+
+
+class VehicleDistance:
+    """A step hook (SumoSim.add_hook) summing the distance every vehicle drives: per step,
+    over SUMO's edges (internal ones too), its vehicles times their mean speed times the
+    step. Counts steps ending after `since` (s, SUMO's clock: the run's t = 0 once
+    World.insert sets it; nothing before)."""
+
+    def __init__(self) -> None:
+        self.since = math.inf
+        self.metres = 0.0
+        self._edges: tuple[str, ...] | None = None
+
+    def __call__(self, sim: Any) -> None:
+        api = sim.api
+        if api.simulation.getTime() <= self.since:
+            return
+        if self._edges is None:
+            self._edges = tuple(api.edge.getIDList())
+        edge = api.edge
+        self.metres += sim.step_length * sum(
+            edge.getLastStepVehicleNumber(e) * edge.getLastStepMeanSpeed(e)
+            for e in self._edges)
+
+    def columns(self) -> dict[str, float]:
+        """metrics.csv's `vehicle_km`."""
+        return {"vehicle_km": self.metres / 1000.0}

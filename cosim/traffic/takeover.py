@@ -40,6 +40,12 @@ class RecordedPath:
         return self.k0 + len(self.x) - 1
 
 AUTOMATED_COLOUR = (0, 200, 80, 255)  # RGBA, automated vehicles in sumo-gui (the SV: blue)
+BASELINE_COLOUR = (230, 140, 0, 255)  # RGBA, the fleet's vehicles SUMO drives (a baseline)
+# [fleet] driver -> SUMO's car-following model of its vType copy (process.BASELINE_TYPES)
+CAR_FOLLOWING = {"acc": "ACC", "cacc": "CACC"}
+# what a vType copy keeps of the vehicle's vType (vehicletype getter / setter suffixes)
+TYPE_VALUES = ("Length", "Width", "MinGap", "Accel", "Decel", "EmergencyDecel",
+               "ApparentDecel", "Tau", "MaxSpeed", "SpeedFactor", "SpeedDeviation")
 
 
 class Takeovers:
@@ -48,6 +54,7 @@ class Takeovers:
     def __init__(self, world: World) -> None:
         self.sumo = world.sumo
         self.scenario = world.scenario
+        self._copies: set[str] = set()  # the vType copies made (drive_as)
 
     def departed(self) -> tuple[str, ...]:
         """The vehicles SUMO inserted in its last step, in its insertion order."""
@@ -90,6 +97,36 @@ class Takeovers:
         """One step of the requests `vehicle_id` (centre x, m) sent (World's for the SV)."""
         deliver_requests(channels, self.sumo.api, vehicle_id, t, tvs, x,
                          self.scenario.vehicle.length, changing)
+
+    def drive_as(self, vehicle_id: str, driver: str) -> None:
+        """A baseline of the fleet: SUMO drives the vehicle on, marked in sumo-gui; for
+        `acc` / `cacc` its vType is switched to a copy of its own with SUMO's ACC / CACC
+        car-following model (the copy's sizes, accelerations, headway and speeds its
+        vType's; its own maximum speed and speed factor kept)."""
+        api = self.sumo.api
+        vehicle, vt = api.vehicle, api.vehicletype
+        vehicle.setColor(vehicle_id, BASELINE_COLOUR)
+        model = CAR_FOLLOWING.get(driver)
+        if model is None:  # sumo: its own driver, as it is
+            return
+        from cosim.traffic.process import BASELINE_TYPES
+
+        own = self.vtype_of(vehicle_id)
+        copy = f"{own}_{driver}"
+        if copy not in self._copies:
+            vt.copy(BASELINE_TYPES[model], copy)
+            for name in TYPE_VALUES:
+                getattr(vt, f"set{name}")(copy, getattr(vt, f"get{name}")(own))
+            vt.setVehicleClass(copy, vt.getVehicleClass(own))
+            self._copies.add(copy)
+        max_speed, factor = vehicle.getMaxSpeed(vehicle_id), vehicle.getSpeedFactor(vehicle_id)
+        vehicle.setType(vehicle_id, copy)
+        vehicle.setMaxSpeed(vehicle_id, max_speed)
+        vehicle.setSpeedFactor(vehicle_id, factor)
+
+    def collision_events(self) -> list[tuple[str, str]]:
+        """Every (collider, victim) pair SUMO reported in its last step."""
+        return self.sumo.collisions()
 
     def collisions(self) -> set[tuple[str, ...]]:
         """Every collision SUMO reported in its last step (sorted id pairs)."""

@@ -47,7 +47,7 @@ from cosim.traffic.road_view import (
     upstream_lanes,
 )
 from cosim.traffic.route_lanes import load_route_road, sv_start
-from cosim.traffic.ssm import conflicts_table
+from cosim.traffic.ssm import VehicleDistance, conflicts_table
 from cosim.traffic.ssm import sumo_options as ssm_options
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
@@ -185,6 +185,7 @@ class World:
             self.detectors = place_detectors(self.route_road, sc.detectors)
         # SUMO's SSM device ([ssm] enabled), its output into the same folder
         self.ssm = sc.ssm if sc.ssm.enabled and detector_output is not None else None
+        self.distance = VehicleDistance() if self.ssm is not None else None
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed, SumoOptions(
                 lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
@@ -228,6 +229,8 @@ class World:
         tr = sc.traffic
         self.started = True  # `close` ends SUMO even if its start is cut short
         self.sumo.start()
+        if self.distance is not None:  # every vehicle's km, for conflicts per vehicle-km
+            self.sumo.add_hook(self.distance)
         road = sc.road  # lane geometry: the network's, read once by the scenario
         x0 = self.sv_start_x
         track = self.sv_start_track
@@ -292,6 +295,8 @@ class World:
         run's clock starts here."""
         self.sumo.step()
         self.t_offset = self.sumo.time
+        if self.distance is not None:
+            self.distance.since = self.t_offset
         self.sumo.follow_in_gui(SV_ID)
         if self.placed:  # SUMO leaves out a vehicle with no room at its minimum gap
             on_road = set(self.sumo.api.vehicle.getIDList())

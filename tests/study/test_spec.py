@@ -30,8 +30,8 @@ def test_every_grid_parameter_of_a_study_is_a_grid_dimension() -> None:
     """A variant may not change what runs.csv labels a row with: the grid's dimensions are
     exactly batch's parameters (variant aside) plus the duration, each a scenario override."""
     overrides = {o for o, _, _ in GRID.values()}
-    assert overrides == {"density", "seed", "occupant", "mu", "share", "controller", "plant",
-                         "duration"}
+    assert overrides == {"density", "seed", "occupant", "mu", "share", "fleet_driver",
+                         "controller", "plant", "duration"}
     assert overrides <= set(OVERRIDES)
     named = {"driver" if o == "controller" else o for o in overrides}
     assert set(PARAMETERS) - {"variant"} <= named

@@ -18,7 +18,7 @@ from cosim.errors import InputError
 from cosim.run.loop import CoSimulation, run_scenario
 from cosim.run.metrics import gap_ttc, half_extents
 from cosim.scenario import load_scenario, with_overrides
-from cosim.traffic.ssm import COLUMNS, COUNT_DOCS, OUTPUT_FILE, conflict_counts
+from cosim.traffic.ssm import COLUMNS, COUNT_DOCS, OUTPUT_FILE, VEHICLE_KM_DOCS, conflict_counts
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "scenarios"
@@ -116,7 +116,10 @@ def test_without_ssm_a_run_writes_what_it_wrote_before(tmp_path: Path) -> None:
                                                          ).read_bytes()
     before = pd.read_csv(tmp_path / "absent" / "metrics.csv")
     after = pd.read_csv(tmp_path / "on" / "metrics.csv")
-    assert list(after.columns) == [*before.columns, *COUNT_DOCS]
+    assert list(after.columns) == [*before.columns, *COUNT_DOCS, *VEHICLE_KM_DOCS]
+    # every vehicle's km: at least the SV's own distance, at most all driving flat out
+    hours = float(before["duration_s"].iloc[0]) / 3600.0
+    assert 15.0 * 3.6 * hours < after["vehicle_km"].iloc[0] < 40 * 40.0 * 3.6 * hours
     pd.testing.assert_frame_equal(after[before.columns], before)
 
 
