@@ -52,8 +52,9 @@ bends wider than ~R 100 m (a line that bends at R keeps about R theta^2 / 16 fro
 kink of theta). The radius smoothed towards is at most what the route's speed limit
 needs at `limit_lat_accel` (more would only leave SUMO's lanes further), and where
 kinks sit between straights (a junction's jog) it is that radius. If the smallest radius
-is then below `min_radius`, more smoothing is taken up to `max_deviation`; a line that
-cannot reach `min_radius` within `max_deviation` is refused (InputError naming the
+is then below the smallest allowed (`min_radius`, the SV's turning circle, and the
+lanes' reach over 1 - `min_stretch`), more smoothing is taken up to `max_deviation`; a
+line that cannot reach it within `max_deviation` is refused (InputError naming the
 radius and the deviation), as is a polyline that the line through its vertices,
 unsmoothed, already leaves by more than `max_deviation` (a kink too sharp for the arc
 spline: lanes that jump sideways at a junction; named where the line first leaves it).
@@ -80,6 +81,7 @@ from cosim.errors import InputError
 Array = NDArray[np.float64]
 WINDOW = 16  # arcs searched either side of the hint (8 m at h = 0.5 m)
 RADIUS_SHARE = 0.9  # smoothing stops once the radius is within 10 % of the best it can get
+DEFAULT_REACH = 15.0  # m, lanes across a reference line when the caller does not say: 4 x 3.75
 COARSE_BISECTIONS = 4  # halvings of the smoothing length's step (2^(1/32)) at coarse_deviation
 _EPS_U = 1e-9  # m, slack on an arc's ends when deciding which arc a point projects onto
 
@@ -99,9 +101,13 @@ class FrameLimits:
     # m/s^2, smoothing seeks no radius beyond v^2 / this at the route's highest speed
     # limit v (the SV's default curve_lat_accel_mps2): wider only leaves SUMO's lanes
     limit_lat_accel: float = 2.0  # tuned: docs/tuned_constants.md
-    # m, a reference line bending tighter is refused: lanes reach |d| <= ~15 m from it,
-    # so 1 - kappa d >= 0.85 (the frame's stretch across a lane stays within 15 %)
-    min_radius: float = 100.0
+    # m, a reference line bending tighter is refused on any route: the SV's turning
+    # circle (Table 1's wheelbase 2.51 m over tan of the 0.6 rad steering limit)
+    min_radius: float = 3.7
+    # -, and one bending tighter than the lanes' reach / (1 - this): the frame's
+    # stretch q = 1 - kappa d across the lanes stays at least this (four lanes of
+    # 3.75 m: R 100 m; one: R 25 m)
+    min_stretch: float = 0.85
     spacing: float = 0.5  # m, the table step h (arc length)
     extension: float = 200.0  # m, straight continuation past both ends
 
@@ -646,12 +652,14 @@ Where = Callable[[float, float], str]  # a point (x, y) in the network's words (
 
 
 def _choose(tried: list[Attempt], wider: Callable[[], list[Attempt]], raw: Array,
-            wanted: float, limits: FrameLimits, source: str, where: Where | None) -> Attempt:
+            wanted: float, reach: float, limits: FrameLimits, source: str,
+            where: Where | None) -> Attempt:
     """The smoothing to keep among those tried (by growing ell, the first within
     max_deviation): the least that reaches the radius the target deviation allows, at
     least SUMO's vertex spacing, more for coarse vertices (up to coarse_deviation,
     `wider`, where max_deviation leaves the line far tighter than the curve its
-    vertices lie on), and at least the limits' smallest radius (InputError if none)."""
+    vertices lie on), and at least the smallest radius the limits allow for lanes
+    `reach` m across (InputError if none)."""
     # the least smoothing that gets within RADIUS_SHARE of the largest smallest-radius
     # reachable within the target deviation: more would only bend SUMO's curves
     within = [t for t in tried if t[2] <= limits.target_deviation] or tried[:1]
@@ -681,17 +689,20 @@ def _choose(tried: list[Attempt], wider: Callable[[], list[Attempt]], raw: Array
             near += wider()
             goal = RADIUS_SHARE * min(implied, max(t[3] for t in near))
             chosen = next(t for t in near if t[3] >= goal)
-    if chosen[3] < limits.min_radius:
-        better = [t for t in tried if t[2] <= limits.max_deviation
-                  and t[3] >= limits.min_radius]
+    floor = max(limits.min_radius, reach / (1.0 - limits.min_stretch))
+    if chosen[3] < floor:
+        better = [t for t in tried if t[2] <= limits.max_deviation and t[3] >= floor]
         if not better:
             best = max((t for t in tried if t[2] <= limits.max_deviation),
                        key=lambda t: t[3], default=tried[0])
             k = int(np.argmax(np.abs(best[1].kappa)))
             raise InputError(source, "reference line radius", f"{best[3]:.1f} m",
                              f"a route whose lanes can be smoothed to a radius of at least "
-                             f"{limits.min_radius:g} m within {limits.max_deviation:g} m of "
-                             f"SUMO's lane shape (its tightest bend, near "
+                             f"{floor:.3g} m within {limits.max_deviation:g} m of "
+                             f"SUMO's lane shape (where the frame's stretch across its "
+                             f"lanes' {reach:g} m stays >= {limits.min_stretch:g}, above the "
+                             f"SV's turning circle of {limits.min_radius:g} m; its tightest "
+                             f"bend, near "
                              f"{_place(best[1].x[k], best[1].y[k], where)}, keeps a radius of "
                              f"{best[3]:.1f} m at a deviation of {best[2]:.3f} m)")
         chosen = min(better, key=lambda t: t[0])
@@ -700,11 +711,14 @@ def _choose(tried: list[Attempt], wider: Callable[[], list[Attempt]], raw: Array
 
 def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
            d_offset: float = 0.0, source: str = "network",
-           where: Where | None = None, speed_limit: float = math.inf) -> ArcFrame:
+           where: Where | None = None, speed_limit: float = math.inf,
+           reach: float = DEFAULT_REACH) -> ArcFrame:
     """The arc-spline frame of a polyline (rows x, y; SUMO's lane shape), smoothed as
     the module docstring says; `d_offset` (m) places d = 0 that far right of it;
     `speed_limit` (m/s) the route's highest: a radius over speed_limit^2 /
-    limits.limit_lat_accel is all smoothing needs to reach.
+    limits.limit_lat_accel is all smoothing needs to reach; `reach` (m) how far the
+    route's lanes lie across from the line at most (the smallest radius allowed, with
+    `limits.min_stretch`).
     Raises InputError(source, ...) if it cannot be smoothed within the limits, naming
     the place (x, y and what `where` says of it)."""
     raw = np.asarray(polyline, dtype=np.float64)
@@ -758,7 +772,7 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
         return sorted(more, key=lambda t: t[0])
 
     wanted = speed_limit**2 / limits.limit_lat_accel
-    chosen = _choose(tried, wider, raw, wanted, limits, source, where)
+    chosen = _choose(tried, wider, raw, wanted, reach, limits, source, where)
     ell, frame, dev, _ = chosen
     return ArcFrame(ArcTable(frame.s_min, h, frame.x, frame.y, frame.theta, frame.kappa),
                     d_offset, frame.length, limits.extension,

@@ -219,8 +219,12 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
     else:
         line = ref if lead is None else Track(ref.id, (*lead.pieces(), *ref.pieces))
         top = max(p.speed for t in tracks for p in t.pieces)
+        # the lanes lie within the widest route edge's width of the reference line
+        reach = max(sum(float(ln.getWidth()) for ln in route.net.getEdge(e).getLanes())
+                    for e in route.edges)
         frame = smooth(reference_line(ref, lead), limits, d_offset=half, source=src,
-                       where=functools.partial(_where_on, route, line), speed_limit=top)
+                       where=functools.partial(_where_on, route, line), speed_limit=top,
+                       reach=reach)
     tables = lane_tables(tracks, reference_lanes(ref, lead), frame, route.net)
     if any(not math.isfinite(v) for t in tables for v in (*t.s_start, *t.s_end)):
         raise InputError(src, "route", list(route.edges),

@@ -18,7 +18,7 @@ from cosim.scenario import load_scenario, project_root
 from cosim.scenario.load import scenario_from_dict
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "road"))
-from handdrawn import curved_route  # noqa: E402
+from handdrawn import curved_route, ramp_curve  # noqa: E402
 
 pytestmark = pytest.mark.sumo
 
@@ -108,6 +108,26 @@ def test_a_tight_curve_is_driven_slower_not_refused(tmp_path: Path) -> None:
     assert float(np.max(tr["vx_mps"])) <= 1.003 * m["curve_speed_mps"]
     assert float(np.max(tr["s_m"])) > 1000.0 + 100.0  # it drove into the curve
     assert m["collisions"] == 0 and m["final_lane"] == 1
+
+
+def test_a_one_lane_ramp_of_r25_is_driven_at_its_curve_speed(tmp_path: Path) -> None:
+    """A ramp's R 25 m quarter circle (a cloverleaf loop's radius): not refused (the
+    frame's stretch across its one 3.2 m lane stays >= 0.85 down to R 21 m); driven
+    through at its curve speed, within a few centimetres of SUMO's lane centre."""
+    net = ramp_curve(tmp_path, 25.0)
+    doc = {"scenario": {"name": "ramp", "duration_s": 9.0, "seed": 1},
+           "road": {"network": str(net), "route": ["AB", "BC", "CD"],
+                    "lane_speeds_kmh": [[30, 40]]},
+           "sv": {"edge": "AB", "lane": 0, "position_m": 190.0, "speed_kmh": 30.0}}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "ramp.toml"))
+    m, tr = result.metrics, result.trace
+    assert 20.0 < result.route_road.frame.quality.min_radius < 25.0  # SUMO's inner border
+    assert m["curve_speed_mps"] == pytest.approx(math.sqrt(2.0 * 22.0), rel=0.1)
+    assert float(np.max(tr["vx_mps"])) <= 1.003 * m["curve_speed_mps"]
+    assert {"BC", "CD"} <= set(result.edges)  # through the whole curve
+    assert m["collisions"] == 0 and m["sumo_events"] == 0
+    assert m["lane_keeping_max_offset_m"] < 0.05  # measured 3.3 cm
+    assert float(np.max(np.abs(tr["ye_m"]))) < 0.03  # measured 1.9 cm
 
 
 def test_sumos_driver_and_straight_roads_are_not_capped() -> None:

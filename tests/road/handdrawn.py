@@ -61,6 +61,26 @@ def curved_route(tmp: Path, step: float, *, radius: float = 2000.0, length: floa
         "</edges>")
 
 
+def ramp_curve(tmp: Path, radius: float, turn_deg: float = 90.0, speed: float = 11.1,
+               name: str = "ramp_curve") -> Path:
+    """A one-lane ramp: A -> B straight (200 m), B -> C a left curve of `radius` turning
+    `turn_deg` drawn every 2 m, C -> D straight (200 m); edges AB, BC, CD."""
+    turn = math.radians(turn_deg)
+    curve = arc(200.0, 0.0, 0.0, radius, radius * turn, 2.0)
+    cx, cy = curve[-1]
+    dx, dy = cx + 200.0 * math.cos(turn), cy + 200.0 * math.sin(turn)
+    shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in [(200.0, 0.0), *curve])
+    return netconvert(
+        tmp,
+        '<nodes><node id="A" x="0" y="0"/><node id="B" x="200" y="0"/>'
+        f'<node id="C" x="{cx:.2f}" y="{cy:.2f}"/><node id="D" x="{dx:.2f}" y="{dy:.2f}"/>'
+        "</nodes>",
+        f'<edges><edge id="AB" from="A" to="B" numLanes="1" speed="{speed:g}"/>'
+        f'<edge id="BC" from="B" to="C" numLanes="1" speed="{speed:g}" shape="{shape}"/>'
+        f'<edge id="CD" from="C" to="D" numLanes="1" speed="{speed:g}"/></edges>',
+        name=name)
+
+
 def corners_in_lanes(result: Any, grow: float = 0.02) -> bool:
     """The SV's four corners inside the union of SUMO's lanes of the run's route (each
     lane shape buffered by half its width, the union grown by `grow` m) at every step."""

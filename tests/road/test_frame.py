@@ -146,7 +146,7 @@ def test_a_kink_that_cannot_be_smoothed_is_refused_naming_the_radius() -> None:
     assert text.startswith("net.xml: reference line radius = '")
     assert "at least 100 m within 0.2 m" in text and "\n" not in text
     # a looser bound takes it
-    frame = smooth(poly, FrameLimits(max_deviation=2.0, min_radius=60.0))
+    frame = smooth(poly, FrameLimits(max_deviation=2.0, min_stretch=0.75))
     assert frame.quality.min_radius >= 60.0 and frame.quality.max_deviation <= 2.0
 
 
@@ -236,7 +236,7 @@ def test_a_body_drawn_in_s_d_is_within_the_distortion_margin_of_its_true_image(
     else:  # a 60 m radius bend (a ramp's), drawn as SUMO would (a point every 2 m)
         ang = np.linspace(-0.5 * math.pi, 0.5 * math.pi, 95)
         poly = np.column_stack((60.0 * np.cos(ang), 60.0 + 60.0 * np.sin(ang)))
-        frame = smooth(poly, FrameLimits(min_radius=50.0))
+        frame = smooth(poly, FrameLimits(min_radius=50.0), reach=7.5)
         s_range, d_range = (20.0, frame.length - 20.0), (-8.0, 12.0)
     L, W = 4.32, 1.8
     r = 0.5 * math.hypot(L, W)

@@ -17,7 +17,7 @@ from cosim.road.frame import FrameLimits
 from cosim.road.road import load_road
 
 sys.path.insert(0, str(Path(__file__).parent))
-from handdrawn import curved_route, netconvert  # noqa: E402
+from handdrawn import curved_route, netconvert, ramp_curve  # noqa: E402
 
 
 def build(tmp: Path, step: float) -> Path:
@@ -74,6 +74,19 @@ def test_a_curve_drawn_with_6_degree_kinks_bends_as_the_road(tmp_path: Path) -> 
     near = load_road(net, ["AB", "BC"],
                      limits=FrameLimits(coarse_deviation=limits.max_deviation))
     assert near.frame.quality.min_radius < 150.0
+
+
+def test_the_smallest_radius_is_what_the_lanes_reach_allows(tmp_path: Path) -> None:
+    """A one-lane ramp (3.2 m) may bend to R 21.3 m (the frame's stretch 1 - kappa d
+    across it stays >= 0.85), a motorway of four 3.75 m lanes to R 100 m; a R 15 m
+    curve on the ramp is refused naming the radius and why."""
+    assert load_road(ramp_curve(tmp_path, 25.0), ["AB", "BC", "CD"]).curved
+    with pytest.raises(InputError) as err:
+        load_road(ramp_curve(tmp_path, 15.0, name="r15"), ["AB", "BC", "CD"], source="sc.toml")
+    text = str(err.value)
+    assert text.startswith("sc.toml: reference line radius = '") and "\n" not in text
+    assert "radius of at least 21.3 m within 0.2 m" in text
+    assert "its lanes' 3.2 m stays >= 0.85, above the SV's turning circle of 3.7 m" in text
 
 
 def test_lanes_that_step_sideways_at_a_junction_are_refused_naming_it(tmp_path: Path) -> None:
