@@ -373,8 +373,8 @@ def measure_avs(scenario: Scenario, counts: tuple[int, ...], window_s: float,
         f"{window_s:g} s from the step N AVs first drove (from_t_s); the floor over the same "
         "steps",
         "parts: CPU per AV and step of the fleet's methods in the window (cosim.run.fleet)",
-        f"AVs missing from the floor at their takeover: {missing} (SUMO's traffic there "
-        "drifted from the run's)",
+        f"AVs not on the network at their takeover in the floor (its SUMO traffic drifted "
+        f"from the run's): {missing}",
         f"1-min load average {os.getloadavg()[0]:.2f} at the end, {os.cpu_count()} cores",
     ]
     return {
