@@ -357,7 +357,9 @@ class GapPolicy:
                              None if self.last is None else self.last.held)
         check = check_follower(plan.trajectory, self.sv_length, tvs, follower,
                                sv_width=self.sv_width)
-        if check.safe and check.follower >= 0 and str(traffic.ids[check.follower]) in self.refused:
+        insisted = check.max_decel > self.gap_cfg.plan_decel  # its margin: the entry test's
+        if (check.safe and not insisted and check.follower >= 0
+                and str(traffic.ids[check.follower]) in self.refused):
             # refused moments ago: taken only with the entry rule's margin
             wary = follower.wary(self.gap_cfg.wary_share, self.gap_cfg.wary_gap)
             check = replace(check, safe=check_follower(
