@@ -25,6 +25,11 @@ the channel's latency, once each has heard the other: an automated vehicle there
 signals for `notice` before it starts a change (the channel's latency and enough steps
 that a partner in range misses all of them with a chance below NOTICE_MISS), and one
 whose intention began later has heard the earlier one's before it could start.
+
+Gap requests (`GapRequests`): a policy that asks the vehicle blocking its gap for room
+reaches SUMO's drivers through the traffic's courtesy; one that names an automated
+vehicle sends the request over V2V instead (latency, loss), and that vehicle makes
+room as SUMO's drivers do for the courtesy (cosim.driving.gap.yielding.MakingRoom).
 """
 
 from __future__ import annotations
@@ -34,6 +39,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from cosim.driving.gap.yielding import ROOM_DURATION
 from cosim.traffic.v2v import LateralMotion, Override, V2VMessage
 
 NOTICE_MISS = 1e-3  # -, the chance a partner in range missed every message of the notice
@@ -131,3 +139,60 @@ def notice(latency: float, loss: float, step: float) -> float:
 def _tick(t: float) -> float:
     """s, a time compared as both sides see it (the step times, free of rounding)."""
     return round(t, 6)
+
+
+@dataclass(frozen=True)
+class _Request:
+    due: float  # s, when it arrives
+    sender: str
+    receiver: str
+
+
+class GapRequests:
+    """Gap requests between automated vehicles, over V2V: a policy asking an automated
+    vehicle for room (the gap policy's `ask_gap` port naming one) sends it `latency`
+    later, lost with `loss` (one draw per request from the run's seeded `rng`); the
+    receiver, if its policy makes room (`make_room`), follows the sender as its leader
+    (cosim.driving.gap.yielding.MakingRoom). A pair's request is sent once per
+    ROOM_DURATION. Requests to anyone else go to `forward` (SUMO's drivers: the
+    traffic's courtesy, cooperative V2V)."""
+
+    def __init__(self, latency: float, loss: float, rng: np.random.Generator,
+                 enabled: bool = True) -> None:
+        self.latency, self.loss, self.rng, self.enabled = latency, loss, rng, enabled
+        self.policies: dict[str, object] = {}  # automated vehicles' policies, by id
+        self._queue: list[_Request] = []
+        self._sent: dict[tuple[str, str], float] = {}  # (sender, receiver) -> s, when
+        self.sent = 0  # requests sent between automated vehicles
+        self.lost = 0  # of them, lost
+
+    def port(self, sender: str, forward: Callable[[float, str], bool | None]
+             ) -> Callable[[float, str], bool | None]:
+        """`sender`'s ask_gap port: a request to an automated vehicle over V2V, else
+        `forward`."""
+        def ask(t: float, vehicle_id: str) -> bool | None:
+            if vehicle_id not in self.policies:
+                return forward(t, vehicle_id)
+            if not self.enabled:
+                return False
+            last = self._sent.get((sender, vehicle_id), -math.inf)
+            if t - last >= ROOM_DURATION - 1e-9:
+                self._sent[(sender, vehicle_id)] = t
+                self.sent += 1
+                if self.rng.random() < self.loss:
+                    self.lost += 1
+                else:
+                    self._queue.append(_Request(t + self.latency, sender, vehicle_id))
+            return True
+        return ask
+
+    def deliver(self, t: float) -> None:
+        """The requests due by t reach their receivers' policies."""
+        if not self._queue:
+            return
+        due = [r for r in self._queue if r.due <= t + 1e-9]
+        self._queue = [r for r in self._queue if r.due > t + 1e-9]
+        for r in due:
+            make_room = getattr(self.policies.get(r.receiver), "make_room", None)
+            if make_room is not None:
+                make_room(t, r.sender)

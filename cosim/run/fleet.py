@@ -40,7 +40,7 @@ from cosim.driving.base import DrivingContext, LaneChangePolicy, PolicyStatus, W
 from cosim.driving.cadence import CadenceConfig
 from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
-from cosim.run.announcements import Announcements, notice
+from cosim.run.announcements import Announcements, GapRequests, notice
 from cosim.run.ego import PlannedEgo
 from cosim.run.fleet_watch import COSIM, FleetWatch
 from cosim.run.metrics import longitudinal_comfort
@@ -59,6 +59,7 @@ if TYPE_CHECKING:
 
 FLEET_STREAM = 18  # -, second seed word of the fleet's draws (world.COURTESY_STREAM + 1)
 V2V_STREAM = 19  # -, the same for the AVs' V2V channels (third word: the AV's number)
+REQUEST_STREAM = 20  # -, the same for the loss of gap requests between automated vehicles
 # m an automated vehicle drives from where SUMO inserted it before it is taken over: SUMO
 # inserts only by the lane a vehicle is on, so one may appear in the lane a vehicle just
 # inserted beside it is moving into, unseen when that change was planned; past this the
@@ -272,6 +273,10 @@ class Fleet:
         # s, how long each automated vehicle (the SV too) signals before it changes lanes
         self.notice = notice(v2v.latency, v2v.loss, sc.step) if v2v.mode == "v2v" else 0.0
         self.watch = FleetWatch(sc.step)  # every fleet vehicle in SUMO's snapshot
+        # gap requests between automated vehicles, over V2V (none in the perception mode)
+        self.requests = GapRequests(v2v.latency, v2v.loss,
+                                    np.random.default_rng([sc.seed, REQUEST_STREAM]),
+                                    enabled=v2v.mode == "v2v")
 
     # ------------------------------------------------------------------ the step
     def observe(self, k: int, t: float) -> None:
@@ -301,6 +306,7 @@ class Fleet:
         deciding after it in this step hears it as a zero-latency channel would); its last
         decision held while it keeps its lane and nothing changes (cosim.driving.cadence)."""
         heard = self.announcements
+        self.requests.deliver(t)  # gap requests between automated vehicles due now
         for av in self.active:
             scene = av.scene
             assert scene is not None
@@ -411,7 +417,7 @@ class Fleet:
             av_sc, self.road, decision=self.decision, planner=self.make_planner(),
             ports=WorldPorts(blinker=self.announcements.blinker(
                 vid, partial(self.takeovers.set_blinker, vid)),
-                ask_gap=partial(_ask_gap, gaps)), notice=self.notice,
+                ask_gap=self.requests.port(vid, partial(_ask_gap, gaps))), notice=self.notice,
             cadence=CadenceConfig()))
         from cosim.traffic.v2v import V2VChannel
 
@@ -419,6 +425,7 @@ class Fleet:
         channel.rng = np.random.default_rng([sc.seed, V2V_STREAM, number])
         recorder = Recorder(sc.n_steps, sc.vehicle.length, sc.vehicle.width, self.road,
                             route_road=world.route_road, keep_tracks=False)
+        self.requests.policies[vid] = policy
         self.active.append(AutomatedVehicle(vid, vtype, ego, policy, recorder, channel,
                                             self.observer, self.every_step, k, t_in,
                                             hold=getattr(policy, "hold", None), gaps=gaps))
@@ -426,6 +433,7 @@ class Fleet:
     def _finish(self, av: AutomatedVehicle, k: int, end: str) -> None:
         av.k_end, av.end = k, end
         self.announcements.forget(av.id)
+        self.requests.policies.pop(av.id, None)
         self.active.remove(av)
         self.watch.finish(av.id, k, end)
         self.done.append(av)

@@ -139,7 +139,7 @@ class CoSimulation:
         if cls.asks_for_gaps:
             world.open_gap_requests()
         self.fleet: Fleet | None = None  # automated vehicles besides the SV ([fleet])
-        blinker = world.set_sv_blinker
+        blinker, ask_gap = world.set_sv_blinker, world.ask_gap
         if sc.fleet.enabled:
             from cosim.planning.planner import LaneChangePlanner
             from cosim.run.fleet import Fleet
@@ -147,14 +147,17 @@ class CoSimulation:
             self.fleet = Fleet(sc, world, road, cls, self.cfg, self.observer, partial(
                 LaneChangePlanner, sc.vehicle, road, uncertain_config(sc),
                 prediction=cls.prediction, curve=road_curve(world.route_road, sc)))
-            # the SV announces its intention to the AVs as they do to each other
+            # the SV announces its intention to the AVs and asks them for room as they do
             blinker = self.fleet.announcements.blinker(SV_ID, blinker)
+            ask_gap = self.fleet.requests.port(SV_ID, ask_gap)
         ports = WorldPorts(blinker=blinker, change_lane=world.change_sv_lane,
-                           ask_gap=world.ask_gap)
+                           ask_gap=ask_gap)
         policy: LaneChangePolicy = cls(DrivingContext.of(
             sc, road, decision=self.cfg, planner=planner, ports=ports,
             notice=0.0 if self.fleet is None else self.fleet.notice))
         self.ego, self.policy = ego, policy
+        if self.fleet is not None:  # an AV may ask the SV for room
+            self.fleet.requests.policies[SV_ID] = policy
 
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()

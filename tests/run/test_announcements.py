@@ -201,3 +201,37 @@ def test_notice_covers_the_latency_and_the_losses() -> None:
     assert notice(LATENCY, 0.0, DT) == pytest.approx(LATENCY + DT)
     assert notice(LATENCY, LOSS, DT) == pytest.approx(LATENCY + 6 * DT)  # 0.3^6 < 1e-3
     assert notice(LATENCY, 1.0, DT) == math.inf
+
+
+def test_gap_requests_between_automated_vehicles_go_over_v2v() -> None:
+    """A request naming an automated vehicle arrives the latency later (unless lost) at
+    its policy's make_room, once per ROOM_DURATION per pair; one naming anyone else goes
+    to SUMO's drivers (the forward port)."""
+    from cosim.driving.gap.yielding import ROOM_DURATION
+    from cosim.run.announcements import GapRequests
+
+    forwarded: list[str] = []
+    made: list[tuple[float, str]] = []
+
+    class Policy:
+        def make_room(self, t: float, vid: str) -> None:
+            made.append((t, vid))
+
+    requests = GapRequests(LATENCY, 0.0, np.random.default_rng(0))
+    requests.policies["b"] = Policy()
+    ask = requests.port("a", lambda t, vid: forwarded.append(vid) or True)
+    assert ask(1.0, "tv7") and forwarded == ["tv7"]
+    assert ask(1.0, "b") and ask(1.05, "b")  # the second is the same request: not sent
+    for k in range(20, 24):
+        requests.deliver(k * DT)
+    assert made == [(pytest.approx(1.0 + LATENCY), "a")] and requests.sent == 1
+    ask(1.0 + ROOM_DURATION, "b")  # once the room's time is up: asked again
+    assert requests.sent == 2
+    lossy = GapRequests(LATENCY, LOSS, np.random.default_rng(0))
+    lossy.policies["b"] = Policy()
+    for k in range(200):
+        lossy.port(f"s{k}", lambda t, vid: None)(0.0, "b")
+    assert 0.2 < lossy.lost / lossy.sent < 0.4
+    off = GapRequests(LATENCY, 0.0, np.random.default_rng(0), enabled=False)
+    off.policies["b"] = Policy()  # the perception mode: no request between them
+    assert off.port("a", lambda t, vid: True)(0.0, "b") is False and off.sent == 0

@@ -57,7 +57,7 @@ from cosim.driving.gap.decision import (
     mandatory_config,
 )
 from cosim.driving.gap.geometry import GapConfig
-from cosim.driving.gap.yielding import YieldWatch
+from cosim.driving.gap.yielding import MakingRoom, YieldWatch
 from cosim.driving.lane_end import stop_gap
 from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre, Mode
 from cosim.driving.plans import Trigger
@@ -127,6 +127,7 @@ class GapPolicy:
         self.lanes = ctx.lanes
         self._ask_gap = ctx.ports.ask_gap
         self.yielding = YieldWatch()  # the braking of the TVs asked to make room
+        self.room = MakingRoom()  # room it makes for an automated vehicle that asked
         self.held: LaneChange | None = None  # the change flown on the courtesy held
         # the SV's blinker: it signals for the context's notice before it starts a change
         self.blinker = Blinker(ctx.ports.blinker, ctx.notice)
@@ -157,6 +158,10 @@ class GapPolicy:
     def _signal(self, direction: int) -> None:
         """The blinker, set in SUMO only when it changes."""
         self.blinker.set(direction)
+
+    def make_room(self, t: float, vehicle_id: str) -> None:
+        """An automated vehicle asked it (V2V) to open a gap for it (`MakingRoom`)."""
+        self.room.asked(t, vehicle_id)
 
     def ask_gap(self, t: float, tv_id: str) -> None:
         """Ask `tv_id` to make room (the context's port) and, if a channel carries the
@@ -213,6 +218,7 @@ class GapPolicy:
         held acceleration takes the reference across the speed it wants."""
         c, m, f = self.cadence, self.manoeuvre, self.following
         if c is None or m.active is not None or m.mode != Mode.KEEPING or (
+                self.room.requester is not None) or (
                 self.last is not None and self.last.plan_now):  # an entry open: plan soon
             return None
         sv = scene.sv
@@ -239,7 +245,7 @@ class GapPolicy:
         d = self._decide(t, sv, traffic, wants)
         self.seeking_since = (None if d.target_lane is None
                               else (t if self.seeking_since is None else self.seeking_since))
-        self._drive(sv, traffic, wants, d)
+        self._drive(t, sv, traffic, wants, d)
         self.last = d
         if (not wants.mandatory and wants.scripted is None and self.wanted is None
                 and d.target_lane is not None):
@@ -309,13 +315,17 @@ class GapPolicy:
             return None
         return np.fromiter((k in self.refused for k in ids), dtype=bool, count=len(ids))
 
-    def _drive(self, sv: SVState, traffic: TrafficView, wants: _Wants, d: GapDecision
-               ) -> None:
+    def _drive(self, t: float, sv: SVState, traffic: TrafficView, wants: _Wants,
+               d: GapDecision) -> None:
         """The speed it drives this step: the decision's, letting a TV that must merge
-        into its lane ahead of it in (on the mainline beside a lane that ends), and
-        stopping before the end of its own lane."""
+        into its lane ahead of it in (on the mainline beside a lane that ends) and an
+        automated vehicle that asked for room, and stopping before the end of its own
+        lane."""
         following = self.following
         accel = d.accel
+        if self.room.requester is not None:
+            accel = min(accel, self.room.accel(t, sv.x, self.sv_length, following.v_ref,
+                                               wants.lane, traffic, self.lanes, following.cfg))
         if self.ends.any and wants.due is None:
             accel = min(accel, self.ends.yield_accel(
                 following.v_ref, following.desired_speed(wants.lane), wants.lane, sv.x,

@@ -58,3 +58,38 @@ def test_the_braking_counted_on_is_capped_and_a_gone_tv_forgotten() -> None:
     assert hard[0] == MAX_YIELD_DECEL
     assert w.braking(0.5, ("b",), np.array([20.0]))[0] == 0.0
     assert w.braking(0.55, ("a", "b"), np.array([10.0, 20.0]))[0] == 0.0  # watched no more
+
+
+def test_making_room_follows_the_one_that_asked_until_it_is_in() -> None:
+    """Asked for room by an automated vehicle beside it and a little ahead, it brakes
+    (at most COURTESY_DECEL) to open ROOM_TIME_GAP behind it; nothing once that one is
+    in its lane, behind it, gone or the time is up."""
+    from cosim.driving.gap.yielding import ROOM_DURATION, MakingRoom
+    from cosim.driving.layout import LaneLayout
+    from cosim.driving.rule import DecisionConfig
+    from cosim.driving.view import TrafficView
+    from cosim.params import RoadParams
+    from cosim.traffic.cooperation import COURTESY_DECEL
+
+    road = RoadParams()
+    lanes = LaneLayout(road)
+
+    def scene(x: float, lane: int) -> TrafficView:
+        return TrafficView.arrays([x], [road.lane_center(lane)], [25.0], [4.5], [1.8],
+                                  ids=("a",))
+
+    room = MakingRoom()
+    room.asked(1.0, "a")
+    cfg = DecisionConfig()
+    a = room.accel(1.5, 100.0, 4.5, 25.0, 1, scene(106.0, 0), lanes, cfg)
+    assert a == pytest.approx(-COURTESY_DECEL)  # 1 m apart: as hard as the courtesy brakes
+    a = room.accel(1.5, 100.0, 4.5, 25.0, 1, scene(160.0, 0), lanes, cfg)
+    assert -COURTESY_DECEL < a < 1.0  # far ahead: little or nothing to do
+    assert room.requester == "a"
+    assert room.accel(1.6, 100.0, 4.5, 25.0, 1, scene(106.0, 1), lanes, cfg) == np.inf
+    assert room.requester is None  # it is in: the request is over
+    room.asked(2.0, "a")
+    assert room.accel(2.0, 100.0, 4.5, 25.0, 1, scene(95.0, 0), lanes, cfg) == np.inf
+    room.asked(2.0, "a")
+    assert room.accel(2.0 + ROOM_DURATION + 0.1, 100.0, 4.5, 25.0, 1, scene(106.0, 0),
+                      lanes, cfg) == np.inf
