@@ -165,10 +165,10 @@ def test_sumo_drivers_make_room_for_an_automated_vehicle_that_asks(
 
 def test_an_automated_vehicle_asked_for_room_makes_it(tmp_path: Path) -> None:
     """a (lane 0, a slow car ahead) wants lane 1, where b (automated) drives level with
-    it behind a SUMO car 40 m ahead: a asks b for room over V2V (latency, loss), b
-    falls back as SUMO's drivers do for the courtesy (braking 2 m/s^2 at most) and a
-    changes in ahead of it. (b not making room: a slows behind its slow car and ends
-    up behind b.)"""
+    it behind a SUMO car 40 m ahead (lane 2 no faster: b wants no change itself): a
+    asks b for room over V2V (latency, loss), b falls back as SUMO's drivers do for the
+    courtesy (braking 2 m/s^2 at most) and a changes in ahead of it. (b not making
+    room: a slows behind its slow car and ends up behind b.)"""
     keep = 'lcSpeedGain="0" lcKeepRight="0" lcCooperative="0" sigma="0"'
     routes = tmp_path / "room.rou.xml"
     routes.write_text(
@@ -180,6 +180,8 @@ def test_an_automated_vehicle_asked_for_room_makes_it(tmp_path: Path) -> None:
         'departPos="150" departSpeed="12"/>'
         '<vehicle id="c" type="car" route="through" depart="0.5" departLane="1" '
         'departPos="40" departSpeed="20"/>'
+        '<vehicle id="d" type="car" route="through" depart="0.5" departLane="2" '
+        'departPos="60" departSpeed="20"/>'
         '<vehicle id="a" type="av" route="through" depart="0.5" departLane="0" '
         'departPos="5" departSpeed="20"/>'
         '<vehicle id="b" type="av" route="through" depart="0.5" departLane="1" '

@@ -323,7 +323,9 @@ class GapPolicy:
         lane."""
         following = self.following
         accel = d.accel
-        if self.room.requester is not None:
+        if self.room.requester is not None and d.target_lane is None:
+            # (one seeking a gap itself does not also make room: two drivers slowing for
+            # each other's changes ended in a re-check cascade)
             accel = min(accel, self.room.accel(t, sv.x, self.sv_length, following.v_ref,
                                                wants.lane, traffic, self.lanes, following.cfg))
         if self.ends.any and wants.due is None:

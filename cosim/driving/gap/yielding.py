@@ -77,7 +77,8 @@ ROOM_DURATION = 10.0  # s, how long it makes room at most (the courtesy's durati
 @dataclass
 class MakingRoom:
     """An automated vehicle asked by another (over V2V, cosim.run.announcements) to make
-    room: while it keeps its lane it follows the one that asked as its leader, at
+    room: while it keeps its lane (and seeks no gap itself: the gap policy's `_drive`)
+    it follows the one that asked as its leader, at
     ROOM_TIME_GAP and braking at most COURTESY_DECEL, as SUMO's drivers follow the SV
     for the traffic's courtesy; until that one is in its lane or behind it, gone, or
     ROOM_DURATION has passed."""
