@@ -49,7 +49,7 @@ from cosim.scenario import Scenario
 from cosim.traffic.road_view import stretch
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.takeover import Takeovers
-from cosim.traffic.world import Scene, World
+from cosim.traffic.world import SV_ID, Scene, World
 
 if TYPE_CHECKING:
     from cosim.params import RoadParams
@@ -94,9 +94,9 @@ FLEET_COLUMNS: dict[str, str] = {
     "max_long_jerk_mps3": "its peak abs(d(ax)/dt) between steps (m/s^3; cosim: the plant's ax "
                           "of its trace rows; a baseline: SUMO's acceleration)",
     "follower_max_decel_mps2": "its new followers' braking: the largest deceleration of "
-                               "the vehicle behind it on its lane (SUMO's) within 5 s of "
-                               "each of its lane changes in SUMO (m/s^2; NaN: no change, "
-                               "or no follower)",
+                               "the vehicle behind it on its lane within 5 s of each of its "
+                               "lane changes in SUMO, where SUMO drives that vehicle (m/s^2; "
+                               "NaN: no change, or no such follower)",
 }
 
 
@@ -272,7 +272,8 @@ class Fleet:
         observer.hear(self.announcements)
         # s, how long each automated vehicle (the SV too) signals before it changes lanes
         self.notice = notice(v2v.latency, v2v.loss, sc.step) if v2v.mode == "v2v" else 0.0
-        self.watch = FleetWatch(sc.step)  # every fleet vehicle in SUMO's snapshot
+        # every fleet vehicle in SUMO's snapshot (its followers: those SUMO drives)
+        self.watch = FleetWatch(sc.step, (SV_ID, *observer.scripted.ids))
         # gap requests between automated vehicles, over V2V (none in the perception mode)
         self.requests = GapRequests(v2v.latency, v2v.loss,
                                     np.random.default_rng([sc.seed, REQUEST_STREAM]),

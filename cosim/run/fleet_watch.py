@@ -10,7 +10,9 @@ left to SUMO, HANDBACK_DISTANCE before the route's end), so the drivers compare.
 
 Per step `FleetWatch.observe` reads each watched vehicle's row of the road's snapshot
 (lane, s, speed, SUMO's acceleration) and the acceleration of its follower (the nearest
-vehicle behind it on its lane), in one pass over arrays; `collided` counts SUMO's
+vehicle behind it on its lane; none where that follower is one cosim moves, the SV, a
+scripted TV or an AV of ours: SUMO's acceleration of a vehicle moved by moveToXY is not
+its own), in one pass over arrays; `collided` counts SUMO's
 collision onsets with it (caused: it was SUMO's collider). At the end per vehicle: its
 lane changes (changes of its lane in SUMO), its peak jerk (cosim.run.metrics.
 longitudinal_comfort of SUMO's acceleration, as the SUMO-driven SV's), and its new
@@ -80,8 +82,9 @@ class Watched:
 class FleetWatch:
     """The fleet's vehicles in SUMO's snapshot (module docstring)."""
 
-    def __init__(self, dt: float) -> None:
+    def __init__(self, dt: float, moved: tuple[str, ...] = ()) -> None:
         self.dt = dt  # s, SUMO's step
+        self.moved = moved  # the vehicles cosim moves besides the fleet's (SV, scripted TVs)
         self.active: dict[str, Watched] = {}
         self.done: list[Watched] = []
         self._colliding: set[tuple[str, str]] = set()  # SUMO's pairs in the last step
@@ -109,6 +112,10 @@ class FleetWatch:
         behind = (lane[None, :] == lane[rows][:, None]) & (x[None, :] < x[rows][:, None])
         nearest = np.argmax(np.where(behind, x[None, :], -np.inf), axis=1)
         follower = np.where(behind.any(axis=1), -everyone.accel[nearest], np.nan)
+        moved = [index[v] for v in (*self.moved, *(w.id for w in watched if not w.baseline))
+                 if v in index]
+        if moved:  # SUMO's acceleration of a vehicle moved by moveToXY is not its own
+            follower[np.isin(nearest, moved)] = np.nan
         columns = zip(watched, x[rows].tolist(), everyone.speed[rows].tolist(),
                       everyone.accel[rows].tolist(), lane[rows].tolist(), follower.tolist(),
                       everyone.lateral_speed[rows].tolist(), strict=True)

@@ -98,6 +98,10 @@ def test_baselines_are_measured_like_the_fleet(runs: dict[str, Any]) -> None:
         assert 15.0 < metrics["fleet_mean_speed_mps"] < 34.0
         assert np.isfinite(rows["max_long_jerk_mps3"]).all()
         assert (rows["max_long_jerk_mps3"] >= 0).all()
+        # a new follower's braking, SUMO's (not that of a vehicle cosim moves): within
+        # SUMO's emergency deceleration
+        follower = rows["follower_max_decel_mps2"].to_numpy(float)
+        assert (follower[np.isfinite(follower)] <= 9.0).all()
     # a baseline has no trace rows of its own (SUMO drives it)
     assert runs["acc"][0].fleet.traces == [] and runs["cosim"][0].fleet.traces
 
