@@ -35,6 +35,7 @@ from cosim.road.tracks import (
     Track,
     TrackPiece,
     follow_tracks,
+    lane_turn,
     lateral_jump,
     reference_tracks,
 )
@@ -133,6 +134,10 @@ def _straight(route: Route, reference: Track) -> bool:
     return all(len(s) == 2 and s[0][1] == s[1][1] and s[1][0] > s[0][0] for s in shapes)
 
 
+# rad: a turn across one junction that makes it a corner rather than a curve's kink
+CORNER_TURN = math.radians(15.0)
+
+
 def _where_on(route: Route, track: Track, x: float, y: float) -> str:
     """Which of the track's SUMO lanes (x, y) lies on, in words; where a junction's lane
     meets an edge's, the junction (a refusal's place is mostly a kink there)."""
@@ -154,10 +159,23 @@ def _where_on(route: Route, track: Track, x: float, y: float) -> str:
     after = next((p for p in track.pieces[i + 1:] if not p.internal), None)
     if before is None or after is None:
         return said
-    step = lateral_jump(route.net.getLane(before.lane), route.net.getLane(after.lane))
+    a, b = route.net.getLane(before.lane), route.net.getLane(after.lane)
+    step = lateral_jump(a, b)
     # a sideways step is what no smoothing can follow (lanes re-spread at a junction)
-    return said + (f", across which SUMO's lane steps {step:.1f} m sideways"
-                   if step >= 0.05 else "")
+    if step >= 0.05:
+        said += f", across which SUMO's lane steps {step:.1f} m sideways"
+    turn = lane_turn(a, b)
+    if turn >= CORNER_TURN:
+        # a junction drawn as a corner (a ramp meeting its acceleration lane at 40
+        # degrees within a few metres): SUMO moves its vehicles along the lanes' shapes,
+        # so it drives a bend no frame across the route's lanes can follow
+        inside = sum(p.length for p in track.pieces[i:] if p.internal
+                     and p.route_index == k)
+        said += (f", a corner: SUMO's junction turns the lane by "
+                 f"{math.degrees(turn):.0f} degrees within {inside:.1f} m (R "
+                 f"{inside / turn:.1f} m), which SUMO's vehicles follow along its shape, "
+                 f"having no turning circle")
+    return said
 
 
 def reference_lanes(ref: Track, lead: LeadIn | None) -> dict[str, tuple[TrackPiece, float]]:

@@ -123,6 +123,15 @@ def lateral_jump(from_lane: Any, to_lane: Any) -> float:
     return abs(tx * (qy - y1) - ty * (qx - x1)) / norm
 
 
+def lane_turn(from_lane: Any, to_lane: Any) -> float:
+    """rad, by how much the heading of `to_lane`'s first segment turns from that of
+    `from_lane`'s last segment (0 to pi)."""
+    (x0, y0), (x1, y1) = from_lane.getShape()[-2:]
+    (x2, y2), (x3, y3) = to_lane.getShape()[:2]
+    turn = math.atan2(y3 - y2, x3 - x2) - math.atan2(y1 - y0, x1 - x0)
+    return abs(math.remainder(turn, 2.0 * math.pi))
+
+
 def _continuations(net: Any, a: Any, b: Any) -> dict[int, tuple[int, list[Any]]]:
     """From-lane index -> (to-lane index, junction lanes between) for the lanes of edge
     `a` that continue on edge `b`: one-to-one, by the smallest lateral jump."""
