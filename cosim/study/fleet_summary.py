@@ -12,6 +12,8 @@ import math
 import numpy as np
 import pandas as pd
 
+from cosim.study.intervals import mean_ci
+
 # metrics.csv columns summarised as means (those present in the runs)
 FLEET_MEANS = (
     "fleet_vehicles", "fleet_lane_changes", "fleet_collisions", "fleet_caused_collisions",
@@ -47,7 +49,6 @@ def _column(ok: pd.DataFrame, name: str) -> np.ndarray | None:
 def fleet_summary(ok: pd.DataFrame) -> dict[str, float]:
     """`<name>_mean`, `_ci_low`, `_ci_high` (Student-t, 95 %; NaN below two finite runs)
     and `_n` (runs with a finite value) for each of FLEET_MEANS and RATIOS the runs have."""
-    from cosim.study.summary import mean_ci
 
     out: dict[str, float] = {}
     for name in (*FLEET_MEANS, *RATIOS):

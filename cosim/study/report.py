@@ -14,8 +14,9 @@ import pandas as pd
 
 from cosim.output import atomic_write_csv, atomic_write_text
 from cosim.run.metrics import FOLLOWER_PERCENTILE
+from cosim.study.intervals import CONFIDENCE
 from cosim.study.run_table import NO_PLANT
-from cosim.study.summary import CONFIDENCE, summarize
+from cosim.study.summary import summarize
 
 
 def write_report(runs: pd.DataFrame, out_dir: Path, *, title: str, plots: bool,

@@ -12,9 +12,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from cosim.study.intervals import mean_ci, median_ci, wilson
 from cosim.study.report import summary_markdown
 from cosim.study.run_table import RunStatus
-from cosim.study.summary import mean_ci, median_ci, summarize, wilson
+from cosim.study.summary import summarize
 
 
 def test_wilson_interval_matches_published_values() -> None:

@@ -224,8 +224,6 @@ def test_our_sv_on_the_acceleration_lane_is_moved_there_and_merges_by_a_scripted
 
 
 @pytest.mark.parametrize(("change", "message"), [
-    ({"route": '["ramp", "acc", "main1"]', "edge": '"ramp"'},
-     r"a route whose lanes can be smoothed to a radius of at least 100 m .* on edge ramp"),
     ({"route": '["main0", "acc", "main1", "main2"]', "edge": '"acc"'},
      "lane 0 of 'acc' begins along the route"),
     ({"lane_speeds_kmh": "[[60, 90], [90, 110]]"},

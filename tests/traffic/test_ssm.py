@@ -143,17 +143,20 @@ def test_sumos_ttc_for_the_sv_against_ours_on_a_close_pass(overtaking: dict[str,
 
 def test_sumos_ttc_for_the_sv_against_ours_in_dense_traffic(dense: dict[str, Any]) -> None:
     """Every conflict of the SV's device in dense traffic is a following one; at SUMO's
-    minimum ours is within 2 % of SUMO's (a step's closing in the gap, and SUMO's two
-    decimals), and over the encounter ours is never above SUMO's minimum (ours sees the
-    TV until the SV's rectangle leaves its strip)."""
+    minimum ours is within 2 % of SUMO's (SUMO's two decimals) plus one step's change of
+    our TTC (SUMO's SSM sees the pair a step apart: where the TTC still falls fast, as in
+    an encounter the run's end cuts off, that step is most of the difference), and over
+    the encounter ours is never above SUMO's minimum by more (ours sees the TV until the
+    SV's rectangle leaves its strip)."""
     table = dense["result"].conflicts
     assert len(table) >= 2 and table.sv.all() and (table.ego == "sv").all()
     assert set(table.ttc_min_type) <= {"following_follower", "following_leader"}
     for row in table.itertuples():
         ours = _ours(dense, row.foe, row.begin_s, row.end_s)
-        at = ours[np.argmin(np.abs(ours[:, 0] - row.ttc_min_t_s))]
-        assert at[1] == pytest.approx(row.ttc_min_s, rel=0.02), row.foe
-        assert ours[:, 1].min() <= row.ttc_min_s + 0.01 * row.ttc_min_s
+        k = int(np.argmin(np.abs(ours[:, 0] - row.ttc_min_t_s)))
+        step = abs(ours[k, 1] - ours[k - 1, 1]) if k > 0 else 0.0  # s, our TTC's last step
+        assert abs(ours[k, 1] - row.ttc_min_s) <= 0.02 * row.ttc_min_s + step, row.foe
+        assert ours[:, 1].min() <= 1.01 * row.ttc_min_s + step
 
 
 def test_bad_ssm_keys_are_refused_in_one_line() -> None:
