@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from cosim.commands import count, seconds
+from cosim.commands import count, number_list, seconds
 from cosim.scenario import Scenario, load_scenario, project_root, with_overrides
 
 DEFAULT_FLEET = "scenarios/fleet_share20.toml"
@@ -42,37 +42,21 @@ N_TARGETS = {"marginal CPU per AV and step (us)": "<= 60 (at N = 20 and 100)",
 FILL_LIMIT = 150.0  # s simulated, at most, for the inflow to bring N AVs
 
 
-def _shares(text: str) -> tuple[float, ...]:
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if not values or not all(0.0 <= v <= 1.0 for v in values):
-        raise argparse.ArgumentTypeError(
-            f"--shares {text!r}: comma-separated shares in [0, 1], e.g. 0,0.1,0.2")
-    return values
-
-
-def _avs(text: str) -> tuple[int, ...]:
-    try:
-        values = tuple(int(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if not values or not all(1 <= v <= 1000 for v in values):
-        raise argparse.ArgumentTypeError(
-            f"--avs {text!r}: comma-separated numbers of AVs in [1, 1000], e.g. 1,10,20")
-    return values
+avs_flag = number_list("--avs", int, 1, 1000, "numbers of AVs", "1,10,20")
+shares_flag = number_list("--shares", float, 0.0, 1.0, "shares", "0,0.1,0.2")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", type=Path, default=None,
                         help=f"the fleet scenario (default {DEFAULT_FLEET})")
-    parser.add_argument("--avs", type=_avs, default=DEFAULT_AVS,
+    parser.add_argument("--avs", default=DEFAULT_AVS,
+                        type=avs_flag,
                         help="comma-separated numbers of AVs driving at once "
                              "(default 1,10,20,50,100)")
     parser.add_argument("--window", type=seconds("--window"), default=5.0,
                         help="simulated seconds measured once N AVs drive (default 5)")
-    parser.add_argument("--shares", type=_shares, default=None,
+    parser.add_argument("--shares", default=None,
+                        type=shares_flag,
                         help="instead of --avs: comma-separated [fleet] shares over the "
                              "scenario's whole run, e.g. 0,0.1,0.2,0.4")
     parser.add_argument("--duration", type=seconds("--duration"), default=30.0,

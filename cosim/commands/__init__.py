@@ -104,6 +104,22 @@ def seconds(key: str, hi: float = 3600.0) -> Callable[[str], Any]:
     return flag_type(Field(key, float, lo=0.0, hi=hi, lo_open=True, unit="s", default=None))
 
 
+def number_list(key: str, kind: type, lo: float, hi: float, what: str,
+                example: str) -> Callable[[str], tuple[Any, ...]]:
+    """A comma-separated flag of `kind` numbers in [lo, hi] (`what` they are)."""
+    def convert(text: str) -> tuple[Any, ...]:
+        try:
+            values = tuple(kind(v) for v in text.split(","))
+        except ValueError:
+            values = ()
+        if not values or not all(lo <= v <= hi for v in values):
+            raise argparse.ArgumentTypeError(
+                f"{key} {text!r}: comma-separated {what} in [{lo:g}, {hi:g}], e.g. {example}")
+        return values
+
+    return convert
+
+
 RESULTS = Path("results")  # default outputs: under the current directory, as a user expects
 
 

@@ -9,12 +9,12 @@ import pytest
 
 from cosim.bench.fleet import (
     PARTS,
-    _avs,
-    _shares,
+    avs_flag,
     fleet_floor,
     fleet_window_run,
     measure_avs,
     part_split,
+    shares_flag,
 )
 from cosim.scenario import load_scenario, project_root, with_overrides
 
@@ -31,10 +31,10 @@ def test_a_short_fleet_run_and_its_part_split() -> None:
 
 
 def test_shares_flag() -> None:
-    assert _shares("0,0.1,0.4") == (0.0, 0.1, 0.4)
+    assert shares_flag("0,0.1,0.4") == (0.0, 0.1, 0.4)
     for bad in ("", "0,x", "1.5", "-0.1"):
         with pytest.raises(argparse.ArgumentTypeError, match="in \\[0, 1\\]"):
-            _shares(bad)
+            shares_flag(bad)
 
 
 def test_fixed_numbers_of_avs_beside_their_floor() -> None:
@@ -60,7 +60,7 @@ def test_fixed_numbers_of_avs_beside_their_floor() -> None:
 
 
 def test_avs_flag() -> None:
-    assert _avs("1,10,100") == (1, 10, 100)
+    assert avs_flag("1,10,100") == (1, 10, 100)
     for bad in ("", "0", "1,x", "2.5"):
         with pytest.raises(argparse.ArgumentTypeError, match="in \\[1, 1000\\]"):
-            _avs(bad)
+            avs_flag(bad)

@@ -4,6 +4,7 @@ rows per vehicle, fleet.csv; the same seed, the same fleet."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -15,22 +16,11 @@ from cosim.run.fleet import FLEET_COLUMNS, HANDBACK_DISTANCE, TAKEOVER_CLEARANCE
 from cosim.run.loop import run_scenario, simulate
 from cosim.run.result import RunResult
 from cosim.scenario import scenario_from_dict
-from cosim.traffic.network import build_network
+
+sys.path.insert(0, str(Path(__file__).parent))
+from short_highway import short_highway  # noqa: E402
 
 ROAD_LENGTH = 900.0  # m: an AV inserted at the start reaches the hand-back within the run
-
-
-def short_highway(folder: Path) -> Path:
-    """The shipped highway's three lanes, ROAD_LENGTH m long."""
-    (folder / "short.nod.xml").write_text(
-        f'<nodes><node id="start" x="0.0" y="11.25" type="priority"/>'
-        f'<node id="end" x="{ROAD_LENGTH}" y="11.25" type="priority"/></nodes>')
-    (folder / "short.edg.xml").write_text(
-        '<edges><edge id="highway" from="start" to="end" numLanes="3" width="3.75" '
-        'spreadType="right"><lane index="0" speed="25.0"/>'
-        '<lane index="1" speed="30.555555555555557"/>'
-        '<lane index="2" speed="33.333333333333336"/></edge></edges>')
-    return build_network(folder, "short")
 
 
 def fleet_doc(network: Path, **fleet: Any) -> dict[str, Any]:
@@ -49,7 +39,7 @@ def fleet_doc(network: Path, **fleet: Any) -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def network(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return short_highway(tmp_path_factory.mktemp("net"))
+    return short_highway(tmp_path_factory.mktemp("net"), ROAD_LENGTH)
 
 
 @pytest.fixture(scope="module")

@@ -8,6 +8,7 @@ one that asks."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -18,24 +19,13 @@ import pytest
 from cosim.run.loop import simulate
 from cosim.run.result import RunResult
 from cosim.scenario import scenario_from_dict
-from cosim.traffic.network import build_network
+
+sys.path.insert(0, str(Path(__file__).parent))
+from short_highway import short_highway  # noqa: E402
 
 ROAD_LENGTH = 1200.0  # m
 LATENCY = 0.1  # s
 LOSS = 0.2
-
-
-def highway(folder: Path) -> Path:
-    """The shipped highway's three lanes, ROAD_LENGTH m long."""
-    (folder / "pairs.nod.xml").write_text(
-        f'<nodes><node id="start" x="0.0" y="11.25" type="priority"/>'
-        f'<node id="end" x="{ROAD_LENGTH}" y="11.25" type="priority"/></nodes>')
-    (folder / "pairs.edg.xml").write_text(
-        '<edges><edge id="highway" from="start" to="end" numLanes="3" width="3.75" '
-        'spreadType="right"><lane index="0" speed="25.0"/>'
-        '<lane index="1" speed="30.555555555555557"/>'
-        '<lane index="2" speed="33.333333333333336"/></edge></edges>')
-    return build_network(folder, "pairs")
 
 
 def demand(folder: Path, avs: dict[str, tuple[int, float]]) -> Path:
@@ -74,7 +64,7 @@ def pair_doc(network: Path, routes: Path) -> dict[str, Any]:
 
 
 def run_pair(folder: Path, avs: dict[str, tuple[int, float]]) -> RunResult:
-    network = highway(folder)
+    network = short_highway(folder, ROAD_LENGTH)
     doc = pair_doc(network, demand(folder, avs))
     return simulate(scenario_from_dict(doc, path=folder / "pairs.toml"))
 
@@ -125,25 +115,33 @@ def test_one_gap_two_in_one_lane_go_in_turn(one_gap: RunResult) -> None:
     assert (adopted["target_lane"] == 1).all()
 
 
-def platoon_doc(folder: Path, courtesy: bool) -> dict[str, Any]:
-    """One AV in lane 0 behind a slow car; lane 1 a platoon of SUMO's drivers 30 m
-    apart at 22 m/s (no gap an AV takes unasked); lane 2 empty."""
-    keep = 'lcSpeedGain="0" lcKeepRight="0" sigma="0"'
-    routes = folder / "platoon.rou.xml"
+def slow_car_doc(folder: Path, name: str, keep: str, car_speed: float,
+                 vehicles: str) -> dict[str, Any]:
+    """A scene of `vehicles` (route file XML: "car" SUMO drivers at car_speed m/s, "av"
+    automated at 20) with a slow car (12 m/s) 150 m in, in lane 0; SUMO's lane-change
+    attributes `keep` on every vType; the SV out of the way in lane 2, 14 s."""
+    routes = folder / f"{name}.rou.xml"
     routes.write_text(
         f'<routes><vType id="slow" length="4.5" width="1.8" maxSpeed="12" {keep}/>'
-        f'<vType id="car" length="4.5" width="1.8" maxSpeed="22" {keep}/>'
+        f'<vType id="car" length="4.5" width="1.8" maxSpeed="{car_speed:g}" {keep}/>'
         f'<vType id="av" length="4.6" width="1.9" maxSpeed="20" {keep}/>'
         '<route id="through" edges="highway"/>'
         '<vehicle id="slow0" type="slow" route="through" depart="0" departLane="0" '
-        'departPos="150" departSpeed="12"/>'
-        '<flow id="platoon" type="car" route="through" begin="0" end="30" period="1.364" '
-        'departLane="1" departPos="0" departSpeed="22"/>'
-        '<vehicle id="a" type="av" route="through" depart="0.5" departLane="0" '
-        'departPos="0" departSpeed="20"/></routes>')
-    doc = pair_doc(highway(folder), routes)
+        f'departPos="150" departSpeed="12"/>{vehicles}</routes>')
+    doc = pair_doc(short_highway(folder, ROAD_LENGTH), routes)
     doc["sv"] = {"lane": 2, "position_m": 500.0, "speed_kmh": 110.0}
     doc["scenario"]["duration_s"] = 14.0
+    return doc
+
+
+def platoon_doc(folder: Path, courtesy: bool) -> dict[str, Any]:
+    """One AV in lane 0 behind a slow car; lane 1 a platoon of SUMO's drivers 30 m
+    apart at 22 m/s (no gap an AV takes unasked); lane 2 empty."""
+    doc = slow_car_doc(folder, "platoon", 'lcSpeedGain="0" lcKeepRight="0" sigma="0"', 22,
+                       '<flow id="platoon" type="car" route="through" begin="0" end="30" '
+                       'period="1.364" departLane="1" departPos="0" departSpeed="22"/>'
+                       '<vehicle id="a" type="av" route="through" depart="0.5" departLane="0" '
+                       'departPos="0" departSpeed="20"/>')
     doc["traffic"]["courtesy"] = courtesy
     return doc
 
@@ -169,26 +167,16 @@ def test_an_automated_vehicle_asked_for_room_makes_it(tmp_path: Path) -> None:
     asks b for room over V2V (latency, loss), b falls back as SUMO's drivers do for the
     courtesy (braking 2 m/s^2 at most) and a changes in ahead of it. (b not making
     room: a slows behind its slow car and ends up behind b.)"""
-    keep = 'lcSpeedGain="0" lcKeepRight="0" lcCooperative="0" sigma="0"'
-    routes = tmp_path / "room.rou.xml"
-    routes.write_text(
-        f'<routes><vType id="slow" length="4.5" width="1.8" maxSpeed="12" {keep}/>'
-        f'<vType id="car" length="4.5" width="1.8" maxSpeed="20" {keep}/>'
-        f'<vType id="av" length="4.6" width="1.9" maxSpeed="20" {keep}/>'
-        '<route id="through" edges="highway"/>'
-        '<vehicle id="slow0" type="slow" route="through" depart="0" departLane="0" '
-        'departPos="150" departSpeed="12"/>'
-        '<vehicle id="c" type="car" route="through" depart="0.5" departLane="1" '
-        'departPos="40" departSpeed="20"/>'
-        '<vehicle id="d" type="car" route="through" depart="0.5" departLane="2" '
-        'departPos="60" departSpeed="20"/>'
-        '<vehicle id="a" type="av" route="through" depart="0.5" departLane="0" '
-        'departPos="5" departSpeed="20"/>'
-        '<vehicle id="b" type="av" route="through" depart="0.5" departLane="1" '
-        'departPos="0" departSpeed="20"/></routes>')
-    doc = pair_doc(highway(tmp_path), routes)
-    doc["sv"] = {"lane": 2, "position_m": 500.0, "speed_kmh": 110.0}
-    doc["scenario"]["duration_s"] = 14.0
+    doc = slow_car_doc(tmp_path, "room", 'lcSpeedGain="0" lcKeepRight="0" lcCooperative="0" '
+                       'sigma="0"', 20,
+                       '<vehicle id="c" type="car" route="through" depart="0.5" departLane="1" '
+                       'departPos="40" departSpeed="20"/>'
+                       '<vehicle id="d" type="car" route="through" depart="0.5" departLane="2" '
+                       'departPos="60" departSpeed="20"/>'
+                       '<vehicle id="a" type="av" route="through" depart="0.5" departLane="0" '
+                       'departPos="5" departSpeed="20"/>'
+                       '<vehicle id="b" type="av" route="through" depart="0.5" departLane="1" '
+                       'departPos="0" departSpeed="20"/>')
     result = simulate(scenario_from_dict(doc, path=tmp_path / "room.toml"))
     no_collision(result)
     traces = {vid: trace for vid, trace, _ in result.fleet.traces}

@@ -4,6 +4,7 @@ each measured in fleet.csv's columns and metrics.csv's fleet_* alike."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +18,9 @@ from cosim.run.fleet import FLEET_COLUMNS, FLEET_METRIC_DOCS
 from cosim.run.loop import CoSimulation
 from cosim.run.result import RunResult
 from cosim.scenario import scenario_from_dict
-from cosim.traffic.network import build_network
+
+sys.path.insert(0, str(Path(__file__).parent))
+from short_highway import short_highway  # noqa: E402
 
 ROAD_LENGTH = 900.0  # m
 DRIVERS = ("cosim", "sumo", "acc", "cacc")
@@ -39,15 +42,7 @@ def doc(network: Path, driver: str, controller: str = "mimo") -> dict[str, Any]:
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[RunResult, set[str]]]:
     """One run per driver; beside each, the vTypes SUMO had the drawn vehicles in."""
     folder = tmp_path_factory.mktemp("net")
-    (folder / "short.nod.xml").write_text(
-        f'<nodes><node id="start" x="0.0" y="11.25" type="priority"/>'
-        f'<node id="end" x="{ROAD_LENGTH}" y="11.25" type="priority"/></nodes>')
-    (folder / "short.edg.xml").write_text(
-        '<edges><edge id="highway" from="start" to="end" numLanes="3" width="3.75" '
-        'spreadType="right"><lane index="0" speed="25.0"/>'
-        '<lane index="1" speed="30.555555555555557"/>'
-        '<lane index="2" speed="33.333333333333336"/></edge></edges>')
-    network = build_network(folder, "short")
+    network = short_highway(folder, ROAD_LENGTH)
     out = {}
     for driver in DRIVERS:
         sim = CoSimulation(scenario_from_dict(doc(network, driver),
