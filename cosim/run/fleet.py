@@ -404,11 +404,7 @@ class Fleet:
         y0 = self.road.lane_center(track)
         ego = AutomatedEgo(sc, world, vid, (s, d, rel), v, t,
                            lane_keeping_reference(t, s, y0, v, 0.0))
-        # the SV's driver without what is the SV's own: its start, its scripted requests,
-        # its desired speed; an AV decides its lane changes (the decision rule), wanting
-        # its lane's limit
-        av_sc = replace(sc, sv=replace(sc.sv, lane=track, speed=v, lane_changes=(),
-                                       desired_speed=None, decision=True))
+        av_sc = driver_scenario(sc, track, v)
         number = len(self.active) + len(self.done)
         # its gap requests to SUMO's drivers: the traffic's courtesy and cooperative V2V,
         # as the SV's (SUMO's own lane changers get that courtesy from SUMO; a vehicle
@@ -478,3 +474,15 @@ class Fleet:
                 speed = (speed[0] + float(np.sum(w.speed)), speed[1] + len(w.speed))
         rows.sort(key=lambda r: r["vehicle_id"])
         return FleetResult(traces, rows, plans, speed)
+
+
+def driver_scenario(sc: Scenario, lane: int, speed: float) -> Scenario:
+    """An AV's driver: the SV's without what is the SV's own (its start, its scripted
+    requests, its desired speed; it decides its lane changes by the decision rule, wanting
+    its lane's limit), re-checking its change under way whatever `[planner] replanning`
+    says (the paper's one-shot plan is the SV's to reproduce; flown blind, an AV's change
+    of up to 10 s ran into SUMO's car ahead that braked and cut into the target lane
+    meanwhile). `lane`: its SUMO lane index, `speed` (m/s) its speed at the takeover."""
+    return replace(sc, sv=replace(sc.sv, lane=lane, speed=speed, lane_changes=(),
+                                  desired_speed=None, decision=True),
+                   planner=replace(sc.planner, replanning=True))

@@ -379,7 +379,8 @@ class FleetSpec:
         default_doc="none: no limit"), None)
     driver: str = declare(Field(
         "driver", str, choices=FLEET_DRIVERS, default="cosim", override="fleet_driver",
-        doc="who drives the vehicles drawn automated: `cosim` (the scenario's driver) or a "
+        doc="who drives the vehicles drawn automated: `cosim` (the scenario's driver, "
+            "re-checking its lane change under way whatever `planner.replanning` says) or a "
             "baseline at the same share, the same vehicles: `sumo` (SUMO's own driver, "
             "only marked), `acc` / `cacc` (SUMO with its ACC / CACC car-following model: "
             "their vType switched to a copy with it); each measured alike in fleet.csv "

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cosim.run.fleet import FLEET_COLUMNS, HANDBACK_DISTANCE, TAKEOVER_CLEARANCE
+from cosim.run.fleet import FLEET_COLUMNS, HANDBACK_DISTANCE, TAKEOVER_CLEARANCE, driver_scenario
 from cosim.run.loop import run_scenario, simulate
 from cosim.run.result import RunResult
 from cosim.scenario import scenario_from_dict
@@ -106,6 +106,20 @@ def test_trace_has_every_vehicle_by_time_then_id_and_fleet_csv(
     assert metrics["fleet_vehicles"] == len(fleet)
     assert metrics["fleet_lane_changes"] == fleet["lane_changes"].sum()
     assert metrics["fleet_caused_collisions"] == 0 and metrics["fleet_teleported"] == 0
+
+
+def test_an_automated_vehicles_driver_rechecks_its_change_under_way(
+        network: Path, tmp_path: Path) -> None:
+    # [planner] replanning off (the paper's one-shot plan, the SV's): an AV re-checks all
+    # the same (flown blind, penetration_open's AVs at 24 veh/km/lane ran into SUMO's car
+    # ahead that braked and cut into their target lane during their 7 s change)
+    sc = scenario_from_dict(fleet_doc(network, share=0.4), path=tmp_path / "fleet.toml")
+    assert not sc.planner.replanning
+    av = driver_scenario(sc, 2, 25.0)
+    assert av.planner.replanning and av.sv.decision
+    assert (av.sv.lane, av.sv.speed, av.sv.lane_changes, av.sv.desired_speed) == (
+        2, 25.0, (), None)
+    assert av.planner.policy == sc.planner.policy
 
 
 def test_no_fleet_writes_what_it_always_wrote(network: Path, tmp_path: Path) -> None:
