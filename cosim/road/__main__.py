@@ -34,6 +34,12 @@ def main(argv: list[str] | None = None) -> int:
           f"smallest radius {radius} (SUMO's largest kink "
           f"{math.degrees(q.max_kink):.2f} deg, smoothing length {q.smoothing_length:.1f} m"
           f"{'; a coarse curve, smoothed beyond max_deviation' if q.coarse else ''})")
+    for sh in road.shifts:
+        lo, hi = sh.window
+        print(f"SUMO's lanes step {abs(sh.jump):.2f} m to the "
+              f"{'left' if sh.jump > 0 else 'right'} at s {sh.s:.1f} m: the frame shifts "
+              f"with them from s {lo:.1f} to {hi:.1f} m (its lanes' deviation is measured "
+              "outside)")
     for t in road.lanes:
         lanes = " ".join(f"{p.lane}[{p.index}]" for p in t.track.pieces if not p.internal)
         ref = " (reference)" if t.track is road.reference else ""

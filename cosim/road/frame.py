@@ -60,6 +60,14 @@ unsmoothed, already leaves by more than `max_deviation` (a kink too sharp for th
 spline: lanes that jump sideways at a junction; named where the line first leaves it).
 The deviation is the Hausdorff distance between the smoothed line and SUMO's polyline.
 
+Where SUMO's lanes step sideways at a junction (netconvert re-spreads them at a
+lane-count change: `cosim.road.road.lateral_steps`), the line is smoothed with the steps
+taken out and then shifted sideways with them (`shifted`): across each junction by a
+quintic smootherstep (`LateralShift`), curvature continuous, as long as a curve of the
+radius the speed limit needs, so that every lane keeps its d and lies on SUMO's lane
+before and after the step, half the step off it at the junction; the lanes' deviation is
+measured outside those windows.
+
 On a one-edge straight road along +x (`StraightFrame`) the frame is the identity up to
 an offset: s = x - x0 and d = y - y0, with (x0, y0) the start of the reference lane's
 right border (0, 0 on networks/highway.net.xml, where s = x and d = y exactly).
@@ -68,7 +76,7 @@ right border (0, 0 on networks/highway.net.xml, where s = x and d = y exactly).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -574,13 +582,15 @@ def _arc_spline(points: Array, h: float, extension: float) -> tuple[Array, ...]:
 
 
 def deviation(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
-              centre: Callable[[Array], Array] | None = None) -> float:
+              centre: Callable[[Array], Array] | None = None,
+              skip: Sequence[tuple[float, float]] = ()) -> float:
     """m, Hausdorff distance between a SUMO polyline (rows x, y) and the frame's line
     d = centre(s) (default: the reference line) over the polyline's extent: each of the
     polyline's points (every <= 0.5 m, its vertices included) against the line (|d -
     centre(s)|, exact where centre is constant), each of the line's points (every 0.5 m)
-    against the polyline's nearby segments."""
-    return _distances(frame, polyline, centre)[0]
+    against the polyline's nearby segments; none of them within a `skip` range of s (m:
+    where the line shifts sideways as SUMO's lanes step, `LateralShift.window`)."""
+    return _distances(frame, polyline, centre, skip)[0]
 
 
 def departure(frame: StraightFrame | ArcFrame, polyline: ArrayLike, bound: float
@@ -599,7 +609,8 @@ def departure(frame: StraightFrame | ArcFrame, polyline: ArrayLike, bound: float
 
 
 def _distances(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
-               centre: Callable[[Array], Array] | None
+               centre: Callable[[Array], Array] | None,
+               skip: Sequence[tuple[float, float]] = ()
                ) -> tuple[float, tuple[Array, Array], tuple[Array, Array]]:
     """`deviation` and, each in order along its line, the polyline's points with their
     distances from the frame's line and the line's points with their distances from
@@ -611,6 +622,8 @@ def _distances(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
     s0, _ = frame.to_frenet(dense[0, 0], dense[0, 1])
     s_raw, d_raw = frame.to_frenet(dense[:, 0], dense[:, 1], s_hint=s0 + along)
     off_line = np.abs(d_raw - line_d(s_raw))
+    for lo, hi in skip:
+        off_line[(s_raw >= lo) & (s_raw <= hi)] = 0.0
     if np.isnan(s_raw).any():
         return math.inf, (dense, off_line), (np.empty((0, 2)), np.empty(0))
     one = float(off_line.max())
@@ -626,8 +639,79 @@ def _distances(frame: StraightFrame | ArcFrame, polyline: ArrayLike,
     t = np.clip(np.einsum("ijk,ijk->ij", w, v) / np.maximum(np.einsum("ijk,ijk->ij", v, v),
                                                               1e-300), 0.0, 1.0)
     off_poly = np.hypot(*(w - t[..., None] * v).transpose(2, 0, 1)).min(axis=1)
+    for lo, hi in skip:
+        off_poly[(knots >= lo) & (knots <= hi)] = 0.0
     other = float(off_poly.max(initial=0.0))
     return max(one, other), (dense, off_line), (np.stack((kx, ky), axis=-1), off_poly)
+
+
+SMOOTHERSTEP_PEAK = 10.0 / math.sqrt(3.0)  # largest |S''| of S(u) = 6u^5 - 15u^4 + 10u^3
+
+
+@dataclass(frozen=True)
+class LateralShift:
+    """Where the reference lane steps sideways at a junction (lanes re-spread at a
+    lane-count change) and how the reference line shifts with it: by `jump` m to the
+    left, along a quintic smootherstep over `length` m centred on the junction (its
+    curvature continuous, zero at both ends, at most SMOOTHERSTEP_PEAK jump / length^2)."""
+
+    s: float  # m, the junction's middle along the frame
+    jump: float  # m, + to the left
+    length: float  # m, over which the line shifts
+
+    @property
+    def window(self) -> tuple[float, float]:
+        """m, the s range over which the line shifts."""
+        return self.s - 0.5 * self.length, self.s + 0.5 * self.length
+
+    def offset(self, s: ArrayLike) -> Any:
+        """m, how far the line has shifted at s (0 before the window, `jump` after)."""
+        u = np.clip((np.asarray(s, dtype=np.float64) - self.s) / self.length + 0.5, 0.0, 1.0)
+        return self.jump * u * u * u * (10.0 + u * (6.0 * u - 15.0))
+
+
+def shifted(frame: ArcFrame, steps: Sequence[tuple[float, float, float]], raw: Array,
+            radius: float, limits: FrameLimits = DEFAULT_LIMITS
+            ) -> tuple[ArcFrame, tuple[LateralShift, ...]]:
+    """The frame of a line that follows `frame`'s reference line but shifts sideways at
+    each step (x, y of a junction's middle on that line, jump m to the left) as a
+    `LateralShift` long enough that the shift alone bends no tighter than `radius` m
+    (lengthened, up to 4 times, where it would bring the line's smallest radius below
+    90 % of the least of `radius` and the unshifted line's); s = 0 at `raw`'s first
+    point (SUMO's polyline with its steps) and the route's end at its last. The shifts
+    come back with their s in the new frame."""
+    h = limits.spacing
+    s_of = [float(frame.to_frenet(x, y)[0]) for x, y, _ in steps]
+    core = np.arange(0.0, frame.length + 0.5 * h, h)
+    goal = RADIUS_SHARE * min(frame.quality.min_radius, radius)
+    built: tuple[ArcFrame, list[LateralShift]] | None = None
+    for longer in (1.0, 2.0, 4.0, 8.0):
+        shifts = [LateralShift(s, jump, math.sqrt(SMOOTHERSTEP_PEAK * abs(jump) * radius
+                                                  * longer))
+                  for s, (_, _, jump) in zip(s_of, steps, strict=True)]
+        offset = sum((sh.offset(core) for sh in shifts), np.zeros_like(core))
+        x, y, _ = frame.to_cartesian(core, frame.d_offset + offset)
+        moved = _frame_of(np.column_stack((x, y)), raw, limits, frame.d_offset,
+                          frame.quality.smoothing_length)
+        built = moved, shifts
+        if moved.quality.min_radius >= goal:
+            break
+    assert built is not None
+    moved, shifts = built
+    quality = FrameQuality(frame.quality.max_deviation, moved.quality.min_radius,
+                           frame.quality.smoothing_length, frame.quality.max_kink,
+                           frame.quality.coarse)
+    out = ArcFrame(ArcTable(moved.s_min, h, moved.x, moved.y, moved.theta, moved.kappa),
+                   frame.d_offset, moved.length, limits.extension, quality)
+    # each shift's middle and length as the new frame measures them
+    placed = []
+    for sh in shifts:
+        ends = np.array([*sh.window, sh.s])
+        px, py, _ = frame.to_cartesian(ends, frame.d_offset
+                                       + sum((o.offset(ends) for o in shifts), np.zeros(3)))
+        (a, b, mid), _ = out.to_frenet(px, py, s_hint=ends)
+        placed.append(LateralShift(float(mid), sh.jump, float(b - a)))
+    return out, tuple(placed)
 
 
 def _frame_of(points: Array, raw: Array, limits: FrameLimits, d_offset: float,

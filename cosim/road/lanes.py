@@ -12,6 +12,7 @@ inside the route hold their first (last) edge's offset.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -89,9 +90,12 @@ class LaneTable:
 
 
 def lane_tables(tracks: tuple[Track, ...], reference: dict[str, tuple[TrackPiece, float]],
-                frame: Any, net: Any) -> tuple[LaneTable, ...]:
+                frame: Any, net: Any, skip: Sequence[tuple[float, float]] = ()
+                ) -> tuple[LaneTable, ...]:
     """Every track's table in `frame`; `reference`: route edge id -> (the reference lane
-    on it, d of its centre) (cosim.road.road.reference_lanes)."""
+    on it, d of its centre) (cosim.road.road.reference_lanes); each deviation measured
+    outside the `skip` ranges of s (where the frame shifts sideways as SUMO's lanes step
+    at a junction: there the lanes lie off SUMO's by design)."""
     tables = []
     for track in tracks:
         n = len(track.pieces)
@@ -117,7 +121,7 @@ def lane_tables(tracks: tuple[Track, ...], reference: dict[str, tuple[TrackPiece
                 d1[k] = after if not np.isnan(after) else before
         table = LaneTable(track, s0, s1, d0, d1, np.array([p.width for p in track.pieces]),
                           np.array([p.speed for p in track.pieces]), math.nan)
-        dev = deviation(frame, np.array(track.shape()), table.centre)
+        dev = deviation(frame, np.array(track.shape()), table.centre, skip)
         tables.append(replace(table, deviation=dev))
     return tuple(tables)
 

@@ -24,8 +24,10 @@ from cosim.road.frame import (
     DEFAULT_LIMITS,
     ArcFrame,
     FrameLimits,
+    LateralShift,
     StraightFrame,
     kappa_max,
+    shifted,
     smooth,
 )
 from cosim.road.lanes import LaneTable, lane_tables
@@ -51,6 +53,8 @@ class Road:
     frame: StraightFrame | ArcFrame
     lanes: tuple[LaneTable, ...]  # in track id order (ids may skip a lane cars may not use)
     lead_in: LeadIn | None = None  # the reference's lead-in (a route from an on-ramp, ...)
+    # where the frame shifts sideways as SUMO's lanes step at a junction (s along it)
+    shifts: tuple[LateralShift, ...] = ()
 
     @property
     def carriageway(self) -> int:
@@ -203,6 +207,85 @@ def reference_line(ref: Track, lead: LeadIn | None) -> np.ndarray:
     return np.vstack([shifted, points])
 
 
+# m: a sideways step of the reference lane at a junction beyond this is a lateral shift of
+# the road (lanes re-spread at a lane-count change), not a kink: FrameLimits.max_deviation
+# is what smoothing may spend on each side of it
+STEP = 2.0 * DEFAULT_LIMITS.max_deviation
+
+
+def _reference_pieces(ref: Track, lead: LeadIn | None) -> list[tuple[TrackPiece, np.ndarray]]:
+    """The reference line's pieces in order, each with its shape as the line takes it
+    (the lead-in's shifted `shift` to its left)."""
+    pieces = [] if lead is None else [(p, shift_left(np.array(p.shape), lead.shift))
+                                      for p in lead.pieces() if len(p.shape) > 1]
+    return pieces + [(p, np.array(p.shape)) for p in ref.pieces if len(p.shape) > 1]
+
+
+def _signed_jump(a: np.ndarray, b: np.ndarray) -> float:
+    """m, how far the start of polyline b lies left of the end of polyline a (across
+    a's last segment); 0 where b's first segment turns from a's last by CORNER_TURN or
+    more (a junction drawn as a corner, not lanes side by side)."""
+    t = a[-1] - a[-2]
+    u = b[1] - b[0]
+    if abs(math.atan2(t[0] * u[1] - t[1] * u[0], t[0] * u[0] + t[1] * u[1])) >= CORNER_TURN:
+        return 0.0
+    q = b[0] - a[-1]
+    return float((t[0] * q[1] - t[1] * q[0]) / (math.hypot(*t) or 1.0))
+
+
+def lateral_steps(ref: Track, lead: LeadIn | None, step: float = STEP
+                  ) -> tuple[np.ndarray, list[tuple[float, float, float]]]:
+    """The reference line with its sideways steps taken out, and the steps: where the
+    reference lane on one route edge starts more than `step` m sideways of where it
+    ended on the edge before (netconvert re-spreads the lanes at a lane-count change),
+    the line after it is moved back across by the steps so far and the junction's
+    lanes between are left out (the smoothing spline bridges the junction). Returns the
+    line and each step as (x, y of the junction's middle on that line, the jump, m to
+    the left); no steps: the line `reference_line` gives."""
+    pieces = _reference_pieces(ref, lead)
+    edges = [(k, shape) for k, (p, shape) in enumerate(pieces) if not p.internal]
+    jumps = {k1: _signed_jump(s0, s1) for (_, s0), (k1, s1)
+             in zip(edges[:-1], edges[1:], strict=True)}
+    if all(abs(j) <= step for j in jumps.values()):
+        return reference_line(ref, lead), []
+    n_lead = 0 if lead is None else sum(len(p.shape) > 1 for p in lead.pieces())
+    # runs of pieces between the steps (and the lead-in's end), each moved as one line
+    runs: list[tuple[list[TrackPiece], float, float]] = []  # pieces, moved by, step before
+    moved = 0.0  # m, to the left: the steps so far, taken back
+    pending: list[TrackPiece] = []  # a step's junction lanes, until the step is known
+    for k, (piece, _) in enumerate(pieces):
+        if piece.internal:
+            pending.append(piece)
+            continue
+        jump = jumps.get(k, 0.0)
+        if abs(jump) > step:
+            moved -= jump
+            pending = []  # the step's junction lanes: the smoothing bridges them
+        if runs and abs(jump) <= step:
+            runs[-1][0].extend(pending)
+        if not runs or abs(jump) > step or k == n_lead:
+            runs.append(([piece], moved + (lead.shift if lead is not None
+                                           and k < n_lead else 0.0),
+                         jump if abs(jump) > step else 0.0))
+        else:
+            runs[-1][0].append(piece)
+        pending = []
+    if pending:
+        runs[-1][0].extend(pending)
+    out: list[np.ndarray] = []
+    steps: list[tuple[float, float, float]] = []
+    for run, amount, jump in runs:
+        points = np.array(Track(ref.id, tuple(run)).shape())
+        here = points if amount == 0.0 else shift_left(points, amount)
+        if out:
+            if jump != 0.0:
+                steps.append((*(0.5 * (out[-1][-1] + here[0])), jump))
+            if math.dist(tuple(out[-1][-1]), tuple(here[0])) < 1e-9:
+                here = here[1:]
+        out.append(here)
+    return np.vstack(out), steps
+
+
 def shift_left(points: np.ndarray, amount: float) -> np.ndarray:
     """m, the polyline `points` moved `amount` m to its left (negative: right), each
     vertex along the bisector of its two segments (a parallel line at the vertices)."""
@@ -228,6 +311,7 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
     if not tracks:
         raise InputError(src, "route", list(route.edges), "a route with a lane a car may use")
     ref, lead = reference_tracks(route, tracks, src)
+    shifts: tuple[LateralShift, ...] = ()
     first = ref.pieces[0]
     half = first.width / 2.0
     if _straight(route, ref):
@@ -240,10 +324,18 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
         # the lanes lie within the widest route edge's width of the reference line
         reach = max(sum(float(ln.getWidth()) for ln in route.net.getEdge(e).getLanes())
                     for e in route.edges)
-        frame = smooth(reference_line(ref, lead), limits, d_offset=half, source=src,
+        points, steps = lateral_steps(ref, lead)
+        frame = smooth(points, limits, d_offset=half, source=src,
                        where=functools.partial(_where_on, route, line), speed_limit=top,
                        reach=reach)
-    tables = lane_tables(tracks, reference_lanes(ref, lead), frame, route.net)
+        if steps:
+            # SUMO's lanes step sideways at a junction: the line follows them, shifting
+            # over as long as a curve of the radius the speed limit needs
+            frame, shifts = shifted(frame, steps, np.array(line.shape()),
+                                    top**2 / limits.limit_lat_accel, limits)
+            _check_radius(frame, reach, limits, src, route, line)
+    tables = lane_tables(tracks, reference_lanes(ref, lead), frame, route.net,
+                         [sh.window for sh in shifts])
     if any(not math.isfinite(v) for t in tables for v in (*t.s_start, *t.s_end)):
         raise InputError(src, "route", list(route.edges),
                          "a route whose lanes all lie within the reference line's reach "
@@ -261,4 +353,19 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
                          f"lanes whose centre lines stay within {allowed:g} m of "
                          f"SUMO's lane shapes (track {worst.id}, from {worst.track.name}, "
                          "does not)")
-    return Road(route, tracks, ref, frame, tables, lead)
+    return Road(route, tracks, ref, frame, tables, lead, shifts)
+
+
+def _check_radius(frame: ArcFrame, reach: float, limits: FrameLimits, source: str,
+                  route: Route, line: Track) -> None:
+    """Refuse a frame whose shifts at SUMO's lane steps bend it tighter than its lanes
+    allow (`FrameLimits.min_stretch`, the SV's turning circle), naming where."""
+    floor = max(limits.min_radius, reach / (1.0 - limits.min_stretch))
+    if frame.quality.min_radius >= floor:
+        return
+    k = int(np.argmax(np.abs(frame.kappa)))
+    raise InputError(source, "reference line radius", f"{frame.quality.min_radius:.1f} m",
+                     f"a route whose lanes' sideways steps at junctions can be followed at a "
+                     f"radius of at least {floor:.3g} m (it bends tightest near x = "
+                     f"{frame.x[k]:.1f}, y = {frame.y[k]:.1f}, "
+                     f"{_where_on(route, line, frame.x[k], frame.y[k])})")

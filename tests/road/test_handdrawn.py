@@ -89,24 +89,29 @@ def test_the_smallest_radius_is_what_the_lanes_reach_allows(tmp_path: Path) -> N
     assert "its lanes' 3.2 m stays >= 0.85, above the SV's turning circle of 3.7 m" in text
 
 
-def test_lanes_that_step_sideways_at_a_junction_are_refused_naming_it(tmp_path: Path) -> None:
+def test_lanes_that_step_sideways_at_a_junction_shift_the_frame(tmp_path: Path) -> None:
     """A motorway whose edges spread their lanes differently (right of the centre line,
     then centred, as on SUMO's tools/game/highway network at junction 1658939360): every
-    lane steps 1.5 lane widths sideways across the junction, which no frame follows."""
+    lane steps 1.5 lane widths (4.8 m) sideways across the junction. The frame's line
+    shifts with them over 124 m (as a curve of R 555 m, what 33.3 m/s needs at 2 m/s^2),
+    every lane keeps its d and lies on SUMO's lane before and after."""
     net = netconvert(
         tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
         '<node id="C" x="2000" y="0"/></nodes>',
         '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
         '<edge id="BC" from="B" to="C" numLanes="3" speed="33.3" spreadType="center"/>'
         "</edges>", name="step")
-    with pytest.raises(InputError) as err:
-        load_road(net, ["AB", "BC"], source="sc.toml")
-    text = str(err.value)
-    assert text.startswith("sc.toml: reference line deviation = '0.") and "\n" not in text
-    assert ("turns by 90 degrees, near x = 1000.0, y = -8.0, at junction B between edges "
-            "AB and BC, across which SUMO's lane steps 4.8 m sideways)") in text, text
-    # up to the junction the route builds
-    assert load_road(net, ["AB"]).max_deviation <= FrameLimits().max_deviation
+    road = load_road(net, ["AB", "BC"], source="sc.toml")
+    (shift,) = road.shifts
+    assert shift.jump == pytest.approx(4.8, abs=1e-6)
+    assert shift.s == pytest.approx(1000.0, abs=0.1)
+    assert shift.length == pytest.approx(124.1, abs=0.1)
+    assert road.frame.quality.min_radius >= 0.99 * 33.3**2 / 2.0
+    assert road.max_deviation < 1e-4  # outside the shift
+    assert all(np.all(t.d_start == t.d_end) for t in road.lanes)
+    # lane 0's centre: on AB_0 (y = -8.0) before, BC_0 (y = -3.2) after
+    y = [road.frame.to_cartesian(s, road.lane(0).centre(s))[1] for s in (900.0, 1100.0)]
+    assert y == pytest.approx([-8.0, -3.2], abs=1e-4)
 
 
 def test_a_lane_cars_may_not_use_is_no_track(tmp_path: Path) -> None:
