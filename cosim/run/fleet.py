@@ -283,9 +283,11 @@ class Fleet:
     def observe(self, k: int, t: float) -> None:
         """Row k of every AV; those near the route's end handed back to SUMO."""
         self.announcements.t = t  # a blinker set from now on begins at t
+        self.everyone = None
         if not self.active and not self.watch.active:
             return
-        everyone = self.world.read_all()  # once for all: each scene is a selection of it
+        everyone = self.everyone = self.world.read_all()  # once for all: each scene is a
+        # selection of it
         self.watch.observe(t, everyone)
         for vid in self.watch.ending(self.route_end, HANDBACK_DISTANCE, HANDBACK_LAST):
             self.watch.finish(vid, k, "handed_back")  # a baseline: left to SUMO alone
@@ -434,6 +436,10 @@ class Fleet:
         self.active.remove(av)
         self.watch.finish(av.id, k, end)
         self.done.append(av)
+
+    def automated(self) -> tuple[str, ...]:
+        """The ids of the SV and of every fleet vehicle watched now (ours, a baseline's)."""
+        return (SV_ID, *self.watch.active)
 
     # ------------------------------------------------------------------ the end
     def result(self, last_row: int) -> FleetResult:

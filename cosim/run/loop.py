@@ -58,6 +58,7 @@ from cosim.driving.rule import DecisionConfig
 from cosim.errors import check_signals
 from cosim.road.road import Road
 from cosim.run.ego import Ego, PlannedEgo, SumoDrivenEgo
+from cosim.run.encounters import Encounters
 from cosim.run.metrics_row import MetricsRow
 from cosim.run.observer import Observer, uncertain_config
 from cosim.run.recorder import Recorder
@@ -158,6 +159,9 @@ class CoSimulation:
         self.ego, self.policy = ego, policy
         if self.fleet is not None:  # an AV may ask the SV for room
             self.fleet.requests.policies[SV_ID] = policy
+        # our exact TTC / PET for every automated vehicle, beside SUMO's SSM device
+        self.encounters = Encounters(sc.ssm) if (
+            self.fleet is not None and self.world.ssm is not None) else None
 
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()
@@ -175,6 +179,10 @@ class CoSimulation:
                 ego.write_trace(recorder.record(k, scene, policy.status(scene.sv)))
                 if fleet is not None:  # the AVs' rows k (cosim.run.fleet)
                     fleet.observe(k, t)
+                    if self.encounters is not None:  # our TTC / PET of every AV and the SV
+                        self.encounters.observe(
+                            world.read_all() if fleet.everyone is None else fleet.everyone,
+                            fleet.automated())
                 if k == self.n_steps or stop.stops(k, scene.sv, recorder.first_collision):
                     break  # the end, or a stop rule (cosim.run.stop)
                 reference = policy.update(t, scene, observer.inbox(scene))
@@ -238,6 +246,8 @@ class CoSimulation:
                          records=ego.records, first_plan=done.first_plan,
                          edges=tuple(recorder.edges), route_road=self.world.route_road,
                          detectors=detectors, conflicts=conflicts,
+                         fleet_conflicts=None if self.encounters is None
+                         else self.encounters.table(),
                          t_warmup=self.world.t_warmup, fleet=fleet)
 
 

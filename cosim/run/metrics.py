@@ -56,10 +56,10 @@ def half_extents(length: ArrayLike, width: ArrayLike, heading: ArrayLike) -> tup
 
 
 def gap_ttc(
-    sv_x: float,
-    sv_y: float,
-    sv_vx: float,
-    sv_half: tuple[float, float],
+    sv_x: ArrayLike,
+    sv_y: ArrayLike,
+    sv_vx: ArrayLike,
+    sv_half: tuple[ArrayLike, ArrayLike],
     tv_x: ArrayLike,
     tv_y: ArrayLike,
     tv_vx: ArrayLike,
@@ -72,7 +72,8 @@ def gap_ttc(
     between the rectangles' x extents (negative: the extents overlap); the
     TTC is gap / closing speed when the two are closing, 0 when the gap is
     already <= 0, inf otherwise. `*_vx` are global x velocities (m/s); `*_half` the
-    half extents (m) along x and y (`half_extents`).
+    half extents (m) along x and y (`half_extents`). Several egos at once: the SV's
+    arguments as columns (shape (n, 1)), the result one row per ego (numpy broadcasting).
     """
     sv_hx, sv_hy = sv_half
     tv_hx, tv_hy = tv_half

@@ -1,5 +1,6 @@
 """What one run writes: trace.csv, plans.csv, metrics.csv, timing.csv, the figures and,
-with `[detectors] enabled`, detectors.csv, with `[ssm] enabled`, conflicts.csv.
+with `[detectors] enabled`, detectors.csv, with `[ssm] enabled`, conflicts.csv (and with
+a `[fleet]` too, fleet_conflicts.csv: cosim.run.encounters).
 
 Every file is written atomically (cosim.output); the CSVs use one fixed float
 format, so two runs of the same scenario and seed give byte-identical files
@@ -104,6 +105,9 @@ def write_outputs(result: RunResult, out_dir: Path, *, write_trace: bool = True,
         if result.conflicts is not None:  # SUMO's SSM device ([ssm] enabled)
             written.append(atomic_write_csv(out / "conflicts.csv", result.conflicts,
                                             float_format=CSV_FLOAT))
+        if result.fleet_conflicts is not None:  # ours for the automated vehicles
+            written.append(atomic_write_csv(out / "fleet_conflicts.csv",
+                                            result.fleet_conflicts, float_format=CSV_FLOAT))
         for path in extra_files:
             written.append(Path(shutil.copyfile(path, out / Path(path).name)))
         if write_figures:

@@ -50,6 +50,9 @@ class RunResult:
     detectors: Any = None
     # conflicts.csv's rows (cosim.traffic.ssm; a pandas DataFrame), None: no SSM device
     conflicts: Any = None
+    # fleet_conflicts.csv's rows (cosim.run.encounters; a pandas DataFrame), None: no
+    # [ssm] with a [fleet]
+    fleet_conflicts: Any = None
     t_warmup: float = 0.0  # s, SUMO's clock at the run's clock's 0 (SUMO's outputs' times)
     # the fleet's trace rows and fleet.csv (cosim.run.fleet.FleetResult), None: no [fleet]
     fleet: Any = None

@@ -287,6 +287,7 @@ def scenario_from_dict(
                          network, [tv.id for tv in tvs], sc["step"])
     road, highway, start = _road_of(src, rd, road_of_route, found, sv)
     name = _name_of(src, sc.pop("name"), p)
+    fleet = _fleet(src, tables["fleet"], sv.controller, demand is not None)
     scenario = Scenario(
         name=name,
         **sc,
@@ -305,8 +306,8 @@ def scenario_from_dict(
         sumocfg=None if config is None else config.path,
         demand=demand,
         detectors=_detectors(src, tables["detectors"], road_of_route, sc["step"]),
-        fleet=_fleet(src, tables["fleet"], sv.controller, demand is not None),
-        ssm=SsmSpec(**tables["ssm"]),
+        fleet=fleet,
+        ssm=_ssm(src, tables["ssm"], fleet),
     )
     _check_rules(src, scenario, start, highway)
     return scenario
@@ -474,6 +475,17 @@ def _detectors(src: str, values: dict[str, Any], road: Road, step: float) -> Det
             raise InputError(src, f"detectors.positions_m[{i}]", s,
                              f"a position along the route in [{max(lo, 0.0):g}, {hi:g}] m "
                              "(where its SV lanes run)")
+    return spec
+
+
+def _ssm(src: str, values: dict[str, Any], fleet: FleetSpec) -> SsmSpec:
+    """[ssm]: the device on the fleet needs vTypes to put it on (SUMO builds a vehicle's
+    devices with the vehicle, before the fleet's `share` draws it at its insertion)."""
+    spec = SsmSpec(**values)
+    if spec.vehicles == "fleet" and not fleet.vtypes:
+        raise InputError(src, "ssm.vehicles", spec.vehicles,
+                         "all or sv without fleet.vtypes (the device goes on the SV and "
+                         "the vehicles of those vTypes)")
     return spec
 
 

@@ -391,7 +391,7 @@ class FleetSpec:
         """Some vehicle may be automated."""
         return self.share > 0.0 or bool(self.vtypes)
 
-SSM_VEHICLES = ("all", "sv")  # [ssm] vehicles: who carries SUMO's SSM device
+SSM_VEHICLES = ("all", "sv", "fleet")  # [ssm] vehicles: who carries SUMO's SSM device
 
 
 @dataclass(frozen=True)
@@ -417,10 +417,13 @@ class SsmSpec:
         lo_open=True), 3.35)
     vehicles: str = declare(Field(
         "vehicles", str, choices=SSM_VEHICLES, default="all",
-        doc="who carries the device: `all` (every vehicle's encounters) or `sv` (the SV "
-            "alone: its encounters with every vehicle within `range_m`, its neighbours; "
-            "on every vehicle the device multiplies a dense run's CPU by 2-2.6, on the SV "
-            "alone it costs nothing measurable: `cosim bench measures`)"), "all")
+        doc="who carries the device: `all` (every vehicle's encounters), `sv` (the SV "
+            "alone: its encounters with every vehicle within `range_m`, its neighbours) or "
+            "`fleet` (the SV and every vehicle of `fleet.vtypes`, the automated vehicles: "
+            "their encounters with their neighbours; needs `fleet.vtypes`: SUMO builds a "
+            "vehicle's device with the vehicle, before a `fleet.share` draw); on every "
+            "vehicle the device multiplies a dense run's CPU by 2-2.6, on the SV alone it "
+            "costs nothing measurable: `cosim bench measures`)"), "all")
     range: float = declare(number_key(
         "range_m", "m", 1.0, 1000.0, 50.0,
         "how far from a device's vehicle SUMO looks for encounters (SUMO's "

@@ -119,7 +119,10 @@ class SumoProcess:
         if additional:
             files.append(additional)
         options.append(("--additional-files", ",".join(files)))
-        options += theirs.items()
+        mine = dict(self.measures)
+        # cosim's SSM file replaces the default one for their equipped vehicles (SUMO
+        # refuses the option twice); their vehicles' encounters then go into it too
+        options += [(k, v) for k, v in theirs.items() if k not in mine]
         options += self.measures
         if self.sublane:
             options.append(("--lateral-resolution", repr(self.lateral_resolution)))

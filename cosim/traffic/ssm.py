@@ -3,8 +3,13 @@ configures its device and turns what it wrote into one tidy table (conflicts.csv
 few counts (metrics.csv).
 
 The device (`sumo_options`) runs on every vehicle (`vehicles = "all"`,
-device.ssm.probability 1) or on the SV alone (`"sv"`, device.ssm.explicit: its
-encounters with every vehicle within `range`), with the measures TTC, DRAC and PET and
+device.ssm.probability 1), on the SV alone (`"sv"`, device.ssm.explicit: its
+encounters with every vehicle within `range`) or on the SV and the fleet's vTypes
+(`"fleet"`: the SV and the `<vehicle>` / `<trip>` elements of those vTypes by name, the
+vehicles of their flows by the vType's parameter `has.ssm.device`, set once SUMO has
+started, `equip_vtypes`: SUMO builds a vehicle's devices with the vehicle and cannot add
+one later, so a vehicle the fleet draws by `share` at its insertion cannot carry one),
+with the measures TTC, DRAC and PET and
 the scenario's thresholds: SUMO logs an encounter as a conflict when any of the three
 passes its threshold, with the extreme of each measure over the encounter (when, where,
 its encounter type), and writes them all into one file in a folder the caller gives
@@ -24,6 +29,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -63,15 +69,47 @@ COUNT_DOCS: dict[str, str] = {
 }
 
 
-def sumo_options(spec: SsmSpec, folder: Path, sv_id: str) -> tuple[tuple[str, str], ...]:
-    """SUMO's options for the device, its output going into `folder`."""
+# a vType's parameter that equips every vehicle SUMO builds of it from then on (SUMO
+# refuses to add the device to a vehicle it has built: "creating device of type 'ssm' is
+# not supported")
+EQUIP_PARAMETER = "has.ssm.device"
+
+
+def sumo_options(spec: SsmSpec, folder: Path, sv_id: str, loaded: Sequence[str] = ()
+                 ) -> tuple[tuple[str, str], ...]:
+    """SUMO's options for the device, its output going into `folder`; `loaded`: with
+    `vehicles = "fleet"`, the fleet's vehicles SUMO builds as it loads its routes
+    (`loaded_vehicles`), equipped by name with the SV."""
     who = (("--device.ssm.probability", "1") if spec.vehicles == "all"
-           else ("--device.ssm.explicit", sv_id))
+           else ("--device.ssm.explicit", ",".join((sv_id, *loaded))))
     return (who,
             ("--device.ssm.measures", "TTC DRAC PET"),
             ("--device.ssm.thresholds", f"{spec.ttc!r} {spec.drac!r} {spec.pet!r}"),
             ("--device.ssm.range", repr(spec.range)),
             ("--device.ssm.file", str(Path(folder) / OUTPUT_FILE)))
+
+
+def loaded_vehicles(route_files: Sequence[str | Path], vtypes: Sequence[str]
+                    ) -> tuple[str, ...]:
+    """The `<vehicle>` and `<trip>` elements of those vTypes in SUMO route files: SUMO
+    builds them, their devices with them, as it reads its routes (its flows' vehicles
+    come one by one as they depart: `equip_vtypes` reaches those)."""
+    wanted = set(vtypes)
+    ids: list[str] = []
+    for path in route_files:
+        for _, node in ET.iterparse(path):
+            if node.tag in ("vehicle", "trip") and node.get("type") in wanted:
+                ids.append(str(node.get("id")))
+    return tuple(ids)
+
+
+def equip_vtypes(api: Any, vtypes: Sequence[str]) -> None:
+    """Every vehicle of these vTypes SUMO builds from now on carries the device (libsumo's
+    vehicletype API; vTypes SUMO does not know are left out)."""
+    known = set(api.vehicletype.getIDList())
+    for vtype in vtypes:
+        if vtype in known:
+            api.vehicletype.setParameter(vtype, EQUIP_PARAMETER, "true")
 
 
 def _number(value: str | None) -> float:

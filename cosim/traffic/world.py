@@ -47,7 +47,7 @@ from cosim.traffic.road_view import (
     upstream_lanes,
 )
 from cosim.traffic.route_lanes import load_route_road, sv_start
-from cosim.traffic.ssm import VehicleDistance, conflicts_table
+from cosim.traffic.ssm import VehicleDistance, conflicts_table, equip_vtypes, loaded_vehicles
 from cosim.traffic.ssm import sumo_options as ssm_options
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
 
@@ -195,7 +195,7 @@ class World:
                 detectors="" if self.detectors is None or detector_output is None else
                 self.detectors.additional(detector_output),
                 measures=() if self.ssm is None or detector_output is None else
-                ssm_options(self.ssm, detector_output, SV_ID)),
+                ssm_options(self.ssm, detector_output, SV_ID, self._ssm_loaded(sc))),
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
             route_road=self.route_road,
         )
@@ -231,6 +231,8 @@ class World:
         self.sumo.start()
         if self.distance is not None:  # every vehicle's km, for conflicts per vehicle-km
             self.sumo.add_hook(self.distance)
+        if self.ssm is not None and self.ssm.vehicles == "fleet":  # the AVs' flows' vehicles
+            equip_vtypes(self.sumo.api, sc.fleet.vtypes)
         road = sc.road  # lane geometry: the network's, read once by the scenario
         x0 = self.sv_start_x
         track = self.sv_start_track
@@ -276,6 +278,13 @@ class World:
             self.sumo.remove(vid)
         self.cleared = removed
         return removed
+
+    def _ssm_loaded(self, sc: Scenario) -> tuple[str, ...]:
+        """With `[ssm] vehicles = "fleet"`, the fleet's vehicles SUMO builds as it loads
+        the user's routes (cosim.traffic.ssm.loaded_vehicles); else none."""
+        if self.ssm is None or self.ssm.vehicles != "fleet" or sc.demand is None:
+            return ()
+        return loaded_vehicles(sc.demand.route_files, sc.fleet.vtypes)
 
     @property
     def sv_start_x(self) -> float:

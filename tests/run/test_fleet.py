@@ -12,8 +12,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from cosim.run.encounters import COLUMNS as ENCOUNTER_COLUMNS
 from cosim.run.fleet import FLEET_COLUMNS, HANDBACK_DISTANCE, TAKEOVER_CLEARANCE, driver_scenario
-from cosim.run.loop import run_scenario, simulate
+from cosim.run.loop import CoSimulation, run_scenario, simulate
 from cosim.run.result import RunResult
 from cosim.scenario import scenario_from_dict
 
@@ -144,10 +145,13 @@ def test_the_same_seed_gives_the_same_fleet_byte_for_byte(network: Path, tmp_pat
         assert (tmp_path / "a" / csv).read_bytes() == (tmp_path / "b" / csv).read_bytes(), csv
 
 
-def test_vtypes_of_the_users_own_demand_are_automated(network: Path, tmp_path: Path) -> None:
-    """[fleet] vtypes: every vehicle of the named vType SUMO inserts after the warm-up is
-    automated (one of another size given the scenario's), the others stay SUMO's."""
-    (tmp_path / "own.rou.xml").write_text(
+@pytest.fixture(scope="module")
+def own(network: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """[fleet] vtypes = ["av"] in the user's own demand (2400 cars/h, 600 avs/h), 25 s
+    after a 30 s warm-up; SUMO's SSM device on the SV and the av vehicles ([ssm]
+    vehicles = "fleet"), 100 m range, TTC threshold 60 s so that following is logged."""
+    folder = tmp_path_factory.mktemp("own")
+    (folder / "own.rou.xml").write_text(
         '<routes><vType id="car" length="4.5" width="1.8" sigma="0.5" maxSpeed="36.1"/>'
         '<vType id="av" length="4.6" width="1.9" maxSpeed="36.1"/>'
         '<route id="through" edges="highway"/>'
@@ -157,8 +161,22 @@ def test_vtypes_of_the_users_own_demand_are_automated(network: Path, tmp_path: P
         'departLane="random" departSpeed="max"/></routes>')
     doc = fleet_doc(network, vtypes=["av"])
     doc["scenario"]["duration_s"] = 25.0
-    doc["traffic"] = {"routes": [str(tmp_path / "own.rou.xml")], "warmup_s": 30.0}
-    result = simulate(scenario_from_dict(doc, path=tmp_path / "own.toml"))
+    doc["traffic"] = {"routes": [str(folder / "own.rou.xml")], "warmup_s": 30.0}
+    doc["ssm"] = {"enabled": True, "vehicles": "fleet", "ttc_s": 60.0, "range_m": 100.0}
+    sim = CoSimulation(scenario_from_dict(doc, path=folder / "own.toml"),
+                       detector_output=folder)
+    result = sim.run()
+    from cosim.run.outputs import write_outputs
+
+    write_outputs(result, folder / "out", write_figures=False)
+    return {"result": result, "steps": sim.encounters.steps(), "dt": 0.05,
+            "out": folder / "out"}
+
+
+def test_vtypes_of_the_users_own_demand_are_automated(own: dict[str, Any]) -> None:
+    """[fleet] vtypes: every vehicle of the named vType SUMO inserts after the warm-up is
+    automated (one of another size given the scenario's), the others stay SUMO's."""
+    result = own["result"]
     rows = pd.DataFrame(result.fleet.rows)
     assert len(rows) >= 2 and set(rows["vtype"]) == {"av"}
     assert (rows["inserted_t_s"] > 0).all()  # after the warm-up, on the run's clock
@@ -166,3 +184,46 @@ def test_vtypes_of_the_users_own_demand_are_automated(network: Path, tmp_path: P
     assert (rows[["collisions", "caused_collisions", "sumo_collisions"]] == 0).all().all()
     for _, trace, _ in result.fleet.traces:  # the car it drives is the scenario's
         assert np.nanmax(np.abs(trace["ye_m"])) < 0.5
+
+
+def test_sumos_ttc_for_the_automated_vehicles_against_ours(own: dict[str, Any]) -> None:
+    """SUMO's device is on the SV and the av vehicles alone; ours (fleet_conflicts.csv)
+    is on the SV and each AV from its takeover. Every SUMO conflict of an automated ego
+    within ours is a following one, and within a step of SUMO's minimum (SUMO sees the
+    pair a step apart) our TTC is SUMO's within 2 % (SUMO's two decimals), as for the SV
+    alone (tests/traffic/test_ssm.py), but where SUMO's minimum came as a lane change put
+    the two on one lane while their rectangles were still beside each other (SUMO's
+    lanes, our strips); our encounter's minimum is no higher.
+    SUMO has no PET on one road's lanes; ours measures the AVs' lane changes."""
+    result, steps, dt = own["result"], own["steps"], own["dt"]
+    sumo, ours = result.conflicts, result.fleet_conflicts
+    rows = pd.DataFrame(result.fleet.rows)
+    taken = dict(zip(rows["vehicle_id"], rows["taken_over_t_s"], strict=True))
+    assert set(sumo["ego"]) <= {"sv"} | {f"avs.{i}" for i in range(100)}
+    assert "sv" in set(sumo["ego"]) and set(taken) & set(sumo["ego"])
+    assert list(ours.columns) == list(ENCOUNTER_COLUMNS)
+    written = pd.read_csv(own["out"] / "fleet_conflicts.csv")
+    assert list(written.columns) == list(ENCOUNTER_COLUMNS) and len(written) == len(ours)
+    assert set(ours["ego"]) <= {"sv", *taken} and set(taken) & set(ours["ego"])
+    compared = changing = 0
+    for row in sumo.itertuples():
+        since = 0.0 if row.ego == "sv" else taken.get(row.ego, np.inf)
+        if not np.isfinite(row.ttc_min_s) or row.ttc_min_t_s < since + dt:
+            continue  # before the takeover: SUMO drove it, ours does not look
+        assert row.ttc_min_type in ("following_follower", "following_leader")
+        pair = steps[(steps.ego == row.ego) & (steps.foe == row.foe)]
+        around = np.abs(pair["t_s"].to_numpy() - row.ttc_min_t_s) <= dt + 1e-6  # a step apart
+        ttc = pair["ttc_s"].to_numpy()[around]
+        assert around.any(), row  # in our range and beside or in the ego's strip
+        if not np.isfinite(ttc).any():  # a lane change: SUMO has them on one lane, their
+            changing += 1  # rectangles do not share a strip yet (or any more)
+            continue
+        assert np.min(np.abs(ttc - row.ttc_min_s)) <= 0.02 * row.ttc_min_s, row
+        mine = ours[(ours.ego == row.ego) & (ours.foe == row.foe)
+                    & (ours.begin_s <= row.ttc_min_t_s + dt + 1e-6)
+                    & (ours.end_s >= row.ttc_min_t_s - dt - 1e-6)]
+        assert len(mine) == 1 and mine.ttc_min_s.iloc[0] <= 1.02 * row.ttc_min_s, row
+        compared += 1
+    assert compared >= 5 and changing <= 2
+    assert sumo["pet_s"].isna().all()
+    assert rows["lane_changes"].sum() >= 1 and ours["pet_s"].notna().any()

@@ -165,6 +165,7 @@ def test_bad_ssm_keys_are_refused_in_one_line() -> None:
                           ({"ssm.drac_mps2": -1.0}, "100] m/s^2"),
                           ({"ssm.pet_s": 100.0}, "60] s"),
                           ({"ssm.vehicles": "near"}, "all"),
+                          ({"ssm.vehicles": "fleet"}, "without fleet.vtypes"),
                           ({"ssm.range_m": 0.0}, "[1, 1000] m")):
         with pytest.raises(InputError, match=r"ssm\.") as info:
             with_overrides(base, **keys)
