@@ -6,7 +6,14 @@ from __future__ import annotations
 import argparse
 
 from cosim.bench import report
-from cosim.bench.measures import CASES, TARGETS, measure, repeated
+from cosim.bench.measures import (
+    CASES,
+    DEFAULT_FLEET_SCENARIO,
+    FLEET_CASES,
+    TARGETS,
+    measure,
+    repeated,
+)
 from cosim.scenario import load_scenario, project_root, with_overrides
 
 
@@ -38,10 +45,28 @@ def test_cases_alternate_and_differ_only_by_their_measures() -> None:
             "ssm.vehicles": "all"}) == cases["plain"]
 
 
+def test_the_fleets_cases_differ_only_by_who_carries_the_device() -> None:
+    """The fleet's cases: its own demand with [fleet] vtypes, SSM off, on every vehicle, on
+    the SV and the AVs; a warm-up run of the fleet too, before the cases alternate."""
+    base = load_scenario(project_root() / DEFAULT_FLEET_SCENARIO)
+    assert base.fleet.vtypes and base.demand is not None
+    cases = {key: with_overrides(base, **keys) for key, _, keys in FLEET_CASES}
+    assert not cases["fleet"].ssm.enabled
+    assert [cases[k].ssm.vehicles for k in ("fleet_ssm", "fleet_ssm_fleet")] == ["all", "fleet"]
+    for key in cases:
+        assert with_overrides(cases[key], **{"ssm.enabled": False, "ssm.vehicles": "all"}
+                              ) == with_overrides(cases["fleet"], **{"ssm.vehicles": "all"})
+    order: list[str] = []
+    repeated(cases, 1, run=lambda sc: order.append(sc.duration) or (1.0, 1.0),  # type: ignore[func-returns-value]
+             warm=("fleet",))
+    assert order == [1.0, 1.0, *(base.duration for _ in cases)]
+
+
 def test_a_short_measure_gives_a_row_per_case_and_the_ratios() -> None:
-    args = argparse.Namespace(scenario=None, duration=0.5, repeats=1)
+    args = argparse.Namespace(scenario=None, duration=0.5, repeats=1, fleet=False)
     result = measure(args)
     assert [r["case"] for r in result["rows"]] == [label for _, label, _ in CASES]
     assert all(r["cpu_s"] > 0 for r in result["rows"])
-    assert set(TARGETS) <= set(result["ratios"])
+    assert set(result["targets"]) <= set(result["ratios"])
+    assert set(result["targets"]) == {k for k in TARGETS if not k.startswith("fleet")}
     assert "detectors / plain (cpu): " in report(result)
