@@ -421,6 +421,7 @@ class ClosedLoop:
         self.road_pose = (math.nan, math.nan, math.nan)  # `errors`: s, d, heading to the road
         self._path: ReferencePath | None = None
         self._counter = 0
+        self.batch_row = -1  # its row in a LoopBatch (cosim.control.loop_batch; -1: none)
 
     def _controller_constants(self, ch: ChassisParams) -> Array:
         """The controller's constant array `cp` (CP_* indices) for the compiled loop."""
@@ -500,19 +501,26 @@ class ClosedLoop:
             dt / substeps,
             substeps, self.control_every, self._counter,
         )
+        if status != OK:
+            self._raise(status, t)
+        return self.record(t + dt, bool(saturated))
+
+    def _raise(self, status: int, t: float) -> None:
+        """The SimulationError of a step from t that ended in `status` (BAD_STATE:
+        the plant's state not finite; BAD_CONTROL: the control output)."""
+        plant = self.plant
         if status == BAD_STATE:
             check_finite(float(self._cs[16]), plant.state_names, plant.state.tolist())
-        elif status == BAD_CONTROL:
-            delta_cmd, dmz, fa, ye, phi_e = self._cs[11:16].tolist()
-            state = ", ".join(
-                f"{n} = {val:.6g}" for n, val in zip(
-                    plant.state_names, plant.state.tolist(), strict=True)
-            )
-            raise SimulationError(
-                t, f"non-finite control output: delta_f = {delta_cmd}, dMz = {dmz}, "
-                f"Fa = {fa} (ye = {ye:.4g}, phi_e = {phi_e:.4g})", state,
-            )
-        return self.record(t + dt, bool(saturated))
+            return
+        delta_cmd, dmz, fa, ye, phi_e = self._cs[11:16].tolist()
+        state = ", ".join(
+            f"{n} = {val:.6g}" for n, val in zip(
+                plant.state_names, plant.state.tolist(), strict=True)
+        )
+        raise SimulationError(
+            t, f"non-finite control output: delta_f = {delta_cmd}, dMz = {dmz}, "
+            f"Fa = {fa} (ye = {ye:.4g}, phi_e = {phi_e:.4g})", state,
+        )
 
     def record(self, t: float, saturated: bool = False) -> StepRecord:
         """The closed loop's state at time t (no control update)."""

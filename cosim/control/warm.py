@@ -14,6 +14,7 @@ paper case 5.1 takes 1.45 s without this module in the preload list, 0.28 s with
 from __future__ import annotations
 
 import cosim.control.closed_loop  # noqa: F401  (registers its warm-up)
+import cosim.control.loop_batch  # noqa: F401  (registers its warm-up)
 import cosim.planning.collision  # noqa: F401  (registers its warm-up)
 import cosim.planning.interaction  # noqa: F401  (registers its warm-up)
 import cosim.road.frame  # noqa: F401  (registers its warm-up: the loop builds the route's road)

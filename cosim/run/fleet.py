@@ -186,6 +186,13 @@ class AutomatedEgo(PlannedEgo):
         self.record = self.loop.record(t0)
         self.records: list[Any] = []
 
+    def moved(self, record: Any) -> None:
+        """Its closed loop's record at the end of a step (the fleet's LoopBatch advanced
+        it): its pose to SUMO."""
+        self.record = r = record
+        self.world.move_xy(self.vehicle_id, r.x, r.y, r.heading, r.vx, r.ax,
+                           road_pose=self.loop.road_pose)
+
 
 class AVInbox:
     """An AV's V2V messages at one step (cosim.run.observer.Inbox for an AV): the
@@ -257,6 +264,9 @@ class Fleet:
         self.edges = rr.edge_ids
         self.route_end = max(lane.end for lane in rr.lanes)  # m, s where the route ends
         self.active: list[AutomatedVehicle] = []
+        from cosim.control.loop_batch import LoopBatch
+
+        self.loops = LoopBatch()  # their closed loops, stepped in one call
         self.done: list[AutomatedVehicle] = []
         self.drawn = 0  # vehicles SUMO inserted during the run (each drawn once)
         # drawn automated, not yet TAKEOVER_CLEARANCE on: id -> (vType, s m and t s at
@@ -323,9 +333,13 @@ class Fleet:
                                                     not av.policy.gaps_held(sv))
 
     def advance(self, t: float, dt: float) -> None:
-        """Each AV's closed loop from t to t + dt, its pose to SUMO."""
-        for av in self.active:
-            av.ego.advance(t, dt, av.reference)
+        """The AVs' closed loops from t to t + dt in one compiled call (LoopBatch), their
+        poses to SUMO."""
+        active = self.active
+        records = self.loops.advance(t, dt, self.sc.substeps,
+                                     [(av.ego.loop, av.reference) for av in active])
+        for av, record in zip(active, records, strict=True):
+            av.ego.moved(record)
 
     def stepped(self, k: int) -> None:
         """After SUMO's step to row k: its collisions of the AVs; the vehicles it
@@ -406,6 +420,7 @@ class Fleet:
         y0 = self.road.lane_center(track)
         ego = AutomatedEgo(sc, world, vid, (s, d, rel), v, t,
                            lane_keeping_reference(t, s, y0, v, 0.0))
+        self.loops.add(ego.loop)
         av_sc = driver_scenario(sc, track, v)
         number = len(self.active) + len(self.done)
         # its gap requests to SUMO's drivers: the traffic's courtesy and cooperative V2V,
@@ -434,6 +449,7 @@ class Fleet:
         self.announcements.forget(av.id)
         self.requests.policies.pop(av.id, None)
         self.active.remove(av)
+        self.loops.remove(av.ego.loop)
         self.watch.finish(av.id, k, end)
         self.done.append(av)
 

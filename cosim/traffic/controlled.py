@@ -60,6 +60,9 @@ class _Controlled:
     signals: int = -1  # SUMO signal bits to hold (-1: leave them to SUMO)
     s_front: float = math.nan  # m, s of its front last written (where to look first)
     hint: TrackPiece | None = None  # the SUMO lane of the track its front was in
+    # (s_lo, s_hi, d_lo, d_hi) m: where the front may go with `hint` unchanged
+    # (RouteLanes.hint_box; NaN: look again)
+    hint_box: tuple[float, float, float, float] = (math.nan, math.nan, math.nan, math.nan)
 
 
 SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (its own strategic changes)
@@ -154,7 +157,10 @@ class ControlledVehicles:
             s_f, d_f = lanes.route_road.frame.to_frenet(xf, yf, s_hint=ctl.s_front)
             d_c = y if lanes.straight else d_f  # (the front's d: near enough for dd/dt)
         if math.isfinite(s_f):  # NaN: no arc's normals reach it; keep the last hint
-            ctl.s_front, ctl.hint = s_f, lanes.hint(s_f, d_f)
+            box = ctl.hint_box
+            if not (box[0] < s_f < box[1] and box[2] <= d_f < box[3]):
+                ctl.hint, ctl.hint_box = lanes.hint_box(s_f, d_f)
+            ctl.s_front = s_f
         vehicle = self.sim.api.vehicle
         # the edge and lane of the track its front is in: keepRoute 2 then keeps it on its
         # route, in that lane, across junctions (where SUMO's lane index may change)

@@ -255,6 +255,8 @@ class RouteLanes:
         self.edge_lanes: tuple[tuple[str, int], ...] = tuple(
             (p.lane, t.id) for t in route_road.lanes for p in t.track.pieces if not p.internal)
         self._s_end = {t.id: t.s_end.tolist() for t in route_road.lanes}
+        # m, every track's begin and end: which tracks exist changes only there
+        self._bounds = sorted({b for t in route_road.lanes for b in (t.begin, t.end)})
         self._added: set[int] = set()  # route indices whose rest-of-route SUMO has
         self.extra_routes: set[str] = set()  # other routes added to SUMO (on-ramp traffic)
         self._sampled: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
@@ -390,6 +392,41 @@ class RouteLanes:
         table = self.track_at(s, d)
         k = min(bisect.bisect_left(self._s_end[table.id], s), len(table.s_end) - 1)
         return table.track.pieces[k]
+
+    def hint_box(self, s: float, d: float) -> tuple[TrackPiece, tuple[float, float, float, float]]:
+        """`hint(s, d)`, and a box (s_lo, s_hi, d_lo, d_hi) around (s, d) in which `hint`
+        gives the same piece for every s_lo < s < s_hi, d_lo <= d < d_hi: no track begins
+        or ends in it, every track `track_at` looks at stays on one straight piece, and
+        the lane found holds d with no lane before it overlapping it (empty, all NaN,
+        where it cannot tell so cheaply: a junction's lane, outside every lane)."""
+        piece = self.hint(s, d)
+        empty = (math.nan, math.nan, math.nan, math.nan)
+        bounds = self._bounds
+        i = bisect.bisect_left(bounds, s)
+        if i < len(bounds) and bounds[i] == s:
+            return piece, empty
+        lo = bounds[i - 1] if i > 0 else -math.inf
+        hi = bounds[i] if i < len(bounds) else math.inf
+        here = [t for t in self.route_road.lanes if t.begin <= s <= t.end] \
+            or self.route_road.lanes
+        seen: list[tuple[float, float]] = []  # the bands looked at before
+        for table in here:
+            ends = self._s_end[table.id]
+            j = bisect.bisect_left(ends, s)
+            k = min(j, len(ends) - 1)
+            if table.track.pieces[k].internal:
+                return piece, empty
+            lo = max(lo, ends[k - 1] if k > 0 else -math.inf)
+            hi = min(hi, ends[k]) if j == k else hi
+            lo = max(lo, ends[k]) if j > k else lo
+            centre, half = float(table.d_start[k]), 0.5 * float(table.width[k])
+            band = (centre - half, centre + half)
+            if band[0] <= d < band[1]:
+                if any(a < band[1] and band[0] < b for a, b in seen):
+                    return piece, empty
+                return piece, (lo, hi, band[0], band[1])
+            seen.append(band)
+        return piece, empty
 
 
 def lane_samples(route_road: Road, track: int, k: int) -> tuple[np.ndarray, np.ndarray]:

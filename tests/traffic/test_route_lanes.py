@@ -63,6 +63,32 @@ def test_a_place_on_a_track_maps_back_to_its_s() -> None:
     assert sv_start(route_road, None, 1, 300.0) == (1, pytest.approx(300.0, abs=0.01))
 
 
+@pytest.mark.parametrize("net, route", [
+    (CURVED, ROUTE), (NETWORK_DIR / "onramp.net.xml", ("acc", "main1", "main2"))])
+def test_the_lane_hint_holds_in_its_box(net: Path, route: tuple[str, ...]) -> None:
+    """The moveToXY hint is the same for every point of the box `hint_box` gives with
+    it (ControlledVehicles.move looks again only outside it), and the box is not empty
+    along most of the road (it saves the search)."""
+    lanes = RouteLanes(load_road(net, route))
+    rng = np.random.default_rng(3)
+    road = lanes.route_road
+    s0, s1 = min(t.begin for t in road.lanes) - 20.0, max(t.end for t in road.lanes) + 20.0
+    found = 0
+    for s, d in zip(rng.uniform(s0, s1, 300), rng.uniform(-9.0, 12.0, 300), strict=True):
+        piece, (lo, hi, d_lo, d_hi) = lanes.hint_box(float(s), float(d))
+        assert piece == lanes.hint(float(s), float(d))
+        if math.isnan(lo):
+            continue
+        found += 1
+        assert lo < s < hi and d_lo <= d < d_hi
+        for u, v in zip(rng.uniform(max(lo, s0 - 1e3), min(hi, s1 + 1e3), 5),
+                        rng.uniform(d_lo, d_hi, 5), strict=True):
+            if lo < u < hi:
+                assert lanes.hint(float(u), float(v)) == piece
+        assert lanes.hint(float(np.nextafter(lo, hi)), d_lo) == piece
+    assert found > 100
+
+
 def test_populate_fills_every_through_track_along_s_at_the_density() -> None:
     density, length = 20.0, 4000.0
     with curved_sim(3) as sim:
