@@ -110,10 +110,14 @@ class CarFollowing:
         return (self.leader_speed < STANDSTILL_SPEED
                 and self.leader_gap <= self.cfg.idm_min_gap + reach)
 
-    def resume(self, speed: float) -> None:
-        """A manoeuvre ended at `speed` (m/s): follow on from it, and cruise at it."""
+    def resume(self, speed: float, brake_from: float | None = None) -> None:
+        """A manoeuvre ended at `speed` (m/s): follow on from it, and cruise at it; braking
+        begins at `brake_from` (m/s^2, its end acceleration; None: at once), the next
+        accelerations within MAX_FOLLOW_JERK."""
         self.v_ref = speed
         self.v_cruise = speed
+        if brake_from is not None:
+            self.accel = max(self.accel, brake_from)
 
     def reference(self, t: float, sv: SVState) -> LaneChangeTrajectory:
         """The straight lane-keeping reference from t; advances the reference speed."""

@@ -35,7 +35,7 @@ import numpy as np
 from cosim.driving.base import DrivingContext, Manoeuvres, PolicyStatus
 from cosim.driving.lane_end import PlanLimits, SVLaneEnds
 from cosim.driving.plans import NOT_ADJACENT, PlannerCalls, Trigger, plan_row, request_row
-from cosim.driving.recheck import Recheck, Rescue
+from cosim.driving.recheck import GapRecheck, Recheck, Rescue
 from cosim.driving.rule import DecisionConfig
 from cosim.planning.trajectory import LaneChangeTrajectory
 
@@ -144,17 +144,20 @@ class Manoeuvre:
     (-1 right, 0 off, +1 left); the context's planner has `plan(t, state, target,
     messages, occupant, vxf=None, x_limit=inf, max_curvature=inf, max_tau=inf)` and
     `check(trajectory, t, messages)` (cosim.planning.planner.LaneChangePlanner);
-    `max_tau` (s) bounds the manoeuvres it plans (inf: eq. 13 alone)."""
+    `max_tau` (s) bounds the manoeuvres it plans (inf: eq. 13 alone); `gap_rules`: the
+    gap policy's re-check rules (cosim.driving.recheck.GapRecheck; None: the paper's)."""
 
     def __init__(self, ctx: DrivingContext, timer: LaneChangeTimer,
-                 blinker: Callable[[int], None], max_tau: float = math.inf) -> None:
+                 blinker: Callable[[int], None], max_tau: float = math.inf,
+                 gap_rules: GapRecheck | None = None) -> None:
         self.lanes = ctx.lanes
         self.blinker = blinker
         self.timer = timer
         self.calls = PlannerCalls(ctx.planner, ctx.sv.occupant, max_tau)
         self.ends = SVLaneEnds(ctx.lanes, ctx.sv_length)  # the SV's lane-end reasoning
         self.recheck = Recheck(self.calls, self.ends, ctx.lanes, ctx.mu,
-                               ctx.recheck_interval, ctx.replanning, ctx.sv_length)
+                               ctx.recheck_interval, ctx.replanning, ctx.sv_length,
+                               gap_rules)
         self.scripted = ScriptedRequests(ctx.sv.lane_changes)
         self.mode = Mode.KEEPING
         self.active: LaneChange | None = None  # the manoeuvre under way

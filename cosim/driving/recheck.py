@@ -14,6 +14,11 @@ against fresh predictions; when it now collides, the SV
 
 Each new plan starts from the reference's state, not the plant's (`reference_state`): it
 continues the reference without a jump, and the controller's errors carry over.
+
+A collision far ahead with a TV the SV closes on slowly does not replace the plan
+(`clear_ahead`); under the gap policy (`GapRecheck`) neither does one with a TV that only
+signals toward the lane SUMO's driver already sees the SV in (`unseen_signal`), and a
+replan keeps the change's end speed.
 """
 
 from __future__ import annotations
@@ -21,6 +26,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
 
 from cosim.driving.lane_end import STOP_DECEL, SVLaneEnds, stop_gap
 from cosim.driving.layout import LaneLayout
@@ -49,6 +56,12 @@ CLEAR_DECEL = 1.0  # m/s^2, the constant braking that matches the TV's speed wit
 # gap left when the plan ends, at most this (0 for a TV not slower than the SV)
 CLEAR_MIN_GAP = 2.5  # m, bumper gap kept to that TV (SUMO's minGap)
 CLEAR_BRAKING = 0.5  # m/s^2, that TV braking harder than this closes the gap
+SEEN_AHEAD = 1.0  # s, a collision with a TV that only signals, predicted this long after
+# SUMO's driver sees the SV in the lane it signals for, does not replace the plan
+# (`unseen_signal`; SUMO's driver acts the step after it sees the SV, and a change it
+# began unseen shows as lateral motion at the next re-check, 0.1 s later)
+# tuned: docs/tuned_constants.md
+SEEN_STEP = 0.05  # s, the sampling of the plan for when its body enters the lane
 BRAKE_TAU = 3.0  # s, emergency brake's duration when the planner gave no tau_min
 BRAKE_TAU_MIN = 1.5  # s, shortest emergency brake (lateral move to the nearest centre)
 
@@ -91,9 +104,11 @@ class Recheck:
     gives (`run`: the module docstring's steps), and how often each outcome came."""
 
     def __init__(self, calls: PlannerCalls, ends: SVLaneEnds, lanes: LaneLayout, mu: float,
-                 interval: float, enabled: bool, sv_length: float = 0.0) -> None:
+                 interval: float, enabled: bool, sv_length: float = 0.0,
+                 gap_rules: GapRecheck | None = None) -> None:
         self.calls, self.ends, self.lanes, self.mu = calls, ends, lanes, mu
         self.sv_length = sv_length  # m
+        self.gap_rules = gap_rules  # the gap policy's (None: the paper's re-check)
         self.interval = interval  # s, between re-checks
         self.enabled = enabled  # [planner] replanning
         self.next_check = math.inf  # s, the next re-check of the plan under way
@@ -115,6 +130,10 @@ class Recheck:
         if rejection is None or clear_ahead(t, lc.trajectory, rejection, messages,
                                             self.sv_length):
             return None
+        g = self.gap_rules
+        if g is not None and unseen_signal(t, lc.trajectory, rejection, messages, self.lanes,
+                                           lc.target_lane, g.sv_width):
+            return None
         when = math.nan if rejection.time is None else rejection.time
         reason = f"re-check: collision with {rejection.vehicle_id} at {when:.2f} s"
         if braking:
@@ -132,7 +151,13 @@ class Recheck:
         frm, to = lc.origin_lane, lc.target_lane
         state = reference_state(lc.trajectory, t, frm)
         frm_end = self.ends.ahead(frm, state.x, state.vx)
-        again = self.calls.plan(t, state, to, messages, x_limit=self.ends.x_limit(frm_end))
+        # the gap policy's replan keeps the change's end speed (its new leader's; the
+        # band rule's instead made a new follower, let in at the gap's speed, brake 4.5
+        # m/s^2 behind an SV that then drove 5 m/s slower)
+        vxf = (float(lc.trajectory.vxf) if self.gap_rules is not None
+               and self.gap_rules.keep_end_speed else None)
+        again = self.calls.plan(t, state, to, messages, vxf=vxf,
+                                x_limit=self.ends.x_limit(frm_end))
         back = None
         if again.trajectory is None and not self.ends.was_due(frm, frm_end):
             back = self.calls.plan(t, replace(state, lane=to), frm, messages)
@@ -174,6 +199,43 @@ class Recheck:
         row.update(reason=reason, tau_s=trajectory.tau, ok=1,
                    target_lane=self.lanes.lane_of(trajectory.y_final))
         return Rescue(Trigger.BRAKE, plan, trajectory, row, gentle)
+
+
+@dataclass(frozen=True)
+class GapRecheck:
+    """The gap policy's re-check rules (`Recheck`'s gap_rules)."""
+
+    sv_width: float  # m, the SV's body width (when SUMO's drivers see it in a lane)
+    keep_end_speed: bool = True  # a replan ends at the plan's end speed (the new
+    # leader's), not the band rule's
+
+
+def unseen_signal(t: float, trajectory: LaneChangeTrajectory, rejection: Any,
+                  messages: list[Any], lanes: LaneLayout, target_lane: int,
+                  sv_width: float) -> bool:
+    """Whether the collision a re-check at t found is with a TV that only signals a
+    change into `target_lane` (its blinker, no lateral motion yet) and is predicted
+    SEEN_AHEAD or more after SUMO's driver sees the SV's body in that lane: SUMO's
+    driver changes only into a gap secure behind and ahead of it, so it does not cut
+    into the SV it sees there (the prediction starts its change now, whatever the SV
+    does); the next re-check sees its lateral motion if it starts before. Such a
+    collision does not replace the plan (two TVs signalling from the lane the SV was
+    leaving, passed at 6 m/s, turned a merge's later change into a replan and an
+    emergency brake of 3.9 m/s^2)."""
+    when, tv_id = rejection.time, rejection.vehicle_id
+    if when is None or tv_id is None:
+        return False
+    tv = next((m for m in messages if m.vehicle_id == tv_id), None)
+    if tv is None or tv.intention == 0 or tv.motion is not None:
+        return False
+    if lanes.lane_of(tv.y) + int(tv.intention) != target_lane:
+        return False
+    # when the SV's body first touches the target lane (SUMO's drivers see it there)
+    times = np.arange(t, max(trajectory.t_end, t) + 1e-9, SEEN_STEP)
+    _, y = trajectory.position(times)
+    lo, hi = lanes.lanes_touched(np.asarray(y, dtype=float), 0.5 * sv_width)
+    inside = np.flatnonzero((lo <= target_lane) & (hi >= target_lane))
+    return inside.size > 0 and when - float(times[inside[0]]) >= SEEN_AHEAD
 
 
 def clear_ahead(t: float, trajectory: LaneChangeTrajectory, rejection: Any,

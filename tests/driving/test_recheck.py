@@ -1,11 +1,15 @@
-"""The re-check's rule for a collision far ahead with a TV the SV closes on slowly or not
-at all (cosim.driving.recheck.clear_ahead), on hand-made plans and messages."""
+"""The re-check's rules for a collision far ahead with a TV the SV closes on slowly or not
+at all (cosim.driving.recheck.clear_ahead) and for one with a TV that only signals a
+change into the lane SUMO's driver sees the SV in (`unseen_signal`), on hand-made plans
+and messages."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 
-from cosim.driving.recheck import CLEAR_AHEAD, clear_ahead
+from cosim.driving.layout import LaneLayout
+from cosim.driving.recheck import CLEAR_AHEAD, SEEN_AHEAD, clear_ahead, unseen_signal
+from cosim.params import RoadParams
 from cosim.planning.planner import Rejection
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.v2v import V2VMessage
@@ -37,3 +41,22 @@ def test_a_near_closing_braking_or_unknown_tv_replaces_it() -> None:
     faster = LaneChangeTrajectory(t0=10.0, tau=4.0, x0=0.0, y0=0.0, vx0=20.0, vxf=30.0,
                                   width=3.75)
     assert not clear_ahead(11.0, faster, far, [TV], L)  # the plan ends 9 m/s faster
+
+
+def test_a_tv_that_only_signals_into_the_lane_the_sv_is_seen_in_keeps_the_plan() -> None:
+    lanes = LaneLayout(RoadParams())
+    # a change from lane 0 (y 1.875) to lane 1 at 20 m/s from t = 10 s over 4 s; its
+    # body (1.8 m wide) touches lane 1 at about 11.4 s
+    plan = LaneChangeTrajectory(t0=10.0, tau=4.0, x0=0.0, y0=1.875, vx0=20.0, vxf=20.0,
+                                width=3.75)
+    # a slower TV ahead in lane 0 signalling left, not moving sideways yet
+    tv = V2VMessage(vehicle_id="tv1", t=10.5, x=40.0, y=1.875, heading=0.0, speed=15.0,
+                    accel=0.0, lane=0, lateral_speed=0.0, length=L, width=1.8, intention=1)
+    late = Rejection(4.0, "collision", "tv1", 11.4 + SEEN_AHEAD + 0.2)
+    early = Rejection(4.0, "collision", "tv1", 11.4 + SEEN_AHEAD - 0.3)
+    assert unseen_signal(10.5, plan, late, [tv], lanes, 1, 1.8)
+    assert not unseen_signal(10.5, plan, early, [tv], lanes, 1, 1.8)  # before it sees it
+    assert not unseen_signal(10.5, plan, late, [replace(tv, intention=0)], lanes, 1, 1.8)
+    assert not unseen_signal(10.5, plan, late, [replace(tv, intention=-1)], lanes, 1, 1.8)
+    assert not unseen_signal(10.5, plan, late, [replace(tv, y=5.625)], lanes, 1, 1.8)
+    assert not unseen_signal(10.5, plan, late, [tv], lanes, 2, 1.8)

@@ -57,21 +57,23 @@ from cosim.driving.gap.decision import (
     mandatory_config,
 )
 from cosim.driving.gap.geometry import GapConfig
+from cosim.driving.gap.retarget import RETARGET_MIN_TIME, end_speed
 from cosim.driving.gap.yielding import MakingRoom, YieldWatch
 from cosim.driving.lane_end import stop_gap
 from cosim.driving.manoeuvre import LaneChangeTimer, Manoeuvre, Mode
 from cosim.driving.plans import Trigger
+from cosim.driving.recheck import GapRecheck, reference_state
 from cosim.driving.registry import register
 from cosim.driving.view import TrafficView
 from cosim.planning.deadline import LaneEnd
 from cosim.planning.interaction import FollowerModel, LaneTraffic, check_follower
 from cosim.planning.planner import PredictionOptions
+from cosim.planning.trajectory import LaneChangeTrajectory
 
 if TYPE_CHECKING:
     from cosim.driving.layout import Neighbours
     from cosim.driving.manoeuvre import LaneChange
     from cosim.planning.planner import Plan
-    from cosim.planning.trajectory import LaneChangeTrajectory
     from cosim.traffic.world import Scene, SVState
 
 WANT_HOLD = 20.0  # s, a lane the decision rule wanted is sought this long at most
@@ -129,12 +131,15 @@ class GapPolicy:
         self.yielding = YieldWatch()  # the braking of the TVs asked to make room
         self.room = MakingRoom()  # room it makes for an automated vehicle that asked
         self.held: LaneChange | None = None  # the change flown on the courtesy held
+        self.retargeted: LaneChange | None = None  # the last change whose end speed was
+        # re-targeted to its new leader (`_retarget`)
         # the SV's blinker: it signals for the context's notice before it starts a change
         self.blinker = Blinker(ctx.ports.blinker, ctx.notice)
         self.following = CarFollowing(ctx, cfg)
         self.gap_cfg = gap or GapConfig()
         self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal,
-                                   max_tau=self.gap_cfg.max_tau)
+                                   max_tau=self.gap_cfg.max_tau,
+                                   gap_rules=GapRecheck(sv_width=ctx.sv_width))
         self.ends = self.manoeuvre.ends  # the SV's lane-end reasoning
         self.follower = follower or FollowerModel(reaction=REACTION)
         # what a flown plan may ask of its new follower: the policy's own limit within b_safe
@@ -186,10 +191,16 @@ class GapPolicy:
         sv, m = scene.sv, self.manoeuvre
         ended = m.begin(t)
         if ended is not None:
-            self.following.resume(float(ended.trajectory.vxf))
+            # after a change re-targeted to a slower new leader, braking begins at the
+            # manoeuvre's end acceleration (0), its jerk limited: the car following's
+            # braking for that leader would be a step at once (0 -> 2.7 m/s^2, the car
+            # 3.6 behind a leader that cut in 47 m ahead 6 m/s slower)
+            self.following.resume(float(ended.trajectory.vxf),
+                                  brake_from=0.0 if ended is self.retargeted else None)
         allow_scripted, allow_decision = m.may_request(t, sv)
         if m.active is not None:  # changing: car-following values for the trace only
             self.following.update(sv, scene, False)
+            self._retarget(t, sv, scene, messages)
             trajectory = m.advance(t, sv, None, None, messages)
         else:
             traffic = TrafficView.of(scene)
@@ -203,6 +214,41 @@ class GapPolicy:
             if self.cadence is not None and m.active is None:
                 self.cadence.decided(t, sv.vx, self._own(sv, traffic), traffic.ids)
         return trajectory if trajectory is not None else self.following.reference(t, sv)
+
+    def _retarget(self, t: float, sv: SVState, scene: Scene, messages: Messages) -> None:
+        """The change under way ends at its new leader's speed now where that leader has
+        slowed since the plan (cosim.driving.gap.retarget), if the rest of the change at
+        that speed is still collision-free and its new follower keeps the plan's limit."""
+        m = self.manoeuvre
+        lc = m.active
+        if lc is None or m.mode != Mode.CHANGING or lc.aborted:
+            return
+        tr = lc.trajectory
+        left = tr.t_end - t
+        if left < RETARGET_MIN_TIME:
+            return
+        traffic = TrafficView.of(scene)
+        ahead = self.lanes.neighbours(lc.target_lane, sv.x, self.sv_length, traffic)
+        if ahead.leader < 0:
+            return
+        vxf = end_speed(float(tr.vxf), float(tr.derivative(t, 1)[0]),
+                        float(tr.derivative(t, 2)[0]), left, ahead.gap_ahead,
+                        float(ahead.leader_speed), self.following.cfg.idm_time_gap,
+                        self.following.cfg.idm_min_gap)
+        if vxf is None:
+            return
+        st = reference_state(tr, t, lc.origin_lane)
+        tried = LaneChangeTrajectory(t0=t, tau=left, x0=st.x, y0=st.y, vx0=st.vx, vxf=vxf,
+                                     width=lc.y_target - st.y, ax0=st.ax, vy0=st.vy,
+                                     ay0=st.ay)
+        tvs = LaneTraffic.of(traffic.x, traffic.speed, traffic.length,
+                             in_lane(lc.target_lane, traffic, self.lanes))
+        if not check_follower(tried, self.sv_length, tvs, self.plan_follower,
+                              sv_width=self.sv_width).safe:
+            return  # slower now, its new follower would brake too hard: car following
+        if m.calls.check(tried, t, messages.read()) is None:
+            lc.trajectory = tried
+            self.retargeted = lc
 
     def _own(self, sv: SVState, traffic: TrafficView) -> Neighbours:
         """Its leader and follower in its own lane."""
