@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import sumo
 
@@ -43,3 +44,33 @@ def test_bremens_lanes_stepping_4_8_m_at_a_junction_shift_the_frame() -> None:
     assert shift.s == pytest.approx(827.8, abs=0.5)  # the end of 191842213, 827.6 m long
     assert road.frame.quality.min_radius > 900.0
     assert road.max_deviation < 0.5  # measured 0.39 m: the kinks of 153177820, coarse
+
+
+@pytest.mark.sumo
+def test_bremens_on_ramp_is_driven_from_the_ramp_through_its_step_to_the_merge(
+        tmp_path: Path) -> None:
+    """game/highway's ramp route from its two-lane edge 201283198: the ramp's left lane
+    steps 1.13 m sideways at junction J1 where it runs on as E0's acceleration lane, so
+    the frame shifts with it over 113 m; the SV drives the ramp from 20 m up it, keeps
+    its lane through the shift and merges (a mandatory change) into the mainline."""
+    from cosim.run.loop import simulate
+    from cosim.scenario.load import scenario_from_dict
+
+    route = ["201283198", "201283198.145", "201283198.145.16", "E0", "191842213"]
+    road = load_road(GAME_HIGHWAY, route)
+    assert road.carriageway == 3  # E0: the acceleration lane E0_0 is lane 0
+    (shift,) = road.shifts
+    assert shift.jump == pytest.approx(1.13, abs=0.01)
+    assert road.max_deviation < 0.2
+    doc = {"scenario": {"name": "bremen_ramp", "duration_s": 14.0, "seed": 1},
+           "road": {"network": str(GAME_HIGHWAY), "route": route, "mu": 0.6,
+                    "lane_speeds_kmh": [[90, 120], [110, 140], [130, 160]]},
+           "sv": {"edge": "201283198", "lane": 1, "position_m": 20.0, "speed_kmh": 70.0,
+                  "decision": True}}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "bremen_ramp.toml"))
+    m, tr = result.metrics, result.trace
+    assert m["merge_success"] == 1 and m["lane_change_completed"] == 1
+    assert m["final_lane"] == 1
+    assert m["collisions"] == 0 and m["sumo_events"] == 0
+    assert {"201283198", "E0"} <= set(result.edges)
+    assert float(np.max(np.abs(tr["ye_m"]))) < 0.02
