@@ -107,14 +107,15 @@ def test_lane_centres_stay_within_the_reported_deviation_of_sumo_lanes() -> None
     assert frame.quality.max_deviation <= FrameLimits().max_deviation
     assert frame.quality.min_radius > 700.0  # lanes of R 790-1511 m
     for table in road.lanes:
-        s = np.concatenate([np.linspace(a, b, max(2, math.ceil((b - a) / 0.1)))
+        s = np.concatenate([np.linspace(a, b, max(2, math.ceil((b - a) / 0.25)))
                             for a, b in zip(table.s_start, table.s_end, strict=True)])
         x, y, _ = frame.to_cartesian(s, table.centre(s))
         ours = np.column_stack((x, y))
-        sumo = shapely.segmentize(shapely.LineString(table.track.shape()), 0.1)
-        # the Hausdorff distance of the two lines, both sampled every 0.1 m (the distance
-        # between samples exceeds theirs by well under 1 mm at these headings): each
-        # sample's distance to the other line, through a tree of that line's segments
+        sumo = shapely.segmentize(shapely.LineString(table.track.shape()), 0.25)
+        # the Hausdorff distance of the two lines, both sampled every 0.25 m, half the
+        # code's own step, SUMO's vertices kept (the distance between samples exceeds
+        # theirs by well under 1 mm at these headings): each sample's distance to the
+        # other line, through a tree of that line's segments
         measured = max(_farthest(ours, shapely.get_coordinates(sumo)),
                        _farthest(shapely.get_coordinates(sumo), ours))
         assert measured <= table.deviation + 1e-3, table.track.name
@@ -480,7 +481,7 @@ def test_lanes_re_spread_at_a_lane_count_change_are_driven(c343: Path, tmp_path:
 
     def run(**change: object) -> tuple[dict, dict]:
         sv = {"edge": "AB", "lane": 1, "position_m": 900.0, "speed_kmh": 110.0, **change}
-        doc = {"scenario": {"name": "c343", "duration_s": 8.0, "seed": 1},
+        doc = {"scenario": {"name": "c343", "duration_s": 6.0, "seed": 1},
                "road": {"network": str(c343), "route": ["AB", "BC", "CD"], "mu": 0.6},
                "sv": sv}
         result = simulate(scenario_from_dict(doc, path=tmp_path / "c343.toml"))

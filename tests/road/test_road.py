@@ -51,7 +51,7 @@ def test_bremens_on_ramp_is_driven_from_the_ramp_through_its_step_to_the_merge(
         tmp_path: Path) -> None:
     """game/highway's ramp route from its two-lane edge 201283198: the ramp's left lane
     steps 1.13 m sideways at junction J1 where it runs on as E0's acceleration lane, so
-    the frame shifts with it over 113 m; the SV drives the ramp from 20 m up it, keeps
+    the frame shifts with it over 113 m; the SV drives the ramp from 60 m up it, keeps
     its lane through the shift and merges (a mandatory change) into the mainline."""
     from cosim.run.loop import simulate
     from cosim.scenario.load import scenario_from_dict
@@ -62,10 +62,10 @@ def test_bremens_on_ramp_is_driven_from_the_ramp_through_its_step_to_the_merge(
     (shift,) = road.shifts
     assert shift.jump == pytest.approx(1.13, abs=0.01)
     assert road.max_deviation < 0.2
-    doc = {"scenario": {"name": "bremen_ramp", "duration_s": 14.0, "seed": 1},
+    doc = {"scenario": {"name": "bremen_ramp", "duration_s": 11.0, "seed": 1},
            "road": {"network": str(GAME_HIGHWAY), "route": route, "mu": 0.6,
                     "lane_speeds_kmh": [[90, 120], [110, 140], [130, 160]]},
-           "sv": {"edge": "201283198", "lane": 1, "position_m": 20.0, "speed_kmh": 70.0,
+           "sv": {"edge": "201283198", "lane": 1, "position_m": 60.0, "speed_kmh": 70.0,
                   "decision": True}}
     result = simulate(scenario_from_dict(doc, path=tmp_path / "bremen_ramp.toml"))
     m, tr = result.metrics, result.trace
