@@ -302,10 +302,13 @@ class Fleet:
         for vid in self.watch.ending(self.route_end, HANDBACK_DISTANCE, HANDBACK_LAST):
             self.watch.finish(vid, k, "handed_back")  # a baseline: left to SUMO alone
         handed: list[AutomatedVehicle] = []
-        for av in self.active:
-            sv = av.ego.state(everyone)
+        active = self.active
+        scenes = Scene.around_all(t, [av.ego.state(everyone) for av in active], everyone,
+                                  [av.id for av in active])
+        for av, scene in zip(active, scenes, strict=True):
+            sv = scene.sv
             status = av.status = av.policy.status(sv)
-            scene = av.scene = Scene.around(t, sv, everyone, av.id)
+            av.scene = scene
             av.ego.write_trace(av.recorder.record(k, scene, status))
             left = self.route_end - sv.x
             if left <= HANDBACK_LAST or (left <= HANDBACK_DISTANCE and not status.changing):

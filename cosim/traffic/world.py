@@ -112,6 +112,24 @@ class Scene:
         tvs = everyone.select(near)
         return cls(t, sv, everyone, tvs, tvs.speed * np.cos(tvs.heading))
 
+    @classmethod
+    def around_all(cls, t: float, svs: list[SVState], everyone: TrafficSnapshot,
+                   own_ids: list[str]) -> list[Scene]:
+        """`around` for several SVs in one snapshot at once (the fleet's automated
+        vehicles): one (SVs x vehicles) search, the same scenes."""
+        if not svs:
+            return []
+        x = np.array([sv.x for sv in svs])
+        near = (np.abs(everyone.x[None, :] - x[:, None]) <= NEAR_RANGE) \
+            & (everyone.lane >= 0)[None, :]
+        row = {vid: i for i, vid in enumerate(everyone.ids)}
+        near[np.arange(len(svs)), [row[vid] for vid in own_ids]] = False
+        scenes = []
+        for sv, mask in zip(svs, near, strict=True):
+            tvs = everyone.select(mask)
+            scenes.append(cls(t, sv, everyone, tvs, tvs.speed * np.cos(tvs.heading)))
+        return scenes
+
 
 def cooperation_channels(sc: Scenario, words: tuple[int, ...] = ()
                          ) -> list[CooperationChannel]:

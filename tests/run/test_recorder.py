@@ -117,3 +117,22 @@ def test_road_columns_on_the_straight_road_are_x_and_y() -> None:
     row = rec.data[0]
     assert (row[COLUMN["s_m"]], row[COLUMN["d_m"]]) == (123.456, 5.625)  # bit for bit
     assert row[COLUMN["track"]] == 1 and rec.edges == ["highway"]
+
+
+def test_the_scenes_of_several_svs_found_at_once_are_each_ones_own() -> None:
+    """Scene.around_all (the fleet's one search) gives each SV the scene Scene.around
+    gives it: the TVs within NEAR_RANGE on the network, itself left out."""
+    rng = np.random.default_rng(5)
+    n = 60
+    ids = tuple(f"v{i}" for i in range(n))
+    x, y = rng.uniform(0.0, 1000.0, n), rng.choice([Y0, Y0 + 3.75], n)
+    lane = np.where(rng.random(n) < 0.1, -1, 0)
+    snap = TrafficSnapshot(0.0, ids, x, y, rng.normal(0.0, 0.02, n),
+                           rng.uniform(10.0, 30.0, n), np.zeros(n), lane, np.zeros(n),
+                           np.full(n, L), np.full(n, W), np.zeros(n, int))
+    own = ["v3", "v17", "v40"]
+    svs = [SVState(float(x[int(v[1:])]), Y0, 0.0, 20.0, 0.0, 0) for v in own]
+    for got, sv, vid in zip(Scene.around_all(0.0, svs, snap, own), svs, own, strict=True):
+        want = Scene.around(0.0, sv, snap, vid)
+        assert got.tvs.ids == want.tvs.ids and vid not in got.tvs.ids and got.sv is sv
+        assert np.array_equal(got.tv_vx, want.tv_vx) and np.array_equal(got.tvs.x, want.tvs.x)
