@@ -330,9 +330,11 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
                        reach=reach)
         if steps:
             # SUMO's lanes step sideways at a junction: the line follows them, shifting
-            # over as long as a curve of the radius the speed limit needs
+            # over as long as a curve of the radius the speed limit needs, and never
+            # tighter than the lanes allow
+            floor = max(limits.min_radius, reach / (1.0 - limits.min_stretch))
             frame, shifts = shifted(frame, steps, np.array(line.shape()),
-                                    top**2 / limits.limit_lat_accel, limits)
+                                    max(top**2 / limits.limit_lat_accel, floor), limits)
             _check_radius(frame, reach, limits, src, route, line)
     tables = lane_tables(tracks, reference_lanes(ref, lead), frame, route.net,
                          [sh.window for sh in shifts])

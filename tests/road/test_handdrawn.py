@@ -112,6 +112,16 @@ def test_lanes_that_step_sideways_at_a_junction_shift_the_frame(tmp_path: Path) 
     # lane 0's centre: on AB_0 (y = -8.0) before, BC_0 (y = -3.2) after
     y = [road.frame.to_cartesian(s, road.lane(0).centre(s))[1] for s in (900.0, 1100.0)]
     assert y == pytest.approx([-8.0, -3.2], abs=1e-4)
+    # at 30 km/h the speed limit would take R 35 m: the shift keeps the R 64 m that
+    # three lanes of 3.2 m allow (the frame's stretch across them >= 0.85)
+    slow = netconvert(
+        tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="500" y="0"/>'
+        '<node id="C" x="1000" y="0"/></nodes>',
+        '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="8.33"/>'
+        '<edge id="BC" from="B" to="C" numLanes="3" speed="8.33" spreadType="center"/>'
+        "</edges>", name="slow")
+    road = load_road(slow, ["AB", "BC"])
+    assert 0.99 * 9.6 / 0.15 <= road.frame.quality.min_radius < 70.0
 
 
 def test_a_lane_cars_may_not_use_is_no_track(tmp_path: Path) -> None:
