@@ -66,8 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=count("--repeats"), default=5,
                         help="repeats of every case (median; default 5)")
     parser.add_argument("--fleet-scenario", type=Path, default=None,
-                        help="a fleet with [fleet] vtypes for the fleet's SSM cases "
-                             f"(default {DEFAULT_FLEET_SCENARIO})")
+                        help="a fleet with [fleet] vtypes for the fleet's SSM cases, run "
+                             f"for its own duration (default {DEFAULT_FLEET_SCENARIO})")
     parser.add_argument("--no-fleet", dest="fleet", action="store_false",
                         help="leave out the fleet's cases")
 
@@ -109,7 +109,7 @@ def measure(args: argparse.Namespace) -> dict[str, Any]:
     if getattr(args, "fleet", True):
         fleet_path = getattr(args, "fleet_scenario", None) or \
             project_root() / DEFAULT_FLEET_SCENARIO
-        fleet = with_overrides(load_scenario(fleet_path), duration=float(args.duration))
+        fleet = load_scenario(fleet_path)  # its own duration (the warm-up comes first)
         cases.update({key: with_overrides(fleet, **keys) for key, _, keys in FLEET_CASES})
         groups.append((FLEET_CASES, "fleet", fleet))
     repeats = max(int(args.repeats), 1)

@@ -3,17 +3,17 @@ configures its device and turns what it wrote into one tidy table (conflicts.csv
 few counts (metrics.csv).
 
 The device (`sumo_options`) runs on every vehicle (`vehicles = "all"`,
-device.ssm.probability 1), on the SV alone (`"sv"`, device.ssm.explicit: its
-encounters with every vehicle within `range`) or on the SV and the fleet's vTypes
-(`"fleet"`: the SV and the `<vehicle>` / `<trip>` elements of those vTypes by name, the
-vehicles of their flows by the vType's parameter `has.ssm.device`, set once SUMO has
-started, `equip_vtypes`: SUMO builds a vehicle's devices with the vehicle and cannot add
-one later, so a vehicle the fleet draws by `share` at its insertion cannot carry one),
-with the measures TTC, DRAC and PET and
-the scenario's thresholds: SUMO logs an encounter as a conflict when any of the three
-passes its threshold, with the extreme of each measure over the encounter (when, where,
-its encounter type), and writes them all into one file in a folder the caller gives
-(run_scenario: its temporary folder). The device only observes: the vehicles move
+device.ssm.probability 1), on the SV alone (`"sv"`, device.ssm.explicit: its encounters
+with every vehicle within `range`) or on the SV and the fleet's vTypes (`"fleet"`: the
+SV and the `<vehicle>` / `<trip>` elements of those vTypes by name, the vehicles of
+their flows by the vType's parameter `has.ssm.device`, set after the warm-up
+(World.start, `equip_vtypes`: the flows' vehicles SUMO builds from then on): SUMO builds
+a vehicle's devices with the vehicle and cannot add one later, so a vehicle the fleet
+draws by `share` at its insertion cannot carry one), with the measures TTC, DRAC and PET
+and the scenario's thresholds: SUMO logs an encounter as a conflict when any of the
+three passes its threshold, with the extreme of each measure over the encounter (when,
+where, its encounter type), and writes them all into one file in a folder the caller
+gives (run_scenario: its temporary folder). The device only observes: the vehicles move
 alike with or without it (tests/traffic/test_ssm.py). The SV moved by moveToXY carries
 its device like any vehicle: SUMO takes its lane, position and speed as the move left
 them, so its encounters follow SUMO's lane of the SV (docs/outputs.md, "conflicts.csv":

@@ -249,8 +249,6 @@ class World:
         self.sumo.start()
         if self.distance is not None:  # every vehicle's km, for conflicts per vehicle-km
             self.sumo.add_hook(self.distance)
-        if self.ssm is not None and self.ssm.vehicles == "fleet":  # the AVs' flows' vehicles
-            equip_vtypes(self.sumo.api, sc.fleet.vtypes)
         road = sc.road  # lane geometry: the network's, read once by the scenario
         x0 = self.sv_start_x
         track = self.sv_start_track
@@ -273,6 +271,10 @@ class World:
             ramp_flow(self.sumo, tr.ramp_flow, sc.seed, traffic)
         if sc.demand is not None:
             self.warm_up(sc.demand.warmup, self.warmup_progress)
+        if self.ssm is not None and self.ssm.vehicles == "fleet":
+            # the fleet's flows' vehicles: those SUMO builds from now on (after the
+            # warm-up, as the fleet's are; a device costs CPU every step)
+            equip_vtypes(self.sumo.api, sc.fleet.vtypes)
         return road
 
     def warm_up(self, warmup: float, progress: WarmupProgress | None = None) -> list[str]:
