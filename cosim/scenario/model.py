@@ -422,8 +422,9 @@ class SsmSpec:
             "`fleet` (the SV and every vehicle of `fleet.vtypes`, the automated vehicles: "
             "their encounters with their neighbours; needs `fleet.vtypes`: SUMO builds a "
             "vehicle's device with the vehicle, before a `fleet.share` draw); on every "
-            "vehicle the device multiplies a dense run's CPU by 2-2.6, on the SV alone it "
-            "costs nothing measurable: `cosim bench measures`)"), "all")
+            "vehicle the device multiplies a dense run's CPU by 1.8-2.6, on the SV alone "
+            "or on the SV and the fleet it costs nothing measurable: `cosim bench "
+            "measures`)"), "all")
     range: float = declare(number_key(
         "range_m", "m", 1.0, 1000.0, 50.0,
         "how far from a device's vehicle SUMO looks for encounters (SUMO's "
