@@ -14,8 +14,9 @@ and decides again only
   speeds held),
 - the speed the held acceleration takes the reference to crosses the speed it wants.
 
-A lane change under way, a failed plan's wait and a request (a scripted change, a lane
-that ends) are the policy's own: it decides every step then. The SV decides every step
+A lane change under way, a failed plan's wait, a request (a scripted change, a lane
+that ends) and an acceleration still ramping to the one decided (its jerk limit,
+cosim.driving.following) are the policy's own: it decides every step then. The SV decides every step
 (no cadence): its outputs are those of a policy without one.
 """
 

@@ -42,13 +42,17 @@ def scene(sv: SVState, leader_x: float, leader_speed: float) -> Scene:
 def test_a_standing_leader_close_ahead_brakes_within_grip_and_jerk() -> None:
     f = following()
     sv = SVState(0.0, ROAD.lane_center(0), 0.0, 25.0, 0.0, 0.0)
-    accels = []
+    accels, ramping = [], []
     for _ in range(40):
         f.update(sv, scene(sv, 30.0, 0.0), allow_change=False)
         accels.append(f.accel)
+        ramping.append(f.ramping)
     steps = np.diff([0.0, *accels])
     assert np.all(np.abs(steps) <= MAX_FOLLOW_JERK * f.dt + 1e-12)  # rate-limited
     assert min(accels) == pytest.approx(-FOLLOW_GRIP * ROAD.mu * G)  # grip-limited
+    # ramping (a cadence must not hold the decision) until the braking asked for is reached
+    reached = int(np.argmax(np.isclose(accels, min(accels))))
+    assert all(ramping[:reached]) and not any(ramping[reached:])
     assert f.leader_gap == pytest.approx(30.0 - 4.32)
 
 

@@ -259,7 +259,8 @@ class GapPolicy:
         """The lane-keeping reference from t with the last decision's acceleration held,
         or None: decide now (`update`). Only with a cadence (cosim.driving.cadence), while
         it keeps its lane with no entry open (one its notice or timer holds back), no lane
-        end ahead and no leader (nor itself) near standstill
+        end ahead, no acceleration still ramping to the one decided (`Following.ramping`)
+        and no leader (nor itself) near standstill
         (the standstill hold needs the gap of every step), until the cadence is due or the
         held acceleration takes the reference across the speed it wants."""
         c, m, f = self.cadence, self.manoeuvre, self.following
@@ -269,7 +270,7 @@ class GapPolicy:
             return None
         sv = scene.sv
         lane = self.lanes.lane_of(sv.y)
-        if f.v_ref < HOLD_SPEED or f.leader_speed < HOLD_SPEED or (
+        if f.v_ref < HOLD_SPEED or f.leader_speed < HOLD_SPEED or f.ramping or (
                 self.ends.any and self.ends.ahead(lane, sv.x, sv.vx) is not None):
             return None
         traffic = TrafficView.of(scene)
