@@ -69,7 +69,7 @@ class CarFollowing:
         """The SV as the decision rules see it: at the reference's speed, wanting its
         desired speed in the lane it is in."""
         return SVView(sv.x, sv.y, self.v_ref, self.sv_length,
-                      self.desired_speed(self.lanes.lane_of(sv.y)), self.sv_width)
+                      self.desired_speed(self.lanes.lane_of(sv.y)), self.sv_width, self.accel)
 
     def update(self, sv: SVState, scene: Scene, allow_change: bool,
                stop_gap: float = math.inf) -> Decision:

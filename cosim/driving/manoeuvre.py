@@ -205,11 +205,13 @@ class Manoeuvre:
 
     def advance(self, t: float, sv: SVState, target: int | None, trigger: Trigger | None,
                 messages: Any, *, vxf: float | None = None,
-                accept: Acceptance | None = None) -> LaneChangeTrajectory | None:
+                accept: Acceptance | None = None, ax0: float = 0.0
+                ) -> LaneChangeTrajectory | None:
         """Plan the change the policy asks for (`target`, `trigger`; None: none), or
         re-check the one under way when due; the trajectory to fly (None: keeping)."""
         if target is not None and trigger is not None:
-            self.start(t, sv, target, trigger, messages.read(), vxf=vxf, accept=accept)
+            self.start(t, sv, target, trigger, messages.read(), vxf=vxf, accept=accept,
+                       ax0=ax0)
         elif self.mode in (Mode.CHANGING, Mode.BRAKING) and self.recheck.due(t):
             self._recheck(t, messages.read())
         return None if self.active is None else self.active.trajectory
@@ -233,9 +235,11 @@ class Manoeuvre:
 
     # ------------------------------------------------------------------ planning
     def start(self, t: float, sv: SVState, target: int, trigger: Trigger, messages: list[Any],
-              *, vxf: float | None = None, accept: Acceptance | None = None) -> None:
+              *, vxf: float | None = None, accept: Acceptance | None = None,
+              ax0: float = 0.0) -> None:
         """Ask the planner for a lane change to `target` (ending at `vxf`, m/s; None: the
-        band rule's speed); adopt the plan (changing) unless `accept` refuses it, or keep
+        band rule's speed; starting with the reference's acceleration `ax0`, m/s^2, but for
+        a mandatory change); adopt the plan (changing) unless `accept` refuses it, or keep
         the lane and ask again after `retry_interval` (waiting)."""
         from cosim.planning.planner import SVPlanState
 
@@ -245,8 +249,11 @@ class Manoeuvre:
         limits = self.ends.limits(lane, sv, target, vxf, trigger == Trigger.MANDATORY)
         # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans
         # only while keeping its lane, where these are ~0; the measured values would
-        # carry the plant's transients (at t = 0: drag with no force yet) into the plan
-        state = SVPlanState(x=sv.x, y=sv.y, heading=sv.heading, vx=limits.vx0, ax=0.0,
+        # carry the plant's transients (at t = 0: drag with no force yet) into the plan.
+        # A policy may start it with its reference's acceleration instead (`ax0`: the
+        # gap policy speeding up toward a faster lane goes on doing so, not a jerk to 0)
+        ax = 0.0 if trigger == Trigger.MANDATORY else ax0
+        state = SVPlanState(x=sv.x, y=sv.y, heading=sv.heading, vx=limits.vx0, ax=ax,
                             vy=0.0, ay=0.0, lane=lane)
         trigger = self._count_request(lane, target, trigger)
         plan, why = self._plan(t, state, target, trigger, messages, limits.vxf, limits, accept)

@@ -26,6 +26,8 @@ class SVView:
     length: float  # m
     desired_speed: float  # m/s
     width: float = 0.0  # m (0: unknown, it is taken to enter a lane with its centre)
+    accel: float = 0.0  # m/s^2, the car-following reference's acceleration (a change
+    # started now starts with it: the gap policy, cosim.driving.gap.geometry.ChangeStart)
 
 
 @dataclass(frozen=True)

@@ -230,7 +230,7 @@ def _first_entry(at: _Situation, lanes: LaneLayout, rules: GapRules, seeking: Se
     gap_cfg, sv = rules.gap, at.sv
     y0 = lanes.centre(at.lane)
     start = ChangeStart(sv.x, y0, sv.speed, sv.length, lanes.centre(at.target) - y0,
-                        sv.width)
+                        sv.width, sv.accel)
 
     def enters(speeds: Array, limit: float, braking: Array | None) -> Entry:
         """`entry_test` of the change, the TVs at `speeds`."""

@@ -118,9 +118,10 @@ class GapConfig:
     # check keeps MOBIL's b_safe as the hard limit
     plan_decel: float = 1.0  # m/s^2, the most a flown plan may ask of its new follower as
     # predicted (within b_safe)
-    patience: float = 1.0  # s, after seeking this long without an entry within plan_decel,
+    patience: float = 0.5  # s, after seeking this long without an entry within plan_decel,
     # the SV takes one that asks its new follower up to `insist_decel` (SUMO's own driver
     # goes at once into gaps whose follower then brakes at its full decel)
+    # tuned: docs/tuned_constants.md
     insist_decel: float = 2.0  # m/s^2, that limit: a comfortable deceleration (the IDM's
     # b, the courtesy's COURTESY_DECEL), so that with SUMO's dawdling (up to 0.52 m/s^2)
     # the new follower brakes less than 3 m/s^2; an entry that makes it brake at its
@@ -148,9 +149,11 @@ class GapConfig:
     nominal_tau: float = 3.45  # s, the manoeuvre's duration the entry test assumes (the
     # planner's eq. 13 optimum at the speeds of motorway traffic)
     # tuned: docs/tuned_constants.md
-    max_tau: float = 3.5  # s, the longest manoeuvre it plans when a shorter one is free
-    # (about nominal_tau, so that it flies the change its entry test predicted; eq. 13
-    # on a wet road, mu 0.4, asks for 8-9 s, twice SUMO's drivers' 3 s change)
+    max_tau: float = 3.0  # s, the longest manoeuvre it plans when a shorter one is free
+    # (SUMO's drivers' change: the SV's centre crosses the line 1.5 s after the start, its
+    # peak lateral acceleration 2.4 m/s^2 on a 3.75 m lane; eq. 13 on a wet road, mu 0.4,
+    # asks for 8-9 s); the entry test keeps nominal_tau (a shorter nominal manoeuvre
+    # enters closer to a faster follower and is taken later)
     # tuned: docs/tuned_constants.md
 
     def follow_model(self) -> FollowerModel:
@@ -406,6 +409,7 @@ class ChangeStart:
     length: float  # m
     width: float  # m, the lateral move (+ left)
     body_width: float = 0.0  # m, the SV's width (0: it enters the lane with its centre)
+    accel: float = 0.0  # m/s^2, its acceleration at the start (the plan starts with it)
 
 
 @dataclass(frozen=True)
@@ -450,7 +454,7 @@ def entry_test(start: ChangeStart, lane: TargetLane, cfg: GapConfig,
     t_in = 0.5 * tau
     lead, vxf = _new_leader(start, lane, tau, t_in)
     tr = LaneChangeTrajectory(t0=0.0, tau=tau, x0=start.x, y0=start.y, vx0=start.speed,
-                              vxf=vxf, width=start.width)
+                              vxf=vxf, width=start.width, ax0=start.accel)
     xs, _ = tr.position(t_in)
     vs, _ = tr.derivative(t_in, 1)
     x_in, v_in = float(xs), float(vs)
@@ -482,7 +486,7 @@ def _new_leader(start: ChangeStart, lane: TargetLane, tau: float, t_in: float
     v = np.asarray(lane.tvs.speed, dtype=float)
     inside = np.asarray(lane.tvs.in_target, dtype=bool)
     probe = LaneChangeTrajectory(t0=0.0, tau=tau, x0=start.x, y0=start.y, vx0=start.speed,
-                                 vxf=start.speed, width=start.width)
+                                 vxf=start.speed, width=start.width, ax0=start.accel)
     x_in = float(probe.position(t_in)[0])
     ahead = inside & (x + v * t_in > x_in)
     lead = int(np.argmin(np.where(ahead, x + v * t_in, np.inf))) if ahead.any() else -1

@@ -209,7 +209,8 @@ class GapPolicy:
             trajectory = m.advance(
                 t, sv, target, trigger, messages,
                 vxf=d.vxf if math.isfinite(d.vxf) else None,
-                accept=lambda plan: self.accept(t, plan, target, traffic))
+                accept=lambda plan: self.accept(t, plan, target, traffic),
+                ax0=self.following.accel)
             self.held = m.active if d.held is not None else None
             if self.cadence is not None and m.active is None:
                 self.cadence.decided(t, sv.vx, self._own(sv, traffic), traffic.ids)
