@@ -149,11 +149,13 @@ class Manoeuvre:
 
     def __init__(self, ctx: DrivingContext, timer: LaneChangeTimer,
                  blinker: Callable[[int], None], max_tau: float = math.inf,
-                 gap_rules: GapRecheck | None = None) -> None:
+                 gap_rules: GapRecheck | None = None, merge_max_tau: float | None = None
+                 ) -> None:
         self.lanes = ctx.lanes
         self.blinker = blinker
         self.timer = timer
         self.calls = PlannerCalls(ctx.planner, ctx.sv.occupant, max_tau)
+        self.merge_max_tau = merge_max_tau  # s, a mandatory change's longest (None: max_tau)
         self.ends = SVLaneEnds(ctx.lanes, ctx.sv_length)  # the SV's lane-end reasoning
         self.recheck = Recheck(self.calls, self.ends, ctx.lanes, ctx.mu,
                                ctx.recheck_interval, ctx.replanning, ctx.sv_length,
@@ -283,7 +285,9 @@ class Manoeuvre:
               accept: Acceptance | None) -> tuple[Plan, str]:
         """One planner call and its plans.csv row: (the plan, why `accept` refused it)."""
         plan = self.calls.plan(t, state, target, messages, vxf=vxf, x_limit=limits.x_limit,
-                               curvature=limits.curvature)
+                               curvature=limits.curvature,
+                               max_tau=self.merge_max_tau if trigger == Trigger.MANDATORY
+                               else None)
         with self.calls.timed():
             why = accept(plan) if accept is not None and plan.trajectory is not None else ""
         row = plan_row(plan, trigger, state.vx)

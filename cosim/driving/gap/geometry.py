@@ -155,6 +155,8 @@ class GapConfig:
     # asks for 8-9 s); the entry test keeps nominal_tau (a shorter nominal manoeuvre
     # enters closer to a faster follower and is taken later)
     # tuned: docs/tuned_constants.md
+    merge_max_tau: float = 3.5  # s, a mandatory change's longest (a merge from a lane that
+    # ends): the cap the merge study's distance left at the merge was measured with
 
     def follow_model(self) -> FollowerModel:
         """The SV as a Krauss follower of its own leader while it seeks a gap."""

@@ -139,7 +139,8 @@ class GapPolicy:
         self.gap_cfg = gap or GapConfig()
         self.manoeuvre = Manoeuvre(ctx, LaneChangeTimer(cfg), self._signal,
                                    max_tau=self.gap_cfg.max_tau,
-                                   gap_rules=GapRecheck(sv_width=ctx.sv_width))
+                                   gap_rules=GapRecheck(sv_width=ctx.sv_width),
+                                   merge_max_tau=self.gap_cfg.merge_max_tau)
         self.ends = self.manoeuvre.ends  # the SV's lane-end reasoning
         self.follower = follower or FollowerModel(reaction=REACTION)
         # what a flown plan may ask of its new follower: the policy's own limit within b_safe
@@ -342,7 +343,10 @@ class GapPolicy:
             allow_change=wants.mandatory or wants.scripted is not None or by_choice,
             insist=insist, urgency=0.0 if wants.due is None else wants.due.urgency,
             yielding=braking if held else None, wary=self._wary(t, traffic.ids))
-        d = gap_decision(following.view(sv), traffic, self.lanes,
+        view = following.view(sv)
+        if wants.mandatory:  # its plan starts from 0 (Manoeuvre.start): its entry test too
+            view = replace(view, accel=0.0)
+        d = gap_decision(view, traffic, self.lanes,
                          GapRules(following.cfg, gap_cfg, self.follower), seeking)
         if d.refused >= 0:
             self.refused[str(traffic.ids[d.refused])] = t
