@@ -436,11 +436,12 @@ class LaneChangePlanner:
     def _horizon(self, t: float, remaining: float, sv_x: float, v_start: float, v_end: float,
                  target_lane: int, messages: Sequence[V2VMessage]) -> tuple[Array, Array]:
         """(the check's time grid, `_follow_horizon` per TV): up to max(tau_max, the SV's
-        remaining manoeuvre, the TVs' broadcast manoeuvres) + horizon_extra, or longer
-        for a slower vehicle ahead in the target lane."""
+        remaining manoeuvre, the TVs' broadcast manoeuvres, at most HORIZON_CAP_S past
+        the SV's) + horizon_extra, or longer for a slower vehicle ahead in the target lane."""
         cfg = self.config
+        own = max(cfg.tau_max, remaining)
         tv_last = max((m.motion.t0 + m.motion.tau - t for m in messages if m.motion), default=0.0)
-        base = max(cfg.tau_max, remaining, tv_last) + cfg.horizon_extra
+        base = max(own, min(tv_last, own + HORIZON_CAP_S)) + cfg.horizon_extra
         # the SV's speed lies between v_start and v_end for the longest candidate (plan) or
         # what is left of the committed one (re-check)
         follow = self._follow_horizon(t, sv_x, v_start, v_end,

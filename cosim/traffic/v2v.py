@@ -112,7 +112,11 @@ class V2VMessage:
     # announcement, cosim.run.announcements; nan: not known)
 
 
-LATERAL_SPEED_EPS = 1e-6  # m/s, below this a TV is not moving sideways
+# m/s, below this a TV is not changing lanes: SUMO's lane changes move sideways at
+# width / lanechange.duration (about 1 m/s) or its sublane maxSpeedLat (1 m/s); slower
+# drift (a vehicle SUMO takes back from moveToXY settling on its lane) would read as a
+# change lasting hours and stretch every collision check over it
+LATERAL_SPEED_EPS = 0.1
 
 
 def lateral_motion(
