@@ -161,7 +161,7 @@ class CoSimulation:
             self.fleet.requests.policies[SV_ID] = policy
         # our exact TTC / PET for every automated vehicle, beside SUMO's SSM device
         self.encounters = Encounters(sc.ssm) if (
-            self.fleet is not None and self.world.ssm is not None) else None
+            self.fleet is not None and self.world.measures.ssm is not None) else None
 
     def run(self, progress: ProgressFn | None = None) -> RunResult:
         wall0 = time.perf_counter()
@@ -226,7 +226,7 @@ class CoSimulation:
             "wall_realtime_factor": float(trace["t_s"][-1]) / wall if wall > 0 else float("nan"),
             "cpu_time_s": cpu,
         }
-        detectors = self.world.detector_table()
+        detectors = self.world.measures.detector_table(self.world.t_warmup)
         if detectors is not None:  # the traffic's flow, density, speed and waves
             from cosim.traffic.traffic_measures import traffic_columns
 
@@ -234,13 +234,13 @@ class CoSimulation:
         fleet = None if self.fleet is None else self.fleet.result(self.stop.last_row)
         if fleet is not None:  # the fleet's aggregates (cosim.run.fleet)
             metrics.update(fleet.metrics())
-        conflicts = self.world.conflict_table()
+        conflicts = self.world.measures.conflict_table(self.world.t_warmup)
         if conflicts is not None:  # SUMO's surrogate safety measures ([ssm] enabled)
             from cosim.traffic.ssm import conflict_counts
 
             metrics.update(conflict_counts(conflicts))
-            if self.world.distance is not None:
-                metrics.update(self.world.distance.columns())
+            if self.world.measures.distance is not None:
+                metrics.update(self.world.measures.distance.columns())
         return RunResult(sc, self.road, trace, done.plans, done.lane_changes,
                          recorder.tracks.result(), metrics, timing, events,
                          records=ego.records, first_plan=done.first_plan,

@@ -36,7 +36,6 @@ from cosim.traffic.cooperation import (
     CooperationConfig,
     done_yielding,
 )
-from cosim.traffic.detectors import DetectorLayout, place_detectors
 from cosim.traffic.gui import GuiSettings
 from cosim.traffic.process import SumoOptions
 from cosim.traffic.road_view import (
@@ -47,9 +46,8 @@ from cosim.traffic.road_view import (
     upstream_lanes,
 )
 from cosim.traffic.route_lanes import load_route_road, sv_start
-from cosim.traffic.ssm import VehicleDistance, conflicts_table, equip_vtypes, loaded_vehicles
-from cosim.traffic.ssm import sumo_options as ssm_options
 from cosim.traffic.sumo import SumoSim, TrafficSnapshot
+from cosim.traffic.sumo_measures import SumoMeasures
 
 if TYPE_CHECKING:
     from cosim.traffic.scripted import ScriptedTraffic
@@ -195,25 +193,17 @@ class World:
         # edge the identity StraightFrame); SUMO runs on its route
         # (built once per process and network file: the scenario's loading built it)
         self.route_road = load_route_road(sc.network, sc.route, source=str(sc.path))
-        # SUMO's detectors along the route ([detectors] enabled), their outputs written
-        # into `detector_output` (None: no detectors)
-        self.detector_output = detector_output
-        self.detectors: DetectorLayout | None = None
-        if sc.detectors.enabled and detector_output is not None:
-            self.detectors = place_detectors(self.route_road, sc.detectors)
-        # SUMO's SSM device ([ssm] enabled), its output into the same folder
-        self.ssm = sc.ssm if sc.ssm.enabled and detector_output is not None else None
-        self.distance = VehicleDistance() if self.ssm is not None else None
+        # SUMO's detectors and SSM device, their outputs written into `detector_output`
+        # (None: neither)
+        self.measures = SumoMeasures(sc, self.route_road, detector_output, SV_ID)
         self.sumo = SumoSim(
             sc.network, sc.step, sc.seed, SumoOptions(
                 lanechange_duration=tr.lanechange_duration, sublane=tr.sublane, gui=gui,
                 fcd_output=fcd_output,
                 route_files=sc.demand.route_files if sc.demand else (),
                 additional_files=sc.demand.additional_files if sc.demand else (),
-                detectors="" if self.detectors is None or detector_output is None else
-                self.detectors.additional(detector_output),
-                measures=() if self.ssm is None or detector_output is None else
-                ssm_options(self.ssm, detector_output, SV_ID, self._ssm_loaded(sc))),
+                detectors=self.measures.detector_additional(),
+                measures=self.measures.ssm_options()),
             speed_bands=sc.road.speed_bands,  # sumo-gui's pace: cosim.traffic.gui
             route_road=self.route_road,
         )
@@ -247,8 +237,7 @@ class World:
         tr = sc.traffic
         self.started = True  # `close` ends SUMO even if its start is cut short
         self.sumo.start()
-        if self.distance is not None:  # every vehicle's km, for conflicts per vehicle-km
-            self.sumo.add_hook(self.distance)
+        self.measures.started(self.sumo)
         road = sc.road  # lane geometry: the network's, read once by the scenario
         x0 = self.sv_start_x
         track = self.sv_start_track
@@ -271,10 +260,7 @@ class World:
             ramp_flow(self.sumo, tr.ramp_flow, sc.seed, traffic)
         if sc.demand is not None:
             self.warm_up(sc.demand.warmup, self.warmup_progress)
-        if self.ssm is not None and self.ssm.vehicles == "fleet":
-            # the fleet's flows' vehicles: those SUMO builds from now on (after the
-            # warm-up, as the fleet's are; a device costs CPU every step)
-            equip_vtypes(self.sumo.api, sc.fleet.vtypes)
+        self.measures.warmed_up(self.sumo)
         return road
 
     def warm_up(self, warmup: float, progress: WarmupProgress | None = None) -> list[str]:
@@ -299,13 +285,6 @@ class World:
         self.cleared = removed
         return removed
 
-    def _ssm_loaded(self, sc: Scenario) -> tuple[str, ...]:
-        """With `[ssm] vehicles = "fleet"`, the fleet's vehicles SUMO builds as it loads
-        the user's routes (cosim.traffic.ssm.loaded_vehicles); else none."""
-        if self.ssm is None or self.ssm.vehicles != "fleet" or sc.demand is None:
-            return ()
-        return loaded_vehicles(sc.demand.route_files, sc.fleet.vtypes)
-
     @property
     def sv_start_x(self) -> float:
         """m, the SV's centre at t = 0 in road coordinates: s of ([sv] edge, [sv] lane,
@@ -324,8 +303,7 @@ class World:
         run's clock starts here."""
         self.sumo.step()
         self.t_offset = self.sumo.time
-        if self.distance is not None:
-            self.distance.since = self.t_offset
+        self.measures.clock_starts(self.t_offset)
         self.sumo.follow_in_gui(SV_ID)
         if self.placed:  # SUMO leaves out a vehicle with no room at its minimum gap
             on_road = set(self.sumo.api.vehicle.getIDList())
@@ -527,18 +505,3 @@ class World:
     def close(self) -> None:
         if self.started:
             self.sumo.close()
-
-    def detector_table(self) -> Any:
-        """detectors.csv's rows (cosim.traffic.detectors.DetectorLayout.table) once SUMO
-        has closed (its outputs are complete then), times on the run's clock; None
-        without detectors."""
-        if self.detectors is None or self.detector_output is None:
-            return None
-        return self.detectors.table(self.detector_output, self.t_warmup)
-
-    def conflict_table(self) -> Any:
-        """conflicts.csv's rows (cosim.traffic.ssm.conflicts_table) once SUMO has closed,
-        times on the run's clock; None without the SSM device."""
-        if self.ssm is None or self.detector_output is None:
-            return None
-        return conflicts_table(self.detector_output, self.ssm, SV_ID, self.t_warmup)

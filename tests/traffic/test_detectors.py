@@ -62,7 +62,7 @@ def dense(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     folder = tmp_path_factory.mktemp("sumo")
     sc = _on("traffic_high", duration=60.0, **{"detectors.period_s": PERIOD})
     sim = CoSimulation(sc, detector_output=folder)
-    areas = [d for d in sim.world.detectors.detectors if d.kind == "e2"]
+    areas = [d for d in sim.world.measures.detectors.detectors if d.kind == "e2"]
     counts: dict[tuple[str, int], list[int]] = defaultdict(list)
     before: dict[str, tuple[int, float]] = {}  # id -> (track, back) at the step's start
     dt = sc.step
@@ -84,7 +84,7 @@ def dense(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     sim.world.sumo.add_hook(count)
     result = sim.run()
     return {"scenario": sc, "result": result, "sumo": _sumo_intervals(folder),
-            "counts": counts, "layout": sim.world.detectors}
+            "counts": counts, "layout": sim.world.measures.detectors}
 
 
 def test_the_table_holds_sumos_own_values(dense: dict[str, Any]) -> None:
