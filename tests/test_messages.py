@@ -68,25 +68,6 @@ def test_a_route_that_cannot_be_smoothed_is_told_under_road_route(tmp_path: Path
     assert "(reference line radius: " in str(err.value)
 
 
-def test_a_route_whose_lanes_step_sideways_is_refused_under_road_route(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    net = netconvert(
-        tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
-        '<node id="C" x="2000" y="0"/></nodes>',
-        '<edges><edge id="AB" from="A" to="B" numLanes="3" speed="33.3"/>'
-        '<edge id="BC" from="B" to="C" numLanes="3" speed="33.3" spreadType="center"/>'
-        "</edges>")
-    scenario = tmp_path / "s.toml"
-    scenario.write_text(
-        '[scenario]\nname = "step"\nduration_s = 5.0\n'
-        f'[road]\nnetwork = "{net}"\nroute = ["AB", "BC"]\n'
-        '[sv]\nlane = 1\nposition_m = 50.0\nspeed_kmh = 100.0\n', encoding="utf-8")
-    line = _error(["run", str(scenario), "--no-figures", "--out", str(tmp_path / "o")], capsys)
-    assert line.startswith(f"cosim run: error: {scenario}: road.route = ['AB', 'BC']: "), line
-    assert "at junction B between edges AB and BC" in line
-    assert line.endswith("(reference line deviation: 0.296 m)"), line
-
-
 def test_an_edge_too_short_for_the_sv_says_so(tmp_path: Path) -> None:
     net = netconvert(
         tmp_path,
