@@ -41,6 +41,9 @@ SLOW = {
     "cosim batch scenarios/study_curved.toml": "20 runs of 60 s",
     "cosim batch scenarios/study_merge.toml": "200 runs of 40 s",
     "cosim batch scenarios/study_fundamental.toml": "24 runs of 40 s, up to 100 veh/km/lane",
+    "cosim batch scenarios/study_entry.toml --densities 15,45 --seeds 1-10 --drivers mimo "
+    "--workers 1": "40 runs of 25 s",
+    "cosim bench fleet --avs 20": "a dense fleet run of 20 automated vehicles and its floor",
     "cosim run scenarios/traffic_jam.toml --controller sumo --fcd":
         "60 s of traffic with its fcd.xml and figures: about 20 s",
 }
