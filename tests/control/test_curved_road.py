@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import functools
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,11 +24,14 @@ from cosim.control.reference import ReferencePath, frame_path_errors
 from cosim.driving.following import lane_keeping_reference
 from cosim.params import ControllerGains, G, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.road.frame import ArcFrame, ArcTable, FrameQuality, StraightFrame
+from cosim.road.frame import StraightFrame
 from cosim.road.road import Road, load_road
 from cosim.traffic.network import NETWORK_DIR
 from cosim.vehicle.chassis import chassis_for
 from cosim.vehicle.plant import PlantStart
+
+sys.path.insert(0, str(Path(__file__).parent))
+from arcs import arc_frame  # noqa: E402
 
 V = 30.0  # m/s
 
@@ -89,22 +94,6 @@ def test_the_straight_frame_gives_the_cartesian_errors_bit_for_bit() -> None:
         e = path.errors(*args, 2.0)
         f = frame_path_errors(path.coef, fp, fr, *args, 2.0, math.nan)
         assert tuple(e) == f[:11]
-
-
-def arc_frame(radius: float, length: float, straight: float = 300.0, h: float = 0.5
-              ) -> ArcFrame:
-    """A straight, then a circular arc of `radius` (left), then straight: the frame's
-    table built directly (curvature steps at both ends, no smoothing)."""
-    kappa = np.concatenate((np.zeros(int(straight / h)), np.full(int(length / h), 1.0 / radius),
-                            np.zeros(int(straight / h))))
-    theta = np.concatenate(([0.0], np.cumsum(kappa * h)))
-    dth = np.diff(theta)
-    mid = theta[:-1] + 0.5 * dth
-    step = h * np.sinc(dth / (2.0 * np.pi))
-    x = np.concatenate(([0.0], np.cumsum(step * np.cos(mid))))
-    y = np.concatenate(([0.0], np.cumsum(step * np.sin(mid))))
-    return ArcFrame(ArcTable(0.0, h, x, y, theta, kappa), 1.875, kappa.size * h, 200.0,
-                    FrameQuality(0.0, radius, 0.0, 0.0))
 
 
 def test_the_two_track_car_holds_a_steady_curve_with_its_integrators_nearly_empty() -> None:

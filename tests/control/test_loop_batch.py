@@ -5,6 +5,8 @@ frame, with loops joining, leaving and changing reference between steps."""
 from __future__ import annotations
 
 import dataclasses
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,28 +16,16 @@ from cosim.control.loop_batch import LoopBatch
 from cosim.errors import SimulationError
 from cosim.params import ControllerGains, VehicleParams
 from cosim.planning.trajectory import LaneChangeTrajectory
-from cosim.road.frame import ArcFrame, ArcTable, FrameQuality
 from cosim.vehicle.plant import PlantStart
+
+sys.path.insert(0, str(Path(__file__).parent))
+from arcs import arc_frame  # noqa: E402
 
 VEHICLE = VehicleParams()
 GAINS = ControllerGains()
 FIELDS = ("t", "x", "y", "heading", "vx", "vy", "yaw_rate", "ax", "ay", "x_ref", "y_ref",
           "vx_ref", "kappa_ref", "ye", "phi_e", "ex", "along", "delta_f", "dmz", "fa", "fx",
           "saturated")
-
-
-def _frame(h: float = 0.5) -> ArcFrame:
-    """100 m straight, then an arc of R 400 m (the curved law's terms too), built as
-    tests/control/test_curved_road.py's arc_frame."""
-    kappa = np.concatenate((np.zeros(200), np.full(800, 1.0 / 400.0)))
-    theta = np.concatenate(([0.0], np.cumsum(kappa * h)))
-    dth = np.diff(theta)
-    mid = theta[:-1] + 0.5 * dth
-    step = h * np.sinc(dth / (2.0 * np.pi))
-    x = np.concatenate(([0.0], np.cumsum(step * np.cos(mid))))
-    y = np.concatenate(([0.0], np.cumsum(step * np.sin(mid))))
-    return ArcFrame(ArcTable(0.0, h, x, y, theta, kappa), 1.875, kappa.size * h, 200.0,
-                    FrameQuality(0.0, 400.0, 0.0, 0.0))
 
 
 def _ref(rng: np.random.Generator, t0: float, x0: float, y0: float, v: float
@@ -48,7 +38,7 @@ def _ref(rng: np.random.Generator, t0: float, x0: float, y0: float, v: float
 @pytest.mark.parametrize("plant", ["twotrack", "bicycle"])
 def test_a_batch_steps_each_loop_as_its_own_advance(plant: str) -> None:
     rng = np.random.default_rng(7)
-    frame = _frame()
+    frame = arc_frame(400.0, 400.0, straight=100.0)
     n = 6
 
     def loops() -> list[ClosedLoop]:
