@@ -147,6 +147,22 @@ def njit(fn: F) -> F:
     return _Deferred(fn)  # type: ignore[return-value]
 
 
+# every module that declares compiled functions and registers a warm-up (cosim.control.warm
+# loads them; their sources name the cache's folder, so a cache check needs them all)
+COMPILED_MODULES = ("cosim.control.closed_loop", "cosim.control.loop_batch",
+                    "cosim.planning.collision", "cosim.planning.envelope",
+                    "cosim.planning.interaction",
+                    "cosim.road.frame", "cosim.run.proximity")
+
+
+def load_compiled_modules() -> None:
+    """Import COMPILED_MODULES (declaring their functions; nothing is compiled yet)."""
+    import importlib
+
+    for name in COMPILED_MODULES:
+        importlib.import_module(name)
+
+
 def register_warm_up(fn: Callable[[], None]) -> Callable[[], None]:
     """Declare a module's warm-up (a call of each of its compiled functions); returns fn."""
     if fn not in _WARM_UPS:

@@ -56,3 +56,18 @@ def test_importing_the_closed_loop_does_not_import_numba() -> None:
     code = ("import sys, cosim.control.closed_loop, cosim.run.loop; "
             "sys.exit(1 if 'numba' in sys.modules else 0)")
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_the_compiled_modules_declare_every_compiled_function() -> None:
+    """The cache's folder is named by the sources of the functions declared so far:
+    `load_compiled_modules` must reach every file with one, or a warm cache reads cold."""
+    from pathlib import Path
+
+    package = Path(compiled.__file__).parent
+    with_njit = {str(p) for p in package.rglob("*.py") if "\n@njit" in p.read_text()}
+    code = ("import inspect; from cosim import compiled; compiled.load_compiled_modules(); "
+            "print('\\n'.join(sorted({inspect.getsourcefile(d.py_func) "
+            "for d in compiled._PENDING})))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert set(done.stdout.split()) == with_njit

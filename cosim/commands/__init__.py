@@ -155,15 +155,9 @@ def compile_first(stream: Any = None) -> float:
     import sys
     import time
 
-    # the modules cosim.control.warm loads: declaring their compiled functions names the
-    # cache's folder, so cache_warm must see every one of them
-    import cosim.control.closed_loop  # noqa: F401
-    import cosim.control.loop_batch  # noqa: F401
-    import cosim.planning.collision  # noqa: F401
-    import cosim.planning.interaction  # noqa: F401
-    import cosim.road.frame  # noqa: F401
-    import cosim.run.proximity  # noqa: F401
-    from cosim.compiled import cache_folder, cache_warm
+    from cosim.compiled import cache_folder, cache_warm, load_compiled_modules
+
+    load_compiled_modules()  # their sources name the cache's folder
 
     out = stream or sys.stderr
     cold = not cache_warm()

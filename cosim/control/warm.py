@@ -13,14 +13,9 @@ paper case 5.1 takes 1.45 s without this module in the preload list, 0.28 s with
 
 from __future__ import annotations
 
-import cosim.control.closed_loop  # noqa: F401  (registers its warm-up)
-import cosim.control.loop_batch  # noqa: F401  (registers its warm-up)
-import cosim.planning.collision  # noqa: F401  (registers its warm-up)
-import cosim.planning.interaction  # noqa: F401  (registers its warm-up)
-import cosim.road.frame  # noqa: F401  (registers its warm-up: the loop builds the route's road)
-import cosim.run.proximity  # noqa: F401  (registers its warm-up)
-from cosim.compiled import warm_up
+from cosim.compiled import load_compiled_modules, warm_up
 
+load_compiled_modules()
 warm_up()
 
 __all__ = ["warm_up"]
