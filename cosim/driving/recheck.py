@@ -16,9 +16,11 @@ Each new plan starts from the reference's state, not the plant's (`reference_sta
 continues the reference without a jump, and the controller's errors carry over.
 
 A collision far ahead with a TV the SV closes on slowly does not replace the plan
-(`clear_ahead`); under the gap policy (`GapRecheck`) neither does one with a TV that only
-signals toward the lane SUMO's driver already sees the SV in (`unseen_signal`), and a
-replan keeps the change's end speed.
+(`clear_ahead`); under the gap policy (`GapRecheck`) neither does one with such a TV
+that brakes while the SV can still stop behind it (`stops_behind`) nor one with a TV
+that only signals toward the lane SUMO's driver already sees the SV in
+(`unseen_signal`), and a replan keeps the change's end speed, else ends behind a slower
+TV cutting in ahead at its speed (`behind_speed`).
 """
 
 from __future__ import annotations
@@ -55,12 +57,20 @@ CLEAR_AHEAD = 2.0  # s, a collision the re-check predicts at least this far ahea
 CLEAR_DECEL = 1.0  # m/s^2, the constant braking that matches the TV's speed within the
 # gap left when the plan ends, at most this (0 for a TV not slower than the SV)
 CLEAR_MIN_GAP = 2.5  # m, bumper gap kept to that TV (SUMO's minGap)
-CLEAR_BRAKING = 0.5  # m/s^2, that TV braking harder than this closes the gap
+CLEAR_BRAKING = 0.5  # m/s^2, that TV braking harder than this closes the gap, unless ...
+CLEAR_STOP_DECEL = 3.0  # m/s^2, ... (the gap policy's re-check) the SV, braking at this
+# from the next re-check on, still stops CLEAR_MIN_GAP behind it braking on as measured
+# (`stops_behind`): SUMO's drivers' measured acceleration swings by +-2 m/s^2 from step
+# to step in dense traffic, and kept for seconds it made a leader 12 m ahead at the
+# SV's speed a collision 3.4 s away (merge study, 40 veh/km/lane: 10 replans and 3
+# emergency brakes over such leaders); one braking on is seen at the next re-check
+# tuned: docs/tuned_constants.md
 SEEN_AHEAD = 1.0  # s, a collision with a TV that only signals, predicted this long after
 # SUMO's driver sees the SV in the lane it signals for, does not replace the plan
 # (`unseen_signal`; SUMO's driver acts the step after it sees the SV, and a change it
 # began unseen shows as lateral motion at the next re-check, 0.1 s later)
 # tuned: docs/tuned_constants.md
+STOP_SAMPLES = 64  # samples of `stops_behind`'s comparison
 SEEN_STEP = 0.05  # s, the sampling of the plan for when its body enters the lane
 BRAKE_TAU = 3.0  # s, emergency brake's duration when the planner gave no tau_min
 BRAKE_TAU_MIN = 1.5  # s, shortest emergency brake (lateral move to the nearest centre)
@@ -127,10 +137,11 @@ class Recheck:
         replaces it (`braking`: `lc` is a gentle brake already, braked anew)."""
         self.next_check = t + self.interval
         rejection = self.calls.check(lc.trajectory, t, messages)
-        if rejection is None or clear_ahead(t, lc.trajectory, rejection, messages,
-                                            self.sv_length):
-            return None
         g = self.gap_rules
+        stop_decel = None if g is None else g.stop_decel
+        if rejection is None or clear_ahead(t, lc.trajectory, rejection, messages,
+                                            self.sv_length, stop_decel, self.interval):
+            return None
         if g is not None and unseen_signal(t, lc.trajectory, rejection, messages, self.lanes,
                                            lc.target_lane, g.sv_width):
             return None
@@ -139,15 +150,19 @@ class Recheck:
         if braking:
             rescue = self.brake(t, lc, lc.plan, messages, reason)
         else:
-            rescue = self.replan_or_abort(t, lc, messages, reason)
+            rescue = self.replan_or_abort(t, lc, messages, reason, rejection)
         self.outcomes[rescue.kind] += 1
         if rescue.kind == Trigger.BRAKE:
             self.next_check = t + self.interval if rescue.gentle else math.inf
         return rescue
 
-    def replan_or_abort(self, t: float, lc: UnderWay, messages: list[Any], reason: str
-                        ) -> Rescue:
-        """A replan to the target lane, else an abort to the origin lane, else a brake."""
+    def replan_or_abort(self, t: float, lc: UnderWay, messages: list[Any], reason: str,
+                        rejection: Any = None) -> Rescue:
+        """A replan to the target lane, else an abort to the origin lane, else a brake.
+        Under the gap policy a replan that keeps the end speed and collides is tried
+        again behind the TV of `rejection` (the re-check's collision) at that TV's speed
+        when it is ahead of the SV and slower (`behind_speed`): SUMO's driver that cuts
+        in ahead of a change under way is followed, as a leader is."""
         frm, to = lc.origin_lane, lc.target_lane
         state = reference_state(lc.trajectory, t, frm)
         frm_end = self.ends.ahead(frm, state.x, state.vx)
@@ -156,8 +171,14 @@ class Recheck:
         # m/s^2 behind an SV that then drove 5 m/s slower)
         vxf = (float(lc.trajectory.vxf) if self.gap_rules is not None
                and self.gap_rules.keep_end_speed else None)
-        again = self.calls.plan(t, state, to, messages, vxf=vxf,
-                                x_limit=self.ends.x_limit(frm_end))
+        x_limit = self.ends.x_limit(frm_end)
+        again = self.calls.plan(t, state, to, messages, vxf=vxf, x_limit=x_limit)
+        if again.trajectory is None and vxf is not None and rejection is not None:
+            slower = behind_speed(state.x, vxf, rejection, messages, self.sv_length)
+            if slower is not None:
+                behind = self.calls.plan(t, state, to, messages, vxf=slower, x_limit=x_limit)
+                if behind.trajectory is not None:
+                    again = behind
         back = None
         if again.trajectory is None and not self.ends.was_due(frm, frm_end):
             back = self.calls.plan(t, replace(state, lane=to), frm, messages)
@@ -208,6 +229,8 @@ class GapRecheck:
     sv_width: float  # m, the SV's body width (when SUMO's drivers see it in a lane)
     keep_end_speed: bool = True  # a replan ends at the plan's end speed (the new
     # leader's), not the band rule's
+    stop_decel: float | None = CLEAR_STOP_DECEL  # m/s^2, a braking TV ahead is clear
+    # while the SV can stop behind it at this (`clear_ahead`; None: never)
 
 
 def unseen_signal(t: float, trajectory: LaneChangeTrajectory, rejection: Any,
@@ -239,29 +262,66 @@ def unseen_signal(t: float, trajectory: LaneChangeTrajectory, rejection: Any,
 
 
 def clear_ahead(t: float, trajectory: LaneChangeTrajectory, rejection: Any,
-                messages: list[Any], sv_length: float) -> bool:
+                messages: list[Any], sv_length: float, stop_decel: float | None = None,
+                interval: float = 0.0) -> bool:
     """Whether the collision a re-check at t found for the plan under way (`rejection`:
     the TV and the time) is with a TV ahead of the SV, CLEAR_AHEAD or more away, that
     the SV closes on slowly enough to match its speed at CLEAR_DECEL once the plan ends
     (CLEAR_AHEAD's comment; the TV as its message has it, kept at its speed, the SV as
-    the plan's reference): then it does not replace the plan."""
+    the plan's reference), and that is not braking harder than CLEAR_BRAKING, or (with
+    `stop_decel`, m/s^2) brakes so that the SV, braking at `stop_decel` from the next
+    re-check on (`interval`, s), still stops behind it (`stops_behind`): then it does
+    not replace the plan."""
     when, tv_id = rejection.time, rejection.vehicle_id
     if when is None or when - t < CLEAR_AHEAD or tv_id is None:
         return False
     tv = next((m for m in messages if m.vehicle_id == tv_id), None)
-    if tv is None or tv.accel < -CLEAR_BRAKING:
+    if tv is None:
         return False
     t_end = max(trajectory.t_end, t)
     x_now, _ = trajectory.position(t)
     x_end, _ = trajectory.position(t_end)
     half = 0.5 * (tv.length + sv_length)
-    if tv.x - float(x_now) - half < CLEAR_MIN_GAP:
+    gap_now = tv.x - float(x_now) - half
+    if gap_now < CLEAR_MIN_GAP:
+        return False
+    if tv.accel < -CLEAR_BRAKING and (stop_decel is None or not stops_behind(
+            gap_now, max(float(trajectory.derivative(t, 1)[0]), float(trajectory.vxf)),
+            tv.speed, -tv.accel, stop_decel, interval)):
         return False
     room = tv.x + tv.speed * (t_end - t) - float(x_end) - half - CLEAR_MIN_GAP
     closing = float(trajectory.vxf) - tv.speed
     if room <= 0.0:
         return False
     return closing <= 0.0 or closing * closing / (2.0 * room) <= CLEAR_DECEL
+
+
+def behind_speed(sv_x: float, vxf: float, rejection: Any, messages: list[Any],
+                 sv_length: float) -> float | None:
+    """m/s, the speed of the TV a re-check found a collision with when it is ahead of
+    the SV's centre `sv_x` (m) by CLEAR_MIN_GAP or more (bumper) and slower than the
+    plan's end speed `vxf` (m/s); else None."""
+    tv = next((m for m in messages if m.vehicle_id == rejection.vehicle_id), None)
+    if tv is None or tv.speed >= vxf - 1e-6 or tv.speed <= 0.0:
+        return None
+    if tv.x - sv_x - 0.5 * (tv.length + sv_length) < CLEAR_MIN_GAP:
+        return None
+    return float(tv.speed)
+
+
+def stops_behind(gap: float, sv_speed: float, tv_speed: float, tv_decel: float,
+                 sv_decel: float, reaction: float) -> bool:
+    """Whether an SV at `sv_speed` (m/s) `gap` (m, bumper) behind a TV at `tv_speed`
+    braking at `tv_decel` (m/s^2) to a standstill stays CLEAR_MIN_GAP or more behind it
+    when it keeps its speed for `reaction` (s) and then brakes at `sv_decel` to a
+    standstill (both sampled STOP_SAMPLES times until both stand)."""
+    s = np.linspace(0.0, max(reaction + sv_speed / sv_decel, tv_speed / tv_decel),
+                    STOP_SAMPLES)
+    t_tv = np.minimum(s, tv_speed / tv_decel)
+    tv_x = tv_speed * t_tv - 0.5 * tv_decel * t_tv * t_tv
+    braking = np.clip(s - reaction, 0.0, sv_speed / sv_decel)
+    sv_x = sv_speed * (np.minimum(s, reaction) + braking) - 0.5 * sv_decel * braking * braking
+    return bool((gap + tv_x - sv_x >= CLEAR_MIN_GAP).all())
 
 
 def brake_to_stop(vx: float, ax: float, tau: float, vxf: float, decel: float,
