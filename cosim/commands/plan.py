@@ -99,7 +99,7 @@ def report(name: str, plan: Plan, startup_s: float, map_build_s: float = 0.0) ->
         f"planning time   {plan.planning_time_s * 1e3:.2f} ms (the planner's own, as "
         f"`cosim bench planner` measures it)",
         f"map build       {map_build_s:.2f} s (the envelope's tau_min map of this lane "
-        f"change: once per process, on the planner's first call)",
+        f"change, the speeds it reads: once per process, on the planner's first call)",
         f"start-up        {startup_s:.2f} s (numba: load, or the first time compile, the "
         f"collision check; once per process)",
         "rejected:",
@@ -126,9 +126,9 @@ def _config(args: argparse.Namespace, sc: Any) -> PlannerConfig:
 
 def _timed_plan(planner: LaneChangePlanner, si: Situation) -> tuple[Plan, float, float]:
     """(the plan, numba's start-up s, the tau_min maps' build s). The first call builds
-    the envelope's tau_min maps of this lane change (one-off, 0.2-0.6 s, cached for the
-    process); the plan reported is the second, identical call, so that planning_time_s
-    is the planner's own (as `cosim bench planner`)."""
+    the envelope's tau_min maps of this lane change (the speeds it reads: one-off,
+    cached for the process); the plan reported is the second, identical call, so that
+    planning_time_s is the planner's own (as `cosim bench planner`)."""
     start = time.perf_counter()
     warm_up()  # so that the planning time is the planner's own
     startup_s = time.perf_counter() - start

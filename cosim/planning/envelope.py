@@ -30,7 +30,7 @@ from __future__ import annotations
 import bisect
 import math
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -255,7 +255,7 @@ class TauMinMap:
     tau_min,i = F_i(vx0, mu), with F computed from the envelope for the vehicle at
     hand instead of the paper's fitted polynomials.
 
-    Built once: a bisection over tau run for all speeds of a grid at once (it
+    On a speed grid: a bisection over tau run for the grid's speeds at once (it
     assumes what eq. 7-8 assume, a stable set [tau_min, tau_max]), with the envelope
     sampled at 64 instants. The sampled envelope converges with its step: the
     bisection runs again at 128 and 256 instants and the difference, extrapolated,
@@ -264,6 +264,13 @@ class TauMinMap:
     the converged envelope's tau_min (`bounds`): the lower one for the durations a C2
     TV may take, the upper one for the SV's own. Covers starts from rest laterally
     (vy0 = ay0 = ax0 = 0) with the given width; other starts need `stable_set`.
+
+    Filled lazily: a query computes only the grid speeds its answer reads (the
+    interval around vx0 and the neighbours of the interpolation's error estimate),
+    each speed's bisection on its own row of the same vectorised calls, so every
+    answer is the one of the whole grid computed at once (`fill`), to the last bit.
+    A map is keyed by an exact end speed, and a C2 TV's is new at most re-checks: the
+    whole grid cost 0.15-0.6 s, the few speeds a query reads cost ~1/15 of that.
     """
 
     def __init__(
@@ -276,33 +283,47 @@ class TauMinMap:
                                    vehicle, n_s=n_s, safety_factor=safety_factor,
                                    yaw_model=yaw_model) <= 1.0
 
+        self._stable = stable
+        self.tau_lo, self.tau_hi = tau_lo, tau_hi
         self.speeds = np.arange(MAP_V_LO, MAP_V_HI + 1e-9, MAP_V_STEP)
         n = self.speeds.size
-        below, above = _bisect(stable, self.speeds, np.full(n, tau_lo), np.full(n, tau_hi), 64)
-        self.tau_min = np.where(np.isneginf(below), tau_lo, above)
-        self._below = np.where(np.isneginf(below), tau_lo, below)
-        self._err_v, self._err = _sampling_error(stable, self.speeds, self.tau_min, tau_lo,
-                                                 tau_hi)
-        # linear interpolation's error per speed interval: twice the h^2 f'' / 8 estimate
-        # from the second differences at its two ends
-        second = np.zeros(n)
-        second[1:-1] = np.abs(np.diff(np.nan_to_num(self.tau_min), 2))
-        self._interp_err = 0.25 * np.maximum(second[:-1], second[1:]) + MAP_TOL
-        # the same as plain floats: one speed is queried per plan (see `_interp_scalar`)
-        self._lists = tuple(a.tolist() for a in (self.speeds, self.tau_min, self._below,
-                                                  self._err_v, self._err, self._interp_err))
+        # per grid speed: tau_min (stable side), the bisection's unstable side, the
+        # sampling error; nan until computed (`_coarse`, `_refined` say which are)
+        self._tau = np.full(n, np.nan)
+        self._below = np.full(n, np.nan)
+        self._err_v = _error_speeds()
+        assert np.array_equal(self._err_v, self.speeds)  # (`_ensure` reads them as one grid)
+        self._err = np.zeros(self._err_v.size)
+        self._coarse = np.zeros(n, dtype=bool)
+        self._refined = np.zeros(self._err_v.size, dtype=bool)
+        self._speeds_list: list[float] = self.speeds.tolist()
+        self._interp_err = np.full(n - 1, np.nan)
+        self._lists: tuple[list[float], ...] = ()
+        self._to_lists()
+
+    @property
+    def tau_min(self) -> Array:
+        """s, tau_min at every grid speed (the whole grid computed)."""
+        self.fill()
+        return self._tau
+
+    def fill(self) -> None:
+        """Every grid speed computed (what a query does for the speeds it reads)."""
+        self._ensure(range(self.speeds.size - 1))
 
     def __call__(self, vx0: ArrayLike) -> Array:
         """s, tau_min at the initial speed(s) vx0 (nan: no stable tau up to tau_hi,
         or outside the map's speed range)."""
         if isinstance(vx0, float | int):
-            speeds, tau_min = self._lists[0], self._lists[1]
             v = float(vx0)
+            speeds = self._lists[0]
             if not speeds[0] <= v <= speeds[-1]:
                 return math.nan  # type: ignore[return-value]
-            return _interp_scalar(v, speeds, tau_min)  # type: ignore[return-value]
+            self._ensure((self._interval(v),))
+            return _interp_scalar(v, speeds, self._lists[1])  # type: ignore[return-value]
         v = np.asarray(vx0, dtype=float)
-        out = np.interp(v, self.speeds, self.tau_min)
+        self._ensure_all(v)
+        out = np.interp(v, self.speeds, self._tau)
         return np.where((v < self.speeds[0]) | (v > self.speeds[-1]), np.nan, out)
 
     def bounds(self, vx0: ArrayLike) -> tuple[Array, Array]:
@@ -310,8 +331,9 @@ class TauMinMap:
         `__call__`): the map's bisection bracket, the sampling error's estimate and the
         interpolation's error."""
         if isinstance(vx0, float | int):  # the same arithmetic on floats
-            speeds, _, below, err_v, err_, interp_err = self._lists
             v = float(vx0)
+            self._ensure((self._interval(v),))
+            speeds, _, below, err_v, err_, interp_err = self._lists
             hi = self(v)
             lo = _interp_scalar(v, speeds, below)
             err = _interp_scalar(v, err_v, err_)
@@ -320,6 +342,7 @@ class TauMinMap:
             upper = max(hi, hi - err) + e
             return (lower if math.isfinite(hi) else math.nan), upper  # type: ignore[return-value]
         v = np.asarray(vx0, dtype=float)
+        self._ensure_all(v)
         hi = self(v)
         lo = np.interp(v, self.speeds, self._below)
         err = np.interp(v, self._err_v, self._err)
@@ -328,6 +351,85 @@ class TauMinMap:
         lower = np.minimum(lo, lo - err) - e
         upper = np.maximum(hi, hi - err) + e
         return np.where(np.isfinite(hi), lower, np.nan), upper
+
+    # -- the lazy grid -------------------------------------------------------------
+
+    def _interval(self, v: float) -> int:
+        """The grid interval [j, j + 1] a query at v reads (the ends outside the grid)."""
+        speeds = self._speeds_list
+        if v != v:
+            return 0
+        return min(max(bisect.bisect_right(speeds, v) - 1, 0), len(speeds) - 2)
+
+    def _ensure_all(self, v: Array) -> None:
+        speeds = self._speeds_list
+        at = np.clip(np.searchsorted(self.speeds, v, side="right") - 1, 0, len(speeds) - 2)
+        self._ensure(np.unique(at).tolist())
+
+    def _ensure(self, intervals: Iterable[int]) -> None:
+        """The grid speeds the queries in `intervals` read computed: tau_min and the
+        bisection's bracket at j - 2 .. j + 3 (the interpolation, and its error estimate
+        from the second differences at j - 1 .. j + 1; a query at a grid point j + 1
+        reads the estimate of interval j), the sampling error at j - 1 .. j + 2 (its
+        speeds' tau_min interpolated as the whole grid's: from j .. j + 3)."""
+        n = self.speeds.size
+        coarse: set[int] = set()
+        refined: set[int] = set()
+        for j in intervals:
+            coarse.update(range(max(j - 2, 0), min(j + 4, n)))
+            refined.update(range(max(j - 1, 0), min(j + 3, n)))
+        todo = sorted(i for i in coarse if not self._coarse[i])
+        todo_err = sorted(i for i in refined if not self._refined[i])
+        if not todo and not todo_err:
+            return
+        if todo:
+            idx = np.array(todo)
+            lo, hi = np.full(idx.size, self.tau_lo), np.full(idx.size, self.tau_hi)
+            below, above = _bisect(self._stable, self.speeds[idx], lo, hi, 64)
+            self._tau[idx] = np.where(np.isneginf(below), self.tau_lo, above)
+            self._below[idx] = np.where(np.isneginf(below), self.tau_lo, below)
+            self._coarse[idx] = True
+        if todo_err:
+            idx = np.array(todo_err)
+            # (the error's speeds are the grid's: interpolated where computed)
+            base = np.interp(self._err_v[idx], self.speeds, self._tau)
+            err = _sampling_error_at(self._stable, self._err_v[idx], base, self.tau_lo,
+                                     self.tau_hi, whole=False)
+            if err is None:  # its bisection would not iterate as the whole grid's
+                self._fill_whole()
+                return
+            self._err[idx] = err
+            self._refined[idx] = True
+        self._to_lists()
+
+    def _fill_whole(self) -> None:
+        """Every grid speed at once (as the map was built before it was lazy)."""
+        n = self.speeds.size
+        below, above = _bisect(self._stable, self.speeds, np.full(n, self.tau_lo),
+                               np.full(n, self.tau_hi), 64)
+        self._tau = np.where(np.isneginf(below), self.tau_lo, above)
+        self._below = np.where(np.isneginf(below), self.tau_lo, below)
+        base = np.interp(self._err_v, self.speeds, self._tau)
+        err = _sampling_error_at(self._stable, self._err_v, base, self.tau_lo, self.tau_hi,
+                                 whole=True)
+        assert err is not None
+        self._err = err
+        self._coarse[:] = True
+        self._refined[:] = True
+        self._to_lists()
+
+    def _to_lists(self) -> None:
+        # linear interpolation's error per speed interval: twice the h^2 f'' / 8 estimate
+        # from the second differences at its two ends (nan where a neighbour is not
+        # computed yet: no query reads it before it is)
+        n = self.speeds.size
+        tau = np.where(self._coarse, np.nan_to_num(self._tau), np.nan)
+        second = np.zeros(n)
+        second[1:-1] = np.abs(np.diff(tau, 2))
+        self._interp_err = 0.25 * np.maximum(second[:-1], second[1:]) + MAP_TOL
+        # the same as plain floats: one speed is queried per plan (see `_interp_scalar`)
+        self._lists = tuple(a.tolist() for a in (self.speeds, self._tau, self._below,
+                                                  self._err_v, self._err, self._interp_err))
 
 
 def _bisect(stable: Callable[[Array, Array, int], Array], speeds: Array, lo: Array,
@@ -349,28 +451,52 @@ def _bisect(stable: Callable[[Array, Array, int], Array], speeds: Array, lo: Arr
             np.where(ok_lo, lo, np.where(ok_hi, hi, np.nan)))
 
 
-def _sampling_error(stable: Callable[[Array, Array, int], Array], speeds: Array,
-                    tau_min: Array, tau_lo: float, tau_hi: float) -> tuple[Array, Array]:
-    """(speeds m/s, s) the error of tau_min sampled at 64 instants against the converged
-    envelope's, on a coarser speed grid (it varies slowly): the bisection again at 128
-    and 256 instants, extrapolated."""
-    fine_v = np.arange(MAP_V_LO, MAP_V_HI + MAP_ERROR_STEP, MAP_ERROR_STEP).clip(max=MAP_V_HI)
-    base = np.interp(fine_v, speeds, tau_min)
+def _error_speeds() -> Array:
+    """m/s, the speeds the sampling error is estimated at (MAP_ERROR_STEP)."""
+    return np.arange(MAP_V_LO, MAP_V_HI + MAP_ERROR_STEP, MAP_ERROR_STEP).clip(max=MAP_V_HI)
+
+
+REFINE_SPAN = (0.05, 0.01)  # s, below and above the 64-instant tau_min: the 128 pass's bracket
+FINE_SPAN = (0.01, 0.003)  # s, the same around the 128-instant one: the 256 pass's
+
+
+def _iterations(lo: Array, hi: Array) -> int:
+    """`_bisect`'s number of halvings for these brackets."""
+    span = hi - lo
+    widest = float(np.nanmax(span)) if np.isfinite(span).any() else MAP_TOL
+    return int(np.ceil(np.log2(max(widest, MAP_TOL) / MAP_TOL)))
+
+
+def _sampling_error_at(stable: Callable[[Array, Array, int], Array], v_all: Array,
+                       base: Array, tau_lo: float, tau_hi: float, *,
+                       whole: bool) -> Array | None:
+    """s, the error of tau_min sampled at 64 instants (`base`, at the speeds `v_all`)
+    against the converged envelope's: the bisection again at 128 and 256 instants,
+    extrapolated. Each speed's bisection is a row of its own, its halvings as many as
+    its widest bracket needs; a part of the grid (`whole` False) iterates as the whole
+    grid only where its widest bracket is the widest any can be (REFINE_SPAN,
+    FINE_SPAN): None where it is not (the caller computes the whole grid)."""
     ok = np.isfinite(base) & (base > tau_lo)
-    err = np.zeros(fine_v.size)
+    err = np.zeros(v_all.size)
     if ok.any():
-        v, b = fine_v[ok], base[ok]
-        _, t128 = _bisect(stable, v, np.maximum(b - 0.05, tau_lo), np.minimum(b + 0.01, tau_hi),
-                          128)
-        _, t256 = _bisect(stable, v, np.maximum(t128 - 0.01, tau_lo),
-                          np.minimum(t128 + 0.003, tau_hi), 256)
+        v, b = v_all[ok], base[ok]
+        lo, hi = np.maximum(b - REFINE_SPAN[0], tau_lo), np.minimum(b + REFINE_SPAN[1], tau_hi)
+        if not whole and _iterations(lo, hi) != _iterations(np.zeros(1), np.full(1, sum(
+                REFINE_SPAN) + 1e-9)):
+            return None
+        _, t128 = _bisect(stable, v, lo, hi, 128)
+        lo, hi = np.maximum(t128 - FINE_SPAN[0], tau_lo), np.minimum(t128 + FINE_SPAN[1], tau_hi)
+        if not whole and _iterations(lo, hi) != _iterations(np.zeros(1), np.full(1, sum(
+                FINE_SPAN) + 1e-9)):
+            return None
+        _, t256 = _bisect(stable, v, lo, hi, 256)
         # converged tau_min, extrapolated: the error goes down about as the step
         # squared where the margin's maximum stays between samples, slower where it
         # jumps (3.7, 0.48, 0.32 ms from 64 to 1024 instants); half the last
         # difference, with the interpolation's allowance below, covers both
         est = t256 - 0.5 * (t128 - t256)
         err[ok] = np.nan_to_num(b - est)
-    return fine_v, err
+    return err
 
 
 def _interp_scalar(x: float, xp: list[float], fp: list[float]) -> float:

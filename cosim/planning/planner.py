@@ -566,12 +566,17 @@ def path_curvature(sv: SVPlanState, vxf: float, width: float, taus: Array) -> Ar
     return (np.abs(xd * ydd - yd * xdd) / speed2**1.5).max(axis=1)
 
 
-@functools.lru_cache(maxsize=64)
+# maps kept per process: a fleet's C2 TVs end at speeds on target_leader_speed's grid,
+# a few hundred end speeds x two widths over a run (each map some 10 kB)
+MAP_CACHE_SIZE = 2048
+
+
+@functools.lru_cache(maxsize=MAP_CACHE_SIZE)
 def _built_tau_min_map(vxf: float, width: float, mu: float, vehicle: VehicleParams,
                        tau_lo: float, tau_hi: float, safety_factor: float,
                        yaw_model: str) -> TauMinMap:
-    """A TauMinMap, built once per process for exactly these inputs (0.3-0.6 s each:
-    runs, re-plans and benches in one process share it; the same inputs give the same
-    map, so a run's results do not depend on what ran before it)."""
+    """A TauMinMap, one per process for exactly these inputs (filled lazily, each grid
+    speed once: runs, re-plans and benches in one process share it; the same inputs
+    give the same answers, so a run's results do not depend on what ran before it)."""
     return TauMinMap(vxf, width, mu, vehicle, tau_lo=tau_lo, tau_hi=tau_hi,
                      safety_factor=safety_factor, yaw_model=yaw_model)

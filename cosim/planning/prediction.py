@@ -114,8 +114,8 @@ def constant_acceleration(msgs: Sequence[V2VMessage], t: ArrayLike) -> tuple[Arr
 
 TV_LEADER_RANGE = 150.0  # m, a C2 TV's leader in its target lane is looked for this far
 # m/s, that leader's speed is taken down to this grid: the end speed keys the planner's
-# tau_min map of the TV (0.03-0.2 s to build), and in slow traffic the exact speed is new
-# at every re-check
+# tau_min map of the TV (each speed of it computed once), and in slow traffic the exact
+# speed is new at every re-check
 LEADER_SPEED_STEP = 0.25  # tuned: docs/tuned_constants.md
 
 

@@ -135,6 +135,7 @@ def test_tau_min_map_matches_the_envelope() -> None:
     from cosim.planning.envelope import TauMinMap
 
     fmap = TauMinMap(kmh(90), -3.75, 0.6, VEH, tau_lo=1.0, tau_hi=10.0)
+    fmap._fill_whole()  # every grid speed at once (a query computes those it reads)
     fine = np.arange(1.0, 10.0001, 0.005)
     for v in (12.3, 21.7, 30.9):
         direct = stable_set(BoundaryConditions(v, kmh(90), -3.75), fine, 0.6, VEH).tau_min
@@ -148,6 +149,13 @@ def test_tau_min_map_matches_the_envelope() -> None:
         got = (*fmap.bounds(v), fmap(v))
         assert isinstance(got[0], float)
         np.testing.assert_array_equal(got, (lo[i], hi[i], value[i]))
+    # filled lazily, a query computes the few speeds it reads: the same answers as the
+    # whole grid's, bit for bit
+    for v in (0.7, 1.0, 13.5, 27.3, 49.9, 50.0):
+        lazy = TauMinMap(kmh(90), -3.75, 0.6, VEH, tau_lo=1.0, tau_hi=10.0)
+        np.testing.assert_array_equal((*lazy.bounds(v), lazy(v)),
+                                      (*fmap.bounds(v), fmap(v)))
+        assert lazy._coarse.sum() <= 6
 
 
 def test_a_map_whose_coarse_pass_leaves_speeds_without_a_stable_tau_builds() -> None:
