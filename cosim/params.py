@@ -66,6 +66,9 @@ class RoadParams:
     # mainline's lanes, on one leaving over an off-ramp the deceleration lane; a lane not
     # listed, or listed as -inf, is there from the route's start
     lane_begins: tuple[float, ...] = ()
+    # (s_lo m, s_hi m, R m): where the route rounds a junction drawn as a corner and the
+    # radius its lane takes there (cosim.road.corners): the SV slows to its curve speed
+    corners: tuple[tuple[float, float, float], ...] = ()
 
     @property
     def n_lanes(self) -> int:

@@ -14,9 +14,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 from cosim.params import G, RoadParams
-from cosim.scenario import Scenario
+
+if TYPE_CHECKING:
+    from cosim.scenario import Scenario
 
 CURVE_FRICTION_SHARE = 0.5  # -, the share of mu g the curve itself may take
 
@@ -41,3 +44,32 @@ def keep_to(sc: Scenario, road: RoadParams, speed: float) -> tuple[Scenario, Roa
     sv = replace(sc.sv, speed=min(sc.sv.speed, speed),
                  desired_speed=None if desired is None else min(desired, speed))
     return replace(sc, sv=sv, road=road), road
+
+
+CORNER_SETTLE_S = 1.0  # s, inside a corner the SV's speed closes on the corner's over this
+
+
+class CornerSpeeds:
+    """The SV's speed at the corners of its route (cosim.road.corners: junctions drawn
+    as corners, rounded by the frame): before each it brakes so as to reach the
+    corner's curve speed sqrt(a R) (R its lane's fillet, a as `curve_speed`'s) where the
+    corner begins, uniformly ((v_c^2 - v^2) / 2 x), and holds it until its rear has left
+    the corner; elsewhere the route's own curve speed holds (`curve_speed`)."""
+
+    def __init__(self, zones: tuple[tuple[float, float, float], ...], mu: float,
+                 lat_accel: float) -> None:
+        a = min(lat_accel, CURVE_FRICTION_SHARE * mu * G)
+        self.zones = tuple((lo, hi, math.sqrt(a * r)) for lo, hi, r in zones)
+
+    def accel_cap(self, s_front: float, s_rear: float, speed: float) -> float:
+        """m/s^2, the most the SV may accelerate at `speed` (m/s) with its front and rear
+        at s_front, s_rear (m) (inf: no corner ahead)."""
+        cap = math.inf
+        for lo, hi, v_c in self.zones:
+            if s_rear > hi:
+                continue
+            if s_front >= lo:
+                cap = min(cap, (v_c - speed) / CORNER_SETTLE_S)
+            elif speed > v_c:
+                cap = min(cap, (v_c * v_c - speed * speed) / (2.0 * (lo - s_front)))
+        return cap

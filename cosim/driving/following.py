@@ -9,6 +9,7 @@ import math
 from typing import TYPE_CHECKING
 
 from cosim.driving.base import DrivingContext
+from cosim.driving.curve_speed import CornerSpeeds
 from cosim.driving.lane_end import stop_accel
 from cosim.driving.rule import Decision, DecisionConfig, decide
 from cosim.driving.view import SVView, TrafficView
@@ -57,6 +58,11 @@ class CarFollowing:
         self.wanted = 0.0  # m/s^2, the acceleration `limit` was asked for (within grip)
         self.leader_gap = math.inf  # m
         self.leader_speed = math.inf  # m/s (inf: no leader)
+        road = ctx.lanes.road
+        # its speed at the route's corners (none: every route without one)
+        self.corners = (CornerSpeeds(road.corners, ctx.mu, ctx.sv.curve_lat_accel)
+                        if road.corners else None)
+        self.s = math.nan  # m, the SV's s when it was last seen (`view`)
 
     def desired_speed(self, lane: int) -> float:
         if self.sv.desired_speed is not None:
@@ -68,6 +74,7 @@ class CarFollowing:
     def view(self, sv: SVState) -> SVView:
         """The SV as the decision rules see it: at the reference's speed, wanting its
         desired speed in the lane it is in."""
+        self.s = sv.x
         return SVView(sv.x, sv.y, self.v_ref, self.sv_length,
                       self.desired_speed(self.lanes.lane_of(sv.y)), self.sv_width, self.accel)
 
@@ -97,6 +104,9 @@ class CarFollowing:
         """Take `accel` (m/s^2) as this step's car-following acceleration, as a reference
         the car can follow: braking within the road's grip, and the acceleration
         changing at most MAX_FOLLOW_JERK (a new leader cutting in)."""
+        if self.corners is not None:
+            half = 0.5 * self.sv_length
+            accel = min(accel, self.corners.accel_cap(self.s + half, self.s - half, self.v_ref))
         lo = -min(self.cfg.max_brake, FOLLOW_GRIP * self.mu * G)
         step = MAX_FOLLOW_JERK * self.dt
         self.wanted = max(accel, lo)

@@ -40,6 +40,12 @@ def main(argv: list[str] | None = None) -> int:
               f"{'left' if sh.jump > 0 else 'right'} at s {sh.s:.1f} m: the frame shifts "
               f"with them from s {lo:.1f} to {hi:.1f} m (its lanes' deviation is measured "
               "outside)")
+    for c in road.corners:
+        print(f"junction {c.junction} is drawn as a corner ({math.degrees(abs(c.turn)):.0f} "
+              f"degrees to the {'left' if c.turn > 0 else 'right'}): the frame rounds it "
+              f"from s {c.s_lo:.1f} to {c.s_hi:.1f} m, R {c.radius:.1f} m (its lane's R "
+              f"{c.lane_radius:.1f} m, {c.deviation:.2f} m from SUMO's corner; the lanes' "
+              "deviation is measured outside)")
     for t in road.lanes:
         lanes = " ".join(f"{p.lane}[{p.index}]" for p in t.track.pieces if not p.internal)
         ref = " (reference)" if t.track is road.reference else ""

@@ -796,13 +796,17 @@ def _choose(tried: list[Attempt], wider: Callable[[], list[Attempt]], raw: Array
 def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
            d_offset: float = 0.0, source: str = "network",
            where: Where | None = None, speed_limit: float = math.inf,
-           reach: float = DEFAULT_REACH) -> ArcFrame:
+           reach: float = DEFAULT_REACH,
+           corners: Sequence[tuple[ArrayLike, ArrayLike]] = ()) -> ArcFrame:
     """The arc-spline frame of a polyline (rows x, y; SUMO's lane shape), smoothed as
     the module docstring says; `d_offset` (m) places d = 0 that far right of it;
     `speed_limit` (m/s) the route's highest: a radius over speed_limit^2 /
     limits.limit_lat_accel is all smoothing needs to reach; `reach` (m) how far the
     route's lanes lie across from the line at most (the smallest radius allowed, with
-    `limits.min_stretch`).
+    `limits.min_stretch`); `corners`: each corner's fillet (its two tangent points,
+    cosim.road.corners), whose radius is chosen there: the radii smoothing seeks and
+    the limits check are the line's outside them (the fillets' ends spread by the
+    smoothing length twice and CORNER_SPREAD).
     Raises InputError(source, ...) if it cannot be smoothed within the limits, naming
     the place (x, y and what `where` says of it)."""
     raw = np.asarray(polyline, dtype=np.float64)
@@ -817,7 +821,7 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
     def attempt(ell: float) -> Attempt:
         points = _whittaker(_resample(line, max(h, ell / 32.0))[0], ell)
         frame = _frame_of(points, raw, limits, d_offset, ell)
-        return ell, frame, deviation(frame, raw), frame.quality.min_radius
+        return ell, frame, deviation(frame, raw), _radius_outside(frame, corners, ell)
 
     lengths = [0.0] + [h * 2.0 ** (k / 2.0) for k in range(0, 15)]  # 0, 0.5 m .. 64 m
     tried = []
@@ -862,6 +866,27 @@ def smooth(polyline: ArrayLike, limits: FrameLimits = DEFAULT_LIMITS, *,
                     d_offset, frame.length, limits.extension,
                     FrameQuality(dev, frame.quality.min_radius, ell,
                                  frame.quality.max_kink, dev > limits.max_deviation))
+
+
+# m, how far past twice the smoothing length the smoothed line still bends with a
+# corner's fillet (the spline overshoots past its ends: game/ramp's R 330 m at 3 m)
+CORNER_SPREAD = 5.0  # tuned: docs/tuned_constants.md
+
+
+def _radius_outside(frame: ArcFrame, corners: Sequence[tuple[ArrayLike, ArrayLike]],
+                    ell: float) -> float:
+    """m, the line's smallest radius outside its corners' fillets (each from its first
+    tangent point to its second, spread by 2 ell + CORNER_SPREAD either way)."""
+    if not corners:
+        return frame.quality.min_radius
+    keep = np.ones(len(frame.kappa), dtype=bool)
+    knots = frame.s_min + frame.h * np.arange(len(frame.kappa))
+    pad = 2.0 * ell + CORNER_SPREAD
+    for t1, t2 in corners:
+        (lo, hi), _ = frame.to_frenet(np.array([t1[0], t2[0]]), np.array([t1[1], t2[1]]))
+        keep &= (knots < lo - pad) | (knots > hi + pad)
+    kmax = float(np.abs(frame.kappa[keep]).max(initial=0.0))
+    return math.inf if kmax == 0.0 else 1.0 / kmax
 
 
 def _too_far(attempt: Attempt, raw: Array, limits: FrameLimits, source: str,

@@ -20,7 +20,16 @@ from pathlib import Path
 import numpy as np
 
 from cosim.errors import InputError
+from cosim.road.corners import (
+    CORNER_TURN,
+    Corner,
+    CornerSite,
+    corner_vertex,
+    filleted,
+    rounding,
+)
 from cosim.road.frame import (
+    CORNER_SPREAD,
     DEFAULT_LIMITS,
     ArcFrame,
     FrameLimits,
@@ -42,6 +51,8 @@ from cosim.road.tracks import (
     reference_tracks,
 )
 
+CORNER_JOIN = 50.0  # m, corners closer are one stretch of slow road; tuned: docs/tuned_constants.md
+
 
 @dataclass(frozen=True)
 class Road:
@@ -55,6 +66,8 @@ class Road:
     lead_in: LeadIn | None = None  # the reference's lead-in (a route from an on-ramp, ...)
     # where the frame shifts sideways as SUMO's lanes step at a junction (s along it)
     shifts: tuple[LateralShift, ...] = ()
+    # where the frame rounds a junction drawn as a corner (cosim.road.corners)
+    corners: tuple[Corner, ...] = ()
 
     @property
     def carriageway(self) -> int:
@@ -103,12 +116,36 @@ class Road:
             return 0.0, 0.0
         frame = self.frame
         assert isinstance(frame, ArcFrame)
-        kappa = kappa_max(frame, 0.0, frame.length)
+        # a corner's fillet bends the SV's one lane only, where it slows to that
+        # corner's own speed (cosim.driving.curve_speed.CornerSpeeds)
+        outside = [0.0]
+        for lo, hi, _ in self.corner_zones():
+            outside += [lo, hi]
+        outside.append(frame.length)
+        kappa = max((kappa_max(frame, lo, hi) for lo, hi
+                     in zip(outside[::2], outside[1::2], strict=True) if hi > lo),
+                    default=0.0)
         edges = [abs(c - frame.d_offset + sign * 0.5 * w) for t in self.lanes
                  for c, w in zip(np.concatenate([t.d_start, t.d_end]),
                                  np.concatenate([t.width, t.width]), strict=True)
                  for sign in (-1.0, 1.0)]
         return kappa, max(edges)
+
+    def corner_zones(self) -> tuple[tuple[float, float, float], ...]:
+        """(s_lo m, s_hi m, R m): the stretches of the route its corners' fillets bend,
+        each padded by twice the smoothing length and CORNER_SPREAD (the smoothing
+        spreads a fillet's ends), corners less than CORNER_JOIN apart as one (a ramp's
+        run of corners: the line between them keeps their drawing's small kinks), R the
+        tightest fillet of the SV's lane there."""
+        zones: list[list[float]] = []
+        pad = 2.0 * self.frame.quality.smoothing_length + CORNER_SPREAD
+        for c in self.corners:
+            lo, hi = c.s_lo - pad, c.s_hi + pad
+            if zones and lo - zones[-1][1] < CORNER_JOIN:
+                zones[-1][1:] = [hi, min(zones[-1][2], c.lane_radius)]
+            else:
+                zones.append([lo, hi, c.lane_radius])
+        return tuple((lo, hi, r) for lo, hi, r in zones)
 
     def track_of_lane(self, lane_id: str) -> LaneTable:
         """The lane table of the track that runs through SUMO lane `lane_id` (KeyError:
@@ -136,10 +173,6 @@ def _straight(route: Route, reference: Track) -> bool:
         return False
     shapes = [lane.getShape() for lane in route.edge(0).getLanes()]
     return all(len(s) == 2 and s[0][1] == s[1][1] and s[1][0] > s[0][0] for s in shapes)
-
-
-# rad: a turn across one junction that makes it a corner rather than a curve's kink
-CORNER_TURN = math.radians(15.0)
 
 
 def _where_on(route: Route, track: Track, x: float, y: float) -> str:
@@ -233,6 +266,44 @@ def _signed_jump(a: np.ndarray, b: np.ndarray) -> float:
     return float((t[0] * q[1] - t[1] * q[0]) / (math.hypot(*t) or 1.0))
 
 
+def _borders(net: object, piece: TrackPiece, right_of_line: float) -> tuple[float, float]:
+    """m, how far the lanes of `piece`'s edge reach right and left of a line that runs
+    `right_of_line` m left of `piece`'s centre (each side's farthest border; negative:
+    none on that side)."""
+    widths = {ln.getIndex(): float(ln.getWidth())
+              for ln in net.getEdge(piece.edge).getLanes()}  # type: ignore[attr-defined]
+    right = right_of_line + 0.5 * piece.width + sum(w for i, w in widths.items()
+                                                    if i < piece.index)
+    left = -right_of_line + 0.5 * piece.width + sum(w for i, w in widths.items()
+                                                    if i > piece.index)
+    return right, left
+
+
+def corner_sites(route: Route, ref: Track, lead: LeadIn | None) -> list[CornerSite]:
+    """The junctions where the reference line turns by CORNER_TURN or more between one
+    route edge's last segment and the next's first (a junction drawn as a corner), in
+    order along the line, in the line's coordinates (`_reference_pieces`)."""
+    pieces = _reference_pieces(ref, lead)
+    n_lead = 0 if lead is None else sum(len(p.shape) > 1 for p in lead.pieces())
+    edges = [(k, p, shape) for k, (p, shape) in enumerate(pieces) if not p.internal]
+    sites = []
+    for (k, a, sa), (_, b, sb) in zip(edges[:-1], edges[1:], strict=True):
+        t, u = sa[-1] - sa[-2], sb[1] - sb[0]
+        turn = math.atan2(t[0] * u[1] - t[1] * u[0], t[0] * u[0] + t[1] * u[1])
+        if abs(turn) < CORNER_TURN:
+            continue
+        shift_a = lead.shift if lead is not None and k < n_lead else 0.0
+        shift_b = shift_a if b.route_index < route.edges.index(ref.pieces[0].edge) else 0.0
+        ra, la = _borders(route.net, a, shift_a)
+        rb, lb = _borders(route.net, b, shift_b)
+        reach = max(ra, rb) if turn < 0.0 else max(la, lb)
+        sites.append(CornerSite(
+            tuple(sa[-2]), tuple(sa[-1]), tuple(sb[0]), tuple(sb[1]),
+            route.net.getEdge(b.edge).getFromNode().getID(), min(a.speed, b.speed),
+            a.width, shift_a, max(reach, 0.0)))
+    return sites
+
+
 def lateral_steps(ref: Track, lead: LeadIn | None, step: float = STEP
                   ) -> tuple[np.ndarray, list[tuple[float, float, float]]]:
     """The reference line with its sideways steps taken out, and the steps: where the
@@ -312,6 +383,9 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
         raise InputError(src, "route", list(route.edges), "a route with a lane a car may use")
     ref, lead = reference_tracks(route, tracks, src)
     shifts: tuple[LateralShift, ...] = ()
+    sites: list[CornerSite] = []
+    rounded: list[tuple[float, float, float, float]] = []
+    ends: list[tuple[np.ndarray, np.ndarray]] = []
     first = ref.pieces[0]
     half = first.width / 2.0
     if _straight(route, ref):
@@ -325,9 +399,21 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
         reach = max(sum(float(ln.getWidth()) for ln in route.net.getEdge(e).getLanes())
                     for e in route.edges)
         points, steps = lateral_steps(ref, lead)
-        frame = smooth(points, limits, d_offset=half, source=src,
-                       where=functools.partial(_where_on, route, line), speed_limit=top,
-                       reach=reach)
+        where = functools.partial(_where_on, route, line)
+        sites = corner_sites(route, ref, lead)
+        if sites:
+            rounded = rounding(sites, limits.limit_lat_accel, limits.min_radius)
+            for site, r in zip(sites, rounded, strict=True):
+                if not math.isfinite(r[0]):
+                    x, y = site.p1
+                    raise InputError(src, "route", list(route.edges),
+                                     f"a route whose corners can be rounded within the "
+                                     f"straight ends of their edges (near x = {x:.1f}, "
+                                     f"y = {y:.1f}, {where(x, y)}: no room for a radius "
+                                     f"its lanes allow)")
+            points, ends = filleted(points, sites, rounded)
+        frame = smooth(points, limits, d_offset=half, source=src, where=where,
+                       speed_limit=top, reach=reach, corners=ends)
         if steps:
             # SUMO's lanes step sideways at a junction: the line follows them, shifting
             # over as long as a curve of the radius the speed limit needs, and never
@@ -336,8 +422,16 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
             frame, shifts = shifted(frame, steps, np.array(line.shape()),
                                     max(top**2 / limits.limit_lat_accel, floor), limits)
             _check_radius(frame, reach, limits, src, route, line)
+    corners: tuple[Corner, ...] = ()
+    if sites:
+        placed = []
+        for site, r, (t1, t2) in zip(sites, rounded, ends, strict=True):
+            (lo, hi), _ = frame.to_frenet(np.array([t1[0], t2[0]]), np.array([t1[1], t2[1]]))
+            v, _, _, turn = corner_vertex(site)
+            placed.append(Corner(float(lo), float(hi), turn, r[0], r[1], r[2], site.junction))
+        corners = tuple(placed)
     tables = lane_tables(tracks, reference_lanes(ref, lead), frame, route.net,
-                         [sh.window for sh in shifts])
+                         [sh.window for sh in shifts] + [c.window for c in corners])
     if any(not math.isfinite(v) for t in tables for v in (*t.s_start, *t.s_end)):
         raise InputError(src, "route", list(route.edges),
                          "a route whose lanes all lie within the reference line's reach "
@@ -355,7 +449,7 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
                          f"lanes whose centre lines stay within {allowed:g} m of "
                          f"SUMO's lane shapes (track {worst.id}, from {worst.track.name}, "
                          "does not)")
-    return Road(route, tracks, ref, frame, tables, lead, shifts)
+    return Road(route, tracks, ref, frame, tables, lead, shifts, corners)
 
 
 def _check_radius(frame: ArcFrame, reach: float, limits: FrameLimits, source: str,

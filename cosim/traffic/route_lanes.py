@@ -222,7 +222,8 @@ def road_params(route_road: Road, base: RoadParams | None = None,
     return RoadParams(lane_width=width, speed_bands=expand_bands(route_road, base.speed_bands),
                       mu=base.mu, y_right=-below * width if below else 0.0,
                       lane_ends=ends if any(math.isfinite(e) for e in ends) else (),
-                      lane_begins=begins if any(math.isfinite(b) for b in begins) else ())
+                      lane_begins=begins if any(math.isfinite(b) for b in begins) else (),
+                      corners=route_road.corner_zones())
 
 
 def exit_lanes(route_road: Road) -> tuple[int, ...]:

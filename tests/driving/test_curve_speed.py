@@ -133,3 +133,21 @@ def test_a_one_lane_ramp_of_r25_is_driven_at_its_curve_speed(tmp_path: Path) -> 
 def test_sumos_driver_and_straight_roads_are_not_capped() -> None:
     sc = load_scenario(project_root() / "scenarios" / "paper_case1_overtaking.toml")
     assert simulate(sc).metrics["curve_speed_mps"] == math.inf
+
+
+def test_the_sv_slows_to_a_corners_curve_speed_before_it_and_holds_it_there() -> None:
+    """Before a corner (cosim.road.corners) the SV may brake no later than a uniform
+    deceleration to the corner's curve speed sqrt(a R) at its start; inside it, its
+    speed closes on that speed; past it (its rear out), nothing holds it."""
+    from cosim.driving.curve_speed import CORNER_SETTLE_S, CornerSpeeds
+
+    corners = CornerSpeeds(((100.0, 130.0, 25.0),), mu=1.0, lat_accel=2.0)
+    v_c = math.sqrt(2.0 * 25.0)
+    assert corners.accel_cap(50.0, 45.0, 13.89) == pytest.approx(
+        (v_c**2 - 13.89**2) / (2.0 * 50.0))
+    assert corners.accel_cap(50.0, 45.0, 5.0) == math.inf  # slower than the corner's
+    assert corners.accel_cap(110.0, 105.0, 8.0) == pytest.approx((v_c - 8.0) / CORNER_SETTLE_S)
+    assert corners.accel_cap(140.0, 135.0, 8.0) == math.inf
+    # on a wet road the friction's half takes over from the comfortable 2 m/s^2
+    wet = CornerSpeeds(((100.0, 130.0, 25.0),), mu=0.3, lat_accel=2.0)
+    assert wet.zones[0][2] == pytest.approx(math.sqrt(CURVE_FRICTION_SHARE * 0.3 * G * 25.0))

@@ -2,32 +2,67 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 import sumo
 
-from cosim.errors import InputError
+from cosim.road.frame import kappa_max
 from cosim.road.road import load_road
 
 # SUMO's shipped on-ramp scenario (the eclipse-sumo wheel's tools/game)
 GAME_RAMP = Path(sumo.SUMO_HOME) / "tools" / "game" / "ramp" / "ramp.net.xml"
 
 
-def test_a_ramp_joining_at_a_junction_drawn_as_a_corner_is_refused_naming_it() -> None:
-    """game/ramp's on-ramp meets its acceleration lane at 43 degrees within the
-    junction's 4.3 m: SUMO follows the corner, the frame across three lanes cannot."""
-    with pytest.raises(InputError) as err:
-        load_road(GAME_RAMP, ["gneE14", "gneE7", "gneE8", "gneE11"])
-    said = str(err.value)
-    assert "\n" not in said
-    assert "reference line radius = '7.0 m'" in said
-    assert ("at junction gneJ4 between edges gneE14 and gneE7, across which SUMO's lane "
-            "steps 0.8 m sideways, a corner: SUMO's junction turns the lane by 43 degrees "
-            "within 4.3 m (R 5.7 m), which SUMO's vehicles follow along its shape, having "
-            "no turning circle") in said
+ON_RAMP = ["gneE15", "gneE17", "gneE18", "gneE13", "gneE14", "gneE7", "gneE8", "gneE11"]
+OFF_RAMP = ["gneE2", "offramp", "gneE4", "gneE16", "gneE18", "gneE9"]
 
+
+@pytest.fixture(scope="module")
+def game_ramp_roads() -> tuple:
+    return load_road(GAME_RAMP, ON_RAMP), load_road(GAME_RAMP, OFF_RAMP)
+
+
+def test_game_ramps_corners_are_rounded_within_half_a_lane_of_sumos(game_ramp_roads) -> None:
+    """game/ramp's on-ramp route (its ramp's lane meets the acceleration lane at 43
+    degrees within junction gneJ4's 4.3 m, after corners at gneJ14 and gneJ6) and its
+    off-ramp route (gneJ3, gneJ5, gneJ6): each junction drawn as a corner is rounded by a
+    fillet whose lane stays within half a lane (1.6 m) of SUMO's corner, the lanes
+    within the 5 cm target of SUMO's elsewhere, and outside the corners the frame is all
+    but straight (the corners' curve speed is theirs, not the mainline's)."""
+    on, off = game_ramp_roads
+    assert [c.junction for c in on.corners] == ["gneJ14", "gneJ6", "gneJ4"]
+    assert [c.junction for c in off.corners] == ["gneJ3", "gneJ5", "gneJ6"]
+    for road in (on, off):
+        assert road.max_deviation < 0.05
+        for c in road.corners:
+            assert c.deviation <= 1.6 + 1e-9
+            assert c.lane_radius >= 20.0
+            # the line bends there as its fillet, within the smoothing's few per cent
+            assert 1.0 / kappa_max(road.frame, c.s_lo, c.s_hi) > 0.9 * c.radius
+        kappa, _ = road.curvature_bound()
+        assert 1.0 / kappa > 900.0
+    # the on-ramp's three corners lie less than 50 m apart: one slow stretch, at gneJ6's
+    # R 20.5 m; the off-ramp's gneJ6 lies 80 m past gneJ5
+    ((lo, hi, radius),) = on.corner_zones()
+    assert lo < on.corners[0].s_lo and hi > on.corners[-1].s_hi
+    assert radius == pytest.approx(20.5, abs=0.1)
+    assert len(off.corner_zones()) == 2
+    assert on.carriageway == 5  # gneE7: its acceleration lane is lane 0
+
+
+def test_a_corner_with_no_room_for_a_radius_its_lane_allows_gets_no_fillet() -> None:
+    """A corner whose edges' straight ends (1 m each, a right angle) cannot hold the
+    smallest fillet its lane allows (the SV's turning circle plus half the lane) gets
+    none: load_road refuses the route naming the junction."""
+    from cosim.road.corners import CornerSite, rounding
+
+    site = CornerSite((0.0, 0.0), (1.0, 0.0), (1.0, 0.0), (1.0, 1.0), "J", 13.9, 3.2, 0.0,
+                      0.0)
+    (rounded,) = rounding([site], 2.0, 3.7)
+    assert all(math.isnan(v) for v in rounded)
 
 
 GAME_HIGHWAY = Path(sumo.SUMO_HOME) / "tools" / "game" / "highway" / "highway.net.xml"
