@@ -218,7 +218,11 @@ def road_params(route_road: Road, base: RoadParams | None = None,
     through = {t.id for t in through_tracks(route_road)}
     below = sum(1 for t in lanes if t.id < route_road.reference.id)
     ends = tuple(math.inf if t.id in through else t.end for t in lanes)
-    begins = tuple(t.begin if t.track.first_edge > 0 else -math.inf for t in lanes)
+    # the SV changes lanes nowhere in a corner (cosim.road.corners): a lane beginning in
+    # one begins for it where the corner ends
+    zones = route_road.corner_zones()
+    begins = tuple(max([t.begin] + [hi for lo, hi, _ in zones if lo <= t.begin <= hi])
+                   if t.track.first_edge > 0 else -math.inf for t in lanes)
     return RoadParams(lane_width=width, speed_bands=expand_bands(route_road, base.speed_bands),
                       mu=base.mu, y_right=-below * width if below else 0.0,
                       lane_ends=ends if any(math.isfinite(e) for e in ends) else (),

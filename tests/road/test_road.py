@@ -109,3 +109,37 @@ def test_bremens_on_ramp_is_driven_from_the_ramp_through_its_step_to_the_merge(
     assert m["collisions"] == 0 and m["sumo_events"] == 0
     assert {"201283198", "E0"} <= set(result.edges)
     assert float(np.max(np.abs(tr["ye_m"]))) < 0.02
+
+
+@pytest.mark.sumo
+def test_the_sv_slows_for_game_ramps_corner_and_keeps_its_lane_through_it(
+        tmp_path: Path) -> None:
+    """game/ramp's ramp meets the acceleration lane at the 43-degree corner gneJ4: the
+    SV, 35 m before it at 50 km/h, brakes to the corner's curve speed (its lane's fillet
+    R 21.4 m at 2 m/s^2: 6.5 m/s) before it, holds it through the fillet, keeps its lane
+    within half a lane of SUMO's corner (1.36 m at most; lateral error within 4 cm)
+    onto the acceleration lane, never leaving its route."""
+    from cosim.run.loop import simulate
+    from cosim.scenario.load import scenario_from_dict
+
+    route = ["gneE13", "gneE14", "gneE7", "gneE8", "gneE11"]
+    doc = {"scenario": {"name": "game_ramp_corner", "duration_s": 6.6, "seed": 1},
+           "road": {"network": str(GAME_RAMP), "route": route, "mu": 1.0,
+                    "lane_speeds_kmh": [[100, 120], [110, 120]]},
+           "sv": {"edge": "gneE13", "lane": 0, "position_m": 5.0, "speed_kmh": 50.0,
+                  "decision": True}}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "corner.toml"))
+    m, tr = result.metrics, result.trace
+    road = load_road(GAME_RAMP, route)
+    (corner,) = road.corners
+    ((lo, hi, radius),) = road.corner_zones()
+    v_c = math.sqrt(2.0 * radius)
+    s, v = np.asarray(tr["s_m"]), np.asarray(tr["vx_mps"])
+    inside = (s + 2.4 >= lo) & (s - 2.4 <= hi)  # the SV's body within the corner
+    assert inside.any() and s[-1] > corner.s_hi  # through the fillet
+    assert float(v[inside].max()) < v_c + 0.3
+    assert float(v[0]) > 13.0  # it came in at 50 km/h
+    assert m["collisions"] == 0 and m["sumo_events"] == 0
+    assert 0.5 < m["lane_keeping_max_offset_m"] <= 1.6
+    assert float(np.max(np.abs(tr["ye_m"]))) < 0.05
+    assert {"gneE14", ":gneJ4_0", "gneE7"} <= set(result.edges)
