@@ -8,6 +8,8 @@ largest curvature on its innermost lane, kappa / (1 - kappa d) at |d| = the lane
 largest offset from the reference line, with a the smaller of the scenario's
 `sv.curve_lat_accel_mps2` and CURVE_FRICTION_SHARE of the road's friction (so that a
 lane change in the curve keeps sqrt(1 - 0.5^2) = 87 % of the friction circle).
+A junction drawn as a corner (cosim.road.corners) is not part of that curve: the SV
+slows for each corner alone, to the corner's own speed (`CornerSpeeds`).
 """
 
 from __future__ import annotations
