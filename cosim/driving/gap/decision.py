@@ -115,6 +115,10 @@ class Seeking:
     # room for the SV: an entry that holds only if they go on with it until the SV is in
     # their lane is taken too (`GapDecision.held`), after one that asks nothing of them;
     # None: not counted on
+    slowing: Array | None = None  # m/s^2 >= 0 per TV, the braking of the TVs asked to make
+    # room as the SV sees it now, counted on or not (None: none seen): such a TV is held
+    # by its openGap behind the SV and does not speed up toward it, so an insisted entry
+    # gives it no `GapConfig.insist_margin`
     wary: NDArray[np.bool_] | None = None  # per TV: a follower refused moments ago, taken
     # only with the entry rule's margin (`GapConfig.wary_share`, `wary_gap`): a refusal
     # does not turn into an acceptance a step later while the situation is the same
@@ -254,8 +258,11 @@ def _first_entry(at: _Situation, lanes: LaneLayout, rules: GapRules, seeking: Se
             # insisting (an entry that asks its new follower for more than plan_decel;
             # one that asks less is not, whatever the limit: its follower's predicted
             # braking may flip to its decel 1 m/s faster): the entry must hold with the
-            # TVs behind the SV a little faster too (`GapConfig.insist_margin`)
-            faster = np.where(at.tvs.x < sv.x, speeds + gap_cfg.insist_margin, speeds)
+            # TVs behind the SV a little faster too (`GapConfig.insist_margin`), but for
+            # those seen yielding to it (`Seeking.slowing`): SUMO's gap control lets such
+            # a TV go no faster than its speed or the headway behind the SV allows
+            faster = np.where((at.tvs.x < sv.x) & ~_slowing(seeking, speeds.size),
+                              speeds + gap_cfg.insist_margin, speeds)
             entry = replace(entry, ok=enters(faster, limit, braking).ok)
         # a follower refused moments ago is taken only with a margin: an insisted entry
         # has had its margin (it holds with the TVs behind faster; the wary test on top
@@ -269,6 +276,13 @@ def _first_entry(at: _Situation, lanes: LaneLayout, rules: GapRules, seeking: Se
         if entry.ok:
             break
     return entry, limit, braking
+
+
+def _slowing(seeking: Seeking, n: int) -> NDArray[np.bool_]:
+    """Per TV (n of them): seen braking to make room for the SV (`Seeking.slowing`)."""
+    if seeking.slowing is None:
+        return np.zeros(n, dtype=bool)
+    return np.asarray(seeking.slowing, dtype=float) > 0.0
 
 
 def _is_wary(seeking: Seeking, k: int) -> bool:

@@ -78,7 +78,11 @@ class GapConfig:
     """Gap choice and approach settings (SI units)."""
 
     approach_accel: float = 1.5  # m/s^2, bound on the relative acceleration of the approach
-    approach_time: float = 3.0  # s, time constant of the approach near the aim
+    approach_time: float = 1.5  # s, time constant of the approach near the aim (a gap
+    # behind, or the TV ahead in a slower target lane to drop back behind: the entry test
+    # passes sooner the sooner the SV has fallen back, its plan speeding up to the gap's
+    # speed again)
+    # tuned: docs/tuned_constants.md
     max_rel_speed: float = 6.0  # m/s, largest speed relative to the gap while approaching
     speed_time: float = 0.5  # s, time constant of the SV's speed toward the approach speed
     # (the SV reaches its lane's limit, where a faster follower lets it in, sooner)
@@ -93,9 +97,9 @@ class GapConfig:
     # tuned: docs/tuned_constants.md
     comfort_decel: float = 2.0  # m/s^2, the SV's comfortable braking limit after a merge
     # (the IDM's b, MOBIL's comfortable deceleration): the slot's headway keeps within it
-    approach_decel: float = 3.0  # m/s^2, the hardest the SV brakes toward the approach
+    approach_decel: float = 3.5  # m/s^2, the hardest the SV brakes toward the approach
     # speed while it seeks a gap (a target lane much slower than its own, a gap behind):
-    # below ACC's 3.5 m/s^2 limit above 20 m/s (ISO 15622) and SUMO's own driver's decel
+    # ACC's 3.5 m/s^2 limit above 20 m/s (ISO 15622), below SUMO's own driver's decel
     # (4.5), which matches a slower target lane before it changes
     # tuned: docs/tuned_constants.md
     min_gap: float = 2.5  # m, the SV's standstill gap to its new leader

@@ -342,7 +342,9 @@ class GapPolicy:
             wanted_lane=wants.wanted,
             allow_change=wants.mandatory or wants.scripted is not None or by_choice,
             insist=insist, urgency=0.0 if wants.due is None else wants.due.urgency,
-            yielding=braking if held else None, wary=self._wary(t, traffic.ids))
+            yielding=braking if held else None,
+            slowing=None if wants.mandatory or not np.any(braking > 0.0) else braking,
+            wary=self._wary(t, traffic.ids))
         view = following.view(sv)
         if wants.mandatory:  # its plan starts from 0 (Manoeuvre.start): its entry test too
             view = replace(view, accel=0.0)

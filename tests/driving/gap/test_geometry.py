@@ -212,9 +212,9 @@ def test_seeking_brakes_to_a_slower_target_lane_within_the_approach_decel() -> N
 
     cfg = GapConfig()
     # 24.6 m/s toward a target lane at 18 m/s (40 veh/km/lane): firmer than the IDM's
-    # comfortable b, never beyond the approach limit, below ACC's 3.5 m/s^2
+    # comfortable b, never beyond the approach limit, within ACC's 3.5 m/s^2
     a = seeking_accel(24.6, 18.0, 30.6, math.inf, math.inf, cfg)
     assert a == -cfg.approach_decel
-    assert cfg.comfort_decel < cfg.approach_decel < 3.5
+    assert cfg.comfort_decel < cfg.approach_decel <= 3.5
     # near the approach speed: gently, in proportion
     assert -cfg.approach_decel < seeking_accel(18.5, 18.0, 30.6, math.inf, math.inf, cfg) < 0.0
