@@ -89,6 +89,12 @@ RETRY = 0.1  # s, a plan refused although the entry test passed is asked for aga
 # (the entry test's nominal manoeuvre and the planned one differ a little; the decision
 # rule's retry_interval would cost that much from request to lane each time)
 # tuned: docs/tuned_constants.md
+CHOICE_MAX_TAU = 6.0  # s, a change by choice planned longer than this is not flown: the
+# planner's check looks a fixed time ahead, and a long plan behind a TV that signals
+# for the target lane is free only because its collision with it falls past the
+# check's end (merge study at 30 veh/km/lane: the shorter plans met that TV 5-12 s
+# ahead, 8.3 s was free; the TV then changed, and the re-check aborted or replanned)
+# tuned: docs/tuned_constants.md
 
 REACTION = 0.1  # s, SUMO's follower brakes for the SV this long after the SV's body
 # entered its lane (it sees the SV's shadow at its next step and acts the step after;
@@ -210,7 +216,7 @@ class GapPolicy:
             trajectory = m.advance(
                 t, sv, target, trigger, messages,
                 vxf=d.vxf if math.isfinite(d.vxf) else None,
-                accept=lambda plan: self.accept(t, plan, target, traffic),
+                accept=lambda plan: self.accept(t, plan, target, traffic, trigger),
                 ax0=self.following.accel)
             self.held = m.active if d.held is not None else None
             if self.cadence is not None and m.active is None:
@@ -411,10 +417,14 @@ class GapPolicy:
             return Trigger.SCRIPTED if allow_scripted else None
         return Trigger.DECISION if allow_decision else None
 
-    def accept(self, t: float, plan: Plan, target: int | None, traffic: TrafficView) -> str:
-        """Why the plan is not flown although it has a trajectory ("": fly it): its new
-        follower would brake harder than the policy's limit within b_safe (MOBIL)."""
+    def accept(self, t: float, plan: Plan, target: int | None, traffic: TrafficView,
+               trigger: Trigger | None = None) -> str:
+        """Why the plan is not flown although it has a trajectory ("": fly it): a change
+        by choice longer than CHOICE_MAX_TAU, or its new follower would brake harder than
+        the policy's limit within b_safe (MOBIL)."""
         assert target is not None and plan.trajectory is not None
+        if trigger == Trigger.DECISION and plan.tau is not None and plan.tau > CHOICE_MAX_TAU:
+            return f"a change by choice of {plan.tau:.2f} s > {CHOICE_MAX_TAU:g}"
         limit = self.last.follower_decel if self.last is not None else math.nan
         follower = (self.follower.limited(limit) if math.isfinite(limit)
                     else self.plan_follower)

@@ -123,6 +123,25 @@ def test_a_plan_its_new_follower_would_brake_hard_for_is_not_flown() -> None:
     assert why.startswith("follower tv0 would brake") and why.endswith(" > 1")
 
 
+def test_a_long_change_by_choice_is_not_flown() -> None:
+    from cosim.driving.gap.policy import CHOICE_MAX_TAU
+    from cosim.driving.plans import Trigger
+    from cosim.planning.planner import SVPlanState
+
+    d = Drive([-120.0, 120.0])
+    state = SVPlanState(x=0.0, y=ROAD.lane_center(0), heading=0.0, vx=V, ax=0.0, vy=0.0,
+                        ay=0.0, lane=0)
+    plan = d.policy.manoeuvre.calls.planner.plan(0.0, state, 1, [], 0.5, vxf=V)
+    assert plan.trajectory is not None
+    free = TrafficView.of(Scene(0.0, d.sv, snapshot(0.0, d.x0, 1), snapshot(0.0, d.x0, 1),
+                                np.full(2, V)))
+    long = replace(plan, tau=CHOICE_MAX_TAU + 0.5)
+    assert d.policy.accept(0.0, long, 1, free, Trigger.DECISION).startswith(
+        "a change by choice of 6.50 s")
+    assert d.policy.accept(0.0, long, 1, free, Trigger.SCRIPTED) == ""  # asked for
+    assert d.policy.accept(0.0, plan, 1, free, Trigger.DECISION) == ""
+
+
 @pytest.mark.parametrize(("xs", "asked_tv"), [
     ([-120.0, 120.0], None),  # a free gap beside: it goes, nobody is asked
     # a TV beside: the gap behind it is taken; its follower, 100 m back, has room
