@@ -184,3 +184,20 @@ def test_a_refused_follower_is_taken_only_with_a_margin() -> None:
     first_plain = min(b for b, p, _ in passes if p)
     first_wary = min(b for b, _, w in passes if w)
     assert first_wary >= first_plain + 1.0
+
+
+def test_an_insisted_entry_gives_no_margin_to_a_tv_making_room() -> None:
+    # a TV 23 m behind in lane 2, 3 m/s faster than the SV, braking at 2 m/s^2 for its
+    # courtesy: the entry counting on that braking asks it for more than plan_decel
+    # (insisting), and holds with it at its speed but not 1 m/s faster (the insist
+    # margin); seen braking to make room (its openGap holds it behind the SV), it is
+    # not given that margin and the SV goes (study_entry at 15 veh/km/lane: 0.25 s sooner)
+    tvs = scene([200.0, -23.15], [1, 2], [28.0, 31.0])
+    braking = np.array([0.0, 2.0])
+    held = dict(wanted_lane=2, insist=True, yielding=braking)
+    assert not drive(0.0, 28.0, tvs, **held).plan_now
+    d = drive(0.0, 28.0, tvs, slowing=braking, **held)
+    assert d.plan_now and d.follower == 1 and d.held is not None
+    assert GAP.plan_decel < d.follower_decel <= GAP.insist_decel
+    # only the TV seen braking is spared the margin
+    assert not drive(0.0, 28.0, tvs, slowing=np.array([2.0, 0.0]), **held).plan_now
