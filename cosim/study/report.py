@@ -123,8 +123,8 @@ def summary_markdown(summary: pd.DataFrame) -> str:
         return ours if not math.isfinite(sumo) else f"{ours} ({100 * sumo:.0f})"
 
     ours = summary[summary["plant"] != NO_PLANT]
-    varying = [c for c in ("variant", "plant", "occupant", "mu", "share")
-               if (ours if c == "plant" else summary)[c].nunique() > 1]
+    varying = [c for c in ("variant", "plant", "occupant", "mu", "share", "fleet_driver")
+               if c in summary and (ours if c == "plant" else summary)[c].nunique() > 1]
     head = ["driver", *varying, "density (veh/km/lane)", "runs ok / failed",
             "unfinished", "success % of finished [95 % CI]",
             "collision % [95 % CI] (SUMO's %)", "SV-caused collision % [95 % CI]",

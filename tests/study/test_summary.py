@@ -141,6 +141,20 @@ def test_summary_counts_unfinished_apart_and_shows_both_collision_checks() -> No
     assert cells[4:7] == ["2", "100 [34, 100]", "0 [0, 49] (25)"]
 
 
+def test_summary_table_names_the_fleet_driver_where_it_varies() -> None:
+    """A penetration study's cells differ by who drives the automated vehicles: without
+    that column its rows of one share and density read alike."""
+    runs = pd.DataFrame({
+        "driver": ["mimo"] * 4, "plant": ["twotrack"] * 4, "occupant": [0.5] * 4,
+        "mu": [0.8] * 4, "density": [30.0] * 4, "seed": [1, 2, 1, 2], "share": [0.2] * 4,
+        "fleet_driver": ["cosim", "cosim", "acc", "acc"], "status": [RunStatus.OK] * 4,
+        "collision": [0, 0, 0, 0], "min_ttc_s": [5.0] * 4,
+    })
+    lines = summary_markdown(summarize(runs)).splitlines()
+    column = [c.strip() for c in lines[0].split("|")].index("fleet_driver")
+    assert sorted(line.split("|")[column].strip() for line in lines[2:]) == ["acc", "cosim"]
+
+
 def test_ssm_counts_get_a_mean_and_its_interval_only_where_measured() -> None:
     """SUMO's SSM counts per run (metrics.csv, [ssm]): per cell their mean over the
     finished runs with its Student-t interval; a study without them gets no such
