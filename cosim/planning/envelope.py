@@ -30,9 +30,10 @@ from __future__ import annotations
 import bisect
 import math
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -285,6 +286,9 @@ class TauMinMap:
 
         self._stable = stable
         self.tau_lo, self.tau_hi = tau_lo, tau_hi
+        # what its envelope calls share with another map's (`fill_maps`), and its own
+        self._shared = (mu, vehicle, safety_factor, yaw_model, tau_lo, tau_hi)
+        self.vxf, self.width = vxf, width
         self.speeds = np.arange(MAP_V_LO, MAP_V_HI + 1e-9, MAP_V_STEP)
         n = self.speeds.size
         # per grid speed: tau_min (stable side), the bisection's unstable side, the
@@ -367,40 +371,24 @@ class TauMinMap:
         self._ensure(np.unique(at).tolist())
 
     def _ensure(self, intervals: Iterable[int]) -> None:
-        """The grid speeds the queries in `intervals` read computed: tau_min and the
-        bisection's bracket at j - 2 .. j + 3 (the interpolation, and its error estimate
-        from the second differences at j - 1 .. j + 1; a query at a grid point j + 1
-        reads the estimate of interval j), the sampling error at j - 1 .. j + 2 (its
-        speeds' tau_min interpolated as the whole grid's: from j .. j + 3)."""
+        """The grid speeds the queries in `intervals` read computed (`_todo`)."""
+        _fill([(self, *self._todo(intervals))])
+
+    def _todo(self, intervals: Iterable[int]) -> tuple[list[int], list[int]]:
+        """(grid speeds whose tau_min is still to compute, those whose sampling error
+        is) of the queries in `intervals`: tau_min and the bisection's bracket at
+        j - 2 .. j + 3 (the interpolation, and its error estimate from the second
+        differences at j - 1 .. j + 1; a query at a grid point j + 1 reads the estimate
+        of interval j), the sampling error at j - 1 .. j + 2 (its speeds' tau_min
+        interpolated as the whole grid's: from j .. j + 3)."""
         n = self.speeds.size
         coarse: set[int] = set()
         refined: set[int] = set()
         for j in intervals:
             coarse.update(range(max(j - 2, 0), min(j + 4, n)))
             refined.update(range(max(j - 1, 0), min(j + 3, n)))
-        todo = sorted(i for i in coarse if not self._coarse[i])
-        todo_err = sorted(i for i in refined if not self._refined[i])
-        if not todo and not todo_err:
-            return
-        if todo:
-            idx = np.array(todo)
-            lo, hi = np.full(idx.size, self.tau_lo), np.full(idx.size, self.tau_hi)
-            below, above = _bisect(self._stable, self.speeds[idx], lo, hi, 64)
-            self._tau[idx] = np.where(np.isneginf(below), self.tau_lo, above)
-            self._below[idx] = np.where(np.isneginf(below), self.tau_lo, below)
-            self._coarse[idx] = True
-        if todo_err:
-            idx = np.array(todo_err)
-            # (the error's speeds are the grid's: interpolated where computed)
-            base = np.interp(self._err_v[idx], self.speeds, self._tau)
-            err = _sampling_error_at(self._stable, self._err_v[idx], base, self.tau_lo,
-                                     self.tau_hi, whole=False)
-            if err is None:  # its bisection would not iterate as the whole grid's
-                self._fill_whole()
-                return
-            self._err[idx] = err
-            self._refined[idx] = True
-        self._to_lists()
+        return (sorted(i for i in coarse if not self._coarse[i]),
+                sorted(i for i in refined if not self._refined[i]))
 
     def _fill_whole(self) -> None:
         """Every grid speed at once (as the map was built before it was lazy)."""
@@ -410,10 +398,8 @@ class TauMinMap:
         self._tau = np.where(np.isneginf(below), self.tau_lo, above)
         self._below = np.where(np.isneginf(below), self.tau_lo, below)
         base = np.interp(self._err_v, self.speeds, self._tau)
-        err = _sampling_error_at(self._stable, self._err_v, base, self.tau_lo, self.tau_hi,
-                                 whole=True)
-        assert err is not None
-        self._err = err
+        self._err = _sampling_error_at(self._stable, self._err_v, base, self.tau_lo,
+                                       self.tau_hi)
         self._coarse[:] = True
         self._refined[:] = True
         self._to_lists()
@@ -430,6 +416,127 @@ class TauMinMap:
         # the same as plain floats: one speed is queried per plan (see `_interp_scalar`)
         self._lists = tuple(a.tolist() for a in (self.speeds, self._tau, self._below,
                                                   self._err_v, self._err, self._interp_err))
+
+
+def fill_maps(queries: Sequence[tuple[TauMinMap, float]]) -> None:
+    """The grid speeds every (map, vx0) query reads computed, the maps' rows in one set
+    of vectorised calls (maps of one envelope: friction, vehicle, factor, yaw model and
+    tau range): a re-check asks several C2 TVs' maps at once, and a lazy fill's cost is
+    mostly its calls. Each row's bisection is its own: the same answers as one map's
+    fill (`TauMinMap._ensure`)."""
+    todo: dict[int, tuple[TauMinMap, set[int]]] = {}
+    for fmap, v in queries:
+        if not fmap._speeds_list[0] <= v <= fmap._speeds_list[-1]:
+            continue  # (outside the grid: nan, nothing read)
+        todo.setdefault(id(fmap), (fmap, set()))[1].add(fmap._interval(v))
+    groups: dict[Any, list[tuple[TauMinMap, list[int], list[int]]]] = {}
+    for fmap, intervals in todo.values():
+        coarse, refine = fmap._todo(sorted(intervals))
+        if coarse or refine:
+            groups.setdefault(fmap._shared, []).append((fmap, coarse, refine))
+    for group in groups.values():
+        _fill(group)
+
+
+def _joint_stable(group: Sequence[TauMinMap], rows: list[Array]
+                  ) -> Callable[[Array, Array, int], Array]:
+    """`stable(speeds, taus, n_s)` of rows of several maps of one envelope: map k's
+    end speed and width on its rows (`rows[k]`: how many)."""
+    mu, vehicle, safety_factor, yaw_model, _, _ = group[0]._shared
+    vxf = np.concatenate([np.full(r.size, m.vxf) for m, r in zip(group, rows, strict=True)])
+    width = np.concatenate([np.full(r.size, m.width)
+                            for m, r in zip(group, rows, strict=True)])
+
+    def stable(speeds: Array, taus: Array, n_s: int) -> Array:
+        return envelope_margin(BoundaryConditions(speeds, vxf, width), taus, mu, vehicle,
+                               n_s=n_s, safety_factor=safety_factor,
+                               yaw_model=yaw_model) <= 1.0
+    return stable
+
+
+def _fill(group: list[tuple[TauMinMap, list[int], list[int]]]) -> None:
+    """Maps of one envelope, each with the grid speeds (tau_min, sampling error) to
+    compute, filled together: the 64-instant bisection over all their rows, then the
+    128- and 256-instant ones over the rows whose error is wanted. A map whose part of
+    the grid would not iterate as its whole grid (`_refine_bracket`) is computed
+    whole instead."""
+    group = [g for g in group if g[1] or g[2]]
+    if not group:
+        return
+    tau_lo, tau_hi = group[0][0].tau_lo, group[0][0].tau_hi
+    coarse = [(m, np.array(c, dtype=np.int64)) for m, c, _ in group if c]
+    if coarse:
+        maps = [m for m, _ in coarse]
+        idx = [i for _, i in coarse]
+        speeds = np.concatenate([m.speeds[i] for m, i in coarse])
+        n = speeds.size
+        below, above = _bisect(_joint_stable(maps, idx), speeds, np.full(n, tau_lo),
+                               np.full(n, tau_hi), 64)
+        at = 0
+        for m, i in coarse:
+            b, a = below[at:at + i.size], above[at:at + i.size]
+            m._tau[i] = np.where(np.isneginf(b), tau_lo, a)
+            m._below[i] = np.where(np.isneginf(b), tau_lo, b)
+            m._coarse[i] = True
+            at += i.size
+    # the sampling error: 128 then 256 instants, over the rows that need it
+    refine: list[tuple[TauMinMap, Array, Array, Array]] = []  # map, grid index, ok rows, base
+    for m, _, r in group:
+        if not r:
+            continue
+        i = np.array(r, dtype=np.int64)
+        base = np.interp(m._err_v[i], m.speeds, m._tau)  # (the grid's own values)
+        ok = np.isfinite(base) & (base > tau_lo)
+        refine.append((m, i, ok, base))
+    t128 = _joint_pass(refine, None, REFINE_SPAN, 128, tau_lo, tau_hi)
+    t256 = _joint_pass(refine, t128, FINE_SPAN, 256, tau_lo, tau_hi)
+    for k, (m, i, ok, base) in enumerate(refine):
+        if m._refined.all():  # computed whole meanwhile
+            continue
+        err = np.zeros(i.size)
+        if ok.any():
+            b = base[ok]
+            # converged tau_min, extrapolated (`_sampling_error_at`)
+            est = t256[k] - 0.5 * (t128[k] - t256[k])
+            err[ok] = np.nan_to_num(b - est)
+        m._err[i] = err
+        m._refined[i] = True
+    for m, _, _ in group:
+        m._to_lists()
+
+
+def _joint_pass(refine: list[tuple[TauMinMap, Array, Array, Array]],
+                previous: list[Array] | None, span: tuple[float, float], n_s: int,
+                tau_lo: float, tau_hi: float) -> list[Array]:
+    """One refining bisection (`span` around `previous`, each map's 64-instant tau_min
+    where None) over the ok rows of every map still lazy; per map its stable sides
+    (empty: no ok row, or the map was computed whole here)."""
+    out: list[Array] = [np.zeros(0)] * len(refine)
+    rows: list[tuple[int, Array, Array]] = []  # refine index, lo, hi
+    full = _iterations(np.zeros(1), np.full(1, sum(span) + 1e-9))
+    for k, (m, _, ok, base) in enumerate(refine):
+        if not ok.any() or m._refined.all():
+            continue
+        centre = base[ok] if previous is None else previous[k]
+        lo = np.maximum(centre - span[0], tau_lo)
+        hi = np.minimum(centre + span[1], tau_hi)
+        if _iterations(lo, hi) != full:  # its part would iterate less than its whole grid
+            m._fill_whole()
+            continue
+        rows.append((k, lo, hi))
+    if not rows:
+        return out
+    maps = [refine[k][0] for k, _, _ in rows]
+    speeds = np.concatenate([refine[k][0]._err_v[refine[k][1]][refine[k][2]]
+                             for k, _, _ in rows])
+    _, stable_side = _bisect(_joint_stable(maps, [lo for _, lo, _ in rows]), speeds,
+                             np.concatenate([lo for _, lo, _ in rows]),
+                             np.concatenate([hi for _, _, hi in rows]), n_s)
+    at = 0
+    for k, lo, _ in rows:
+        out[k] = stable_side[at:at + lo.size]
+        at += lo.size
+    return out
 
 
 def _bisect(stable: Callable[[Array, Array, int], Array], speeds: Array, lo: Array,
@@ -468,28 +575,18 @@ def _iterations(lo: Array, hi: Array) -> int:
 
 
 def _sampling_error_at(stable: Callable[[Array, Array, int], Array], v_all: Array,
-                       base: Array, tau_lo: float, tau_hi: float, *,
-                       whole: bool) -> Array | None:
-    """s, the error of tau_min sampled at 64 instants (`base`, at the speeds `v_all`)
-    against the converged envelope's: the bisection again at 128 and 256 instants,
-    extrapolated. Each speed's bisection is a row of its own, its halvings as many as
-    its widest bracket needs; a part of the grid (`whole` False) iterates as the whole
-    grid only where its widest bracket is the widest any can be (REFINE_SPAN,
-    FINE_SPAN): None where it is not (the caller computes the whole grid)."""
+                       base: Array, tau_lo: float, tau_hi: float) -> Array:
+    """s, the error of tau_min sampled at 64 instants (`base`, at the speeds `v_all`, the
+    whole grid) against the converged envelope's: the bisection again at 128 and 256
+    instants, extrapolated (a part of the grid: `_fill`)."""
     ok = np.isfinite(base) & (base > tau_lo)
     err = np.zeros(v_all.size)
     if ok.any():
         v, b = v_all[ok], base[ok]
-        lo, hi = np.maximum(b - REFINE_SPAN[0], tau_lo), np.minimum(b + REFINE_SPAN[1], tau_hi)
-        if not whole and _iterations(lo, hi) != _iterations(np.zeros(1), np.full(1, sum(
-                REFINE_SPAN) + 1e-9)):
-            return None
-        _, t128 = _bisect(stable, v, lo, hi, 128)
-        lo, hi = np.maximum(t128 - FINE_SPAN[0], tau_lo), np.minimum(t128 + FINE_SPAN[1], tau_hi)
-        if not whole and _iterations(lo, hi) != _iterations(np.zeros(1), np.full(1, sum(
-                FINE_SPAN) + 1e-9)):
-            return None
-        _, t256 = _bisect(stable, v, lo, hi, 256)
+        _, t128 = _bisect(stable, v, np.maximum(b - REFINE_SPAN[0], tau_lo),
+                          np.minimum(b + REFINE_SPAN[1], tau_hi), 128)
+        _, t256 = _bisect(stable, v, np.maximum(t128 - FINE_SPAN[0], tau_lo),
+                          np.minimum(t128 + FINE_SPAN[1], tau_hi), 256)
         # converged tau_min, extrapolated: the error goes down about as the step
         # squared where the margin's maximum stays between samples, slower where it
         # jumps (3.7, 0.48, 0.32 ms from 64 to 1024 instants); half the last

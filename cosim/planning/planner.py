@@ -37,6 +37,7 @@ from cosim.planning.envelope import (
     StableSet,
     TauMinMap,
     envelope_margin,
+    fill_maps,
     stable_set,
 )
 from cosim.planning.prediction import (
@@ -293,15 +294,22 @@ class LaneChangePlanner:
         rest laterally, or a width more than MAP_WIDTH_TOLERANCE off a lane width
         (within it, tau_min is scaled by sqrt(|width| / lane width): the lateral
         acceleration goes as W / tau^2)."""
-        lane, width = self.road.lane_width, bc.width
-        if not (self.use_maps and abs(bc.ax0) < 1e-9 and abs(bc.vy0) < 1e-9
-                and abs(bc.ay0) < 1e-9 and abs(abs(width) - lane) <= MAP_WIDTH_TOLERANCE):
+        fmap = self._map_for(bc)
+        if fmap is None:
             return math.nan
-        fmap = self.tau_min_map(bc.vxf, math.copysign(lane, width))
+        lane, width = self.road.lane_width, bc.width
         vx0 = bc.vx0
         lo, hi = fmap.bounds(vx0)
         tau_min = fmap(vx0) if value else lo if lower else hi
         return float(tau_min) * math.sqrt(abs(width) / lane)
+
+    def _map_for(self, bc: BoundaryConditions) -> TauMinMap | None:
+        """The map `_map_tau_min` reads for this start (None: none applies)."""
+        lane, width = self.road.lane_width, bc.width
+        if not (self.use_maps and abs(bc.ax0) < 1e-9 and abs(bc.vy0) < 1e-9
+                and abs(bc.ay0) < 1e-9 and abs(abs(width) - lane) <= MAP_WIDTH_TOLERANCE):
+            return None
+        return self.tau_min_map(bc.vxf, math.copysign(lane, width))
 
     def _stable_set(self, bc: BoundaryConditions, mode: int | None) -> StableSet:
         cfg = self.config
@@ -321,10 +329,13 @@ class LaneChangePlanner:
         map's own value, as the paper takes its maps'.)"""
         n, grid = vx0.size, self.grid
         lower = self.config.collision_test == CollisionTest.EXACT
-        tau_min = np.array([self._map_tau_min(
-            BoundaryConditions(float(vx0[i]), float(vxf[i]), float(width[i]), 0.0,
-                               float(vy0[i]), 0.0), lower=lower, value=not lower)
-            for i in range(n)])
+        starts = [BoundaryConditions(float(vx0[i]), float(vxf[i]), float(width[i]), 0.0,
+                                     float(vy0[i]), 0.0) for i in range(n)]
+        # the grid speeds every TV's map reads, computed together (a lazy map's cost is
+        # mostly its calls)
+        fill_maps([(fmap, bc.vx0) for bc in starts if (fmap := self._map_for(bc)) is not None])
+        tau_min = np.array([self._map_tau_min(bc, lower=lower, value=not lower)
+                            for bc in starts])
         out = grid[None, :] >= tau_min[:, None] - 1e-12
         rest = np.flatnonzero(~np.isfinite(tau_min))
         if rest.size:

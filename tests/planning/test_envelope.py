@@ -132,7 +132,7 @@ def test_paper_maps() -> None:
 
 def test_tau_min_map_matches_the_envelope() -> None:
     """eq. 7's map F(vx0), computed from the envelope, against direct fine-grid runs."""
-    from cosim.planning.envelope import TauMinMap
+    from cosim.planning.envelope import TauMinMap, fill_maps
 
     fmap = TauMinMap(kmh(90), -3.75, 0.6, VEH, tau_lo=1.0, tau_hi=10.0)
     fmap._fill_whole()  # every grid speed at once (a query computes those it reads)
@@ -156,6 +156,16 @@ def test_tau_min_map_matches_the_envelope() -> None:
         np.testing.assert_array_equal((*lazy.bounds(v), lazy(v)),
                                       (*fmap.bounds(v), fmap(v)))
         assert lazy._coarse.sum() <= 6
+    # several maps filled together (a re-check's C2 TVs, `fill_maps`): the same again
+    other = TauMinMap(kmh(100), 3.75, 0.6, VEH, tau_lo=1.0, tau_hi=10.0)
+    other._fill_whole()
+    a, b = (TauMinMap(kmh(v), w, 0.6, VEH, tau_lo=1.0, tau_hi=10.0)
+            for v, w in ((90, -3.75), (100, 3.75)))
+    fill_maps([(a, 13.5), (b, 27.3), (a, 30.2), (b, 80.0)])
+    assert (a._coarse.sum(), b._coarse.sum(), a._refined.sum(), b._refined.sum()) == (12, 6, 8, 4)
+    for lazy, whole, v in ((a, fmap, 13.5), (b, other, 27.3), (a, fmap, 30.2)):
+        np.testing.assert_array_equal((*lazy.bounds(v), lazy(v)),
+                                      (*whole.bounds(v), whole(v)))
 
 
 def test_a_map_whose_coarse_pass_leaves_speeds_without_a_stable_tau_builds() -> None:
