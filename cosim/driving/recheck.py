@@ -181,7 +181,14 @@ class Recheck:
                     again = behind
         back = None
         if again.trajectory is None and not self.ends.was_due(frm, frm_end):
-            back = self.calls.plan(t, replace(state, lane=to), frm, messages)
+            # the gap policy's abort returns to the lane the SV was just in, whose traffic
+            # it is in step with: no faster than it drives now (the band rule's speed, the
+            # lane's limit, had a fleet's AV aborting in a queue at 6 m/s plan to end at
+            # 25, speed up at 6 m/s^2 and run into the queue)
+            back_vxf = (min(self.lanes.end_speed(to, frm), state.vx)
+                        if self.gap_rules is not None and self.gap_rules.abort_no_faster
+                        else None)
+            back = self.calls.plan(t, replace(state, lane=to), frm, messages, vxf=back_vxf)
         if again.trajectory is not None:
             kind, plan = Trigger.REPLAN, again
         elif back is not None and back.trajectory is not None:
@@ -229,6 +236,7 @@ class GapRecheck:
     sv_width: float  # m, the SV's body width (when SUMO's drivers see it in a lane)
     keep_end_speed: bool = True  # a replan ends at the plan's end speed (the new
     # leader's), not the band rule's
+    abort_no_faster: bool = True  # an abort ends at most at the SV's speed at the abort
     stop_decel: float | None = CLEAR_STOP_DECEL  # m/s^2, a braking TV ahead is clear
     # while the SV can stop behind it at this (`clear_ahead`; None: never)
 

@@ -20,6 +20,7 @@ import pytest
 from cosim.driving.base import DrivingContext, WorldPorts
 from cosim.driving.manoeuvre import Mode
 from cosim.driving.paper import PaperPolicy
+from cosim.driving.recheck import GapRecheck
 from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig
 from cosim.params import RoadParams
@@ -140,10 +141,12 @@ def test_no_plan_waits_and_retries_after_the_interval() -> None:
     assert m.mode == Mode.CHANGING and m.requests == 1  # a retry is not a new request
 
 
-def drive_into_recheck(*, collide: int, no_tau: set[int]) -> Drive:
+def drive_into_recheck(*, collide: int, no_tau: set[int],
+                       gap_rules: GapRecheck | None = None) -> Drive:
     sc = scenario((0.0, 1), replanning=True)
     forced = Forced(LaneChangePlanner(sc.vehicle, ROAD, sc.planner))
     d = Drive(sc, forced)
+    d.policy.manoeuvre.recheck.gap_rules = gap_rules  # the gap policy's re-check rules
     d.step()  # plan adopted at t = 0
     forced.calls.clear()
     forced.collide, forced.no_tau = collide, no_tau
@@ -178,6 +181,22 @@ def test_recheck_without_a_replan_aborts_to_the_origin_lane() -> None:
     d.run_until(lc.t0 + lc.tau + 2 * DT)
     assert m.plans[-1]["trigger"] in ("scripted", "retry") and m.plans[-1]["ok"] == 1
     assert m.active is not None and m.active.target_lane == 1
+
+
+def test_the_gap_policys_abort_ends_no_faster_than_the_sv_drives() -> None:
+    """The paper's abort ends at the band rule's speed; the gap policy's at most at the
+    SV's speed at the abort (it returns into the traffic it was just in)."""
+    ends = {}
+    for rules in (None, GapRecheck(sv_width=1.8)):
+        d = drive_into_recheck(collide=1, no_tau={1}, gap_rules=rules)
+        m = d.policy.manoeuvre
+        assert m.recheck.outcomes["abort"] == 1
+        row = m.plans[-1]
+        assert row["trigger"] == "abort" and row["ok"] == 1
+        ends[rules is None] = (row["vxf_mps"], row["vx0_mps"])
+    paper, gap = ends[True], ends[False]
+    assert paper[0] > paper[1] + 1.0  # the band rule's speed: faster than the SV drives
+    assert gap[0] == pytest.approx(gap[1], abs=1e-9)
 
 
 def test_recheck_without_replan_or_abort_brakes_and_stops_checking() -> None:
