@@ -20,7 +20,12 @@ of a manoeuvre) is cosim.planning.deadline's.
   wanted end speed ends in time it tries the end speeds at which a change of each of
   MERGE_TAUS fits in the room left (`deadline.fit_speed`), none slower than the SV: a
   change that brakes hard into the target lane surprises its new follower; the stop
-  law slows the SV instead and it asks again.
+  law slows the SV instead and it asks again. Its end speed is also no more than the
+  SV reaches with a comfortable acceleration (`comfortable_speed`: MERGE_ACCEL at the
+  plan's peak over the policy's merge duration) and its plan accelerates no harder
+  (the planner's `max_accel`): from a slow start (a ramp's corners, the stop line) a
+  driver merges at the speed it has reached and speeds up in the lane after (the car
+  following), it does not floor it to the lane's speed within the change.
 - The stop before the end: while the SV keeps an ending lane it follows a virtual
   standing leader whose rear is WAIT_ROOM before the end (`stop_gap`, `stop_accel`:
   Krauss's safe speed towards it with STOP_DECEL and STOP_TAU, so that it brakes only
@@ -70,6 +75,13 @@ MERGE_CURVATURE = 0.2  # 1/m, the sharpest path a mandatory plan may take (R 5 m
 # plant's 0.6 rad road-wheel limit on its 2.51 m wheelbase allows 0.27): from 1 m/s a
 # 4 s change to 9 m/s bends at 0.56 1/m, the envelope's yaw-rate bound allows it
 CREEP_SPEED = 1.0  # m/s, a mandatory change starts at least at this speed
+MERGE_ACCEL = 2.6  # m/s^2, the mean acceleration of a mandatory change's plan at most
+# (its peak 1.5 times that, eq. 2): SUMO's passenger car's accel, what the ramp's own
+# drivers merge with (Krauss speeds up at its accel): the SV keeps up with the TVs
+# behind it on the ramp, which merge too; from 23 km/h a 4 s merge ends at 60 km/h
+MERGE_PEAK_ACCEL = 1.5 * MERGE_ACCEL  # m/s^2, that plan's peak (eq. 2)
+MERGE_TIME = MERGE_TAUS[0]  # s, the merge duration the end speed's comfortable cap
+# assumes when the policy names none (the gap policy's merge_max_tau)
 MERGE_INSIST_DECEL = 4.5  # m/s^2, the most a mandatory change may ask of its new follower
 # (the urgency law's top, cosim.driving.gap.decision.mandatory_config): the Krauss
 # follower's decel, what LC2013 asks of a blocking follower. A Krauss follower either
@@ -94,6 +106,7 @@ class PlanLimits:
     curvature: float = math.inf  # 1/m, the sharpest path it may take
     slower: tuple[float, ...] = ()  # m/s, the end speeds tried next, in order, when no
     # plan at vxf ends in time
+    accel: float = math.inf  # m/s^2, the plan's peak acceleration at most
 
 
 class SVLaneEnds:
@@ -159,22 +172,24 @@ class SVLaneEnds:
         return math.inf if end is None else end.x_limit(self.sv_length)
 
     def limits(self, lane: int, sv: SVState, target: int, vxf: float | None,
-               mandatory: bool) -> PlanLimits:
+               mandatory: bool, merge_time: float | None = None) -> PlanLimits:
         """What the end of the SV's `lane` asks of a plan from `sv` to `target` ending at
         `vxf` (m/s; None: the band rule's speed); `mandatory`: the change off an ending
-        lane (module docstring)."""
+        lane, `merge_time` (s; None: MERGE_TIME) the duration its comfortable end speed
+        assumes (module docstring)."""
         x_limit = self.x_limit(self.ahead(lane, sv.x, sv.vx))
         if not mandatory:
             return PlanLimits(vx0=sv.vx, vxf=vxf, x_limit=x_limit)
         vx0 = max(sv.vx, CREEP_SPEED)
         vxf = self.lanes.end_speed(lane, target) if vxf is None else vxf
+        vxf = min(vxf, comfortable_speed(vx0, MERGE_TIME if merge_time is None else merge_time))
         slower: list[float] = []
         for tau in MERGE_TAUS:
             fit = max(fit_speed(x_limit - sv.x, vx0, tau), CREEP_SPEED)
             if vx0 - 1e-6 <= fit < (slower[-1] if slower else vxf) - 1e-6:
                 slower.append(fit)
         return PlanLimits(vx0=vx0, vxf=vxf, x_limit=x_limit, curvature=MERGE_CURVATURE,
-                          slower=tuple(slower))
+                          slower=tuple(slower), accel=MERGE_PEAK_ACCEL)
 
     def merging_ahead(self, lane: int, sv_x: float, traffic: TrafficView
                       ) -> tuple[int, float]:
@@ -219,6 +234,13 @@ class SVLaneEnds:
             return math.inf
         a = idm_acceleration(speed, desired_speed, gap, float(traffic.speed[k]), cfg)
         return a if a >= -YIELD_DECEL else math.inf
+
+
+def comfortable_speed(vx0: float, tau: float) -> float:
+    """m/s, the highest end speed of a change of `tau` (s) from `vx0` (m/s, x'' = 0 at
+    both ends) whose mean acceleration is MERGE_ACCEL (eq. 2's x'' = 6 (vxf - vx0)
+    (s - s^2) / tau peaks at 1.5 times its mean, `MERGE_PEAK_ACCEL`)."""
+    return vx0 + MERGE_ACCEL * tau
 
 
 def stop_gap(end: LaneEnd | None) -> float:

@@ -142,7 +142,8 @@ class ScriptedRequests:
 class Manoeuvre:
     """The module docstring's component. `blinker(direction)` sets the SV's blinker
     (-1 right, 0 off, +1 left); the context's planner has `plan(t, state, target,
-    messages, occupant, vxf=None, x_limit=inf, max_curvature=inf, max_tau=inf)` and
+    messages, occupant, vxf=None, x_limit=inf, max_curvature=inf, max_tau=inf,
+    max_accel=inf)` and
     `check(trajectory, t, messages)` (cosim.planning.planner.LaneChangePlanner);
     `max_tau` (s) bounds the manoeuvres it plans (inf: eq. 13 alone); `gap_rules`: the
     gap policy's re-check rules (cosim.driving.recheck.GapRecheck; None: the paper's)."""
@@ -248,7 +249,8 @@ class Manoeuvre:
         if not self.ends.begun(target, sv.x):
             return  # a lane that begins ahead: asked again once it runs beside the SV
         lane = self.lanes.lane_of(sv.y)
-        limits = self.ends.limits(lane, sv, target, vxf, trigger == Trigger.MANDATORY)
+        limits = self.ends.limits(lane, sv, target, vxf, trigger == Trigger.MANDATORY,
+                                  self.merge_max_tau)
         # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans
         # only while keeping its lane, where these are ~0; the measured values would
         # carry the plant's transients (at t = 0: drag with no force yet) into the plan.
@@ -285,7 +287,7 @@ class Manoeuvre:
               accept: Acceptance | None) -> tuple[Plan, str]:
         """One planner call and its plans.csv row: (the plan, why `accept` refused it)."""
         plan = self.calls.plan(t, state, target, messages, vxf=vxf, x_limit=limits.x_limit,
-                               curvature=limits.curvature,
+                               curvature=limits.curvature, accel=limits.accel,
                                max_tau=self.merge_max_tau if trigger == Trigger.MANDATORY
                                else None)
         with self.calls.timed():

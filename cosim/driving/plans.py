@@ -127,13 +127,15 @@ class PlannerCalls:
 
     def plan(self, t: float, state: Any, target: int, messages: list[Any], *,
              vxf: float | None = None, x_limit: float = math.inf,
-             curvature: float = math.inf, max_tau: float | None = None) -> Any:
+             curvature: float = math.inf, max_tau: float | None = None,
+             accel: float = math.inf) -> Any:
         """The planner's Plan from `state` (SVPlanState) to `target` at t (ending at `vxf`,
         m/s, None: the band rule's speed; at centre x <= `x_limit`, m; its path bending
-        at most `curvature`, 1/m; at most `max_tau`, s, None: the policy's)."""
+        at most `curvature`, 1/m; at most `max_tau`, s, None: the policy's; accelerating
+        at most `accel`, m/s^2)."""
         with self.timed():
             return self.planner.plan(t, state, target, messages, self.occupant, vxf=vxf,
-                                     x_limit=x_limit, max_curvature=curvature,
+                                     x_limit=x_limit, max_curvature=curvature, max_accel=accel,
                                      max_tau=self.max_tau if max_tau is None else max_tau)
 
     def check(self, trajectory: Any, t: float, messages: list[Any]) -> Any:

@@ -31,7 +31,14 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from cosim.driving.lane_end import STOP_DECEL, SVLaneEnds, stop_gap
+from cosim.driving.lane_end import (
+    MERGE_PEAK_ACCEL,
+    MERGE_TIME,
+    STOP_DECEL,
+    SVLaneEnds,
+    comfortable_speed,
+    stop_gap,
+)
 from cosim.driving.layout import LaneLayout
 from cosim.driving.plans import RESCUES, PlannerCalls, Trigger, plan_row
 from cosim.params import G
@@ -172,11 +179,16 @@ class Recheck:
         vxf = (float(lc.trajectory.vxf) if self.gap_rules is not None
                and self.gap_rules.keep_end_speed else None)
         x_limit = self.ends.x_limit(frm_end)
-        again = self.calls.plan(t, state, to, messages, vxf=vxf, x_limit=x_limit)
+        accel = math.inf
+        if self.ends.was_due(frm, frm_end):  # a merge: its end speed within reach, as planned
+            wanted = self.lanes.end_speed(frm, to) if vxf is None else vxf
+            vxf, accel = min(wanted, comfortable_speed(state.vx, MERGE_TIME)), MERGE_PEAK_ACCEL
+        again = self.calls.plan(t, state, to, messages, vxf=vxf, x_limit=x_limit, accel=accel)
         if again.trajectory is None and vxf is not None and rejection is not None:
             slower = behind_speed(state.x, vxf, rejection, messages, self.sv_length)
             if slower is not None:
-                behind = self.calls.plan(t, state, to, messages, vxf=slower, x_limit=x_limit)
+                behind = self.calls.plan(t, state, to, messages, vxf=slower, x_limit=x_limit,
+                                         accel=accel)
                 if behind.trajectory is not None:
                     again = behind
         back = None

@@ -466,6 +466,7 @@ class LaneChangePlanner:
         self, t: float, sv: SVPlanState, target_lane: int, messages: Sequence[V2VMessage],
         occupant: float, vxf: float | None = None, x_limit: float = math.inf,
         max_curvature: float = math.inf, max_tau: float = math.inf,
+        max_accel: float = math.inf,
     ) -> Plan:
         """Plan a lane change from sv.lane to `target_lane` at simulation time t, ending
         at `vxf` (m/s; None: the band rule's target speed). `x_limit` (m): the latest
@@ -475,7 +476,9 @@ class LaneChangePlanner:
         `max_curvature` (1/m): plans whose path bends more sharply anywhere are not
         stable (a steering limit the envelope does not have at low speed: a merge from a
         standstill, cosim.driving.lane_end). `max_tau` (s): the chosen tau is the free one
-        nearest min(eq. 13's tau_opt, max_tau) (`selection.choose`)."""
+        nearest min(eq. 13's tau_opt, max_tau) (`selection.choose`). `max_accel` (m/s^2):
+        plans that speed up harder anywhere are not stable (a comfort bound: a merge from
+        a slow start, cosim.driving.lane_end)."""
         start = time.perf_counter()
         self._validate(sv, target_lane, occupant)
         cfg, road = self.config, self.road
@@ -484,7 +487,7 @@ class LaneChangePlanner:
             vxf = road.target_speed(sv.lane, target_lane)
         width = road.lane_center(target_lane) - sv.y
         st, taus, stable, late = self._stable_candidates(sv, vxf, width, target_lane,
-                                                         max_curvature, x_limit)
+                                                         max_curvature, x_limit, max_accel)
         cand = np.flatnonzero(stable if late is None else stable & ~late)
         t_rel, follow = self._horizon(t, 0.0, sv.x, sv.vx, vxf, target_lane, messages)
         futures = predict_lazy(messages, t, t_rel, road, self.vehicle, self.grid,
@@ -515,11 +518,11 @@ class LaneChangePlanner:
 
     def _stable_candidates(
         self, sv: SVPlanState, vxf: float, width: float, target_lane: int,
-        max_curvature: float, x_limit: float,
+        max_curvature: float, x_limit: float, max_accel: float = math.inf,
     ) -> tuple[StableSet, Array, NDArray[np.bool_], NDArray[np.bool_] | None]:
-        """(the stable set, its durations with tau_min itself among them, which are stable
-        and bend no more than `max_curvature`, which of those end past `x_limit`, or None
-        without a limit)."""
+        """(the stable set, its durations with tau_min itself among them, which are stable,
+        bend no more than `max_curvature` and accelerate no more than `max_accel`, which
+        of those end past `x_limit`, or None without a limit)."""
         st = self._stable_set(sv.boundary(vxf, width), MODES.get((sv.lane, target_lane)))
         taus, stable = st.taus, st.stable
         if math.isfinite(st.tau_min) and not (
@@ -531,6 +534,9 @@ class LaneChangePlanner:
             stable = np.concatenate((stable[:at], [True], stable[at:]))
         if math.isfinite(max_curvature):
             stable = stable & (path_curvature(sv, vxf, width, taus) <= max_curvature)
+        if math.isfinite(max_accel):
+            # a relative tolerance: a cap of end speed at max_accel over a grid tau
+            stable = stable & (peak_accel(sv.vx, vxf, sv.ax, taus) <= max_accel * (1 + 1e-6))
         late = None
         if math.isfinite(x_limit):
             # each plan's end x (eq. 2 with a general start), against the deadline
@@ -561,6 +567,20 @@ class LaneChangePlanner:
             return None
         return Rejection(trajectory.tau, "collision", futures.vehicle_ids[vehicle[0]],
                          float(when[0]))
+
+
+def peak_accel(vx0: float, vxf: float, ax0: float, taus: Array) -> Array:
+    """m/s^2, (n_tau,) the highest longitudinal acceleration of each candidate (eq. 2
+    with a general start: x'' = ax0 + 6 c3 t + 12 c4 t^2, 0 at tau; its vertex at
+    t = -c3 / (4 c4) when inside)."""
+    c3, c4 = longitudinal_coefficients(vx0, vxf, taus, ax0)
+    c3, c4 = np.broadcast_arrays(np.asarray(c3, dtype=float), np.asarray(c4, dtype=float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tv = np.where(c4 != 0.0, -c3 / (4.0 * c4), -1.0)
+    inside = (tv > 0.0) & (tv < taus)
+    tv = np.where(inside, tv, 0.0)
+    at_vertex = np.where(inside, ax0 + 6.0 * c3 * tv + 12.0 * c4 * tv * tv, -np.inf)
+    return np.maximum(np.maximum(ax0, 0.0), at_vertex)
 
 
 CURVATURE_SAMPLES = 41  # samples per candidate of `path_curvature`

@@ -35,10 +35,12 @@ class Forced:
 
     def plan(self, t: float, state: Any, target: int, messages: list[Any], occupant: float,
              vxf: float | None = None, x_limit: float = math.inf,
-             max_curvature: float = math.inf, max_tau: float = math.inf) -> Any:
+             max_curvature: float = math.inf, max_tau: float = math.inf,
+             max_accel: float = math.inf) -> Any:
         self.calls.append(("plan", target))
         plan = self.real.plan(t, state, target, messages, occupant, vxf, x_limit=x_limit,
-                              max_curvature=max_curvature, max_tau=max_tau)
+                              max_curvature=max_curvature, max_tau=max_tau,
+                              max_accel=max_accel)
         if target in self.no_tau:
             return replace(plan, tau=None, trajectory=None)
         return plan

@@ -22,9 +22,12 @@ import pytest
 
 from cosim.driving.base import DrivingContext, WorldPorts
 from cosim.driving.lane_end import (
+    MERGE_ACCEL,
     MERGE_CURVATURE,
     MERGE_INSIST_DECEL,
+    MERGE_PEAK_ACCEL,
     WAIT_ROOM,
+    SVLaneEnds,
     stop_accel,
 )
 from cosim.driving.layout import LaneLayout
@@ -35,7 +38,7 @@ from cosim.driving.registry import policy_class
 from cosim.driving.rule import DecisionConfig
 from cosim.params import G, RoadParams
 from cosim.planning.deadline import END_MARGIN
-from cosim.planning.planner import LaneChangePlanner, path_curvature
+from cosim.planning.planner import LaneChangePlanner, SVPlanState, path_curvature
 from cosim.scenario import LaneChangeCommand, Scenario, load_scenario, project_root
 from cosim.traffic.snapshot import TrafficSnapshot
 from cosim.traffic.v2v import V2VMessage
@@ -295,6 +298,24 @@ def test_an_urgent_entry_that_asks_its_follower_nothing_is_not_held_to_the_insis
 # ------------------------------------------------------------------ the stop
 
 
+def test_a_merge_from_a_slow_start_ends_at_the_speed_it_reaches_comfortably() -> None:
+    # from 6.4 m/s (a ramp's corners) the band's 16.7 m/s is out of comfortable reach
+    # in a 3.5 s merge: it ends at 6.4 + 2.6 * 3.5 m/s, accelerating at most 3.9 m/s^2
+    ends = SVLaneEnds(LaneLayout(RAMP), L)
+    sv = SVState(END - 150.0, RAMP.lane_center(0), 0.0, 6.4, 0.0, 0)
+    slow = ends.limits(0, sv, 1, None, True, 3.5)
+    assert slow.vxf == pytest.approx(6.4 + MERGE_ACCEL * 3.5) and slow.vxf < BANDS[1][0]
+    assert slow.accel == MERGE_PEAK_ACCEL
+    planner = LaneChangePlanner(BASE.vehicle, RAMP, BASE.planner)
+    plan = planner.plan(0.0, SVPlanState(sv.x, sv.y, 0.0, slow.vx0, 0.0, 0.0, 0.0, 0), 1, [],
+                        0.5, vxf=slow.vxf, x_limit=slow.x_limit, max_accel=slow.accel)
+    assert plan.tau is not None and 1.5 * (slow.vxf - 6.4) / plan.tau <= MERGE_PEAK_ACCEL + 1e-6
+    # near the band's speed the band's speed; a change by choice is not bound
+    assert ends.limits(0, replace(sv, vx=15.0), 1, None, True, 3.5).vxf == BANDS[1][0]
+    free = ends.limits(0, sv, 1, None, False)
+    assert free.vxf is None and free.accel == math.inf
+
+
 def test_the_stop_law_stops_at_the_stop_line() -> None:
     assert stop_accel(20.0, math.inf, 2.0) == math.inf
     assert stop_accel(20.0, 300.0, 2.0) > 0.0  # far: no braking
@@ -305,9 +326,9 @@ def test_the_stop_law_stops_at_the_stop_line() -> None:
 @pytest.mark.parametrize("name", ["paper", "gap"])
 def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap_opens(
         name: str) -> None:
-    # a platoon at 15 m/s, 12 m apart (bumper gaps 7.7 m: no gap for the SV), its last
+    # a platoon at 15 m/s, 11 m apart (bumper gaps 6.7 m: no gap for the SV), its last
     # car starting at x = -560: it passes the end of the ramp at about t = 50 s
-    stream = Stream(np.arange(-560.0, 400.0, 12.0), 15.0, tail=-560.0)
+    stream = Stream(np.arange(-560.0, 400.0, 11.0), 15.0, tail=-560.0)
     d = Drive(name, scenario(15.0), 40.0, stream)
     d.run(40.0)
     m = d.policy.manoeuvre

@@ -24,7 +24,13 @@ from cosim.planning.deadline import (
     look_ahead,
     merging_messages,
 )
-from cosim.planning.planner import LANE_END, LaneChangePlanner, SVPlanState, path_curvature
+from cosim.planning.planner import (
+    LANE_END,
+    LaneChangePlanner,
+    SVPlanState,
+    path_curvature,
+    peak_accel,
+)
 from cosim.planning.prediction import predict
 from cosim.planning.trajectory import LaneChangeTrajectory
 from cosim.traffic.v2v import V2VMessage
@@ -154,6 +160,21 @@ def test_max_curvature_leaves_only_paths_a_car_can_steer() -> None:
     np.testing.assert_array_equal(bent.stable, free.stable & (kappa <= 0.2))
     assert bent.tau is not None and kappa[np.isclose(bent.taus, bent.tau)][0] <= 0.2
     assert path_curvature(sv_state(0.0, 20.0), 20.0, 3.75, np.array([3.0]))[0] < 0.02
+
+
+def test_max_accel_leaves_only_plans_that_speed_up_comfortably() -> None:
+    # from 6 m/s to 20 m/s: eq. 2 peaks at 1.5 (vxf - vx0) / tau, 3.9 m/s^2 from 5.4 s on
+    sv = sv_state(0.0, 6.0)
+    free = PLANNER.plan(0.0, sv, 1, [], 0.5, vxf=20.0)
+    gentle = PLANNER.plan(0.0, sv, 1, [], 0.5, vxf=20.0, max_accel=3.9)
+    peak = peak_accel(6.0, 20.0, 0.0, free.taus)
+    np.testing.assert_allclose(peak, 21.0 / free.taus)
+    assert free.tau is not None and free.tau < 5.3
+    np.testing.assert_array_equal(gentle.stable, free.stable & (peak <= 3.9 * (1 + 1e-6)))
+    assert gentle.tau is not None and gentle.tau >= 21.0 / 3.9 - 1e-6
+    # a start already accelerating peaks at its start; braking plans are never bound
+    assert peak_accel(6.0, 6.0, 2.0, np.array([3.0]))[0] == pytest.approx(2.0)
+    assert peak_accel(20.0, 6.0, 0.0, np.array([3.0]))[0] == 0.0
 
 
 @settings(max_examples=25, deadline=None)
