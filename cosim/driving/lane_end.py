@@ -80,8 +80,6 @@ MERGE_ACCEL = 2.6  # m/s^2, the mean acceleration of a mandatory change's plan a
 # drivers merge with (Krauss speeds up at its accel): the SV keeps up with the TVs
 # behind it on the ramp, which merge too; from 23 km/h a 4 s merge ends at 60 km/h
 MERGE_PEAK_ACCEL = 1.5 * MERGE_ACCEL  # m/s^2, that plan's peak (eq. 2)
-MERGE_TIME = MERGE_TAUS[0]  # s, the merge duration the end speed's comfortable cap
-# assumes when the policy names none (the gap policy's merge_max_tau)
 MERGE_INSIST_DECEL = 4.5  # m/s^2, the most a mandatory change may ask of its new follower
 # (the urgency law's top, cosim.driving.gap.decision.mandatory_config): the Krauss
 # follower's decel, what LC2013 asks of a blocking follower. A Krauss follower either
@@ -175,21 +173,23 @@ class SVLaneEnds:
                mandatory: bool, merge_time: float | None = None) -> PlanLimits:
         """What the end of the SV's `lane` asks of a plan from `sv` to `target` ending at
         `vxf` (m/s; None: the band rule's speed); `mandatory`: the change off an ending
-        lane, `merge_time` (s; None: MERGE_TIME) the duration its comfortable end speed
-        assumes (module docstring)."""
+        lane, `merge_time` (s; None: no comfort bound) the duration its comfortable end
+        speed assumes (module docstring)."""
         x_limit = self.x_limit(self.ahead(lane, sv.x, sv.vx))
         if not mandatory:
             return PlanLimits(vx0=sv.vx, vxf=vxf, x_limit=x_limit)
         vx0 = max(sv.vx, CREEP_SPEED)
         vxf = self.lanes.end_speed(lane, target) if vxf is None else vxf
-        vxf = min(vxf, comfortable_speed(vx0, MERGE_TIME if merge_time is None else merge_time))
+        accel = math.inf
+        if merge_time is not None:
+            vxf, accel = min(vxf, comfortable_speed(vx0, merge_time)), MERGE_PEAK_ACCEL
         slower: list[float] = []
         for tau in MERGE_TAUS:
             fit = max(fit_speed(x_limit - sv.x, vx0, tau), CREEP_SPEED)
             if vx0 - 1e-6 <= fit < (slower[-1] if slower else vxf) - 1e-6:
                 slower.append(fit)
         return PlanLimits(vx0=vx0, vxf=vxf, x_limit=x_limit, curvature=MERGE_CURVATURE,
-                          slower=tuple(slower), accel=MERGE_PEAK_ACCEL)
+                          slower=tuple(slower), accel=accel)
 
     def merging_ahead(self, lane: int, sv_x: float, traffic: TrafficView
                       ) -> tuple[int, float]:

@@ -160,7 +160,7 @@ class Manoeuvre:
         self.ends = SVLaneEnds(ctx.lanes, ctx.sv_length)  # the SV's lane-end reasoning
         self.recheck = Recheck(self.calls, self.ends, ctx.lanes, ctx.mu,
                                ctx.recheck_interval, ctx.replanning, ctx.sv_length,
-                               gap_rules)
+                               gap_rules, merge_max_tau)
         self.scripted = ScriptedRequests(ctx.sv.lane_changes)
         self.mode = Mode.KEEPING
         self.active: LaneChange | None = None  # the manoeuvre under way

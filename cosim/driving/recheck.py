@@ -33,7 +33,6 @@ import numpy as np
 
 from cosim.driving.lane_end import (
     MERGE_PEAK_ACCEL,
-    MERGE_TIME,
     STOP_DECEL,
     SVLaneEnds,
     comfortable_speed,
@@ -122,8 +121,11 @@ class Recheck:
 
     def __init__(self, calls: PlannerCalls, ends: SVLaneEnds, lanes: LaneLayout, mu: float,
                  interval: float, enabled: bool, sv_length: float = 0.0,
-                 gap_rules: GapRecheck | None = None) -> None:
+                 gap_rules: GapRecheck | None = None, merge_time: float | None = None
+                 ) -> None:
         self.calls, self.ends, self.lanes, self.mu = calls, ends, lanes, mu
+        self.merge_time = merge_time  # s, a merge's comfortable end speed assumes this
+        # duration (None: no comfort bound; cosim.driving.lane_end.SVLaneEnds.limits)
         self.sv_length = sv_length  # m
         self.gap_rules = gap_rules  # the gap policy's (None: the paper's re-check)
         self.interval = interval  # s, between re-checks
@@ -180,9 +182,12 @@ class Recheck:
                and self.gap_rules.keep_end_speed else None)
         x_limit = self.ends.x_limit(frm_end)
         accel = math.inf
-        if self.ends.was_due(frm, frm_end):  # a merge: its end speed within reach, as planned
+        merge_time = self.merge_time
+        if merge_time is not None and self.ends.was_due(frm, frm_end):
+            # a merge: its end speed within comfortable reach, as planned (lane_end)
             wanted = self.lanes.end_speed(frm, to) if vxf is None else vxf
-            vxf, accel = min(wanted, comfortable_speed(state.vx, MERGE_TIME)), MERGE_PEAK_ACCEL
+            vxf = min(wanted, comfortable_speed(state.vx, merge_time))
+            accel = MERGE_PEAK_ACCEL
         again = self.calls.plan(t, state, to, messages, vxf=vxf, x_limit=x_limit, accel=accel)
         if again.trajectory is None and vxf is not None and rejection is not None:
             slower = behind_speed(state.x, vxf, rejection, messages, self.sv_length)

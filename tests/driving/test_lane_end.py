@@ -310,10 +310,13 @@ def test_a_merge_from_a_slow_start_ends_at_the_speed_it_reaches_comfortably() ->
     plan = planner.plan(0.0, SVPlanState(sv.x, sv.y, 0.0, slow.vx0, 0.0, 0.0, 0.0, 0), 1, [],
                         0.5, vxf=slow.vxf, x_limit=slow.x_limit, max_accel=slow.accel)
     assert plan.tau is not None and 1.5 * (slow.vxf - 6.4) / plan.tau <= MERGE_PEAK_ACCEL + 1e-6
-    # near the band's speed the band's speed; a change by choice is not bound
+    # near the band's speed the band's speed; a change by choice is not bound, nor the
+    # paper's policy's merge (no merge duration)
     assert ends.limits(0, replace(sv, vx=15.0), 1, None, True, 3.5).vxf == BANDS[1][0]
     free = ends.limits(0, sv, 1, None, False)
     assert free.vxf is None and free.accel == math.inf
+    paper = ends.limits(0, sv, 1, None, True)
+    assert paper.vxf == BANDS[1][0] and paper.accel == math.inf
 
 
 def test_the_stop_law_stops_at_the_stop_line() -> None:
@@ -326,9 +329,9 @@ def test_the_stop_law_stops_at_the_stop_line() -> None:
 @pytest.mark.parametrize("name", ["paper", "gap"])
 def test_with_the_mainline_blocked_it_stops_before_the_end_and_merges_once_a_gap_opens(
         name: str) -> None:
-    # a platoon at 15 m/s, 11 m apart (bumper gaps 6.7 m: no gap for the SV), its last
+    # a platoon at 15 m/s, 12 m apart (bumper gaps 7.7 m: no gap for the SV), its last
     # car starting at x = -560: it passes the end of the ramp at about t = 50 s
-    stream = Stream(np.arange(-560.0, 400.0, 11.0), 15.0, tail=-560.0)
+    stream = Stream(np.arange(-560.0, 400.0, 12.0), 15.0, tail=-560.0)
     d = Drive(name, scenario(15.0), 40.0, stream)
     d.run(40.0)
     m = d.policy.manoeuvre
