@@ -248,7 +248,6 @@ def stable_set(
 
 MAP_V_LO, MAP_V_HI, MAP_V_STEP = 1.0, 50.0, 0.5  # m/s, a TauMinMap's speed grid
 MAP_TOL = 1e-4  # s, its bisection's resolution
-MAP_ERROR_STEP = 0.5  # m/s, the coarser speed grid its sampling error is estimated on
 
 
 class TauMinMap:
@@ -295,11 +294,9 @@ class TauMinMap:
         # sampling error; nan until computed (`_coarse`, `_refined` say which are)
         self._tau = np.full(n, np.nan)
         self._below = np.full(n, np.nan)
-        self._err_v = _error_speeds()
-        assert np.array_equal(self._err_v, self.speeds)  # (`_ensure` reads them as one grid)
-        self._err = np.zeros(self._err_v.size)
+        self._err = np.zeros(n)  # the sampling error, on the same grid
         self._coarse = np.zeros(n, dtype=bool)
-        self._refined = np.zeros(self._err_v.size, dtype=bool)
+        self._refined = np.zeros(n, dtype=bool)
         self._speeds_list: list[float] = self.speeds.tolist()
         self._interp_err = np.full(n - 1, np.nan)
         self._lists: tuple[list[float], ...] = ()
@@ -337,10 +334,10 @@ class TauMinMap:
         if isinstance(vx0, float | int):  # the same arithmetic on floats
             v = float(vx0)
             self._ensure((self._interval(v),))
-            speeds, _, below, err_v, err_, interp_err = self._lists
+            speeds, _, below, err_, interp_err = self._lists
             hi = self(v)
             lo = _interp_scalar(v, speeds, below)
-            err = _interp_scalar(v, err_v, err_)
+            err = _interp_scalar(v, speeds, err_)
             e = interp_err[min(max(bisect.bisect_left(speeds, v) - 1, 0), len(speeds) - 2)]
             lower = min(lo, lo - err) - e
             upper = max(hi, hi - err) + e
@@ -349,7 +346,7 @@ class TauMinMap:
         self._ensure_all(v)
         hi = self(v)
         lo = np.interp(v, self.speeds, self._below)
-        err = np.interp(v, self._err_v, self._err)
+        err = np.interp(v, self.speeds, self._err)
         at = np.clip(np.searchsorted(self.speeds, v) - 1, 0, self.speeds.size - 2)
         e = self._interp_err[at]
         lower = np.minimum(lo, lo - err) - e
@@ -397,8 +394,8 @@ class TauMinMap:
                                np.full(n, self.tau_hi), 64)
         self._tau = np.where(np.isneginf(below), self.tau_lo, above)
         self._below = np.where(np.isneginf(below), self.tau_lo, below)
-        base = np.interp(self._err_v, self.speeds, self._tau)
-        self._err = _sampling_error_at(self._stable, self._err_v, base, self.tau_lo,
+        base = np.interp(self.speeds, self.speeds, self._tau)
+        self._err = _sampling_error_at(self._stable, self.speeds, base, self.tau_lo,
                                        self.tau_hi)
         self._coarse[:] = True
         self._refined[:] = True
@@ -415,7 +412,7 @@ class TauMinMap:
         self._interp_err = 0.25 * np.maximum(second[:-1], second[1:]) + MAP_TOL
         # the same as plain floats: one speed is queried per plan (see `_interp_scalar`)
         self._lists = tuple(a.tolist() for a in (self.speeds, self._tau, self._below,
-                                                  self._err_v, self._err, self._interp_err))
+                                                  self._err, self._interp_err))
 
 
 def fill_maps(queries: Sequence[tuple[TauMinMap, float]]) -> None:
@@ -485,7 +482,7 @@ def _fill(group: list[tuple[TauMinMap, list[int], list[int]]]) -> None:
         if not r:
             continue
         i = np.array(r, dtype=np.int64)
-        base = np.interp(m._err_v[i], m.speeds, m._tau)  # (the grid's own values)
+        base = np.interp(m.speeds[i], m.speeds, m._tau)  # (the grid's own values)
         ok = np.isfinite(base) & (base > tau_lo)
         refine.append((m, i, ok, base))
     t128 = _joint_pass(refine, None, REFINE_SPAN, 128, tau_lo, tau_hi)
@@ -527,7 +524,7 @@ def _joint_pass(refine: list[tuple[TauMinMap, Array, Array, Array]],
     if not rows:
         return out
     maps = [refine[k][0] for k, _, _ in rows]
-    speeds = np.concatenate([refine[k][0]._err_v[refine[k][1]][refine[k][2]]
+    speeds = np.concatenate([refine[k][0].speeds[refine[k][1]][refine[k][2]]
                              for k, _, _ in rows])
     _, stable_side = _bisect(_joint_stable(maps, [lo for _, lo, _ in rows]), speeds,
                              np.concatenate([lo for _, lo, _ in rows]),
@@ -556,11 +553,6 @@ def _bisect(stable: Callable[[Array, Array, int], Array], speeds: Array, lo: Arr
         lo = np.where(ok, lo, mid)
     return (np.where(ok_lo, -np.inf, np.where(ok_hi, lo, np.nan)),
             np.where(ok_lo, lo, np.where(ok_hi, hi, np.nan)))
-
-
-def _error_speeds() -> Array:
-    """m/s, the speeds the sampling error is estimated at (MAP_ERROR_STEP)."""
-    return np.arange(MAP_V_LO, MAP_V_HI + MAP_ERROR_STEP, MAP_ERROR_STEP).clip(max=MAP_V_HI)
 
 
 REFINE_SPAN = (0.05, 0.01)  # s, below and above the 64-instant tau_min: the 128 pass's bracket
