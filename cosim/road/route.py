@@ -53,8 +53,16 @@ def _read(path: str, mtime_ns: int, size: int) -> Any:
     except Exception as exc:  # noqa: BLE001 - sumolib raises whatever its SAX handler meets
         return InputError(path, "network", f"{type(exc).__name__}: {exc}",
                           "a readable SUMO .net.xml file")
-    if not normal_edges(net):
+    edges = [e for e in net.getEdges(withInternal=False) if e.getFunction() in ("", "normal")]
+    if not edges:
         return InputError(path, "network", "no edge found", "a SUMO network with an edge")
+    if not normal_edges(net):
+        # a race track or a bus network: the SV is a passenger car, as SUMO's traffic is
+        allowed = sorted({c for e in edges for ln in e.getLanes() for c in ln.getPermissions()})
+        return InputError(path, "network", f"no lane allows {VCLASS}",
+                          f"a SUMO network with a lane a passenger car may use (its edges "
+                          f"allow {_some(allowed) or 'no vehicle class'}; "
+                          f"the SV is a passenger car)")
     if left_hand(path):
         return InputError(path, "network", 'lefthand="true"', left_hand_refusal(path))
     problem = network_numbers_problem(net)

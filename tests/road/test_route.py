@@ -9,6 +9,7 @@ import pytest
 from cosim.errors import InputError
 from cosim.road.route import make_route
 from cosim.traffic.network import NETWORK_DIR
+from tests.road.handdrawn import netconvert
 
 CURVED = NETWORK_DIR / "curved_motorway.net.xml"
 STRAIGHT = NETWORK_DIR / "highway.net.xml"
@@ -67,3 +68,17 @@ def test_the_road_command_describes_a_route_or_refuses_it(
     assert main([str(CURVED), "e1", "e3"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "'e1 -> e3'" in err
+
+
+def test_a_network_without_a_lane_for_cars_is_refused_naming_its_classes(
+        tmp_path: Path) -> None:
+    # a race track (SUMO's game/racing allows only vip): the SV is a passenger car
+    net = netconvert(tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="500" y="0"/>'
+                     "</nodes>", '<edges><edge id="AB" from="A" to="B" numLanes="1" '
+                     'allow="vip bus"/></edges>')
+    with pytest.raises(InputError) as err:
+        make_route(net, ["AB"])
+    text = str(err.value)
+    assert "\n" not in text
+    assert "network = 'no lane allows passenger'" in text
+    assert "its edges allow bus, vip; the SV is a passenger car" in text
