@@ -26,6 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 CORNER_TURN = math.radians(15.0)  # rad, a turn across one junction that makes it a corner
+# rad, a gentler turn across one junction made a corner where the line cannot be smoothed
+# otherwise (cosim.road.road.load_road): a ramp drawn straight up to its gore
+CORNER_TURN_REFUSED = math.radians(5.0)
 # -, the frame's stretch 1 - kappa d across the lanes on a corner's inside stays at least
 # this (a corner's lanes are the ramp's one lane: a smaller stretch than the route's
 # FrameLimits.min_stretch keeps the fillet nearer SUMO's corner)

@@ -22,6 +22,7 @@ import numpy as np
 from cosim.errors import InputError
 from cosim.road.corners import (
     CORNER_TURN,
+    CORNER_TURN_REFUSED,
     Corner,
     CornerSite,
     corner_vertex,
@@ -279,9 +280,10 @@ def _borders(net: object, piece: TrackPiece, right_of_line: float) -> tuple[floa
     return right, left
 
 
-def corner_sites(route: Route, ref: Track, lead: LeadIn | None) -> list[CornerSite]:
-    """The junctions where the reference line turns by CORNER_TURN or more between one
-    route edge's last segment and the next's first (a junction drawn as a corner), in
+def corner_sites(route: Route, ref: Track, lead: LeadIn | None,
+                 min_turn: float = CORNER_TURN) -> list[CornerSite]:
+    """The junctions where the reference line turns by `min_turn` (rad) or more between
+    one route edge's last segment and the next's first (a junction drawn as a corner), in
     order along the line, in the line's coordinates (`_reference_pieces`)."""
     pieces = _reference_pieces(ref, lead)
     n_lead = 0 if lead is None else sum(len(p.shape) > 1 for p in lead.pieces())
@@ -290,7 +292,7 @@ def corner_sites(route: Route, ref: Track, lead: LeadIn | None) -> list[CornerSi
     for (k, a, sa), (_, b, sb) in zip(edges[:-1], edges[1:], strict=True):
         t, u = sa[-1] - sa[-2], sb[1] - sb[0]
         turn = math.atan2(t[0] * u[1] - t[1] * u[0], t[0] * u[0] + t[1] * u[1])
-        if abs(turn) < CORNER_TURN:
+        if abs(turn) < min_turn:
             continue
         shift_a = lead.shift if lead is not None and k < n_lead else 0.0
         shift_b = shift_a if b.route_index < route.edges.index(ref.pieces[0].edge) else 0.0
@@ -375,7 +377,29 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
               limits: FrameLimits = DEFAULT_LIMITS, source: str | None = None) -> Road:
     """The road of `edges` (None: the network's only edge) on `network`. InputError
     (one line, naming `source` or the network) for a bad route or a network the frame
-    cannot support."""
+    cannot support.
+
+    A route the frame cannot support with its corners at CORNER_TURN is tried again with
+    every junction turning by CORNER_TURN_REFUSED or more rounded as a corner (a ramp
+    drawn straight up to the mainline at 11 degrees): taken if those corners were all
+    that kept it from lying within max_deviation of SUMO's lanes elsewhere (a coarse
+    curve stays refused), else the first refusal stands."""
+    try:
+        return _load_road(network, edges, limits, source, CORNER_TURN)
+    except InputError as refusal:
+        try:
+            road = _load_road(network, edges, limits, source, CORNER_TURN_REFUSED)
+        except InputError:
+            raise refusal from None
+        if (not road.corners or road.frame.quality.coarse
+                or road.max_deviation > limits.max_deviation):
+            raise refusal from None
+        return road
+
+
+def _load_road(network: Path | str, edges: Sequence[str] | None, limits: FrameLimits,
+               source: str | None, corner_turn: float) -> Road:
+    """load_road's road, junctions turning by `corner_turn` (rad) or more its corners."""
     route = make_route(network, edges, source=source)
     src = source if source is not None else str(route.path)
     tracks = follow_tracks(route)
@@ -400,7 +424,7 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
                     for e in route.edges)
         points, steps = lateral_steps(ref, lead)
         where = functools.partial(_where_on, route, line)
-        sites = corner_sites(route, ref, lead)
+        sites = corner_sites(route, ref, lead, corner_turn)
         if sites:
             rounded = rounding(sites, limits.limit_lat_accel, limits.min_radius)
             for site, r in zip(sites, rounded, strict=True):
@@ -442,8 +466,8 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
     if worst.deviation > allowed and frame.quality.coarse:
         # not a coarse curve after all (lanes that step sideways at a junction): judged
         # within max_deviation, as any other route, so the refusal names its cause
-        return load_road(network, edges, source=source,
-                         limits=replace(limits, coarse_deviation=limits.max_deviation))
+        return _load_road(network, edges, replace(limits, coarse_deviation=limits.max_deviation),
+                          source, corner_turn)
     if worst.deviation > allowed:
         raise InputError(src, "lane deviation", f"{worst.deviation:.3f} m",
                          f"lanes whose centre lines stay within {allowed:g} m of "

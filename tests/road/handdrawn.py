@@ -107,3 +107,26 @@ def assert_rebuilt(tmp: Path, name: str, build: Any, stale: Any, main: Any) -> N
     assert out.name == f"{name}.net.xml"
     assert stale() == []
     assert main(["--check"]) == 0
+
+
+def weave(tmp: Path, name: str = "weave") -> Path:
+    """A two-lane mainline (120 km/h) A -> B -> C -> D; an on-ramp (80 km/h) drawn straight
+    up to B at 11.3 degrees adds lane 0 of BC (300 m), which leaves at C as the off-ramp,
+    drawn straight away at 11.3 degrees (a weaving section); edges AB, BC, CD, on, off."""
+    nodes = ('<nodes><node id="A" x="0" y="0"/><node id="B" x="1000" y="0"/>'
+             '<node id="C" x="1300" y="0"/><node id="D" x="2500" y="0"/>'
+             '<node id="R0" x="600" y="-80"/><node id="R1" x="1700" y="-80"/></nodes>')
+    edges = ('<edges><edge id="AB" from="A" to="B" numLanes="2" speed="33.33"/>'
+             '<edge id="BC" from="B" to="C" numLanes="3" speed="33.33"/>'
+             '<edge id="CD" from="C" to="D" numLanes="2" speed="33.33"/>'
+             '<edge id="on" from="R0" to="B" numLanes="1" speed="22.22"/>'
+             '<edge id="off" from="C" to="R1" numLanes="1" speed="22.22"/></edges>')
+    (tmp / f"{name}.con.xml").write_text(
+        '<connections><connection from="on" to="BC" fromLane="0" toLane="0"/>'
+        '<connection from="AB" to="BC" fromLane="0" toLane="1"/>'
+        '<connection from="AB" to="BC" fromLane="1" toLane="2"/>'
+        '<connection from="BC" to="off" fromLane="0" toLane="0"/>'
+        '<connection from="BC" to="CD" fromLane="1" toLane="0"/>'
+        '<connection from="BC" to="CD" fromLane="2" toLane="1"/></connections>',
+        encoding="utf-8")
+    return netconvert(tmp, nodes, edges, name, ("-x", f"{name}.con.xml"))

@@ -13,11 +13,12 @@ import pytest
 import shapely
 
 from cosim.errors import InputError
+from cosim.road.corners import CORNER_TURN
 from cosim.road.frame import FrameLimits
 from cosim.road.road import load_road
 
 sys.path.insert(0, str(Path(__file__).parent))
-from handdrawn import curved_route, netconvert, ramp_curve  # noqa: E402
+from handdrawn import curved_route, netconvert, ramp_curve, weave  # noqa: E402
 
 
 def build(tmp: Path, step: float) -> Path:
@@ -134,3 +135,27 @@ def test_a_lane_cars_may_not_use_is_no_track(tmp_path: Path) -> None:
     assert road.reference.name == "AB_1"
     assert road.lane(2).track.name == "AB_2"
     assert road.lane(1).centre(100.0) == pytest.approx(road.lane(1).track.pieces[0].width / 2)
+
+
+def test_ramps_drawn_straight_up_to_the_mainline_are_rounded_as_corners(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A weaving section whose ramps meet the mainline at 11.3 degrees at a junction (a
+    kink no line within 0.2 m of SUMO's lanes bends through at R 64 m): the junction is
+    rounded as a corner at what the ramp's 80 km/h needs at 2 m/s^2 (R 247 m), on a route
+    from the on-ramp and on one over the off-ramp."""
+    net = weave(tmp_path)
+    speed = 22.22
+    for route, junctions in ((["on", "BC", "CD"], ["B"]), (["AB", "BC", "off"], ["C"])):
+        road = load_road(net, route)
+        assert [c.junction for c in road.corners] == junctions
+        for c in road.corners:
+            assert c.lane_radius == pytest.approx(speed**2 / 2.0, rel=1e-3)
+            assert abs(math.degrees(c.turn)) == pytest.approx(11.3, abs=0.1)
+        assert road.frame.quality.min_radius > 0.9 * speed**2 / 2.0
+        assert road.max_deviation <= FrameLimits().max_deviation
+    # the mainline's straight route has no corner
+    assert load_road(net, ["AB", "BC", "CD"]).corners == ()
+    # with corners only at 15 degrees and more, the ramp's kink is refused, naming it
+    monkeypatch.setattr("cosim.road.road.CORNER_TURN_REFUSED", CORNER_TURN)
+    with pytest.raises(InputError, match=r"reference line radius = .* on edge BC"):
+        load_road(net, ["on", "BC", "CD"])
