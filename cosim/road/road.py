@@ -425,6 +425,8 @@ def _load_road(network: Path | str, edges: Sequence[str] | None, limits: FrameLi
         points, steps = lateral_steps(ref, lead)
         where = functools.partial(_where_on, route, line)
         sites = corner_sites(route, ref, lead, corner_turn)
+        if corner_turn < CORNER_TURN and len(sites) == len(corner_sites(route, ref, lead)):
+            raise InputError(src, "route", list(route.edges), "no gentler corner")  # load_road
         if sites:
             rounded = rounding(sites, limits.limit_lat_accel, limits.min_radius)
             for site, r in zip(sites, rounded, strict=True):
