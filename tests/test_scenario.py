@@ -367,3 +367,22 @@ def test_fleet_is_off_by_default_and_checked_like_every_key() -> None:
             with_overrides(s, **changes)
         assert info.value.key == key and fragment in str(info.value), (changes, info.value)
         assert "\n" not in str(info.value)
+
+
+def test_random_traffic_must_fit_where_the_routes_lanes_run_through() -> None:
+    """From the on-ramp the lanes that run through begin beside the acceleration lane
+    (s = 404 m): random traffic over more than they cover is refused before SUMO starts,
+    naming the stretch (the run itself refused it without the file's name)."""
+    root = Path(__file__).resolve().parents[1]
+    doc = tomllib.loads((root / "scenarios" / "ramp_merge.toml").read_text())
+    doc["road"]["route"] = ["ramp", "acc", "main1"]
+    doc["sv"].update(edge="ramp", lane=0, position_m=100.0)
+    doc["scenario"]["duration_s"] = 10.0
+    doc["traffic"]["length_m"] = 1100.0
+    with pytest.raises(InputError) as err:
+        scenario_from_dict(doc, root / "scenarios" / "ramp_merge.toml", source="sc.toml")
+    text = str(err.value)
+    assert text.startswith("sc.toml: traffic.length_m = 1100.0: at most the 994 m of the route")
+    assert "(s = 404 to 1399 m)" in text and "\n" not in text
+    doc["traffic"]["length_m"] = 990.0
+    assert scenario_from_dict(doc, root / "scenarios" / "ramp_merge.toml").traffic.length == 990.0

@@ -310,7 +310,25 @@ def scenario_from_dict(
         ssm=_ssm(src, tables["ssm"], fleet),
     )
     _check_rules(src, scenario, start, highway)
+    if start is not None:
+        _traffic_fits(src, traffic, road_of_route)
     return scenario
+
+
+def _traffic_fits(src: str, traffic: TrafficSpec, road: Road) -> None:
+    """Random traffic is placed over `traffic.length_m` of s where every lane that runs
+    through the route lies (cosim.traffic.demand.populate): refuse a longer stretch (on a
+    route over an off-ramp the lanes that run through begin at the deceleration lane)."""
+    if traffic.density <= 0:
+        return
+    lanes = RouteLanes(road)
+    begin = max(t.begin for t in lanes.through)
+    end = min(t.end for t in lanes.through)
+    if traffic.length > end - begin:
+        raise InputError(src, "traffic.length_m", traffic.length,
+                         f"at most the {end - begin:.0f} m of the route where every lane "
+                         f"that runs through it lies (s = {begin:.0f} to {end:.0f} m), "
+                         "which random traffic fills")
 
 
 def _bands_per_through_lane(src: str, road: Road, bands: tuple[tuple[float, float], ...]
