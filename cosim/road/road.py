@@ -75,6 +75,15 @@ class Road:
         """Route index of the edge whose lanes are the SV's (cosim.road.tracks)."""
         return 0 if self.lead_in is None else self.lead_in.edge
 
+    @functools.cached_property
+    def ramp_lanes(self) -> frozenset[int]:
+        """Track ids of the ramp lanes (cosim.road.tracks): lanes leading into the
+        lead-in that end before the carriageway edge, SV lanes too."""
+        if self.lead_in is None:
+            return frozenset()
+        return frozenset(li.track.id for li in self.lead_in.chain()[1:]
+                         if li.track.last_edge < self.carriageway)
+
     @property
     def max_deviation(self) -> float:
         """m, the largest Hausdorff distance of a track's centre line from SUMO's lane."""
@@ -219,26 +228,28 @@ def _where_on(route: Route, track: Track, x: float, y: float) -> str:
 def reference_lanes(ref: Track, lead: LeadIn | None) -> dict[str, tuple[TrackPiece, float]]:
     """Route edge id -> (the reference's lane on it, d of that lane's centre): the
     reference track's, its centre half its width left of d = 0; before the carriageway
-    edge, the lead-in's, `shift` to the right of the reference line."""
+    edge, the lead-in's (and those leading into it), its `shift` to the right of the
+    reference line."""
     half = ref.pieces[0].width / 2.0
     lanes = {p.edge: (p, half) for p in ref.pieces if not p.internal}
     if lead is not None:
-        lanes |= {p.edge: (p, half - lead.shift) for p in lead.pieces() if not p.internal}
+        lanes |= {p.edge: (p, half - shift) for p, shift in lead.shifted_pieces()
+                  if not p.internal}
     return lanes
 
 
 def reference_line(ref: Track, lead: LeadIn | None) -> np.ndarray:
     """m, the polyline the frame smooths: the reference track's centre line, led in by the
     lead-in's shifted `shift` to its left (the line where the reference's lane would run
-    beside it)."""
+    beside it), each lane leading into the lead-in shifted by its own."""
     points = np.array(ref.shape())
     if lead is None:
         return points
-    before = Track(lead.track.id, lead.pieces()).shape()
-    shifted = shift_left(np.array(before), lead.shift)
-    if math.dist(tuple(shifted[-1]), tuple(points[0])) < 1e-9:
-        shifted = shifted[:-1]
-    return np.vstack([shifted, points])
+    parts = [shift_left(np.array(Track(lead.track.id, pieces).shape()), shift)
+             for pieces, shift in lead.runs()] + [points]
+    kept = [part if k + 1 == len(parts) or math.dist(tuple(part[-1]), tuple(parts[k + 1][0]))
+            >= 1e-9 else part[:-1] for k, part in enumerate(parts)]
+    return np.vstack(kept)
 
 
 # m: a sideways step of the reference lane at a junction beyond this is a lateral shift of
@@ -250,9 +261,16 @@ STEP = 2.0 * DEFAULT_LIMITS.max_deviation
 def _reference_pieces(ref: Track, lead: LeadIn | None) -> list[tuple[TrackPiece, np.ndarray]]:
     """The reference line's pieces in order, each with its shape as the line takes it
     (the lead-in's shifted `shift` to its left)."""
-    pieces = [] if lead is None else [(p, shift_left(np.array(p.shape), lead.shift))
-                                      for p in lead.pieces() if len(p.shape) > 1]
+    pieces = [] if lead is None else [(p, shift_left(np.array(p.shape), shift))
+                                      for p, shift in lead.shifted_pieces()
+                                      if len(p.shape) > 1]
     return pieces + [(p, np.array(p.shape)) for p in ref.pieces if len(p.shape) > 1]
+
+
+def _lead_shifts(lead: LeadIn | None) -> list[float]:
+    """m, the shift of each of the lead-in's pieces `_reference_pieces` takes."""
+    return [] if lead is None else [shift for p, shift in lead.shifted_pieces()
+                                    if len(p.shape) > 1]
 
 
 def _signed_jump(a: np.ndarray, b: np.ndarray) -> float:
@@ -286,16 +304,17 @@ def corner_sites(route: Route, ref: Track, lead: LeadIn | None,
     one route edge's last segment and the next's first (a junction drawn as a corner), in
     order along the line, in the line's coordinates (`_reference_pieces`)."""
     pieces = _reference_pieces(ref, lead)
-    n_lead = 0 if lead is None else sum(len(p.shape) > 1 for p in lead.pieces())
+    shifts = _lead_shifts(lead)
+    n_lead = len(shifts)
     edges = [(k, p, shape) for k, (p, shape) in enumerate(pieces) if not p.internal]
     sites = []
-    for (k, a, sa), (_, b, sb) in zip(edges[:-1], edges[1:], strict=True):
+    for (k, a, sa), (kb, b, sb) in zip(edges[:-1], edges[1:], strict=True):
         t, u = sa[-1] - sa[-2], sb[1] - sb[0]
         turn = math.atan2(t[0] * u[1] - t[1] * u[0], t[0] * u[0] + t[1] * u[1])
         if abs(turn) < min_turn:
             continue
-        shift_a = lead.shift if lead is not None and k < n_lead else 0.0
-        shift_b = shift_a if b.route_index < route.edges.index(ref.pieces[0].edge) else 0.0
+        shift_a = shifts[k] if k < n_lead else 0.0
+        shift_b = shifts[kb] if kb < n_lead else 0.0
         ra, la = _borders(route.net, a, shift_a)
         rb, lb = _borders(route.net, b, shift_b)
         reach = max(ra, rb) if turn < 0.0 else max(la, lb)
@@ -321,8 +340,10 @@ def lateral_steps(ref: Track, lead: LeadIn | None, step: float = STEP
              in zip(edges[:-1], edges[1:], strict=True)}
     if all(abs(j) <= step for j in jumps.values()):
         return reference_line(ref, lead), []
-    n_lead = 0 if lead is None else sum(len(p.shape) > 1 for p in lead.pieces())
-    # runs of pieces between the steps (and the lead-in's end), each moved as one line
+    shifts = _lead_shifts(lead)
+    n_lead = len(shifts)
+    # runs of pieces between the steps (and where the lead-in's shift changes), each
+    # moved as one line
     runs: list[tuple[list[TrackPiece], float, float]] = []  # pieces, moved by, step before
     moved = 0.0  # m, to the left: the steps so far, taken back
     pending: list[TrackPiece] = []  # a step's junction lanes, until the step is known
@@ -336,10 +357,10 @@ def lateral_steps(ref: Track, lead: LeadIn | None, step: float = STEP
             pending = []  # the step's junction lanes: the smoothing bridges them
         if runs and abs(jump) <= step:
             runs[-1][0].extend(pending)
-        if not runs or abs(jump) > step or k == n_lead:
-            runs.append(([piece], moved + (lead.shift if lead is not None
-                                           and k < n_lead else 0.0),
-                         jump if abs(jump) > step else 0.0))
+        shift = shifts[k] if k < n_lead else 0.0
+        if not runs or abs(jump) > step or k == n_lead or (0 < k < n_lead
+                                                           and shift != shifts[k - 1]):
+            runs.append(([piece], moved + shift, jump if abs(jump) > step else 0.0))
         else:
             runs[-1][0].append(piece)
         pending = []

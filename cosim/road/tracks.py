@@ -26,11 +26,19 @@ carries it) or leaves over an off-ramp (the mainline's lanes run beside the
 deceleration lane, which begins along the route and runs on onto the ramp). Then the
 carriageway edge is where the first lane that runs to the route's end begins, and the
 lane of the first edge beside it there is the reference's *lead-in* (`reference_tracks`).
+The lead-in may itself begin along the route, led in by a lane of the first edge that
+ends beside it: a two-lane on-ramp whose first edge's one lane runs on as its right lane,
+which ends where the ramp narrows to its left lane, the one that becomes the
+acceleration lane (SUMO's game/highway). The lane that ends is then one of the SV's
+lanes too (a *ramp lane*: it must change out of it, as out of any lane that ends), on
+the side of the lead-in it lies on where the lead-in begins; a route whose ramp lane
+would share an SV lane with a lane of the carriageway edge (a deceleration lane after
+an acceleration lane that ended) has no carriageway edge.
 
 Track ids: the tracks present on the carriageway edge have SUMO's index there
-(0 the rightmost: the paper's Lane 1/2/3 are tracks 0/1/2); the other tracks are
-numbered on from there, in driving order and right to left. On a one-edge network
-track id = SUMO lane index.
+(0 the rightmost: the paper's Lane 1/2/3 are tracks 0/1/2), one more for each ramp lane
+on their right; the other tracks are numbered on from there, in driving order and right
+to left. On a one-edge network track id = SUMO lane index.
 """
 
 from __future__ import annotations
@@ -200,10 +208,13 @@ def follow_tracks(route: Route) -> tuple[Track, ...]:
     k = carriageway(route, tracks)
     if k == 0:
         return tuple(tracks)
-    # numbered by SUMO's index on the carriageway edge, the others on from there
+    # numbered by SUMO's index on the carriageway edge (up by the ramp lanes on its
+    # right), the ramp lanes by their side, the others on from there
     on = {t.id: p.index for t in tracks if (p := t.piece_on(route.edges[k])) is not None}
-    ids = dict(on)
-    next_id = max(on.values()) + 1
+    ramp = ramp_lanes(route, tracks, k)
+    below = -min(ramp.values(), default=0)
+    ids = {tid: lane + below for tid, lane in (on | ramp).items()}
+    next_id = max(ids.values()) + 1
     for t in tracks:
         if t.id not in ids:
             ids[t.id] = next_id
@@ -214,15 +225,79 @@ def follow_tracks(route: Route) -> tuple[Track, ...]:
 def carriageway(route: Route, tracks: Sequence[Track]) -> int:
     """Route index of the carriageway edge (module docstring): 0 unless no lane of the
     first edge runs to the route's last edge and one of them runs beside a lane that
-    does, from where that lane begins (the earliest such)."""
+    does, from where that lane begins (the earliest such), directly or through lanes
+    that begin along the route (`lead_chain`), its ramp lanes beside the carriageway
+    edge's (`ramp_lanes`)."""
     last = len(route.edges) - 1
     through = [t for t in tracks if t.last_edge == last]
     if not through or any(t.first_edge == 0 for t in through):
         return 0
     k = min(t.first_edge for t in through)
-    lead = any(t.first_edge == 0 and t.last_edge >= k and t.piece_on(route.edges[k])
-               is not None for t in tracks)
-    return k if lead else 0
+    chain = lead_chain(route, tracks, k)
+    if not chain:
+        return 0
+    return k if _ramp_lanes(route, tracks, k, chain) is not None else 0
+
+
+def lead_chain(route: Route, tracks: Sequence[Track], k: int) -> list[tuple[Track, int]]:
+    """The lead-in of the carriageway edge `k` and the lanes leading into it, each as
+    (track, route index of the edge where the lane after it begins), from the
+    carriageway edge back to a lane of the route's first edge: the lane nearest the
+    reference's first lane on edge k among those beside it that begin before it (on a
+    tie the right), one of the first edge if any; one that begins along the route led in
+    the same way where it begins. Empty: none leads back to the first edge."""
+    last = len(route.edges) - 1
+    ref = min((t for t in tracks if t.first_edge == k and t.last_edge == last),
+              key=lambda t: t.pieces[0].index, default=None)
+    if ref is None:
+        return []
+    return _chain(route, tracks, ref, k)
+
+
+def _chain(route: Route, tracks: Sequence[Track], after: Track, k: int
+           ) -> list[tuple[Track, int]]:
+    edge = route.edges[k]
+    index = _on(after, edge).index
+    beside = sorted((t for t in tracks if t.first_edge < k <= t.last_edge
+                     and t.piece_on(edge) is not None),
+                    key=lambda t: (abs(_on(t, edge).index - index), _on(t, edge).index))
+    direct = [t for t in beside if t.first_edge == 0]
+    if direct:
+        return [(direct[0], k)]
+    for t in beside:
+        rest = _chain(route, tracks, t, t.first_edge)
+        if rest:
+            return [(t, k), *rest]
+    return []
+
+
+def ramp_lanes(route: Route, tracks: Sequence[Track], k: int) -> dict[int, int]:
+    """Track id -> SV lane (SUMO's index on the carriageway edge `k`; -1: right of its
+    rightmost lane) of the ramp lanes (module docstring): the lanes of the lead chain
+    (`lead_chain`) that end before the carriageway edge; empty if none do."""
+    return _ramp_lanes(route, tracks, k, lead_chain(route, tracks, k)) or {}
+
+
+def _ramp_lanes(route: Route, tracks: Sequence[Track], k: int,
+                chain: list[tuple[Track, int]]) -> dict[int, int] | None:
+    """`ramp_lanes` of `chain`; None when a ramp lane would share an SV lane with
+    another or leave a gap beside the carriageway edge's lanes."""
+    edge = route.edges[k]
+    n = sum(1 for t in tracks if t.piece_on(edge) is not None)
+    first, _ = chain[0]
+    lane = _on(first, edge).index
+    out: dict[int, int] = {}
+    for (after, _), (track, j) in zip(chain[:-1], chain[1:], strict=True):
+        at = route.edges[j]
+        lane += _on(track, at).index - _on(after, at).index
+        if track.last_edge < k:
+            out[track.id] = lane
+    taken = sorted(out.values())
+    below, above = [v for v in taken if v < 0], [v for v in taken if v >= n]
+    if (len(below) + len(above) < len(taken) or below != list(range(-len(below), 0))
+            or above != list(range(n, n + len(above)))):
+        return None  # a ramp lane among the carriageway edge's, on another, or apart
+    return out
 
 
 def _exits(route: Route, last: TrackPiece) -> bool:
@@ -240,36 +315,61 @@ def _exits(route: Route, last: TrackPiece) -> bool:
 @dataclass(frozen=True)
 class LeadIn:
     """The reference's lead-in: on a route whose carriageway edge is not its first, the
-    lane of the first edge beside the reference where the reference begins; before it
-    the reference line runs `shift` m to the left of this track (a ramp's lane)."""
+    lane beside the reference where the reference begins; before it the reference line
+    runs `shift` m to the left of this track (a ramp's lane). A lead-in that begins
+    along the route is itself led in (`before`) where it begins."""
 
     track: Track
     shift: float  # m, the reference's centre left of this track's on the carriageway edge
     edge: int  # route index of the carriageway edge (where the reference begins)
+    # the lead-in of this one's track where it begins (a ramp lane ending beside it): its
+    # `edge` that track's first, its `shift` the reference's centre left of its track
+    before: LeadIn | None = None
 
     def pieces(self) -> tuple[TrackPiece, ...]:
-        """Its pieces before the carriageway edge (junction lanes into it included)."""
-        return tuple(p for p in self.track.pieces if p.route_index < self.edge)
+        """Its pieces before the carriageway edge (junction lanes into it included), led
+        in by `before`'s."""
+        return tuple(p for p, _ in self.shifted_pieces())
+
+    def shifted_pieces(self) -> tuple[tuple[TrackPiece, float], ...]:
+        """(piece, m the reference line runs left of it) of `pieces`, in driving order."""
+        return tuple((p, shift) for pieces, shift in self.runs() for p in pieces)
+
+    def runs(self) -> tuple[tuple[tuple[TrackPiece, ...], float], ...]:
+        """(pieces, shift) of each lead-in of the chain in driving order: its track's
+        pieces before the edge where the next begins, and its `shift`."""
+        own = (tuple(p for p in self.track.pieces if p.route_index < self.edge), self.shift)
+        return (own,) if self.before is None else (*self.before.runs(), own)
+
+    def chain(self) -> tuple[LeadIn, ...]:
+        """This lead-in and those leading into it, from the carriageway edge back."""
+        return (self,) if self.before is None else (self, *self.before.chain())
 
 
 def reference_tracks(route: Route, tracks: tuple[Track, ...], source: str | None = None
                      ) -> tuple[Track, LeadIn | None]:
     """The frame's reference: the rightmost track that runs from the carriageway edge to
     the route's last; on a route whose carriageway edge is not its first, also its
-    `LeadIn` (the nearest lane of the first edge beside it there, on a tie the right).
+    `LeadIn` (`lead_chain`: the nearest lane of the first edge beside it there, on a tie
+    the right, or the lanes that lead back to one).
     Raises InputError if no lane runs through, saying why (`reference_track`)."""
     k = carriageway(route, tracks)
     if k == 0:
         return reference_track(route, tracks, source), None
     last = len(route.edges) - 1
-    edge = route.edges[k]
-    ref = min((t for t in tracks if t.first_edge == k and t.last_edge == last),
-              key=lambda t: t.pieces[0].index)
-    at = ref.pieces[0]
-    lead = min((t for t in tracks if t.first_edge == 0 and t.last_edge >= k
-                and t.piece_on(edge) is not None),
-               key=lambda t: (abs(_on(t, edge).index - at.index), _on(t, edge).index))
-    return ref, LeadIn(lead, side_gap(route.net, edge, _on(lead, edge).index, at.index), k)
+    after = min((t for t in tracks if t.first_edge == k and t.last_edge == last),
+                key=lambda t: t.pieces[0].index)
+    ref, shift = after, 0.0
+    links = []
+    for track, j in lead_chain(route, tracks, k):
+        edge = route.edges[j]
+        shift += side_gap(route.net, edge, _on(track, edge).index, _on(after, edge).index)
+        links.append((track, shift, j))
+        after = track
+    lead: LeadIn | None = None
+    for track, gap, j in reversed(links):
+        lead = LeadIn(track, gap, j, lead)
+    return ref, lead
 
 
 def _on(track: Track, edge: str) -> TrackPiece:

@@ -10,7 +10,9 @@ ends on the route (an acceleration lane on the right, a lane dropped on the left
 right), and RoadParams.lane_ends says where. On
 networks/curved_motorway.net.xml they are tracks 0, 1, 2 (all through); on
 networks/onramp.net.xml along `acc main1 main2` tracks 0-3, track 0 the acceleration
-lane that ends after 194.5 m. Tracks that begin later (a lane added along the route)
+lane that ends after 194.5 m; on a route from a ramp whose lane ends before the
+acceleration lane, that ramp lane too (cosim.road.tracks: lane 0, right of the
+acceleration lane). Tracks that begin later (a lane added along the route)
 carry traffic but are no SV lanes (the snapshot's lane -1). What is refused
 (`check_lanes`): no lane running through, an SV lane ending between two that run on,
 lanes of different widths. The scenario's speed bands are per through track, in
@@ -113,10 +115,13 @@ def sv_tracks(route_road: Road) -> tuple[LaneTable, ...]:
     """The SV's lanes: the tracks present on the route's carriageway edge (its first
     edge, or where the mainline begins on a route from an on-ramp or the deceleration
     lane on one that leaves over an off-ramp: cosim.road.tracks), running through or
-    ending on the route, in track id order (SUMO's lane index on that edge)."""
+    ending on the route, and the ramp lanes that end before it beside them (a ramp's
+    lane dropped before the acceleration lane), in track id order (SUMO's lane index on
+    that edge, up by the ramp lanes on its right)."""
     k = route_road.carriageway
     return tuple(t for t in route_road.lanes
-                 if t.track.first_edge <= k <= t.track.last_edge
+                 if (t.track.first_edge <= k <= t.track.last_edge
+                     or t.id in route_road.ramp_lanes)
                  and not t.track.pieces[0].internal)
 
 

@@ -1,8 +1,9 @@
 """Routes whose SV lanes begin along the route, through the whole loop in real SUMO
 (plant, controller, moveToXY) on a netconvert motorway with ramps (tests/road/ramps.py):
 the SV starts on an on-ramp, drives it, enters the acceleration lane and merges into the
-mainline once it runs beside it; and it leaves the mainline over an off-ramp, changing
-into the deceleration lane once it begins, then driving onto the ramp."""
+mainline once it runs beside it (also from a ramp lane that ends before the acceleration
+lane); and it leaves the mainline over an off-ramp, changing into the deceleration lane
+once it begins, then driving onto the ramp."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from cosim.run.loop import simulate
 from cosim.scenario.load import scenario_from_dict
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "road"))
-from ramps import build  # noqa: E402
+from ramps import build, build_dropped  # noqa: E402
 
 pytestmark = pytest.mark.sumo
 
@@ -87,3 +88,32 @@ def test_the_sv_leaves_over_an_off_ramp_from_the_deceleration_lane(
     assert _edges(result)[-1] == "offramp"
     assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
     assert int(np.max(tr["n_tvs"])) > 0  # SUMO's flow on the mainline beside it
+
+
+def test_the_sv_leaves_a_ramp_lane_that_ends_then_merges_from_the_acceleration_lane(
+        tmp_path: Path) -> None:
+    """onramp ramp2 acc b (tests/road/ramps.py `build_dropped`): the ramp's lane runs on
+    as ramp2's right lane, which ends at the gore. The SV on it changes (mandatory) into
+    ramp2's left lane once that runs beside it, keeps it onto the acceleration lane and
+    merges into the mainline once the mainline runs beside it: two changes, both
+    completed, the first before the ramp lane's end, the second before the
+    acceleration lane's."""
+    network = build_dropped(tmp_path)
+    doc = {"scenario": {"name": "dropped_ramp_lane", "duration_s": 11.5, "seed": 1},
+           "road": {"network": str(network), "route": ["onramp", "ramp2", "acc", "b"],
+                    "lane_speeds_kmh": [[90, 110], [110, 120]]},
+           "sv": {"edge": "onramp", "lane": 0, "position_m": 235.0, "speed_kmh": 80.0,
+                  "decision": True}}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "dropped.toml"))
+    m, road, tr = result.metrics, result.road, result.trace
+    assert _edges(result)[0] == "onramp" and {"ramp2", "acc"} <= set(_edges(result))
+    _no_move_before(result, 0, road.lane_begin(1))
+    lane, s = np.asarray(tr["lane"]), np.asarray(tr["s_m"])
+    assert [p["trigger"] for p in result.plans[:2]] == ["mandatory", "mandatory"]
+    half = 0.5 * result.scenario.vehicle.length
+    assert float(s[np.argmax(lane == 1)]) + half < road.lane_end(0)  # off the ramp lane
+    assert float(s[np.argmax(lane == 2)]) + half < road.lane_end(1)  # merged
+    assert m["lane_changes"] == 2 and m["lane_change_status"] == "completed"
+    assert m["final_lane"] == 2 and m["lane_end_reached"] == 0
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
+    assert float(np.max(np.abs(tr["ye_m"]))) < 0.02

@@ -71,3 +71,41 @@ def build(directory: Path) -> Path:
                                              encoding="utf-8")
     return netconvert(directory, f"<nodes>{nodes}</nodes>", f"<edges>{edges}</edges>",
                       "ramps", ("-x", "ramps.con.xml"))
+
+
+DROP_AT = 450.0  # m, where the dropping ramp's one lane becomes the right lane of two
+
+
+def build_dropped(directory: Path) -> Path:
+    """`directory/dropped.net.xml`: the on-ramp of `build` with its last 150 m two lanes
+    wide (edge `ramp2`, x 450-600, its left border on the gore's line y = 0): the ramp's
+    one lane (`onramp`) runs on as ramp2's right lane, which ends at the gore (no
+    connection onward); ramp2's left lane runs on as the acceleration lane acc_0, as on
+    SUMO's game/highway ramp. The mainline as in `build`, to the end of b."""
+    top = 7.5
+    xs = {"n0": 0.0, "g1": 600.0, "e1": 800.0, "d1": 1500.0}
+    on = [(x, y - 3.75) for x, y in _curve(DROP_AT, True)]
+    nodes = "".join(f'<node id="{k}" x="{x:g}" y="{top:g}" type="priority"/>'
+                    for k, x in xs.items())
+    nodes += (f'<node id="r0" x="{on[0][0]:.2f}" y="{on[0][1]:.2f}" type="priority"/>'
+              f'<node id="r1" x="{DROP_AT:g}" y="0" type="priority"/>')
+
+    def main(eid: str, a: str, b: str, lanes: int) -> str:
+        return (f'<edge id="{eid}" from="{a}" to="{b}" numLanes="{lanes}" speed="{SPEED}" '
+                f'width="3.75" spreadType="right" '
+                f'shape="{xs[a]:g},{top:g} {xs[b]:g},{top:g}"/>')
+
+    shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in on)
+    edges = (main("a", "n0", "g1", 2) + main("acc", "g1", "e1", 3) + main("b", "e1", "d1", 2)
+             + f'<edge id="onramp" from="r0" to="r1" numLanes="1" speed="{RAMP_SPEED}" '
+             f'width="3.75" spreadType="right" shape="{shape}"/>'
+             f'<edge id="ramp2" from="r1" to="g1" numLanes="2" speed="{RAMP_SPEED}" '
+             f'width="3.75" spreadType="right" shape="{DROP_AT:g},0 600,0"/>')
+    links = [("a", "acc", [(0, 1), (1, 2)]), ("onramp", "ramp2", [(0, 0)]),
+             ("ramp2", "acc", [(1, 0)]), ("acc", "b", [(1, 0), (2, 1)])]
+    cons = "".join(f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
+                   for a, b, pairs in links for i, j in pairs)
+    (directory / "dropped.con.xml").write_text(f"<connections>{cons}</connections>",
+                                               encoding="utf-8")
+    return netconvert(directory, f"<nodes>{nodes}</nodes>", f"<edges>{edges}</edges>",
+                      "dropped", ("-x", "dropped.con.xml"))

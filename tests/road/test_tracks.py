@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -9,12 +10,19 @@ import pytest
 
 from cosim.errors import InputError
 from cosim.road.route import make_route
-from cosim.road.tracks import carriageway, follow_tracks, reference_track, reference_tracks
+from cosim.road.tracks import (
+    carriageway,
+    follow_tracks,
+    ramp_lanes,
+    reference_track,
+    reference_tracks,
+)
 from cosim.traffic.network import NETWORK_DIR
 
 sys.path.insert(0, str(Path(__file__).parent))
 from handdrawn import netconvert  # noqa: E402
 from ramps import build as build_ramps  # noqa: E402
+from ramps import build_dropped  # noqa: E402
 
 CURVED = NETWORK_DIR / "curved_motorway.net.xml"
 ROUTE = ("e1", "e2", "e3", "e4")
@@ -136,6 +144,43 @@ def test_a_route_from_an_on_ramp_runs_beside_the_mainline_where_it_begins(
     ref, lead = reference_tracks(route, tracks)
     assert ref.id == 1 and lead is not None and lead.track.id == 0
     assert lead.shift == pytest.approx(3.75)
+
+
+def test_a_ramp_lane_that_ends_before_the_acceleration_lane_is_an_sv_lane_on_its_right(
+        tmp_path: Path) -> None:
+    """onramp ramp2 acc b: the ramp's one lane runs on as ramp2's right lane, which ends;
+    ramp2's left lane begins there and runs on as the acceleration lane acc_0. The
+    reference (the mainline's right lane on acc) is led in along ramp2's left lane one
+    lane to its left, and that along the ramp's lane two lanes to its left; the ramp's
+    lane is the SV's lane 0, right of the acceleration lane (1) and the mainline (2, 3)."""
+    from cosim.road.road import load_road
+    from cosim.traffic.route_lanes import check_lanes, road_params, sv_tracks
+
+    network = build_dropped(tmp_path)
+    route = make_route(network, ("onramp", "ramp2", "acc", "b"))
+    raw = follow_tracks(route)
+    assert carriageway(route, raw) == 2
+    assert [(t.id, _lanes(t)) for t in raw] == [
+        (0, [("onramp_0", 0), (":r1_0_0", 0), ("ramp2_0", 0)]),
+        (1, [("ramp2_1", 1), (":g1_2_0", 0), ("acc_0", 0)]),
+        (2, [("acc_1", 1), (":e1_0_0", 0), ("b_0", 0)]),
+        (3, [("acc_2", 2), (":e1_0_1", 1), ("b_1", 1)])]
+    assert ramp_lanes(route, raw, 2) == {0: -1}
+    ref, lead = reference_tracks(route, raw)
+    assert ref.id == 2 and lead is not None
+    assert [(li.track.id, li.edge, li.shift) for li in lead.chain()] == [
+        (1, 2, pytest.approx(3.75)), (0, 1, pytest.approx(7.5))]
+    road = load_road(network, ["onramp", "ramp2", "acc", "b"])
+    assert road.ramp_lanes == {0} and road.max_deviation < 0.05
+    assert [t.id for t in sv_tracks(road)] == [0, 1, 2, 3]
+    check_lanes(road, "s.toml", "onramp", 0)
+    params = road_params(road)
+    assert params.y_right == pytest.approx(-7.5)  # two lanes right of the reference's
+    ramp, acc = road.lane(0), road.lane(1)
+    assert params.lane_ends[0] == pytest.approx(ramp.end)  # ramp2's end
+    assert acc.begin < ramp.end < acc.end == pytest.approx(params.lane_ends[1])
+    assert params.lane_begins[:2] == (-math.inf, pytest.approx(acc.begin))
+    assert ramp.centre(ramp.begin) == pytest.approx(-5.625)  # d = 0: the mainline's border
 
 
 def test_a_route_from_an_on_ramp_over_an_off_ramp_is_refused_in_one_line(ramps: Path) -> None:
