@@ -60,6 +60,10 @@ MAX_FLOW_VEHICLES = 200_000
 FLOW_END_DEFAULT = 86400.0  # s, a flow's end when it gives none (SUMO's default)
 DRY_LOAD_SECONDS = 120.0  # s, the validating SUMO's time (a motorway demand loads in ~1 s)
 DRY_LOAD_BYTES = 4 * 2**30  # its address space (it needs ~0.2 GiB for a motorway demand)
+# s, where SUMO ends a flow that gives no end when the simulation has none (the run's)
+RUN_FLOW_END = "86400"
+FLOW_TAGS = ("flow", "personFlow", "containerFlow")
+FLOW_RATES = frozenset({"period", "vehsPerHour", "probability", "perHour"})
 ROOTS = ("routes", "additional", "add")  # what SUMO reads as route or additional files
 VEHICLE_TAGS = ("vehicle", "trip", "flow")  # what enters the road as a car-like vehicle
 PERSON_TAGS = ("person", "personFlow", "container", "containerFlow")
@@ -328,14 +332,16 @@ SSM_DEFAULT_OPTION = "--device.ssm.file"
 READ_RELATIVE = ("imgFile", "osgFile")  # files a vType reads, relative to its file
 
 
-def copy_for_sumo(path: Path, out_dir: Path) -> Path:
+def copy_for_sumo(path: Path, out_dir: Path, flow_end: str | None = None) -> Path:
     """A copy of a user's route or additional file in `out_dir` (the run's temporary
     folder) holding only its demand: the root's DEMAND_TAGS children (and <interval>s of
     them), so detectors, edge or lane data, calibrators, rerouters, speed signs and TLS
     programs are left out (they write files of their own, shared by a batch's workers
     and outside the output folder, or are the network's business, not the demand's).
     Device output files named in it (DEVICE_OUTPUT params) are redirected into `out_dir`,
-    and the files a vType reads (READ_RELATIVE) keep pointing at the user's folder."""
+    and the files a vType reads (READ_RELATIVE) keep pointing at the user's folder.
+    `flow_end` (s, the dry load's): the end of each flow outside an <interval> that
+    leaves its end to the simulation's (no `end`, and not both `number` and a rate)."""
     root = ET.fromstring(sumo_file_bytes(path))
     kept = ET.Element(root.tag, dict(root.attrib))
     for child in root:
@@ -344,6 +350,11 @@ def copy_for_sumo(path: Path, out_dir: Path) -> Path:
         elif child.tag == INTERVAL:
             interval = ET.SubElement(kept, INTERVAL, dict(child.attrib))
             interval.extend(c for c in child if c.tag in DEMAND_TAGS)
+    if flow_end is not None:
+        for flow in kept:
+            if (flow.tag in FLOW_TAGS and "end" not in flow.attrib
+                    and not ("number" in flow.attrib and FLOW_RATES & flow.attrib.keys())):
+                flow.set("end", flow_end)
     index = len(list(out_dir.iterdir()))
     for element in kept.iter():
         if element.tag == "param" and DEVICE_OUTPUT.fullmatch(element.get("key", "")):
@@ -358,17 +369,17 @@ def copy_for_sumo(path: Path, out_dir: Path) -> Path:
 
 
 def sumo_file_options(route_files: Sequence[Path], additional_files: Sequence[Path],
-                      out_dir: Path) -> list[tuple[str, str]]:
+                      out_dir: Path, flow_end: str | None = None) -> list[tuple[str, str]]:
     """The SUMO options that give it the user's files: copies of them in `out_dir`
-    (`copy_for_sumo`), and SSM's default output file there too. The one way the
-    user's route and additional files reach SUMO (the run and the dry load)."""
+    (`copy_for_sumo`, with `flow_end`), and SSM's default output file there too. The one
+    way the user's route and additional files reach SUMO (the run and the dry load)."""
     options = []
     if route_files:
         options.append(("--route-files", ",".join(
-            str(copy_for_sumo(p, out_dir)) for p in route_files)))
+            str(copy_for_sumo(p, out_dir, flow_end)) for p in route_files)))
     if additional_files:
         options.append(("--additional-files", ",".join(
-            str(copy_for_sumo(p, out_dir)) for p in additional_files)))
+            str(copy_for_sumo(p, out_dir, flow_end)) for p in additional_files)))
     if options:
         options.append((SSM_DEFAULT_OPTION, str(out_dir / "device_ssm.xml")))
     return options
@@ -414,7 +425,11 @@ def _dry_load(stamp: tuple[tuple[str, int, int], ...], n_routes: int) -> str:
         cmd = [binary, "-n", str(network), "--route-steps", "0", "--begin", "0", "--end", "0",
                "--no-step-log", "true", "--no-warnings", "true",
                "--duration-log.disable", "true"]
-        for option, files in sumo_file_options(routes, additional, Path(tmp)):
+        # no step is run (--end 0), but a flow without an end ends at the simulation's:
+        # in the run, which sets none, SUMO's 24 h; here it would end at 0, before a
+        # later begin (SUMO's game/corridor: "Flow 'W30' ends before its begin time")
+        for option, files in sumo_file_options(routes, additional, Path(tmp),
+                                               flow_end=RUN_FLOW_END):
             cmd += [option, files]
         try:
             done = run_bounded(cmd, timeout=DRY_LOAD_SECONDS, memory_bytes=DRY_LOAD_BYTES,
