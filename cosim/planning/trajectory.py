@@ -120,6 +120,9 @@ def cluster_derivatives(
     vxf = bc.vxf
     ts = np.minimum(np.maximum(tt, 0.0), tau)
     after = tt - ts  # time past the end of the manoeuvre
+    rows = _row_coefficients(x_coeffs + y_coeffs + [np.asarray(vxf, dtype=float)], ts)
+    if rows is not None:  # (n_c, n_t): one compiled pass per order and axis
+        return {order: _cluster_order(rows, ts, after, order) for order in orders}
     ended = after > 0
     out: dict[int, tuple[Array, Array]] = {}
     for order in orders:
@@ -134,6 +137,70 @@ def cluster_derivatives(
             x = np.where(ended, 0.0, x)
             y = np.where(ended, 0.0, y)
         out[order] = (x, y)
+    return out
+
+
+def _row_coefficients(coeffs: list[Array], ts: Array) -> Array | None:
+    """(len(coeffs), n_c) of coefficients that are constant along the time axis of the
+    2-D grid `ts` (n_c, n_t) (each shaped (n_c, 1), (1, 1) or a scalar), else None."""
+    if ts.ndim != 2 or not ts.flags.c_contiguous:
+        return None
+    n_c = ts.shape[0]
+    rows = np.empty((len(coeffs), n_c))
+    for i, c in enumerate(coeffs):
+        a = np.asarray(c, dtype=float)
+        if a.ndim > 2 or (a.ndim == 2 and (a.shape[1] != 1 or a.shape[0] not in (1, n_c))) \
+                or (a.ndim == 1 and a.shape[0] != 1):
+            return None
+        rows[i] = a.reshape(-1)[0] if a.size == 1 else a[:, 0]
+    return rows
+
+
+def _cluster_order(rows: Array, ts: Array, after: Array, order: int) -> tuple[Array, Array]:
+    """(x, y) derivatives of `order` of `cluster_derivatives` from its coefficient rows
+    (`_row_coefficients` of x's 5, y's 6 and vxf): the numpy path's operations, in the
+    same order, in one compiled pass."""
+    fx = np.array([_factor(k, order) for k in range(5)])
+    fy = np.array([_factor(k, order) for k in range(6)])
+    x = _horner_rows(rows[:5], fx, ts, after, rows[11], order, True)
+    y = _horner_rows(rows[5:11], fy, ts, after, rows[11], order, False)
+    return x, y
+
+
+def _factor(k: int, order: int) -> float:
+    """k (k-1) ... (k-order+1): the factor of t^(k-order) in the order-th derivative."""
+    return float(math.prod(range(k - order + 1, k + 1)))
+
+
+@njit
+def _horner_rows(coef: Array, fac: Array, ts: Array, after: Array, vxf: Array, order: int,
+                 longitudinal: bool) -> Array:
+    """d^order/dt^order of sum_k coef[k] t^k at ts (n_c, n_t), coef (n_k, n_c) (Horner, as
+    `_poly_derivs`); past tau (after > 0) straight at vxf: x + vxf after for the
+    position, vxf for x', 0 otherwise (as `cluster_derivatives`)."""
+    n_k = coef.shape[0]
+    n_c, n_t = ts.shape
+    out = np.zeros((n_c, n_t))
+    if order >= n_k:
+        return out
+    scaled = np.empty(n_k)
+    for i in range(n_c):
+        for k in range(n_k):
+            scaled[k] = fac[k] * coef[k, i]
+        top = scaled[n_k - 1]
+        v = vxf[i]
+        for j in range(n_t):
+            t = ts[i, j]
+            o = top
+            for k in range(n_k - 2, order - 1, -1):
+                o = o * t + scaled[k]
+            a = after[i, j]
+            if order == 0:
+                if longitudinal:
+                    o = o + v * a
+            elif a > 0:
+                o = v if (order == 1 and longitudinal) else 0.0
+            out[i, j] = o
     return out
 
 

@@ -46,6 +46,29 @@ def test_boundary_conditions_to_1e9(vx0: float, vxf: float, W: float, tau: float
     np.testing.assert_allclose(ys[0], eq4, atol=1e-9)
 
 
+def test_compiled_grid_matches_numpy_bit_for_bit() -> None:
+    """A 2-D grid (the planner's and the prediction's) is evaluated by the compiled pass,
+    any other shape by numpy's Horner sums: the same numbers to the last bit, past tau
+    too (general start, per-candidate starts, every derivative order)."""
+    rng = np.random.default_rng(7)
+    taus = rng.uniform(1.0, 8.0, 9)
+    t = rng.uniform(-1.0, 12.0, 31)
+    v0, vy0 = rng.uniform(15.0, 30.0, (9, 1)), rng.uniform(-1.0, 1.0, (9, 1))
+
+    def starts(per: tuple[int, ...]) -> list[BoundaryConditions]:
+        return [BoundaryConditions(22.0, 27.0, -3.7, ax0=0.4, vy0=0.6, ay0=-0.3),
+                BoundaryConditions(v0.reshape(per), v0[::-1].reshape(per) + 1.0, 3.75,
+                                   vy0=vy0.reshape(per))]
+
+    for bc, bc3 in zip(starts((9, 1)), starts((9, 1, 1)), strict=True):
+        orders = (0, 1, 2, 3, 5)
+        grid = cluster_derivatives(bc, taus, t, orders)  # (9, 31): compiled
+        other = cluster_derivatives(bc3, taus[:, None, None], t[None, None, :], orders)  # 3-D
+        for k in orders:
+            for a, b in zip(grid[k], other[k], strict=True):
+                assert a.tobytes() == b.reshape(a.shape).tobytes()
+
+
 def test_general_start_conditions() -> None:
     """A plan started mid-manoeuvre keeps the given y', y'', x'' at 0 and ends at rest."""
     tau, W = 4.0, 2.1
