@@ -339,14 +339,32 @@ class LaneChangePlanner:
         out = grid[None, :] >= tau_min[:, None] - 1e-12
         rest = np.flatnonzero(~np.isfinite(tau_min))
         if rest.size:
-            cfg = self.config
-            k = grid.size
-            rows = BoundaryConditions(np.repeat(vx0[rest], k), np.repeat(vxf[rest], k),
-                                      np.repeat(width[rest], k), vy0=np.repeat(vy0[rest], k))
-            margin = envelope_margin(rows, np.tile(grid, rest.size), self.road.mu, self.vehicle,
-                                     safety_factor=cfg.safety_factor, yaw_model=cfg.envelope)
-            out[rest] = (margin <= 1.0).reshape(rest.size, k)
+            out[rest] = self._tv_envelope(vx0[rest], vxf[rest], width[rest], vy0[rest])
         return out, tau_min
+
+    def _tv_envelope(self, vx0: Array, vxf: Array, width: Array,
+                     vy0: Array) -> NDArray[np.bool_]:
+        """(n, n_tau) stable masks of C2 TVs' clusters by the envelope (starts the maps do
+        not cover: a TV already moving laterally), the new ones in one batched call. The
+        AVs of a fleet that check at one instant ask for the same TVs: each start's mask
+        is kept for the next few (every row is computed on its own: the same masks)."""
+        cfg, grid = self.config, self.grid
+        envelope = (self.road.mu, self.vehicle, cfg.safety_factor, cfg.envelope,
+                    grid.tobytes())
+        keys = [(envelope, row.tobytes()) for row in np.stack([vx0, vxf, width, vy0], axis=1)]
+        masks = [_TV_ENVELOPES.get(key) for key in keys]
+        new = [i for i, mask in enumerate(masks) if mask is None]
+        if new:
+            at, k = np.array(new), grid.size
+            rows = BoundaryConditions(np.repeat(vx0[at], k), np.repeat(vxf[at], k),
+                                      np.repeat(width[at], k), vy0=np.repeat(vy0[at], k))
+            margin = envelope_margin(rows, np.tile(grid, at.size), self.road.mu, self.vehicle,
+                                     safety_factor=cfg.safety_factor, yaw_model=cfg.envelope)
+            if len(_TV_ENVELOPES) + at.size > TV_ENVELOPES_KEPT:
+                _TV_ENVELOPES.clear()
+            for i, stable in zip(new, (margin <= 1.0).reshape(at.size, k), strict=True):
+                masks[i] = _TV_ENVELOPES[keys[i]] = stable
+        return np.array(masks)
 
     def c2_options(self) -> C2Options:
         """How this planner's prediction builds the C2 TVs' clusters: with its envelope
@@ -595,6 +613,12 @@ def path_curvature(sv: SVPlanState, vxf: float, width: float, taus: Array) -> Ar
     (xd, yd), (xdd, ydd) = d[1], d[2]
     speed2 = np.maximum(xd * xd + yd * yd, 1e-12)
     return (np.abs(xd * ydd - yd * xdd) / speed2**1.5).max(axis=1)
+
+
+# (envelope, start) -> stable mask of `LaneChangePlanner._tv_envelope`: the last few
+# instants' C2 TVs already moving laterally
+_TV_ENVELOPES: dict[tuple[Any, bytes], NDArray[np.bool_]] = {}
+TV_ENVELOPES_KEPT = 256  # masks kept (then all dropped): a fleet's AVs at one instant
 
 
 # maps kept per process: a fleet's C2 TVs end at speeds on target_leader_speed's grid,

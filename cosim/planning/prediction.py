@@ -364,10 +364,8 @@ def predict_lazy(
                 blocks.append(_Closed(ok, cells, v0[j], vxf[j], width[j], x0[j], m.y, 0.0))
                 meta(i, ok.size, ok, t_plan + ok)
             else:
-                d = cluster_derivatives(BoundaryConditions(v0[j], vxf[j], width[j], vy0=vy0[j]),
-                                        ok, rel, (0, 1))
-                (xg, yg), (xdg, ydg) = d[0], d[1]
-                add(i, xg + x0[j], yg + m.y, np.arctan2(ydg, xdg), ok, t_plan + ok)
+                add(i, *_moving_rows(np.array([v0[j], vxf[j], width[j], vy0[j], x0[j], m.y]),
+                                     ok, t_plan, rel), ok, t_plan + ok)
 
     none = np.zeros(0)
     if not owner:
@@ -445,6 +443,36 @@ class _Closed(NamedTuple):
     x0: float  # m
     y0: float  # m
     start: float  # s, relative to the planning instant
+
+
+# (start, durations, t_plan) -> (rel, x, y, heading) of `_moving_rows`: the last few
+# instants' C2 TVs already moving laterally
+_MOVING: dict[bytes, tuple[Array, Array, Array, Array]] = {}
+MOVING_KEPT = 64  # entries kept (then all dropped): a fleet's AVs at one instant
+
+
+def _moving_rows(start: Array, durations: Array, t_plan: float,
+                 rel: Array) -> tuple[Array, Array, Array]:
+    """(x, y, heading), each (durations.size, rel.size), of a C2 TV already moving
+    laterally that changes lanes in each of `durations` (s) from `start` (vx0, vxf, W,
+    vy0, x0, y0 at t_plan), at times rel (s after t_plan). The AVs of a fleet that check
+    at one instant predict the same TV from the same message: its rows are computed
+    once per instant (each sample on its own, so a longer grid's first columns are a
+    shorter one's: the same numbers to the last bit)."""
+    key = start.tobytes() + durations.tobytes() + np.float64(t_plan).tobytes()
+    kept = _MOVING.get(key)
+    n = rel.size
+    if kept is not None and kept[0].size >= n and np.array_equal(kept[0][:n], rel):
+        return kept[1][:, :n], kept[2][:, :n], kept[3][:, :n]
+    v0, vxf, width, vy0, x0, y0 = start.tolist()
+    d = cluster_derivatives(BoundaryConditions(v0, vxf, width, vy0=vy0), durations, rel,
+                            (0, 1))
+    (xg, yg), (xdg, ydg) = d[0], d[1]
+    rows = (xg + x0, yg + y0, np.arctan2(ydg, xdg))
+    if len(_MOVING) >= MOVING_KEPT:
+        _MOVING.clear()
+    _MOVING[key] = (rel.copy(), *rows)
+    return rows
 
 
 def _from_lower_bound(taus: Array, stable: NDArray[np.bool_], tau_lo: float) -> Array:

@@ -130,3 +130,30 @@ def test_c2_under_the_gap_policy_ends_no_faster_than_its_target_lane_leader() ->
     np.testing.assert_allclose(end_speed([tv, far, own], True), ROAD.target_speed(1, 2), rtol=1e-9)
     np.testing.assert_allclose(end_speed([tv, ahead, far, own], False), ROAD.target_speed(1, 2),
                                rtol=1e-9)
+
+
+def test_moving_c2_kept_for_the_instant_gives_the_fresh_numbers() -> None:
+    """A C2 TV already moving laterally, predicted again at the same instant (a fleet's
+    AVs checking together) on a shorter or a longer grid: its rows and its envelope's
+    stable mask are those a fresh prediction computes, to the last bit."""
+    import cosim.planning.planner as planner_module
+    import cosim.planning.prediction as prediction_module
+    from cosim.params import PlannerConfig
+
+    options = planner_module.LaneChangePlanner(VEH, ROAD, PlannerConfig()).c2_options()
+    moving = [msg("a", lane=2, intention=-1, lateral_speed=-0.4, y=ROAD.lane_center(2) - 0.3),
+              msg("b", x=80.0, lane=0, intention=1, lateral_speed=0.2, speed=20.0)]
+
+    def fresh(t_rel: np.ndarray) -> tuple[np.ndarray, ...]:
+        prediction_module._MOVING.clear()
+        planner_module._TV_ENVELOPES.clear()
+        f = predict_lazy(moving, 3.0, t_rel, ROAD, VEH, GRID, options)
+        return f.tau, f.sx, f.sy, f.sh
+
+    long, short = fresh(T_REL), fresh(T_REL[:90])  # short kept: long replaces it
+    for t_rel, want in ((T_REL, long), (T_REL[:90], short), (T_REL, long)):
+        f = predict_lazy(moving, 3.0, t_rel, ROAD, VEH, GRID, options)  # kept from before
+        assert f.tau.size > 10 and f.categories == ("C2", "C2")
+        for got, expected in zip((f.tau, f.sx, f.sy, f.sh), want, strict=True):
+            assert got.tobytes() == expected.tobytes()
+    assert prediction_module._MOVING and planner_module._TV_ENVELOPES
