@@ -93,10 +93,13 @@ FLEET_COLUMNS: dict[str, str] = {
               "SUMO; gap_min_m and ttc_min_s NaN)",
     "max_long_jerk_mps3": "its peak abs(d(ax)/dt) between steps (m/s^3; cosim: the plant's ax "
                           "of its trace rows; a baseline: SUMO's acceleration)",
-    "follower_max_decel_mps2": "its new followers' braking: the largest deceleration of "
-                               "the vehicle behind it on its lane within 5 s of each of its "
-                               "lane changes in SUMO, where SUMO drives that vehicle (m/s^2; "
-                               "NaN: no change, or no such follower)",
+    "follower_max_decel_mps2": "its new followers' braking: at each of its lane changes "
+                               "(the step its lane in SUMO changed) the nearest vehicle "
+                               "behind it on its new lane, if SUMO drives it and it keeps "
+                               "that lane (not changing lanes itself then); that vehicle's "
+                               "largest deceleration (SUMO's) within 5 s while it stays the "
+                               "follower and keeps its lane (m/s^2; NaN: no change, or no "
+                               "such follower)",
 }
 
 
@@ -115,7 +118,9 @@ FLEET_METRIC_DOCS: dict[str, str] = {
                                 "jerk (fleet.csv's max_long_jerk_mps3; m/s^3)",
     "fleet_follower_max_decel_mps2": "the largest of fleet.csv's follower_max_decel_mps2: "
                                      "a new follower's hardest braking after an automated "
-                                     "vehicle's lane change (m/s^2; NaN: none)",
+                                     "vehicle's lane change (the vehicle behind it on its "
+                                     "new lane at the change, keeping that lane; m/s^2; "
+                                     "NaN: none)",
 }
 
 

@@ -16,8 +16,10 @@ its own), in one pass over arrays; `collided` counts SUMO's
 collision onsets with it (caused: it was SUMO's collider). At the end per vehicle: its
 lane changes (changes of its lane in SUMO), its peak jerk (cosim.run.metrics.
 longitudinal_comfort of SUMO's acceleration, as the SUMO-driven SV's), and its new
-followers' braking: the follower's largest deceleration within NEW_FOLLOWER_WINDOW after
-each of its lane changes."""
+followers' braking (`Watched.new_follower_decel`): at each of its lane changes, the
+follower then, if it keeps its lane, its largest deceleration within NEW_FOLLOWER_WINDOW
+while it stays that follower and keeps its lane (as the SV's new follower: the vehicle
+behind it in the target lane as it enters, docs/outputs.md)."""
 
 from __future__ import annotations
 
@@ -52,6 +54,10 @@ class Watched:
     accel: list[float] = field(default_factory=list)  # m/s^2, SUMO's
     lane: list[int] = field(default_factory=list)  # track (-1: on none)
     follower_decel: list[float] = field(default_factory=list)  # m/s^2 (NaN: no follower)
+    # its follower's row of the road's snapshot: id ("": none), and whether it moved
+    # sideways (a lane change of its own under way in SUMO)
+    follower: list[str] = field(default_factory=list)
+    follower_changing: list[bool] = field(default_factory=list)
     collisions: int = 0  # SUMO's collision onsets involving it
     caused: int = 0  # of them, those it was SUMO's collider in
     lateral: float = 0.0  # m/s, at its last row
@@ -66,13 +72,26 @@ class Watched:
         return np.flatnonzero((lane[1:] != lane[:-1]) & (lane[1:] >= 0) & (lane[:-1] >= 0)) + 1
 
     def new_follower_decel(self, dt: float) -> float:
-        """m/s^2, the largest deceleration of its follower within NEW_FOLLOWER_WINDOW of
-        each of its lane changes (NaN: no change, or no follower then)."""
+        """m/s^2, the largest deceleration of its new followers: at each of its lane
+        changes (the row its lane in SUMO changed), the nearest vehicle behind it on its
+        new lane then, if SUMO drives it and it was keeping that lane (no lane change of
+        its own under way: a vehicle arriving beside the change was not behind it in that
+        lane before); its deceleration over NEW_FOLLOWER_WINDOW from that row while it
+        stays that follower and keeps its lane (braking for a change of its own, or for
+        another vehicle cutting in between, is not the change's). NaN: no change, or no
+        such follower."""
         decel = np.asarray(self.follower_decel)
+        follower = np.asarray(self.follower, dtype=object)
+        keeping = ~np.asarray(self.follower_changing, dtype=bool)
         width = int(round(NEW_FOLLOWER_WINDOW / dt))
         worst = math.nan
         for k in self.lane_changes():
-            window = decel[k:k + width + 1]
+            f = follower[k]
+            if not f or not keeping[k] or not math.isfinite(decel[k]):
+                continue
+            span = slice(k, k + width + 1)
+            ok = (follower[span] == f) & keeping[span]
+            window = decel[span][ok]
             window = window[np.isfinite(window)]
             if window.size:
                 worst = float(np.nanmax([worst, window.max()]))
@@ -111,21 +130,28 @@ class FleetWatch:
         # the follower: the nearest vehicle behind on the same lane
         behind = (lane[None, :] == lane[rows][:, None]) & (x[None, :] < x[rows][:, None])
         nearest = np.argmax(np.where(behind, x[None, :], -np.inf), axis=1)
-        follower = np.where(behind.any(axis=1), -everyone.accel[nearest], np.nan)
+        has = behind.any(axis=1)
+        follower = np.where(has, -everyone.accel[nearest], np.nan)
+        ids = [everyone.ids[i] if h else "" for i, h in zip(nearest.tolist(), has.tolist(),
+                                                              strict=True)]
+        changing = everyone.changing[nearest] & has
         moved = [index[v] for v in (*self.moved, *(w.id for w in watched if not w.baseline))
                  if v in index]
         if moved:  # SUMO's acceleration of a vehicle moved by moveToXY is not its own
             follower[np.isin(nearest, moved)] = np.nan
         columns = zip(watched, x[rows].tolist(), everyone.speed[rows].tolist(),
                       everyone.accel[rows].tolist(), lane[rows].tolist(), follower.tolist(),
-                      everyone.lateral_speed[rows].tolist(), strict=True)
-        for w, s, v, a, ln, fd, lat in columns:
+                      everyone.lateral_speed[rows].tolist(), ids, changing.tolist(),
+                      strict=True)
+        for w, s, v, a, ln, fd, lat, fid, fch in columns:
             w.t.append(t)
             w.s.append(s)
             w.speed.append(v)
             w.accel.append(a)
             w.lane.append(int(ln))
             w.follower_decel.append(fd)
+            w.follower.append(fid)
+            w.follower_changing.append(fch)
             w.lateral = lat
 
     def ending(self, route_end: float, distance: float, last: float) -> list[str]:

@@ -4,6 +4,7 @@ each measured in fleet.csv's columns and metrics.csv's fleet_* alike."""
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,7 @@ import pytest
 
 from cosim.errors import InputError
 from cosim.run.fleet import FLEET_COLUMNS, FLEET_METRIC_DOCS
+from cosim.run.fleet_watch import Watched
 from cosim.run.loop import CoSimulation
 from cosim.run.result import RunResult
 from cosim.scenario import scenario_from_dict
@@ -110,3 +112,19 @@ def test_a_baseline_fleet_may_have_sumo_drive_the_sv(tmp_path: Path) -> None:
     with pytest.raises(InputError) as info:
         scenario_from_dict(doc(network, "idm"), path=tmp_path / "c.toml")
     assert info.value.key == "fleet.driver"
+
+
+def test_a_new_follower_is_the_one_behind_in_its_lane_at_the_change() -> None:
+    """At an AV's change (row 2: lane 0 -> 1) its new follower is "f", keeping lane 1:
+    its braking counts while it stays that follower and keeps its lane; "g", arriving
+    behind the AV by a change of its own, and "f" braking for a change of its own
+    later, do not."""
+    w = Watched("av", "tv", 0.0, 0, baseline=False)
+    w.lane = [0, 0, 1, 1, 1, 1, 1, 1]
+    w.follower = ["", "", "f", "f", "f", "g", "f", "f"]
+    w.follower_changing = [False, False, False, False, False, False, True, False]
+    w.follower_decel = [9.0, 9.0, 1.0, 2.0, 1.5, 8.0, 9.0, 0.5]
+    assert w.new_follower_decel(1.0) == 2.0
+    # a follower arriving by its own change at the AV's is not a new follower
+    w.follower_changing[2] = True
+    assert math.isnan(w.new_follower_decel(1.0))
