@@ -4,7 +4,7 @@ around it, as two named structures (the numba kernels below them take flat array
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -41,6 +41,9 @@ class TrafficView:
     width: Array  # m
     lateral_speed: Array | None = None  # m/s, + left (None: unknown, nobody is leaving)
     ids: tuple[str, ...] = ()  # SUMO ids (for a gap request)
+    # the lane each TV is announced over V2V to be changing into (an automated vehicle's
+    # broadcast lane change, C3; -1: none; None: nobody announces one)
+    joining: NDArray[np.int64] | None = None
 
     @classmethod
     def of(cls, scene: Scene) -> TrafficView:
@@ -58,3 +61,11 @@ class TrafficView:
 
         return cls(f(x), f(y), f(speed), f(length), f(width),
                    None if lateral_speed is None else f(lateral_speed), ids)
+
+    def announced(self, joining: dict[str, int]) -> TrafficView:
+        """This view with `joining` (TV id -> the lane its announced change goes to)
+        marked (itself when nobody announces one)."""
+        if not joining:
+            return self
+        lanes = np.array([joining.get(vid, -1) for vid in self.ids], dtype=np.int64)
+        return replace(self, joining=lanes) if (lanes >= 0).any() else self

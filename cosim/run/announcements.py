@@ -97,6 +97,11 @@ class Announcements:
         if motion != old.motion:
             self.now[vehicle_id] = replace(old, motion=motion)
 
+    def changing_besides(self, vehicle_id: str) -> bool:
+        """Whether an automated vehicle other than `vehicle_id` flies a lane change now
+        (none: nothing to hear of one, the channel need not run for it)."""
+        return any(a.motion is not None for vid, a in self.now.items() if vid != vehicle_id)
+
     def forget(self, vehicle_id: str) -> None:
         """SUMO drives it again: what SUMO shows of it is its broadcast."""
         self.now.pop(vehicle_id, None)
@@ -125,6 +130,15 @@ class Announcements:
                 m = replace(m, intention=0)  # it waits for this vehicle: C1
             out.append(m)
         return out
+
+
+def joining(road: RoadParams, messages: Sequence[V2VMessage]) -> dict[str, int]:
+    """The lane each automated vehicle heard in `messages` flies its announced lane
+    change into (its C3 motion's end lane), by id. An automated vehicle's own
+    announcement has its intention's start (`since`); SUMO's drivers' lane changes,
+    rebuilt from their sideways motion, and the scripted TVs' have none."""
+    return {m.vehicle_id: road.lane_of(m.motion.y0 + m.motion.width) for m in messages
+            if m.motion is not None and math.isfinite(m.since)}
 
 
 def notice(latency: float, loss: float, step: float) -> float:

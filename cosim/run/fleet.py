@@ -40,7 +40,7 @@ from cosim.driving.base import DrivingContext, LaneChangePolicy, PolicyStatus, W
 from cosim.driving.cadence import CadenceConfig
 from cosim.driving.following import lane_keeping_reference
 from cosim.driving.rule import DecisionConfig
-from cosim.run.announcements import Announcements, GapRequests, notice
+from cosim.run.announcements import Announcements, GapRequests, joining, notice
 from cosim.run.ego import PlannedEgo
 from cosim.run.fleet_watch import COSIM, FleetWatch
 from cosim.run.metrics import longitudinal_comfort
@@ -226,6 +226,12 @@ class AVInbox:
             self.received = self._exchange()
         return (self.heard.give_way(self.av.id, self.scene.sv.y, self.received)
                 + self.av.observer.scripted_messages(self.scene.t))
+
+    def joining(self) -> dict[str, int]:
+        """The lane each automated vehicle it hears flies its lane change into, by id."""
+        if not self.heard.changing_besides(self.av.id):
+            return {}
+        return joining(self.heard.road, self.read())
 
 
 @dataclass

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cosim.params import PlannerConfig, RoadParams
+from cosim.run.announcements import joining
 from cosim.scenario import Scenario
 from cosim.traffic.sumo import TrafficSnapshot
 from cosim.traffic.world import NEAR_RANGE, SV_ID, Scene, World
@@ -66,6 +67,14 @@ class Inbox:
         received = self.received if heard is None else heard.give_way(
             SV_ID, self.scene.sv.y, self.received)
         return received + self.observer.scripted_messages(self.scene.t)
+
+    def joining(self) -> dict[str, int]:
+        """The lane each automated vehicle it hears flies its lane change into, by id
+        (none without a fleet)."""
+        heard = self.observer.announcements
+        if heard is None or not heard.changing_besides(SV_ID):
+            return {}
+        return joining(heard.road, self.read())
 
 
 class Observer:

@@ -47,6 +47,9 @@ class TrafficEvent:
     detail: str
 
 
+CONTROLLED_MAX_SPEED = 70.0  # m/s, a controlled vehicle's cap (SUMO warns above it)
+
+
 @dataclass
 class _Controlled:
     length: float  # m
@@ -63,6 +66,8 @@ class _Controlled:
     # (s_lo, s_hi, d_lo, d_hi) m: where the front may go with `hint` unchanged
     # (RouteLanes.hint_box; NaN: look again)
     hint_box: tuple[float, float, float, float] = (math.nan, math.nan, math.nan, math.nan)
+    own_max_speed: float = math.nan  # m/s, a vehicle taken over: its maximum speed in SUMO
+    # before (given back with it)
 
 
 SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (its own strategic changes)
@@ -116,8 +121,14 @@ class ControlledVehicles:
         vehicle = self.sim.api.vehicle
         vehicle.setSpeedMode(vehicle_id, 0)
         vehicle.setLaneChangeMode(vehicle_id, 0)
+        # SUMO holds a vehicle's speed (setPreviousSpeed) to its maximum speed, its lane's
+        # band for one SUMO drove: above it the others, SUMO's drivers and V2V, would see
+        # it at that speed with a wild acceleration; a controlled vehicle's cap instead
+        own = vehicle.getMaxSpeed(vehicle_id)
+        vehicle.setMaxSpeed(vehicle_id, CONTROLLED_MAX_SPEED)
         length, width = size
-        self.vehicles[vehicle_id] = _Controlled(length, width, (x, y, heading), inserted=True)
+        self.vehicles[vehicle_id] = _Controlled(length, width, (x, y, heading), inserted=True,
+                                                own_max_speed=own)
 
     def hand_back(self, vehicle_id: str) -> None:
         """Give a vehicle taken by `take` back to SUMO: its default speed mode (all
@@ -125,7 +136,9 @@ class ControlledVehicles:
         vehicle = self.sim.api.vehicle
         vehicle.setSpeedMode(vehicle_id, 31)
         vehicle.setLaneChangeMode(vehicle_id, SUMO_LANE_CHANGE_MODE)
-        self.vehicles.pop(vehicle_id, None)
+        ctl = self.vehicles.pop(vehicle_id, None)
+        if ctl is not None and math.isfinite(ctl.own_max_speed):
+            vehicle.setMaxSpeed(vehicle_id, ctl.own_max_speed)
 
     def move(
         self,

@@ -33,6 +33,7 @@ from cosim.params import RoadParams
 from cosim.road.road import Road
 from cosim.traffic import gui as gui_window
 from cosim.traffic.controlled import (  # noqa: F401  (re-exported)
+    CONTROLLED_MAX_SPEED,
     ControlledVehicles,
     TrafficEvent,
     front_from_centre,
@@ -58,8 +59,6 @@ from cosim.traffic.traffic_vehicles import (  # noqa: F401  (re-exported)
     SpeedBands,
     TrafficVehicles,
 )
-
-CONTROLLED_MAX_SPEED = 70.0  # m/s, a controlled vehicle's type cap (SUMO warns above it)
 
 
 class SumoSim:

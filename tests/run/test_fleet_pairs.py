@@ -101,11 +101,22 @@ def test_both_sides_one_goes_first_the_other_follows(both_sides: RunResult) -> N
     starts only once the first's change is under way and heard (its C3, the latency
     later), planned around it."""
     no_collision(both_sides)
+    # no abort: each hears the other at its real speed (SUMO holds a vehicle's speed to
+    # its maximum, 22 m/s for these, unless a taken-over one gets the controlled cap)
+    plans = pd.DataFrame(both_sides.fleet.plans)
+    assert (plans.loc[plans["ok"] == 1, "target_lane"] == 1).all()
     adopted = changes(both_sides)
     assert sorted(adopted["vehicle_id"]) == ["a", "b"]
     assert (adopted["target_lane"] == 1).all()
     t_first, t_second = adopted["t_s"].tolist()
     assert t_second >= t_first + LATENCY
+    # the first is in lane 1 from its start on (its broadcast change): the second goes
+    # behind it, at least its secure gap (0.6 s headway, 2.5 m) back when it starts
+    first, second = adopted["vehicle_id"].tolist()
+    at = {vid: pd.DataFrame(trace).set_index("t_s").loc[t_second]
+          for vid, trace, _ in both_sides.fleet.traces}
+    gap = at[first]["s_m"] - at[second]["s_m"] - 4.6
+    assert gap >= 0.6 * at[second]["vx_mps"] + 2.5
 
 
 def test_one_gap_two_in_one_lane_go_in_turn(one_gap: RunResult) -> None:

@@ -384,6 +384,12 @@ def can_fall_back(sv: SVView, traffic: TrafficView, cfg: GapConfig) -> NDArray[n
 
 
 def in_lane(lane: int, traffic: TrafficView, lanes: LaneLayout) -> NDArray[np.bool_]:
-    """Which TVs' bodies touch `lane` (a TV half way through a change is in both)."""
+    """Which TVs' bodies touch `lane` (a TV half way through a change is in both), and
+    those announced over V2V to be changing into it (an automated vehicle's broadcast
+    lane change: in the lane from its start, so that two changing into one lane from
+    both sides take one gap each, the later one's entry tested against the earlier)."""
     lo, hi = lanes.lanes_touched(traffic.y, 0.5 * np.asarray(traffic.width, dtype=float))
-    return (lo <= lane) & (hi >= lane)
+    inside = (lo <= lane) & (hi >= lane)
+    if traffic.joining is not None:
+        inside |= traffic.joining == lane
+    return inside

@@ -211,6 +211,9 @@ class GapPolicy:
             trajectory = m.advance(t, sv, None, None, messages)
         else:
             traffic = TrafficView.of(scene)
+            joining = getattr(messages, "joining", None)  # the fleet's announced changes
+            if joining is not None:
+                traffic = traffic.announced(joining())
             d, trigger = self.seek(t, sv, traffic, allow_scripted, allow_decision)
             target = d.target_lane if trigger is not None else None
             trajectory = m.advance(

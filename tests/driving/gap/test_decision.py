@@ -201,3 +201,21 @@ def test_an_insisted_entry_gives_no_margin_to_a_tv_making_room() -> None:
     assert GAP.plan_decel < d.follower_decel <= GAP.insist_decel
     # only the TV seen braking is spared the margin
     assert not drive(0.0, 28.0, tvs, slowing=np.array([2.0, 0.0]), **held).plan_now
+
+
+def test_a_change_announced_into_the_target_lane_is_in_it() -> None:
+    # an automated vehicle in lane 0, 9 m ahead and 4.5 m/s slower, flies its change
+    # into lane 1 (its broadcast C3), not yet across the line; the SV in lane 2 wants
+    # lane 1 too: by position the lane is empty, with the announced change the partner
+    # is its new leader, too close to take the gap ahead of it now
+    tvs = TrafficView.arrays([9.0, -100.0, 100.0], [ROAD.lane_center(k) for k in (0, 1, 1)],
+                             [14.8, 19.3, 19.3], np.full(3, L), np.full(3, 1.8),
+                             ids=("p", "f", "l"))
+    sv = SVView(0.0, ROAD.lane_center(2), 19.3, L, 30.0)
+    rules = GapRules(CFG, GAP, KRAUSS)
+    free = gap_decision(sv, tvs, LaneLayout(ROAD), rules, Seeking(wanted_lane=1))
+    assert free.target_lane == 1 and free.plan_now
+    assert tvs.announced({"q": 1}) is tvs  # nobody of this view announces one
+    taken = gap_decision(sv, tvs.announced({"p": 1}), LaneLayout(ROAD), rules,
+                         Seeking(wanted_lane=1))
+    assert taken.target_lane == 1 and not taken.plan_now
