@@ -18,9 +18,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-import sumolib
+import sumo
 
-GAME = Path(sumolib.__file__).resolve().parents[1] / "game"
+GAME = Path(sumo.__file__).resolve().parent / "tools" / "game"  # SUMO's shipped games
 # m/s: 80, 100, 110, 120 km/h
 V80, V100, V110, V120 = 22.22, 27.78, 30.56, 33.33
 

@@ -59,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from cosim.commands import RESULTS, overridden, variant_folder
     from cosim.output import check_output_dir
     from cosim.run.loop import run_scenario
+    from cosim.run.route_notes import route_notes
     from cosim.scenario import load_scenario
     from cosim.traffic import gui as sumo_gui
     from cosim.vehicle.bicycle import warn_near_critical_speed
@@ -78,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
         "--plant": ("plant", args.plant), "--controller": ("controller", args.controller),
         "--policy": ("policy", args.policy), "--seed": ("seed", args.seed)})
     warn_near_critical_speed(scenario)  # one line on stderr if the SV may get near it
+    for note in route_notes(scenario):  # signals and lower limits the SV does not obey
+        print(f"cosim run: {scenario.name}: {note}", file=sys.stderr)
     out = args.out if args.out is not None else variant_folder(RESULTS, scenario.name, {
         "controller": overridden(base.sv.controller, scenario.sv.controller),
         "plant": overridden(base.sv.plant, scenario.sv.plant),
