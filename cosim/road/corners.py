@@ -34,6 +34,9 @@ CORNER_TURN_REFUSED = math.radians(5.0)
 # FrameLimits.min_stretch keeps the fillet nearer SUMO's corner)
 CORNER_STRETCH = 0.5  # tuned: docs/tuned_constants.md
 ARC_STEP = 0.5  # m, the fillet's vertices
+# rad, a turn across one junction that is a U-turn (onto the opposite carriageway), not a
+# corner: no fillet within the edges' straight ends
+U_TURN = math.radians(150.0)
 
 
 @dataclass(frozen=True)
@@ -88,6 +91,8 @@ def corner_vertex(site: CornerSite) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                       (site.p0, site.p1, site.q0, site.q1))
     u, w = _unit(p0, p1), _unit(q0, q1)
     turn = _turn(u, w)
+    if abs(turn) >= U_TURN:  # the lines meet far off or never: no vertex to round
+        return 0.5 * (p1 + q0), u, w, turn
     # p1 + a u = q0 + b w, solved for a (the lines are not parallel: turn >= CORNER_TURN)
     cross = u[0] * w[1] - u[1] * w[0]
     dq = q0 - p1
@@ -103,6 +108,9 @@ def rounding(sites: Sequence[CornerSite], lat_accel: float, min_radius: float
     out = []
     vertices = [corner_vertex(s) for s in sites]
     for k, (site, (v, _, _, turn)) in enumerate(zip(sites, vertices, strict=True)):
+        if abs(turn) >= U_TURN:
+            out.append((math.nan, math.nan, math.nan, math.nan))
+            continue
         half = 0.5 * abs(turn)
         # the straight ends' room, halved where a neighbouring corner shares the segment
         room_in = float(np.hypot(*(v - np.asarray(site.p0))))

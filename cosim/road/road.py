@@ -23,6 +23,7 @@ from cosim.errors import InputError
 from cosim.road.corners import (
     CORNER_TURN,
     CORNER_TURN_REFUSED,
+    U_TURN,
     Corner,
     CornerSite,
     corner_vertex,
@@ -453,11 +454,13 @@ def _load_road(network: Path | str, edges: Sequence[str] | None, limits: FrameLi
             for site, r in zip(sites, rounded, strict=True):
                 if not math.isfinite(r[0]):
                     x, y = site.p1
+                    turn = abs(corner_vertex(site)[3])
+                    why = (f"a U-turn of {math.degrees(turn):.0f} degrees, not driven"
+                           if turn >= U_TURN else "no room for a radius its lanes allow")
                     raise InputError(src, "route", list(route.edges),
                                      f"a route whose corners can be rounded within the "
                                      f"straight ends of their edges (near x = {x:.1f}, "
-                                     f"y = {y:.1f}, {where(x, y)}: no room for a radius "
-                                     f"its lanes allow)")
+                                     f"y = {y:.1f}, {where(x, y)}: {why})")
             points, ends = filleted(points, sites, rounded)
         frame = smooth(points, limits, d_offset=half, source=src, where=where,
                        speed_limit=top, reach=reach, corners=ends)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -159,3 +160,27 @@ def test_ramps_drawn_straight_up_to_the_mainline_are_rounded_as_corners(
     monkeypatch.setattr("cosim.road.road.CORNER_TURN_REFUSED", CORNER_TURN)
     with pytest.raises(InputError, match=r"reference line radius = .* on edge BC"):
         load_road(net, ["on", "BC", "CD"])
+
+
+def test_a_u_turn_at_a_junction_is_refused_naming_it(tmp_path: Path) -> None:
+    """A route onto the opposite carriageway (a turnaround connection AB -> BA): no
+    corner to round, refused in one line saying so, with no arithmetic warnings (it
+    was a RuntimeWarning and `reference lane = [[0.0, -1.6]]`)."""
+    (tmp_path / "u.con.xml").write_text(
+        '<connections><connection from="AB" to="BA" fromLane="0" toLane="0"/></connections>',
+        encoding="utf-8")
+    net = netconvert(tmp_path, '<nodes><node id="A" x="0" y="0"/><node id="B" x="500" y="0"/>'
+                     "</nodes>", '<edges><edge id="AB" from="A" to="B" numLanes="1" '
+                     'speed="13.9"/><edge id="BA" from="B" to="A" numLanes="1" speed="13.9"/>'
+                     "</edges>", "u", ("-x", "u.con.xml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InputError) as err:
+            load_road(net, ["AB", "BA"], source="sc.toml")
+    text = str(err.value)
+    assert text.startswith("sc.toml: route = ['AB', 'BA']: a route whose corners can be ")
+    assert text.endswith("at junction B between edges AB and BA, across which SUMO's lane "
+                         "steps 3.2 m sideways, a corner: SUMO's junction turns the lane by 180 "
+                         "degrees within 4.7 m (R 1.5 m), which SUMO's vehicles follow along "
+                         "its shape, having no turning circle: a U-turn of 180 degrees, not "
+                         "driven)")
