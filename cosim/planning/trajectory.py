@@ -13,6 +13,7 @@ vxf in the target lane's centre, before 0 it is not defined (clipped to 0).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -160,11 +161,17 @@ def _cluster_order(rows: Array, ts: Array, after: Array, order: int) -> tuple[Ar
     """(x, y) derivatives of `order` of `cluster_derivatives` from its coefficient rows
     (`_row_coefficients` of x's 5, y's 6 and vxf): the numpy path's operations, in the
     same order, in one compiled pass."""
-    fx = np.array([_factor(k, order) for k in range(5)])
-    fy = np.array([_factor(k, order) for k in range(6)])
+    factors = _FACTORS.get(order)
+    if factors is None:
+        factors = _FACTORS[order] = (np.array([_factor(k, order) for k in range(5)]),
+                                     np.array([_factor(k, order) for k in range(6)]))
+    fx, fy = factors
     x = _horner_rows(rows[:5], fx, ts, after, rows[11], order, True)
     y = _horner_rows(rows[5:11], fy, ts, after, rows[11], order, False)
     return x, y
+
+
+_FACTORS: dict[int, tuple[Array, Array]] = {}  # order -> `_cluster_order`'s factors of x, y
 
 
 def _factor(k: int, order: int) -> float:
@@ -392,10 +399,24 @@ class LaneChangeTrajectory:
         """m, global y at the end (target lane centre)."""
         return self.y0 + self.width
 
+    @functools.cached_property
+    def _rows(self) -> tuple[Array, Array]:
+        """(its tau as a 1 x 1 grid, its coefficient rows): `cluster_derivatives`'s for
+        this one candidate, computed once (a policy reads a trajectory many times)."""
+        tau = np.array([[self.tau]])
+        x_c, y_c = polynomial_coefficients(self.boundary, tau)
+        rows = _row_coefficients(x_c + y_c + [np.asarray(self.vxf, dtype=float)], tau)
+        assert rows is not None
+        return tau, rows
+
     def derivative(self, t: ArrayLike, order: int) -> tuple[Array, Array]:
-        """(x, y) or their derivatives of `order` at absolute times t (same shape as t)."""
+        """(x, y) or their derivatives of `order` at absolute times t (same shape as t;
+        `cluster` of its one duration)."""
         tt = np.asarray(t, dtype=float)
-        x, y = cluster(self.boundary, np.array([self.tau]), tt.ravel() - self.t0, order=order)
+        tau, rows = self._rows
+        rel = (tt.ravel() - self.t0)[None, :]
+        ts = np.minimum(np.maximum(rel, 0.0), tau)
+        x, y = _cluster_order(rows, ts, rel - ts, order)
         x, y = x[0].reshape(tt.shape), y[0].reshape(tt.shape)
         if order == 0:
             return x + self.x0, y + self.y0

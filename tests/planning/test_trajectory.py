@@ -69,6 +69,24 @@ def test_compiled_grid_matches_numpy_bit_for_bit() -> None:
                 assert a.tobytes() == b.reshape(a.shape).tobytes()
 
 
+def test_trajectory_reads_its_cluster_bit_for_bit() -> None:
+    """LaneChangeTrajectory keeps its coefficients: every read (any shape of t, before,
+    during and after the change, read again) is `cluster` of its one duration."""
+    tr = LaneChangeTrajectory(t0=3.0, tau=4.2, x0=100.0, y0=1.2, vx0=24.0, vxf=27.5,
+                              width=3.1, ax0=0.3, vy0=0.2, ay0=-0.1)
+    t = np.linspace(1.0, 10.0, 37).reshape(1, 37)
+    for order in (0, 1, 2, 3):
+        want = cluster(tr.boundary, [tr.tau], t.ravel() - tr.t0, order=order)
+        if order == 0:  # positions: placed at the start
+            want = (want[0] + tr.x0, want[1] + tr.y0)
+        for _ in range(2):
+            got = tr.derivative(t, order)
+            for a, b in zip(got, want, strict=True):
+                assert a.shape == t.shape and a.tobytes() == b.reshape(t.shape).tobytes()
+        one = cluster(tr.boundary, [tr.tau], [2.0], order=order)[1][0, 0]
+        assert tr.derivative(5.0, order)[1] == (one + tr.y0 if order == 0 else one)
+
+
 def test_general_start_conditions() -> None:
     """A plan started mid-manoeuvre keeps the given y', y'', x'' at 0 and ends at rest."""
     tau, W = 4.0, 2.1
