@@ -12,6 +12,12 @@ hold, and at least what keeps the frame's stretch across the lanes on the inside
 turn at `CORNER_STRETCH`. A corner that cannot be rounded within its straight ends at
 that smallest radius is refused (by the frame, naming it).
 
+Where a route cannot be smoothed otherwise, so are the vertices inside an edge's lane
+that turn by CORNER_TURN_REFUSED or more, on a lane one of whose vertices turns by
+CORNER_TURN or more (cosim.road.road.load_road): a ramp drawn as chords 40-86 m long
+turning 6-18 degrees at each (SUMO's game/highway ramp), whose curve no line within half
+a metre of the chords follows, is rounded vertex by vertex.
+
 The lanes keep their d through a corner (the planner's lanes are unchanged); SUMO's
 lane there lies off the line by up to the fillet's distance from SUMO's corner
 (`Corner.deviation`), measured outside the corner's window as at a lateral shift.
@@ -26,8 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 
 CORNER_TURN = math.radians(15.0)  # rad, a turn across one junction that makes it a corner
-# rad, a gentler turn across one junction made a corner where the line cannot be smoothed
-# otherwise (cosim.road.road.load_road): a ramp drawn straight up to its gore
+# rad, a gentler turn across one junction (or at a vertex inside an edge's lane) made a
+# corner where the line cannot be smoothed otherwise (cosim.road.road.load_road): a ramp
+# drawn straight up to its gore, or drawn as coarse chords
 CORNER_TURN_REFUSED = math.radians(5.0)
 # -, the frame's stretch 1 - kappa d across the lanes on a corner's inside stays at least
 # this (a corner's lanes are the ramp's one lane: a smaller stretch than the route's
@@ -49,7 +56,7 @@ class CornerSite:
     p1: tuple[float, float]
     q0: tuple[float, float]
     q1: tuple[float, float]
-    junction: str
+    junction: str  # SUMO's junction id ("EDGE vertex i": a vertex inside an edge's lane)
     speed: float  # m/s, the slower of the two edges' speed limits
     width: float  # m, the corner's lane's width
     lane_right: float  # m, how far the SV's lane lies right of the line (a lead-in's shift)

@@ -274,13 +274,13 @@ def _lead_shifts(lead: LeadIn | None) -> list[float]:
                                     if len(p.shape) > 1]
 
 
-def _signed_jump(a: np.ndarray, b: np.ndarray) -> float:
+def _signed_jump(a: np.ndarray, b: np.ndarray, corner_turn: float = CORNER_TURN) -> float:
     """m, how far the start of polyline b lies left of the end of polyline a (across
-    a's last segment); 0 where b's first segment turns from a's last by CORNER_TURN or
-    more (a junction drawn as a corner, not lanes side by side)."""
+    a's last segment); 0 where b's first segment turns from a's last by `corner_turn`
+    (rad) or more (a junction drawn as a corner, not lanes side by side)."""
     t = a[-1] - a[-2]
     u = b[1] - b[0]
-    if abs(math.atan2(t[0] * u[1] - t[1] * u[0], t[0] * u[0] + t[1] * u[1])) >= CORNER_TURN:
+    if abs(math.atan2(t[0] * u[1] - t[1] * u[0], t[0] * u[0] + t[1] * u[1])) >= corner_turn:
         return 0.0
     q = b[0] - a[-1]
     return float((t[0] * q[1] - t[1] * q[0]) / (math.hypot(*t) or 1.0))
@@ -302,19 +302,26 @@ def _borders(net: object, piece: TrackPiece, right_of_line: float) -> tuple[floa
 def corner_sites(route: Route, ref: Track, lead: LeadIn | None,
                  min_turn: float = CORNER_TURN) -> list[CornerSite]:
     """The junctions where the reference line turns by `min_turn` (rad) or more between
-    one route edge's last segment and the next's first (a junction drawn as a corner), in
-    order along the line, in the line's coordinates (`_reference_pieces`)."""
+    one route edge's last segment and the next's first (a junction drawn as a corner),
+    and, with `min_turn` below CORNER_TURN, the vertices inside a route edge's lane that
+    turn so much (`_vertex_sites`), in order along the line, in the line's coordinates
+    (`_reference_pieces`)."""
     pieces = _reference_pieces(ref, lead)
     shifts = _lead_shifts(lead)
     n_lead = len(shifts)
     edges = [(k, p, shape) for k, (p, shape) in enumerate(pieces) if not p.internal]
     sites = []
-    for (k, a, sa), (kb, b, sb) in zip(edges[:-1], edges[1:], strict=True):
+    for i, (k, a, sa) in enumerate(edges):
+        shift_a = shifts[k] if k < n_lead else 0.0
+        if min_turn < CORNER_TURN:
+            sites += _vertex_sites(route, a, sa, shift_a, min_turn)
+        if i + 1 == len(edges):
+            break
+        kb, b, sb = edges[i + 1]
         t, u = sa[-1] - sa[-2], sb[1] - sb[0]
         turn = math.atan2(t[0] * u[1] - t[1] * u[0], t[0] * u[0] + t[1] * u[1])
         if abs(turn) < min_turn:
             continue
-        shift_a = shifts[k] if k < n_lead else 0.0
         shift_b = shifts[kb] if kb < n_lead else 0.0
         ra, la = _borders(route.net, a, shift_a)
         rb, lb = _borders(route.net, b, shift_b)
@@ -326,7 +333,32 @@ def corner_sites(route: Route, ref: Track, lead: LeadIn | None,
     return sites
 
 
-def lateral_steps(ref: Track, lead: LeadIn | None, step: float = STEP
+def _vertex_sites(route: Route, piece: TrackPiece, shape: np.ndarray, shift: float,
+                  min_turn: float) -> list[CornerSite]:
+    """The vertices inside a route edge's lane `piece` (its `shape` as the line takes it,
+    `shift` m left of the lane) where the line turns by `min_turn` (rad) or more, as
+    corners, on a lane drawn with corners: one of its vertices turns by CORNER_TURN or
+    more (a ramp drawn as chords, SUMO's game/highway ramp: 40-86 m long, turning 6-18
+    degrees at each vertex, no line within 0.5 m of them bends as its curve does); none
+    on a lane whose vertices all turn less (a coarse curve, a kink: smoothed, or refused)."""
+    seg = np.diff(shape, axis=0)
+    turns = [math.atan2(t[0] * u[1] - t[1] * u[0], t[0] * u[0] + t[1] * u[1])
+             for t, u in zip(seg[:-1], seg[1:], strict=True)]
+    if not turns or max(abs(a) for a in turns) < CORNER_TURN:
+        return []
+    sites = []
+    right, left = _borders(route.net, piece, shift)
+    for i, turn in enumerate(turns, start=1):
+        if abs(turn) >= min_turn:
+            sites.append(CornerSite(
+                tuple(shape[i - 1]), tuple(shape[i]), tuple(shape[i]), tuple(shape[i + 1]),
+                f"{piece.edge} vertex {i}", piece.speed, piece.width, shift,
+                max(right if turn < 0.0 else left, 0.0)))
+    return sites
+
+
+def lateral_steps(ref: Track, lead: LeadIn | None, step: float = STEP,
+                  corner_turn: float = CORNER_TURN
                   ) -> tuple[np.ndarray, list[tuple[float, float, float]]]:
     """The reference line with its sideways steps taken out, and the steps: where the
     reference lane on one route edge starts more than `step` m sideways of where it
@@ -337,7 +369,7 @@ def lateral_steps(ref: Track, lead: LeadIn | None, step: float = STEP
     the left); no steps: the line `reference_line` gives."""
     pieces = _reference_pieces(ref, lead)
     edges = [(k, shape) for k, (p, shape) in enumerate(pieces) if not p.internal]
-    jumps = {k1: _signed_jump(s0, s1) for (_, s0), (k1, s1)
+    jumps = {k1: _signed_jump(s0, s1, corner_turn) for (_, s0), (k1, s1)
              in zip(edges[:-1], edges[1:], strict=True)}
     if all(abs(j) <= step for j in jumps.values()):
         return reference_line(ref, lead), []
@@ -403,7 +435,9 @@ def load_road(network: Path | str, edges: Sequence[str] | None = None, *,
 
     A route the frame cannot support with its corners at CORNER_TURN is tried again with
     every junction turning by CORNER_TURN_REFUSED or more rounded as a corner (a ramp
-    drawn straight up to the mainline at 11 degrees): taken if those corners were all
+    drawn straight up to the mainline at 11 degrees), and every vertex inside a lane of
+    the reference line that turns so much (a ramp drawn as coarse chords, `corner_sites`):
+    taken if those corners were all
     that kept it from lying within max_deviation of SUMO's lanes elsewhere (a coarse
     curve stays refused), else the first refusal stands."""
     try:
@@ -444,7 +478,7 @@ def _load_road(network: Path | str, edges: Sequence[str] | None, limits: FrameLi
         # the lanes lie within the widest route edge's width of the reference line
         reach = max(sum(float(ln.getWidth()) for ln in route.net.getEdge(e).getLanes())
                     for e in route.edges)
-        points, steps = lateral_steps(ref, lead)
+        points, steps = lateral_steps(ref, lead, corner_turn=corner_turn)
         where = functools.partial(_where_on, route, line)
         sites = corner_sites(route, ref, lead, corner_turn)
         if corner_turn < CORNER_TURN and len(sites) == len(corner_sites(route, ref, lead)):

@@ -82,33 +82,40 @@ def test_bremens_lanes_stepping_4_8_m_at_a_junction_shift_the_frame() -> None:
 
 
 @pytest.mark.sumo
-def test_bremens_on_ramp_is_driven_from_the_ramp_through_its_step_to_the_merge(
+def test_bremens_ramp_route_is_driven_from_its_ramp_lane_through_its_step_to_the_merge(
         tmp_path: Path) -> None:
-    """game/highway's ramp route from its two-lane edge 201283198: the ramp's left lane
-    steps 1.13 m sideways at junction J1 where it runs on as E0's acceleration lane, so
-    the frame shifts with it over 113 m; the SV drives the ramp from 60 m up it, keeps
-    its lane through the shift and merges (a mandatory change) into the mainline."""
+    """game/highway's `ramp` route from its first edge 153180751, a loop drawn as chords
+    turning 6-18 degrees at its vertices (rounded as corners), whose one lane runs on as
+    the right lane of the two-lane 201283198, which ends on 201283198.145 (a ramp lane:
+    the SV's lane 0); the left lane steps 1.13 m sideways at junction J1 where it runs
+    on as E0's acceleration lane (lane 1), so the frame shifts with it over 113 m. The
+    SV, 55 m along the ramp lane on 201283198, changes out of it (mandatory), keeps its
+    lane through the shift and merges (mandatory) into the mainline."""
     from cosim.run.loop import simulate
     from cosim.scenario.load import scenario_from_dict
 
-    route = ["201283198", "201283198.145", "201283198.145.16", "E0", "191842213"]
+    route = ["153180751", "201283198", "201283198.145", "201283198.145.16", "E0",
+             "191842213"]
     road = load_road(GAME_HIGHWAY, route)
-    assert road.carriageway == 3  # E0: the acceleration lane E0_0 is lane 0
+    assert road.carriageway == 4 and road.ramp_lanes == {0}  # E0_0 is lane 1
     (shift,) = road.shifts
     assert shift.jump == pytest.approx(1.13, abs=0.01)
-    assert road.max_deviation < 0.2
-    doc = {"scenario": {"name": "bremen_ramp", "duration_s": 11.0, "seed": 1},
+    loop = [c for c in road.corners if c.junction.startswith("153180751 vertex")]
+    assert len(loop) == 8 and all(c.deviation <= 1.6 + 1e-9 for c in loop)
+    assert road.max_deviation < 0.05
+    doc = {"scenario": {"name": "bremen_ramp", "duration_s": 12.0, "seed": 1},
            "road": {"network": str(GAME_HIGHWAY), "route": route, "mu": 0.6,
                     "lane_speeds_kmh": [[90, 120], [110, 140], [130, 160]]},
-           "sv": {"edge": "201283198", "lane": 1, "position_m": 60.0, "speed_kmh": 70.0,
+           "sv": {"edge": "201283198", "lane": 0, "position_m": 55.0, "speed_kmh": 60.0,
                   "decision": True}}
     result = simulate(scenario_from_dict(doc, path=tmp_path / "bremen_ramp.toml"))
     m, tr = result.metrics, result.trace
-    assert m["merge_success"] == 1 and m["lane_change_completed"] == 1
-    assert m["final_lane"] == 1
+    assert [p["trigger"] for p in result.plans[:2]] == ["mandatory", "mandatory"]
+    assert m["lane_changes"] == 2 and m["lane_change_status"] == "completed"
+    assert m["merge_success"] == 1 and m["final_lane"] == 2 and m["lane_end_reached"] == 0
     assert m["collisions"] == 0 and m["sumo_events"] == 0
     assert {"201283198", "E0"} <= set(result.edges)
-    assert float(np.max(np.abs(tr["ye_m"]))) < 0.02
+    assert float(np.max(np.abs(tr["ye_m"]))) < 0.03
 
 
 @pytest.mark.sumo
