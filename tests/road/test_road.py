@@ -90,7 +90,9 @@ def test_bremens_ramp_route_is_driven_from_its_ramp_lane_through_its_step_to_the
     the SV's lane 0); the left lane steps 1.13 m sideways at junction J1 where it runs
     on as E0's acceleration lane (lane 1), so the frame shifts with it over 113 m. The
     SV, 55 m along the ramp lane on 201283198, changes out of it (mandatory), keeps its
-    lane through the shift and merges (mandatory) into the mainline."""
+    lane through the shift and merges (mandatory) into the mainline. It starts at 70 km/h,
+    over the lane's 19.44 m/s by less than the network's rounding (which the scenario
+    allows) but more than SUMO's insertion allows: inserted at the limit instead."""
     from cosim.run.loop import simulate
     from cosim.scenario.load import scenario_from_dict
 
@@ -106,7 +108,7 @@ def test_bremens_ramp_route_is_driven_from_its_ramp_lane_through_its_step_to_the
     doc = {"scenario": {"name": "bremen_ramp", "duration_s": 12.0, "seed": 1},
            "road": {"network": str(GAME_HIGHWAY), "route": route, "mu": 0.6,
                     "lane_speeds_kmh": [[90, 120], [110, 140], [130, 160]]},
-           "sv": {"edge": "201283198", "lane": 0, "position_m": 55.0, "speed_kmh": 60.0,
+           "sv": {"edge": "201283198", "lane": 0, "position_m": 55.0, "speed_kmh": 70.0,
                   "decision": True}}
     result = simulate(scenario_from_dict(doc, path=tmp_path / "bremen_ramp.toml"))
     m, tr = result.metrics, result.trace
