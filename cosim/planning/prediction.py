@@ -34,6 +34,7 @@ from cosim.planning.envelope import MODES, Envelope, envelope_margin, paper_map_
 from cosim.planning.trajectory import (
     LANE_CHANGE,
     BoundaryConditions,
+    LaneChangeTrajectory,
     cluster_derivatives,
     standard_positions_at,
     standard_velocities,
@@ -144,10 +145,18 @@ def motion_path(m: LateralMotion, t: Array) -> tuple[Array, Array, Array]:
         moving = (rel > 0) & (rel < m.tau)
         heading = np.where(moving, np.arctan2(m.width / m.tau, m.vx0), 0.0)
         return m.x0 + m.vx0 * rel, m.y0 + m.width * s, heading
-    d = cluster_derivatives(BoundaryConditions(m.vx0, m.vxf, m.width, m.ax0, m.vy0, m.ay0),
-                            np.array([m.tau]), rel, (0, 1))
-    (x, y), (xd, yd) = d[0], d[1]
-    return x[0] + m.x0, y[0] + m.y0, np.arctan2(yd[0], xd[0])
+    tr = _broadcast_trajectory(m)
+    x, y = tr.derivative(t, 0)
+    xd, yd = tr.derivative(t, 1)
+    return x, y, np.arctan2(yd, xd)
+
+
+@functools.lru_cache(maxsize=256)
+def _broadcast_trajectory(m: LateralMotion) -> LaneChangeTrajectory:
+    """The quintic broadcast `m` as a trajectory (eq. 2, 4 with its start): one per
+    broadcast, its coefficients kept while the AVs re-check against it step after step."""
+    return LaneChangeTrajectory(t0=m.t0, tau=m.tau, x0=m.x0, y0=m.y0, vx0=m.vx0, vxf=m.vxf,
+                                width=m.width, ax0=m.ax0, vy0=m.vy0, ay0=m.ay0)
 
 
 # (vx0, vxf, width, vy0) of n C2 TVs -> (stable (n, n_tau) on the grid, a lower bound of

@@ -92,6 +92,23 @@ def test_c3_follows_the_broadcast_reference() -> None:
     assert f.t_end[0] == pytest.approx(2.5)
 
 
+def test_c3_under_way_is_its_trajectory_to_the_last_bit() -> None:
+    """A broadcast that starts under way (a rescue: lateral speed, accelerations) is kept
+    as rows: its trajectory's own positions and heading, the same when predicted again."""
+    mo = LateralMotion(t0=-0.7, tau=3.6, x0=10.0, y0=ROAD.lane_center(0) + 0.4,
+                       vx0=kmh(80), vxf=kmh(85), width=ROAD.lane_width - 0.4, ax0=0.3,
+                       vy0=0.35, ay0=-0.1)
+    ref = LaneChangeTrajectory(-0.7, 3.6, 10.0, ROAD.lane_center(0) + 0.4, kmh(80), kmh(85),
+                               ROAD.lane_width - 0.4, 0.3, 0.35, -0.1)
+    x, y = ref.position(T_REL)
+    xd, yd = ref.derivative(T_REL, 1)
+    for _ in range(2):
+        f = predict_lazy([msg(motion=mo, intention=1, lane=0)], 0.0, T_REL, ROAD, VEH, GRID)
+        assert f.categories == ("C3",) and f.row_of[0] == 0
+        for got, want in ((f.sx[0], x), (f.sy[0], y), (f.sh[0], np.arctan2(yd, xd))):
+            assert got.tobytes() == want.tobytes()
+
+
 def test_c3_linear_profile() -> None:
     mo = LateralMotion(t0=0.0, tau=3.0, x0=0.0, y0=1.875, vx0=20.0, vxf=20.0, width=3.75,
                        profile="linear")
