@@ -71,7 +71,7 @@ METRIC_DOCS: dict[str, str] = {
     "min_ttc_s": "smallest along-lane time-to-collision (s; inf: never closing on anyone)",
     "follower_max_decel_mps2": "largest deceleration of the SV's new follower in the target "
     "lane (the nearest TV behind the SV there when the SV's centre enters that lane; its "
-    "speed from SUMO's positions step to step), from the start of the change until 3 s after "
+    "speed as SUMO reports it, step to step), from the start of the change until 3 s after "
     "it settles, over all lane changes (m/s^2; NaN: no lane change with a follower)",
     "max_abs_lat_accel_mps2": "largest |body lateral acceleration| (m/s^2)",
     "max_abs_long_accel_mps2": "largest |body longitudinal acceleration| (m/s^2)",
@@ -274,29 +274,19 @@ class MetricsRow:
         i = int(np.argmax(behind))
         return enter, str(ids[i]), float(self.tracks.lengths[k][i])
 
-    def _speed(self, tracks: dict[str, tuple[Array, Array, Array]], vid: str
-               ) -> tuple[Array, Array, Array]:
-        """A TV's sample times, positions along the road and speeds over each step (m/s:
-        SUMO's x += v dt; NaN across a gap in its samples), speed k from sample k to k+1."""
-        tt, xx, _ = tracks[vid]
-        dt = np.diff(tt)
-        step = float(np.min(dt)) if dt.size else math.nan
-        v = np.where(np.abs(dt - step) < 1e-9, np.diff(xx) / np.where(dt > 0, dt, 1.0), np.nan)
-        return tt, xx, v
-
     def follower_decel(self, trace: dict[str, Array], starts: list[float],
                        targets: list[float], ends: list[float], durations: Array) -> float:
         """m/s^2, `follower_max_decel_mps2` (METRIC_DOCS; metrics.follower_max_decel)
         over the lane changes starting at `starts` toward the lane centres `targets`."""
-        tracks: dict[str, tuple[Array, Array, Array]] | None = None
+        tracks: dict[str, tuple[Array, Array, Array, Array]] | None = None
         worst = math.nan
         for s, y_target, e, d in zip(starts, targets, ends, durations, strict=True):
             _, follower, _ = self._new_follower(trace, s, y_target, e)
             if follower is None:
                 continue  # never entered, nobody near then, or no follower
-            tracks = tracks if tracks is not None else self.tracks.result()
-            tt, _, v = self._speed(tracks, follower)
-            decel = mx.follower_max_decel(tt[1:], v, s, s + d)
+            tracks = tracks if tracks is not None else self.tracks.by_vehicle()
+            tt, _, _, v = tracks[follower]
+            decel = mx.follower_max_decel(tt, v, s, s + d)
             if math.isfinite(decel):
                 worst = decel if math.isnan(worst) else max(worst, decel)
         return worst
@@ -305,7 +295,7 @@ class MetricsRow:
         """The entry columns (metrics.ENTRY_DOCS) over the lane changes of `done`."""
         t = trace["t_s"]
         m = dict.fromkeys(mx.ENTRY_COLUMNS, math.nan)
-        tracks: dict[str, tuple[Array, Array, Array]] | None = None
+        tracks: dict[str, tuple[Array, Array, Array, Array]] | None = None
         for s, y_target, e in zip(done.starts, done.targets, done.ends, strict=True):
             enter, follower, length = self._new_follower(trace, s, y_target, e)
             if math.isnan(enter):
@@ -314,13 +304,13 @@ class MetricsRow:
             m["entry_min_ttc_s"] = float(np.nanmin([m["entry_min_ttc_s"], ttc]))
             gap, time_gap, need = math.inf, math.inf, math.nan
             if follower is not None:
-                tracks = tracks if tracks is not None else self.tracks.result()
-                tt, xx, v = self._speed(tracks, follower)
+                tracks = tracks if tracks is not None else self.tracks.by_vehicle()
+                tt, xx, _, v = tracks[follower]
                 k = int(np.clip(np.searchsorted(tt, enter - 1e-9), 0, len(tt) - 1))
                 sv_x = float(np.interp(enter, t, trace["s_m"]))
                 sv_v = float(np.interp(enter, t, trace["vx_mps"]))
                 gap = sv_x - float(xx[k]) - 0.5 * (self.sv_length + length)
-                speed = float(v[min(k, len(v) - 1)]) if v.size else math.nan
+                speed = float(v[k])
                 time_gap = gap / speed if speed > 0.0 else math.inf
                 need = (mx.follower_needed_decel(gap, speed, sv_v) if math.isfinite(speed)
                         else math.nan)

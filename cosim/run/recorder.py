@@ -78,32 +78,41 @@ COLUMN = {name: i for i, name in enumerate(TRACE_COLUMNS)}
 
 
 class Tracks:
-    """TV positions near the SV, appended per step as arrays (for Fig. 16)."""
+    """TV positions near the SV, appended per step as arrays (for Fig. 16), with SUMO's
+    speed of each (the metrics' follower braking: positions along the road frame jump
+    where it departs from SUMO's lanes, at curves and junctions; SUMO's speed does not)."""
 
     def __init__(self) -> None:
         self.chunks: list[tuple[float, tuple[str, ...], Array, Array]] = []
         self.lengths: list[Array] = []  # m, the TVs' body lengths, one array per chunk
+        self.speeds: list[Array] = []  # m/s, SUMO's speed along the lane, one per chunk
 
     def add(self, t: float, snap: TrafficSnapshot) -> None:
         if len(snap):
             self.chunks.append((t, snap.ids, snap.x, snap.y))  # snapshots are never modified
             self.lengths.append(snap.length)
+            self.speeds.append(snap.speed)
 
-    def result(self) -> dict[str, tuple[Array, Array, Array]]:
-        """id -> (t, x, y) arrays in time order."""
+    def by_vehicle(self) -> dict[str, tuple[Array, Array, Array, Array]]:
+        """id -> (t, x, y, speed) arrays in time order."""
         if not self.chunks:
             return {}
         ids = np.array([vid for _, chunk_ids, _, _ in self.chunks for vid in chunk_ids])
         t = np.concatenate([np.full(len(c[1]), c[0]) for c in self.chunks])
         x = np.concatenate([c[2] for c in self.chunks])
         y = np.concatenate([c[3] for c in self.chunks])
+        v = np.concatenate(self.speeds)
         names, inverse = np.unique(ids, return_inverse=True)
         order = np.argsort(inverse, kind="stable")  # by vehicle, in time order within
         bounds = np.searchsorted(inverse[order], np.arange(names.size + 1))
         return {
-            str(name): (t[order[a:b]], x[order[a:b]], y[order[a:b]])
+            str(name): (t[order[a:b]], x[order[a:b]], y[order[a:b]], v[order[a:b]])
             for name, a, b in zip(names, bounds[:-1], bounds[1:], strict=True)
         }
+
+    def result(self) -> dict[str, tuple[Array, Array, Array]]:
+        """id -> (t, x, y) arrays in time order."""
+        return {vid: (t, x, y) for vid, (t, x, y, _) in self.by_vehicle().items()}
 
 
 class Recorder:
