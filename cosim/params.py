@@ -69,6 +69,9 @@ class RoadParams:
     # (s_lo m, s_hi m, R m): where the route rounds a junction drawn as a corner and the
     # radius its lane takes there (cosim.road.corners): the SV slows to its curve speed
     corners: tuple[tuple[float, float, float], ...] = ()
+    # per lane, (s_lo m, s_hi m, v m/s): where the route's speed limit v is below the
+    # lane's band (cosim.driving.speed_limits): the SV keeps the limit there
+    speed_limits: tuple[tuple[tuple[float, float, float], ...], ...] = ()
 
     @property
     def n_lanes(self) -> int:

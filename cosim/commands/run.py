@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
         "--plant": ("plant", args.plant), "--controller": ("controller", args.controller),
         "--policy": ("policy", args.policy), "--seed": ("seed", args.seed)})
     warn_near_critical_speed(scenario)  # one line on stderr if the SV may get near it
-    for note in route_notes(scenario):  # signals and lower limits the SV does not obey
+    for note in route_notes(scenario):  # signals the SV does not obey
         print(f"cosim run: {scenario.name}: {note}", file=sys.stderr)
     out = args.out if args.out is not None else variant_folder(RESULTS, scenario.name, {
         "controller": overridden(base.sv.controller, scenario.sv.controller),

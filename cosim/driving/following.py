@@ -12,6 +12,7 @@ from cosim.driving.base import DrivingContext
 from cosim.driving.curve_speed import CornerSpeeds
 from cosim.driving.lane_end import stop_accel
 from cosim.driving.rule import Decision, DecisionConfig, decide
+from cosim.driving.speed_limits import SpeedLimits
 from cosim.driving.view import SVView, TrafficView
 from cosim.params import STANDSTILL_SPEED, G
 from cosim.planning.trajectory import LaneChangeTrajectory
@@ -62,9 +63,18 @@ class CarFollowing:
         # its speed at the route's corners (none: every route without one)
         self.corners = (CornerSpeeds(road.corners, ctx.mu, ctx.sv.curve_lat_accel)
                         if road.corners else None)
+        # the route's limits below the lanes' bands (none: every route without one)
+        self.limits = SpeedLimits(road.speed_limits) if road.speed_limits else None
         self.s = math.nan  # m, the SV's s when it was last seen (`view`)
+        self.lane = 0  # the SV's lane when it was last seen (`view`)
 
     def desired_speed(self, lane: int) -> float:
+        if self.limits is None:
+            return self._wanted_speed(lane)
+        limit = self.limits.at(lane, self.s + 0.5 * self.sv_length)
+        return min(self._wanted_speed(lane), limit)
+
+    def _wanted_speed(self, lane: int) -> float:
         if self.sv.desired_speed is not None:
             return self.sv.desired_speed
         if self.sv.decision:
@@ -75,8 +85,9 @@ class CarFollowing:
         """The SV as the decision rules see it: at the reference's speed, wanting its
         desired speed in the lane it is in."""
         self.s = sv.x
+        self.lane = self.lanes.lane_of(sv.y)
         return SVView(sv.x, sv.y, self.v_ref, self.sv_length,
-                      self.desired_speed(self.lanes.lane_of(sv.y)), self.sv_width, self.accel)
+                      self.desired_speed(self.lane), self.sv_width, self.accel)
 
     def update(self, sv: SVState, scene: Scene, allow_change: bool,
                stop_gap: float = math.inf) -> Decision:
@@ -107,6 +118,9 @@ class CarFollowing:
         if self.corners is not None:
             half = 0.5 * self.sv_length
             accel = min(accel, self.corners.accel_cap(self.s + half, self.s - half, self.v_ref))
+        if self.limits is not None:
+            accel = min(accel, self.limits.accel_cap(self.lane, self.s + 0.5 * self.sv_length,
+                                                     self.v_ref))
         lo = -min(self.cfg.max_brake, FOLLOW_GRIP * self.mu * G)
         step = MAX_FOLLOW_JERK * self.dt
         self.wanted = max(accel, lo)

@@ -46,6 +46,9 @@ from cosim.road.road import Road, load_road
 from cosim.road.tracks import TrackPiece
 
 ROUTE_ID = "highway_route"  # SUMO's id of the whole route (of the rest from edge k: @k)
+# m/s: a band's top above a limit by less is the same speed (netconvert writes 120 km/h
+# as 33.33 m/s)
+SPEED_TOLERANCE = 0.5 / 3.6
 SAMPLE_STEP = 2.0  # m, lane positions sampled along a curved lane to map s to them
 
 
@@ -228,11 +231,30 @@ def road_params(route_road: Road, base: RoadParams | None = None,
     zones = route_road.corner_zones()
     begins = tuple(max([t.begin] + [hi for lo, hi, _ in zones if lo <= t.begin <= hi])
                    if t.track.first_edge > 0 else -math.inf for t in lanes)
-    return RoadParams(lane_width=width, speed_bands=expand_bands(route_road, base.speed_bands),
+    bands = expand_bands(route_road, base.speed_bands)
+    limits = speed_limits(lanes, bands)
+    return RoadParams(lane_width=width, speed_bands=bands,
                       mu=base.mu, y_right=-below * width if below else 0.0,
                       lane_ends=ends if any(math.isfinite(e) for e in ends) else (),
                       lane_begins=begins if any(math.isfinite(b) for b in begins) else (),
-                      corners=route_road.corner_zones())
+                      corners=route_road.corner_zones(),
+                      speed_limits=limits if any(limits) else ())
+
+
+def speed_limits(lanes: Sequence[LaneTable], bands: Sequence[tuple[float, float]]
+                 ) -> tuple[tuple[tuple[float, float, float], ...], ...]:
+    """Per SV lane, the (s_lo m, s_hi m, v m/s) of its route edges whose SUMO limit v is
+    below the top of its band by SPEED_TOLERANCE or more (junction lanes take the limits
+    of the edges either side). Lanes without a band of their own (a count the scenario
+    rules refuse) have none."""
+    if len(bands) != len(lanes):
+        return ()
+    out = []
+    for table, (_, top) in zip(lanes, bands, strict=True):
+        out.append(tuple((float(lo), float(hi), float(v)) for lo, hi, v, p in zip(
+            table.s_start, table.s_end, table.speed, table.track.pieces, strict=True)
+            if not p.internal and v < top - SPEED_TOLERANCE))
+    return tuple(out)
 
 
 def exit_lanes(route_road: Road) -> tuple[int, ...]:

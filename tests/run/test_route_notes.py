@@ -1,5 +1,5 @@
 """The notes `cosim run` gives before a run on what our SV does not obey on its route:
-a traffic light ahead of it, a speed limit below its lane's band."""
+a traffic light ahead of it (a speed limit below its lane's band it keeps: no note)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from tests.road.handdrawn import netconvert
 ROOT = project_root()
 
 
-def test_a_signal_and_a_lower_limit_ahead_are_named_and_none_behind(tmp_path: Path) -> None:
+def test_a_signal_ahead_is_named_and_none_behind(tmp_path: Path) -> None:
     net = netconvert(tmp_path, '<nodes><node id="A" x="0" y="0"/>'
                      '<node id="B" x="800" y="0" type="traffic_light"/>'
                      '<node id="C" x="1400" y="0"/><node id="D" x="3000" y="0"/></nodes>',
@@ -29,9 +29,7 @@ def test_a_signal_and_a_lower_limit_ahead_are_named_and_none_behind(tmp_path: Pa
     notes = route_notes(scenario_from_dict(doc, tmp_path / "sc.toml"))
     assert notes == [
         "the SV passes traffic light 'B' between AB and BC without stopping: it stops for "
-        "no signal (SUMO's vehicles do)",
-        "lane 1's band goes up to 100 km/h, above the speed limit of BC 80 km/h: the SV "
-        "keeps its band there (SUMO's vehicles keep the limit)"]  # lane 0's band is BC's
+        "no signal (SUMO's vehicles do)"]  # BC's lower limit the SV keeps
     # past the signal and the slow edge, or driven by SUMO: nothing to say
     doc["sv"].update(edge="CD", position_m=100.0)
     assert route_notes(scenario_from_dict(doc, tmp_path / "sc.toml")) == []
