@@ -37,6 +37,7 @@ from cosim.driving.lane_end import PlanLimits, SVLaneEnds
 from cosim.driving.plans import NOT_ADJACENT, PlannerCalls, Trigger, plan_row, request_row
 from cosim.driving.recheck import GapRecheck, Recheck, Rescue
 from cosim.driving.rule import DecisionConfig
+from cosim.driving.speed_limits import SpeedLimits
 from cosim.planning.trajectory import LaneChangeTrajectory
 
 if TYPE_CHECKING:
@@ -158,6 +159,10 @@ class Manoeuvre:
         self.calls = PlannerCalls(ctx.planner, ctx.sv.occupant, max_tau)
         self.merge_max_tau = merge_max_tau  # s, a mandatory change's longest (None: max_tau)
         self.ends = SVLaneEnds(ctx.lanes, ctx.sv_length)  # the SV's lane-end reasoning
+        self.sv_length = ctx.sv_length
+        # the route's limits below the lanes' bands (none: every route without one)
+        road = ctx.lanes.road
+        self.limits = SpeedLimits(road.speed_limits) if road.speed_limits else None
         self.recheck = Recheck(self.calls, self.ends, ctx.lanes, ctx.mu,
                                ctx.recheck_interval, ctx.replanning, ctx.sv_length,
                                gap_rules, merge_max_tau)
@@ -249,6 +254,10 @@ class Manoeuvre:
         if not self.ends.begun(target, sv.x):
             return  # a lane that begins ahead: asked again once it runs beside the SV
         lane = self.lanes.lane_of(sv.y)
+        if self.limits is not None:
+            vxf = self.limits.change_end_speed(
+                target, sv.x + 0.5 * self.sv_length, sv.vx,
+                self.lanes.end_speed(lane, target) if vxf is None else vxf)
         limits = self.ends.limits(lane, sv, target, vxf, trigger == Trigger.MANDATORY,
                                   self.merge_max_tau)
         # the paper's boundary conditions (x'' = y' = y'' = 0 at the start): the SV plans

@@ -10,6 +10,8 @@ import math
 
 from cosim.driving.curve_speed import CORNER_SETTLE_S
 
+CHANGE_REACH = 5.0  # s, a lane change's end speed keeps the limits its target lane has
+# within this time at the SV's speed (longer than most changes: 2-4 s)
 LIMIT_DECEL = 1.0  # m/s^2, the braking that brings the SV down to a lower limit ahead;
 # tuned: docs/tuned_constants.md
 
@@ -28,6 +30,20 @@ class SpeedLimits:
         """m/s, the limit in `lane` with the SV's front at s_front (inf: its band's)."""
         return min((v for lo, hi, v in self._lane(lane) if lo <= s_front < hi),
                    default=math.inf)
+
+    def lowest(self, lane: int, s_lo: float, s_hi: float) -> float:
+        """m/s, the lowest limit in `lane` on [s_lo, s_hi] (m; inf: none)."""
+        return min((v for lo, hi, v in self._lane(lane) if lo <= s_hi and s_lo < hi),
+                   default=math.inf)
+
+    def change_end_speed(self, target: int, s_front: float, speed: float,
+                         wanted: float) -> float:
+        """m/s, the end speed of a lane change to `target` that begins at `speed` (m/s)
+        with the SV's front at s_front (m) and would end at `wanted`: at most the lowest
+        limit of the target lane within CHANGE_REACH at that speed (a change flown at the
+        band's speed would run over a lower limit until it ends)."""
+        return min(wanted, self.lowest(target, s_front,
+                                       s_front + max(speed, 0.0) * CHANGE_REACH))
 
     def accel_cap(self, lane: int, s_front: float, speed: float) -> float:
         """m/s^2, the most the SV may accelerate at `speed` (m/s) in `lane` with its front

@@ -97,9 +97,9 @@ def test_the_sv_leaves_a_ramp_lane_that_ends_then_merges_from_the_acceleration_l
     ramp2's left lane once that runs beside it, keeps it onto the acceleration lane and
     merges into the mainline once the mainline runs beside it: two changes, both
     completed, the first before the ramp lane's end, the second before the
-    acceleration lane's."""
+    acceleration lane's. The ramp's 80 km/h is kept while the SV's front is on it."""
     network = build_dropped(tmp_path)
-    doc = {"scenario": {"name": "dropped_ramp_lane", "duration_s": 11.5, "seed": 1},
+    doc = {"scenario": {"name": "dropped_ramp_lane", "duration_s": 13.0, "seed": 1},
            "road": {"network": str(network), "route": ["onramp", "ramp2", "acc", "b"],
                     "lane_speeds_kmh": [[90, 110], [110, 120]]},
            "sv": {"edge": "onramp", "lane": 0, "position_m": 235.0, "speed_kmh": 80.0,
@@ -117,3 +117,8 @@ def test_the_sv_leaves_a_ramp_lane_that_ends_then_merges_from_the_acceleration_l
     assert m["final_lane"] == 2 and m["lane_end_reached"] == 0
     assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
     assert float(np.max(np.abs(tr["ye_m"]))) < 0.02
+    front, vx = s + half, np.asarray(tr["vx_mps"])
+    for k, zones in enumerate(road.speed_limits):
+        for lo, hi, v in zones:
+            on = (lane == k) & (front >= lo) & (front < hi)
+            assert float(np.max(vx[on], initial=0.0)) <= v + 0.3

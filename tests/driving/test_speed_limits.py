@@ -36,6 +36,10 @@ def test_the_cap_brakes_before_a_lower_limit_and_closes_on_it_inside() -> None:
     assert limits.accel_cap(0, 600.0, V80 + 1.0) < 0.0  # inside: down to the limit
     assert limits.accel_cap(0, 850.0, V100) == math.inf  # after it: free
     assert limits.accel_cap(0, 450.0, V80) == math.inf  # at the limit already
+    # a lane change into the lane ends at its limit if it reaches it within CHANGE_REACH
+    assert limits.change_end_speed(0, 400.0, V100, 30.0) == V80
+    assert limits.change_end_speed(0, 0.0, V100, 30.0) == 30.0  # too far ahead
+    assert limits.change_end_speed(1, 400.0, V100, 30.0) == 30.0
 
 
 @pytest.fixture(scope="module")
