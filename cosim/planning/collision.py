@@ -501,6 +501,16 @@ def _sat(ax: float, ay: float, ca: float, sa: float, hla: float, hwa: float, bx:
 
 
 @njit
+def _turned(r: float, rate: float, span: float) -> float:
+    """m, the most a point r from a body's centre moves as the body turns at up to `rate`
+    (rad/s) for `span` s: the chord 2 r sin(dtheta / 2), at most r dtheta and 2 r. The
+    heading-rate bound of a lane change from (near) rest grows without limit as its start
+    speed falls (`trajectory.standard_bounds`); the chord keeps such a body's growth to
+    its own size."""
+    return r * min(rate * span, 2.0)
+
+
+@njit
 def _sat_moved(ax: float, ay: float, ca: float, sa: float, hla: float, hwa: float, bx: float,
                by: float, cb: float, sb: float, hlb: float, hwb: float, m: float, mx: float,
                my: float, turn: float) -> bool:
@@ -630,8 +640,8 @@ def _overlaps_at(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: fl
 
 @njit
 def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, lo: float,
-            hi: float, margin: float, acc: float, rot: float, vtau: float, tau_rate: float,
-            vjump: float, extra: float) -> bool:
+            hi: float, margin: float, acc: float, rate_a: float, rate_b: float, vtau: float,
+            tau_rate: float, vjump: float, extra: float) -> bool:
     """Whether candidate c overlaps hypothesis h at some time in [lo, hi] and duration in
     [tau_a, tau_b] (nan: a stored row; equal: that duration only).
 
@@ -642,14 +652,16 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
     (every centre lies between them) plus `tau_rate` (m/s, the corners' turning per
     second of duration) times the range; over the times within d of tm, d times the
     relative speed at tm (widened by `vtau` (m/s per s of duration) times the range,
-    and by `vjump`, m/s, a row's change of slope at a sample) and `rot` (m/s, both
-    bodies' corners turning), plus acc d^2 / 2 (acc: m/s^2, both accelerations); and
+    and by `vjump`, m/s, a row's change of slope at a sample) and the corners' turning
+    (`rate_a`, `rate_b`: rad/s, each body's heading rate; `_turned`), plus acc d^2 / 2
+    (acc: m/s^2, both accelerations); and
     `extra`, m, how far a stored row may be from its linear pieces. A cell whose grown
     test overlaps is split in the dimension that moves more, until a real overlap
     (True) or every piece clears (False); a piece whose bound is below RESOLUTION and
     still overlaps counts as an overlap, and so does a pair not settled within
     `_MAX_CELLS` cells."""
     hla, hwa, hlb, hwb = sv.half_l, sv.half_w, tv.half_l[h], tv.half_w[h]
+    r_a, r_b = math.hypot(hla, hwa), math.hypot(hlb, hwb)
     # (closed forms evaluated from scalars: no arrays passed in the loop)
     p = sv.par
     general, tau_c = sv.cx.shape[0] > 0, sv.tau[c]
@@ -682,14 +694,15 @@ def _refine(sv: SVSide, c: int, tv: TVSide, h: int, tau_a: float, tau_b: float, 
             ex, ey, ce, se, _, _ = _closed_pose(v0, vxf, w, tb, x0, y0, tm - start)
             if _sat(ax, ay, ca, sa, hla, hwa, ex, ey, ce, se, hlb, hwb, margin):
                 return True
-            tx, ty, t_turn = 0.5 * abs(ex - bx), 0.5 * abs(ey - by), tau_rate * span
+            tx, ty, t_turn = 0.5 * abs(ex - bx), 0.5 * abs(ey - by), min(tau_rate * span,
+                                                                          2.0 * r_b)
             bx, by = 0.5 * (bx + ex), 0.5 * (by + ey)  # between them lies every centre
         half = 0.5 * (t1 - t0)
         widen = vtau * span + vjump
         curve = 0.5 * acc * half * half
         mx = half * (abs(bvx - avx) + widen) + curve  # the times' part
         my = half * (abs(bvy - avy) + widen) + curve
-        m_turn = half * rot
+        m_turn = _turned(r_a, rate_a, half) + _turned(r_b, rate_b, half)
         if not _sat_moved(ax, ay, ca, sa, hla, hwa, bx, by, cb, sb, hlb, hwb, margin,
                           tx + mx, ty + my, t_turn + m_turn + extra):
             continue
@@ -790,10 +803,13 @@ def _phase_bounds(sv: SVSide, tv: TVSide, margin: float, col: bool) -> tuple[
         else:
             tv_b[h, 5], tv_b[h, 6] = 0.0, 0.0
         # a cell's durations, seen from its h end
-        d_tau = (centre_tau + turn_tau) * (lc[h + 1]["tau"] - lc[h]["tau"]) if cell[h] else 0.0
-        speed = (math.hypot(max(s_hi - v_lo, v_hi - s_lo, 0.0), s_yd + yd)
-                 + r_sv * s_rate + r_tv * rate)
-        grow = 0.0 if col else margin + 0.5 * (half * speed + d_tau + extra)
+        d_tau = 0.0
+        if cell[h]:
+            span = lc[h + 1]["tau"] - lc[h]["tau"]
+            d_tau = centre_tau * span + min(turn_tau * span, 2.0 * r_tv)
+        speed = math.hypot(max(s_hi - v_lo, v_hi - s_lo, 0.0), s_yd + yd)
+        turning = _turned(r_sv, s_rate, half) + _turned(r_tv, rate, half)
+        grow = 0.0 if col else margin + 0.5 * (half * speed + turning + d_tau + extra)
         g = grow * 2.0 * math.sqrt(2.0)
         sin_tv = math.sin(min(head, 0.5 * math.pi))
         rr = r_sv + r_tv + g
@@ -992,8 +1008,9 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                         mx = (far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
                               + 0.5 * abs(gx[e] - gx[ra]) + _BOX_TOLERANCE)
                         my = far * (sv_b[c, 2] + yd) + 0.5 * abs(gy[e] - gy[ra]) + _BOX_TOLERANCE
-                        turn = (far * (r_sv * sv_b[c, 3] + rad[ra, 0] * rate)
-                                + tau_rate * (lc[e]["tau"] - lc[ra]["tau"]))
+                        turn = (_turned(r_sv, sv_b[c, 3], far) + _turned(rad[ra, 0], rate, far)
+                                + min(tau_rate * (lc[e]["tau"] - lc[ra]["tau"]),
+                                      2.0 * rad[ra, 0]))
                         bx, by = 0.5 * (gx[ra] + gx[e]), 0.5 * (gy[ra] + gy[e])
                         reach = (r_sv_m + rad[ra, 1] + mx + my + math.sqrt(2.0) * turn
                                  + _BOX_TOLERANCE)
@@ -1053,7 +1070,8 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                             far = max(tk - w_lo, p_hi - tk)  # (at the ends: not centred)
                             mx = far * max(sv_b[c, 1] - v_lo, v_hi - sv_b[c, 0], 0.0)
                             my = far * (sv_b[c, 2] + yd)
-                            turn = far * (r_sv * sv_b[c, 3] + r_tv * rate) + extra
+                            turn = (_turned(r_sv, sv_b[c, 3], far) + _turned(r_tv, rate, far)
+                                    + extra)
                             bx, by = gx[h], gy[h]
                             tau_a, tau_b, tau_rate, vjump = np.nan, np.nan, 0.0, 0.0
                             if row_of[h] >= 0 and extra > 0.0:
@@ -1068,7 +1086,7 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                                 tau_rate = tv_b[h, 4]
                                 mx += 0.5 * abs(gx[nxt] - bx)
                                 my += 0.5 * abs(gy[nxt] - by)
-                                turn += tau_rate * (tau_b - tau_a)
+                                turn += min(tau_rate * (tau_b - tau_a), 2.0 * r_tv)
                                 bx, by = 0.5 * (bx + gx[nxt]), 0.5 * (by + gy[nxt])
                             # the circumcircles of `_sat_moved`'s rectangles (each corner
                             # of B moves by at most mx + my, and sqrt(2) turn)
@@ -1089,9 +1107,8 @@ def _first_overlaps(t: Array, sv: SVSide, tv: TVSide, margin: float,
                                     n_alive -= 1
                                     break
                                 hit = _refine(sv, c, tv, h, tau_a, tau_b, w_lo, p_hi, margin,
-                                              sv_b[c, 4] + tv_b[h, 5],
-                                              r_sv * sv_b[c, 3] + r_tv * rate, tv_b[h, 6],
-                                              tau_rate, vjump, extra)
+                                              sv_b[c, 4] + tv_b[h, 5], sv_b[c, 3], rate,
+                                              tv_b[h, 6], tau_rate, vjump, extra)
                     if hit:
                         first_k[c], first_h[c] = k, h
                         alive[c] = False

@@ -386,3 +386,39 @@ def test_a_merge_from_a_creep_beside_a_creeping_queue_is_planned_at_once() -> No
                         **rec["kwargs"])
     assert plan.trajectory is None  # no gap beside the queue
     assert {r.reason for r in plan.rejections} >= {"collision"}
+
+
+def test_a_creeping_tv_changing_lanes_grows_its_cells_by_its_size_at_most() -> None:
+    """A TV creeping at 2 cm/s, predicted to change lanes from rest (C2 in closed form):
+    its heading-rate bound is huge (the heading of a path from near rest swings at
+    once), but a corner moves at most a chord of its circle, so the check's reach stays
+    within the bodies' size (a TV 70 m behind is cleared at once, not refined), and the
+    verdicts are those of its materialised rows."""
+    from cosim.planning import collision
+    from cosim.planning.trajectory import LANE_CHANGE, lane_change_state
+
+    t = np.arange(0.0, 12.001, 0.05)
+    durations = np.arange(2.1, 10.001, 0.05)
+    sv = SVCandidates(np.arange(2.25, 10.001, 0.5), 8.9, 12.8, 3.75, 182.0, 5.625)
+    sv_hor = sv.taus + 2.0
+    for x_tv, expect_hit in ((111.5, False), (178.0, True)):
+        lc = np.zeros(durations.size, dtype=LANE_CHANGE)
+        lc["v0"], lc["vxf"], lc["width"], lc["tau"] = 0.0229, 4.25, 3.75, durations
+        lc["x0"], lc["y0"], lc["start"] = x_tv, 5.625, 0.0
+        n_h = durations.size
+        closed = TVHypotheses(np.zeros((0, t.size)), np.zeros((0, t.size)), np.zeros((0, t.size)),
+                              np.full(n_h, -1), lc, np.zeros(n_h, dtype=bool),
+                              np.full(n_h, 4.32), np.full(n_h, 1.8), np.array([0, n_h]))
+        tv_hor = durations + 2.0
+        side = closed.side(tv_hor, 0.0, 0.05)
+        bounds = collision._phase_bounds(sv.side(t, 4.32, 1.8, sv_hor), side, 0.02, False)
+        assert bounds[6].max() < 15.0  # g_lim_x, m (3544 m from the rate bound alone)
+        rows = np.array([[lane_change_state(*q[["v0", "vxf", "width", "tau", "x0", "y0",
+                                                "start"]].tolist(), tk)[:3] for tk in t]
+                         for q in lc])
+        stored = replace(TVHypotheses.from_rows(rows[..., 0], rows[..., 1], rows[..., 2], 4.32,
+                                                1.8), groups=closed.groups)
+        a, b = (check_candidates(t, sv, VehicleParams(), sv_hor, tv, tv_hor, margin=0.02)
+                for tv in (closed, stored))
+        np.testing.assert_array_equal(a.collides, b.collides)
+        assert a.collides.any() == expect_hit
