@@ -20,7 +20,6 @@ Output: `TVFutures`, arrays over (hypothesis, time) of centre x, y and heading.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
@@ -322,7 +321,7 @@ def predict_lazy(
                                       mo.x0, mo.y0, mo.t0 - t_plan))
                 meta(i, 1, mo.tau, mo.t0 + mo.tau)
             else:
-                add(i, *_INSTANT.motion(mo, t_plan, t), mo.tau, mo.t0 + mo.tau)
+                add(i, *motion_path(mo, t), mo.tau, mo.t0 + mo.tau)
         elif cat == Category.C2 and (lanes := c2_lanes(m, road)) is not None:
             c2.append((i, m, *lanes))
         else:
@@ -416,7 +415,7 @@ def predict_lazy(
         sx[r:r + k], sy[r:r + k], sh[r:r + k] = b.x, b.y, b.heading
     if c1:  # every C1 TV at once
         rows = np.array([r for r, _ in c1])
-        sx[rows] = _INSTANT.c1([m for _, m in c1], t_plan, t)
+        sx[rows] = constant_acceleration([m for _, m in c1], t)[0]
         sy[rows] = np.array([m.y for _, m in c1])[:, None]
         sh[rows] = np.array([m.heading for _, m in c1])[:, None]
     return LazyFutures(
@@ -453,57 +452,6 @@ class _Closed(NamedTuple):
     x0: float  # m
     y0: float  # m
     start: float  # s, relative to the planning instant
-
-
-class _InstantRows:
-    """The stored rows of one planning instant, kept for every check made then: the
-    AVs of a fleet that check at one instant predict the same TV from the same message
-    (a C1 TV's constant acceleration, a C3 broadcast's path). Each sample is computed
-    on its own (elementwise, or one polynomial per sample), so a row on a longer grid
-    starts with a shorter grid's: the same numbers to the last bit. Keyed by the values
-    the row is computed from; all dropped when the instant or the grid changes."""
-
-    def __init__(self) -> None:
-        self.t_plan = math.nan
-        self.t = np.zeros(0)  # s, the longest grid of the instant so far
-        self.rows: dict[object, Array] = {}  # key -> (k, n) rows on a prefix of self.t
-
-    def _grid(self, t_plan: float, t: Array) -> None:
-        """Keep the rows when t is a prefix of the kept grid or extends it."""
-        n, kept = t.size, self.t.size
-        if t_plan == self.t_plan:
-            if kept >= n and np.array_equal(self.t[:n], t):
-                return
-            if n > kept and np.array_equal(t[:kept], self.t):
-                self.t = t.copy()
-                return
-        self.t_plan, self.t = t_plan, t.copy()
-        self.rows.clear()
-
-    def c1(self, msgs: Sequence[V2VMessage], t_plan: float, t: Array) -> Array:
-        """m, (len(msgs), t.size) `constant_acceleration`'s x of each message at t."""
-        self._grid(t_plan, t)
-        n = t.size
-        keys = [(m.t, m.speed, m.accel, m.x) for m in msgs]
-        got = [self.rows.get(k) for k in keys]
-        miss = [j for j, r in enumerate(got) if r is None or r.shape[-1] < n]
-        if miss:
-            x = constant_acceleration([msgs[j] for j in miss], t)[0]
-            for row, j in zip(x, miss, strict=True):
-                got[j] = self.rows[keys[j]] = row
-        return np.array([r[:n] for r in got])  # type: ignore[index]
-
-    def motion(self, m: LateralMotion, t_plan: float, t: Array) -> tuple[Array, Array, Array]:
-        """`motion_path(m, t)`."""
-        self._grid(t_plan, t)
-        n = t.size
-        got = self.rows.get(m)
-        if got is None or got.shape[-1] < n:
-            got = self.rows[m] = np.array(motion_path(m, t))
-        return got[0, :n], got[1, :n], got[2, :n]
-
-
-_INSTANT = _InstantRows()
 
 
 # (start, durations, t_plan) -> (rel, x, y, heading) of `_moving_rows`: the last few

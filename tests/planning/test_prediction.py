@@ -174,33 +174,3 @@ def test_moving_c2_kept_for_the_instant_gives_the_fresh_numbers() -> None:
         for got, expected in zip((f.tau, f.sx, f.sy, f.sh), want, strict=True):
             assert got.tobytes() == expected.tobytes()
     assert prediction_module._MOVING and planner_module._TV_ENVELOPES
-
-
-def test_c1_and_c3_rows_kept_for_the_instant_give_the_fresh_numbers(monkeypatch) -> None:
-    """C1 TVs and C3 broadcasts read as rows, predicted again at the same instant (a
-    fleet's AVs checking together, each with its own TVs) on a shorter or a longer grid:
-    their rows are those a fresh prediction computes, to the last bit."""
-    import cosim.planning.prediction as prediction_module
-
-    quintic = LateralMotion(t0=2.0, tau=4.0, x0=40.0, y0=ROAD.lane_center(1), vx0=24.0,
-                            vxf=26.0, width=3.5, ax0=0.3, vy0=0.4, ay0=0.1)
-    linear = LateralMotion(t0=1.5, tau=3.0, x0=90.0, y0=ROAD.lane_center(2), vx0=22.0,
-                           vxf=22.0, width=-3.5, profile="linear")
-    tvs = [msg("a", t=2.9, speed=10.0, accel=-2.0), msg("b", t=2.95, x=120.0, accel=0.7),
-           msg("c", x=60.0, lane=1, motion=quintic), msg("d", x=95.0, lane=2, motion=linear)]
-    seen = [tvs, tvs[::-1], tvs[1:3], tvs[:1] + tvs[3:]]  # each AV its own TVs
-
-    def fresh(tv: list[V2VMessage], t_rel: np.ndarray) -> tuple[np.ndarray, ...]:
-        monkeypatch.setattr(prediction_module, "_INSTANT", prediction_module._InstantRows())
-        f = predict_lazy(tv, 3.0, t_rel, ROAD, VEH, GRID)
-        return f.sx, f.sy, f.sh
-
-    want = {(k, n): fresh(tv, T_REL[:n]) for k, tv in enumerate(seen) for n in (90, T_REL.size)}
-    monkeypatch.setattr(prediction_module, "_INSTANT", prediction_module._InstantRows())
-    for n in (90, T_REL.size, 90):  # the short grid first: the longer one replaces its rows
-        for k, tv in enumerate(seen):
-            f = predict_lazy(tv, 3.0, T_REL[:n], ROAD, VEH, GRID)  # kept from before
-            assert f.stored.size == len(tv)
-            for got, expected in zip((f.sx, f.sy, f.sh), want[k, n], strict=True):
-                assert got.tobytes() == expected.tobytes()
-    assert len(prediction_module._INSTANT.rows) == 4
