@@ -39,6 +39,12 @@ def _curve(x_gore: float, into: bool) -> list[tuple[float, float]]:
     return points[::-1] if into else points
 
 
+def _mainline(eid: str, a: str, b: str, lanes: int, xs: dict[str, float], top: float) -> str:
+    """A straight mainline edge from node a to node b (x from `xs`, y = top)."""
+    return (f'<edge id="{eid}" from="{a}" to="{b}" numLanes="{lanes}" speed="{SPEED}" '
+            f'width="3.75" spreadType="right" shape="{xs[a]:g},{top:g} {xs[b]:g},{top:g}"/>')
+
+
 def build(directory: Path) -> Path:
     """`directory/ramps.net.xml`, built by netconvert."""
     top = 7.5
@@ -50,9 +56,7 @@ def build(directory: Path) -> Path:
               f'<node id="r9" x="{off[-1][0]:.2f}" y="{off[-1][1]:.2f}" type="priority"/>')
 
     def main(eid: str, a: str, b: str, lanes: int) -> str:
-        return (f'<edge id="{eid}" from="{a}" to="{b}" numLanes="{lanes}" speed="{SPEED}" '
-                f'width="3.75" spreadType="right" '
-                f'shape="{xs[a]:g},{top:g} {xs[b]:g},{top:g}"/>')
+        return _mainline(eid, a, b, lanes, xs, top)
 
     def ramp(eid: str, a: str, b: str, points: list[tuple[float, float]]) -> str:
         shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in points)
@@ -91,9 +95,7 @@ def build_dropped(directory: Path) -> Path:
               f'<node id="r1" x="{DROP_AT:g}" y="0" type="priority"/>')
 
     def main(eid: str, a: str, b: str, lanes: int) -> str:
-        return (f'<edge id="{eid}" from="{a}" to="{b}" numLanes="{lanes}" speed="{SPEED}" '
-                f'width="3.75" spreadType="right" '
-                f'shape="{xs[a]:g},{top:g} {xs[b]:g},{top:g}"/>')
+        return _mainline(eid, a, b, lanes, xs, top)
 
     shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in on)
     edges = (main("a", "n0", "g1", 2) + main("acc", "g1", "e1", 3) + main("b", "e1", "d1", 2)
