@@ -45,36 +45,40 @@ def _mainline(eid: str, a: str, b: str, lanes: int, xs: dict[str, float], top: f
             f'width="3.75" spreadType="right" shape="{xs[a]:g},{top:g} {xs[b]:g},{top:g}"/>')
 
 
+def _ramp(eid: str, a: str, b: str, points: list[tuple[float, float]], lanes: int = 1) -> str:
+    """A ramp edge from node a to node b along `points`."""
+    shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in points)
+    return (f'<edge id="{eid}" from="{a}" to="{b}" numLanes="{lanes}" speed="{RAMP_SPEED}" '
+            f'width="3.75" spreadType="right" shape="{shape}"/>')
+
+
+def _net(directory: Path, name: str, nodes: dict[str, tuple[float, float]], edges: str,
+         links: list[tuple[str, str, list[tuple[int, int]]]]) -> Path:
+    """`directory/name.net.xml` from its nodes (id -> x, y), edges and lane connections."""
+    node_xml = "".join(f'<node id="{k}" x="{x:.2f}" y="{y:.2f}" type="priority"/>'
+                       for k, (x, y) in nodes.items())
+    cons = "".join(f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
+                   for a, b, pairs in links for i, j in pairs)
+    (directory / f"{name}.con.xml").write_text(f"<connections>{cons}</connections>",
+                                               encoding="utf-8")
+    return netconvert(directory, f"<nodes>{node_xml}</nodes>", f"<edges>{edges}</edges>",
+                      name, ("-x", f"{name}.con.xml"))
+
+
 def build(directory: Path) -> Path:
     """`directory/ramps.net.xml`, built by netconvert."""
     top = 7.5
     xs = {"n0": 0.0, "g1": 600.0, "e1": 800.0, "d1": 1500.0, "g2": 1700.0, "n5": 2500.0}
     on, off = _curve(600.0, True), _curve(1700.0, False)
-    nodes = "".join(f'<node id="{k}" x="{x:g}" y="{top:g}" type="priority"/>'
-                    for k, x in xs.items())
-    nodes += (f'<node id="r0" x="{on[0][0]:.2f}" y="{on[0][1]:.2f}" type="priority"/>'
-              f'<node id="r9" x="{off[-1][0]:.2f}" y="{off[-1][1]:.2f}" type="priority"/>')
-
-    def main(eid: str, a: str, b: str, lanes: int) -> str:
-        return _mainline(eid, a, b, lanes, xs, top)
-
-    def ramp(eid: str, a: str, b: str, points: list[tuple[float, float]]) -> str:
-        shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in points)
-        return (f'<edge id="{eid}" from="{a}" to="{b}" numLanes="1" speed="{RAMP_SPEED}" '
-                f'width="3.75" spreadType="right" shape="{shape}"/>')
-
-    edges = (main("a", "n0", "g1", 2) + main("acc", "g1", "e1", 3) + main("b", "e1", "d1", 2)
-             + main("dec", "d1", "g2", 3) + main("c", "g2", "n5", 2)
-             + ramp("onramp", "r0", "g1", on) + ramp("offramp", "g2", "r9", off))
+    nodes = {k: (x, top) for k, x in xs.items()} | {"r0": on[0], "r9": off[-1]}
+    edges = "".join(_mainline(e, a, b, n, xs, top) for e, a, b, n in (
+        ("a", "n0", "g1", 2), ("acc", "g1", "e1", 3), ("b", "e1", "d1", 2),
+        ("dec", "d1", "g2", 3), ("c", "g2", "n5", 2)))
+    edges += _ramp("onramp", "r0", "g1", on) + _ramp("offramp", "g2", "r9", off)
     links = [("a", "acc", [(0, 1), (1, 2)]), ("onramp", "acc", [(0, 0)]),
              ("acc", "b", [(1, 0), (2, 1)]), ("b", "dec", [(0, 1), (1, 2)]),
              ("dec", "c", [(1, 0), (2, 1)]), ("dec", "offramp", [(0, 0)])]
-    cons = "".join(f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
-                   for a, b, pairs in links for i, j in pairs)
-    (directory / "ramps.con.xml").write_text(f"<connections>{cons}</connections>",
-                                             encoding="utf-8")
-    return netconvert(directory, f"<nodes>{nodes}</nodes>", f"<edges>{edges}</edges>",
-                      "ramps", ("-x", "ramps.con.xml"))
+    return _net(directory, "ramps", nodes, edges, links)
 
 
 DROP_AT = 450.0  # m, where the dropping ramp's one lane becomes the right lane of two
@@ -89,25 +93,11 @@ def build_dropped(directory: Path) -> Path:
     top = 7.5
     xs = {"n0": 0.0, "g1": 600.0, "e1": 800.0, "d1": 1500.0}
     on = [(x, y - 3.75) for x, y in _curve(DROP_AT, True)]
-    nodes = "".join(f'<node id="{k}" x="{x:g}" y="{top:g}" type="priority"/>'
-                    for k, x in xs.items())
-    nodes += (f'<node id="r0" x="{on[0][0]:.2f}" y="{on[0][1]:.2f}" type="priority"/>'
-              f'<node id="r1" x="{DROP_AT:g}" y="0" type="priority"/>')
-
-    def main(eid: str, a: str, b: str, lanes: int) -> str:
-        return _mainline(eid, a, b, lanes, xs, top)
-
-    shape = " ".join(f"{x:.2f},{y:.2f}" for x, y in on)
-    edges = (main("a", "n0", "g1", 2) + main("acc", "g1", "e1", 3) + main("b", "e1", "d1", 2)
-             + f'<edge id="onramp" from="r0" to="r1" numLanes="1" speed="{RAMP_SPEED}" '
-             f'width="3.75" spreadType="right" shape="{shape}"/>'
-             f'<edge id="ramp2" from="r1" to="g1" numLanes="2" speed="{RAMP_SPEED}" '
-             f'width="3.75" spreadType="right" shape="{DROP_AT:g},0 600,0"/>')
+    nodes = {k: (x, top) for k, x in xs.items()} | {"r0": on[0], "r1": (DROP_AT, 0.0)}
+    edges = "".join(_mainline(e, a, b, n, xs, top) for e, a, b, n in (
+        ("a", "n0", "g1", 2), ("acc", "g1", "e1", 3), ("b", "e1", "d1", 2)))
+    edges += (_ramp("onramp", "r0", "r1", on)
+              + _ramp("ramp2", "r1", "g1", [(DROP_AT, 0.0), (600.0, 0.0)], lanes=2))
     links = [("a", "acc", [(0, 1), (1, 2)]), ("onramp", "ramp2", [(0, 0)]),
              ("ramp2", "acc", [(1, 0)]), ("acc", "b", [(1, 0), (2, 1)])]
-    cons = "".join(f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
-                   for a, b, pairs in links for i, j in pairs)
-    (directory / "dropped.con.xml").write_text(f"<connections>{cons}</connections>",
-                                               encoding="utf-8")
-    return netconvert(directory, f"<nodes>{nodes}</nodes>", f"<edges>{edges}</edges>",
-                      "dropped", ("-x", "dropped.con.xml"))
+    return _net(directory, "dropped", nodes, edges, links)
