@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from cosim.compiled import njit
 from cosim.errors import InputError
 from cosim.params import G, VehicleParams
-from cosim.planning.trajectory import BoundaryConditions, cluster_derivatives
+from cosim.planning.trajectory import BoundaryConditions
 
 Array = NDArray[np.float64]
 
@@ -156,32 +156,103 @@ def envelope_margin(
         raise InputError("planner", "envelope", yaw_model, f"one of {', '.join(ENVELOPES)}")
     tau = np.atleast_1d(np.asarray(taus, dtype=float))
 
-    def col(a: ArrayLike) -> Array:
-        return np.broadcast_to(np.asarray(a, dtype=float), tau.shape)[:, None]
-
     s = np.linspace(0.0, 1.0, n_s)
-    t = tau[:, None] * s[None, :]  # (n_tau, n_s), each candidate on its own [0, tau]
-    rows = BoundaryConditions(col(bc.vx0), col(bc.vxf), col(bc.width), col(bc.ax0),
-                              col(bc.vy0), col(bc.ay0))
-    d = cluster_derivatives(rows, tau[:, None], t, (1, 2))
-    (xd, yd), (xdd, ydd) = d[1], d[2]
-    V = np.hypot(xd, yd)  # Vx* (eq. 14)
-    # a candidate that comes to rest (a C2 TV predicted from a standstill) has V = 0
-    # there: NaN, which the ratio below reads as leaving the envelope (unstable)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        Ax = (xd * xdd + yd * ydd) / V  # dVx*/dt
-        a_n = (xd * ydd - yd * xdd) / V  # V^2 KL (eq. 15)
-    if yaw_model == Envelope.KINEMATIC:
-        omega = a_n / V
-    else:
-        omega0 = a_n[:, 0] / V[:, 0]  # a plan that starts mid-curve starts on it
-        omega = inverse_dynamics_yaw_rate(V, a_n, tau / (n_s - 1), vehicle, omega0)
-    grip2 = (mu * G) ** 2 - Ax**2
-    with np.errstate(invalid="ignore", divide="ignore"):
-        bound = safety_factor * np.sqrt(np.where(grip2 > 0, grip2, np.nan)) / V
-        ratio = np.abs(omega) / bound
-    ratio = np.where(np.isnan(ratio), np.inf, ratio)  # |Ax| >= mu g: outside the envelope
-    return ratio.max(axis=1)
+    starts = np.empty((6, tau.size))  # vx0, vxf, W, ax0, vy0, ay0 per row
+    for k, field in enumerate((bc.vx0, bc.vxf, bc.width, bc.ax0, bc.vy0, bc.ay0)):
+        starts[k] = field
+    # tau's powers as `trajectory.polynomial_coefficients` takes them (numpy's pow on
+    # the same (n, 1) array: a compiled pow need not round as numpy's does)
+    col = tau[:, None]
+    powers = np.stack([(col**3)[:, 0], (col**4)[:, 0], (col**5)[:, 0]])
+    M, Iz, lf, lr, Cr = vehicle.mass, vehicle.yaw_inertia, vehicle.lf, vehicle.lr, vehicle.cr
+    return _margin_rows(starts, np.ascontiguousarray(tau), powers, s,
+                        yaw_model == Envelope.KINEMATIC, (mu * G) ** 2, float(safety_factor),
+                        (lf + lr) * Cr, Iz, lr, lf * M / Iz)
+
+
+@njit
+def _margin_rows(starts: Array, tau: Array, powers: Array, s: Array, kinematic: bool,
+                 grip_sq: float, safety_factor: float, l_cr: float, Iz: float, lr: float,
+                 b1: float) -> Array:
+    """`envelope_margin` of each row i (its start `starts[:, i]`: vx0, vxf, W, ax0, vy0,
+    ay0; duration tau[i] with tau^3, tau^4, tau^5 in `powers[:, i]`, sampled at tau[i]
+    s) in one compiled pass: the coefficients as `trajectory.polynomial_coefficients`
+    computes them, the derivatives as `trajectory._horner_rows`, then operation by
+    operation the numpy arithmetic it replaces (Vx* = hypot(x', y'), Ax, a_n, the yaw
+    rate of `_yaw_rate`, the ratio to the bound, nan read as outside): the same margins
+    to the last bit. In numpy its ~50 calls on small arrays cost ~0.2 ms, and a
+    TauMinMap's bisection makes ~40 of them."""
+    n, n_s = tau.size, s.size
+    V = np.empty((n, n_s))
+    a_n = np.empty((n, n_s))
+    Ax = np.empty((n, n_s))
+    omega0 = np.empty(n)
+    dt = np.empty(n)
+    for i in range(n):
+        T = tau[i]
+        vx0, vxf, W, ax0, vy0, ay0 = (starts[0, i], starts[1, i], starts[2, i], starts[3, i],
+                                      starts[4, i], starts[5, i])
+        T2, T3, T4, T5 = T * T, powers[0, i], powers[1, i], powers[2, i]
+        # trajectory.longitudinal_coefficients, lateral_coefficients
+        d = vxf - vx0 - ax0 * T
+        e = -ax0
+        c3x = ((3.0 * d - e * T) / T2) / 3.0
+        c4x = ((e * T - 2.0 * d) / T3) / 4.0
+        c3y = (20.0 * W - 12.0 * vy0 * T - 3.0 * ay0 * T2) / (2.0 * T3)
+        c4y = (-30.0 * W + 16.0 * vy0 * T + 3.0 * ay0 * T2) / (2.0 * T4)
+        c5y = (12.0 * W - 6.0 * vy0 * T - ay0 * T2) / (2.0 * T5)
+        c1x, c2x, c1y, c2y = 0.0 + vx0, 0.0 + ax0 / 2.0, 0.0 + vy0, 0.0 + ay0 / 2.0
+        # factors of x' (k c_k) and x'' (k (k - 1) c_k), y likewise (`_horner_rows`)
+        x1 = (1.0 * c1x, 2.0 * c2x, 3.0 * c3x, 4.0 * c4x)
+        x2 = (2.0 * c2x, 6.0 * c3x, 12.0 * c4x)
+        y1 = (1.0 * c1y, 2.0 * c2y, 3.0 * c3y, 4.0 * c4y, 5.0 * c5y)
+        y2 = (2.0 * c2y, 6.0 * c3y, 12.0 * c4y, 20.0 * c5y)
+        for j in range(n_s):
+            t = T * s[j]
+            # ts = minimum(maximum(t, 0), tau), as numpy's (nan kept)
+            m = t if (t >= 0.0 or t != t) else 0.0
+            ts = m if (m <= T or m != m) else T
+            after = t - ts
+            xd = x1[3]
+            xd = xd * ts + x1[2]
+            xd = xd * ts + x1[1]
+            xd = xd * ts + x1[0]
+            yd = y1[4]
+            yd = yd * ts + y1[3]
+            yd = yd * ts + y1[2]
+            yd = yd * ts + y1[1]
+            yd = yd * ts + y1[0]
+            xdd = x2[2]
+            xdd = xdd * ts + x2[1]
+            xdd = xdd * ts + x2[0]
+            ydd = y2[3]
+            ydd = ydd * ts + y2[2]
+            ydd = ydd * ts + y2[1]
+            ydd = ydd * ts + y2[0]
+            if after > 0:
+                xd, yd, xdd, ydd = vxf, 0.0, 0.0, 0.0
+            v = np.hypot(xd, yd)
+            V[i, j] = v
+            Ax[i, j] = (xd * xdd + yd * ydd) / v
+            a_n[i, j] = (xd * ydd - yd * xdd) / v
+        omega0[i] = a_n[i, 0] / V[i, 0]
+        dt[i] = T / (n_s - 1)
+    omega = a_n / V if kinematic else _yaw_rate(V, a_n, dt, omega0, l_cr, Iz, lr, b1)
+    out = np.empty(n)
+    for i in range(n):
+        top = -np.inf
+        for j in range(n_s):
+            ax = Ax[i, j]
+            grip2 = grip_sq - ax * ax
+            g = grip2 if grip2 > 0 else np.nan
+            bound = safety_factor * np.sqrt(g) / V[i, j]
+            r = np.abs(omega[i, j]) / bound
+            if r != r:
+                r = np.inf  # |Ax| >= mu g: outside the envelope
+            if j == 0 or r > top:
+                top = r
+        out[i] = top
+    return out
 
 
 def tau_min_from_margin(taus: Array, margin: Array) -> float:

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim.params import VehicleParams, kmh
+from cosim.params import G, VehicleParams, kmh
 from cosim.planning.envelope import (
     envelope_margin,
     inverse_dynamics_yaw_rate,
     paper_map_tau_min,
     stable_set,
 )
-from cosim.planning.trajectory import BoundaryConditions
+from cosim.planning.trajectory import BoundaryConditions, cluster_derivatives
 
 VEH = VehicleParams()
 GRID = np.arange(1.0, 10.0001, 0.05)
@@ -70,6 +70,54 @@ def test_compiled_yaw_rate_is_numpy_to_the_last_bit() -> None:
         omega0 = rng.normal(0.0, 0.1, n)
         got = inverse_dynamics_yaw_rate(speed, u, dt, VEH, omega0)
         assert np.array_equal(got, _numpy_yaw_rate(speed, u, dt, omega0))
+
+
+def _numpy_margin(bc: BoundaryConditions, tau: np.ndarray, mu: float, safety_factor: float,
+                  yaw_model: str, n_s: int) -> np.ndarray:
+    """eq. 5-6's margin in numpy (the trajectories' derivatives, Vx*, Ax, a_n, the yaw
+    rate, the bound): the reference the compiled pass must match to the last bit."""
+    def col(a: object) -> np.ndarray:
+        return np.broadcast_to(np.asarray(a, dtype=float), tau.shape)[:, None]
+
+    s = np.linspace(0.0, 1.0, n_s)
+    rows = BoundaryConditions(col(bc.vx0), col(bc.vxf), col(bc.width), col(bc.ax0),
+                              col(bc.vy0), col(bc.ay0))
+    d = cluster_derivatives(rows, tau[:, None], tau[:, None] * s[None, :], (1, 2))
+    (xd, yd), (xdd, ydd) = d[1], d[2]
+    V = np.hypot(xd, yd)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        Ax = (xd * xdd + yd * ydd) / V
+        a_n = (xd * ydd - yd * xdd) / V
+        if yaw_model == "kinematic":
+            omega = a_n / V
+        else:
+            omega = inverse_dynamics_yaw_rate(V, a_n, tau / (n_s - 1), VEH,
+                                              a_n[:, 0] / V[:, 0])
+        grip2 = (mu * G) ** 2 - Ax**2
+        bound = safety_factor * np.sqrt(np.where(grip2 > 0, grip2, np.nan)) / V
+        ratio = np.abs(omega) / bound
+    return np.where(np.isnan(ratio), np.inf, ratio).max(axis=1)
+
+
+def test_compiled_margin_is_numpy_to_the_last_bit() -> None:
+    """The compiled margin keeps numpy's arithmetic: the same bits on random rows, from
+    rest and from general starts, both yaw models, candidates beyond grip and at rest."""
+    rng = np.random.default_rng(11)
+    for trial in range(60):
+        n = int(rng.integers(1, 40))
+        general = trial % 2 == 0
+        bc = BoundaryConditions(rng.uniform(0.0, 45.0, n), rng.uniform(0.0, 45.0, n),
+                                rng.uniform(-4.0, 4.0, n) if general else 3.75,
+                                rng.normal(0.0, 1.0, n) if general else 0.0,
+                                rng.normal(0.0, 0.5, n) if general else 0.0,
+                                rng.normal(0.0, 0.5, n) if general else 0.0)
+        tau = rng.uniform(0.3, 12.0, n)
+        mu, factor = float(rng.uniform(0.2, 1.0)), float(rng.choice([0.5, 0.8]))
+        model = "kinematic" if trial % 5 == 0 else "inverse_dynamics"
+        n_s = int(rng.choice([7, 64, 128, 256]))
+        got = envelope_margin(bc, tau, mu, VEH, safety_factor=factor, yaw_model=model,
+                              n_s=n_s)
+        assert got.tobytes() == _numpy_margin(bc, tau, mu, factor, model, n_s).tobytes()
 
 
 @pytest.mark.parametrize(("v0", "vf", "W", "mu", "paper"), PAPER)
