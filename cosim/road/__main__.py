@@ -44,7 +44,8 @@ def main(argv: list[str] | None = None) -> int:
         place = c.junction if " vertex " in c.junction else f"junction {c.junction}"
         print(f"{place} is drawn as a corner ({math.degrees(abs(c.turn)):.0f} "
               f"degrees to the {'left' if c.turn > 0 else 'right'}): the frame rounds it "
-              f"from s {c.s_lo:.1f} to {c.s_hi:.1f} m, R {c.radius:.1f} m (its lane's R "
+              f"from s {c.s_lo:.1f} to {c.s_hi:.1f} m, R {c.radius:.1f} m between "
+              f"clothoids of {c.spiral:.1f} m (its lane's R "
               f"{c.lane_radius:.1f} m, {c.deviation:.2f} m from SUMO's corner; the lanes' "
               "deviation is measured outside)")
     for t in road.lanes:

@@ -12,6 +12,18 @@ hold, and at least what keeps the frame's stretch across the lanes on the inside
 turn at `CORNER_STRETCH`. A corner that cannot be rounded within its straight ends at
 that smallest radius is refused (by the frame, naming it).
 
+The fillet's curvature is continuous: a clothoid (Euler spiral, curvature linear in arc
+length) of length L leads from each straight into the circular arc, so that at the
+corner's speed v (sqrt(a R) of the lane's arc, at most the limit) the lateral
+acceleration ramps at `LAT_JERK`: L = v^3 / (R J) (the lane's curvature rate over the
+reference line's, R_ref / R_lane, included). Where the two spirals turn by the whole
+corner (L >= R turn) there is no arc: a symmetric pair meeting at 1/R. A spiral moves
+the arc inwards (by about L^2 / 24 R) and its ends outwards along the straights, so the
+radius is the largest (up to the one above) whose fillet, spirals included, keeps the
+half-lane bound and the straight ends, down to `RADIUS_SHARE` of the circular
+fillet's (the corner's speed to 89 % of it); below that the spirals are shortened
+instead (to none: the circular fillet).
+
 Where a route cannot be smoothed otherwise, so are the vertices inside an edge's lane
 that turn by CORNER_TURN_REFUSED or more, on a lane one of whose vertices turns by
 CORNER_TURN or more (cosim.road.road.load_road): a ramp drawn as chords 40-86 m long
@@ -30,6 +42,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import fresnel
 
 CORNER_TURN = math.radians(15.0)  # rad, a turn across one junction that makes it a corner
 # rad, a gentler turn across one junction (or at a vertex inside an edge's lane) made a
@@ -41,6 +54,12 @@ CORNER_TURN_REFUSED = math.radians(5.0)
 # FrameLimits.min_stretch keeps the fillet nearer SUMO's corner)
 CORNER_STRETCH = 0.5  # tuned: docs/tuned_constants.md
 ARC_STEP = 0.5  # m, the fillet's vertices
+# m/s^3, the lateral jerk of the fillet's spirals at the corner's speed (the rate at
+# which its lateral acceleration builds up from the straight's zero)
+LAT_JERK = 1.0  # tuned: docs/tuned_constants.md
+# -, the spirals take the arc's radius down to this share of the circular fillet's (its
+# speed to sqrt of it); shorter spirals beyond
+RADIUS_SHARE = 0.8  # tuned: docs/tuned_constants.md
 # rad, a turn across one junction that is a U-turn (onto the opposite carriageway), not a
 # corner: no fillet within the edges' straight ends
 U_TURN = math.radians(150.0)
@@ -71,10 +90,11 @@ class Corner:
     s_lo: float  # m, where the fillet begins along the frame
     s_hi: float  # m, where it ends
     turn: float  # rad, + to the left
-    radius: float  # m, the reference line's fillet
-    lane_radius: float  # m, the corner's lane's fillet (the SV's lane)
+    radius: float  # m, the reference line's fillet (its circular arc)
+    lane_radius: float  # m, the corner's lane's fillet (the SV's lane; its arc)
     deviation: float  # m, the lane's fillet from SUMO's corner at its vertex
     junction: str
+    spiral: float = 0.0  # m, the reference line's clothoid at each end of the arc
 
     @property
     def window(self) -> tuple[float, float]:
@@ -107,18 +127,42 @@ def corner_vertex(site: CornerSite) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     return p1 + a * u, u, w, turn
 
 
+def spiral_end(length: float, radius: float) -> tuple[float, float]:
+    """m, (along, across) the end of a clothoid of `length` whose curvature grows from 0
+    to 1 / `radius`, from its start along its initial heading (across: towards the
+    turn): A sqrt(pi) (C(z), S(z)), z = length / (A sqrt(pi)), A^2 = radius length."""
+    if length <= 0.0:
+        return 0.0, 0.0
+    scale = math.sqrt(math.pi * radius * length)
+    s_, c_ = fresnel(length / scale)
+    return scale * float(c_), scale * float(s_)
+
+
+def fillet_shape(radius: float, spiral: float, turn: float) -> tuple[float, float]:
+    """m, (tangent length, distance at the bisector): how far from the vertex along each
+    straight the fillet of arc `radius` with spirals of length `spiral` begins, and how
+    far its middle lies from the vertex, for a corner of `turn` (rad, |turn| < pi); the
+    spirals turn by at most half the corner each."""
+    half = 0.5 * abs(turn)
+    tau = spiral / (2.0 * radius)  # rad, each spiral's turn
+    xs, ys = spiral_end(spiral, radius)
+    shift = ys - radius * (1.0 - math.cos(tau))  # the arc's offset inwards
+    ahead = xs - radius * math.sin(tau)  # the arc's centre along the straight
+    return ((radius + shift) * math.tan(half) + ahead,
+            (radius + shift) / math.cos(half) - radius)
+
+
 def rounding(sites: Sequence[CornerSite], lat_accel: float, min_radius: float
-             ) -> list[tuple[float, float, float, float]]:
+             ) -> list[tuple[float, float, float, float, float]]:
     """Each corner's (reference radius, lane radius, lane deviation at the vertex,
-    tangent length), all m, as the module docstring chooses them; a corner whose
-    straight ends cannot hold the smallest radius allowed gets nan."""
+    tangent length, spiral length), all m, as the module docstring chooses them; a
+    corner whose straight ends cannot hold the smallest radius allowed gets nan."""
     out = []
     vertices = [corner_vertex(s) for s in sites]
     for k, (site, (v, _, _, turn)) in enumerate(zip(sites, vertices, strict=True)):
         if abs(turn) >= U_TURN:
-            out.append((math.nan, math.nan, math.nan, math.nan))
+            out.append((math.nan,) * 5)
             continue
-        half = 0.5 * abs(turn)
         # the straight ends' room, halved where a neighbouring corner shares the segment
         room_in = float(np.hypot(*(v - np.asarray(site.p0))))
         room_out = float(np.hypot(*(np.asarray(site.q1) - v)))
@@ -126,46 +170,130 @@ def rounding(sites: Sequence[CornerSite], lat_accel: float, min_radius: float
             room_in = 0.5 * float(np.hypot(*(v - vertices[k - 1][0])))
         if k + 1 < len(sites) and sites[k + 1].p0 == site.q0:
             room_out = 0.5 * float(np.hypot(*(vertices[k + 1][0] - v)))
-        # the lane's radius from the reference line's: the lane lies on the turn's inside
-        # (a right turn, the lane right of the line) or outside
-        inward = site.lane_right if turn < 0.0 else -site.lane_right
-        sec = 1.0 / math.cos(half) - 1.0
-        wanted = site.speed**2 / lat_accel  # lane radius a driver takes at the limit
-        within = 0.5 * site.width / sec  # the lane's fillet within half a lane of SUMO's
-        floor = max(min_radius + 0.5 * site.width + max(inward, 0.0),
-                    site.inside_reach / (1.0 - CORNER_STRETCH))  # reference radius
-        fits = min(room_in, room_out) / math.tan(half)  # reference radius
-        ref = min(wanted, within) + inward
-        ref = min(max(ref, floor), fits)
-        if ref < floor - 1e-9:
-            out.append((math.nan, math.nan, math.nan, math.nan))
-            continue
-        lane = ref - inward
-        out.append((ref, lane, lane * sec, ref * math.tan(half)))
+        out.append(_round(site, turn, min(room_in, room_out), lat_accel, min_radius))
     return out
 
 
+def _round(site: CornerSite, turn: float, room: float, lat_accel: float,
+           min_radius: float) -> tuple[float, float, float, float, float]:
+    """One corner's `rounding`, its straight ends holding `room` m each."""
+    half = 0.5 * abs(turn)
+    # the lane's radius from the reference line's: the lane lies on the turn's inside
+    # (a right turn, the lane right of the line) or outside
+    inward = site.lane_right if turn < 0.0 else -site.lane_right
+    sec = 1.0 / math.cos(half) - 1.0
+    wanted = site.speed**2 / lat_accel  # lane radius a driver takes at the limit
+    floor = max(min_radius + 0.5 * site.width + max(inward, 0.0),
+                site.inside_reach / (1.0 - CORNER_STRETCH))  # reference radius
+
+    def spiral(ref: float) -> float:
+        """m, the spirals' length the lateral jerk asks at the lane's arc's speed,
+        at most a symmetric pair (no arc)."""
+        lane = ref - inward
+        speed = min(site.speed, math.sqrt(lat_accel * lane))
+        return min(speed**3 * ref / (lane * lane * LAT_JERK), ref * abs(turn))
+
+    def deviation(ref: float, length: float) -> float:
+        """m, the lane's fillet from SUMO's corner (the lane's vertex lies inward
+        sec(half) further than its fillet's middle moves)."""
+        return fillet_shape(ref, length, turn)[1] - inward * sec
+
+    def fits(ref: float, length: float, bound: float) -> bool:
+        tangent, _ = fillet_shape(ref, length, turn)
+        return tangent <= room and deviation(ref, length) <= bound
+
+    # the circular fillet: the radius wanted, within half a lane of SUMO's corner,
+    # at least the floor, and within the straight ends
+    circular = min(wanted, 0.5 * site.width / sec) + inward
+    circular = min(max(circular, floor), room / math.tan(half))
+    if circular < floor - 1e-9:
+        return (math.nan,) * 5
+    # (a circular fillet at the floor may pass the half-lane bound: so may its spirals)
+    bound = max(0.5 * site.width, deviation(circular, 0.0))
+    ref, least = max(wanted + inward, floor), max(floor, RADIUS_SHARE * circular)
+    if fits(ref, spiral(ref), bound):
+        length = spiral(ref)
+    elif fits(least, spiral(least), bound):
+        lo, hi = least, ref  # the largest radius whose spirals fit (both grow with it)
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if fits(mid, spiral(mid), bound) else (lo, mid)
+        ref, length = lo, spiral(lo)
+    else:  # the spirals shortened to fit at the least radius
+        ref, lo, hi = least, 0.0, spiral(least)
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if fits(ref, mid, bound) else (lo, mid)
+        length = lo
+    tangent, _ = fillet_shape(ref, length, turn)
+    return ref, ref - inward, deviation(ref, length), tangent, length
+
+
+def fillet(site: CornerSite, radius: float, spiral: float, tangent: float, step: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The fillet's points every <= `step` m of its length (both tangent points
+    included) and its curvature there (1/m, + left): a clothoid of length `spiral` from
+    the straight p0 -> p1, the arc of `radius`, a clothoid onto q0 -> q1, each spiral
+    drawn from its own straight (its tangent point exact)."""
+    v, u, w, turn = corner_vertex(site)
+    sign = 1.0 if turn > 0.0 else -1.0
+    left_u = sign * np.array([-u[1], u[0]])
+    left_w = sign * np.array([-w[1], w[0]])
+    t1, t2 = v - tangent * u, v + tangent * w
+    arc = radius * abs(turn) - spiral  # m, the arc's length (2 spirals of turn L / 2R)
+    arc = max(arc, 0.0)
+    total = 2.0 * spiral + arc
+    n = max(2, int(math.ceil(total / step)))
+    s = np.linspace(0.0, total, n + 1)
+    points = np.empty((n + 1, 2))
+    kappa = np.empty(n + 1)
+    scale = math.sqrt(math.pi * radius * spiral) if spiral > 0.0 else 1.0
+
+    def on_spiral(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        sf, cf = fresnel(m / scale)
+        return scale * cf, scale * sf
+
+    first, last = s <= spiral, s >= spiral + arc
+    if spiral > 0.0:
+        a, b = on_spiral(s[first])
+        points[first] = t1 + a[:, None] * u + b[:, None] * left_u
+        kappa[first] = s[first] / (radius * spiral)
+        m = total - s[last]
+        a, b = on_spiral(m)
+        points[last] = t2 - a[:, None] * w + b[:, None] * left_w
+        kappa[last] = m / (radius * spiral)
+    middle = ~(first | last) if spiral > 0.0 else np.ones(n + 1, dtype=bool)
+    # the arc from the first spiral's end (its heading turned by L / 2R)
+    xs, ys = spiral_end(spiral, radius)
+    start = t1 + xs * u + ys * left_u
+    tau = spiral / (2.0 * radius)
+    heading = math.cos(tau) * u + math.sin(tau) * left_u
+    centre = start + radius * np.array([-heading[1], heading[0]]) * sign
+    ang = (s[middle] - spiral) / radius
+    rel = start - centre
+    c, sn = np.cos(sign * ang), np.sin(sign * ang)
+    points[middle] = centre + np.column_stack((c * rel[0] - sn * rel[1],
+                                               sn * rel[0] + c * rel[1]))
+    kappa[middle] = 1.0 / radius
+    if spiral == 0.0:  # the circular fillet: its ends exact, as the spirals'
+        points[0], points[-1] = t1, t2
+    return points, sign * kappa
+
+
 def filleted(points: np.ndarray, sites: Sequence[CornerSite],
-             rounded: Sequence[tuple[float, float, float, float]]
+             rounded: Sequence[tuple[float, float, float, float, float]]
              ) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
     """The polyline with each corner's vertices from p1 to q0 (the junction's lane
-    between) replaced by its fillet (drawn every ARC_STEP), and each fillet's two
-    tangent points (on the segments p0 -> p1 and q0 -> q1)."""
+    between) replaced by its fillet (`fillet`, drawn every ARC_STEP), and each fillet's
+    two tangent points (on the segments p0 -> p1 and q0 -> q1)."""
     parts, ends = [], []
     start = 0
-    for site, (radius, _, _, tangent) in zip(sites, rounded, strict=True):
-        v, u, w, turn = corner_vertex(site)
-        t1, t2 = v - tangent * u, v + tangent * w
-        normal = np.array([-u[1], u[0]]) * (1.0 if turn > 0.0 else -1.0)
-        centre = t1 + radius * normal
-        a0 = math.atan2(t1[1] - centre[1], t1[0] - centre[0])
-        n = max(2, int(math.ceil(radius * abs(turn) / ARC_STEP)))
-        ang = a0 + np.linspace(0.0, turn, n + 1)
-        arc = centre + radius * np.column_stack((np.cos(ang), np.sin(ang)))
+    for site, (radius, _, _, tangent, spiral) in zip(sites, rounded, strict=True):
+        arc, _ = fillet(site, radius, spiral, tangent, ARC_STEP)
         i1, i2 = _index(points, site.p1), _index(points, site.q0)
         parts += [points[start:i1], arc]
         start = i2 + 1
-        ends.append((t1, t2))
+        ends.append((arc[0], arc[-1]))
     parts.append(points[start:])
     return np.vstack(parts), ends
 

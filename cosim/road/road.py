@@ -464,7 +464,7 @@ def _load_road(network: Path | str, edges: Sequence[str] | None, limits: FrameLi
     ref, lead = reference_tracks(route, tracks, src)
     shifts: tuple[LateralShift, ...] = ()
     sites: list[CornerSite] = []
-    rounded: list[tuple[float, float, float, float]] = []
+    rounded: list[tuple[float, float, float, float, float]] = []
     ends: list[tuple[np.ndarray, np.ndarray]] = []
     first = ref.pieces[0]
     half = first.width / 2.0
@@ -512,7 +512,8 @@ def _load_road(network: Path | str, edges: Sequence[str] | None, limits: FrameLi
         for site, r, (t1, t2) in zip(sites, rounded, ends, strict=True):
             (lo, hi), _ = frame.to_frenet(np.array([t1[0], t2[0]]), np.array([t1[1], t2[1]]))
             v, _, _, turn = corner_vertex(site)
-            placed.append(Corner(float(lo), float(hi), turn, r[0], r[1], r[2], site.junction))
+            placed.append(Corner(float(lo), float(hi), turn, r[0], r[1], r[2], site.junction,
+                                 r[4]))
         corners = tuple(placed)
     tables = lane_tables(tracks, reference_lanes(ref, lead), frame, route.net,
                          [sh.window for sh in shifts] + [c.window for c in corners])
