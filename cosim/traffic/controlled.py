@@ -12,7 +12,9 @@ Controlled vehicles leave SUMO's control (speed mode 0, lane-change mode 0), are
 on the route's road (cosim.traffic.route_lanes) and written with `vehicle.moveToXY(...,
 keepRoute=2)` with the edge and lane index of the track their front is in as the hint;
 one that SUMO takes off the network (it drops it silently) is caught after the step
-(`check`).
+(`check`). One that moveToXY put on a new lane across the line is inserted afresh once
+its body is inside that lane (`ControlledVehicles._reseat`: else SUMO keeps the shadow
+lane it gave it in the lane it came from).
 """
 
 from __future__ import annotations
@@ -68,8 +70,12 @@ class _Controlled:
     hint_box: tuple[float, float, float, float] = (math.nan, math.nan, math.nan, math.nan)
     own_max_speed: float = math.nan  # m/s, a vehicle taken over: its maximum speed in SUMO
     # before (given back with it)
+    reseat: bool = False  # SUMO put it on a new lane straddling the line (see `_reseat`)
 
 
+RESEAT_MARGIN = 0.05  # m, clearance of the lane lines before a vehicle is reseated: SUMO
+# sees no overlap of the old lane then (it allows POSITION_EPS, 0.1 mm)
+MOVE_NORMAL = 2  # SUMO's vehicle.moveTo reason: a move along the road (no teleport)
 SUMO_LANE_CHANGE_MODE = 1621  # SUMO's default lane-change mode (its own strategic changes)
 
 
@@ -178,9 +184,17 @@ class ControlledVehicles:
         if math.isfinite(s_f):  # NaN: no arc's normals reach it; keep the last hint
             box = ctl.hint_box
             if not (box[0] < s_f < box[1] and box[2] <= d_f < box[3]):
+                before = ctl.hint
                 ctl.hint, ctl.hint_box = lanes.hint_box(s_f, d_f)
+                if ctl.hint is not None and before is not None and ctl.hint.lane != before.lane:
+                    ctl.reseat = not self._inside(ctl, d_c)
             ctl.s_front = s_f
         vehicle = self.sim.api.vehicle
+        # inside both where SUMO has it in this step and where it is written (at its end)
+        if (ctl.reseat and ctl.hint is not None and ctl.inserted
+                and self._inside(ctl, ctl.d_last) and self._inside(ctl, d_c)):
+            self._reseat(vehicle_id, ctl.hint)
+            ctl.reseat = False
         # the edge and lane of the track its front is in: keepRoute 2 then keeps it on its
         # route, in that lane, across junctions (where SUMO's lane index may change)
         edge, index = ("", -1) if ctl.hint is None else (ctl.hint.edge, ctl.hint.index)
@@ -202,6 +216,41 @@ class ControlledVehicles:
         if ctl.signals >= 0:  # SUMO resets the signals of a moved vehicle: hold them
             vehicle.setSignals(vehicle_id, ctl.signals)
         self.moved = True
+
+    @staticmethod
+    def _inside(ctl: _Controlled, d_c: float) -> bool:
+        """Its body (centre d `d_c`) lies in the lane of its hint, clear of both lines."""
+        _, _, d_lo, d_hi = ctl.hint_box  # NaN (cannot tell): False
+        half = 0.5 * ctl.width + RESEAT_MARGIN
+        return d_lo <= d_c - half and d_c + half <= d_hi
+
+    def _reseat(self, vehicle_id: str, hint: TrackPiece) -> None:
+        """Insert it afresh on the lane of `hint` (its body inside it), without a shadow lane.
+
+        SUMO gives a vehicle that moveToXY puts on a new lane across the line a shadow
+        lane (its partial occupation of the lane it came from) and never recomputes it
+        while moveToXY moves it within that lane: SUMO's drivers in the old lane take it
+        for a leader overlapping them and brake at their emergency deceleration while it
+        passes. Only an insertion recomputes it, and SUMO inserts afresh only a vehicle
+        moved to another lane (`vehicle.moveTo` to its own lane just sets its position):
+        so it is moved to another lane of the edge and straight back, both now, before
+        the step. No step runs in between: no driver, collision check or detector sees
+        it on the other lane (moveToXY's own moves take effect at the step's end,
+        MSVehicle::Influencer::postProcessRemoteControl), and SUMO's move reason
+        "normal" (2) counts no detector entry at the insertions. The moveToXY that
+        follows moves it within the lane, onto the written pose."""
+        if hint.internal:
+            return
+        api = self.sim.api
+        n_lanes = api.edge.getLaneNumber(hint.edge)
+        if n_lanes < 2:  # no lane beside it: no shadow either
+            return
+        other = hint.index + 1 if hint.index + 1 < n_lanes else hint.index - 1
+        position = api.vehicle.getLanePosition(vehicle_id)
+        other_lane = f"{hint.edge}_{other}"
+        api.vehicle.moveTo(vehicle_id, other_lane,
+                           min(position, api.lane.getLength(other_lane)), MOVE_NORMAL)
+        api.vehicle.moveTo(vehicle_id, hint.lane, position, MOVE_NORMAL)
 
     def set_blinker(self, vehicle_id: str, direction: int) -> None:
         """Blinker of a controlled vehicle: -1 right, +1 left, 0 off (what V2V reads)."""
