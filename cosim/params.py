@@ -64,7 +64,10 @@ class RoadParams:
     lane_ends: tuple[float, ...] = ()
     # m, s where lane k begins beside the others: on a route from an on-ramp the
     # mainline's lanes, on one leaving over an off-ramp the deceleration lane; a lane not
-    # listed, or listed as -inf, is there from the route's start
+    # listed, or listed as -inf, is there from the route's start. A lane that begins
+    # after its end is two in one, there before its end and again from its begin to the
+    # end of the route (from an on-ramp over an off-ramp: the acceleration lane, then
+    # the deceleration lane)
     lane_begins: tuple[float, ...] = ()
     # (s_lo m, s_hi m, R m): where the route rounds a junction drawn as a corner and the
     # radius its lane takes there (cosim.road.corners): the SV slows to its curve speed
@@ -81,13 +84,25 @@ class RoadParams:
         """m, global y of a lane's centre line."""
         return self.y_right + (lane + 0.5) * self.lane_width
 
-    def lane_end(self, lane: int) -> float:
-        """m, s where `lane` ends (inf: it runs to the end of the route)."""
-        return self.lane_ends[lane] if lane < len(self.lane_ends) else math.inf
+    def lane_end(self, lane: int, s: float = -math.inf) -> float:
+        """m, s where `lane` ends ahead of `s` (m; inf: it runs to the end of the route):
+        of a lane in two (`lane_begins`), past its first part's end, none."""
+        end = self.lane_ends[lane] if lane < len(self.lane_ends) else math.inf
+        if s >= end and self.lane_begin(lane) > end:
+            return math.inf
+        return end
 
     def lane_begin(self, lane: int) -> float:
-        """m, s where `lane` begins beside the others (-inf: at the route's start)."""
+        """m, s where `lane` begins beside the others (-inf: at the route's start; of a
+        lane in two, where its second part begins)."""
         return self.lane_begins[lane] if lane < len(self.lane_begins) else -math.inf
+
+    def split_ends(self) -> tuple[float, ...]:
+        """m, the ends of the lanes in two (`lane_begins`), sorted: past each, that lane
+        ends nowhere (`lane_end`); () on every road but one from an on-ramp over an
+        off-ramp."""
+        return tuple(sorted(e for k, e in enumerate(self.lane_ends)
+                            if self.lane_begin(k) > e))
 
     def lane_of(self, y: float) -> int:
         """The lane whose strip holds global y (clipped to the road)."""

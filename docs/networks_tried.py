@@ -1,8 +1,9 @@
 """The networks of docs/roads.md "Networks tried", second set: motorways built with SUMO's
 own netconvert (plain node / edge / connection XML, an OSM-like import) and netgenerate,
 each with a 30 s scenario (seed 1, mu 0.6, 15 veh/km/lane of random traffic, the decision
-rule, the gap policy with its re-check), and scenarios for SUMO's shipped game/corridor
-and game/racing:
+rule, the gap policy with its re-check; `onoff`, from an on-ramp over an off-ramp, 52 s
+behind SUMO's own flows), and scenarios for SUMO's shipped game/corridor and
+game/racing:
 
     python docs/networks_tried.py /tmp/nets            # networks and scenarios there
     cosim run /tmp/nets/scurve.toml --out /tmp/nets-out/scurve      # one of NAMES
@@ -90,6 +91,19 @@ def build(out: Path) -> None:
                + edge("off", "C", "R1", 1, V80),
                connections(("on", "BC", 0, 0), ("AB", "BC", 0, 1), ("AB", "BC", 1, 2),
                            ("BC", "off", 0, 0), ("BC", "CD", 1, 0), ("BC", "CD", 2, 1)))
+    # an on-ramp, then 500 m on an off-ramp, both drawn straight at 11.3 degrees: the
+    # on-ramp's lane runs on as a 250 m acceleration lane that ends; a 250 m deceleration
+    # lane begins further on and runs on as the off-ramp (SUMO's game/ramp's layout)
+    netconvert(out, "onoff", nodes(A=(0, 0), B=(1000, 0), C=(1250, 0), D=(1750, 0),
+                                   E=(2000, 0), F=(3000, 0), R0=(600, -80), R1=(2600, -120)),
+               edge("AB", "A", "B", 2, V120) + edge("BC", "B", "C", 3, V120)
+               + edge("CD", "C", "D", 2, V120) + edge("DE", "D", "E", 3, V120)
+               + edge("EF", "E", "F", 2, V120) + edge("on", "R0", "B", 1, V80)
+               + edge("off", "E", "R1", 1, V80),
+               connections(("on", "BC", 0, 0), ("AB", "BC", 0, 1), ("AB", "BC", 1, 2),
+                           ("BC", "CD", 1, 0), ("BC", "CD", 2, 1), ("CD", "DE", 0, 1),
+                           ("CD", "DE", 1, 2), ("DE", "EF", 1, 0), ("DE", "EF", 2, 1),
+                           ("DE", "off", 0, 0)))
     # lanes of different widths
     widths = '<lane index="0" width="3.75"/><lane index="1" width="3.5"/>' \
              '<lane index="2" width="3.5"/>'
@@ -175,7 +189,7 @@ RUNS: dict[str, tuple[str, list[str], int, str, int, float, float]] = {
     "grid": ("grid", ["A0B0", "B0C0", "C0D0", "D0E0", "E0F0", "F0G0", "G0H0", "H0I0",
                       "I0J0", "J0K0", "K0L0"], 3, "B0C0", 1, 10, 100),
 }
-NAMES = [*RUNS, "corridor", "racing"]
+NAMES = [*RUNS, "onoff", "corridor", "racing"]
 
 
 def scenario(name: str, road: str, sv: str, traffic: str, duration: float = 30.0) -> str:
@@ -197,6 +211,18 @@ def scenarios(out: Path) -> None:
             f'edge = "{sv_edge}"\nlane = {lane}\nposition_m = {pos}\nspeed_kmh = {speed}\n',
             f"density_veh_per_km_lane = 15.0\nlength_m = {length}\n",
             35.0 if name == "weave_off" else 30.0), encoding="utf-8")
+    # from the on-ramp over the off-ramp: random traffic would fill the lanes that run
+    # through (the deceleration lane's 250 m and the off-ramp), so SUMO's own flows
+    (out / "onoff.rou.xml").write_text(
+        '<routes><route id="main" edges="AB BC CD DE EF"/><route id="ramp" edges="on BC CD '
+        'DE EF"/><flow id="m" route="main" begin="0" vehsPerHour="1800" departLane="random" '
+        'departSpeed="max"/><flow id="r" route="ramp" begin="0" vehsPerHour="300" '
+        'departSpeed="max"/></routes>', encoding="utf-8")
+    (out / "onoff.toml").write_text(scenario(
+        "onoff", 'network = "onoff.net.xml"\nroute = ["on", "BC", "CD", "DE", "off"]\n'
+        "lane_speeds_kmh = [[60, 80], [90, 110], [110, 120]]\n",
+        'edge = "on"\nlane = 0\nposition_m = 200\nspeed_kmh = 80\n',
+        'routes = ["onoff.rou.xml"]\nwarmup_s = 60.0\n', 52.0), encoding="utf-8")
     corridor = GAME / "corridor"
     (out / "corridor.toml").write_text(scenario(
         "corridor", f'network = "{corridor / "corridor.net.xml"}"\n'

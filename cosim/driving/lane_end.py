@@ -44,6 +44,7 @@ of a manoeuvre) is cosim.planning.deadline's.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -53,7 +54,14 @@ import numpy as np
 from cosim.driving.layout import LaneLayout
 from cosim.driving.rule import DecisionConfig, idm_acceleration
 from cosim.driving.view import TrafficView
-from cosim.planning.deadline import LaneEnd, continuing_lane, end_ahead, fit_speed, look_ahead
+from cosim.planning.deadline import (
+    EndPhases,
+    LaneEnd,
+    end_ahead,
+    ends_ahead,
+    fit_speed,
+    look_ahead,
+)
 from cosim.planning.interaction import FollowerModel, krauss_safe_speed
 
 if TYPE_CHECKING:
@@ -117,6 +125,9 @@ class SVLaneEnds:
         self.end_s = tuple(lanes.end_s(k) for k in range(lanes.n_lanes))  # m, per lane
         self.any = any(math.isfinite(e) for e in self.end_s)  # a lane ends on this road
         self.begin_s = tuple(lanes.begin_s(k) for k in range(lanes.n_lanes))  # m, per lane
+        # a lane in two (begins after its end: RoadParams.lane_begins) ends nowhere past
+        # its first part's end
+        self.split = any(b > e for b, e in zip(self.begin_s, self.end_s, strict=True))
         self.due_lane = -1  # the lane whose mandatory change became due (-1: none)
         self.due_horizon = 0.0  # m, the longest look-ahead since
 
@@ -125,7 +136,8 @@ class SVLaneEnds:
         when the lane runs on."""
         if not self.any:
             return None
-        return end_ahead(self.end_s, lane, x, speed, self.sv_length)
+        ends = ends_ahead(self.end_s, self.begin_s, x) if self.split else self.end_s
+        return end_ahead(ends, lane, x, speed, self.sv_length)
 
     def due(self, lane: int, sv: SVState) -> LaneEnd | None:
         """The end of the SV's `lane` once the mandatory change is due, else None; once
@@ -156,8 +168,10 @@ class SVLaneEnds:
     def begun(self, lane: int, x: float) -> bool:
         """`lane` runs beside the whole SV at centre x (m): a lane that begins along the
         route (the mainline beside an on-ramp's lane, a deceleration lane) is no lane to
-        change into before its start."""
-        return x - 0.5 * self.sv_length >= self.begin_s[lane]
+        change into before its start (a lane in two: but for its first part)."""
+        begin, end = self.begin_s[lane], self.end_s[lane]
+        return (x - 0.5 * self.sv_length >= begin
+                or (begin > end and x + 0.5 * self.sv_length <= end))
 
     def closed(self, lane: int, sv: SVState) -> bool:
         """No lane to change into by choice: `lane` ends soon (`ends_soon`) or has not
@@ -198,28 +212,29 @@ class SVLaneEnds:
         change due: within its LC2013 look-ahead, cosim.planning.deadline), or (-1,
         inf). Arrays over TVs."""
         n = self.lanes.n_lanes
-        ends = np.array(self.end_s, dtype=float)
         x = np.asarray(traffic.x, dtype=float)
         if not self.any or x.size == 0:
             return -1, math.inf
-        target = np.full(n, -1)
-        crossings = np.ones(n)
-        for k in range(n):  # lanes, not vehicles
-            nxt = continuing_lane(ends, k)
-            if nxt is not None:
-                target[k], crossings[k] = nxt
+        phases = self._phases
+        p = phases.phase(x)
         length = np.asarray(traffic.length, dtype=float)
         lo, _ = self.lanes.lanes_touched(traffic.y, np.zeros(x.size))
         tv_lane = np.clip(lo, 0, n - 1).astype(int)
-        remaining = ends[tv_lane] - (x + 0.5 * length)
-        horizon = look_ahead(traffic.speed, length, lane > tv_lane, crossings[tv_lane])
+        remaining = phases.ends[p, tv_lane] - (x + 0.5 * length)
+        # a lane with no continuing lane counts one crossing (it is no merging lane)
+        crossings = np.maximum(phases.crossings[p, tv_lane], 1.0)
+        horizon = look_ahead(traffic.speed, length, lane > tv_lane, crossings)
         gap = x - 0.5 * length - (sv_x + 0.5 * self.sv_length)
-        merging = ((target[tv_lane] == lane) & (tv_lane != lane) & (remaining > 0.0)
+        merging = ((phases.target[p, tv_lane] == lane) & (tv_lane != lane) & (remaining > 0.0)
                    & (remaining <= horizon) & (gap > 0.0))
         if not merging.any():
             return -1, math.inf
         k = int(np.argmin(np.where(merging, gap, np.inf)))
         return k, float(gap[k])
+
+    @functools.cached_property
+    def _phases(self) -> EndPhases:
+        return EndPhases.of(self.lanes.road)
 
     def yield_accel(self, speed: float, desired_speed: float, lane: int, sv_x: float,
                     traffic: TrafficView, cfg: DecisionConfig) -> float:

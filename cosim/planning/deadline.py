@@ -65,6 +65,45 @@ def end_positions(road: RoadParams) -> Array:
     return np.array([road.lane_end(k) for k in range(road.n_lanes)], dtype=float)
 
 
+def ends_ahead(ends: Sequence[float], begins: Sequence[float], s: float) -> tuple[float, ...]:
+    """m, where each lane ends ahead of `s` (m): `ends` but for a lane in two (its begin
+    past its end: RoadParams.lane_begins) once `s` is past its first part's end, inf."""
+    return tuple(math.inf if b > e and s >= e else e
+                 for e, b in zip(ends, begins, strict=True))
+
+
+@dataclass(frozen=True)
+class EndPhases:
+    """The lanes' ends and continuing lanes along s, for many vehicles at once: one row
+    per stretch of s between the ends of the lanes in two (RoadParams.lane_begins), a
+    single row on every other road."""
+
+    breaks: Array  # m, the ends of the lanes in two, sorted
+    ends: Array  # m, (phases, lanes): where each lane ends ahead (`ends_ahead`)
+    target: NDArray[np.int_]  # (phases, lanes): the neighbour to change into (-1: none)
+    crossings: Array  # (phases, lanes): lanes to cross to the continuing lane (0: none)
+
+    @classmethod
+    def of(cls, road: RoadParams) -> EndPhases:
+        n = road.n_lanes
+        begins = [road.lane_begin(k) for k in range(n)]
+        base = [road.lane_end(k) for k in range(n)]
+        breaks = np.array(road.split_ends(), dtype=float)
+        rows = [base] + [list(ends_ahead(base, begins, float(b))) for b in breaks]
+        target = np.full((len(rows), n), -1, dtype=int)
+        crossings = np.zeros((len(rows), n))
+        for p, row in enumerate(rows):  # stretches and lanes, not vehicles
+            for k in range(n):
+                nxt = continuing_lane(row, k)
+                if nxt is not None:
+                    target[p, k], crossings[p, k] = nxt
+        return cls(breaks, np.array(rows, dtype=float), target, crossings)
+
+    def phase(self, s: ArrayLike) -> NDArray[np.int_]:
+        """The row of each vehicle at `s` (m)."""
+        return np.searchsorted(self.breaks, np.asarray(s, dtype=float), side="right")
+
+
 def continuing_lane(ends: Sequence[float], lane: int) -> tuple[int, int] | None:
     """(neighbour to change into, lanes to cross) for a vehicle on `lane` whose end is
     ends[lane] (m): towards the nearest lane that runs on past that end (the right one
@@ -146,24 +185,21 @@ def merging_messages(messages: Sequence[V2VMessage], road: RoadParams,
     out = list(messages)
     if not road.lane_ends or not out:
         return out
-    ends = end_positions(road)
+    phases = EndPhases.of(road)
     n = road.n_lanes
-    # per lane: direction of the change (0: none) and lanes to cross
-    direction = np.zeros(n, dtype=int)
-    crossings = np.zeros(n)
-    for k in range(n):  # lanes, not vehicles
-        nxt = continuing_lane(ends, k)
-        if nxt is not None:
-            direction[k], crossings[k] = nxt[0] - k, nxt[1]
     y = np.array([m.y for m in out])
     lane = np.clip(np.floor((y - road.y_right) / road.lane_width).astype(int), 0, n - 1)
     x = np.array([m.x + m.speed * (t - m.t) for m in out])
     v = np.array([m.speed for m in out])
     length = np.array([m.length for m in out])
     quiet = np.array([m.motion is None and m.intention == 0 for m in out])
-    d = direction[lane]
-    remaining = ends[lane] - (x + 0.5 * length)
-    near = crossings[lane] * (np.maximum(v, 0.0) * FORCE_TIME + 2.0 * (length + MIN_GAP))
+    p = phases.phase(x)
+    # direction of the change (0: none) and lanes to cross, per vehicle
+    target = phases.target[p, lane]
+    d = np.where(target >= 0, target - lane, 0)
+    remaining = phases.ends[p, lane] - (x + 0.5 * length)
+    near = phases.crossings[p, lane] * (np.maximum(v, 0.0) * FORCE_TIME
+                                        + 2.0 * (length + MIN_GAP))
     due = quiet & (d != 0) & (remaining > 0.0) & (remaining <= near) & (v >= FORCE_MIN_SPEED)
     for i in np.flatnonzero(due):
         out[i] = replace(out[i], intention=int(d[i]))

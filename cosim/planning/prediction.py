@@ -357,7 +357,8 @@ def predict_lazy(
         if road.lane_ends:
             # a TV on a lane that ends changes before its end: only the durations that
             # end in time (cosim.planning.deadline; none does: all, it must squeeze in)
-            end = np.array([road.lane_end(o) for _, _, o, _ in c2])
+            end = np.array([road.lane_end(o, float(x))
+                            for (_, _, o, _), x in zip(c2, x0, strict=True)])
             length = np.array([m.length for _, m, _, _ in c2])
             fits = c2_deadline(x0, v0, vxf, length, end, taus) & stable
             stable = np.where(fits.any(axis=1)[:, None], fits, stable)

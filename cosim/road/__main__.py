@@ -51,6 +51,8 @@ def main(argv: list[str] | None = None) -> int:
     for t in road.lanes:
         lanes = " ".join(f"{p.lane}[{p.index}]" for p in t.track.pieces if not p.internal)
         ref = " (reference)" if t.track is road.reference else ""
+        if t.track.joins >= 0:  # one SV lane with the lane it joins (cosim.road.tracks)
+            ref += f" (joins track {t.track.joins}: one SV lane)"
         print(f"track {t.id}{ref}: s {t.begin:.1f} to {t.end:.1f} m, centre d "
               f"{t.centre(t.begin):.3f} m, deviation {t.deviation:.3f} m: {lanes}")
     if args.plot:

@@ -79,11 +79,19 @@ class Road:
     @functools.cached_property
     def ramp_lanes(self) -> frozenset[int]:
         """Track ids of the ramp lanes (cosim.road.tracks): lanes leading into the
-        lead-in that end before the carriageway edge, SV lanes too."""
+        lead-in that end before the carriageway edge, SV lanes too; not those that join
+        a lane of the carriageway edge (`joined`)."""
         if self.lead_in is None:
             return frozenset()
         return frozenset(li.track.id for li in self.lead_in.chain()[1:]
-                         if li.track.last_edge < self.carriageway)
+                         if li.track.last_edge < self.carriageway and li.track.joins < 0)
+
+    @functools.cached_property
+    def joined(self) -> dict[int, LaneTable]:
+        """Track id of a lane of the carriageway edge that begins along the route -> the
+        lane table of the ramp lane that joins it (`Track.joins`: one SV lane, the ramp
+        lane up to its end, that lane from its begin); empty on most routes."""
+        return {t.track.joins: t for t in self.lanes if t.track.joins >= 0}
 
     @property
     def max_deviation(self) -> float:

@@ -31,14 +31,18 @@ ends beside it: a two-lane on-ramp whose first edge's one lane runs on as its ri
 which ends where the ramp narrows to its left lane, the one that becomes the
 acceleration lane (SUMO's game/highway). The lane that ends is then one of the SV's
 lanes too (a *ramp lane*: it must change out of it, as out of any lane that ends), on
-the side of the lead-in it lies on where the lead-in begins; a route whose ramp lane
-would share an SV lane with a lane of the carriageway edge (a deceleration lane after
-an acceleration lane that ended) has no carriageway edge.
+the side of the lead-in it lies on where the lead-in begins. A ramp lane whose SV lane
+is a lane of the carriageway edge that begins along the route (a route from an on-ramp
+over an off-ramp: the acceleration lane ends, then the deceleration lane begins where
+it would run on) *joins* that lane (`Track.joins`): the two are one SV lane, the ramp
+lane up to its end, the other from its begin, never both at one s. A ramp lane that
+would share an SV lane with any other lane of the carriageway edge has no carriageway
+edge.
 
 Track ids: the tracks present on the carriageway edge have SUMO's index there
 (0 the rightmost: the paper's Lane 1/2/3 are tracks 0/1/2), one more for each ramp lane
-on their right; the other tracks are numbered on from there, in driving order and right
-to left. On a one-edge network track id = SUMO lane index.
+on their right; the other tracks (a ramp lane that joins one of them too) are numbered on
+from there, in driving order and right to left. On a one-edge network track id = SUMO lane index.
 """
 
 from __future__ import annotations
@@ -76,6 +80,9 @@ class Track:
     id: int  # see the module docstring
     pieces: tuple[TrackPiece, ...]  # in driving order
     exits: bool = False  # its last lane runs on off the route (see the module docstring)
+    # a ramp lane that ends before the SV lane it carries on as begins: that lane's track
+    # id (-1: none; see the module docstring)
+    joins: int = -1
 
     @property
     def name(self) -> str:
@@ -212,14 +219,20 @@ def follow_tracks(route: Route) -> tuple[Track, ...]:
     # right), the ramp lanes by their side, the others on from there
     on = {t.id: p.index for t in tracks if (p := t.piece_on(route.edges[k])) is not None}
     ramp = ramp_lanes(route, tracks, k)
-    below = -min(ramp.values(), default=0)
-    ids = {tid: lane + below for tid, lane in (on | ramp).items()}
+    n = len(on)
+    joined = {tid: lane for tid, lane in ramp.items() if 0 <= lane < n}
+    beside = {tid: lane for tid, lane in ramp.items() if tid not in joined}
+    below = -min(beside.values(), default=0)
+    ids = {tid: lane + below for tid, lane in (on | beside).items()}
     next_id = max(ids.values()) + 1
     for t in tracks:
         if t.id not in ids:
             ids[t.id] = next_id
             next_id += 1
-    return tuple(sorted((replace(t, id=ids[t.id]) for t in tracks), key=lambda t: t.id))
+    by_lane = {lane: tid for tid, lane in on.items()}
+    joins = {tid: ids[by_lane[lane]] for tid, lane in joined.items()}
+    return tuple(sorted((replace(t, id=ids[t.id], joins=joins.get(t.id, -1)) for t in tracks),
+                        key=lambda t: t.id))
 
 
 def carriageway(route: Route, tracks: Sequence[Track]) -> int:
@@ -274,16 +287,19 @@ def _chain(route: Route, tracks: Sequence[Track], after: Track, k: int
 def ramp_lanes(route: Route, tracks: Sequence[Track], k: int) -> dict[int, int]:
     """Track id -> SV lane (SUMO's index on the carriageway edge `k`; -1: right of its
     rightmost lane) of the ramp lanes (module docstring): the lanes of the lead chain
-    (`lead_chain`) that end before the carriageway edge; empty if none do."""
+    (`lead_chain`) that end before the carriageway edge; empty if none do. One whose SV
+    lane is a lane of edge `k` joins it (that lane begins on edge `k`)."""
     return _ramp_lanes(route, tracks, k, lead_chain(route, tracks, k)) or {}
 
 
 def _ramp_lanes(route: Route, tracks: Sequence[Track], k: int,
                 chain: list[tuple[Track, int]]) -> dict[int, int] | None:
     """`ramp_lanes` of `chain`; None when a ramp lane would share an SV lane with
-    another or leave a gap beside the carriageway edge's lanes."""
+    another, or with a lane of the carriageway edge that does not begin there (which it
+    then joins), or leave a gap beside the carriageway edge's lanes."""
     edge = route.edges[k]
     n = sum(1 for t in tracks if t.piece_on(edge) is not None)
+    begins = {_on(t, edge).index for t in tracks if t.first_edge == k}
     first, _ = chain[0]
     lane = _on(first, edge).index
     out: dict[int, int] = {}
@@ -292,7 +308,10 @@ def _ramp_lanes(route: Route, tracks: Sequence[Track], k: int,
         lane += _on(track, at).index - _on(after, at).index
         if track.last_edge < k:
             out[track.id] = lane
-    taken = sorted(out.values())
+    joined = [v for v in out.values() if 0 <= v < n]
+    if len(set(joined)) < len(joined) or not begins.issuperset(joined):
+        return None  # a ramp lane on a lane of the carriageway edge that runs beside it
+    taken = sorted(v for v in out.values() if not 0 <= v < n)
     below, above = [v for v in taken if v < 0], [v for v in taken if v >= n]
     if (len(below) + len(above) < len(taken) or below != list(range(-len(below), 0))
             or above != list(range(n, n + len(above)))):

@@ -55,7 +55,7 @@ class StopRules:
     def lane_end(self, k: int, sv: SVState) -> bool:
         """True if row k leaves the SV in a lane that ends with its front within one step
         of that end (`RoadParams.lane_ends`)."""
-        end = self.road.lane_end(self.road.lane_of(sv.y))
+        end = self.road.lane_end(self.road.lane_of(sv.y), sv.x)
         if not math.isfinite(end) or self.by_collision or self.at_lane_end:
             return False
         if sv.x + 0.5 * self.sv_length + max(sv.vx, 0.0) * self.dt < end:

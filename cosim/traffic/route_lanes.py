@@ -4,21 +4,22 @@ position), which track a Cartesian point is in (the moveToXY hint), and the plan
 RoadParams of the road.
 
 A *through track* runs the whole route, from its first edge to its last. The SV's lanes
-("lane k" in scenarios, the policy and RoadParams) are the tracks present on the
-route's first edge, k their track id (SUMO's lane index there): each runs through or
-ends on the route (an acceleration lane on the right, a lane dropped on the left or
-right), and RoadParams.lane_ends says where. On
-networks/curved_motorway.net.xml they are tracks 0, 1, 2 (all through); on
-networks/onramp.net.xml along `acc main1 main2` tracks 0-3, track 0 the acceleration
-lane that ends after 194.5 m; on a route from a ramp whose lane ends before the
-acceleration lane, that ramp lane too (cosim.road.tracks: lane 0, right of the
-acceleration lane). Tracks that begin later (a lane added along the route)
-carry traffic but are no SV lanes (the snapshot's lane -1). What is refused
-(`check_lanes`): no lane running through, an SV lane ending between two that run on,
-lanes of different widths. The scenario's speed bands are per through track, in
-track id order; an SV lane that ends takes the band of the through lane beside it, any
-other track the band of the SV lane next to it (nearest by SUMO's lane index on the
-track's first route edge; on a tie the one on its right, the slower).
+("lane k" in scenarios, the policy and RoadParams) are the tracks present on the route's
+first edge, k their track id (SUMO's lane index there): each runs through or ends on the
+route (an acceleration lane on the right, a lane dropped on the left or right), and
+RoadParams.lane_ends says where. On networks/curved_motorway.net.xml they are tracks 0,
+1, 2 (all through); on networks/onramp.net.xml along `acc main1 main2` tracks 0-3, track
+0 the acceleration lane that ends after 194.5 m; on a route from a ramp whose lane ends
+before the acceleration lane, that ramp lane too (cosim.road.tracks: lane 0, right of
+the acceleration lane); on a route from an on-ramp over an off-ramp the ramp's lane and
+the deceleration lane are one SV lane (the ramp lane *joins* it: `joined_lane`), the one
+up to the acceleration lane's end, the other from its begin. Tracks that begin later (a
+lane added along the route) carry traffic but are no SV lanes (the snapshot's lane -1).
+What is refused (`check_lanes`): no lane running through, an SV lane ending between two
+that run on, lanes of different widths. The scenario's speed bands are per through
+track, in track id order; an SV lane that ends takes the band of the through lane beside
+it, any other track the band of the SV lane next to it (nearest by SUMO's lane index on
+the track's first route edge; on a tie the one on its right, the slower).
 
 On a one-edge straight road the track id is SUMO's lane index and every conversion is
 the exact arithmetic of the old one-edge code (s = x - x0, lane position = s - s of the
@@ -31,7 +32,7 @@ import bisect
 import functools
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -109,9 +110,11 @@ def _cached_route_road(path: str, mtime_ns: int, size: int,
 
 
 def through_tracks(route_road: Road) -> tuple[LaneTable, ...]:
-    """The tracks that run from the route's first edge to its last, in track id order."""
+    """The tracks that run from the route's carriageway edge to its last, in track id
+    order (of an SV lane a ramp lane joins, the lane it joins: from where it begins)."""
     last = len(route_road.route.edges) - 1
-    return tuple(t for t in sv_tracks(route_road) if t.track.last_edge == last)
+    return tuple(table for t in sv_tracks(route_road)
+                 if (table := route_road.lane(t.id)).track.last_edge == last)
 
 
 def sv_tracks(route_road: Road) -> tuple[LaneTable, ...]:
@@ -122,10 +125,24 @@ def sv_tracks(route_road: Road) -> tuple[LaneTable, ...]:
     lane dropped before the acceleration lane), in track id order (SUMO's lane index on
     that edge, up by the ramp lanes on its right)."""
     k = route_road.carriageway
-    return tuple(t for t in route_road.lanes
+    joined = route_road.joined
+    return tuple(joined_lane(joined[t.id], t) if t.id in joined else t
+                 for t in route_road.lanes
                  if (t.track.first_edge <= k <= t.track.last_edge
                      or t.id in route_road.ramp_lanes)
                  and not t.track.pieces[0].internal)
+
+
+def joined_lane(ramp: LaneTable, lane: LaneTable) -> LaneTable:
+    """One SV lane of a ramp lane that ends and the lane it joins, which begins further
+    on (cosim.road.tracks: an acceleration lane, then a deceleration lane): its pieces
+    the ramp lane's then the other's, its id the other's (RoadParams.lane_ends: where
+    the ramp lane ends, RoadParams.lane_begins: where the other begins)."""
+    return LaneTable(
+        replace(lane.track, pieces=ramp.track.pieces + lane.track.pieces),
+        *(np.concatenate([getattr(ramp, f), getattr(lane, f)])
+          for f in ("s_start", "s_end", "d_start", "d_end", "width", "speed")),
+        max(ramp.deviation, lane.deviation))
 
 
 def _feeding(route_road: Road, tracks: Sequence[LaneTable]) -> Iterator[tuple[LaneTable, Any]]:
@@ -225,12 +242,17 @@ def road_params(route_road: Road, base: RoadParams | None = None,
     lanes = sv_tracks(route_road)
     through = {t.id for t in through_tracks(route_road)}
     below = sum(1 for t in lanes if t.id < route_road.reference.id)
-    ends = tuple(math.inf if t.id in through else t.end for t in lanes)
+    # a lane a ramp lane joins ends, for the SV, where the ramp lane does, and begins again
+    # where it begins (RoadParams.lane_ends)
+    joined = route_road.joined
+    ends = tuple(joined[t.id].end if t.id in joined else math.inf if t.id in through
+                 else t.end for t in lanes)
     # the SV changes lanes nowhere in a corner (cosim.road.corners): a lane beginning in
     # one begins for it where the corner ends
     zones = route_road.corner_zones()
+    own = [route_road.lane(t.id) for t in lanes]  # a joined lane: from its own begin
     begins = tuple(max([t.begin] + [hi for lo, hi, _ in zones if lo <= t.begin <= hi])
-                   if t.track.first_edge > 0 else -math.inf for t in lanes)
+                   if t.track.first_edge > 0 else -math.inf for t in own)
     bands = expand_bands(route_road, base.speed_bands)
     limits = speed_limits(lanes, bands)
     return RoadParams(lane_width=width, speed_bands=bands,
@@ -281,8 +303,13 @@ class RouteLanes:
         # near the route's start (on an acceleration lane: its new follower) is
         # seen at s < 0 on the frame's straight extension; not a ramp feeding a lane that
         # ends (it joins at an angle: off the frame's extension)
-        self.sv_lane |= upstream_lanes(route_road, self.through)
-        self.upstream = upstream_entries(route_road, self.through)  # where the inflow enters
+        # (and of the SV lanes that begin along the route without running through: the
+        # mainline beside an on-ramp's lane on a route that leaves it over an off-ramp)
+        through = {t.id for t in self.through}
+        fed = self.through + tuple(t for t in self.sv if t.track.first_edge > 0
+                                   and t.id not in through)
+        self.sv_lane |= upstream_lanes(route_road, fed)
+        self.upstream = upstream_entries(route_road, fed)  # where the inflow enters
         # the lanes of route edges, with their tracks (a TV's band changes only there)
         self.edge_lanes: tuple[tuple[str, int], ...] = tuple(
             (p.lane, t.id) for t in route_road.lanes for p in t.track.pieces if not p.internal)
@@ -506,7 +533,8 @@ def sv_start(route_road: Road, edge: str | None, lane: int, position: float) -> 
     for table in route_road.lanes:
         piece = table.track.piece_on(edge_id)
         if piece is not None and piece.index == lane:
-            return table.id, s_of_lane_position(route_road, piece.lane, position)
+            track = table.track.joins if table.track.joins >= 0 else table.id
+            return track, s_of_lane_position(route_road, piece.lane, position)
     raise InputError(str(route_road.route.path), "sv.lane", lane,
                      f"a lane of edge {edge_id!r} that a track of the route runs through")
 
@@ -535,7 +563,7 @@ def check_lanes(route_road: Road, source: str, sv_edge: str | None = None,
         edge = sv_edge if sv_edge is not None else edges[0]
         track = next((t for t in route_road.lanes if (p := t.track.piece_on(edge)) is not None
                       and p.index == sv_lane), None)
-        if track is not None and track.id not in lanes:
+        if track is not None and track.id not in lanes and track.track.joins not in lanes:
             raise InputError(source, "sv.lane", sv_lane,
                              f"a lane of the route's first edge {edges[0]!r} (lane {sv_lane} "
                              f"of {edge!r} begins along the route; start the route on the "

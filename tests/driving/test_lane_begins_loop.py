@@ -2,8 +2,8 @@
 (plant, controller, moveToXY) on a netconvert motorway with ramps (tests/road/ramps.py):
 the SV starts on an on-ramp, drives it, enters the acceleration lane and merges into the
 mainline once it runs beside it (also from a ramp lane that ends before the acceleration
-lane); and it leaves the mainline over an off-ramp, changing into the deceleration lane
-once it begins, then driving onto the ramp."""
+lane); it leaves the mainline over an off-ramp, changing into the deceleration lane
+once it begins, then driving onto the ramp; and it does both on one route."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from cosim.run.loop import simulate
 from cosim.scenario.load import scenario_from_dict
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "road"))
-from ramps import build, build_dropped  # noqa: E402
+from ramps import build, build_dropped, build_weave  # noqa: E402
 
 pytestmark = pytest.mark.sumo
 
@@ -122,3 +122,46 @@ def test_the_sv_leaves_a_ramp_lane_that_ends_then_merges_from_the_acceleration_l
         for lo, hi, v in zones:
             on = (lane == k) & (front >= lo) & (front < hi)
             assert float(np.max(vx[on], initial=0.0)) <= v + 0.3
+
+
+def test_the_sv_drives_from_an_on_ramp_over_the_mainline_to_an_off_ramp(
+        tmp_path: Path) -> None:
+    """onramp acc b dec offramp (tests/road/ramps.py `build_weave`: the acceleration lane
+    ends 100 m before the deceleration lane begins), SUMO's flow of 1800 veh/h on the
+    mainline: the SV drives the ramp, merges (mandatory) into the mainline's right lane
+    once it runs beside it, keeps it until the deceleration lane (its SV lane 0 again)
+    runs beside it, changes into it (mandatory) before the mainline lane exits, and
+    leaves over the off-ramp: two changes, both completed, no collision."""
+    network = build_weave(tmp_path)
+    (tmp_path / "flows.rou.xml").write_text(
+        '<routes><route id="main" edges="a acc b dec c"/><flow id="m" route="main" '
+        'begin="0" end="3600" vehsPerHour="1800" departLane="random" departSpeed="max"/>'
+        '</routes>', encoding="utf-8")
+    doc = {"scenario": {"name": "weave", "duration_s": 21.5, "seed": 1},
+           "road": {"network": str(network),
+                    "route": ["onramp", "acc", "b", "dec", "offramp"], "mu": 0.8,
+                    "lane_speeds_kmh": [[60, 80], [90, 110], [110, 120]]},
+           "sv": {"edge": "onramp", "lane": 0, "position_m": 230.0, "speed_kmh": 80.0,
+                  "decision": True},
+           "traffic": {"routes": ["flows.rou.xml"], "warmup_s": 30.0},
+           "planner": {"policy": "gap", "replanning": True}}
+    result = simulate(scenario_from_dict(doc, path=tmp_path / "weave.toml"))
+    m, road, tr = result.metrics, result.road, result.trace
+    edges = _edges(result)
+    assert edges[0] == "onramp" and edges[-1] == "offramp"
+    assert road.lane_end(0) < road.lane_begin(0)  # the acceleration lane, then the exit's
+    _no_move_before(result, 0, road.lane_begin(1))
+    lane, s = np.asarray(tr["lane"]), np.asarray(tr["s_m"])
+    half = 0.5 * result.scenario.vehicle.length
+    changes = np.flatnonzero(np.diff(lane)) + 1
+    assert [(int(lane[k - 1]), int(lane[k])) for k in changes] == [(0, 1), (1, 0)]
+    merged, exited = changes
+    assert s[merged] + half < road.lane_end(0)  # merged before the acceleration lane's end
+    # into the deceleration lane once it runs beside the SV, before the mainline's exit
+    assert s[exited] - half > road.lane_begin(0) and s[exited] + half < road.lane_end(1)
+    assert [p["trigger"] for p in result.plans[:2]] == ["mandatory", "mandatory"]
+    assert m["lane_changes"] == 2 and m["lane_change_status"] == "completed"
+    assert m["merge_success"] == 1 and m["final_lane"] == 0 and m["lane_end_reached"] == 0
+    assert m["collisions"] == 0 and m["sumo_collisions"] == 0 and m["sumo_events"] == 0
+    assert float(np.max(np.abs(tr["ye_m"]))) < 0.02
+    assert int(np.max(tr["n_tvs"])) > 0  # SUMO's flow on the mainline beside it

@@ -516,3 +516,28 @@ def test_no_change_into_a_lane_before_it_begins_beside_the_sv(name: str) -> None
     assert lc is not None and (lc.start_lane, lc.target_lane) == (0, 1)
     assert lc.trigger == Trigger.MANDATORY
     assert_plans_end_before_the_end(d)
+
+
+def test_a_lane_in_two_is_left_before_its_first_end_and_entered_after_its_begin() -> None:
+    """From an on-ramp over an off-ramp (RoadParams.lane_begins): lane 0 is the ramp's
+    lane and acceleration lane to 200 m and the deceleration lane from 400 m; lanes 1, 2
+    (the mainline) begin at 100 m and exit at 600 m. On lane 0 the change is into lane 1;
+    on lane 1, lane 0 is closed between its two parts, and the change back into it is due
+    once the deceleration lane runs beside the whole SV; from lane 2 it is into lane 1."""
+    road = RoadParams(mu=0.8, speed_bands=BANDS[:3], lane_ends=(200.0, 600.0, 600.0),
+                      lane_begins=(400.0, 100.0, 100.0))
+    ends = SVLaneEnds(LaneLayout(road), L)
+
+    def at(x: float, lane: int) -> SVState:
+        return SVState(x, road.lane_center(lane), 0.0, 25.0, 0.0, lane)
+
+    assert ends.begun(0, 50.0) and not ends.begun(0, 300.0) and ends.begun(0, 400.0 + HALF)
+    first = ends.due(0, at(150.0, 0))
+    assert first is not None and first.target == 1 and first.end_s == 200.0
+    assert ends.ahead(1, 150.0, 25.0) is None  # nothing runs on past the exit yet
+    assert ends.closed(0, at(150.0, 1)) and ends.closed(0, at(300.0, 1))
+    assert ends.ahead(1, 300.0, 25.0).target == 0 and ends.due(1, at(300.0, 1)) is None
+    due = ends.due(1, at(400.0 + HALF, 1))
+    assert due is not None and due.target == 0 and due.end_s == 600.0
+    assert not ends.closed(0, at(400.0 + HALF, 1))
+    assert ends.ahead(2, 300.0, 25.0).target == 1

@@ -20,6 +20,7 @@ from cosim.planning.deadline import (
     MIN_GAP,
     continuing_lane,
     end_ahead,
+    ends_ahead,
     fit_speed,
     look_ahead,
     merging_messages,
@@ -191,3 +192,19 @@ def test_no_plan_ever_ends_past_its_limit(x0: float, vx0: float, vxf: float,
     x_end = x0 + 0.5 * (vx0 + vxf) * plan.taus
     np.testing.assert_array_equal(plan.late, plan.stable & (x_end > x0 + room + 1e-9))
     assert not (plan.collision_free & plan.late).any()
+
+
+def test_a_lane_in_two_ends_nowhere_past_its_first_part() -> None:
+    """From an on-ramp over an off-ramp: lane 0 is the acceleration lane to 200 m, then
+    the deceleration lane from 400 m on (its begin past its end); lanes 1, 2 exit at 600
+    m. A TV on lane 0 before 200 m merges left; one on lane 1 near 600 m, past the
+    acceleration lane's end, is predicted to change right into the deceleration lane."""
+    road = RoadParams(mu=0.8, speed_bands=BANDS[:3], lane_ends=(200.0, 600.0, 600.0),
+                      lane_begins=(400.0, 100.0, 100.0))
+    assert road.split_ends() == (200.0,)
+    assert ends_ahead((200.0, 600.0, 600.0), (400.0, 100.0, 100.0), 250.0) == (
+        math.inf, 600.0, 600.0)
+    tvs = [msg("acc", 150.0, 0, road=road), msg("exit", 540.0, 1, road=road),
+           msg("main", 150.0, 1, road=road)]
+    out = merging_messages(tvs, road, 0.0)
+    assert [m.intention for m in out] == [1, -1, 0]

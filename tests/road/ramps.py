@@ -81,6 +81,25 @@ def build(directory: Path) -> Path:
     return _net(directory, "ramps", nodes, edges, links)
 
 
+def build_weave(directory: Path) -> Path:
+    """`directory/weave.net.xml`: the ramps of `build` 100 m apart (b 800-900 m), so that
+    a route from the on-ramp over the off-ramp (`onramp acc b dec offramp`) is short:
+    the acceleration lane ends 100 m before the deceleration lane begins, both on the
+    mainline's right (lane 0 of `acc` and of `dec`)."""
+    top = 7.5
+    xs = {"n0": 0.0, "g1": 600.0, "e1": 800.0, "d1": 900.0, "g2": 1100.0, "n5": 1400.0}
+    on, off = _curve(600.0, True), _curve(1100.0, False)
+    nodes = {k: (x, top) for k, x in xs.items()} | {"r0": on[0], "r9": off[-1]}
+    edges = "".join(_mainline(e, a, b, n, xs, top) for e, a, b, n in (
+        ("a", "n0", "g1", 2), ("acc", "g1", "e1", 3), ("b", "e1", "d1", 2),
+        ("dec", "d1", "g2", 3), ("c", "g2", "n5", 2)))
+    edges += _ramp("onramp", "r0", "g1", on) + _ramp("offramp", "g2", "r9", off)
+    links = [("a", "acc", [(0, 1), (1, 2)]), ("onramp", "acc", [(0, 0)]),
+             ("acc", "b", [(1, 0), (2, 1)]), ("b", "dec", [(0, 1), (1, 2)]),
+             ("dec", "c", [(1, 0), (2, 1)]), ("dec", "offramp", [(0, 0)])]
+    return _net(directory, "weave", nodes, edges, links)
+
+
 DROP_AT = 450.0  # m, where the dropping ramp's one lane becomes the right lane of two
 
 

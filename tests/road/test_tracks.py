@@ -183,26 +183,50 @@ def test_a_ramp_lane_that_ends_before_the_acceleration_lane_is_an_sv_lane_on_its
     assert ramp.centre(ramp.begin) == pytest.approx(-5.625)  # d = 0: the mainline's border
 
 
-def test_a_route_from_an_on_ramp_over_an_off_ramp_is_refused_in_one_line(ramps: Path) -> None:
-    text = _refusal(ramps, ("onramp", "acc", "b", "dec", "offramp"))
-    assert text.endswith(
-        "(no lane of it does; the lanes of its first edge end on acc before a lane that runs "
-        "to the route's last edge runs beside them: start the route on acc or end it "
-        "there)"), text
+def test_a_route_from_an_on_ramp_over_an_off_ramp_joins_the_ramp_lane_to_the_exit_lane(
+        ramps: Path) -> None:
+    """onramp acc b dec offramp: the ramp's lane runs on as the acceleration lane, which
+    ends; further on the deceleration lane begins where it would run on and leads onto the
+    off-ramp. The carriageway edge is dec (its lanes the SV's, the deceleration lane the
+    reference, led in along the mainline's right lane and that along the ramp); the ramp's
+    lane, whose SV lane is the deceleration lane's, joins it: one SV lane 0, the ramp's
+    lane up to the acceleration lane's end, the deceleration lane from its begin."""
+    from cosim.road.road import load_road
+    from cosim.traffic.route_lanes import (
+        check_lanes,
+        road_params,
+        sv_start,
+        sv_tracks,
+        through_tracks,
+    )
 
-
-def test_a_scenario_from_an_on_ramp_over_an_off_ramp_is_refused_in_one_line_exit_2(
-        tmp_path: Path, ramps: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from cosim.cli import main
-
-    scenario = tmp_path / "s.toml"
-    scenario.write_text(
-        f'[scenario]\nname = "both"\nduration_s = 5.0\n[road]\nnetwork = "{ramps}"'
-        '\nroute = ["onramp", "acc", "b", "dec", "offramp"]\n[sv]\nedge = "onramp"\n'
-        'lane = 0\nposition_m = 50.0\nspeed_kmh = 80.0\n', encoding="utf-8")
-    assert main(["run", str(scenario), "--no-figures", "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith(f"cosim run: error: {scenario}: road.route = ['onramp', 'acc', 'b', "
-                          "'dec', 'offramp']: a route along which at least one lane runs"), err
-    assert "\n" not in err and err.endswith("start the route on acc or end it there)"), err
-    assert not (tmp_path / "o").exists()
+    edges = ("onramp", "acc", "b", "dec", "offramp")
+    route = make_route(ramps, edges)
+    raw = follow_tracks(route)
+    assert carriageway(route, raw) == 3
+    assert [(t.id, _lanes(t)[0][0], t.exits, t.joins) for t in raw] == [
+        (0, "dec_0", False, -1), (1, "acc_1", True, -1), (2, "acc_2", True, -1),
+        (3, "onramp_0", False, 0)]
+    road = load_road(ramps, edges)
+    assert road.reference.id == 0 and road.ramp_lanes == frozenset()
+    assert list(road.joined) == [0] and road.max_deviation < 0.05
+    ramp, dec = road.joined[0], road.lane(0)
+    lanes = sv_tracks(road)
+    assert [t.id for t in lanes] == [0, 1, 2]
+    assert [p.lane for p in lanes[0].track.pieces if not p.internal] == [
+        "onramp_0", "acc_0", "dec_0", "offramp_0"]
+    assert [t.id for t in through_tracks(road)] == [0] and through_tracks(road)[0] is dec
+    assert lanes[0].centre(ramp.begin + 10.0) == pytest.approx(1.875)  # d = 0 its border
+    assert lanes[0].centre(dec.begin + 10.0) == pytest.approx(1.875)
+    check_lanes(road, "s.toml", "onramp", 0)
+    assert sv_start(road, "onramp", 0, 50.0)[0] == 0
+    params = road_params(road)
+    mainline = road.lane(1)
+    assert params.y_right == 0.0
+    assert params.lane_ends == (ramp.end, mainline.end, road.lane(2).end)
+    assert params.lane_begins == (dec.begin, mainline.begin, road.lane(2).begin)
+    assert mainline.begin < ramp.end < dec.begin < mainline.end  # never both at one s
+    assert params.lane_end(0) == ramp.end and params.lane_end(0, ramp.end) == math.inf
+    assert params.lane_end(1, ramp.end) == mainline.end
+    assert params.split_ends() == (ramp.end,)
+    assert road_params(load_road(ramps, ("onramp", "acc", "b"))).split_ends() == ()
