@@ -202,13 +202,21 @@ def upstream_entries(route_road: Road, tracks: Sequence[LaneTable]) -> dict[int,
 
 
 def lane_width(route_road: Road, source: str | None = None) -> float:
-    """m, the SV lanes' common width (InputError, one line, if they differ)."""
-    widths = sorted({round(float(w), 6) for t in sv_tracks(route_road) for w, p in
-                     zip(t.width, t.track.pieces, strict=True) if not p.internal})
+    """m, the SV lanes' common width (InputError, one line, if they differ, naming the
+    SUMO lanes of the less common width: a lane's own width, an edge's width)."""
+    lanes = [(p.lane, round(float(w), 6)) for t in sv_tracks(route_road) for w, p in
+             zip(t.width, t.track.pieces, strict=True) if not p.internal]
+    widths = sorted({w for _, w in lanes})
     if len(widths) != 1:
+        counts = {w: sum(1 for _, v in lanes if v == w) for w in widths}
+        usual = max(widths, key=lambda w: (counts[w], w))
+        odd = [f"{lane} {w:g} m" for lane, w in lanes if w != usual]
+        named = ", ".join(odd[:3]) + (f" and {len(odd) - 3} more" if len(odd) > 3 else "")
         raise InputError(source or str(route_road.route.path), "lane widths", widths,
                          "lanes of one width along the route (the planner's lanes "
-                         f"are one width; these are {', '.join(f'{w:g}' for w in widths)} m)")
+                         f"are one width; these are {', '.join(f'{w:g}' for w in widths)} m: "
+                         f"SUMO's lanes {named}, the others {usual:g} m; a lane or edge "
+                         "width of its own is not supported)")
     return widths[0]
 
 

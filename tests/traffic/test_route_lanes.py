@@ -294,7 +294,9 @@ def test_a_route_whose_lanes_differ_in_width_is_refused_in_one_line(tmp_path: Pa
         '<edge id="BC" from="B" to="C" numLanes="3" speed="33.3" width="3.75">'
         '<lane index="0" width="3.5"/></edge></edges>')
     route_road = load_road(net, ["AB", "BC"])
-    with pytest.raises(InputError, match=r"lane widths = \[3.5, 3.75\].*3.5, 3.75 m"):
+    with pytest.raises(InputError, match=r"lane widths = \[3.5, 3.75\].*3.5, 3.75 m: SUMO's "
+                       r"lanes BC_0 3.5 m, the others 3.75 m; a lane or edge width of its "
+                       r"own is not supported\)$"):
         road_params(route_road)
 
 
