@@ -55,7 +55,7 @@ if TYPE_CHECKING:
     from cosim.params import RoadParams
     from cosim.run.observer import Observer
     from cosim.traffic.cooperation import CooperationChannel
-    from cosim.traffic.v2v import V2VChannel
+    from cosim.traffic.v2v import Shared, V2VChannel
 
 FLEET_STREAM = 18  # -, second seed word of the fleet's draws (world.COURTESY_STREAM + 1)
 V2V_STREAM = 19  # -, the same for the AVs' V2V channels (third word: the AV's number)
@@ -205,8 +205,10 @@ class AVInbox:
     announcements, those that give way to it without their intention), and the
     scripted TVs'."""
 
-    def __init__(self, av: AutomatedVehicle, scene: Scene, heard: Announcements) -> None:
-        self.av, self.scene, self.heard = av, scene, heard
+    def __init__(self, av: AutomatedVehicle, scene: Scene, heard: Announcements,
+                 shared: Shared | None = None) -> None:
+        """`shared`: the messages built this step for the other AVs (v2v.messages)."""
+        self.av, self.scene, self.heard, self.shared = av, scene, heard, shared
         self.received: list[Any] | None = None
         if av.every_step:
             self.received = self._exchange()
@@ -219,7 +221,8 @@ class AVInbox:
         public = everyone.select(np.array(
             [vid != av.id and (perceived or vid not in scripted) for vid in everyone.ids],
             dtype=bool))
-        return av.channel.exchange(public, scene.sv.x, scene.sv.y, self.heard.overrides())
+        return av.channel.exchange(public, scene.sv.x, scene.sv.y, self.heard.overrides(),
+                                   self.shared)
 
     def read(self) -> list[Any]:
         if self.received is None:
@@ -334,10 +337,14 @@ class Fleet:
         decision held while it keeps its lane and nothing changes (cosim.driving.cadence)."""
         heard = self.announcements
         self.requests.deliver(t)  # gap requests between automated vehicles due now
+        # every AV's scene is a selection of one snapshot, and their channels share the
+        # fleet's road: a vehicle's message is built once for all of them
+        shared: Shared = {}
         for av in self.active:
             scene = av.scene
             assert scene is not None
-            inbox = AVInbox(av, scene, heard)  # the channel runs every step when it must
+            inbox = AVInbox(av, scene, heard, shared)  # the channel runs every step when it
+            # must
             held = av.hold(t, scene) if av.hold is not None else None
             av.reference = held if held is not None else av.policy.update(t, scene, inbox)
             heard.flying(av.id, av.reference)

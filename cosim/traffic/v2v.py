@@ -175,10 +175,16 @@ class Override(NamedTuple):
     since: float = math.nan  # s, when the intention began (nan: not known)
 
 
+# what `messages` builds once per step for all receivers (`shared`): per vehicle, the
+# measurement its message is made of, and the message
+Shared = dict[str, tuple[tuple[object, ...], "V2VMessage"]]
+
+
 def messages(
     snapshot: TrafficSnapshot,
     road: RoadParams,
     overrides: Mapping[str, Override] | None = None,
+    shared: Shared | None = None,
 ) -> list[V2VMessage]:
     """What every vehicle of `snapshot` broadcasts (S1): state, blinker, lane change.
 
@@ -186,44 +192,40 @@ def messages(
     `overrides` replaces (intention, motion) for vehicles that know their own plan:
     the automated vehicles of a fleet broadcast their blinker and the lane change they
     fly (cosim.run.announcements).
+    `shared` (one dict per step and `road`, for receivers of rows of one snapshot: a
+    fleet's AVs): a vehicle's message without an override is built once and handed to
+    every receiver that has the same measurement of it (its fields compared; rows of
+    one snapshot are the same numbers), the message it would have built itself.
     """
-    intention = snapshot.intention
+    intention = snapshot.intention.tolist()
     overrides = overrides or {}
+    time = snapshot.time
+    cols = zip(snapshot.x.tolist(), snapshot.y.tolist(), snapshot.heading.tolist(),
+               snapshot.speed.tolist(), snapshot.accel.tolist(), snapshot.lane.tolist(),
+               snapshot.lateral_speed.tolist(), snapshot.length.tolist(),
+               snapshot.width.tolist(), intention, strict=True)
     out = []
-    for i, vid in enumerate(snapshot.ids):
+    for vid, row in zip(snapshot.ids, cols, strict=True):
+        x, y, heading, speed, accel, lane, lateral_speed, length, width, blinker = row
+        override = overrides.get(vid)
+        if override is None and shared is not None:
+            kept = shared.get(vid)
+            if kept is not None and kept[0] == row and kept[1].t == time:
+                out.append(kept[1])
+                continue
         since = math.nan
-        if vid in overrides:
-            announced, motion, since = overrides[vid]
+        if override is not None:
+            announced, motion, since = override
         else:
-            announced = int(intention[i])
-            motion = lateral_motion(
-                snapshot.time,
-                float(snapshot.x[i]),
-                float(snapshot.y[i]),
-                float(snapshot.heading[i]),
-                float(snapshot.speed[i]),
-                float(snapshot.lateral_speed[i]),
-                float(snapshot.length[i]),
-                road,
-            )
-        out.append(
-            V2VMessage(
-                vehicle_id=vid,
-                t=snapshot.time,
-                x=float(snapshot.x[i]),
-                y=float(snapshot.y[i]),
-                heading=float(snapshot.heading[i]),
-                speed=float(snapshot.speed[i]),
-                accel=float(snapshot.accel[i]),
-                lane=int(snapshot.lane[i]),
-                lateral_speed=float(snapshot.lateral_speed[i]),
-                length=float(snapshot.length[i]),
-                width=float(snapshot.width[i]),
-                intention=int(announced),
-                motion=motion,
-                since=since,
-            )
-        )
+            announced = int(blinker)
+            motion = lateral_motion(time, x, y, heading, speed, lateral_speed, length, road)
+        msg = V2VMessage(vehicle_id=vid, t=time, x=x, y=y, heading=heading, speed=speed,
+                         accel=accel, lane=int(lane), lateral_speed=lateral_speed,
+                         length=length, width=width, intention=int(announced), motion=motion,
+                         since=since)
+        if override is None and shared is not None:
+            shared[vid] = (row, msg)
+        out.append(msg)
     return out
 
 
@@ -307,11 +309,13 @@ class V2VChannel:
         sv_x: float,
         sv_y: float,
         overrides: Mapping[str, Override] | None = None,
+        shared: Shared | None = None,
     ) -> None:
         """The TVs of `snapshot` within range send (or are measured) now.
 
         `overrides`: (intention, motion) of vehicles that announce their own plan
         (scripted TVs); ignored in perception mode, where nobody announces anything.
+        `shared`: messages built this step for other receivers (`messages`).
         """
         near = np.hypot(snapshot.x - sv_x, snapshot.y - sv_y) <= self.range
         snap = snapshot.select(near)
@@ -322,7 +326,8 @@ class V2VChannel:
         self.lost += int(np.sum(~kept))
         snap = snap.select(kept)
         measured = self.mode == "perception"
-        batch = self._measure(snap) if measured else messages(snap, self.road, overrides)
+        batch = (self._measure(snap) if measured
+                 else messages(snap, self.road, overrides, shared))
         arrival = snapshot.time + self.latency
         self._queue.extend((arrival, m) for m in batch)
 
@@ -364,7 +369,8 @@ class V2VChannel:
         sv_x: float,
         sv_y: float,
         overrides: Mapping[str, Override] | None = None,
+        shared: Shared | None = None,
     ) -> list[V2VMessage]:
         """publish + receive at the snapshot's time (one call per step)."""
-        self.publish(snapshot, sv_x, sv_y, overrides)
+        self.publish(snapshot, sv_x, sv_y, overrides, shared)
         return self.receive(snapshot.time)

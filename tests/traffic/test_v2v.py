@@ -176,6 +176,24 @@ def test_scripted_vehicles_announce_their_own_plan() -> None:
     assert all(m.motion is None and m.intention == 0 for m in seen)
 
 
+def test_messages_built_once_for_receivers_of_one_snapshot() -> None:
+    """A fleet's AVs hear rows of one snapshot: a vehicle's message is built once and
+    handed to each (the message each would build), not where its measurement differs
+    or it announces its own plan."""
+    snap = snapshot(1.0, [10.0, 20.0, 30.0], [2.0, 5.625, 9.375],
+                    lateral_speed=[0.5, 0.0, 0.0], signals=[0, 0, 2])
+    plan = LateralMotion(t0=0.5, tau=4.0, x0=0.0, y0=1.875, vx0=25.0, vxf=25.0, width=3.75)
+    shared: dict = {}
+    first = messages(snap.select(np.array([True, True, False])), ROAD, None, shared)
+    again = messages(snap, ROAD, {"v1": Override(1, plan)}, shared)
+    assert again == messages(snap, ROAD, {"v1": Override(1, plan)})
+    assert again[0] is first[0] and again[0].motion is not None  # built once
+    assert again[1] is not first[1] and again[1].motion is plan  # its own plan
+    moved = snapshot(1.0, [10.5, 20.0, 30.0], [2.0, 5.625, 9.375],
+                     lateral_speed=[0.5, 0.0, 0.0], signals=[0, 0, 2])
+    assert messages(moved, ROAD, None, shared)[0].x == 10.5
+
+
 def test_bad_channel_settings_are_input_errors() -> None:
     with pytest.raises(InputError, match="loss"):
         V2VChannel(ROAD, loss=1.5)
